@@ -1,0 +1,311 @@
+"""Causality assignment: SCAPH for diagnosis, SCAP (integral causality) for simulation.
+
+A bond's causality is recorded as the node that *receives* its effort (the end that carries the
+causal stroke). The procedure is the sequential one of Karnopp et al., extended for the
+diagnostic hybrid bond graph (Low, Wang et al.; Yu & Wang 2014, Sec. II-B):
+
+1. sources, and sensors (inverted in diagnosis: De imposes effort, Df imposes flow), propagated
+   through junctions, TF and GY;
+2. storage elements in their preferred causality (derivative for diagnosis, integral for
+   simulation), each propagated before the next;
+3. resistors whose law is given in one form only, then the others (an arbitrary choice, which
+   may close an algebraic loop: these are detected and reported);
+4. bonds still open between junctions (loops of the junction structure).
+
+Controlled junctions are ordinary junctions here: the DHBG multiplies each of their *output*
+variables by the mode variable, so one assignment serves every mode and no causality is
+reassigned at a switch. Where a controlled junction is still free after step 2, its strong bond
+is taken on the side whose causality is already fixed (preferred causality). Conflicts (two
+sources of effort on a 0-junction, a storage element forced out of its preferred causality,
+algebraic loops) are collected, never guessed away.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from itertools import product
+from typing import Mapping
+
+import networkx as nx
+
+from .errors import CausalityError
+from .graph import BondKey, ports, to_networkx
+from .model import SOURCE_KINDS, Model
+
+DIAGNOSIS = "diagnosis"
+SIMULATION = "simulation"
+
+
+@dataclass(frozen=True)
+class Causality:
+    """One causal assignment of a model."""
+    purpose: str
+    effort_to: Mapping[BondKey, str]
+    storage: Mapping[str, str]                  # element -> 'integral' | 'derivative'
+    resistors: Mapping[str, str]                # element -> 'resistance' (e=law(f)) | 'conductance'
+    strong: Mapping[str, BondKey]               # junction -> its strong bond
+    problems: tuple[str, ...] = ()
+    loops: tuple[str, ...] = ()
+    modes_checked: tuple[Mapping[str, int], ...] = field(default_factory=tuple)
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems and not self.loops
+
+    def receives_effort(self, bond: BondKey, node: str) -> bool:
+        return self.effort_to[bond] == node
+
+
+class _Assigner:
+    def __init__(self, model: Model, purpose: str) -> None:
+        self.model = model
+        self.purpose = purpose
+        self.g = to_networkx(model)
+        self.ports = {n: ports(self.g, n) for n in self.g.nodes}
+        self.effort_to: dict[BondKey, str] = {}
+        self.fixed: dict[str, str] = {}   # one-port node -> 'gives' | 'receives' (effort)
+        self.problems: list[str] = []
+        self.kind = dict(self.g.nodes(data="kind"))
+        self._bond_ends = {k: (u, v) for u, v, k in self.g.edges(keys=True)}
+
+    # -- helpers
+    def _bond_of(self, node: str) -> tuple[BondKey, str]:
+        key, other, _ = self.ports[node][0]
+        return key, other
+
+    def _describe(self, bond: BondKey) -> str:
+        return f"bond {bond}" if isinstance(bond, int) else f"sensor bond {bond}"
+
+    def set(self, bond: BondKey, receiver: str, why: str) -> None:
+        current = self.effort_to.get(bond)
+        if current is not None:
+            if current != receiver:
+                self.problems.append(f"causal conflict on {self._describe(bond)}: {why}, but effort already "
+                                     f"goes into {current}")
+            return
+        for node in self._ends(bond):
+            want = self.fixed.get(node)
+            if want is not None:
+                gives = receiver != node
+                if (want == "gives") != gives:
+                    self.problems.append(f"causal conflict at {node} ({self.kind[node]}) on {self._describe(bond)}: "
+                                         f"{why}")
+                    return
+        self.effort_to[bond] = receiver
+        self._queue.extend(self._ends(bond))
+
+    def _ends(self, bond: BondKey) -> list[str]:
+        return list(self._bond_ends[bond])
+
+    def propagate(self) -> None:
+        while self._queue:
+            node = self._queue.pop()
+            kind = self.kind[node]
+            if kind in ("0", "1", "0c", "1c"):
+                self._junction(node, kind[0])
+            elif kind in ("TF", "MTF", "GY", "MGY"):
+                self._two_port(node, kind)
+
+    def _junction(self, node: str, base: str) -> None:
+        # strong bond: effort in (0-junction) / flow in = junction gives effort (1-junction)
+        def is_strong(key: BondKey, other: str) -> bool:
+            receiver = self.effort_to[key]
+            return receiver == node if base == "0" else receiver == other
+        assigned = [(k, o) for k, o, _ in self.ports[node] if k in self.effort_to]
+        free = [(k, o) for k, o, _ in self.ports[node] if k not in self.effort_to]
+        strong = [k for k, o in assigned if is_strong(k, o)]
+        if len(strong) > 1:
+            what = "effort" if base == "0" else "flow"
+            msg = (f"causal conflict at {base}-junction {node}: bonds {', '.join(map(str, strong))} all impose "
+                   f"{what}")
+            if msg not in self.problems:
+                self.problems.append(msg)
+            return
+        if len(strong) == 1:
+            for k, o in free:   # every other bond is weak
+                self.set(k, o if base == "0" else node, f"{base}-junction {node} has its strong bond")
+        elif len(free) == 1:
+            k, o = free[0]
+            self.set(k, node if base == "0" else o, f"last open bond of {base}-junction {node} must be strong")
+
+    def _two_port(self, node: str, kind: str) -> None:
+        (k1, o1, _), (k2, o2, _) = self.ports[node]
+        for (ka, oa), (kb, ob) in (((k1, o1), (k2, o2)), ((k2, o2), (k1, o1))):
+            if ka in self.effort_to and kb not in self.effort_to:
+                receives_a = self.effort_to[ka] == node
+                if kind in ("TF", "MTF"):   # effort in on one side -> effort out on the other
+                    self.set(kb, ob if receives_a else node, f"{kind} {node} passes effort through")
+                else:                       # GY: both ports receive effort, or both receive flow
+                    self.set(kb, node if receives_a else ob, f"{kind} {node} turns flow into effort")
+
+    # -- steps
+    def run(self) -> Causality:
+        self._queue: list[str] = []
+        diag = self.purpose == DIAGNOSIS
+        for e in self.model.elements.values():
+            if e.kind in SOURCE_KINDS:
+                key, other = self._bond_of(e.name)
+                gives = e.kind in ("Se", "MSe")
+                self.set(key, other if gives else e.name, f"source {e.name}")
+                self.fixed[e.name] = "gives" if gives else "receives"
+        for s in self.model.sensors.values():
+            key, other = self._bond_of(s.name)
+            # diagnosis: inverted (De imposes effort, Df imposes flow); simulation: a detector
+            gives = (s.kind == "De") == diag
+            self.set(key, other if gives else s.name, f"sensor {s.name}")
+            self.fixed[s.name] = "gives" if gives else "receives"
+        self.propagate()
+        storage: dict[str, str] = {}
+        for e in self.model.elements.values():
+            if e.kind not in ("C", "I"):
+                continue
+            key, other = self._bond_of(e.name)
+            want = "derivative" if diag else "integral"
+            # integral: C receives flow (gives effort), I receives effort; derivative is the reverse
+            gives = (e.kind == "C") == (want == "integral")
+            if key in self.effort_to:
+                got_gives = self.effort_to[key] != e.name
+                storage[e.name] = want if got_gives == gives else ("integral" if want == "derivative" else "derivative")
+            else:
+                self.set(key, other if gives else e.name, f"storage {e.name}")
+                self.propagate()
+                storage[e.name] = want
+            if storage[e.name] != want:
+                self.problems.append(
+                    f"storage {e.name} ({e.kind}) is forced into {storage[e.name]} causality "
+                    + ("(its state is unknown to the diagnosis: measure a variable next to it)" if diag else
+                       "(a dependent storage element: the simulator reduces it, see bondgraph.simulation)"))
+        self._free_controlled_junctions()
+        resistors = self._resistors()
+        self._junction_loops()
+        strong = self._strong_bonds()
+        return Causality(self.purpose, dict(self.effort_to), storage, resistors, strong, tuple(self.problems))
+
+    def _free_controlled_junctions(self) -> None:
+        for j in self.model.junctions.values():
+            if not j.controlled:
+                continue
+            free = [(k, o) for k, o, _ in self.ports[j.name] if k not in self.effort_to]
+            if not free or self._has_strong(j.name):
+                continue
+            # preferred: the strong bond on a side whose causality is already determined
+            fixed = [(k, o) for k, o in free if o in self.fixed or self.kind[o] in ("0", "1", "0c", "1c")]
+            k, o = (fixed or free)[0]
+            self.set(k, j.name if j.base == "0" else o, f"preferred causality of controlled junction {j.name}")
+            self.propagate()
+
+    def _has_strong(self, node: str) -> bool:
+        base = self.kind[node][0]
+        for k, o, _ in self.ports[node]:
+            if k in self.effort_to and ((self.effort_to[k] == node) == (base == "0")):
+                return True
+        return False
+
+    def _resistors(self) -> dict[str, str]:
+        out: dict[str, str] = {}
+        rs = [e for e in self.model.elements.values() if e.kind == "R"]
+        # those with one law form first: their causality is not a free choice
+        rs.sort(key=lambda e: 0 if e.parameter is None and len(e.laws) == 1 else 1)
+        for e in rs:
+            key, other = self._bond_of(e.name)
+            if key not in self.effort_to:
+                form = "resistance" if (e.parameter is not None or "effort" in e.laws) else "conductance"
+                self.set(key, other if form == "resistance" else e.name, f"resistor {e.name}")
+                self.propagate()
+            # resistance causality: the R receives flow and gives effort (e = law(f))
+            form = "resistance" if self.effort_to[key] != e.name else "conductance"
+            if e.parameter is None and ("effort" if form == "resistance" else "flow") not in e.laws:
+                give = "effort: <law in f>" if form == "resistance" else "flow: <law in e>"
+                self.problems.append(f"resistor {e.name} needs {form} causality here; add {give} to its laws")
+            out[e.name] = form
+        return out
+
+    def _junction_loops(self) -> None:
+        for u, v, k in self.g.edges(keys=True):
+            if k not in self.effort_to:
+                self.set(k, v, "arbitrary choice in a loop of the junction structure")
+                self.propagate()
+
+    def _strong_bonds(self) -> dict[str, BondKey]:
+        out: dict[str, BondKey] = {}
+        for j in self.model.junctions.values():
+            for k, o, _ in self.ports[j.name]:
+                if k in self.effort_to and ((self.effort_to[k] == j.name) == (j.base == "0")):
+                    out[j.name] = k
+        return out
+
+
+def assign(model: Model, purpose: str = DIAGNOSIS) -> Causality:
+    """Assign causality (SCAPH for ``diagnosis``, SCAP for ``simulation``) and check it."""
+    if purpose not in (DIAGNOSIS, SIMULATION):
+        raise ValueError(f"purpose must be {DIAGNOSIS!r} or {SIMULATION!r}")
+    causality = _Assigner(model, purpose).run()
+    loops = tuple(algebraic_loops(model, causality))
+    modes = tuple(dict(zip(model.modes, values)) for values in product((1, 0), repeat=len(model.modes)))
+    return Causality(causality.purpose, causality.effort_to, causality.storage, causality.resistors,
+                     causality.strong, causality.problems, loops, modes)
+
+
+def require(causality: Causality) -> Causality:
+    """Raise CausalityError listing every problem unless the assignment is clean."""
+    if not causality.ok:
+        raise CausalityError(list(causality.problems) + list(causality.loops))
+    return causality
+
+
+def dependency_graph(model: Model, causality: Causality) -> nx.DiGraph:
+    """Which bond variable is computed from which: nodes ('e'|'f', bond); edge attribute
+    ``kind`` is 'algebraic' or 'derivative' (through a storage element in derivative causality)."""
+    g = to_networkx(model)
+    dep = nx.DiGraph()
+    for node, kind in g.nodes(data="kind"):
+        ps = ports(g, node)
+        recv = {k: causality.effort_to.get(k) == node for k, _, _ in ps}
+        if kind in ("0", "1", "0c", "1c"):
+            s = causality.strong.get(node)
+            if s is None:
+                continue
+            common, total = ("e", "f") if kind[0] == "0" else ("f", "e")
+            for k, _, _ in ps:
+                if k != s:
+                    dep.add_edge((common, s), (common, k), kind="algebraic")
+                    dep.add_edge((total, k), (total, s), kind="algebraic")
+        elif kind in ("TF", "MTF", "GY", "MGY"):
+            (k1, _, _), (k2, _, _) = ps
+            for a, b in ((k1, k2), (k2, k1)):
+                if kind in ("TF", "MTF"):
+                    if recv[a]:
+                        dep.add_edge(("e", a), ("e", b), kind="algebraic")
+                    else:
+                        dep.add_edge(("f", a), ("f", b), kind="algebraic")
+                else:
+                    if recv[a]:
+                        dep.add_edge(("e", a), ("f", b), kind="algebraic")
+                    else:
+                        dep.add_edge(("f", a), ("e", b), kind="algebraic")
+        elif kind == "R":
+            (k, _, _), = ps
+            # resistance causality: the R receives flow and gives effort, e = law(f)
+            if causality.resistors.get(node) == "resistance":
+                a, b = ("f", k), ("e", k)
+            else:
+                a, b = ("e", k), ("f", k)
+            dep.add_edge(a, b, kind="algebraic")
+        elif kind in ("C", "I") and causality.storage.get(node) == "derivative":
+            (k, _, _), = ps
+            a, b = (("e", k), ("f", k)) if kind == "C" else (("f", k), ("e", k))
+            dep.add_edge(a, b, kind="derivative")
+    return dep
+
+
+def algebraic_loops(model: Model, causality: Causality) -> list[str]:
+    """Causal loops made of algebraic relations only (and derivative loops), as readable text."""
+    dep = dependency_graph(model, causality)
+    out: list[str] = []
+    for cycle in nx.simple_cycles(dep):
+        kinds = {dep.edges[cycle[i], cycle[(i + 1) % len(cycle)]]["kind"] for i in range(len(cycle))}
+        bonds = sorted({str(v[1]) for v in cycle})
+        what = "derivative loop" if "derivative" in kinds else "algebraic loop"
+        out.append(f"{what} through bonds {', '.join(bonds)}")
+        if len(out) >= 20:
+            break
+    return out

@@ -1,0 +1,36 @@
+"""The model as a networkx graph: elements, junctions and sensors as nodes, bonds as edges.
+
+Power bonds keep their integer id as edge key; a sensor is joined to its junction by a signal
+bond whose key is the sensor's name (it carries no power).
+"""
+from __future__ import annotations
+
+import networkx as nx
+
+from .model import Model
+
+BondKey = int | str
+
+
+def to_networkx(model: Model) -> nx.MultiDiGraph:
+    """A MultiDiGraph with edges in power direction; node attribute ``kind`` is the element,
+    junction (0, 1, 0c, 1c) or sensor (De, Df) type; edge attribute ``signal`` marks sensor bonds."""
+    g = nx.MultiDiGraph(name=model.name)
+    for e in model.elements.values():
+        g.add_node(e.name, kind=e.kind, role="element")
+    for j in model.junctions.values():
+        g.add_node(j.name, kind=j.kind, role="junction", mode=j.mode)
+    for s in model.sensors.values():
+        g.add_node(s.name, kind=s.kind, role="sensor")
+    for b in model.bonds:
+        g.add_edge(b.source, b.target, key=b.id, signal=False)
+    for s in model.sensors.values():
+        g.add_edge(s.junction, s.name, key=s.name, signal=True)
+    return g
+
+
+def ports(g: nx.MultiDiGraph, node: str) -> list[tuple[BondKey, str, int]]:
+    """(bond key, neighbour, sign) for each bond of ``node``; sign +1 if power flows into it."""
+    out = [(k, v, -1) for _, v, k in g.out_edges(node, keys=True)]
+    out += [(k, u, +1) for u, _, k in g.in_edges(node, keys=True)]
+    return sorted(out, key=lambda p: (isinstance(p[0], str), str(p[0]) if isinstance(p[0], str) else p[0]))

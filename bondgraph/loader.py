@@ -1,0 +1,544 @@
+"""Load and validate a hybrid bond graph from YAML (see docs/model-format.md).
+
+``yaml.safe_load`` semantics (the safe loader's node tree is used to find line numbers and
+duplicate keys); every expression goes through :func:`bondgraph.expressions.parse_expression`.
+Every mistake raises :class:`ModelError` naming the file, the key and (where known) the line.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import sympy as sp
+import yaml
+
+from .errors import ModelError
+from .expressions import ExpressionError, parse_expression
+from .model import (ELEMENT_KINDS, FAULT_KINDS, JUNCTION_KINDS, SENSOR_KINDS, SOURCE_KINDS,
+                    TWO_PORT_KINDS, Bond, Element, Fault, Input, Junction, Model, Mode, Parameter,
+                    Sensor, t)
+from .units import UnitError, check_unit
+
+_TOP_KEYS = {"name", "description", "reference", "parameters", "definitions", "inputs", "modes",
+             "elements", "junctions", "sensors", "bonds", "faults", "thresholds", "data",
+             "diagnosis", "initial"}
+_RESERVED = {"t", "e", "f", "q", "p", "pi", "E"}
+
+
+class _Ctx:
+    """File name and line map shared by the validation helpers."""
+
+    def __init__(self, path: str, lines: dict[tuple, int]) -> None:
+        self.path = path
+        self.lines = lines
+
+    def error(self, where: tuple, message: str) -> ModelError:
+        line = None
+        for k in range(len(where), 0, -1):
+            if where[:k] in self.lines:
+                line = self.lines[where[:k]]
+                break
+        return ModelError(message, file=self.path, where=".".join(str(w) for w in where), line=line)
+
+
+def load_model(path: str | Path) -> Model:
+    """Read a model file; raise ModelError with a one-line message on any problem."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ModelError(f"cannot read model file ({exc.strerror})", file=str(path)) from None
+    return load_model_text(text, str(path))
+
+
+def load_model_text(text: str, path: str = "<model>") -> Model:
+    """Parse model YAML given as text (``path`` is only used in messages)."""
+    try:
+        node = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = mark.line + 1 if mark else None
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise ModelError(f"not valid YAML: {problem}", file=path, line=line) from None
+    if node is None:
+        raise ModelError("the file is empty; see docs/model-format.md for the layout", file=path)
+    lines: dict[tuple, int] = {}
+    _index_lines(node, (), lines, path)
+    data = yaml.safe_load(text)
+    ctx = _Ctx(path, lines)
+    if not isinstance(data, dict):
+        raise ctx.error((), "the top level must be a mapping with keys such as parameters, elements, bonds")
+    return _build_model(data, ctx)
+
+
+def _index_lines(node: yaml.Node, where: tuple, lines: dict[tuple, int], path: str) -> None:
+    lines[where] = node.start_mark.line + 1
+    if isinstance(node, yaml.MappingNode):
+        seen: dict[Any, int] = {}
+        for key_node, value_node in node.value:
+            key = key_node.value
+            if key_node.tag.endswith(":int"):
+                key = int(key)
+            if key in seen:
+                raise ModelError(
+                    f"duplicate key '{key}' (first at line {seen[key]}); give each entry a unique name",
+                    file=path, where=".".join(str(w) for w in where + (key,)),
+                    line=key_node.start_mark.line + 1)
+            seen[key] = key_node.start_mark.line + 1
+            lines[where + (key,)] = key_node.start_mark.line + 1
+            _index_lines(value_node, where + (key,), lines, path)
+    elif isinstance(node, yaml.SequenceNode):
+        for i, item in enumerate(node.value):
+            _index_lines(item, where + (i,), lines, path)
+
+
+# ---------------------------------------------------------------- helpers
+
+def _mapping(ctx: _Ctx, data: Any, where: tuple, required: bool = False) -> dict:
+    if data is None:
+        if required:
+            raise ctx.error(where, "missing; see docs/model-format.md")
+        return {}
+    if not isinstance(data, dict):
+        raise ctx.error(where, f"must be a mapping of name: settings, got {type(data).__name__}")
+    return data
+
+
+def _spec(ctx: _Ctx, data: Any, where: tuple, allowed: set[str]) -> dict:
+    if not isinstance(data, dict):
+        raise ctx.error(where, "must be a mapping of settings (for example {type: R, parameter: R1})")
+    for key in data:
+        if key not in allowed:
+            raise ctx.error(where + (key,), f"unknown key '{key}' (allowed: {', '.join(sorted(allowed))})")
+    return data
+
+
+def _name(ctx: _Ctx, name: Any, where: tuple) -> str:
+    if not isinstance(name, str) or not name.isidentifier():
+        raise ctx.error(where, f"name '{name}' must be an identifier (letters, digits, _; not starting with a digit)")
+    if name in _RESERVED:
+        raise ctx.error(where, f"name '{name}' is reserved ({', '.join(sorted(_RESERVED))}); choose another")
+    return name
+
+
+def _number(ctx: _Ctx, value: Any, where: tuple, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if isinstance(value, str):
+            try:
+                return float(value)
+            except ValueError:
+                pass
+        raise ctx.error(where, f"{what} must be a number (use .inf for infinity), got {value!r}")
+    return float(value)
+
+
+def _expr(ctx: _Ctx, text: Any, where: tuple, symbols: dict[str, sp.Expr]) -> sp.Expr:
+    try:
+        return parse_expression(text, symbols)
+    except ExpressionError as exc:
+        raise ctx.error(where, str(exc)) from None
+
+
+def _unit(ctx: _Ctx, text: Any, where: tuple) -> str:
+    try:
+        return check_unit(text)
+    except UnitError as exc:
+        raise ctx.error(where, str(exc)) from None
+
+
+def _text(spec: dict, key: str) -> str:
+    value = spec.get(key, "")
+    return "" if value is None else str(value)
+
+
+# ---------------------------------------------------------------- model
+
+def _build_model(data: dict, ctx: _Ctx) -> Model:
+    for key in data:
+        if key not in _TOP_KEYS:
+            raise ctx.error((key,), f"unknown top-level key '{key}' (allowed: {', '.join(sorted(_TOP_KEYS))})")
+    symbols: dict[str, sp.Expr] = {}
+    taken: dict[str, str] = {}
+
+    def claim(name: str, what: str, where: tuple) -> None:
+        if name in taken:
+            raise ctx.error(where, f"'{name}' is already used as {taken[name]}; names must be unique")
+        taken[name] = what
+
+    parameters = _parameters(ctx, data, symbols, claim)
+    modes = _modes(ctx, data, symbols, claim)
+    data_spec = _spec(ctx, data.get("data") or {}, ("data",), {"columns", "sampling_time"})
+    columns = tuple(str(c) for c in data_spec.get("columns", []) or [])
+    column_symbols = {c: sp.Symbol(c, real=True) for c in columns if c != "t"}
+    sampling_time = (_number(ctx, data_spec["sampling_time"], ("data", "sampling_time"), "sampling_time")
+                     if "sampling_time" in data_spec else None)
+    inputs = _inputs(ctx, data, symbols, claim, columns)
+    sensors = _sensors(ctx, data, symbols, claim, column_symbols, columns)
+    definitions = _definitions(ctx, data, symbols, claim)
+    elements = _elements(ctx, data, symbols, claim, inputs, sensors)
+    junctions = _junctions(ctx, data, claim, modes)
+    bonds = _bonds(ctx, data, elements, junctions)
+    _check_ports(ctx, elements, junctions, bonds)
+    _check_sensor_junctions(ctx, sensors, junctions)
+    for e in elements.values():
+        if e.kind in SOURCE_KINDS:
+            symbols[f"beta_{e.input or e.name}"] = sp.Symbol(f"beta_{e.input or e.name}", positive=True)
+    for s in sensors.values():
+        symbols[f"beta_{s.name}"] = sp.Symbol(f"beta_{s.name}", positive=True)
+    faults = _faults(ctx, data, parameters, sensors, elements, modes)
+    thresholds = _thresholds(ctx, data, sensors)
+    diag = _spec(ctx, data.get("diagnosis") or {}, ("diagnosis",), {"waiting_time", "samples"})
+    waiting_time = _number(ctx, diag.get("waiting_time", 0.0), ("diagnosis", "waiting_time"), "waiting_time")
+    samples = int(_number(ctx, diag.get("samples", 1000), ("diagnosis", "samples"), "samples"))
+    initial = {str(k): _number(ctx, v, ("initial", k), "initial value")
+               for k, v in _mapping(ctx, data.get("initial"), ("initial",)).items()}
+    name = data.get("name") or Path(ctx.path).stem
+    plain = {k: v for k, v in symbols.items() if isinstance(v, sp.Symbol)}
+    return Model(name=str(name), path=ctx.path, description=_text(data, "description"),
+                 reference=_text(data, "reference"), parameters=parameters, definitions=definitions,
+                 inputs=inputs, modes=modes, elements=elements, junctions=junctions, sensors=sensors,
+                 bonds=bonds, faults=faults, thresholds=thresholds, columns=columns,
+                 sampling_time=sampling_time, waiting_time=waiting_time, samples=samples,
+                 initial=initial, symbols=plain)
+
+
+def _parameters(ctx, data, symbols, claim) -> dict[str, Parameter]:
+    out: dict[str, Parameter] = {}
+    for name, spec in _mapping(ctx, data.get("parameters"), ("parameters",)).items():
+        where = ("parameters", name)
+        _name(ctx, name, where)
+        if not isinstance(spec, dict):
+            spec = {"value": spec}
+        _spec(ctx, spec, where, {"value", "unit", "description"})
+        if "value" not in spec or spec["value"] is None:
+            raise ctx.error(where, f"parameter '{name}' has no value; add value: <number> (SI units)")
+        value = _number(ctx, spec["value"], where + ("value",), f"parameter '{name}'")
+        if math.isnan(value):
+            raise ctx.error(where + ("value",), f"parameter '{name}' is NaN; give a number")
+        unit = _unit(ctx, spec.get("unit"), where + ("unit",))
+        claim(name, "a parameter", where)
+        # physical constants with a positive nominal value are positive: sign(k*x) -> sign(x)
+        symbols[name] = sp.Symbol(name, positive=True) if value > 0 else sp.Symbol(name, real=True)
+        out[name] = Parameter(name, value, unit, _text(spec, "description"))
+    return out
+
+
+def _modes(ctx, data, symbols, claim) -> dict[str, Mode]:
+    out: dict[str, Mode] = {}
+    for name, spec in _mapping(ctx, data.get("modes"), ("modes",)).items():
+        where = ("modes", name)
+        _name(ctx, name, where)
+        spec = _spec(ctx, spec if spec is not None else {}, where, {"nominal", "description"})
+        nominal = spec.get("nominal", 1)
+        if nominal not in (0, 1) or isinstance(nominal, bool):
+            raise ctx.error(where + ("nominal",), f"mode '{name}' nominal value must be 0 or 1")
+        claim(name, "a mode variable", where)
+        symbols[name] = sp.Symbol(name, real=True)
+        out[name] = Mode(name, int(nominal), _text(spec, "description"))
+    return out
+
+
+def _inputs(ctx, data, symbols, claim, columns) -> dict[str, Input]:
+    out: dict[str, Input] = {}
+    for name, spec in _mapping(ctx, data.get("inputs"), ("inputs",)).items():
+        where = ("inputs", name)
+        _name(ctx, name, where)
+        spec = _spec(ctx, spec if spec is not None else {}, where, {"column", "expr", "unit", "description"})
+        column = spec.get("column")
+        if column is not None and columns and column not in columns:
+            raise ctx.error(where + ("column",), f"column '{column}' is not among data.columns {list(columns)}")
+        expr = None
+        if spec.get("expr") is not None:
+            allowed = {k: v for k, v in symbols.items()}
+            allowed["t"] = t
+            expr = _expr(ctx, spec["expr"], where + ("expr",), allowed)
+        if column is None and expr is None:
+            raise ctx.error(where, f"input '{name}' needs column: <data column> or expr: <expression of t>")
+        claim(name, "an input", where)
+        symbols[name] = sp.Symbol(name, real=True)
+        out[name] = Input(name, _unit(ctx, spec.get("unit"), where + ("unit",)),
+                          None if column is None else str(column), expr, _text(spec, "description"))
+    return out
+
+
+def _sensors(ctx, data, symbols, claim, column_symbols, columns) -> dict[str, Sensor]:
+    out: dict[str, Sensor] = {}
+    for name, spec in _mapping(ctx, data.get("sensors"), ("sensors",)).items():
+        where = ("sensors", name)
+        _name(ctx, name, where)
+        spec = _spec(ctx, spec, where, {"type", "junction", "measures", "column", "expr", "unit",
+                                        "noise", "resolution", "description"})
+        kind = spec.get("type")
+        if kind not in SENSOR_KINDS:
+            raise ctx.error(where + ("type",), f"sensor type '{kind}' unknown; use De (effort) or Df (flow)")
+        if not spec.get("junction"):
+            raise ctx.error(where, f"sensor '{name}' is on no junction; add junction: <name of a 0- or 1-junction>")
+        default = "effort" if kind == "De" else "flow"
+        measures = spec.get("measures", default)
+        allowed = ("effort", "momentum") if kind == "De" else ("flow", "displacement")
+        if measures not in allowed:
+            raise ctx.error(where + ("measures",), f"a {kind} sensor measures {' or '.join(allowed)}, not '{measures}'")
+        if spec.get("expr") is not None:
+            if not columns:
+                raise ctx.error(where + ("expr",), "list the data columns under data.columns to use them in expr")
+            signal = _expr(ctx, spec["expr"], where + ("expr",), column_symbols)
+        else:
+            column = spec.get("column", name)
+            if columns and column not in columns:
+                raise ctx.error(where + ("column",), f"column '{column}' is not among data.columns {list(columns)}")
+            signal = sp.Symbol(str(column), real=True)
+        noise = _per_column(ctx, spec.get("noise"), where + ("noise",), signal)
+        resolution = _per_column(ctx, spec.get("resolution"), where + ("resolution",), signal)
+        claim(name, "a sensor signal", where)
+        symbols[name] = sp.Symbol(name, real=True)
+        out[name] = Sensor(name, kind, str(spec["junction"]), measures, signal,
+                           _unit(ctx, spec.get("unit"), where + ("unit",)), noise, resolution,
+                           _text(spec, "description"))
+    return out
+
+
+def _per_column(ctx, value, where, signal: sp.Expr) -> dict[str, float]:
+    """A measurement setting given once for all the sensor's columns, or per column."""
+    if value is None:
+        return {}
+    cols = sorted(str(s) for s in signal.free_symbols)
+    if isinstance(value, dict):
+        for k in value:
+            if k not in cols:
+                raise ctx.error(where + (k,), f"'{k}' is not a column of this sensor ({', '.join(cols)})")
+        return {str(k): _number(ctx, v, where + (k,), "value") for k, v in value.items()}
+    number = _number(ctx, value, where, "value")
+    return {c: number for c in cols}
+
+
+def _definitions(ctx, data, symbols, claim) -> dict[str, sp.Expr]:
+    out: dict[str, sp.Expr] = {}
+    for name, text in _mapping(ctx, data.get("definitions"), ("definitions",)).items():
+        where = ("definitions", name)
+        _name(ctx, name, where)
+        expr = _expr(ctx, text, where, symbols)
+        claim(name, "a definition", where)
+        symbols[name] = expr
+        out[name] = expr
+    return out
+
+
+_ELEMENT_KEYS = {
+    "Se": {"value"}, "Sf": {"value"}, "MSe": {"input", "value"}, "MSf": {"input", "value"},
+    "R": {"parameter", "effort", "flow"}, "C": {"parameter", "effort", "displacement"},
+    "I": {"parameter", "flow", "momentum"},
+    "TF": {"modulus"}, "GY": {"modulus"}, "MTF": {"modulus"}, "MGY": {"modulus"},
+}
+# Which local variable each nonlinear law may use.
+_LAW_VARS = {("R", "effort"): "f", ("R", "flow"): "e", ("C", "effort"): "q",
+             ("C", "displacement"): "e", ("I", "flow"): "p", ("I", "momentum"): "f"}
+
+
+def _elements(ctx, data, symbols, claim, inputs, sensors) -> dict[str, Element]:
+    out: dict[str, Element] = {}
+    for name, spec in _mapping(ctx, data.get("elements"), ("elements",), required=True).items():
+        where = ("elements", name)
+        _name(ctx, name, where)
+        if not isinstance(spec, dict):
+            raise ctx.error(where, "must be a mapping such as {type: R, parameter: R1}")
+        kind = spec.get("type")
+        if kind not in ELEMENT_KINDS:
+            raise ctx.error(where + ("type",),
+                            f"unknown element type '{kind}' (use one of {', '.join(ELEMENT_KINDS)}; "
+                            "sensors go under sensors:, junctions under junctions:)")
+        _spec(ctx, spec, where, _ELEMENT_KEYS[kind] | {"type", "description"})
+        claim(name, "an element", where)
+        params = {k: v for k, v in symbols.items()}
+        element = Element(name=name, kind=kind, description=_text(spec, "description"))
+        fields: dict[str, Any] = {}
+        if kind in ("R", "C", "I"):
+            if spec.get("parameter") is not None:
+                pname = spec["parameter"]
+                if pname not in symbols or not isinstance(symbols[pname], sp.Symbol):
+                    raise ctx.error(where + ("parameter",), f"undefined parameter '{pname}'; add it under parameters")
+                fields["parameter"] = pname
+            laws = {}
+            for law in _ELEMENT_KEYS[kind] - {"parameter"}:
+                if spec.get(law) is not None:
+                    var = _LAW_VARS[(kind, law)]
+                    laws[law] = _expr(ctx, spec[law], where + (law,), {**params, var: sp.Symbol(var, real=True)})
+            if not laws and "parameter" not in fields:
+                hint = {"R": "parameter: R1, or effort: <law in f> / flow: <law in e>",
+                        "C": "parameter: C1, or effort: <law in q>", "I": "parameter: I1, or flow: <law in p>"}[kind]
+                raise ctx.error(where, f"{kind} element '{name}' has no constitutive law; add {hint}")
+            fields["laws"] = laws
+        elif kind in TWO_PORT_KINDS:
+            if spec.get("modulus") is None:
+                raise ctx.error(where, f"{kind} element '{name}' needs modulus: <expression>")
+            modulus = _expr(ctx, spec["modulus"], where + ("modulus",), params)
+            if kind in ("TF", "GY"):
+                signals = [s for s in modulus.free_symbols if s.name in inputs or s.name in sensors]
+                if signals:
+                    raise ctx.error(where + ("modulus",),
+                                    f"a {kind} modulus must be constant but uses {sorted(s.name for s in signals)}; "
+                                    f"use M{kind} for a modulated one")
+            fields["modulus"] = modulus
+        else:
+            if kind in ("MSe", "MSf") and spec.get("input") is not None:
+                if spec["input"] not in inputs:
+                    raise ctx.error(where + ("input",), f"undefined input '{spec['input']}'; add it under inputs")
+                fields["input"] = spec["input"]
+            elif spec.get("value") is not None:
+                fields["value"] = _expr(ctx, spec["value"], where + ("value",), {**params, "t": t})
+            else:
+                need = "input: <input name>" if kind.startswith("M") else "value: <number or expression of t>"
+                raise ctx.error(where, f"source '{name}' needs {need}")
+        out[name] = Element(**{**element.__dict__, **fields})
+    return out
+
+
+def _junctions(ctx, data, claim, modes) -> dict[str, Junction]:
+    out: dict[str, Junction] = {}
+    for name, spec in _mapping(ctx, data.get("junctions"), ("junctions",), required=True).items():
+        where = ("junctions", name)
+        _name(ctx, name, where)
+        if not isinstance(spec, dict):
+            spec = {"type": spec}
+        _spec(ctx, spec, where, {"type", "mode", "description"})
+        kind = str(spec.get("type"))
+        if kind not in JUNCTION_KINDS:
+            raise ctx.error(where + ("type",), f"unknown junction type '{kind}' (use 0, 1, 0c or 1c)")
+        mode = spec.get("mode")
+        if kind.endswith("c"):
+            if mode is None:
+                raise ctx.error(where, f"controlled junction '{name}' needs mode: <mode variable>")
+            if mode not in modes:
+                raise ctx.error(where + ("mode",), f"undefined mode variable '{mode}'; add it under modes")
+        elif mode is not None:
+            raise ctx.error(where + ("mode",), f"junction '{name}' is type {kind}; use {kind}c for a controlled junction")
+        claim(name, "a junction", where)
+        out[name] = Junction(name, kind, mode, _text(spec, "description"))
+    return out
+
+
+def _bonds(ctx, data, elements, junctions) -> tuple[Bond, ...]:
+    raw = data.get("bonds")
+    if not isinstance(raw, dict) or not raw:
+        raise ctx.error(("bonds",), "bonds must be a mapping of id: [from, to] (power goes from -> to)")
+    bonds: list[Bond] = []
+    seen: dict[frozenset, int] = {}
+    for bid, ends in raw.items():
+        where = ("bonds", bid)
+        if isinstance(bid, bool) or not isinstance(bid, int) or bid < 0:
+            raise ctx.error(where, f"bond id '{bid}' must be a non-negative integer")
+        if not isinstance(ends, list) or len(ends) != 2:
+            raise ctx.error(where, f"bond {bid} must be [from, to], got {ends!r}")
+        src, dst = (str(x) for x in ends)
+        for end in (src, dst):
+            if end not in elements and end not in junctions:
+                raise ctx.error(where, f"bond {bid} is dangling: '{end}' is neither an element nor a junction")
+        if src == dst:
+            raise ctx.error(where, f"bond {bid} connects '{src}' to itself")
+        pair = frozenset((src, dst))
+        if pair in seen:
+            raise ctx.error(where, f"duplicate bond: {bid} joins {src} and {dst} like bond {seen[pair]}; remove one")
+        seen[pair] = bid
+        bonds.append(Bond(bid, src, dst))
+    return tuple(bonds)
+
+
+def _check_ports(ctx, elements, junctions, bonds) -> None:
+    for name, e in elements.items():
+        attached = [b for b in bonds if name in (b.source, b.target)]
+        where = ("elements", name)
+        if e.kind in TWO_PORT_KINDS:
+            if len(attached) != 2:
+                raise ctx.error(where, f"{e.kind} '{name}' has {len(attached)} bond(s); it needs exactly two "
+                                       "(one bringing power in, one taking it out)")
+            ins = [b for b in attached if b.target == name]
+            if len(ins) != 1:
+                raise ctx.error(where, f"{e.kind} '{name}': power must pass through it: one bond in, one out "
+                                       f"(bonds {', '.join(str(b.id) for b in attached)})")
+        elif len(attached) != 1:
+            raise ctx.error(where, f"{e.kind} '{name}' has {len(attached)} bonds; a one-port element needs exactly one")
+    for name in junctions:
+        attached = [b for b in bonds if name in (b.source, b.target)]
+        if not attached:
+            raise ctx.error(("junctions", name), f"junction '{name}' has no bonds; connect it or remove it")
+
+
+def _check_sensor_junctions(ctx, sensors, junctions) -> None:
+    for s in sensors.values():
+        where = ("sensors", s.name, "junction")
+        if s.junction not in junctions:
+            raise ctx.error(where, f"sensor '{s.name}' is on '{s.junction}', which is no junction "
+                                   f"(junctions: {', '.join(junctions)})")
+        base = junctions[s.junction].base
+        want = "0" if s.kind == "De" else "1"
+        if base != want:
+            raise ctx.error(where, f"a {s.kind} sensor measures the common {'effort' if want == '0' else 'flow'} "
+                                   f"of a {want}-junction; '{s.junction}' is a {base}-junction")
+    used: dict[str, str] = {}
+    for s in sensors.values():
+        if s.junction in used:
+            raise ctx.error(("sensors", s.name, "junction"),
+                            f"junction '{s.junction}' already carries sensor '{used[s.junction]}'; one sensor per junction")
+        used[s.junction] = s.name
+
+
+def _faults(ctx, data, parameters, sensors, elements, modes) -> dict[str, Fault]:
+    out: dict[str, Fault] = {}
+    sources = {e.input or e.name: e for e in elements.values() if e.kind in SOURCE_KINDS}
+    for name, spec in _mapping(ctx, data.get("faults"), ("faults",)).items():
+        where = ("faults", name)
+        spec = _spec(ctx, spec, where, {"kind", "parameters", "sensor", "source", "mode", "value",
+                                        "failure", "bounds", "description"})
+        kind = spec.get("kind")
+        if kind not in FAULT_KINDS:
+            raise ctx.error(where + ("kind",), f"fault kind '{kind}' unknown (use {', '.join(FAULT_KINDS)})")
+        if kind == "parametric":
+            targets = spec.get("parameters")
+            if isinstance(targets, str):
+                targets = [targets]
+            if not targets:
+                raise ctx.error(where, "a parametric fault needs parameters: [names]")
+            for p in targets:
+                if p not in parameters:
+                    raise ctx.error(where + ("parameters",), f"undefined parameter '{p}' in fault '{name}'")
+        else:
+            key = kind
+            target = spec.get(key)
+            pool = {"sensor": sensors, "source": sources, "mode": modes}[kind]
+            if target not in pool:
+                raise ctx.error(where + (key,), f"fault '{name}' names {key} '{target}', which is not defined "
+                                                f"(known: {', '.join(pool) or 'none'})")
+            targets = [target]
+        bounds = spec.get("bounds")
+        if bounds is not None:
+            if not isinstance(bounds, list) or len(bounds) != 2:
+                raise ctx.error(where + ("bounds",), "bounds must be [low, high]")
+            bounds = tuple(_number(ctx, b, where + ("bounds",), "bound") for b in bounds)
+            if not bounds[0] < bounds[1]:
+                raise ctx.error(where + ("bounds",), "bounds must be [low, high] with low < high")
+        value = spec.get("value")
+        if kind == "mode":
+            value = 0 if value is None else value
+            if value not in (0, 1):
+                raise ctx.error(where + ("value",), "a fault mode's value is 0 or 1")
+        failure = spec.get("failure")
+        out[name] = Fault(name, kind, tuple(str(x) for x in targets),
+                          None if failure is None else _number(ctx, failure, where + ("failure",), "failure"),
+                          None if value is None else _number(ctx, value, where + ("value",), "value"),
+                          bounds, _text(spec, "description"))
+    return out
+
+
+def _thresholds(ctx, data, sensors) -> dict[str, float]:
+    names = [f"ARR{i + 1}" for i in range(len(sensors))]
+    by_sensor = {s: names[i] for i, s in enumerate(sensors)}
+    out: dict[str, float] = {}
+    for key, value in _mapping(ctx, data.get("thresholds"), ("thresholds",)).items():
+        arr = by_sensor.get(key, key)
+        if arr not in names:
+            raise ctx.error(("thresholds", key), f"'{key}' is no residual (use {', '.join(names)} or a sensor name)")
+        number = _number(ctx, value, ("thresholds", key), "threshold")
+        if not number > 0:
+            raise ctx.error(("thresholds", key), "a threshold must be positive")
+        out[arr] = number
+    return out

@@ -1,0 +1,178 @@
+"""The hybrid bond graph model as plain frozen values (what the YAML loader returns).
+
+Conventions (Karnopp, Margolis & Rosenberg; also 20-sim):
+- a bond's power direction goes from ``source`` to ``target``;
+- TF/MTF with modulus m, power entering on bond 1 and leaving on bond 2: e1 = m*e2, f2 = m*f1;
+- GY/MGY with modulus r: e1 = r*f2, e2 = r*f1;
+- R: e = law(f) (resistance form) and/or f = law(e) (conductance form); linear: e = R*f;
+- C: e = q/C, I: f = p/I (or a law in q, p); in derivative causality f = C*de/dt, e = I*df/dt;
+- controlled junctions (0c, 1c) carry a mode variable a in {0, 1}; in the diagnostic hybrid bond
+  graph every output variable of a controlled junction is multiplied by a.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import sympy as sp
+
+SOURCE_KINDS = ("Se", "Sf", "MSe", "MSf")
+STORAGE_KINDS = ("C", "I")
+TWO_PORT_KINDS = ("TF", "GY", "MTF", "MGY")
+ELEMENT_KINDS = SOURCE_KINDS + ("R",) + STORAGE_KINDS + TWO_PORT_KINDS
+SENSOR_KINDS = ("De", "Df")
+JUNCTION_KINDS = ("0", "1", "0c", "1c")
+FAULT_KINDS = ("parametric", "sensor", "source", "mode")
+
+t = sp.Symbol("t", real=True)
+
+
+@dataclass(frozen=True)
+class Parameter:
+    name: str
+    value: float
+    unit: str
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Input:
+    """A named input signal: a data column, an expression of t (for simulation), or both."""
+    name: str
+    unit: str
+    column: str | None
+    expr: sp.Expr | None
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Mode:
+    name: str
+    nominal: int
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Element:
+    """A bond-graph element. ``laws`` holds nonlinear constitutive laws by the variable they give
+    (``effort``/``flow`` for R, ``effort`` of q for C, ``flow`` of p for I)."""
+    name: str
+    kind: str
+    parameter: str | None = None
+    laws: Mapping[str, sp.Expr] = field(default_factory=dict)
+    modulus: sp.Expr | None = None
+    input: str | None = None
+    value: sp.Expr | None = None
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Junction:
+    name: str
+    kind: str
+    mode: str | None = None
+    description: str = ""
+
+    @property
+    def controlled(self) -> bool:
+        return self.kind.endswith("c")
+
+    @property
+    def base(self) -> str:
+        """'0' or '1': the junction type without the controlled marker."""
+        return self.kind[0]
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """A De/Df detector on a junction. ``name`` is the signal it measures (``dp``, ``theta1``);
+    ``measures`` says which bond quantity that signal is: the junction's effort or flow, or its
+    time integral (``displacement`` for Df, ``momentum`` for De). ``signal`` computes the value
+    from data columns; ``noise`` (standard deviation) and ``resolution`` (quantisation step)
+    describe the measurement per data column, for simulation."""
+    name: str
+    kind: str
+    junction: str
+    measures: str
+    signal: sp.Expr
+    unit: str
+    noise: Mapping[str, float] = field(default_factory=dict)
+    resolution: Mapping[str, float] = field(default_factory=dict)
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Bond:
+    id: int
+    source: str
+    target: str
+
+    def other(self, node: str) -> str:
+        return self.target if node == self.source else self.source
+
+
+@dataclass(frozen=True)
+class Fault:
+    """A candidate fault. ``targets`` are parameter names (parametric), one sensor or source
+    name (its efficiency factor beta), or one mode variable (mode)."""
+    name: str
+    kind: str
+    targets: tuple[str, ...]
+    failure: float | None = None
+    value: float | None = None
+    bounds: tuple[float, float] | None = None
+    description: str = ""
+
+    @property
+    def symbols(self) -> tuple[str, ...]:
+        """Names of the symbols this fault acts on in the AGARRs."""
+        if self.kind == "sensor" or self.kind == "source":
+            return (f"beta_{self.targets[0]}",)
+        return self.targets
+
+
+@dataclass(frozen=True)
+class Model:
+    name: str
+    path: str
+    description: str
+    reference: str
+    parameters: Mapping[str, Parameter]
+    definitions: Mapping[str, sp.Expr]
+    inputs: Mapping[str, Input]
+    modes: Mapping[str, Mode]
+    elements: Mapping[str, Element]
+    junctions: Mapping[str, Junction]
+    sensors: Mapping[str, Sensor]
+    bonds: tuple[Bond, ...]
+    faults: Mapping[str, Fault]
+    thresholds: Mapping[str, float]
+    columns: tuple[str, ...]
+    sampling_time: float | None
+    waiting_time: float
+    samples: int
+    initial: Mapping[str, float]
+    symbols: Mapping[str, sp.Symbol]
+
+    def bonds_of(self, node: str) -> list[Bond]:
+        return [b for b in self.bonds if node in (b.source, b.target)]
+
+    def beta_symbol(self, name: str) -> sp.Symbol:
+        """The efficiency factor of a sensor or source, ``beta_<name>``."""
+        return self.symbols[f"beta_{name}"]
+
+    def nominal_values(self) -> dict[sp.Symbol, float]:
+        """Every parameter, efficiency factor and mode variable at its nominal value."""
+        values: dict[sp.Symbol, float] = {self.symbols[p]: v.value for p, v in self.parameters.items()}
+        for name in list(self.sensors) + [e.input or e.name for e in self.sources()]:
+            values[self.beta_symbol(name)] = 1.0
+        for m in self.modes.values():
+            values[self.symbols[m.name]] = m.nominal
+        return values
+
+    def sources(self) -> list[Element]:
+        return [e for e in self.elements.values() if e.kind in ("Se", "Sf", "MSe", "MSf")]
+
+    def arr_names(self) -> list[str]:
+        """One AGARR per sensor, in the order the sensors are listed: ARR1, ARR2, ..."""
+        return [f"ARR{i + 1}" for i in range(len(self.sensors))]
