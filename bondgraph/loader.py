@@ -188,7 +188,10 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
         symbols[f"beta_{s.name}"] = sp.Symbol(f"beta_{s.name}", positive=True)
     faults = _faults(ctx, data, parameters, sensors, elements, modes)
     thresholds = _thresholds(ctx, data, sensors)
-    diag = _spec(ctx, data.get("diagnosis") or {}, ("diagnosis",), {"waiting_time", "samples"})
+    diag = _spec(ctx, data.get("diagnosis") or {}, ("diagnosis",), {"waiting_time", "samples", "derivative_window"})
+    window = _number(ctx, diag.get("derivative_window", 0.25), ("diagnosis", "derivative_window"), "derivative_window")
+    if not window > 0:
+        raise ctx.error(("diagnosis", "derivative_window"), "derivative_window must be a positive time in s")
     waiting_time = _number(ctx, diag.get("waiting_time", 0.0), ("diagnosis", "waiting_time"), "waiting_time")
     samples = int(_number(ctx, diag.get("samples", 1000), ("diagnosis", "samples"), "samples"))
     initial = {str(k): _number(ctx, v, ("initial", k), "initial value")
@@ -200,6 +203,7 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
                  inputs=inputs, modes=modes, elements=elements, junctions=junctions, sensors=sensors,
                  bonds=bonds, faults=faults, thresholds=thresholds, columns=columns,
                  sampling_time=sampling_time, waiting_time=waiting_time, samples=samples,
+                 derivative_window=window,
                  initial=initial, symbols=plain)
 
 

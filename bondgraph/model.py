@@ -151,6 +151,7 @@ class Model:
     sampling_time: float | None
     waiting_time: float
     samples: int
+    derivative_window: float
     initial: Mapping[str, float]
     symbols: Mapping[str, sp.Symbol]
 

@@ -1,0 +1,194 @@
+"""The ``bgfdi`` command: a thin argparse front over bondgraph, fdi and optim.
+
+User mistakes (bad model, scenario or data files, bad options) print one line on stderr and exit
+with code 2; nothing is half-written (outputs go through fdi.output.write_atomic).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from collections import Counter
+from pathlib import Path
+
+from bondgraph.causality import DIAGNOSIS, SIMULATION, Causality, assign
+from bondgraph.errors import CausalityError, ModelError
+from bondgraph.loader import load_model
+from bondgraph.model import Model
+
+from .data import DataError
+from .output import write_atomic
+
+
+class UsageError(Exception):
+    """A bad command-line value."""
+
+
+USER_ERRORS = (ModelError, CausalityError, DataError, UsageError)
+
+
+def parse_mode(text: str, model: Model) -> dict[str, int]:
+    """``a1=1,a2=0`` -> {'a1': 1, 'a2': 0}, every other mode variable at its nominal value."""
+    mode = {n: m.nominal for n, m in model.modes.items()}
+    for part in filter(None, (p.strip() for p in text.split(","))):
+        name, _, value = part.partition("=")
+        name = name.strip()
+        if name not in model.modes:
+            raise UsageError(f"--mode: '{name}' is no mode variable of {model.name} (known: {', '.join(model.modes)})")
+        if value.strip() not in ("0", "1"):
+            raise UsageError(f"--mode: {name} must be 0 or 1, got '{value}'")
+        mode[name] = int(value)
+    return mode
+
+
+def _emit(text: str, out: str | None) -> None:
+    if out:
+        write_atomic(out, text)
+    else:
+        sys.stdout.write(text)
+
+
+# ------------------------------------------------------------------ check / graph
+
+def _causality_lines(model: Model, c: Causality) -> list[str]:
+    lines = []
+    for b in model.bonds:
+        recv = c.effort_to.get(b.id, "?")
+        lines.append(f"  {b.id:>4}  {b.source:>10} -> {b.target:<10}  stroke at {recv:<10}  "
+                     f"effort into {recv}, flow into {b.other(recv) if recv != '?' else '?'}")
+    for s in model.sensors.values():
+        recv = c.effort_to.get(s.name, "?")
+        lines.append(f"  {s.name:>4}  {s.junction:>10} -> {s.name:<10}  stroke at {recv:<10}  (signal bond, {s.kind})")
+    return lines
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    model = load_model(args.model)
+    kinds = Counter(e.kind for e in model.elements.values())
+    jkinds = Counter(j.kind for j in model.junctions.values())
+    print(f"model {model.name} ({args.model})")
+    if model.reference:
+        print(f"  reference: {model.reference}")
+    print(f"  elements   {len(model.elements)}: " + ", ".join(f"{k} {v}" for k, v in sorted(kinds.items())))
+    ctrl = [f"{j.name} ({j.kind}, mode {j.mode})" for j in model.junctions.values() if j.controlled]
+    print(f"  junctions  {len(model.junctions)}: " + ", ".join(f"{k}: {v}" for k, v in sorted(jkinds.items()))
+          + (f"; controlled: {', '.join(ctrl)}" if ctrl else ""))
+    print(f"  bonds      {len(model.bonds)}")
+    print(f"  sensors    {len(model.sensors)}: " + ", ".join(
+        f"{s.name} ({s.kind} on {s.junction}, {s.measures})" for s in model.sensors.values()))
+    print(f"  modes      {len(model.modes)}: " + (", ".join(model.modes) or "none")
+          + f" -> {2 ** len(model.modes)} mode(s)")
+    print(f"  faults     {len(model.faults)}: " + ", ".join(
+        f"{f.name} ({f.kind}: {', '.join(f.targets)})" for f in model.faults.values()))
+    diag = assign(model, DIAGNOSIS)
+    print()
+    print("causality for diagnosis (SCAPH: sources fixed, sensors inverted, storage in derivative causality)")
+    if not diag.ok:
+        for p in list(diag.problems) + list(diag.loops):
+            print(f"  problem: {p}")
+        raise CausalityError(list(diag.problems) + list(diag.loops))
+    n_modes = len(diag.modes_checked)
+    print(f"  one assignment, valid in all {n_modes} mode(s)"
+          + (f" ({', '.join(model.modes)} in {{0, 1}}): controlled junction outputs are multiplied by their "
+             "mode variable, so no causality is reassigned at a switch" if model.modes else ""))
+    print("  storage: " + (", ".join(f"{k} {v}" for k, v in diag.storage.items()) or "none"))
+    if all(v == "derivative" for v in diag.storage.values()):
+        print("  all storage elements in derivative causality")
+    for j in model.junctions.values():
+        if j.controlled:
+            print(f"  controlled junction {j.name}: strong bond {diag.strong[j.name]} (preferred causality), "
+                  f"outputs x {j.mode}")
+    print("  bond  from -> to  causal stroke:")
+    for line in _causality_lines(model, diag):
+        print(line)
+    sim = assign(model, SIMULATION)
+    print()
+    print("causality for simulation (SCAP, integral causality preferred)")
+    print("  storage: " + (", ".join(f"{k} {v}" for k, v in sim.storage.items()) or "none"))
+    for p in list(sim.problems) + list(sim.loops):
+        print(f"  note: {p}")
+    return 0
+
+
+def cmd_graph(args: argparse.Namespace) -> int:
+    from bondgraph.dot import to_dot
+
+    model = load_model(args.model)
+    _emit(to_dot(model, assign(model, args.purpose)), args.output)
+    return 0
+
+
+# ------------------------------------------------------------------ tables
+
+def cmd_tables(args: argparse.Namespace) -> int:
+    from .arrs import derive_arrs
+    from .signatures import all_modes, fault_signature_matrix, mode_change_signature_matrix
+    from .tables import render
+
+    model = load_model(args.model)
+    arrs = derive_arrs(model)
+    modes = [parse_mode(args.mode, model)] if args.mode else all_modes(model)
+    fsms = [fault_signature_matrix(model, arrs, m) for m in modes]
+    mcsm = mode_change_signature_matrix(model, arrs, modes[0] if args.mode else None)
+    _emit(render(args.format, arrs, fsms, mcsm), args.output)
+    return 0
+
+
+# ------------------------------------------------------------------ bench
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from . import bench
+    from .resources import shipped_models
+
+    if args.what == "derive":
+        sys.stdout.write(bench.format_derive(bench.derive_rows(shipped_models())))
+        return 0
+    raise UsageError(f"unknown benchmark '{args.what}'")
+
+
+# ------------------------------------------------------------------ main
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="bgfdi", description="Fault diagnosis and prognosis with hybrid bond graphs.")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    c = sub.add_parser("check", help="validate a model and show its causality")
+    c.add_argument("model")
+    c.set_defaults(func=cmd_check)
+
+    g = sub.add_parser("graph", help="write Graphviz DOT with causal strokes")
+    g.add_argument("model")
+    g.add_argument("-o", "--output", help="file to write (default: standard output)")
+    g.add_argument("--purpose", choices=(DIAGNOSIS, SIMULATION), default=DIAGNOSIS)
+    g.set_defaults(func=cmd_graph)
+
+    t = sub.add_parser("tables", help="AGARRs, MD-FSM and MCSM")
+    t.add_argument("model")
+    t.add_argument("--mode", help="one mode, e.g. a1=1,a2=1 (default: every mode)")
+    t.add_argument("--format", choices=("text", "markdown", "latex", "json", "csv"), default="text")
+    t.add_argument("-o", "--output", help="file to write (default: standard output)")
+    t.set_defaults(func=cmd_tables)
+
+    b = sub.add_parser("bench", help="benchmarks, printed as tables")
+    b.add_argument("what", choices=("derive",))
+    b.set_defaults(func=cmd_bench)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except CausalityError as exc:
+        print(f"bgfdi: error: {getattr(args, 'model', '')}: causality: {'; '.join(exc.problems)}", file=sys.stderr)
+        return 2
+    except USER_ERRORS as exc:
+        print(f"bgfdi: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("bgfdi: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

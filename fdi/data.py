@@ -1,0 +1,100 @@
+"""Measurement files: read a CSV, check it against the model, compute the model's signals.
+
+A measurement file has a header row ``t,<columns>`` and one row per sample on a uniform time
+axis, SI units. Problems (missing column, NaN rows, non-uniform or decreasing time, a file made
+for another model) raise :class:`DataError` with one line that names the file and the fix.
+"""
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+import sympy as sp
+
+from bondgraph.model import Model
+
+
+class DataError(ValueError):
+    """A measurement file the diagnosis cannot use."""
+
+
+@dataclass(frozen=True)
+class Measurements:
+    path: str
+    t: np.ndarray
+    columns: Mapping[str, np.ndarray]
+
+    @property
+    def ts(self) -> float:
+        return float(self.t[1] - self.t[0])
+
+
+def read_csv(path: str | Path) -> Measurements:
+    p = Path(path)
+    try:
+        with p.open(newline="", encoding="utf-8") as fh:
+            rows = list(csv.reader(fh))
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read ({exc.strerror})") from None
+    if len(rows) < 3:
+        raise DataError(f"{path}: needs a header row and at least two samples")
+    header = [h.strip() for h in rows[0]]
+    if "t" not in header:
+        raise DataError(f"{path}: no 't' column in the header ({','.join(header)}); the first column must be time in s")
+    try:
+        table = np.array([[float(x) if x.strip() else np.nan for x in r] for r in rows[1:] if r], dtype=float)
+    except ValueError as exc:
+        raise DataError(f"{path}: a value is not a number ({exc})") from None
+    if table.ndim != 2 or table.shape[1] != len(header):
+        raise DataError(f"{path}: rows do not all have {len(header)} values")
+    bad = np.flatnonzero(~np.isfinite(table).all(axis=1))
+    if bad.size:
+        raise DataError(f"{path}: {bad.size} row(s) with NaN or missing values, first at line {bad[0] + 2}; "
+                        "remove or fill them")
+    cols = {h: table[:, i] for i, h in enumerate(header)}
+    time = cols["t"]
+    dt = np.diff(time)
+    if np.any(dt <= 0):
+        i = int(np.flatnonzero(dt <= 0)[0])
+        raise DataError(f"{path}: time does not increase at line {i + 3} (t = {time[i + 1]:g} s)")
+    if np.max(np.abs(dt - dt.mean())) > 1e-6 * max(1.0, abs(dt.mean())) + 1e-3 * dt.mean():
+        i = int(np.argmax(np.abs(dt - dt.mean())))
+        raise DataError(f"{path}: non-uniform time axis (step {dt[i]:g} s at line {i + 3}, mean {dt.mean():g} s); "
+                        "resample to a constant sampling time")
+    return Measurements(str(path), time, cols)
+
+
+def check_against_model(model: Model, data: Measurements) -> None:
+    """Every column the model reads must be there."""
+    needed = set()
+    for s in model.sensors.values():
+        needed |= {str(x) for x in s.signal.free_symbols}
+    for i in model.inputs.values():
+        if i.column:
+            needed.add(i.column)
+    missing = sorted(needed - set(data.columns))
+    if missing:
+        other = "" if set(data.columns) & needed else f" (is it a file for another model than {model.name}?)"
+        raise DataError(f"{data.path}: missing column(s) {', '.join(missing)} that model {model.name} reads"
+                        f"{other}; columns found: {', '.join(data.columns)}")
+
+
+def signals_from_data(model: Model, data: Measurements) -> dict[str, np.ndarray]:
+    """Each sensor's measured signal and each input, by name, from the data columns."""
+    check_against_model(model, data)
+    out: dict[str, np.ndarray] = {}
+    for s in model.sensors.values():
+        syms = sorted(s.signal.free_symbols, key=lambda x: x.name)
+        fn = sp.lambdify(syms, s.signal, modules="numpy")
+        out[s.name] = np.asarray(fn(*[data.columns[x.name] for x in syms]), dtype=float) * np.ones_like(data.t)
+    for i in model.inputs.values():
+        if i.column:
+            out[i.name] = data.columns[i.column]
+        else:
+            nominal = {k: v for k, v in model.nominal_values().items()}
+            fn = sp.lambdify([sp.Symbol("t", real=True)], i.expr.xreplace(nominal), modules="numpy")
+            out[i.name] = np.asarray(fn(data.t), dtype=float) * np.ones_like(data.t)
+    return out
