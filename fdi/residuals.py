@@ -111,4 +111,6 @@ def evaluate(model: Model, residuals: list[Residual], raw: Mapping[str, np.ndarr
     """Residuals on data: array of shape (n_residuals, ..., samples)."""
     sig = corrected_signals(model, raw, ts, derivative_orders(residuals), betas, window)
     vals = parameter_values(model, values)
-    return np.stack([np.broadcast_to(r(sig, vals), np.shape(next(iter(sig.values()))[0])) for r in residuals])
+    outs = [r(sig, vals) for r in residuals]
+    shape = np.broadcast_shapes(*[o.shape for o in outs], *[np.shape(v[0]) for v in sig.values()])
+    return np.stack([np.broadcast_to(o, shape) for o in outs])

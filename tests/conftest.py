@@ -1,0 +1,25 @@
+"""Shared fixtures: the shipped models and the CyCab reference data (copied into tests/data)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from bondgraph.loader import load_model
+from fdi.arrs import derive_arrs
+
+ROOT = Path(__file__).resolve().parent.parent
+MODELS = ROOT / "models"
+DATA = Path(__file__).resolve().parent / "data" / "cycab"
+CYCAB = MODELS / "cycab_steering.yaml"
+SHIPPED = sorted(MODELS.glob("*.yaml"))
+
+
+@pytest.fixture(scope="session")
+def cycab():
+    return load_model(CYCAB)
+
+
+@pytest.fixture(scope="session")
+def cycab_arrs(cycab):
+    return derive_arrs(cycab)

@@ -1,0 +1,149 @@
+"""The model loader: the shipped models load; each kind of bad input gives one clear error."""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import pytest
+
+from bondgraph.errors import ModelError
+from bondgraph.loader import load_model, load_model_text
+from fdi.cli import main
+
+from .conftest import CYCAB, SHIPPED
+
+BASE = """\
+name: rc
+parameters:
+  R: {value: 100.0, unit: Ohm}
+  C1: {value: 1.0e-3, unit: F}
+data: {columns: [t, u, v]}
+inputs:
+  u: {column: u, unit: V}
+elements:
+  src: {type: MSe, input: u}
+  res: {type: R, parameter: R}
+  cap: {type: C, parameter: C1}
+junctions:
+  j1: {type: "1"}
+  j0: {type: "0"}
+sensors:
+  v: {type: De, junction: j0, column: v, unit: V}
+bonds:
+  1: [src, j1]
+  2: [j1, res]
+  3: [j1, j0]
+  4: [j0, cap]
+"""
+
+
+def test_cycab_loads_with_the_fixed_names(cycab):
+    for p in ["k1", "k2", "k3", "k4", "k5", "J1", "J2", "J3", "kf2", "Fu2", "kf3", "Fu3", "kf5", "Fu5",
+              "A", "R1", "R4", "r_a", "L", "w"]:
+        assert p in cycab.parameters
+    assert math.isinf(cycab.parameters["R4"].value)
+    assert list(cycab.sensors) == ["theta1", "dp", "theta2"]
+    assert list(cycab.inputs) == ["u_in"]
+    assert list(cycab.modes) == ["a1", "a2"]
+    assert set(cycab.faults) == {"R4", "R5", "beta_theta1", "beta_theta2", "beta_dp", "a1", "a2"}
+    assert cycab.faults["R5"].targets == ("kf5", "Fu5")
+    assert dict(cycab.thresholds) == {"ARR1": 1.0, "ARR2": 5.5e-6, "ARR3": 15.0}
+    assert cycab.waiting_time == 5.0
+    assert cycab.parameters["k1"].value == 5.0 and cycab.parameters["kf5"].value == 300.0
+    assert str(cycab.sensors["dp"].signal) == "p1 - p2"
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.stem)
+def test_every_shipped_model_loads(path):
+    m = load_model(path)
+    assert m.elements and m.bonds and m.sensors and m.faults
+
+
+def test_base_fixture_is_valid():
+    m = load_model_text(BASE, "rc.yaml")
+    assert len(m.bonds) == 4
+
+
+def _err(text: str) -> ModelError:
+    with pytest.raises(ModelError) as info:
+        load_model_text(text, "bad.yaml")
+    return info.value
+
+
+@pytest.mark.parametrize("old, new, fragments", [
+    ("res: {type: R, parameter: R}", "res: {type: Resistor, parameter: R}", ["unknown element type 'Resistor'", "elements.res.type"]),
+    ("  4: [j0, cap]", "  4: [j0, capp]", ["dangling", "'capp'"]),
+    ("  4: [j0, cap]", "  4: [j0, cap]\n  5: [cap, j0]", ["duplicate bond", "bond 4"]),
+    ("  4: [j0, cap]", "  4: [j0, cap]\n  4: [j0, cap]", ["duplicate key '4'"]),
+    ("  R: {value: 100.0, unit: Ohm}", "  R: {unit: Ohm}", ["has no value"]),
+    ("  R: {value: 100.0, unit: Ohm}", "  R: {value: 100.0, unit: Ohms}", ["unknown unit 'Ohms'"]),
+    ("  R: {value: 100.0, unit: Ohm}", "  R: {value: 100.0, unit: 'N**x'}", ["cannot read unit"]),
+    ("res: {type: R, parameter: R}", "res: {type: R, effort: 'Rr*f'}", ["undefined symbol 'Rr'", "did you mean 'R'"]),
+    ("res: {type: R, parameter: R}", "res: {type: R, effort: \"__import__('os').getcwd()\"}", ["not allowed"]),
+    ("res: {type: R, parameter: R}", "res: {type: R, effort: 'R.real'}", ["not allowed"]),
+    ("v: {type: De, junction: j0, column: v, unit: V}", "v: {type: De, column: v, unit: V}", ["on no junction"]),
+    ("v: {type: De, junction: j0, column: v, unit: V}", "v: {type: De, junction: jx, column: v, unit: V}", ["no junction"]),
+    ("v: {type: De, junction: j0, column: v, unit: V}", "v: {type: De, junction: j1, column: v, unit: V}", ["0-junction"]),
+    ("  j0: {type: \"0\"}", "  j0: {type: \"0c\"}", ["needs mode"]),
+    ("src: {type: MSe, input: u}", "src: {type: MSe, input: uu}", ["undefined input 'uu'"]),
+    ("cap: {type: C, parameter: C1}", "cap: {type: C, parameter: C2}", ["undefined parameter 'C2'"]),
+])
+def test_bad_input_is_one_clear_error(old, new, fragments):
+    assert old in BASE
+    err = _err(BASE.replace(old, new))
+    text = str(err)
+    assert text.startswith("bad.yaml")
+    assert "\n" not in text
+    for f in fragments:
+        assert f in text
+
+
+def test_errors_carry_the_line_number():
+    err = _err(BASE.replace("res: {type: R, parameter: R}", "res: {type: Resistor, parameter: R}"))
+    assert err.line == BASE.splitlines().index("  res: {type: R, parameter: R}") + 1
+
+
+def test_tf_needs_exactly_two_bonds():
+    text = BASE.replace("  cap: {type: C, parameter: C1}", "  cap: {type: C, parameter: C1}\n  tf: {type: TF, modulus: R}")
+    text += "  5: [j0, tf]\n"
+    assert "needs exactly two" in str(_err(text))
+
+
+def test_tf_modulus_must_be_constant():
+    text = BASE.replace("  cap: {type: C, parameter: C1}", "  cap: {type: C, parameter: C1}\n  tf: {type: TF, modulus: v*R}")
+    text += "  5: [j0, tf]\n  6: [tf, j1]\n"
+    assert "use MTF" in str(_err(text))
+
+
+def test_not_yaml_and_not_a_mapping():
+    assert "not valid YAML" in str(_err("a: [1, 2"))
+    assert "top level must be a mapping" in str(_err("- 1\n- 2\n"))
+
+
+def test_cli_bad_model_exits_2_with_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(BASE.replace("  4: [j0, cap]", "  4: [j0, capp]"))
+    assert main(["check", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "dangling" in err and "bad.yaml" in err
+
+
+def test_console_script_prints_no_traceback(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(BASE.replace("  R: {value: 100.0, unit: Ohm}", "  R: {unit: Ohm}"))
+    proc = subprocess.run([sys.executable, "-m", "fdi.cli", "check", str(bad)], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr and "has no value" in proc.stderr
+
+
+def test_missing_file(capsys):
+    assert main(["check", "no/such/model.yaml"]) == 2
+    assert "cannot read model file" in capsys.readouterr().err
+
+
+def test_check_cycab(capsys):
+    assert main(["check", str(CYCAB)]) == 0
+    out = capsys.readouterr().out
+    assert "one assignment, valid in all 4 mode(s)" in out
+    assert "all storage elements in derivative causality" in out

@@ -1,0 +1,93 @@
+"""Residuals on the CyCab reference measurements; derivative estimation."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fdi import derivatives
+from fdi.data import DataError, read_csv, signals_from_data
+from fdi.residuals import compile_residuals, evaluate
+
+from .conftest import DATA
+
+THRESHOLDS = np.array([1.0, 5.5e-6, 15.0])
+
+
+@pytest.fixture(scope="module")
+def residuals(cycab, cycab_arrs):
+    return compile_residuals(cycab, cycab_arrs)
+
+
+def _run(model, residuals, name):
+    data = read_csv(DATA / f"{name}.csv")
+    r = evaluate(model, residuals, signals_from_data(model, data), data.ts, window=model.derivative_window)
+    return data.t, r
+
+
+def _coherence(t, r, t_from, t_to):
+    window = (t >= t_from) & (t <= t_to)
+    return [int(np.any(np.abs(r[i, window]) > THRESHOLDS[i])) for i in range(3)]
+
+
+def test_nominal_residuals_stay_under_thresholds(cycab, residuals):
+    t, r = _run(cycab, residuals, "nominal")
+    after = t > 1.0
+    assert np.all(np.abs(r[:, after]).max(axis=1) < THRESHOLDS)
+    assert np.all(np.abs(r[:, after]).max(axis=1) < 0.5 * THRESHOLDS)
+
+
+@pytest.mark.parametrize("name, expected", [
+    ("scenario1", [1, 1, 0]), ("scenario2", [0, 1, 1]), ("scenario3", [1, 0, 0])])
+def test_scenario_coherence_vectors(cycab, residuals, name, expected):
+    t, r = _run(cycab, residuals, name)
+    assert _coherence(t, r, 1.0, 31.5) == [0, 0, 0]         # healthy before the faults
+    assert _coherence(t, r, 31.5, 37.0) == expected
+
+
+def test_scenario2_theta2_residual_crosses_late(cycab, residuals):
+    # the incipient sensor fault hides in the noise at first: [0 1 0], then [0 1 1] by 37 s
+    t, r = _run(cycab, residuals, "scenario2")
+    assert _coherence(t, r, 31.5, 34.0) == [0, 1, 0]
+    first = t[np.flatnonzero((np.abs(r[2]) > THRESHOLDS[2]) & (t > 31.5))[0]]
+    assert 34.0 < first <= 37.0
+
+
+def test_residuals_broadcast_over_a_population(cycab, residuals):
+    data = read_csv(DATA / "nominal.csv")
+    sig = signals_from_data(cycab, data)
+    betas = {"theta1": np.array([[1.0], [0.8]])}
+    r = evaluate(cycab, residuals, sig, data.ts, betas=betas, values={"R4": np.array([[np.inf], [1e7]])})
+    assert r.shape == (3, 2, data.t.size)
+    single = evaluate(cycab, residuals, sig, data.ts)
+    assert np.allclose(r[:, 0, :], single)
+    assert not np.allclose(r[0, 1], single[0])
+
+
+def test_savitzky_golay_is_exact_on_polynomials():
+    ts = 0.01
+    t = np.arange(0, 2, ts)
+    x = 3 * t ** 3 - t ** 2 + 0.5
+    x0, x1, x2 = derivatives.estimate(x, ts, 2, window=0.2, polyorder=3)
+    assert np.allclose(x0, x) and np.allclose(x1, 9 * t ** 2 - 2 * t, atol=1e-8)
+    assert np.allclose(x2, 18 * t - 2, atol=1e-6)
+
+
+def test_derivative_window_is_odd_and_long_enough():
+    assert derivatives.window_samples(0.25, 0.01, 3) == 25
+    assert derivatives.window_samples(0.001, 0.01, 3) == 5
+
+
+def test_bad_measurement_files(tmp_path, cycab):
+    def write(text):
+        p = tmp_path / "d.csv"
+        p.write_text(text)
+        return p
+    with pytest.raises(DataError, match="NaN"):
+        read_csv(write("t,u_in,theta1,theta2,p1,p2\n0,0,0,0,0,0\n0.01,,0,0,0,0\n0.02,0,0,0,0,0\n"))
+    with pytest.raises(DataError, match="non-uniform"):
+        read_csv(write("t,u_in,theta1,theta2,p1,p2\n0,0,0,0,0,0\n0.01,0,0,0,0,0\n0.05,0,0,0,0,0\n"))
+    with pytest.raises(DataError, match="does not increase"):
+        read_csv(write("t,u_in,theta1,theta2,p1,p2\n0,0,0,0,0,0\n0.01,0,0,0,0,0\n0.01,0,0,0,0,0\n"))
+    other = read_csv(write("t,Qin,p1,p2\n0,0,0,0\n0.1,0,0,0\n0.2,0,0,0\n"))
+    with pytest.raises(DataError, match="missing column"):
+        signals_from_data(cycab, other)
