@@ -61,3 +61,71 @@ def format_derive(rows: list[dict]) -> str:
         out.append(f"chain growth: time x{b['seconds'] / a['seconds']:.1f} for elements x"
                    f"{b['elements'] / a['elements']:.1f} (1.0 per unit = linear; measured {growth:.2f})")
     return "\n".join(out) + "\n"
+
+
+# ---------------------------------------------------------------- optimisers (Table VI protocol)
+
+TABLE_VI = {"pop": 150, "generations": 300, "pc": 0.55, "pm": 0.08}
+
+
+def _optim_job(job: tuple) -> dict:
+    """One run of one method on one problem instance (in a worker process)."""
+    import numpy as np
+
+    from optim import ENGINES
+
+    from . import synthetic
+    method, case, seed, settings = job
+    if case in synthetic.CASES:
+        p = synthetic.problem(case, seed)
+    else:
+        from .identify import benchmark_problem
+        p = benchmark_problem(case, seed)
+    r = ENGINES[method](p.cost, p.bounds(), p.n_bits, seed=seed, onehot=p.onehot, structure=p.structure, **settings)
+    ok = synthetic.recovered(p.spaces, p.truth, r.real, r.bits, p.t, p.t0)
+    return {"method": method, "case": case, "seed": seed, "cost": r.cost, "fitness": float(r.fitness),
+            "success": bool(ok), "evaluations": r.evaluations, "wall_s": r.wall_s, "overhead_s": r.overhead_s,
+            "margin": r.extra.get("margin"), "history": [float(h) for h in np.asarray(r.history)[:: max(1, len(r.history) // 50)]]}
+
+
+def optim_rows(problem: str, runs: int, methods: list[str], workers: int = 2, settings: dict | None = None) -> list[dict]:
+    from concurrent.futures import ProcessPoolExecutor
+
+    from . import synthetic
+    cases = synthetic.GROUPS.get(problem, (problem,))
+    settings = settings or TABLE_VI
+    jobs = [(m, c, s, settings) for m in methods for c in cases for s in range(runs)]
+    if workers <= 1:
+        return [_optim_job(j) for j in jobs]
+    with ProcessPoolExecutor(workers) as pool:
+        return list(pool.map(_optim_job, jobs))
+
+
+def summarise_optim(problem: str, runs: int, rows: list[dict]) -> dict:
+    import numpy as np
+
+    out: dict = {"problem": problem, "runs": runs, "methods": {}}
+    for method in dict.fromkeys(r["method"] for r in rows):
+        rs = [r for r in rows if r["method"] == method]
+        fit = np.array([r["fitness"] for r in rs])
+        out["methods"][method] = {
+            "min": float(fit.min()), "max": float(fit.max()), "mean": float(fit.mean()), "std": float(fit.std()),
+            "success": float(np.mean([r["success"] for r in rs])),
+            "evaluations": int(np.mean([r["evaluations"] for r in rs])),
+            "wall_s": float(np.mean([r["wall_s"] for r in rs])),
+            "overhead_s": float(np.mean([r["overhead_s"] for r in rs])),
+            "runs": len(rs),
+        }
+    return out
+
+
+def format_optim(summary: dict) -> str:
+    out = [f"Identification benchmark '{summary['problem']}' (Table VI protocol: population 150, 300 iterations, "
+           f"pc 0.55, pm 0.08; {summary['runs']} runs per case)",
+           "fitness = 1/(sum|G| + eps), higher is better; success = true types and values within 2 %",
+           f"{'method':<12}{'min':>11}{'max':>11}{'mean':>11}{'std':>11}{'success':>9}{'evals':>8}"
+           f"{'wall [s]':>10}{'outside obj [s]':>16}"]
+    for name, m in summary["methods"].items():
+        out.append(f"{name:<12}{m['min']:>11.4g}{m['max']:>11.4g}{m['mean']:>11.4g}{m['std']:>11.3g}"
+                   f"{m['success'] * 100:>8.0f}%{m['evaluations']:>8d}{m['wall_s']:>10.2f}{m['overhead_s']:>16.3f}")
+    return "\n".join(out) + "\n"

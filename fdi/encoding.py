@@ -1,0 +1,185 @@
+"""A candidate set's decision vector <-> the flat real and bit arrays the optimisers see.
+
+Per fault, as in the paper's encoding (Sec. III-C and IV-D), 10 reals and 5 bits:
+
+    reals  [v_ab, v_int, T, b1, b2, b3, b4, b5, b6, b7]     bits [zeta_ab, zeta_int, zeta_inc, eta1, eta2]
+
+``v_ab`` and ``v_int`` are the faulty values of an abrupt and an intermittent fault (searched as
+log10 when the fault's bounds span more than two decades or its nominal value is infinite),
+``T`` the intermittent period, ``b1..b7`` the degradation coefficients of eqs. (16)-(19), searched
+*normalised* by a reference value P_ref of the fault (its nominal value, or for an infinite
+nominal the geometric mean of its bounds) so that one set of bounds serves every fault:
+b1, b3, b6 are rates (1/s) as they are; b2 = b2n / P_ref, b4 = b4n * P_ref, b5 = b5n / P_ref,
+b7 = b7n * P_ref. eta = [0 0], [0 1], [1 0], [1 1] selects model (16), (17), (18), (19).
+
+Repair of a zeta that is not one-hot (engines that evolve plain bits can produce 000, 110, ...):
+the nearest one-hot code in Hamming distance, ties going to the type with fewer parameters
+(abrupt, then intermittent, then incipient): 000, 110, 101, 111 -> abrupt; 011 -> intermittent.
+Engines that know one-hot groups (``onehot_groups``) never need it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .profiles import N_COEFFICIENTS, TYPES, incipient, intermittent, abrupt
+
+N_REAL = 10
+N_BITS = 5
+COEFF_SLOTS = {1: [3], 2: [4], 3: [5, 6], 4: [7, 8, 9]}           # real indices of each model's b's
+DEFAULT_COEFF_BOUNDS = [(-0.3, 0.3), (-0.3, 0.3), (-3.0, 3.0), (-2.0, 0.0), (-5.0, 5.0), (-1.0, 1.0), (-1.0, 1.0)]
+DEFAULT_PERIOD = (0.5, 20.0)
+
+
+@dataclass(frozen=True)
+class FaultSpace:
+    """The search space of one fault."""
+    name: str
+    nominal: float
+    bounds: tuple[float, float]
+    period: tuple[float, float] = DEFAULT_PERIOD
+    coefficients: tuple[tuple[float, float], ...] = tuple(DEFAULT_COEFF_BOUNDS)
+    log: bool = field(default=False)
+
+    @property
+    def reference(self) -> float:
+        if np.isfinite(self.nominal) and self.nominal != 0:
+            return abs(self.nominal)
+        return float(np.sqrt(abs(self.bounds[0] * self.bounds[1]))) or 1.0
+
+    @staticmethod
+    def make(name: str, nominal: float, bounds: tuple[float, float], **kw) -> "FaultSpace":
+        lo, hi = bounds
+        log = bool(np.isinf(nominal) or (lo > 0 and hi / lo > 100))
+        return FaultSpace(name, nominal, (lo, hi), log=log, **kw)
+
+
+def _value_bounds(s: FaultSpace) -> tuple[float, float]:
+    return (np.log10(s.bounds[0]), np.log10(s.bounds[1])) if s.log else s.bounds
+
+
+def bounds(spaces: list[FaultSpace]) -> np.ndarray:
+    """Real bounds, (10 * n_faults, 2)."""
+    rows = []
+    for s in spaces:
+        vb = _value_bounds(s)
+        rows += [vb, vb, s.period] + list(s.coefficients)
+    return np.asarray(rows, dtype=float)
+
+
+def onehot_groups(spaces: list[FaultSpace]) -> list[tuple[int, int, int]]:
+    """The zeta bits of each fault: exactly one must be set."""
+    return [(N_BITS * i, N_BITS * i + 1, N_BITS * i + 2) for i in range(len(spaces))]
+
+
+def repair_zeta(zeta: np.ndarray) -> np.ndarray:
+    """Type index (0 abrupt, 1 intermittent, 2 incipient) of each zeta row (pop, 3); see module doc."""
+    z = np.asarray(zeta, dtype=bool)
+    codes = np.eye(3, dtype=bool)
+    dist = (z[:, None, :] != codes[None, :, :]).sum(axis=2)          # (pop, 3)
+    return np.argmin(dist, axis=1)                                     # argmin takes the first tie
+
+
+def model_index(eta: np.ndarray) -> np.ndarray:
+    """eta bits (pop, 2) -> degradation model 1..4 (eqs. 16-19)."""
+    e = np.asarray(eta, dtype=int)
+    return 1 + 2 * e[:, 0] + e[:, 1]
+
+
+@dataclass
+class Decoded:
+    """One fault's decision, for every individual."""
+    kind: np.ndarray          # (pop,) 0 abrupt, 1 intermittent, 2 incipient
+    model: np.ndarray         # (pop,) 1..4
+    value_ab: np.ndarray
+    value_int: np.ndarray
+    period: np.ndarray
+    b: np.ndarray             # (pop, 7) coefficients in the paper's units
+
+
+def decode(spaces: list[FaultSpace], real: np.ndarray, bits: np.ndarray) -> list[Decoded]:
+    real = np.atleast_2d(real)
+    bits = np.atleast_2d(bits)
+    out = []
+    for i, s in enumerate(spaces):
+        r = real[:, N_REAL * i: N_REAL * (i + 1)]
+        z = bits[:, N_BITS * i: N_BITS * (i + 1)]
+        vab, vint = (10 ** r[:, 0], 10 ** r[:, 1]) if s.log else (r[:, 0], r[:, 1])
+        ref = s.reference
+        scale = np.array([1, 1 / ref, 1, ref, 1 / ref, 1, ref])
+        out.append(Decoded(repair_zeta(z[:, :3]), model_index(z[:, 3:5]), vab, vint, r[:, 2].copy(), r[:, 3:] * scale))
+    return out
+
+
+def encode(spaces: list[FaultSpace], faults: list[dict]) -> tuple[np.ndarray, np.ndarray]:
+    """A diagnosis (dicts with type, value, period, model, b) -> one real row and one bit row."""
+    real = np.concatenate([bounds([s]).mean(axis=1) for s in spaces])
+    bits = np.zeros(N_BITS * len(spaces), dtype=bool)
+    for i, (s, f) in enumerate(zip(spaces, faults)):
+        k = TYPES.index(f["type"])
+        bits[N_BITS * i + k] = True
+        base = N_REAL * i
+        to = (lambda v: np.log10(v)) if s.log else (lambda v: v)
+        if k == 0:
+            real[base] = to(f["value"])
+        elif k == 1:
+            real[base + 1], real[base + 2] = to(f["value"]), f["period"]
+        else:
+            m = int(f["model"])
+            bits[N_BITS * i + 3], bits[N_BITS * i + 4] = bool((m - 1) // 2), bool((m - 1) % 2)
+            ref = s.reference
+            scale = np.array([1, 1 / ref, 1, ref, 1 / ref, 1, ref])
+            for slot, bval in zip(COEFF_SLOTS[m], f["b"]):
+                real[base + slot] = bval / scale[slot - 3]
+    return real, bits
+
+
+def profiles(spaces: list[FaultSpace], decoded: list[Decoded], t: np.ndarray, t0: float) -> list[np.ndarray]:
+    """Each fault's profile P(t) for every individual, (pop, N) per fault."""
+    out = []
+    for s, d in zip(spaces, decoded):
+        pop = d.kind.shape[0]
+        p = np.empty((pop, t.size))
+        m = d.kind == 0
+        if m.any():
+            p[m] = abrupt(t, t0, s.nominal, d.value_ab[m])
+        m = d.kind == 1
+        if m.any():
+            p[m] = intermittent(t, t0, s.nominal, d.value_int[m], d.period[m])
+        for model in (1, 2, 3, 4):
+            m = (d.kind == 2) & (d.model == model)
+            if m.any():
+                cols = [slot - 3 for slot in COEFF_SLOTS[model]]
+                p[m] = incipient(t, t0, s.nominal, model, d.b[m][:, cols])
+        out.append(p)
+    return out
+
+
+def structure(spaces: list[FaultSpace], bits: np.ndarray) -> tuple:
+    """The discrete decision of one individual: per fault its type and (incipient) model."""
+    ds = decode(spaces, np.zeros((1, N_REAL * len(spaces))), np.asarray(bits)[None, :])
+    return tuple((TYPES[int(d.kind[0])], int(d.model[0]) if d.kind[0] == 2 else None) for d in ds)
+
+
+def describe(spaces: list[FaultSpace], real: np.ndarray, bits: np.ndarray) -> list[dict]:
+    """The best individual as the report's fault entries (paper units)."""
+    out = []
+    for s, d in zip(spaces, decode(spaces, real[None, :], bits[None, :])):
+        kind = TYPES[int(d.kind[0])]
+        entry: dict = {"name": s.name, "type": kind}
+        if kind == "abrupt":
+            entry["value"] = float(d.value_ab[0])
+        elif kind == "intermittent":
+            entry["value"], entry["period"] = float(d.value_int[0]), float(d.period[0])
+        else:
+            m = int(d.model[0])
+            entry["model"] = m
+            entry["eta"] = [(m - 1) // 2, (m - 1) % 2]
+            entry["b"] = [float(d.b[0, slot - 3]) for slot in COEFF_SLOTS[m]]
+        out.append(entry)
+    return out
+
+
+__all__ = ["FaultSpace", "bounds", "onehot_groups", "repair_zeta", "decode", "encode", "profiles", "structure",
+           "describe", "N_COEFFICIENTS"]

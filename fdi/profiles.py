@@ -1,0 +1,117 @@
+"""Fault profiles P(t) of Yu & Wang (2014), eqs. (14)-(19), vectorised over a population.
+
+Every function takes the sample times ``t`` (N,) and per-individual parameters of shape (pop,)
+(or scalars) and returns (pop, N). ``nominal`` is P, the healthy value, which may be infinite (a
+leakage resistance): the formulas are written so that infinity is handled exactly.
+
+- abrupt (14): P before t0, P_ab from t0 on;
+- intermittent (15): P_int during the first half of each period T from t0, P during the second
+  (at the exact switching instants sign(sin) = 0 and eq. (15) gives the mean, as written);
+- incipient, with P(t0) = P (and dP/dt(t0) = 0 for the second-order models), tau = t - t0:
+  (16) dP/dt = b1 P               -> P = P0 exp(b1 tau)
+  (17) dP/dt = b2 P^2             -> 1/P = 1/P0 - b2 tau  (infinite P0 allowed; past the pole: inf)
+  (18) d2P/dt2 = b3 dP/dt + P + b4 -> closed form, roots (b3 +- sqrt(b3^2 + 4))/2
+  (19) d2P/dt2 = b5 (dP/dt)^2 + b6 P + b7 -> classical RK4 on the sample grid (4 sub-steps)
+"""
+from __future__ import annotations
+
+import numpy as np
+
+TYPES = ("abrupt", "intermittent", "incipient")
+MODELS = (1, 2, 3, 4)                       # eqs. (16), (17), (18), (19)
+N_COEFFICIENTS = {1: 1, 2: 1, 3: 2, 4: 3}  # b1 | b2 | b3, b4 | b5, b6, b7
+
+
+def _col(x) -> np.ndarray:
+    a = np.asarray(x, dtype=float)
+    return a.reshape(-1, 1) if a.ndim else a.reshape(1, 1)
+
+
+def abrupt(t: np.ndarray, t0: float, nominal: float, value) -> np.ndarray:
+    t = np.asarray(t, dtype=float)[None, :]
+    return np.where(t >= t0, _col(value), nominal) + 0.0 * _col(value)
+
+
+def intermittent(t: np.ndarray, t0: float, nominal: float, value, period) -> np.ndarray:
+    t = np.asarray(t, dtype=float)[None, :]
+    value, period = _col(value), _col(period)
+    s = np.sign(np.sin(2 * np.pi * (t - t0) / period))
+    with np.errstate(invalid="ignore"):
+        mean = (nominal + value) / 2
+    out = np.where(s > 0, value, np.where(s < 0, nominal, mean))
+    return np.where(t >= t0, out, nominal)
+
+
+def incipient(t: np.ndarray, t0: float, nominal: float, model: int, b) -> np.ndarray:
+    """One degradation model for the whole population; ``b`` of shape (pop, n_coefficients)."""
+    t = np.asarray(t, dtype=float)
+    b = np.atleast_2d(np.asarray(b, dtype=float))
+    tau = np.maximum(t - t0, 0.0)[None, :]
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        if model == 1:
+            p = nominal * np.exp(b[:, :1] * tau)
+        elif model == 2:
+            den = (0.0 if np.isinf(nominal) else 1.0 / nominal) - b[:, :1] * tau
+            p = np.where(den > 0, 1.0 / np.where(den > 0, den, 1.0), np.inf)
+            p = np.where(tau > 0, p, nominal)
+        elif model == 3:
+            p = _model18(tau, nominal, b[:, 0:1], b[:, 1:2])
+        elif model == 4:
+            p = _model19(t, t0, nominal, b[:, 0], b[:, 1], b[:, 2])
+        else:
+            raise ValueError(f"degradation model must be 1..4 (eqs. 16-19), got {model}")
+    return np.where(t[None, :] >= t0, p, nominal)
+
+
+def _model18(tau: np.ndarray, p0: float, b3: np.ndarray, b4: np.ndarray) -> np.ndarray:
+    if np.isinf(p0):
+        return np.full(np.broadcast(tau, b3).shape, np.inf)
+    root = np.sqrt(b3 ** 2 + 4.0)
+    r1, r2 = (b3 + root) / 2, (b3 - root) / 2
+    a = -r2 * (p0 + b4) / (r1 - r2)
+    c = r1 * (p0 + b4) / (r1 - r2)
+    return -b4 + a * np.exp(r1 * tau) + c * np.exp(r2 * tau)
+
+
+def _model19(t: np.ndarray, t0: float, p0: float, b5, b6, b7, step: float = 0.05) -> np.ndarray:
+    """RK4 on a uniform grid of ``step`` seconds from t0, linearly interpolated onto ``t``
+    (degradation is slow: a 0.05 s step keeps the error far below measurement noise)."""
+    b5, b6, b7 = (np.atleast_1d(np.asarray(x, dtype=float)) for x in (b5, b6, b7))
+    pop = np.broadcast(b5, b6, b7).shape[0]
+    if np.isinf(p0):
+        return np.full((pop, t.size), np.inf)
+    span = max(float(t[-1]) - t0, 0.0)
+    k = max(1, int(np.ceil(span / step)))
+    h = span / k if span > 0 else step
+    grid = np.empty((pop, k + 1))
+    p, v = np.full(pop, float(p0)), np.zeros(pop)
+    grid[:, 0] = p
+
+    def acc(p, v):
+        return b5 * v * v + b6 * p + b7
+    with np.errstate(over="ignore", invalid="ignore"):
+        for i in range(1, k + 1):
+            k1p, k1v = v, acc(p, v)
+            k2p, k2v = v + h / 2 * k1v, acc(p + h / 2 * k1p, v + h / 2 * k1v)
+            k3p, k3v = v + h / 2 * k2v, acc(p + h / 2 * k2p, v + h / 2 * k2v)
+            k4p, k4v = v + h * k3v, acc(p + h * k3p, v + h * k3v)
+            p = p + h / 6 * (k1p + 2 * k2p + 2 * k3p + k4p)
+            v = v + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
+            grid[:, i] = np.where(np.isfinite(p), p, np.inf)
+    x = np.clip((t - t0) / h, 0, k)
+    i0 = np.minimum(np.floor(x).astype(int), k - 1)
+    w = x - i0
+    with np.errstate(invalid="ignore"):
+        return grid[:, i0] * (1 - w) + grid[:, i0 + 1] * w
+
+
+def profile(kind: str, t: np.ndarray, t0: float, nominal: float, *, value=None, period=None, model: int | None = None,
+            b=None) -> np.ndarray:
+    """One fault profile by name (abrupt, intermittent, incipient)."""
+    if kind == "abrupt":
+        return abrupt(t, t0, nominal, value)
+    if kind == "intermittent":
+        return intermittent(t, t0, nominal, value, period)
+    if kind == "incipient":
+        return incipient(t, t0, nominal, int(model), b)
+    raise ValueError(f"unknown fault type '{kind}' (abrupt, intermittent, incipient)")

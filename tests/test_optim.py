@@ -1,0 +1,150 @@
+"""Engine operators against their equations (Yu & Wang 2014, eqs. 20-28) and engine behaviour."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fdi import encoding, synthetic
+from fdi.encoding import FaultSpace
+from optim import ENGINES, ahde_paper, bde, core, ga, shade
+
+
+def rng(seed=0):
+    return np.random.default_rng(seed)
+
+
+def test_de_best_1_mutation_eq20():
+    x = np.array([[0.0], [1.0], [3.0], [7.0], [15.0]])
+    f = np.full(5, 0.5)
+    for seed in range(20):
+        v = ahde_paper.real_mutation(rng(seed), x, best=2, f=f)
+        for i in range(5):
+            others = [x[j, 0] for j in range(5) if j != i]
+            diffs = {round(3.0 + 0.5 * (a - b), 12) for a in others for b in others if a != b}
+            assert round(v[i, 0], 12) in diffs
+
+
+def test_binomial_crossover_eq21():
+    target, mutant = np.zeros((50, 6)), np.ones((50, 6))
+    none = core.binomial_crossover(rng(), target, mutant, 0.0)
+    assert np.all(none.sum(axis=1) == 1)                       # only j_rand comes from the mutant
+    assert np.all(core.binomial_crossover(rng(), target, mutant, 1.0) == 1)
+    half = core.binomial_crossover(rng(), np.zeros((4000, 6)), np.ones((4000, 6)), 0.5)
+    assert 0.5 < half.mean() < 0.65                            # CR plus the forced index
+
+
+def test_greedy_selection_eq22_is_strict():
+    assert core.select(np.array([1.0, 2.0, 3.0]), np.array([0.5, 2.0, 4.0])).tolist() == [True, False, False]
+
+
+def test_binary_mutation_eq23_can_only_set_bits_and_freezes():
+    bits = rng().random((30, 8)) < 0.5
+    best = 3
+    v = ahde_paper.binary_mutation(rng(1), bits, best)
+    assert np.all(v | bits[best] == v)                        # X_best OR (...) keeps every bit of X_best
+    same = np.tile(bits[best], (30, 1))                        # a population that agrees: every XOR is 0
+    assert np.array_equal(ahde_paper.binary_mutation(rng(2), same, best), same)
+
+
+def test_adaptive_law_at_im_0_and_1():
+    cr_r, cr_b, f_r = ahde_paper.adaptive_rates(rng(), 0.0, 1000)
+    assert np.all(cr_r == 0) and np.all(cr_b == 0) and np.all(f_r == 0)   # sin(0) = 0: finest search
+    cr_r, cr_b, f_r = ahde_paper.adaptive_rates(rng(), 1.0, 20000)
+    assert cr_r.max() <= 1 and cr_r.max() > 0.99 and cr_b.max() > 0.99
+    assert f_r.max() <= 2 and f_r.max() > 1.98 and abs(f_r.mean() - 1.0) < 0.02
+    half = ahde_paper.adaptive_rates(rng(), 0.5, 20000)[2]
+    assert half.max() <= 2 * np.sin(np.pi / 4) + 1e-12
+
+
+def test_improvement_measure_eq28():
+    assert ahde_paper.improvement_measure(10.0, 10.0) == pytest.approx(1.0)
+    assert ahde_paper.improvement_measure(10.0, 2.5) == pytest.approx(0.25)   # F(G-1)/F(G) = c(G)/c(G-1)
+
+
+def test_midpoint_bound_repair():
+    b = np.array([[0.0, 1.0]])
+    out = core.repair_midpoint(np.array([[-3.0], [5.0], [0.3]]), np.array([[0.4], [0.8], [0.9]]), b)
+    assert out[:, 0].tolist() == pytest.approx([0.2, 0.9, 0.3])
+
+
+def test_distinct_partners_never_self():
+    idx = core.distinct_indices(rng(), 6, 3)
+    for i, row in enumerate(idx):
+        assert i not in row and len(set(row)) == 3
+
+
+@pytest.mark.parametrize("code, kind", [
+    ((1, 0, 0), 0), ((0, 1, 0), 1), ((0, 0, 1), 2), ((0, 0, 0), 0), ((1, 1, 0), 0), ((1, 0, 1), 0),
+    ((0, 1, 1), 1), ((1, 1, 1), 0)])
+def test_zeta_repair(code, kind):
+    assert encoding.repair_zeta(np.array([code], dtype=bool))[0] == kind
+
+
+def test_keys_to_bits_one_hot_groups_are_always_valid():
+    keys = rng().random((100, 10))
+    bits = shade.keys_to_bits(keys, [(0, 1, 2), (5, 6, 7)])
+    assert np.all(bits[:, :3].sum(axis=1) == 1) and np.all(bits[:, 5:8].sum(axis=1) == 1)
+    assert np.array_equal(bits[:, 3], keys[:, 3] > 0.5)
+
+
+def test_encode_decode_roundtrip():
+    spaces = [FaultSpace.make("R4", np.inf, (1e6, 1e9)), FaultSpace.make("beta", 1.0, (0.05, 1.5))]
+    truth = [{"type": "abrupt", "value": 2.5221e7}, {"type": "incipient", "model": 2, "b": [-0.03]}]
+    real, bits = encoding.encode(spaces, truth)
+    assert real.shape == (20,) and bits.shape == (10,)
+    got = encoding.describe(spaces, real, bits)
+    assert got[0]["type"] == "abrupt" and got[0]["value"] == pytest.approx(2.5221e7)
+    assert got[1] == {"name": "beta", "type": "incipient", "model": 2, "eta": [0, 1], "b": [pytest.approx(-0.03)]}
+    assert encoding.structure(spaces, bits) == (("abrupt", None), ("incipient", 2))
+
+
+def test_ga_decoding_has_32_levels():
+    genes = np.zeros((2, 5), dtype=bool)
+    genes[1] = True
+    assert ga.decode(genes, np.array([[0.0, 31.0]]), 5)[:, 0].tolist() == [0.0, 31.0]
+
+
+def test_lehmer_mean():
+    assert shade.lehmer(np.array([0.5, 1.0]), np.array([0.5, 0.5])) == pytest.approx(1.25 / 1.5)
+
+
+def _sphere(real, bits):
+    return ((real - 0.3) ** 2).sum(axis=1) + (bits != np.array([1, 0, 1])).sum(axis=1)
+
+
+@pytest.mark.parametrize("name", sorted(ENGINES))
+def test_every_engine_solves_a_mixed_sphere(name):
+    r = ENGINES[name](_sphere, [[-1, 1]] * 3, 3, pop=40, generations=80, seed=3)
+    assert r.bits.tolist() == [True, False, True]
+    assert r.cost < 1e-2
+    assert r.evaluations >= 0.97 * 40 * 81 and len(r.history) >= 2     # GA re-uses its elite: pop - 1 per generation
+    assert r.history[-1] <= r.history[0]
+
+
+@pytest.mark.parametrize("name", ["AHDE", "AHDE-paper", "SHADE"])
+def test_seeded_runs_are_reproducible(name):
+    a = ENGINES[name](_sphere, [[-1, 1]] * 3, 3, pop=20, generations=20, seed=11)
+    b = ENGINES[name](_sphere, [[-1, 1]] * 3, 3, pop=20, generations=20, seed=11)
+    assert a.cost == b.cost and np.array_equal(a.real, b.real)
+
+
+def test_bde_finds_a_mode_vector():
+    want = np.array([True, False])
+    r = bde.minimize(lambda real, bits: (bits != want).sum(axis=1).astype(float), 2, pop=10, generations=20, seed=0)
+    assert r.bits.tolist() == [True, False] and r.cost == 0
+
+
+def test_stop_on_target_and_stagnation():
+    r = ENGINES["AHDE-paper"](_sphere, [[-1, 1]] * 3, 3, pop=30, generations=500, seed=0, target=1e-3)
+    assert r.stop == "target" and r.generations < 500
+    flat = ENGINES["AHDE-paper"](lambda real, bits: np.ones(real.shape[0]), [[0, 1]], 0, pop=10, generations=100,
+                                 stagnation=5, seed=0)
+    assert flat.stop == "stagnation" and flat.generations == 5
+
+
+def test_default_engine_identifies_fault_types_on_the_synthetic_problem():
+    p = synthetic.problem("abrupt+intermittent", 0)
+    r = ENGINES["AHDE"](p.cost, p.bounds(), p.n_bits, seed=0, onehot=p.onehot, structure=p.structure)
+    assert synthetic.recovered(p.spaces, p.truth, r.real, r.bits, p.t, p.t0)
+    assert r.extra["margin"] > 1.0
+    assert r.evaluations <= 150 * 301
