@@ -272,7 +272,7 @@ def _sensors(ctx, data, symbols, claim, column_symbols, columns) -> dict[str, Se
         where = ("sensors", name)
         _name(ctx, name, where)
         spec = _spec(ctx, spec, where, {"type", "junction", "measures", "column", "expr", "unit",
-                                        "noise", "resolution", "description"})
+                                        "noise", "resolution", "columns", "description"})
         kind = spec.get("type")
         if kind not in SENSOR_KINDS:
             raise ctx.error(where + ("type",), f"sensor type '{kind}' unknown; use De (effort) or Df (flow)")
@@ -292,13 +292,20 @@ def _sensors(ctx, data, symbols, claim, column_symbols, columns) -> dict[str, Se
             if columns and column not in columns:
                 raise ctx.error(where + ("column",), f"column '{column}' is not among data.columns {list(columns)}")
             signal = sp.Symbol(str(column), real=True)
+        outputs = {}
+        for col, text in _mapping(ctx, spec.get("columns"), where + ("columns",)).items():
+            if str(col) not in {str(x) for x in signal.free_symbols}:
+                raise ctx.error(where + ("columns", col), f"'{col}' is not a column this sensor reads")
+            outputs[str(col)] = _expr(ctx, text, where + ("columns", col),
+                                      {**{k: v for k, v in symbols.items() if isinstance(v, sp.Symbol)},
+                                       name: sp.Symbol(name, real=True)})
         noise = _per_column(ctx, spec.get("noise"), where + ("noise",), signal)
         resolution = _per_column(ctx, spec.get("resolution"), where + ("resolution",), signal)
         claim(name, "a sensor signal", where)
         symbols[name] = sp.Symbol(name, real=True)
         out[name] = Sensor(name, kind, str(spec["junction"]), measures, signal,
                            _unit(ctx, spec.get("unit"), where + ("unit",)), noise, resolution,
-                           _text(spec, "description"))
+                           _text(spec, "description"), outputs)
     return out
 
 

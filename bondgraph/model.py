@@ -86,6 +86,7 @@ class Junction:
 @dataclass(frozen=True)
 class Sensor:
     """A De/Df detector on a junction. ``name`` is the signal it measures (``dp``, ``theta1``);
+    ``columns`` says how simulation makes the data columns from the signal (``p1: 1e5 + max(dp, 0)``);
     ``measures`` says which bond quantity that signal is: the junction's effort or flow, or its
     time integral (``displacement`` for Df, ``momentum`` for De). ``signal`` computes the value
     from data columns; ``noise`` (standard deviation) and ``resolution`` (quantisation step)
@@ -99,6 +100,16 @@ class Sensor:
     noise: Mapping[str, float] = field(default_factory=dict)
     resolution: Mapping[str, float] = field(default_factory=dict)
     description: str = ""
+    columns: Mapping[str, sp.Expr] = field(default_factory=dict)   # data column <- expression of the signal
+
+    def column_values(self, value):
+        """The data columns this sensor writes, from its signal's value (for simulation)."""
+        cols = sorted(str(s) for s in self.signal.free_symbols)
+        if self.columns:
+            return {c: self.columns[c] for c in cols}
+        if len(cols) == 1 and self.signal == sp.Symbol(cols[0], real=True):
+            return {cols[0]: sp.Symbol(self.name, real=True)}
+        return None
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,149 @@
+"""Simulation from the YAML: CyCab scenarios, an analytic check, other models, bad scenarios."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from bondgraph.loader import load_model
+from bondgraph.simulation import build_system, simulate
+from fdi.cli import main
+from fdi.data import Measurements, read_csv, signals_from_data
+from fdi.residuals import compile_residuals, evaluate
+from fdi.scenario import ScenarioError, load_scenario, parse_scenario, run
+
+from .conftest import DATA, MODELS
+
+THRESHOLDS = np.array([1.0, 5.5e-6, 15.0])
+
+
+@pytest.fixture(scope="module")
+def residuals(cycab, cycab_arrs):
+    return compile_residuals(cycab, cycab_arrs)
+
+
+def _simulate(model, name, T=None, **override):
+    data = json.loads((MODELS / "scenarios" / f"cycab_{name}.json").read_text()) if name else {}
+    data.update(override)
+    if T:
+        data["T"] = T
+    cols = run(model, parse_scenario(data, model, name or "inline"))
+    return Measurements(name or "inline", cols["t"], cols)
+
+
+def _residuals(model, residuals, m):
+    return evaluate(model, residuals, signals_from_data(model, m), m.ts, window=model.derivative_window)
+
+
+def _coherence(t, r, a, b):
+    w = (t >= a) & (t <= b)
+    return [int(np.any(np.abs(r[i, w]) > THRESHOLDS[i])) for i in range(3)]
+
+
+def test_nominal_run_is_quiet_and_swings_like_the_rig(cycab, residuals):
+    m = _simulate(cycab, "nominal", T=20)
+    r = _residuals(cycab, residuals, m)
+    after = m.t > 1.0
+    assert np.all(np.abs(r[:, after]).max(axis=1) < 0.5 * THRESHOLDS)
+    swing = m.columns["theta2"].max() - m.columns["theta2"].min()
+    assert 0.2 < swing < 1.0                                   # a few tenths of a radian
+    ref = read_csv(DATA / "nominal.csv")
+    n = m.t.size
+    # same physics as the independent reference simulator: angles agree within a few %
+    for col in ("theta1", "theta2"):
+        err = np.sqrt(np.mean((m.columns[col] - ref.columns[col][:n]) ** 2))
+        assert err < 0.05 * np.ptp(ref.columns[col][:n])
+
+
+@pytest.mark.parametrize("name, early, late", [
+    ("scenario1", [1, 1, 0], [1, 1, 0]),
+    ("scenario2", [0, 1, 0], [0, 1, 1]),
+    ("scenario3", [1, 0, 0], [1, 0, 0]),
+])
+def test_own_simulation_gives_the_reference_coherence_vectors(cycab, residuals, name, early, late):
+    m = _simulate(cycab, name, T=40)
+    r = _residuals(cycab, residuals, m)
+    assert _coherence(m.t, r, 1.0, 31.5) == [0, 0, 0]
+    assert _coherence(m.t, r, 31.5, 34.0) == early
+    assert _coherence(m.t, r, 31.5, 37.0) == late
+
+
+def test_broken_belt_gives_1_1_0(cycab, residuals):
+    m = _simulate(cycab, None, T=36, seed=5, theta2_0=-0.15, faults=[{"target": "a2", "type": "mode", "t0": 32}])
+    assert _coherence(m.t, _residuals(cycab, residuals, m), 31.5, 36.0) == [1, 1, 0]
+
+
+def test_leak_changes_the_configuration(cycab):
+    nominal = {s.name: v for s, v in cycab.nominal_values().items()}
+    healthy = build_system(cycab, nominal)
+    assert healthy.open_resistors == {"R_R4"} and healthy.states == ["I_J1", "theta1", "theta2"]
+    leaking = build_system(cycab, {**nominal, "R4": 2.5221e7})
+    assert not leaking.open_resistors and set(leaking.states) == {"I_J1", "I_J3", "theta1", "theta2"}
+
+
+def test_dc_motor_step_response_matches_the_analytic_solution():
+    model = load_model(MODELS / "dc_motor_clutch.yaml")
+    p = {k: v.value for k, v in model.parameters.items()}
+    values = {s.name: v for s, v in model.nominal_values().items()}
+    t = np.linspace(0, 2.0, 201)
+    traj = simulate(model, t, values=lambda tt: values)
+    # x = [i, w]: L di/dt = u - R i - K w;  J dw/dt = K i - (bm + bL) w;  u = 1 V step from rest
+    A = np.array([[-p["Ra"] / p["La"], -p["K"] / p["La"]], [p["K"] / p["Jm"], -(p["bm"] + p["bL"]) / p["Jm"]]])
+    B = np.array([1 / p["La"], 0.0])
+    exact = np.array([np.linalg.solve(A, (scipy.linalg.expm(A * tt) - np.eye(2)) @ B) for tt in t])
+    assert np.allclose(traj.signals["i"], exact[:, 0], rtol=1e-4, atol=1e-6)
+    assert np.allclose(traj.signals["w"], exact[:, 1], rtol=1e-4, atol=1e-7)
+
+
+def test_two_tank_simulates_and_fills():
+    model = load_model(MODELS / "two_tank_valve.yaml")
+    cols = run(model, parse_scenario({"seed": 1, "T": 200, "fs": 10, "p1_0": 3000.0, "p2_0": 2000.0,
+                                      "faults": [{"target": "v", "type": "mode", "t0": 100}]}, model))
+    p1, p2 = cols["p1"], cols["p2"]
+    assert np.all(np.isfinite(p1)) and p1[0] == pytest.approx(3000, abs=100)
+    # the valve closes at 100 s: tank 1 only fills from then on, tank 2 only drains
+    assert p1[-1] > p1[1000] + 1000 and p2[-1] < p2[1000]
+
+
+@pytest.mark.parametrize("fault, message", [
+    ({"target": "R9", "type": "abrupt", "t0": 1, "value": 1}, "unknown target 'R9'"),
+    ({"target": "R4", "type": "sudden", "t0": 1, "value": 1}, "unknown type 'sudden'"),
+    ({"target": "R4", "type": "abrupt", "t0": 1}, "missing value"),
+    ({"target": "R4", "type": "abrupt", "t0": 99, "value": 1}, "outside the run"),
+    ({"target": "beta_theta1", "type": "intermittent", "t0": 1, "value": 0.5}, "missing period"),
+    ({"target": "a1", "type": "abrupt", "t0": 1, "value": 0}, "use type mode"),
+    ({"target": "beta_theta2", "type": "incipient", "t0": 1, "model": 3, "b": [1]}, "needs b with 2"),
+])
+def test_bad_scenarios(cycab, fault, message):
+    with pytest.raises(ScenarioError, match=message):
+        parse_scenario({"T": 60, "fs": 100, "faults": [fault]}, cycab, "bad.json")
+
+
+def test_cli_simulate_writes_the_csv_and_rejects_bad_files(tmp_path, capsys):
+    sc = tmp_path / "s.json"
+    sc.write_text(json.dumps({"seed": 3, "T": 2, "fs": 100, "theta2_0": -0.15, "faults": []}))
+    out = tmp_path / "o.csv"
+    assert main(["simulate", "models/cycab_steering.yaml", str(sc), "-o", str(out)]) == 0
+    assert out.read_text().splitlines()[0] == "t,u_in,theta1,theta2,p1,p2"
+    assert read_csv(out).t.size == 201
+    bad = tmp_path / "b.json"
+    bad.write_text(json.dumps({"T": 2, "fs": 100, "faults": [{"target": "X", "type": "abrupt", "t0": 1, "value": 1}]}))
+    assert main(["simulate", "models/cycab_steering.yaml", str(bad), "-o", str(tmp_path / "x.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "unknown target 'X'" in err
+    assert not (tmp_path / "x.csv").exists()
+
+
+def test_seeded_simulation_is_reproducible(cycab):
+    a = _simulate(cycab, "nominal", T=2)
+    b = _simulate(cycab, "nominal", T=2)
+    assert all(np.array_equal(a.columns[c], b.columns[c]) for c in a.columns)
+    c = _simulate(cycab, "nominal", T=2, seed=999)
+    assert not np.array_equal(a.columns["p1"], c.columns["p1"])
+
+
+def test_scenario_file_loads(cycab):
+    s = load_scenario(MODELS / "scenarios" / "cycab_scenario2.json", cycab)
+    assert s.initial == {"theta2": -0.15} and s.faults[1].model == 2 and s.faults[1].b == (-0.03,)
