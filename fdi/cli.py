@@ -170,6 +170,87 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+# ------------------------------------------------------------------ diagnose / demo
+
+def _pairs(items: list[str] | None, what: str, cast=float) -> dict:
+    out = {}
+    for item in items or []:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise UsageError(f"--{what} takes NAME=VALUE, got '{item}'")
+        try:
+            out[name.strip()] = cast(value)
+        except ValueError:
+            raise UsageError(f"--{what} {name}: '{value}' is not a number") from None
+    return out
+
+
+def _options(args: argparse.Namespace, model: Model):
+    from optim import ENGINES
+
+    from .diagnose import Options
+    thresholds = _pairs(args.threshold, "threshold")
+    for k in thresholds:
+        if k not in model.arr_names():
+            raise UsageError(f"--threshold: '{k}' is no residual of {model.name} (use {', '.join(model.arr_names())})")
+    failures = _pairs(args.failure, "failure")
+    for k in failures:
+        if k not in model.faults:
+            raise UsageError(f"--failure: '{k}' is no fault of {model.name}")
+    if args.engine not in ENGINES:
+        raise UsageError(f"--engine: unknown engine '{args.engine}' (use {', '.join(ENGINES)})")
+    return Options(thresholds=thresholds, waiting_time=args.wait, exoneration=not args.no_exoneration,
+                   engine=args.engine, pop=args.pop, generations=args.generations, samples=args.samples,
+                   seed=args.seed, workers=args.workers, repeats=args.repeats, failures=failures)
+
+
+def _diagnose_and_print(model_path: str, data, options, args, data_name: str) -> int:
+    import json
+
+    from .diagnose import diagnose, public
+    from .report import to_text
+    model = load_model(model_path)
+    progress = Progress(1.0, "estimators")
+    report = diagnose(model_path, data, options, progress=lambda n: None if not progress.on else None)
+    if args.json:
+        text = json.dumps(public(report), indent=1) + "\n"
+    else:
+        text = to_text(public(report), model.name, data_name)
+    _emit(text, getattr(args, "output", None))
+    if getattr(args, "plot", None):
+        from .plots import plot_diagnosis
+        for p in plot_diagnosis(report, args.plot):
+            print(f"plot: {p}", file=sys.stderr)
+    return 0
+
+
+def cmd_diagnose(args: argparse.Namespace) -> int:
+    from .data import read_csv
+
+    model = load_model(args.model)
+    options = _options(args, model)
+    data = read_csv(args.data)
+    return _diagnose_and_print(args.model, data, options, args, args.data)
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    """Simulate CyCab scenario 2 with bgfdi's own simulator, diagnose it, print the report."""
+    from .data import Measurements
+    from .resources import scenarios_dir, shipped_model
+    from .scenario import load_scenario, run
+
+    path = str(shipped_model("cycab_steering"))
+    model = load_model(path)
+    scenario = load_scenario(scenarios_dir() / f"cycab_{args.scenario}.json", model)
+    print(f"simulating CyCab {args.scenario} ({scenario.T:g} s; faults: "
+          + (", ".join(f"{f.target} {f.type} from {f.t0:g} s" for f in scenario.faults) or "none") + ")",
+          file=sys.stderr)
+    cols = run(model, scenario, progress=Progress(scenario.T, "simulating"))
+    data = Measurements(f"simulated {args.scenario}", cols["t"], cols)
+    print("diagnosing ...", file=sys.stderr)
+    return _diagnose_and_print(path, data, _options(args, model), args, f"simulated CyCab {args.scenario}")
+
+
 # ------------------------------------------------------------------ bench
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -213,6 +294,33 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--method", default="auto", help="auto (default), ros2, LSODA, Radau, BDF or RK45")
     s.add_argument("--plot", metavar="PNG", help="also plot the signals (needs the plot extra)")
     s.set_defaults(func=cmd_simulate)
+
+    def diagnosis_options(p: argparse.ArgumentParser) -> None:
+        p.add_argument("--threshold", action="append", metavar="ARRk=VALUE", help="override a threshold")
+        p.add_argument("--wait", type=float, help="waiting time T_wt in s (default: the model's)")
+        p.add_argument("--no-exoneration", action="store_true", help="also admit sets whose union covers the coherence vector")
+        p.add_argument("--engine", default="AHDE", help="identification engine (AHDE, AHDE-paper, SHADE, scipy-DE, GA, AGA)")
+        p.add_argument("--pop", type=int, default=100, help="population per estimator (paper: 100)")
+        p.add_argument("--generations", type=int, default=150, help="generations per estimator (paper: 150)")
+        p.add_argument("--samples", type=int, help="N samples from t_D for identification (default: the model's)")
+        p.add_argument("--seed", type=int, default=0)
+        p.add_argument("--workers", type=int, default=2, help="estimator processes (results do not depend on it)")
+        p.add_argument("--repeats", type=int, default=3, help="identifications of the winner for the RUL band")
+        p.add_argument("--failure", action="append", metavar="FAULT=VALUE", help="failure value for prognosis")
+        p.add_argument("--json", action="store_true", help="print the report as JSON")
+        p.add_argument("--plot", metavar="DIR", help="write plots into DIR (needs the plot extra)")
+        p.add_argument("-o", "--output", help="write the report to a file instead of standard output")
+
+    d = sub.add_parser("diagnose", help="detect, isolate, identify and prognose faults in a measurement file")
+    d.add_argument("model")
+    d.add_argument("data", help="measurement CSV (t first, SI units)")
+    diagnosis_options(d)
+    d.set_defaults(func=cmd_diagnose)
+
+    demo = sub.add_parser("demo", help="simulate CyCab scenario 2 and diagnose it (the main job)")
+    demo.add_argument("--scenario", default="scenario2", choices=("nominal", "scenario1", "scenario2", "scenario3"))
+    diagnosis_options(demo)
+    demo.set_defaults(func=cmd_demo)
 
     b = sub.add_parser("bench", help="benchmarks, printed as tables")
     b.add_argument("what", choices=("derive",))

@@ -24,11 +24,13 @@ def window_samples(window: float, ts: float, polyorder: int) -> int:
 
 
 def estimate(x: np.ndarray, ts: float, orders: int, window: float = DEFAULT_WINDOW,
-             polyorder: int = DEFAULT_ORDER) -> list[np.ndarray]:
-    """[x, dx/dt, ..., d^orders x/dt^orders] estimated along the last axis of ``x``."""
+             polyorder: int = DEFAULT_ORDER, edges: str = "interp") -> list[np.ndarray]:
+    """[x, dx/dt, ..., d^orders x/dt^orders] estimated along the last axis of ``x``.
+    ``edges``: how the first and last half-windows are treated (scipy's ``mode``): ``interp`` fits
+    a polynomial there; ``mirror`` is cheaper, for callers that crop the edges away."""
     x = np.asarray(x, dtype=float)
     n = window_samples(window, ts, max(polyorder, orders))
     if x.shape[-1] < n:
         raise ValueError(f"{x.shape[-1]} samples are fewer than the derivative window ({n} samples)")
-    return [savgol_filter(x, n, max(polyorder, orders), deriv=k, delta=ts, axis=-1, mode="interp")
+    return [savgol_filter(x, n, max(polyorder, orders), deriv=k, delta=ts, axis=-1, mode=edges)
             for k in range(orders + 1)]

@@ -135,23 +135,25 @@ def encode(spaces: list[FaultSpace], faults: list[dict]) -> tuple[np.ndarray, np
     return real, bits
 
 
-def profiles(spaces: list[FaultSpace], decoded: list[Decoded], t: np.ndarray, t0: float) -> list[np.ndarray]:
-    """Each fault's profile P(t) for every individual, (pop, N) per fault."""
+def profiles(spaces: list[FaultSpace], decoded: list[Decoded], t: np.ndarray, t0) -> list[np.ndarray]:
+    """Each fault's profile P(t) for every individual, (pop, N) per fault; ``t0`` is the onset,
+    one for all or one per individual."""
     out = []
     for s, d in zip(spaces, decoded):
         pop = d.kind.shape[0]
+        onset = np.broadcast_to(np.asarray(t0, dtype=float), (pop,))
         p = np.empty((pop, t.size))
         m = d.kind == 0
         if m.any():
-            p[m] = abrupt(t, t0, s.nominal, d.value_ab[m])
+            p[m] = abrupt(t, onset[m], s.nominal, d.value_ab[m])
         m = d.kind == 1
         if m.any():
-            p[m] = intermittent(t, t0, s.nominal, d.value_int[m], d.period[m])
+            p[m] = intermittent(t, onset[m], s.nominal, d.value_int[m], d.period[m])
         for model in (1, 2, 3, 4):
             m = (d.kind == 2) & (d.model == model)
             if m.any():
                 cols = [slot - 3 for slot in COEFF_SLOTS[model]]
-                p[m] = incipient(t, t0, s.nominal, model, d.b[m][:, cols])
+                p[m] = incipient(t, onset[m], s.nominal, model, d.b[m][:, cols])
         out.append(p)
     return out
 

@@ -1,7 +1,7 @@
 """Fault profiles P(t) of Yu & Wang (2014), eqs. (14)-(19), vectorised over a population.
 
 Every function takes the sample times ``t`` (N,) and per-individual parameters of shape (pop,)
-(or scalars) and returns (pop, N). ``nominal`` is P, the healthy value, which may be infinite (a
+(or scalars), the onset ``t0`` included, and returns (pop, N). ``nominal`` is P, the healthy value, which may be infinite (a
 leakage resistance): the formulas are written so that infinity is handled exactly.
 
 - abrupt (14): P before t0, P_ab from t0 on;
@@ -27,14 +27,14 @@ def _col(x) -> np.ndarray:
     return a.reshape(-1, 1) if a.ndim else a.reshape(1, 1)
 
 
-def abrupt(t: np.ndarray, t0: float, nominal: float, value) -> np.ndarray:
+def abrupt(t: np.ndarray, t0, nominal: float, value) -> np.ndarray:
     t = np.asarray(t, dtype=float)[None, :]
-    return np.where(t >= t0, _col(value), nominal) + 0.0 * _col(value)
+    return np.where(t >= _col(t0), _col(value), nominal) + 0.0 * _col(value)
 
 
-def intermittent(t: np.ndarray, t0: float, nominal: float, value, period) -> np.ndarray:
+def intermittent(t: np.ndarray, t0, nominal: float, value, period) -> np.ndarray:
     t = np.asarray(t, dtype=float)[None, :]
-    value, period = _col(value), _col(period)
+    value, period, t0 = _col(value), _col(period), _col(t0)
     s = np.sign(np.sin(2 * np.pi * (t - t0) / period))
     with np.errstate(invalid="ignore"):
         mean = (nominal + value) / 2
@@ -42,11 +42,12 @@ def intermittent(t: np.ndarray, t0: float, nominal: float, value, period) -> np.
     return np.where(t >= t0, out, nominal)
 
 
-def incipient(t: np.ndarray, t0: float, nominal: float, model: int, b) -> np.ndarray:
+def incipient(t: np.ndarray, t0, nominal: float, model: int, b) -> np.ndarray:
     """One degradation model for the whole population; ``b`` of shape (pop, n_coefficients)."""
     t = np.asarray(t, dtype=float)
     b = np.atleast_2d(np.asarray(b, dtype=float))
-    tau = np.maximum(t - t0, 0.0)[None, :]
+    t0 = _col(t0)
+    tau = np.maximum(t[None, :] - t0, 0.0)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         if model == 1:
             p = nominal * np.exp(b[:, :1] * tau)
@@ -57,7 +58,7 @@ def incipient(t: np.ndarray, t0: float, nominal: float, model: int, b) -> np.nda
         elif model == 3:
             p = _model18(tau, nominal, b[:, 0:1], b[:, 1:2])
         elif model == 4:
-            p = _model19(t, t0, nominal, b[:, 0], b[:, 1], b[:, 2])
+            p = _model19(tau, nominal, b[:, 0], b[:, 1], b[:, 2])
         else:
             raise ValueError(f"degradation model must be 1..4 (eqs. 16-19), got {model}")
     return np.where(t[None, :] >= t0, p, nominal)
@@ -73,14 +74,15 @@ def _model18(tau: np.ndarray, p0: float, b3: np.ndarray, b4: np.ndarray) -> np.n
     return -b4 + a * np.exp(r1 * tau) + c * np.exp(r2 * tau)
 
 
-def _model19(t: np.ndarray, t0: float, p0: float, b5, b6, b7, step: float = 0.05) -> np.ndarray:
-    """RK4 on a uniform grid of ``step`` seconds from t0, linearly interpolated onto ``t``
+def _model19(tau: np.ndarray, p0: float, b5, b6, b7, step: float = 0.05) -> np.ndarray:
+    """RK4 in tau = t - t0 on a uniform grid of ``step`` seconds, linearly interpolated per row
     (degradation is slow: a 0.05 s step keeps the error far below measurement noise)."""
     b5, b6, b7 = (np.atleast_1d(np.asarray(x, dtype=float)) for x in (b5, b6, b7))
-    pop = np.broadcast(b5, b6, b7).shape[0]
+    pop = max(np.broadcast(b5, b6, b7).shape[0], tau.shape[0])
+    tau = np.broadcast_to(tau, (pop, tau.shape[-1]))
     if np.isinf(p0):
-        return np.full((pop, t.size), np.inf)
-    span = max(float(t[-1]) - t0, 0.0)
+        return np.full(tau.shape, np.inf)
+    span = float(tau.max()) if tau.size else 0.0
     k = max(1, int(np.ceil(span / step)))
     h = span / k if span > 0 else step
     grid = np.empty((pop, k + 1))
@@ -98,11 +100,12 @@ def _model19(t: np.ndarray, t0: float, p0: float, b5, b6, b7, step: float = 0.05
             p = p + h / 6 * (k1p + 2 * k2p + 2 * k3p + k4p)
             v = v + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
             grid[:, i] = np.where(np.isfinite(p), p, np.inf)
-    x = np.clip((t - t0) / h, 0, k)
+    x = np.clip(tau / h, 0, k)
     i0 = np.minimum(np.floor(x).astype(int), k - 1)
     w = x - i0
+    rows = np.arange(pop)[:, None]
     with np.errstate(invalid="ignore"):
-        return grid[:, i0] * (1 - w) + grid[:, i0 + 1] * w
+        return grid[rows, i0] * (1 - w) + grid[rows, i0 + 1] * w
 
 
 def profile(kind: str, t: np.ndarray, t0: float, nominal: float, *, value=None, period=None, model: int | None = None,

@@ -85,7 +85,7 @@ def derivative_orders(residuals: list[Residual]) -> dict[str, int]:
 
 def corrected_signals(model: Model, raw: Mapping[str, np.ndarray], ts: float, orders: Mapping[str, int],
                       betas: Mapping[str, object] | None = None,
-                      window: float = derivatives.DEFAULT_WINDOW) -> dict[str, list[np.ndarray]]:
+                      window: float = derivatives.DEFAULT_WINDOW, edges: str = "interp") -> dict[str, list[np.ndarray]]:
     """Each signal (sensor measurement / beta, or beta * input) and its derivatives."""
     betas = betas or {}
     out: dict[str, list[np.ndarray]] = {}
@@ -94,7 +94,7 @@ def corrected_signals(model: Model, raw: Mapping[str, np.ndarray], ts: float, or
         beta = betas.get(name)
         if beta is not None:
             x = x / beta if name in model.sensors else x * beta
-        out[name] = derivatives.estimate(x, ts, order, window)
+        out[name] = derivatives.estimate(x, ts, order, window, edges=edges)
     return out
 
 

@@ -22,3 +22,15 @@ def shipped_models() -> list[Path]:
 
 def shipped_model(name: str) -> Path:
     return models_dir() / f"{name}.yaml"
+
+
+def scenarios_dir() -> Path:
+    return models_dir() / "scenarios"
+
+
+def reference_data(name: str) -> Path:
+    """A CyCab reference measurement file (shipped with the tests; used by the scenario-2 bench)."""
+    here = Path(__file__).resolve().parent.parent / "tests" / "data" / "cycab" / name
+    if here.exists():
+        return here
+    raise FileNotFoundError(f"{name}: the CyCab reference data ship with the source tree (tests/data/cycab)")

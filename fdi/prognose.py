@@ -1,0 +1,58 @@
+"""Prognosis of incipient faults: end of life and remaining useful life (eqs. 30-31).
+
+EOL(tf) = inf{t >= tf + N ts : P(t) has reached the failure value}, RUL(tf) = EOL(tf) - (tf + N ts),
+with the identified degradation model run from P(tf) = P (the window starts at tf = tD). Closed
+forms for (16), P = P0 exp(b1 tau) -> tau = ln(Pf/P0)/b1, and (17), 1/P = 1/P0 - b2 tau ->
+tau = (1/P0 - 1/Pf)/b2 (the paper's (1/R4(0) - 1/R4F)/b2 of Sec. III-D); (18) and (19) are
+integrated forward (the profile functions of fdi.profiles) until the failure value is crossed or
+a horizon passes (EOL = inf: no failure predicted). The failure value is reached from above when
+it is below the nominal value (an efficiency factor that decays) and from below otherwise.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .profiles import incipient
+
+HORIZON = 3600.0   # s, how far ahead a numerically integrated profile is followed
+
+
+def end_of_life(model_no: int, b: list[float], nominal: float, failure: float, tf: float, now: float,
+                horizon: float = HORIZON) -> float:
+    """The first time >= ``now`` at which the profile started at ``tf`` reaches ``failure``."""
+    down = failure < nominal
+    if model_no in (1, 2):
+        bb = b[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            if model_no == 1:
+                tau = np.log(failure / nominal) / bb if bb != 0 and failure / nominal > 0 else np.inf
+            else:
+                inv0 = 0.0 if np.isinf(nominal) else 1.0 / nominal
+                tau = (inv0 - 1.0 / failure) / bb if bb != 0 else np.inf
+        if not np.isfinite(tau) or tau < 0:
+            return float("inf")
+        return max(tf + float(tau), now)
+    step = 0.01
+    t = np.arange(tf, now + horizon, step)
+    p = incipient(t, tf, nominal, model_no, [list(b)])[0]
+    reached = (p <= failure) if down else (p >= failure)
+    reached &= t >= now
+    if not reached.any():
+        return float("inf")
+    i = int(np.argmax(reached))
+    if i == 0 or not np.isfinite(p[i - 1]) or not np.isfinite(p[i]) or p[i] == p[i - 1]:
+        return float(t[i])
+    return float(t[i - 1] + (failure - p[i - 1]) / (p[i] - p[i - 1]) * step)
+
+
+def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float,
+             repeats: list[dict] | None = None) -> dict:
+    """EOL, RUL at ``now`` = tf + N ts, and the band from repeated identifications."""
+    eol = end_of_life(fault["model"], fault["b"], nominal, failure, tf, now)
+    ruls = [eol - now]
+    for other in repeats or []:
+        if other.get("type") == "incipient":
+            ruls.append(end_of_life(other["model"], other["b"], nominal, failure, tf, now) - now)
+    finite = [r for r in ruls if np.isfinite(r)]
+    return {"name": fault["name"], "failure": failure, "eol": eol, "rul": eol - now, "at": now,
+            "rul_low": min(finite) if finite else float("inf"), "rul_high": max(finite) if finite else float("inf")}

@@ -1,0 +1,60 @@
+"""The diagnosis report as readable text (JSON comes from fdi.diagnose.public)."""
+from __future__ import annotations
+
+
+def _vec(v) -> str:
+    return "[" + " ".join(str(x) for x in v) + "]"
+
+
+def _fault(f: dict) -> str:
+    if f["type"] == "abrupt":
+        return f"{f['name']}: abrupt, value {f['value']:.5g}"
+    if f["type"] == "intermittent":
+        return f"{f['name']}: intermittent, value {f['value']:.5g}, period {f['period']:.4g} s"
+    if f["type"] == "incipient":
+        b = ", ".join(f"{x:.5g}" for x in f["b"])
+        return f"{f['name']}: incipient, model {f['model']} (eq. {15 + f['model']}, eta {_vec(f['eta'])}), b = [{b}]"
+    return f"{f['name']}: fault mode ({f['name']} = {f.get('value', 0)})"
+
+
+def _confidence(margin) -> str:
+    if margin is None:
+        return "type decision margin: n/a"
+    word = "clear" if margin > 1.2 else "fair" if margin > 1.02 else "weak: the runner-up structure fits almost as well"
+    return f"type decision margin {margin:.3f} (runner-up cost / best cost; {word})"
+
+
+def to_text(report: dict, model_name: str, data_name: str) -> str:
+    out = [f"bgfdi diagnosis of {data_name} with model {model_name}"]
+    det = report.get("detection")
+    if det is None:
+        out.append("detection: no residual crossed its threshold: nothing detected")
+        return "\n".join(out) + "\n"
+    out.append(f"detection: t_D = {det['time']:.2f} s, coherence {_vec(det['coherence'])}; "
+               f"at t_D + T_wt = {det['decision_time']:.2f} s: {_vec(det['final_coherence'])}")
+    mode = report.get("mode", {})
+    if report.get("suspected_mode_changes"):
+        out.append(f"suspected mode change(s) from the MCSM: {', '.join(report['suspected_mode_changes'])}; "
+                   f"fault-mode estimator: {' '.join(f'{k}={v}' for k, v in report.get('mode_estimate', {}).items())}")
+    out.append("mode: " + (" ".join(f"{k}={v}" for k, v in mode.items()) or "(none)"))
+    cands = report.get("candidates") or []
+    out.append("candidate sets: " + ("; ".join("{" + ", ".join(c) + "}" for c in cands) if cands else "none"))
+    if report.get("estimators"):
+        out.append("estimators (fitness = 1/(sum_l sum_n |G_l|/threshold_l + 1e-12), higher is better):")
+        winner = report.get("winner")
+        for e in sorted(report["estimators"], key=lambda e: -e["fitness"]):
+            mark = "*" if e["candidate"] == winner else " "
+            out.append(f" {mark} {{{', '.join(e['candidate'])}}}: fitness {e['fitness']:.4g}; {_confidence(e['margin'])}")
+        out.append("  (* the winner: the fittest, unless a smaller set fits within 1 %)")
+    faults = report["diagnosis"]["faults"]
+    out.append("diagnosis:" + ("" if faults else " no fault explains the coherence vector"))
+    for f in faults:
+        out.append(f"  {_fault(f)}")
+    for p in report.get("prognosis", []):
+        band = ""
+        if p.get("rul_low") is not None and p.get("rul_high") is not None and p["rul_high"] != p["rul_low"]:
+            band = f" (spread of repeated estimations: {p['rul_low']:.2f} to {p['rul_high']:.2f} s)"
+        eol = p["eol"] if p["eol"] is not None else float("inf")
+        out.append(f"prognosis: {p['name']} reaches its failure value {p['failure']:g} at EOL = {eol:.2f} s; "
+                   f"RUL at {p['at']:.2f} s = {p['rul']:.2f} s{band}")
+    return "\n".join(out) + "\n"
