@@ -15,8 +15,11 @@ CHAIN_SIZES = (10, 20, 50, 100, 200)
 
 
 def _best_of(fn, repeat: int = 3) -> float:
+    from sympy.core.cache import clear_cache
+
     best = float("inf")
     for _ in range(repeat):
+        clear_cache()
         t0 = time.perf_counter()
         fn()
         best = min(best, time.perf_counter() - t0)
@@ -24,7 +27,8 @@ def _best_of(fn, repeat: int = 3) -> float:
 
 
 def derive_rows(models: list[Path], sizes=CHAIN_SIZES) -> list[dict]:
-    """Time causality + AGARRs (+ signature matrices for shipped models), best of three runs."""
+    """Time causality + AGARRs (+ signature matrices for shipped models), best of three cold runs
+    (sympy's cache cleared before each, so nothing derived earlier is reused)."""
     rows = []
     for path in models:
         model = load_model(path)
@@ -128,4 +132,34 @@ def format_optim(summary: dict) -> str:
     for name, m in summary["methods"].items():
         out.append(f"{name:<12}{m['min']:>11.4g}{m['max']:>11.4g}{m['mean']:>11.4g}{m['std']:>11.3g}"
                    f"{m['success'] * 100:>8.0f}%{m['evaluations']:>8d}{m['wall_s']:>10.2f}{m['overhead_s']:>16.3f}")
+    return "\n".join(out) + "\n"
+
+
+# ---------------------------------------------------------------- the diagnosis pipeline
+
+def diagnose_rows(data_path: Path, workers: int = 1) -> dict:
+    """Stage times of one diagnosis of scenario 2 at the paper's settings (population 100,
+    150 generations, five estimators), and the share of identification spent in the objective."""
+    from .diagnose import Options, diagnose
+    from .resources import shipped_model
+
+    t0 = time.perf_counter()
+    report = diagnose(shipped_model("cycab_steering"), data_path, Options(pop=100, generations=150, workers=workers))
+    total = time.perf_counter() - t0
+    est = report["estimators"]
+    return {"stages": report["_timings"], "total_s": total, "estimators": len(est), "workers": workers,
+            "objective_s": sum(e["objective_s"] for e in est), "estimator_s": sum(e["wall_s"] for e in est),
+            "evaluations": sum(e["evaluations"] for e in est)}
+
+
+def format_diagnose(row: dict) -> str:
+    out = [f"Diagnosis of CyCab scenario 2 (paper settings: population 100, 150 generations, "
+           f"{row['estimators']} estimators, {row['workers']} worker process(es))",
+           f"{'stage':<20}{'wall [s]':>10}"]
+    for stage, secs in row["stages"].items():
+        out.append(f"{stage:<20}{secs:>10.2f}")
+    out.append(f"{'total':<20}{row['total_s']:>10.2f}")
+    share = row["objective_s"] / row["estimator_s"] if row["estimator_s"] else 0.0
+    out.append(f"identification: {row['evaluations']} evaluations; {100 * share:.0f} % of estimator time in residual "
+               f"evaluation (the objective), {row['estimator_s'] - row['objective_s']:.2f} s in the engines")
     return "\n".join(out) + "\n"

@@ -219,7 +219,7 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
     _emit(text, getattr(args, "output", None))
     if getattr(args, "plot", None):
         from .plots import plot_diagnosis
-        for p in plot_diagnosis(report, args.plot):
+        for p in plot_diagnosis(report, args.plot, model):
             print(f"plot: {p}", file=sys.stderr)
     return 0
 
@@ -259,6 +259,27 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     if args.what == "derive":
         sys.stdout.write(bench.format_derive(bench.derive_rows(shipped_models())))
+        return 0
+    if args.what == "optim":
+        import json
+
+        from optim import ENGINES
+
+        from . import synthetic
+        if args.problem not in synthetic.GROUPS and args.problem not in synthetic.CASES and args.problem != "scenario2":
+            raise UsageError(f"--problem: unknown '{args.problem}' (synthetic, synthetic-all, scenario2, "
+                             f"or one of {', '.join(synthetic.CASES)})")
+        methods = args.methods.split(",") if args.methods else list(ENGINES)
+        for m in methods:
+            if m not in ENGINES:
+                raise UsageError(f"--methods: unknown engine '{m}' (use {', '.join(ENGINES)})")
+        rows = bench.optim_rows(args.problem, args.runs, methods, workers=args.workers)
+        summary = bench.summarise_optim(args.problem, args.runs, rows)
+        sys.stdout.write(json.dumps(summary, indent=1) + "\n" if args.json else bench.format_optim(summary))
+        return 0
+    if args.what == "diagnose":
+        from .resources import reference_data
+        sys.stdout.write(bench.format_diagnose(bench.diagnose_rows(reference_data("scenario2.csv"), args.workers)))
         return 0
     raise UsageError(f"unknown benchmark '{args.what}'")
 
@@ -323,7 +344,12 @@ def build_parser() -> argparse.ArgumentParser:
     demo.set_defaults(func=cmd_demo)
 
     b = sub.add_parser("bench", help="benchmarks, printed as tables")
-    b.add_argument("what", choices=("derive",))
+    b.add_argument("what", choices=("derive", "optim", "diagnose"))
+    b.add_argument("--problem", default="synthetic", help="optim: synthetic (3 cases), synthetic-all, scenario2 or one case")
+    b.add_argument("--runs", type=int, default=20, help="optim: independent runs per case (Table VI: 20)")
+    b.add_argument("--methods", help="optim: comma-separated engines (default: all)")
+    b.add_argument("--workers", type=int, default=2, help="processes (diagnose: default 1 core is measured with 1)")
+    b.add_argument("--json", action="store_true", help="optim: print the summary as JSON")
     b.set_defaults(func=cmd_bench)
     return p
 

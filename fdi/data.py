@@ -77,7 +77,8 @@ def check_against_model(model: Model, data: Measurements) -> None:
             needed.add(i.column)
     missing = sorted(needed - set(data.columns))
     if missing:
-        other = "" if set(data.columns) & needed else f" (is it a file for another model than {model.name}?)"
+        found = len(set(data.columns) & needed)
+        other = f" (is it a file for another model than {model.name}?)" if found < len(needed) / 2 else ""
         raise DataError(f"{data.path}: missing column(s) {', '.join(missing)} that model {model.name} reads"
                         f"{other}; columns found: {', '.join(data.columns)}")
 

@@ -107,7 +107,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     timings["identification"] = time.perf_counter() - clock
     report["estimators"] = [{"candidate": list(e.candidate), "fitness": e.fitness, "history": e.history,
                              "margin": e.margin, "cost": e.cost, "faults": e.faults, "evaluations": e.evaluations,
-                             "wall_s": e.wall_s} for e in results]
+                             "wall_s": e.wall_s, "objective_s": e.objective_s} for e in results]
     best = select_winner(results)
     report["diagnosis"]["faults"] = best.faults
     report["winner"] = list(best.candidate)

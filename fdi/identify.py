@@ -170,6 +170,7 @@ class EstimatorResult:
     faults: list[dict]
     evaluations: int
     wall_s: float
+    objective_s: float = 0.0
 
 
 def _run_estimator(job: tuple) -> EstimatorResult:
@@ -187,7 +188,7 @@ def _run_estimator(job: tuple) -> EstimatorResult:
         f["t0"] = float(r.real[-1])
     return EstimatorResult(tuple(candidate), r.cost, float(fitness(r.cost)), [float(fitness(c)) for c in r.history],
                            None if margin is None or not np.isfinite(margin) else float(margin),
-                           faults, r.evaluations, r.wall_s)
+                           faults, r.evaluations, r.wall_s, r.objective_s)
 
 
 def run_estimators(path: str, t: np.ndarray, raw: Mapping[str, np.ndarray], t0: float, samples: int,

@@ -31,3 +31,79 @@ def plot_signals(columns: dict[str, np.ndarray], path: str | Path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_diagnosis(report: dict, folder: str | Path, model) -> list[Path]:
+    """Residuals with thresholds and t_D (Figs. 4, 7, 11, 13), fitness evolution of every estimator
+    (Figs. 9, 12), identified fault profiles, and the RUL prediction. Returns the files written."""
+    from .identify import fault_space
+    from .profiles import profile
+
+    plt = _plt()
+    out_dir = Path(folder)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    t, r, thr, names = report["_t"], report["_residuals"], report["_thresholds"], report["_names"]
+    det = report.get("detection")
+    fig, axes = plt.subplots(len(names), 1, figsize=(9, 2.2 * len(names)), sharex=True)
+    for ax, name, ri, ti in zip(np.atleast_1d(axes), names, r, thr):
+        ax.plot(t, ri, lw=0.7)
+        ax.axhline(ti, color="k", ls="--", lw=0.8)
+        ax.axhline(-ti, color="k", ls="--", lw=0.8)
+        if det:
+            ax.axvline(det["time"], color="r", lw=0.8)
+            ax.axvline(det["decision_time"], color="r", ls=":", lw=0.8)
+        ax.set_ylabel(name)
+    np.atleast_1d(axes)[-1].set_xlabel("t [s]")
+    fig.tight_layout()
+    written.append(out_dir / "residuals.png")
+    fig.savefig(written[-1], dpi=110)
+    plt.close(fig)
+    if report.get("estimators"):
+        fig, ax = plt.subplots(figsize=(7, 4))
+        for e in report["estimators"]:
+            ax.plot(e["history"], label="{" + ", ".join(e["candidate"]) + "}")
+        ax.set_xlabel("generation")
+        ax.set_ylabel("best fitness")
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        written.append(out_dir / "fitness.png")
+        fig.savefig(written[-1], dpi=110)
+        plt.close(fig)
+    faults = [f for f in report["diagnosis"]["faults"] if f["type"] != "mode"]
+    if faults and det:
+        fig, axes = plt.subplots(len(faults), 1, figsize=(8, 2.4 * len(faults)))
+        for ax, f in zip(np.atleast_1d(axes), faults):
+            t0 = f.get("t0", det["time"])
+            tt = np.linspace(t0 - 2, t0 + 12, 1400)
+            nominal = fault_space(model, f["name"]).nominal
+            p = np.asarray(profile(f["type"], tt, t0, nominal, value=f.get("value"), period=f.get("period"),
+                                   model=f.get("model"), b=[f.get("b", [0])])).reshape(-1)
+            ax.plot(tt, np.where(np.isfinite(p), p, np.nan), lw=1.0)
+            if not np.isfinite(nominal):
+                ax.text(0.01, 0.9, "nominal value: infinite", transform=ax.transAxes, fontsize=8)
+            ax.set_title(f"{f['name']}: identified {f['type']} profile", fontsize=9)
+            ax.set_xlabel("t [s]")
+        fig.tight_layout()
+        written.append(out_dir / "profiles.png")
+        fig.savefig(written[-1], dpi=110)
+        plt.close(fig)
+    for prog in report.get("prognosis", []):
+        f = next(x for x in faults if x["name"] == prog["name"])
+        t0 = f.get("t0", det["time"])
+        end = prog["eol"] if prog["eol"] and np.isfinite(prog["eol"]) else t0 + 60
+        tt = np.linspace(t0, end + 5, 2000)
+        p = np.asarray(profile("incipient", tt, t0, fault_space(model, f["name"]).nominal, model=f["model"],
+                               b=[f["b"]])).reshape(-1)
+        fig, ax = plt.subplots(figsize=(7, 3.5))
+        ax.plot(tt, p, label=f"identified {prog['name']}")
+        ax.axhline(prog["failure"], color="r", ls="--", label="failure value")
+        ax.axvline(prog["at"], color="k", ls=":", label=f"now ({prog['at']:.1f} s)")
+        ax.axvline(end, color="r", lw=0.8, label=f"EOL {end:.1f} s, RUL {prog['rul']:.1f} s")
+        ax.legend(fontsize=8)
+        ax.set_xlabel("t [s]")
+        fig.tight_layout()
+        written.append(out_dir / f"rul_{prog['name']}.png")
+        fig.savefig(written[-1], dpi=110)
+        plt.close(fig)
+    return written

@@ -1,0 +1,119 @@
+"""The pipeline on the CyCab reference measurements (issue acceptance), reproducibility, bad data."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from fdi.cli import main
+from fdi.diagnose import Options, diagnose, public
+from fdi.prognose import end_of_life
+
+from .conftest import CYCAB, DATA
+
+REPORTS: dict = {}
+
+
+def report(name: str, workers: int = 2) -> dict:
+    key = (name, workers)
+    if key not in REPORTS:
+        REPORTS[key] = public(diagnose(CYCAB, DATA / f"{name}.csv", Options(workers=workers, seed=0)))
+    return REPORTS[key]
+
+
+def _fault(r, name):
+    return next(f for f in r["diagnosis"]["faults"] if f["name"] == name)
+
+
+def test_nominal_nothing_detected():
+    r = report("nominal")
+    assert r["detection"] is None and r["diagnosis"]["faults"] == [] and r["candidates"] == []
+
+
+def test_scenario1_abrupt_leak_and_intermittent_encoder():
+    r = report("scenario1")
+    assert r["detection"]["final_coherence"] == [1, 1, 0]
+    assert sorted(map(tuple, r["candidates"])) == [("R4", "beta_theta1"), ("beta_theta1",)]
+    assert r["suspected_mode_changes"] == ["a2"] and r["mode"] == {"a1": 1, "a2": 1}   # belt confirmed intact
+    assert len(r["diagnosis"]["faults"]) == 2
+    r4, b1 = _fault(r, "R4"), _fault(r, "beta_theta1")
+    assert r4["type"] == "abrupt" and r4["value"] == pytest.approx(2.5221e7, rel=0.02)
+    assert b1["type"] == "intermittent"
+    assert b1["period"] == pytest.approx(5.3, rel=0.02) and b1["value"] == pytest.approx(0.62, rel=0.02)
+
+
+def test_scenario2_abrupt_leak_incipient_encoder_and_rul():
+    r = report("scenario2")
+    assert r["detection"]["coherence"] == [0, 1, 0] and r["detection"]["final_coherence"] == [0, 1, 1]
+    assert sorted(map(tuple, r["candidates"])) == sorted([("beta_theta2",), ("R4", "beta_theta2"), ("R5", "beta_theta2"),
+                                                          ("R4", "R5", "beta_theta2"), ("R4", "R5")])
+    assert len(r["estimators"]) == 5
+    assert r["winner"] == ["R4", "beta_theta2"]
+    r4, b2 = _fault(r, "R4"), _fault(r, "beta_theta2")
+    assert r4["type"] == "abrupt" and r4["value"] == pytest.approx(2.5221e7, rel=0.02)
+    assert b2["type"] == "incipient" and b2["eta"] == [0, 1] and b2["model"] == 2
+    assert b2["b"][0] == pytest.approx(-0.03, rel=0.05)
+    (p,) = r["prognosis"]
+    assert p["name"] == "beta_theta2" and p["failure"] == 0.5
+    assert p["rul"] == pytest.approx(23.33, rel=0.05) and p["eol"] == pytest.approx(65.33, rel=0.02)
+    assert p["rul_low"] <= p["rul"] <= p["rul_high"]
+    assert all(e["margin"] is None or e["margin"] >= 1.0 for e in r["estimators"])
+    assert all(len(e["history"]) > 10 and e["history"][-1] >= e["history"][0] for e in r["estimators"])
+
+
+def test_scenario3_burnt_driver_from_the_mcsm():
+    r = report("scenario3")
+    assert r["detection"]["final_coherence"] == [1, 0, 0]
+    assert r["candidates"] == [] and r["suspected_mode_changes"] == ["a1"]
+    assert r["mode"] == {"a1": 0, "a2": 1}
+    assert r["diagnosis"]["faults"] == [{"name": "a1", "type": "mode", "value": 0}]
+
+
+def _results_only(r: dict) -> str:
+    """The report without wall-clock timings."""
+    strip = {"wall_s", "objective_s"}
+    clean = {**r, "estimators": [{k: v for k, v in e.items() if k not in strip} for e in r["estimators"]]}
+    return json.dumps(clean, sort_keys=True)
+
+
+def test_same_seed_same_result_with_one_or_two_workers():
+    one, two = report("scenario1", workers=1), report("scenario1", workers=2)
+    assert _results_only(one) == _results_only(two)
+
+
+def test_json_report_shape(capsys):
+    assert main(["diagnose", "models/cycab_steering.yaml", str(DATA / "nominal.csv"), "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert set(r) >= {"detection", "mode", "candidates", "estimators", "diagnosis", "prognosis"}
+    assert r["detection"] is None and r["diagnosis"] == {"faults": []}
+
+
+def test_end_of_life_closed_forms():
+    # model 17 from beta = 1 with b2 = -0.03: 1/P = 1 + 0.03 tau reaches 1/0.5 at tau = 33.33 s
+    assert end_of_life(2, [-0.03], 1.0, 0.5, 32.0, 42.0) == pytest.approx(65.333, abs=1e-3)
+    assert end_of_life(1, [-0.04], 1.0, 0.5, 0.0, 0.0) == pytest.approx(np.log(2) / 0.04)
+    assert end_of_life(2, [0.03], 1.0, 0.5, 0.0, 0.0) == float("inf")          # moving away from failure
+    # model 19 with b5 = 0: p'' = b6 p + b7, p(0) = 1, p'(0) = 0; b6 = -0.01, b7 = 0 -> cos(0.1 tau) = 0.5 at 10.47 s
+    assert end_of_life(4, [0.0, -0.01, 0.0], 1.0, 0.5, 0.0, 0.0) == pytest.approx(np.arccos(0.5) / 0.1, abs=0.02)
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda lines: [lines[0].replace(",p2", "")] + [l.rsplit(",", 1)[0] for l in lines[1:]], "missing column(s) p2"),
+    (lambda lines: lines[:50] + [lines[50].replace(lines[50].split(",")[2], "nan", 1)] + lines[51:], "NaN"),
+    (lambda lines: lines[:50] + lines[51:], "non-uniform time axis"),
+    (lambda lines: ["t,Qin,p1,p2"] + ["%d,1,2,3" % i for i in range(20)], "another model"),
+])
+def test_bad_measurement_files_exit_2(tmp_path, capsys, edit, message):
+    lines = (DATA / "nominal.csv").read_text().splitlines()[:400]
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(edit(lines)) + "\n")
+    assert main(["diagnose", "models/cycab_steering.yaml", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err and "bad.csv" in err
+
+
+def test_bad_options_exit_2(capsys):
+    assert main(["diagnose", "models/cycab_steering.yaml", str(DATA / "nominal.csv"), "--threshold", "ARR7=1"]) == 2
+    assert main(["diagnose", "models/cycab_steering.yaml", str(DATA / "nominal.csv"), "--engine", "PSO"]) == 2
+    assert main(["diagnose", "models/cycab_steering.yaml", str(DATA / "nominal.csv"), "--failure", "beta_theta2"]) == 2
