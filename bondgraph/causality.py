@@ -129,7 +129,7 @@ class _Assigner:
 
     def _two_port(self, node: str, kind: str) -> None:
         (k1, o1, _), (k2, o2, _) = self.ports[node]
-        for (ka, oa), (kb, ob) in (((k1, o1), (k2, o2)), ((k2, o2), (k1, o1))):
+        for (ka, _oa), (kb, ob) in (((k1, o1), (k2, o2)), ((k2, o2), (k1, o1))):
             if ka in self.effort_to and kb not in self.effort_to:
                 receives_a = self.effort_to[ka] == node
                 if kind in ("TF", "MTF"):   # effort in on one side -> effort out on the other
@@ -195,7 +195,7 @@ class _Assigner:
 
     def _has_strong(self, node: str) -> bool:
         base = self.kind[node][0]
-        for k, o, _ in self.ports[node]:
+        for k, _o, _ in self.ports[node]:
             if k in self.effort_to and ((self.effort_to[k] == node) == (base == "0")):
                 return True
         return False
@@ -220,7 +220,7 @@ class _Assigner:
         return out
 
     def _junction_loops(self) -> None:
-        for u, v, k in self.g.edges(keys=True):
+        for _u, v, k in self.g.edges(keys=True):
             if k not in self.effort_to:
                 self.set(k, v, "arbitrary choice in a loop of the junction structure")
                 self.propagate()
@@ -228,7 +228,7 @@ class _Assigner:
     def _strong_bonds(self) -> dict[str, BondKey]:
         out: dict[str, BondKey] = {}
         for j in self.model.junctions.values():
-            for k, o, _ in self.ports[j.name]:
+            for k, _o, _ in self.ports[j.name]:
                 if k in self.effort_to and ((self.effort_to[k] == j.name) == (j.base == "0")):
                     out[j.name] = k
         return out

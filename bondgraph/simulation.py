@@ -137,7 +137,7 @@ def build_system(model: Model, values: Mapping[str, float]) -> System:
     def plain(expr: sp.Expr) -> sp.Expr:
         expr = expr.xreplace(to_sym) if expr.has(sp.Derivative) else expr
         return expr.xreplace(to_sym2)
-    residual = [sp.expand(plain(d)) if False else plain(d) for d in derivs]
+    residual = [plain(d) for d in derivs]
     F = [dx - r for dx, r in zip(dx_sym, residual)]
     A = sp.Matrix([[sp.diff(f, d) for d in dx_sym] for f in F])
     zero = {d: 0 for d in dx_sym}

@@ -8,7 +8,6 @@ from __future__ import annotations
 import argparse
 import sys
 from collections import Counter
-from pathlib import Path
 
 from bondgraph.causality import DIAGNOSIS, SIMULATION, Causality, assign
 from bondgraph.errors import CausalityError, ModelError
@@ -210,8 +209,8 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
     from .diagnose import diagnose, public
     from .report import to_text
     model = load_model(model_path)
-    progress = Progress(1.0, "estimators")
-    report = diagnose(model_path, data, options, progress=lambda n: None if not progress.on else None)
+    bar = Progress(1.0, "estimators")
+    report = diagnose(model_path, data, options, progress=lambda done, total: bar(done / total))
     if args.json:
         text = json.dumps(public(report), indent=1) + "\n"
     else:

@@ -201,13 +201,13 @@ def run_estimators(path: str, t: np.ndarray, raw: Mapping[str, np.ndarray], t0: 
         for j in jobs:
             out.append(_run_estimator(j))
             if progress:
-                progress(len(out))
+                progress(len(out), len(jobs))
         return out
     with ProcessPoolExecutor(min(workers, len(jobs))) as pool:
         for r in pool.map(_run_estimator, jobs):
             out.append(r)
             if progress:
-                progress(len(out))
+                progress(len(out), len(jobs))
     return out
 
 

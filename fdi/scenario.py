@@ -30,7 +30,6 @@ from bondgraph.model import Model
 from bondgraph.simulation import SimulationError, simulate
 
 from . import profiles
-from .encoding import COEFF_SLOTS  # noqa: F401  (documented coefficient layout)
 
 TYPES = ("abrupt", "intermittent", "incipient", "mode")
 

@@ -64,7 +64,7 @@ def minimize(objective, bounds, n_bits: int = 0, *, pop: int = 150, generations:
     if n_bits and polish > 0 and stop != "target":
         ranked = sorted(seen.items(), key=lambda kv: kv[1][0])[:polish]
         share = max(pop, (budget - counter.evaluations) // max(1, len(ranked)))
-        for key, (c0, real0, bits0) in ranked:
+        for key, (_c0, real0, bits0) in ranked:
             fixed = np.broadcast_to(bits0, (1, n_bits))
             small = max(10, min(pop, 30))
             cost = lambda z, b=fixed: counter(z, np.broadcast_to(b, (z.shape[0], n_bits)))

@@ -19,8 +19,8 @@ import time
 
 import numpy as np
 
-from .core import (Counter, Result, binomial_crossover, check_bounds, distinct_indices, init_population,
-                   repair_midpoint, select, stop_reason)
+from .core import (Counter, Result, binomial_crossover, check_bounds, distinct_indices, end_generation,
+                   greedy_replace, init_population, repair_midpoint)
 
 
 def adaptive_rates(rng: np.random.Generator, im: float, size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -70,15 +70,9 @@ def minimize(objective, bounds, n_bits: int = 0, *, pop: int = 150, generations:
             if bit_flip > 0:
                 trial_bits = trial_bits ^ (rng.random(trial_bits.shape) < bit_flip)
         trial_cost = cost_fn(trial_real, trial_bits)
-        better = select(cost, trial_cost)                 # eq. (22): strictly fitter
-        real = np.where(better[:, None], trial_real, real)
-        bits = np.where(better[:, None], trial_bits, bits)
-        cost = np.where(better, trial_cost, cost)
-        history.append(float(cost.min()))
+        (real, bits), cost = greedy_replace((real, bits), (trial_real, trial_bits), cost, trial_cost)   # eq. (22)
+        reason = end_generation(history, cost.min(), g, callback, target, stagnation)
         im = improvement_measure(history[-2], history[-1])
-        if callback:
-            callback(g, history[-1])
-        reason = stop_reason(history, target, stagnation)
         if reason:
             stop = reason
             break

@@ -13,7 +13,7 @@ import time
 import numpy as np
 
 from .ahde_paper import adaptive_rates, binary_mutation, improvement_measure
-from .core import Counter, Result, binomial_crossover, select, stop_reason
+from .core import Counter, Result, binomial_crossover, end_generation, greedy_replace
 
 
 def minimize(objective, n_bits: int, *, pop: int = 20, generations: int = 30, seed: int | None = 0,
@@ -35,14 +35,9 @@ def minimize(objective, n_bits: int, *, pop: int = 20, generations: int = 30, se
         if bit_flip > 0:
             trial = trial ^ (rng.random(trial.shape) < bit_flip)
         trial_cost = cost_fn(empty, trial)
-        better = select(cost, trial_cost)
-        bits = np.where(better[:, None], trial, bits)
-        cost = np.where(better, trial_cost, cost)
-        history.append(float(cost.min()))
+        (bits,), cost = greedy_replace((bits,), (trial,), cost, trial_cost)
+        reason = end_generation(history, cost.min(), g, callback, target, stagnation)
         im = improvement_measure(history[-2], history[-1])
-        if callback:
-            callback(g, history[-1])
-        reason = stop_reason(history, target, stagnation)
         if reason:
             stop = reason
             break

@@ -128,4 +128,20 @@ def select(cost: np.ndarray, trial_cost: np.ndarray) -> np.ndarray:
     return trial_cost < cost
 
 
+def greedy_replace(population: tuple[np.ndarray, ...], trials: tuple[np.ndarray, ...], cost: np.ndarray,
+                   trial_cost: np.ndarray) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+    """Eq. (22) applied: each array of the population takes the rows of its trial that are fitter."""
+    better = select(cost, trial_cost)
+    return tuple(np.where(better[:, None], t, x) for x, t in zip(population, trials)), np.where(better, trial_cost, cost)
+
+
+def end_generation(history: list[float], best: float, generation: int, callback, target: float | None,
+                   stagnation: int | None) -> str | None:
+    """Record the generation's best cost, tell the callback, and say whether to stop (and why)."""
+    history.append(float(best))
+    if callback:
+        callback(generation, history[-1])
+    return stop_reason(history, target, stagnation)
+
+
 Engine = Callable[..., Result]

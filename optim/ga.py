@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from .core import EPS, Counter, Result, check_bounds, stop_reason
+from .core import EPS, Counter, Result, check_bounds, end_generation
 
 
 def decode(genes: np.ndarray, bounds: np.ndarray, bits_per_real: int) -> np.ndarray:
@@ -81,10 +81,7 @@ def _run(objective, bounds, n_bits, *, pop, generations, seed, pc, pm, bits_per_
                 # beat their parents' mean fitness
                 ok = np.mean(child_cost[mutated] < parent_mean[mutated])
                 pm = float(np.clip(pm * (1.1 if ok > aim else 0.9), 0.001, 0.3))
-        history.append(float(cost.min()))
-        if callback:
-            callback(gen, history[-1])
-        reason = stop_reason(history, target, stagnation)
+        reason = end_generation(history, cost.min(), gen, callback, target, stagnation)
         if reason:
             stop = reason
             break

@@ -17,7 +17,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from .core import Counter, Result, binomial_crossover, check_bounds, repair_midpoint, stop_reason
+from .core import Counter, Result, binomial_crossover, check_bounds, end_generation, repair_midpoint
 
 TERMINAL = -1.0
 
@@ -101,10 +101,7 @@ def run(cost: Callable[[np.ndarray], np.ndarray], bounds: np.ndarray, rng: np.ra
         cap = int(round(archive_rate * x.shape[0]))
         if len(archive) > cap:
             archive = archive[rng.choice(len(archive), cap, replace=False)]
-        history.append(float(f.min()))
-        if callback:
-            callback(gen, history[-1])
-        reason = stop_reason(history, target, stagnation)
+        reason = end_generation(history, f.min(), gen, callback, target, stagnation)
         if reason:
             stop = reason
             break
