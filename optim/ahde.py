@@ -40,7 +40,8 @@ def minimize(objective, bounds, n_bits: int = 0, *, pop: int = 150, generations:
     bounds = check_bounds(bounds)
     nr = bounds.shape[0]
     budget = pop * (generations + 1)
-    structure = structure or (lambda b: tuple(int(x) for x in b))
+    describe = structure or (lambda b: tuple(int(x) for x in b))
+    keys: dict[bytes, Hashable] = {}          # bit pattern -> structure, computed once per pattern
     counter = Counter(objective)
     seen: dict[Hashable, tuple[float, np.ndarray, np.ndarray]] = {}
 
@@ -48,7 +49,10 @@ def minimize(objective, bounds, n_bits: int = 0, *, pop: int = 150, generations:
         bits = shade.keys_to_bits(z[:, nr:], onehot)
         c = counter(z[:, :nr], bits)
         for i in np.argsort(c)[: max(4, len(c) // 4)]:
-            key = structure(bits[i])
+            pattern = bits[i].tobytes()
+            if pattern not in keys:
+                keys[pattern] = describe(bits[i])
+            key = keys[pattern]
             if key not in seen or c[i] < seen[key][0]:
                 seen[key] = (float(c[i]), z[i, :nr].copy(), bits[i].copy())
         return c
