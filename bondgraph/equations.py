@@ -26,6 +26,8 @@ Var = tuple[str, BondKey]          # ('e' | 'f', bond key)
 
 @dataclass(frozen=True)
 class Relation:
+    """``output = law(*inputs)``; for a storage element in derivative causality
+    (``derivative=True``) the law takes the input and its time derivative, ``law(x, dx/dt)``."""
     output: Var
     inputs: tuple[Var, ...]
     law: Callable[..., sp.Expr]
@@ -135,15 +137,21 @@ def _storage(model: Model, e: Element, k: BondKey, form: str, states: Mapping[st
     inp, out, law_key, local = (("e", k), ("f", k), "displacement", "e") if e.kind == "C" else \
         (("f", k), ("e", k), "momentum", "f")
     if law_key in e.laws:
-        law = e.laws[law_key]
-        return Relation(out, (inp,), lambda x: sp.diff(law.xreplace({sp.Symbol(local, real=True): x}), t),
-                        derivative=True)
-    return Relation(out, (inp,), lambda x: p * sp.diff(x, t), derivative=True)
+        u = sp.Dummy("u", real=True)
+        slope = sp.diff(e.laws[law_key].xreplace({sp.Symbol(local, real=True): u}), u)   # dQ/du
+        return Relation(out, (inp,), lambda x, dx: slope.xreplace({u: x}) * dx, derivative=True)
+    return Relation(out, (inp,), lambda x, dx: p * dx, derivative=True)
 
 
 def resolve(rels: list[Relation], wanted: list[Var] | None = None) -> dict[Var, sp.Expr]:
     """Evaluate relations in causal order; only the ancestors of ``wanted`` if given.
-    Raises ValueError naming the variables of a causal loop."""
+
+    Time derivatives (storage elements in derivative causality) are propagated forward along the
+    causal graph: each relation's law is written in local dummy inputs, its total derivative is
+    taken on that small local expression (chain rule, explicit t-dependence of modulated laws
+    included), and the resolved inputs and their derivatives are substituted afterwards. No
+    ``diff`` ever runs on a grown expression, so the cost per relation does not grow with the
+    model. Raises ValueError naming the variables of a causal loop."""
     by_output = {r.output: r for r in rels}
     dag = nx.DiGraph()
     for r in rels:
@@ -161,10 +169,37 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None) -> dict[Var, 
     except nx.NetworkXUnfeasible:
         cycle = nx.find_cycle(sub)
         raise ValueError("causal loop through " + ", ".join(f"{v[0]}{v[1]}" for v, _ in cycle)) from None
-    values: dict[Var, sp.Expr] = {}
+    missing = [v for v in order if v not in by_output]
+    if missing:
+        v = missing[0]
+        raise ValueError(f"variable {v[0]}{v[1]} is computed by no element (open causality)")
+    need = {v: 0 for v in order}                  # highest time derivative each variable must provide
+    for v in reversed(order):
+        r = by_output[v]
+        for i in r.inputs:
+            need[i] = max(need[i], need[v] + (1 if r.derivative else 0))
+    series: dict[Var, list[sp.Expr]] = {}          # variable -> [value, d/dt, d2/dt2, ...]
     for v in order:
-        r = by_output.get(v)
-        if r is None:
-            raise ValueError(f"variable {v[0]}{v[1]} is computed by no element (open causality)")
-        values[v] = r.law(*[values[i] for i in r.inputs])
-    return values
+        r = by_output[v]
+        k = need[v]
+        if not r.inputs:
+            values = [r.law()]
+            for _ in range(k):
+                values.append(sp.diff(values[-1], t))
+            series[v] = values
+            continue
+        top = k + (1 if r.derivative else 0)
+        local = [[sp.Dummy(f"u{i}_{j}") for j in range(top + 1)] for i in range(len(r.inputs))]
+        law = r.law(local[0][0], local[0][1]) if r.derivative else r.law(*[u[0] for u in local])
+        laws = [law]
+        for _ in range(k):
+            prev = laws[-1]
+            step = sp.diff(prev, t)
+            for u in local:
+                for j in range(top):
+                    if prev.has(u[j]):
+                        step += sp.diff(prev, u[j]) * u[j + 1]
+            laws.append(step)
+        subs = {u[j]: series[i][j] for u, i in zip(local, r.inputs) for j in range(len(u)) if j < len(series[i])}
+        series[v] = [expr.xreplace(subs) for expr in laws]
+    return {v: series[v][0] for v in order}

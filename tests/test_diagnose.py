@@ -117,3 +117,15 @@ def test_bad_options_exit_2(capsys):
     assert main(["diagnose", "models/cycab_steering.yaml", str(DATA / "nominal.csv"), "--threshold", "ARR7=1"]) == 2
     assert main(["diagnose", "models/cycab_steering.yaml", str(DATA / "nominal.csv"), "--engine", "PSO"]) == 2
     assert main(["diagnose", "models/cycab_steering.yaml", str(DATA / "nominal.csv"), "--failure", "beta_theta2"]) == 2
+
+
+def test_demo_simulates_and_diagnoses_scenario2(capsys):
+    """The README's main command, end to end: own simulation of scenario 2, then the diagnosis."""
+    assert main(["demo", "--json", "--repeats", "1"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r["detection"]["final_coherence"] == [0, 1, 1]
+    assert r["winner"] == ["R4", "beta_theta2"]
+    r4, b2 = _fault(r, "R4"), _fault(r, "beta_theta2")
+    assert r4["type"] == "abrupt" and r4["value"] == pytest.approx(2.5221e7, rel=0.02)
+    assert b2["type"] == "incipient" and b2["model"] == 2 and b2["b"][0] == pytest.approx(-0.03, rel=0.05)
+    assert r["prognosis"][0]["rul"] == pytest.approx(23.33, rel=0.05)
