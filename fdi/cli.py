@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+
+import sympy as sp
 from collections import Counter
 
 from bondgraph.causality import DIAGNOSIS, SIMULATION, Causality, assign
@@ -82,10 +84,23 @@ def cmd_check(args: argparse.Namespace) -> int:
         for p in list(diag.problems) + list(diag.loops):
             print(f"  problem: {p}")
         raise CausalityError(list(diag.problems) + list(diag.loops))
+    from .arrs import derive_arrs
+    from .signatures import all_modes
+
+    arrs = derive_arrs(model, diag)
+    bad = []
+    for mode in all_modes(model):
+        for a in arrs:
+            e = a.expr.xreplace({model.symbols[m]: v for m, v in mode.items()})
+            if e.has(sp.zoo, sp.nan, sp.oo, -sp.oo):
+                bad.append(f"{a.name} undefined in mode {mode}")
+    if bad:
+        raise CausalityError(bad)
     n_modes = len(diag.modes_checked)
     print(f"  one assignment, valid in all {n_modes} mode(s)"
-          + (f" ({', '.join(model.modes)} in {{0, 1}}): controlled junction outputs are multiplied by their "
-             "mode variable, so no causality is reassigned at a switch" if model.modes else ""))
+          + (f" ({', '.join(model.modes)} in {{0, 1}}; checked: every AGARR is defined in each): controlled "
+             "junction outputs are multiplied by their mode variable, so no causality is reassigned at a switch"
+             if model.modes else ""))
     print("  storage: " + (", ".join(f"{k} {v}" for k, v in diag.storage.items()) or "none"))
     if all(v == "derivative" for v in diag.storage.values()):
         print("  all storage elements in derivative causality")
