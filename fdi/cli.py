@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections import Counter
 
 import sympy as sp
-from collections import Counter
 
 from bondgraph.causality import DIAGNOSIS, SIMULATION, Causality, assign
 from bondgraph.errors import CausalityError, ModelError

@@ -14,10 +14,12 @@ from typing import Mapping
 
 import numpy as np
 
+from bondgraph.errors import ModelError
 from optim import DEFAULT_ENGINE, ENGINES
 
 from .arrs import derive_arrs
-from .data import Measurements, read_csv, signals_from_data
+from .data import DataError, Measurements, read_csv, signals_from_data
+from .derivatives import DEFAULT_ORDER, window_samples
 from .detect import detect, thresholds_for
 from .identify import compiled, estimate_mode, fault_space, run_estimators, window
 from .isolate import candidate_sets, suspected_mode_changes
@@ -56,8 +58,15 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     model, residuals = compiled(path)
     meas = data if isinstance(data, Measurements) else read_csv(data)
     raw = signals_from_data(model, meas)
+    need = window_samples(model.derivative_window, meas.ts, DEFAULT_ORDER) + 1
+    if meas.t.size < need:
+        raise DataError(f"{meas.path}: {meas.t.size} samples are too few: the derivative window of {model.name} "
+                        f"({model.derivative_window:g} s) needs at least {need}")
     names = model.arr_names()
-    thresholds = thresholds_for(model.thresholds, names, o.thresholds)
+    try:
+        thresholds = thresholds_for(model.thresholds, names, o.thresholds)
+    except ValueError as exc:
+        raise ModelError(str(exc), file=model.path, where="thresholds") from None
     wait = model.waiting_time if o.waiting_time is None else o.waiting_time
     samples = o.samples or model.samples
     timings["load"] = time.perf_counter() - clock

@@ -27,6 +27,7 @@ from typing import Mapping
 
 import numpy as np
 
+from bondgraph.errors import ModelError
 from bondgraph.loader import load_model
 from bondgraph.model import Model
 from optim import ENGINES, bde
@@ -59,7 +60,8 @@ def fault_space(model: Model, name: str, span: float | None = None) -> FaultSpac
         nominal = model.parameters[f.targets[0]].value
         if f.bounds is None:
             if not np.isfinite(nominal):
-                raise ValueError(f"fault {name}: nominal value is infinite; give bounds: [low, high] in the model")
+                raise ModelError("nominal value is infinite: give bounds: [low, high] to identify this fault",
+                                 file=model.path, where=f"faults.{name}")
             bounds = (nominal / 100.0, nominal * 100.0) if nominal > 0 else (nominal * 100.0, nominal / 100.0)
         else:
             bounds = f.bounds

@@ -129,3 +129,18 @@ def test_demo_simulates_and_diagnoses_scenario2(capsys):
     assert r4["type"] == "abrupt" and r4["value"] == pytest.approx(2.5221e7, rel=0.02)
     assert b2["type"] == "incipient" and b2["model"] == 2 and b2["b"][0] == pytest.approx(-0.03, rel=0.05)
     assert r["prognosis"][0]["rul"] == pytest.approx(23.33, rel=0.05)
+
+
+def test_too_short_file_and_model_without_thresholds_exit_2(tmp_path, capsys):
+    short = tmp_path / "short.csv"
+    short.write_text("t,u,i,w\n0,1,0,0\n0.001,1,0,0\n0.002,1,0,0\n")
+    assert main(["diagnose", "models/dc_motor_clutch.yaml", str(short)]) == 2
+    assert "too few" in capsys.readouterr().err
+    model = tmp_path / "m.yaml"
+    model.write_text("\n".join(l for l in open("models/dc_motor_clutch.yaml").read().splitlines()
+                               if not l.startswith("thresholds:")))
+    long = tmp_path / "long.csv"
+    long.write_text("t,u,i,w\n" + "".join(f"{k * 0.001:.3f},1,0,0\n" for k in range(100)))
+    assert main(["diagnose", str(model), str(long)]) == 2
+    err = capsys.readouterr().err
+    assert "thresholds" in err and "m.yaml" in err and len(err.strip().splitlines()) == 1
