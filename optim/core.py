@@ -61,15 +61,16 @@ class Counter:
         t0 = time.perf_counter()
         cost = np.asarray(self.objective(real, bits), dtype=float).reshape(-1)
         self.seconds += time.perf_counter() - t0
-        self.evaluations += real.shape[0] if real.ndim == 2 and real.shape[1] else bits.shape[0]
-        if cost.shape[0] != max(real.shape[0], bits.shape[0]):
+        n = max(real.shape[0], bits.shape[0])
+        self.evaluations += n
+        if cost.shape[0] != n:
             raise ValueError(f"objective returned {cost.shape[0]} costs for {real.shape[0]} individuals")
         return np.where(np.isfinite(cost), cost, np.inf)
 
 
 def check_bounds(bounds: np.ndarray | list) -> np.ndarray:
     b = np.asarray(bounds, dtype=float).reshape(-1, 2)
-    if np.any(~np.isfinite(b)) or np.any(b[:, 0] > b[:, 1]):
+    if b.size and (np.any(~np.isfinite(b)) or np.any(b[:, 0] > b[:, 1])):
         raise ValueError("bounds must be finite [low, high] pairs with low <= high")
     return b
 
