@@ -1,12 +1,14 @@
 """A candidate set's decision vector <-> the flat real and bit arrays the optimisers see.
 
-Per fault, as in the paper's encoding (Sec. III-C and IV-D), 10 reals and 5 bits:
+Per fault, 9 reals and 5 bits:
 
-    reals  [v_ab, v_int, T, b1, b2, b3, b4, b5, b6, b7]     bits [zeta_ab, zeta_int, zeta_inc, eta1, eta2]
+    reals  [v, T, b1, b2, b3, b4, b5, b6, b7]     bits [zeta_ab, zeta_int, zeta_inc, eta1, eta2]
 
-``v_ab`` and ``v_int`` are the faulty values of an abrupt and an intermittent fault (searched as
-log10 when the fault's bounds span more than two decades or its nominal value is infinite),
-``T`` the intermittent period, ``b1..b7`` the degradation coefficients of eqs. (16)-(19), searched
+``v`` is the faulty value, of an abrupt fault or of an intermittent one (searched as log10 when the
+fault's bounds span more than two decades or its nominal value is infinite). The paper's GA keeps
+two values, one per type; one shared slot is the same physical quantity and lets a search change
+a fault's type without losing its magnitude (measured: with two slots, the improved AHDE could not
+move "R4 intermittent" to "R4 abrupt" on a simulated scenario 1). ``T`` is the intermittent period, ``b1..b7`` the degradation coefficients of eqs. (16)-(19), searched
 *normalised* by a reference value P_ref of the fault (its nominal value, or for an infinite
 nominal the geometric mean of its bounds) so that one set of bounds serves every fault:
 b1, b3, b6 are rates (1/s) as they are; b2 = b2n / P_ref, b4 = b4n * P_ref, b5 = b5n / P_ref,
@@ -25,9 +27,9 @@ import numpy as np
 
 from .profiles import N_COEFFICIENTS, TYPES, incipient, intermittent, abrupt
 
-N_REAL = 10
+N_REAL = 9
 N_BITS = 5
-COEFF_SLOTS = {1: [3], 2: [4], 3: [5, 6], 4: [7, 8, 9]}           # real indices of each model's b's
+COEFF_SLOTS = {1: [2], 2: [3], 3: [4, 5], 4: [6, 7, 8]}           # real indices of each model's b's
 DEFAULT_COEFF_BOUNDS = [(-0.3, 0.3), (-0.3, 0.3), (-3.0, 3.0), (-2.0, 0.0), (-5.0, 5.0), (-1.0, 1.0), (-1.0, 1.0)]
 DEFAULT_PERIOD = (0.5, 20.0)
 
@@ -60,11 +62,10 @@ def _value_bounds(s: FaultSpace) -> tuple[float, float]:
 
 
 def bounds(spaces: list[FaultSpace]) -> np.ndarray:
-    """Real bounds, (10 * n_faults, 2)."""
+    """Real bounds, (9 * n_faults, 2)."""
     rows = []
     for s in spaces:
-        vb = _value_bounds(s)
-        rows += [vb, vb, s.period] + list(s.coefficients)
+        rows += [_value_bounds(s), s.period] + list(s.coefficients)
     return np.asarray(rows, dtype=float)
 
 
@@ -105,10 +106,10 @@ def decode(spaces: list[FaultSpace], real: np.ndarray, bits: np.ndarray) -> list
     for i, s in enumerate(spaces):
         r = real[:, N_REAL * i: N_REAL * (i + 1)]
         z = bits[:, N_BITS * i: N_BITS * (i + 1)]
-        vab, vint = (10 ** r[:, 0], 10 ** r[:, 1]) if s.log else (r[:, 0], r[:, 1])
+        value = 10 ** r[:, 0] if s.log else r[:, 0].copy()
         ref = s.reference
         scale = np.array([1, 1 / ref, 1, ref, 1 / ref, 1, ref])
-        out.append(Decoded(repair_zeta(z[:, :3]), model_index(z[:, 3:5]), vab, vint, r[:, 2].copy(), r[:, 3:] * scale))
+        out.append(Decoded(repair_zeta(z[:, :3]), model_index(z[:, 3:5]), value, value, r[:, 1].copy(), r[:, 2:] * scale))
     return out
 
 
@@ -124,14 +125,14 @@ def encode(spaces: list[FaultSpace], faults: list[dict]) -> tuple[np.ndarray, np
         if k == 0:
             real[base] = to(f["value"])
         elif k == 1:
-            real[base + 1], real[base + 2] = to(f["value"]), f["period"]
+            real[base], real[base + 1] = to(f["value"]), f["period"]
         else:
             m = int(f["model"])
             bits[N_BITS * i + 3], bits[N_BITS * i + 4] = bool((m - 1) // 2), bool((m - 1) % 2)
             ref = s.reference
             scale = np.array([1, 1 / ref, 1, ref, 1 / ref, 1, ref])
             for slot, bval in zip(COEFF_SLOTS[m], f["b"]):
-                real[base + slot] = bval / scale[slot - 3]
+                real[base + slot] = bval / scale[slot - 2]
     return real, bits
 
 
@@ -152,7 +153,7 @@ def profiles(spaces: list[FaultSpace], decoded: list[Decoded], t: np.ndarray, t0
         for model in (1, 2, 3, 4):
             m = (d.kind == 2) & (d.model == model)
             if m.any():
-                cols = [slot - 3 for slot in COEFF_SLOTS[model]]
+                cols = [slot - 2 for slot in COEFF_SLOTS[model]]
                 p[m] = incipient(t, onset[m], s.nominal, model, d.b[m][:, cols])
         out.append(p)
     return out
@@ -178,7 +179,7 @@ def describe(spaces: list[FaultSpace], real: np.ndarray, bits: np.ndarray) -> li
             m = int(d.model[0])
             entry["model"] = m
             entry["eta"] = [(m - 1) // 2, (m - 1) % 2]
-            entry["b"] = [float(d.b[0, slot - 3]) for slot in COEFF_SLOTS[m]]
+            entry["b"] = [float(d.b[0, slot - 2]) for slot in COEFF_SLOTS[m]]
         out.append(entry)
     return out
 

@@ -11,13 +11,20 @@ population with one fitness, and changes the two parts that fail:
    with an archive, linear population reduction), and the bits evolve *with* them as random keys,
    so every bit stays reachable; one-hot groups (the fault discrimination vector zeta) are read as
    the argmax of their keys, always valid;
-2. the discrete decision is then checked: the best ``polish`` structures seen (a structure is
-   whatever ``structure(bits)`` says, e.g. each fault's type and degradation model) are each
-   refined with the bits fixed, and the best refined one wins. The cost of the runner-up over the
-   winner's is the **discrimination margin**: near 1 means the data hardly separate the two.
+2. the discrete decision is then checked by a local search over structures (a structure is
+   whatever ``structure(bits)`` says, e.g. each fault's type and degradation model): the
+   ``polish`` best structures seen, and every structure one decision away from the current best
+   (one fault's type or model changed), are each refined briefly with the bits fixed, starting
+   from the best reals found; the search moves to the best screened structure while that improves,
+   then the two best are refined thoroughly and the better wins. Measured: the joint search alone
+   sometimes commits early or stalls (on a simulated scenario 1, 1 seed in 4 never ranked
+   "R4 abrupt" among its three best structures and ended at 7x the true cost). The cost of the
+   runner-up over the winner's is the **discrimination margin**: near 1 means the data hardly
+   separate the two.
 
 Budget: the same pop * (generations + 1) evaluations as the paper's engine; ``phase`` of it for the
-joint search, the rest split between the polished structures.
+joint search; of the rest, screening refinements of 1/25 each while at least 35 % remains, then
+the two finalists share what is left.
 """
 from __future__ import annotations
 
@@ -66,20 +73,51 @@ def minimize(objective, bounds, n_bits: int = 0, *, pop: int = 150, generations:
     best = (float(f.min()), best_z[:nr].copy(), shade.keys_to_bits(best_z[None, nr:], onehot)[0])
     refined: list[tuple[float, Hashable, np.ndarray, np.ndarray]] = []
     if n_bits and polish > 0 and stop != "target":
-        ranked = sorted(seen.items(), key=lambda kv: kv[1][0])[:polish]
-        share = max(pop, (budget - counter.evaluations) // max(1, len(ranked)))
-        for key, (_c0, real0, bits0) in ranked:
+        def refine(bits0: np.ndarray, starts: np.ndarray, evals: int) -> tuple[float, np.ndarray]:
             fixed = np.broadcast_to(bits0, (1, n_bits))
-            small = max(10, min(pop, 30))
             cost = lambda z, b=fixed: counter(z, np.broadcast_to(b, (z.shape[0], n_bits)))
-            sub_hist: list[float] = []
-            xs, fs, _ = shade.run(cost, bounds, rng, pop=small, max_evals=share, init=real0[None, :],
-                                  history=sub_hist, target=target)
+            xs, fs, _ = shade.run(cost, bounds, rng, pop=max(8, min(pop, 20)), max_evals=evals,
+                                  init=np.atleast_2d(starts), history=[], target=target)
             i = int(np.argmin(fs))
-            refined.append((float(fs[i]), key, xs[i].copy(), bits0.copy()))
-            history.append(min(history[-1], float(fs[i])))
-        refined.sort(key=lambda r: r[0])
-        if refined[0][0] <= best[0]:
+            return float(fs[i]), xs[i].copy()
+
+        local = budget - counter.evaluations
+        first = max(pop, local // 25)                              # one screening refinement
+        finals = int(0.35 * local)                                 # kept for the two finalists
+        screened: dict[Hashable, tuple[float, np.ndarray, np.ndarray]] = {}
+        current = best
+        keys.setdefault(best[2].tobytes(), describe(best[2]))
+        screened[keys[best[2].tobytes()]] = best
+        round_ = 0
+        while budget - counter.evaluations - finals >= first:      # local search over structures
+            candidates = _structure_candidates(current, seen if round_ == 0 else {}, keys, describe, onehot,
+                                               n_bits, polish)
+            # every neighbour again, from the current reals: a structure screened from worse reals
+            # in an earlier round may fit well now (R4 abrupt once beta_theta1's period is right)
+            candidates = [c for c in candidates if c[0] != keys[current[2].tobytes()]]
+            if not candidates:
+                break
+            known = [v[1] for v in sorted(screened.values(), key=lambda v: v[0])[:3]]
+            for key, starts, bits0 in candidates:
+                if budget - counter.evaluations - finals < first:
+                    break
+                c, r = refine(bits0, np.vstack([starts] + [k[None, :] for k in known]), first)
+                if key not in screened or c < screened[key][0]:
+                    screened[key] = (c, r, bits0)
+                history.append(min(history[-1], c))
+            round_ += 1
+            key, (c, r, b) = min(screened.items(), key=lambda kv: kv[1][0])
+            if c >= current[0]:
+                break
+            current = (c, r, b)
+        finalists = sorted(screened.items(), key=lambda kv: kv[1][0])[:2]
+        second = max(pop, (budget - counter.evaluations) // max(1, len(finalists)))
+        for key, (c0, real0, bits0) in finalists:                  # the two best, thoroughly
+            c, r = refine(bits0, real0[None, :], second)
+            refined.append((min(c, c0), key, r if c <= c0 else real0, bits0))
+            history.append(min(history[-1], c))
+        refined.sort(key=lambda item: item[0])
+        if refined and refined[0][0] <= best[0]:
             best = (refined[0][0], refined[0][2], refined[0][3])
     margin = float("inf")
     if len(refined) >= 2:
@@ -87,3 +125,38 @@ def minimize(objective, bounds, n_bits: int = 0, *, pop: int = 150, generations:
     extra = {"margin": margin, "structures": [(r[1], r[0]) for r in refined]}
     return Result(best[1], best[2], best[0], history, counter.evaluations, len(history) - 1,
                   time.perf_counter() - t0, counter.seconds, stop, extra)
+
+
+def _structure_candidates(best, seen, keys, describe, onehot, n_bits: int, top: int):
+    """The ``top`` best structures seen, and every structure one decision away from the best:
+    the hot bit of one one-hot group moved, or one other bit flipped. Deduplicated by structure,
+    each with the reals to start from: the best known for it, and the best individual's (whose
+    other faults are the best found; crossover can combine the two)."""
+    grouped = {i for g in onehot for i in g}
+    out, taken = [], set()
+
+    def add(bits: np.ndarray, real: np.ndarray) -> None:
+        pattern = bits.tobytes()
+        if pattern not in keys:
+            keys[pattern] = describe(bits)
+        key = keys[pattern]
+        if key not in taken:
+            taken.add(key)
+            starts = [seen[key][1], real] if key in seen else [real]
+            out.append((key, np.array(starts), bits))
+    add(best[2], best[1])
+    for key, (_c, real, bits) in sorted(seen.items(), key=lambda kv: kv[1][0])[:top]:
+        add(bits, real)
+    for group in onehot:
+        for i in group:
+            if not best[2][i]:
+                b = best[2].copy()
+                b[list(group)] = False
+                b[i] = True
+                add(b, best[1])
+    for i in range(n_bits):
+        if i not in grouped:
+            b = best[2].copy()
+            b[i] = not b[i]
+            add(b, best[1])
+    return out

@@ -91,7 +91,7 @@ def test_encode_decode_roundtrip():
     spaces = [FaultSpace.make("R4", np.inf, (1e6, 1e9)), FaultSpace.make("beta", 1.0, (0.05, 1.5))]
     truth = [{"type": "abrupt", "value": 2.5221e7}, {"type": "incipient", "model": 2, "b": [-0.03]}]
     real, bits = encoding.encode(spaces, truth)
-    assert real.shape == (20,) and bits.shape == (10,)
+    assert real.shape == (18,) and bits.shape == (10,)
     got = encoding.describe(spaces, real, bits)
     assert got[0]["type"] == "abrupt" and got[0]["value"] == pytest.approx(2.5221e7)
     assert got[1] == {"name": "beta", "type": "incipient", "model": 2, "eta": [0, 1], "b": [pytest.approx(-0.03)]}
