@@ -92,21 +92,25 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     report["suspected_mode_changes"] = suspects
     timings["isolation"] = time.perf_counter() - clock
     weights = 1.0 / thresholds if o.weights == "thresholds" else np.ones(len(names))
+    mode_fault = None
     if suspects:
         clock = time.perf_counter()
         win = window(meas.t, raw, det.time, samples, model.derivative_window)
         by_fault = {f.name: f.targets[0] for f in model.faults.values() if f.kind == "mode"}
         variables = sorted({by_fault.get(m, m) for m in suspects})
-        estimated, _ = estimate_mode(model, residuals, win, weights, o.seed, variables)
+        estimated, mode_cost = estimate_mode(model, residuals, win, weights, o.seed, variables)
         timings["mode estimation"] = time.perf_counter() - clock
         report["mode_estimate"] = estimated
         changed = [m for m in estimated if estimated[m] != mode[m]]
         if changed:
-            report["mode"] = estimated
             by_var = {f.targets[0]: f.name for f in model.faults.values() if f.kind == "mode"}
-            report["diagnosis"]["faults"] = [{"name": by_var.get(m, m), "type": "mode", "value": estimated[m]}
-                                             for m in changed]
-            return report
+            mode_fault = {"mode": estimated, "cost": mode_cost,
+                          "faults": [{"name": by_var.get(m, m), "type": "mode", "value": estimated[m]} for m in changed]}
+            report["mode_fault_cost"] = mode_cost
+            if not candidates:
+                report["mode"] = estimated
+                report["diagnosis"]["faults"] = mode_fault["faults"]
+                return report
     if not candidates:
         return report
     clock = time.perf_counter()
@@ -118,6 +122,12 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
                              "margin": e.margin, "cost": e.cost, "faults": e.faults, "evaluations": e.evaluations,
                              "wall_s": e.wall_s, "objective_s": e.objective_s} for e in results]
     best = select_winner(results)
+    if mode_fault is not None and mode_fault["cost"] <= best.cost:
+        # the fault mode explains the data better than any component fault (Sec. III-C's order, with
+        # the comparison the paper leaves implicit: a clogged valve also looks like a closed one)
+        report["mode"] = mode_fault["mode"]
+        report["diagnosis"]["faults"] = mode_fault["faults"]
+        return report
     report["diagnosis"]["faults"] = best.faults
     report["winner"] = list(best.candidate)
     incipient = [f for f in best.faults if f["type"] == "incipient"]
@@ -141,13 +151,14 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     return report
 
 
-PARSIMONY = 0.01
+PARSIMONY = 0.05
 
 
 def select_winner(results):
     """The fittest estimator (highest fitness, eq. 24), except that a larger candidate set must fit
-    more than 1 % better than a smaller one to win: a superset always fits at least as well, its
-    extra faults then identified as no-ops (R5 at 0.9997) that only fit noise."""
+    more than 5 % better than a smaller one to win: a superset always fits at least as well, its
+    extra faults then identified as no-ops that only fit noise. Measured: R5 at 0.9997 bought 0.03 %
+    on CyCab scenario 2; beta_p2 intermittent at 0.998 bought 4.3 % on a clogged two-tank valve."""
     best_cost = min(e.cost for e in results)
     close = [e for e in results if e.cost <= (1 + PARSIMONY) * best_cost]
     return min(close, key=lambda e: (len(e.candidate), e.cost))

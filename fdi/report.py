@@ -45,7 +45,7 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
         for e in sorted(report["estimators"], key=lambda e: -e["fitness"]):
             mark = "*" if e["candidate"] == winner else " "
             out.append(f" {mark} {{{', '.join(e['candidate'])}}}: fitness {e['fitness']:.4g}; {_confidence(e['margin'])}")
-        out.append("  (* the winner: the fittest, unless a smaller set fits within 1 %)")
+        out.append("  (* the winner: the fittest, unless a smaller set fits within 5 %)")
     faults = report["diagnosis"]["faults"]
     out.append("diagnosis:" + ("" if faults else " no fault explains the coherence vector"))
     for f in faults:
