@@ -16,8 +16,9 @@ ones start from the values their variables had just before the switch (p = I f, 
 Mode variables (controlled junctions) are inputs of the equations; the diagnostic hybrid bond graph
 form (outputs x a) serves every mode with one causality.
 
-The stiff ODE is solved with scipy's implicit methods (LSODA by default, Radau or BDF on request),
-piece by piece between breakpoints (fault instants, switching instants).
+The ODE is solved piece by piece between breakpoints (fault instants, switching instants): by
+ROS2, a fixed-step L-stable Rosenbrock-W method, when the equations are discontinuous (Coulomb
+friction, leakage: see ``simulate``), otherwise by scipy's LSODA; Radau, BDF or RK45 on request.
 """
 from __future__ import annotations
 
@@ -54,6 +55,13 @@ class System:
     storage_names: list[str]
     discontinuous: bool               # sign/abs/heaviside in the equations (Coulomb friction, leakage)
 
+    def derivative(self, t: float, x: np.ndarray, params: list[float]) -> np.ndarray:
+        """x' from A(x) x' = b(x): divided out when A is diagonal, a linear solve otherwise."""
+        if self.explicit is not None:
+            return np.array(self.explicit(t, *x, *params))
+        A = np.atleast_2d(np.asarray(self.matrix(t, *x, *params), dtype=float))
+        return np.linalg.solve(A, np.asarray(self.rhs(t, *x, *params), dtype=float).reshape(-1))
+
 
 def _specialise(model: Model, values: Mapping[str, float]) -> tuple[Model, frozenset[str]]:
     """Resistors whose flow law vanishes at these values become open circuits (Sf: 0)."""
@@ -76,7 +84,11 @@ def _specialise(model: Model, values: Mapping[str, float]) -> tuple[Model, froze
 
 def build_system(model: Model, values: Mapping[str, float]) -> System:
     """Derive and lambdify the state equations of the configuration these parameter values imply."""
-    spec, opened = _specialise(model, values)
+    return _build(*_specialise(model, values))
+
+
+def _build(spec: Model, opened: frozenset[str]) -> System:
+    """The state equations of one configuration (a model with its open resistors replaced)."""
     causality = assign(spec, SIMULATION)
     bad = [p for p in causality.problems if "dependent storage" not in p]
     if bad or causality.loops:
@@ -207,11 +219,9 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
     system: System | None = None
     x = None
     for a, b in zip(edges[:-1], edges[1:]):
-        mid = 0.5 * (a + b)
-        vals_mid = values(mid)
-        _, opened = _specialise(model, vals_mid)
+        spec, opened = _specialise(model, values(0.5 * (a + b)))
         if opened not in cache:
-            cache[opened] = build_system(model, vals_mid)
+            cache[opened] = _build(spec, opened)
         new = cache[opened]
         if system is None:
             x = _initial_state(new, initial, a, values(a))
@@ -223,27 +233,30 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
         mask = (t_eval >= a) & ((t_eval < b) | (b == edges[-1]))
         pts = t_eval[mask]
 
-        def param_vec(tt, sys_=system):
-            v = values(tt)
-            return [v[p] for p in sys_.param_names]
+        last: list = [None, None]                       # the parameters of the last instant asked
+
+        def param_vec(tt, sys_=system, last=last):
+            if last[0] != tt:                           # integrators ask the same instant repeatedly
+                v = values(tt)
+                last[0], last[1] = tt, [v[p] for p in sys_.param_names]
+            return last[1]
 
         def rhs(tt, xx, sys_=system):
-            p = param_vec(tt)
-            if sys_.explicit is not None:
-                return np.array(sys_.explicit(tt, *xx, *p))
-            A = np.atleast_2d(np.asarray(sys_.matrix(tt, *xx, *p), dtype=float))
-            bb = np.asarray(sys_.rhs(tt, *xx, *p), dtype=float).reshape(-1)
-            return np.linalg.solve(A, bb)
+            return sys_.derivative(tt, xx, param_vec(tt))
         how = method if method != "auto" else ("ros2" if system.discontinuous else "LSODA")
         if how == "ros2":
             sol = _ros2(rhs, a, b, x, pts, min(max_step or 1e-3, 1e-3))
+            x = sol.end
         else:
             sol = solve_ivp(rhs, (a, b), x, method=how, t_eval=pts if pts.size else None,
                             max_step=max_step or np.inf, rtol=1e-6, atol=1e-9)
             if not sol.success:
                 raise SimulationError(f"integration failed between {a:g} s and {b:g} s: {sol.message} "
                                       "(try method ros2)")
-        x = sol.y[:, -1] if (sol.t.size and sol.t[-1] == b) or not pts.size else _finish(rhs, sol, b, how, max_step)
+            x = sol.y[:, -1]
+            if pts.size and sol.t[-1] < b:              # t_eval stopped short of the piece's end
+                x = solve_ivp(rhs, (sol.t[-1], b), x, method=how, max_step=max_step or np.inf,
+                              rtol=1e-6, atol=1e-9).y[:, -1]
         if pts.size:
             ys = sol.y
             for i, tt in enumerate(sol.t):
@@ -267,8 +280,9 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
 
 @dataclass
 class _Solution:
-    t: np.ndarray
-    y: np.ndarray
+    t: np.ndarray          # the output points reached
+    y: np.ndarray          # states there, (n_states, points)
+    end: np.ndarray        # the state at the end of the piece
 
 
 def _ros2(rhs, a: float, b: float, x: np.ndarray, pts: np.ndarray, h_max: float, jac_every: int = 5) -> _Solution:
@@ -313,16 +327,7 @@ def _ros2(rhs, a: float, b: float, x: np.ndarray, pts: np.ndarray, h_max: float,
         if pts.size and target in pts:
             ts.append(target)
             ys.append(xx.copy())
-    sol = _Solution(np.asarray(ts), np.asarray(ys).T if ys else np.zeros((n_state, 0)))
-    sol.end = xx  # type: ignore[attr-defined]
-    return sol
-
-
-def _finish(rhs, sol, b, method, max_step):
-    if hasattr(sol, "end"):
-        return sol.end
-    last = solve_ivp(rhs, (sol.t[-1], b), sol.y[:, -1], method=method, max_step=max_step or np.inf, rtol=1e-6, atol=1e-9)
-    return last.y[:, -1]
+    return _Solution(np.asarray(ts), np.asarray(ys).T if ys else np.zeros((n_state, 0)), xx)
 
 
 def _initial_state(system: System, initial: Mapping[str, float], t0: float, vals: Mapping[str, float]) -> np.ndarray:
@@ -346,8 +351,7 @@ def _initial_state(system: System, initial: Mapping[str, float], t0: float, vals
     def gap(z):
         xx = x.copy()
         xx[free] = z
-        A = np.atleast_2d(np.asarray(system.matrix(t0, *xx, *p), dtype=float))
-        dx = np.linalg.solve(A, np.asarray(system.rhs(t0, *xx, *p), dtype=float).reshape(-1))
+        dx = system.derivative(t0, xx, p)
         out = np.asarray(system.outputs(t0, *xx, *p, *dx), dtype=float).reshape(-1)
         return (out[idx] - want) / np.maximum(1.0, np.abs(want))
     sol = least_squares(gap, x[free], xtol=1e-14, ftol=1e-14, gtol=1e-14)
@@ -360,8 +364,7 @@ def _initial_state(system: System, initial: Mapping[str, float], t0: float, vals
 def _carry_over(old: System, new: System, x: np.ndarray, t0: float, vals: Mapping[str, float]) -> np.ndarray:
     """Map the state across a configuration change (see module doc)."""
     p = [vals[n] for n in old.param_names]
-    A = np.atleast_2d(np.asarray(old.matrix(t0, *x, *p), dtype=float))
-    dx = np.linalg.solve(A, np.asarray(old.rhs(t0, *x, *p), dtype=float).reshape(-1))
+    dx = old.derivative(t0, x, p)
     energy = dict(zip(old.storage_names, np.asarray(old.energy(t0, *x, *p, *dx), dtype=float).reshape(-1)))
     current = dict(zip(old.states, x))
     return np.array([current.get(n, energy.get(n, 0.0)) for n in new.states], dtype=float)

@@ -222,8 +222,9 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
     import json
 
     from .diagnose import diagnose, public
+    from .identify import compiled
     from .report import to_text
-    model = load_model(model_path)
+    model = compiled(str(model_path))[0]
     bar = Progress(1.0, "estimators")
     report = diagnose(model_path, data, options, progress=lambda done, total: bar(done / total))
     if args.json:
@@ -240,8 +241,9 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from .data import read_csv
+    from .identify import compiled
 
-    model = load_model(args.model)
+    model = compiled(args.model)[0]
     options = _options(args, model)
     data = read_csv(args.data)
     return _diagnose_and_print(args.model, data, options, args, args.data)
@@ -253,8 +255,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from .resources import scenarios_dir, shipped_model
     from .scenario import load_scenario, run
 
+    from .identify import compiled
     path = str(shipped_model("cycab_steering"))
-    model = load_model(path)
+    model = compiled(path)[0]
     scenario = load_scenario(scenarios_dir() / f"cycab_{args.scenario}.json", model)
     print(f"simulating CyCab {args.scenario} ({scenario.T:g} s; faults: "
           + (", ".join(f"{f.target} {f.type} from {f.t0:g} s" for f in scenario.faults) or "none") + ")",

@@ -17,7 +17,6 @@ import numpy as np
 from bondgraph.errors import ModelError
 from optim import DEFAULT_ENGINE, ENGINES
 
-from .arrs import derive_arrs
 from .data import DataError, Measurements, read_csv, signals_from_data
 from .derivatives import DEFAULT_ORDER, window_samples
 from .detect import detect, thresholds_for
@@ -55,7 +54,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     timings: dict[str, float] = {}
     clock = time.perf_counter()
     path = str(model_path)
-    model, residuals = compiled(path)
+    model, arrs, residuals = compiled(path)
     meas = data if isinstance(data, Measurements) else read_csv(data)
     raw = signals_from_data(model, meas)
     need = window_samples(model.derivative_window, meas.ts, DEFAULT_ORDER) + 1
@@ -83,9 +82,8 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     report["detection"] = {"time": det.time, "coherence": list(det.coherence), "decision_time": det.decision_time,
                            "final_coherence": list(det.final_coherence)}
     clock = time.perf_counter()
-    arrs = derive_arrs(model)
-    fsm = fault_signature_matrix(model, arrs, mode)
-    mcsm = mode_change_signature_matrix(model, arrs, mode)
+    fsm = fault_signature_matrix(model, list(arrs), mode)
+    mcsm = mode_change_signature_matrix(model, list(arrs), mode)
     candidates = candidate_sets(fsm, det.final_coherence, o.exoneration)
     suspects = suspected_mode_changes(mcsm, det.final_coherence)
     report["candidates"] = [list(c) for c in candidates]

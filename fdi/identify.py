@@ -34,7 +34,7 @@ from optim import ENGINES, bde
 from optim.core import fitness
 
 from . import encoding
-from .arrs import derive_arrs
+from .arrs import ARR, derive_arrs
 from .encoding import FaultSpace
 from .residuals import Residual, compile_residuals, corrected_signals, derivative_orders, parameter_values
 
@@ -42,10 +42,11 @@ DEFAULT_BOUNDS = {"sensor": (0.05, 1.5), "source": (0.05, 1.5), "group": (0.1, 1
 
 
 @lru_cache(maxsize=4)
-def compiled(path: str) -> tuple[Model, tuple[Residual, ...]]:
-    """Model and residuals, once per process."""
+def compiled(path: str) -> tuple[Model, tuple[ARR, ...], tuple[Residual, ...]]:
+    """Model, AGARRs and residuals, derived once per process."""
     model = load_model(path)
-    return model, tuple(compile_residuals(model, derive_arrs(model)))
+    arrs = tuple(derive_arrs(model))
+    return model, arrs, tuple(compile_residuals(model, list(arrs)))
 
 
 def fault_space(model: Model, name: str, span: float | None = None) -> FaultSpace:
@@ -177,7 +178,7 @@ class EstimatorResult:
 
 def _run_estimator(job: tuple) -> EstimatorResult:
     path, t, raw, t0, samples, candidate, weights, settings, seed = job
-    model, residuals = compiled(path)
+    model, _, residuals = compiled(path)
     win = window(t, raw, t0, samples, model.derivative_window)
     obj = Objective(model, residuals, win, tuple(candidate), np.asarray(weights), model.derivative_window)
     engine = ENGINES[settings["engine"]]
@@ -256,7 +257,7 @@ def benchmark_problem(name: str, seed: int):
     if name != "scenario2":
         raise ValueError(f"unknown problem '{name}' (synthetic, synthetic-all, a synthetic case, or scenario2)")
     path = str(shipped_model("cycab_steering"))
-    model, residuals = compiled(path)
+    model, _, residuals = compiled(path)
     data = read_csv(reference_data("scenario2.csv"))
     raw = signals_from_data(model, data)
     win = window(data.t, raw, 32.0, model.samples, model.derivative_window)
