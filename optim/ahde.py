@@ -146,7 +146,7 @@ def _structure_candidates(best, seen, keys, describe, onehot, n_bits: int, top: 
             starts = [seen[key][1], real] if key in seen else [real]
             out.append((key, np.array(starts), bits))
     add(best[2], best[1])
-    for key, (_c, real, bits) in sorted(seen.items(), key=lambda kv: kv[1][0])[:top]:
+    for _key, (_c, real, bits) in sorted(seen.items(), key=lambda kv: kv[1][0])[:top]:
         add(bits, real)
     for group in onehot:
         for i in group:
