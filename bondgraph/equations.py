@@ -19,7 +19,7 @@ import sympy as sp
 
 from .causality import Causality
 from .graph import BondKey, ports, to_networkx
-from .model import Element, Model, t
+from .model import LAW_VARIABLES, Element, Model, t
 
 Var = tuple[str, BondKey]          # ('e' | 'f', bond key)
 
@@ -112,12 +112,12 @@ def _resistor(model: Model, e: Element, k: BondKey, form: str) -> Relation:
     if form == "resistance":
         if "effort" in e.laws:
             law = e.laws["effort"]
-            return Relation(("e", k), (("f", k),), lambda x: law.xreplace({sp.Symbol("f", real=True): x}))
+            return Relation(("e", k), (("f", k),), lambda x: law.xreplace({LAW_VARIABLES["f"]: x}))
         r = model.symbols[e.parameter]
         return Relation(("e", k), (("f", k),), lambda x: r * x)
     if "flow" in e.laws:
         law = e.laws["flow"]
-        return Relation(("f", k), (("e", k),), lambda x: law.xreplace({sp.Symbol("e", real=True): x}))
+        return Relation(("f", k), (("e", k),), lambda x: law.xreplace({LAW_VARIABLES["e"]: x}))
     r = model.symbols[e.parameter]
     return Relation(("f", k), (("e", k),), lambda x: x / r)
 
@@ -129,7 +129,7 @@ def _storage(model: Model, e: Element, k: BondKey, form: str, states: Mapping[st
         var = ("e", k) if e.kind == "C" else ("f", k)
         law_key, energy = ("effort", "q") if e.kind == "C" else ("flow", "p")
         if law_key in e.laws:
-            expr = e.laws[law_key].xreplace({sp.Symbol(energy, real=True): x})
+            expr = e.laws[law_key].xreplace({LAW_VARIABLES[energy]: x})
         else:
             expr = x / p
         return Relation(var, (), lambda v=expr: v)
@@ -138,7 +138,7 @@ def _storage(model: Model, e: Element, k: BondKey, form: str, states: Mapping[st
         (("f", k), ("e", k), "momentum", "f")
     if law_key in e.laws:
         u = sp.Dummy("u", real=True)
-        slope = sp.diff(e.laws[law_key].xreplace({sp.Symbol(local, real=True): u}), u)   # dQ/du
+        slope = sp.diff(e.laws[law_key].xreplace({LAW_VARIABLES[local]: u}), u)   # dQ/du
         return Relation(out, (inp,), lambda x, dx: slope.xreplace({u: x}) * dx, derivative=True)
     return Relation(out, (inp,), lambda x, dx: p * dx, derivative=True)
 

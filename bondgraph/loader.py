@@ -6,6 +6,7 @@ Every mistake raises :class:`ModelError` naming the file, the key and (where kno
 """
 from __future__ import annotations
 
+import keyword
 import math
 from pathlib import Path
 from typing import Any
@@ -15,7 +16,7 @@ import yaml
 
 from .errors import ModelError
 from .expressions import ExpressionError, parse_expression
-from .model import (ELEMENT_KINDS, FAULT_KINDS, JUNCTION_KINDS, SENSOR_KINDS, SOURCE_KINDS,
+from .model import (LAW_VARIABLES, ELEMENT_KINDS, FAULT_KINDS, JUNCTION_KINDS, SENSOR_KINDS, SOURCE_KINDS,
                     TWO_PORT_KINDS, Bond, Element, Fault, Input, Junction, Model, Mode, Parameter,
                     Sensor, t)
 from .units import UnitError, check_unit
@@ -23,7 +24,7 @@ from .units import UnitError, check_unit
 _TOP_KEYS = {"name", "description", "reference", "parameters", "definitions", "inputs", "modes",
              "elements", "junctions", "sensors", "bonds", "faults", "thresholds", "data",
              "diagnosis", "initial"}
-_RESERVED = {"t", "e", "f", "q", "p", "pi", "E"}
+_RESERVED = {"t"}           # time, in input expressions; every other identifier is the user's
 
 
 class _Ctx:
@@ -117,8 +118,8 @@ def _spec(ctx: _Ctx, data: Any, where: tuple, allowed: set[str]) -> dict:
 def _name(ctx: _Ctx, name: Any, where: tuple) -> str:
     if not isinstance(name, str) or not name.isidentifier():
         raise ctx.error(where, f"name '{name}' must be an identifier (letters, digits, _; not starting with a digit)")
-    if name in _RESERVED:
-        raise ctx.error(where, f"name '{name}' is reserved ({', '.join(sorted(_RESERVED))}); choose another")
+    if name in _RESERVED or keyword.iskeyword(name):
+        raise ctx.error(where, f"name '{name}' is reserved (time 't' and Python keywords); choose another")
     return name
 
 
@@ -181,6 +182,11 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
     bonds = _bonds(ctx, data, elements, junctions)
     _check_ports(ctx, elements, junctions, bonds)
     _check_sensor_junctions(ctx, sensors, junctions)
+    for beta, owner in [(f"beta_{e.input or e.name}", e.input or e.name) for e in elements.values()
+                        if e.kind in SOURCE_KINDS] + [(f"beta_{s}", s) for s in sensors]:
+        if beta in taken:
+            raise ctx.error(_where_of(taken, beta, data), f"'{beta}' is the efficiency factor of '{owner}'; "
+                                                          "give this name to nothing else")
     for e in elements.values():
         if e.kind in SOURCE_KINDS:
             symbols[f"beta_{e.input or e.name}"] = sp.Symbol(f"beta_{e.input or e.name}", positive=True)
@@ -205,6 +211,13 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
                  sampling_time=sampling_time, waiting_time=waiting_time, samples=samples,
                  derivative_window=window,
                  initial=initial, symbols=plain)
+
+
+def _where_of(taken: dict, name: str, data: dict) -> tuple:
+    section = {"a parameter": "parameters", "a mode variable": "modes", "an input": "inputs",
+               "a sensor signal": "sensors", "a definition": "definitions", "an element": "elements",
+               "a junction": "junctions"}.get(taken[name], "parameters")
+    return (section, name)
 
 
 def _parameters(ctx, data, symbols, claim) -> dict[str, Parameter]:
@@ -373,7 +386,11 @@ def _elements(ctx, data, symbols, claim, inputs, sensors) -> dict[str, Element]:
             for law in _ELEMENT_KEYS[kind] - {"parameter"}:
                 if spec.get(law) is not None:
                     var = _LAW_VARS[(kind, law)]
-                    laws[law] = _expr(ctx, spec[law], where + (law,), {**params, var: sp.Symbol(var, real=True)})
+                    laws[law] = _expr(ctx, spec[law], where + (law,), {**params, var: LAW_VARIABLES[var]})
+            if kind in ("C", "I"):
+                laws = _storage_laws(ctx, where, kind, laws, fields.get("parameter"), symbols)
+            elif len(laws) == 2:
+                _check_inverse(ctx, where, laws["effort"], "f", laws["flow"], "e", "effort", "flow")
             if not laws and "parameter" not in fields:
                 hint = {"R": "parameter: R1, or effort: <law in f> / flow: <law in e>",
                         "C": "parameter: C1, or effort: <law in q>", "I": "parameter: I1, or flow: <law in p>"}[kind]
@@ -402,6 +419,58 @@ def _elements(ctx, data, symbols, claim, inputs, sensors) -> dict[str, Element]:
                 raise ctx.error(where, f"source '{name}' needs {need}")
         out[name] = Element(**{**element.__dict__, **fields})
     return out
+
+
+def _check_inverse(ctx, where, law: sp.Expr, law_var: str, inverse: sp.Expr, inverse_var: str,
+                   law_key: str, inverse_key: str) -> None:
+    """A declared law pair must be one relation: inverse(law(x)) = x at sample points (parameters at
+    sample values too, so a pair that only agrees at the nominal values is still caught)."""
+    x = LAW_VARIABLES[law_var]
+    params = sorted((law.free_symbols | inverse.free_symbols) - set(LAW_VARIABLES.values()), key=str)
+    rng = [0.37, 1.9, 0.83, 2.6, 1.3]
+    values = {p: sp.Float(0.5 + 0.37 * i) for i, p in enumerate(params)}
+    for v in rng:
+        try:
+            out = law.xreplace({**values, x: sp.Float(v)})
+            back = sp.N(inverse.xreplace({**values, LAW_VARIABLES[inverse_var]: out}))
+        except (TypeError, ValueError, ZeroDivisionError):          # pragma: no cover - sympy edge cases
+            continue
+        if not back.is_number or not back.is_finite:
+            continue
+        if abs(complex(back) - v) > 1e-6 * max(1.0, abs(v)):
+            raise ctx.error(where + (inverse_key,),
+                            f"'{inverse_key}' is not the inverse of '{law_key}' (at {law_var} = {v}: "
+                            f"{law_key} gives {sp.N(out, 6)}, {inverse_key} of that gives {sp.N(back, 6)}); "
+                            "give one relation in both forms, or only one of them")
+
+
+def _storage_laws(ctx, where, kind: str, laws: dict, parameter: str | None, symbols) -> dict:
+    """A C (I) given by its effort (flow) law only gets the inverse law, solved symbolically, for
+    derivative causality; a pair given both ways is checked for consistency."""
+    law_key, inv_key, energy, local = (("effort", "displacement", "q", "e") if kind == "C"
+                                       else ("flow", "momentum", "p", "f"))
+    if parameter is not None and laws:
+        raise ctx.error(where, f"give either parameter: or laws ({law_key}/{inv_key}), not both")
+    if law_key in laws and inv_key in laws:
+        _check_inverse(ctx, where, laws[law_key], energy, laws[inv_key], local, law_key, inv_key)
+    elif law_key in laws:
+        x, y = LAW_VARIABLES[energy], LAW_VARIABLES[local]
+        law = laws[law_key]
+        solved = None
+        if law.has(x) and not law.has(sp.sign, sp.Abs, sp.Heaviside, sp.Min, sp.Max):
+            try:
+                solved = sp.solve(sp.Eq(y, law), x, dict=False)
+            except (NotImplementedError, TypeError, ValueError):   # pragma: no cover - sympy edge cases
+                solved = None
+        if not solved or len(solved) != 1:
+            raise ctx.error(where + (law_key,),
+                            f"cannot invert '{law_key}' for {energy} symbolically; add {inv_key}: <law in {local}> "
+                            f"(the {energy} of a given {local}, used in derivative causality)")
+        laws = {**laws, inv_key: solved[0]}
+    elif inv_key in laws:
+        raise ctx.error(where, f"{kind} element has {inv_key}: but no {law_key}: <law in {energy}>; add it "
+                               "(the simulator integrates the energy variable)")
+    return laws
 
 
 def _junctions(ctx, data, claim, modes) -> dict[str, Junction]:
@@ -485,12 +554,6 @@ def _check_sensor_junctions(ctx, sensors, junctions) -> None:
         if base != want:
             raise ctx.error(where, f"a {s.kind} sensor measures the common {'effort' if want == '0' else 'flow'} "
                                    f"of a {want}-junction; '{s.junction}' is a {base}-junction")
-    used: dict[str, str] = {}
-    for s in sensors.values():
-        if s.junction in used:
-            raise ctx.error(("sensors", s.name, "junction"),
-                            f"junction '{s.junction}' already carries sensor '{used[s.junction]}'; one sensor per junction")
-        used[s.junction] = s.name
 
 
 def _faults(ctx, data, parameters, sensors, elements, modes) -> dict[str, Fault]:

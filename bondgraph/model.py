@@ -25,6 +25,10 @@ JUNCTION_KINDS = ("0", "1", "0c", "1c")
 FAULT_KINDS = ("parametric", "sensor", "source", "mode")
 
 t = sp.Symbol("t", real=True)
+# The local variable of a constitutive law as written in a model file (``f`` in an R's effort law,
+# ``q`` in a C's effort law). The symbols' names are no identifiers, so a user's parameter named
+# e, f, q or p never meets them.
+LAW_VARIABLES = {name: sp.Symbol(f"{name}~", real=True) for name in ("e", "f", "q", "p")}
 
 
 @dataclass(frozen=True)

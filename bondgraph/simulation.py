@@ -32,7 +32,7 @@ from scipy.integrate import solve_ivp
 from .causality import SIMULATION, assign
 from .equations import relations, resolve
 from .errors import CausalityError
-from .model import Element, Model, t
+from .model import LAW_VARIABLES, Element, Model, t
 
 
 class SimulationError(Exception):
@@ -73,7 +73,7 @@ def _specialise(model: Model, values: Mapping[str, float]) -> tuple[Model, froze
             continue
         law = e.laws.get("flow")
         if law is None and e.parameter is not None:
-            law = sp.Symbol("e", real=True) / model.symbols[e.parameter]
+            law = LAW_VARIABLES["e"] / model.symbols[e.parameter]
         if law is not None and sp.simplify(law.xreplace(subs)) == 0:
             opened.add(e.name)
             elements[e.name] = Element(e.name, "Sf", value=sp.Integer(0), description=f"{e.name} open (infinite)")
@@ -177,7 +177,7 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
             if law is None:
                 storage_energy.append(sp.nan)
             else:
-                storage_energy.append(law.xreplace({sp.Symbol("f" if e.kind == "I" else "e", real=True): var}))
+                storage_energy.append(law.xreplace({LAW_VARIABLES["f" if e.kind == "I" else "e"]: var}))
     lam = lambda exprs, extra=(): sp.lambdify(args + list(extra), exprs, modules="numpy", cse=True)
     explicit = None
     if A.is_diagonal():
