@@ -46,6 +46,7 @@ class Causality:
     problems: tuple[str, ...] = ()
     loops: tuple[str, ...] = ()
     modes_checked: tuple[Mapping[str, int], ...] = field(default_factory=tuple)
+    detectors: frozenset[str] = frozenset()     # sensors left as detectors (a junction's 2nd, 3rd... sensor)
 
     @property
     def ok(self) -> bool:
@@ -147,10 +148,18 @@ class _Assigner:
                 gives = e.kind in ("Se", "MSe")
                 self.set(key, other if gives else e.name, f"source {e.name}")
                 self.fixed[e.name] = "gives" if gives else "receives"
+        self.detectors: set[str] = set()
+        inverted: set[str] = set()
         for s in self.model.sensors.values():
             key, other = self._bond_of(s.name)
-            # diagnosis: inverted (De imposes effort, Df imposes flow); simulation: a detector
-            gives = (s.kind == "De") == diag
+            # diagnosis: inverted (De imposes effort, Df imposes flow); simulation: a detector.
+            # A junction has one common variable: its first sensor is inverted, the others detect.
+            invert = diag and s.junction not in inverted
+            if invert:
+                inverted.add(s.junction)
+            elif diag:
+                self.detectors.add(s.name)
+            gives = (s.kind == "De") == invert
             self.set(key, other if gives else s.name, f"sensor {s.name}")
             self.fixed[s.name] = "gives" if gives else "receives"
         self.propagate()
@@ -178,7 +187,8 @@ class _Assigner:
         resistors = self._resistors()
         self._junction_loops()
         strong = self._strong_bonds()
-        return Causality(self.purpose, dict(self.effort_to), storage, resistors, strong, tuple(self.problems))
+        return Causality(self.purpose, dict(self.effort_to), storage, resistors, strong, tuple(self.problems),
+                         detectors=frozenset(self.detectors))
 
     def _free_controlled_junctions(self) -> None:
         for j in self.model.junctions.values():
@@ -242,7 +252,7 @@ def assign(model: Model, purpose: str = DIAGNOSIS) -> Causality:
     loops = tuple(algebraic_loops(model, causality))
     modes = tuple(dict(zip(model.modes, values)) for values in product((1, 0), repeat=len(model.modes)))
     return Causality(causality.purpose, causality.effort_to, causality.storage, causality.resistors,
-                     causality.strong, causality.problems, loops, modes)
+                     causality.strong, causality.problems, loops, modes, causality.detectors)
 
 
 def require(causality: Causality) -> Causality:

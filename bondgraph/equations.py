@@ -59,7 +59,10 @@ def relations(model: Model, causality: Causality, *, known: Mapping[str, sp.Expr
         elif kind in ("De", "Df", "Se", "Sf", "MSe", "MSf"):
             (k, _, _), = ps
             var = ("e", k) if recv[k] != node else ("f", k)
-            out.append(Relation(var, (), (lambda v=known[node]: v)))
+            if node in causality.detectors:          # a detector's signal bond carries no power
+                out.append(Relation(var, (), lambda: sp.Integer(0)))
+            else:
+                out.append(Relation(var, (), (lambda v=known[node]: v)))
         elif kind == "R":
             out.append(_resistor(model, model.elements[node], ps[0][0], causality.resistors[node]))
         elif kind in ("C", "I"):

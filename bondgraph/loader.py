@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import keyword
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -604,13 +605,15 @@ def _faults(ctx, data, parameters, sensors, elements, modes) -> dict[str, Fault]
 
 
 def _thresholds(ctx, data, sensors) -> dict[str, float]:
-    names = [f"ARR{i + 1}" for i in range(len(sensors))]
-    by_sensor = {s: names[i] for i, s in enumerate(sensors)}
+    """Thresholds by residual name (ARR1, ARR2, ...: which residuals exist is decided by the
+    residual selection, and checked when the diagnosis starts) or by the sensor of an AGARR."""
+    by_sensor = {s: f"ARR{i + 1}" for i, s in enumerate(sensors)}
     out: dict[str, float] = {}
     for key, value in _mapping(ctx, data.get("thresholds"), ("thresholds",)).items():
         arr = by_sensor.get(key, key)
-        if arr not in names:
-            raise ctx.error(("thresholds", key), f"'{key}' is no residual (use {', '.join(names)} or a sensor name)")
+        if not (isinstance(arr, str) and re.fullmatch(r"ARR[1-9][0-9]*", arr)):
+            raise ctx.error(("thresholds", key), f"'{key}' is no residual (use ARR1, ARR2, ... as `bgfdi tables` "
+                                                 f"names them, or a sensor name: {', '.join(sensors) or 'none'})")
         number = _number(ctx, value, ("thresholds", key), "threshold")
         if not number > 0:
             raise ctx.error(("thresholds", key), "a threshold must be positive")

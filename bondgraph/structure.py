@@ -109,7 +109,10 @@ def _eq(name, node, expr, variables, solutions=None, linear=(), differential=Non
             s = _solve_linear(expr, v)
             if s is not None:
                 sol[v] = s
-    return Equation(name, node, expr, frozenset(variables), sol, differential)
+    present = expr.free_symbols
+    variables = frozenset(v for v in variables if v in present)     # a mode at 0 removes some
+    sol = {v: x for v, x in sol.items() if v in variables}
+    return Equation(name, node, expr, variables, sol, differential)
 
 
 def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
@@ -199,12 +202,15 @@ def _junction_equations(model, node, kind, ps, strong, sub) -> list[Equation]:
         if s is None or isinstance(s, str) or s not in var:
             s = ps[0][0]
         a = sub(model.symbols[junction.mode])
-        for k in var:
-            if k == s:
-                continue
+        outputs = [k for k in var if k != s]
+        c = "e" if common_i == 0 else "f"
+        for n, k in enumerate(outputs):
             x, xs = var[k][common_i], var[s][common_i]
-            out.append(_eq(f"{node}.{'e' if common_i == 0 else 'f'}{k}", node, x - a * xs, {x, xs},
-                           solutions={x: a * xs}))
+            if n == 0:      # the output times the mode: never solved for the strong side (division by a)
+                out.append(_eq(f"{node}.{c}{k}", node, x - a * xs, {x, xs}, solutions={x: a * xs}))
+            else:           # outputs equal one another in every mode
+                x0 = var[outputs[0]][common_i]
+                out.append(_eq(f"{node}.{c}{k}", node, x - x0, {x, x0}, linear=[x, x0]))
         ys = var[s][total_i]
         others = [sign[k] * var[k][total_i] for k in var if k != s]
         value = a * (-sign[s]) * sp.Add(*others)

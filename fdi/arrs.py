@@ -9,22 +9,39 @@ variables stay symbols: every output of a controlled junction is multiplied by i
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, field
 
 import sympy as sp
 
 from bondgraph.causality import DIAGNOSIS, Causality, assign, require
 from bondgraph.equations import relations, resolve, signal
 from bondgraph.model import Model, t
+from bondgraph.sequential import realize
+from bondgraph.structure import DERIVATIVE, MIXED, EquationSystem, equations, mso_search
 
 
 @dataclass(frozen=True)
 class ARR:
-    """One AGARR: ``expr`` = 0 holds while the system is healthy. The residual is its value."""
+    """One AGARR: ``expr`` = 0 holds while the system is healthy. The residual is its value.
+
+    ``origin`` is ``SCAPH`` (the sensor's junction law along the causal strokes) or ``MSO`` (a
+    minimal over-determined equation set, ``equations``, computed along a causal sequence and
+    written at ``junction``, the node of its residual equation). ``causality`` says whether it
+    only differentiates measured signals (``derivative``) or also integrates (``mixed``: then
+    ``states`` are its integrated variables X(t), each with X' = rhs, integrated from the start
+    of the data window). ``exact``, where given, keeps the time derivative of a stored quantity
+    whose law carries a fault parameter whole (``Derivative(CT2*p2(t), t)``), for evaluation
+    under a time-varying fault."""
     name: str
-    sensor: str
+    sensor: str | None
     junction: str
     expr: sp.Expr
+    origin: str = "SCAPH"
+    equations: tuple[str, ...] = ()
+    causality: str = DERIVATIVE
+    states: tuple = ()
+    exact: sp.Expr | None = None
 
 
 def sensor_value(model: Model, name: str) -> sp.Expr:
@@ -56,18 +73,152 @@ def signal_substitutions(model: Model) -> dict[sp.Symbol, sp.Expr]:
 
 
 def derive_arrs(model: Model, causality: Causality | None = None) -> list[ARR]:
-    """The AGARRs of ``model``, one per sensor in the order the sensors are listed."""
+    """The AGARRs of ``model`` (SCAPH), one per sensor in the order the sensors are listed.
+
+    The first sensor on a junction is inverted and closes the junction's law; every further
+    sensor on the same junction is a detector of the junction's common variable, and its AGARR is
+    measurement minus that variable (``v - dx/dt`` for a speed and a position sensor on one mass)."""
     causality = require(causality or assign(model, DIAGNOSIS))
-    rels = relations(model, causality, known=known_variables(model), states={},
-                     signals=signal_substitutions(model))
+    known = known_variables(model)
+    rels = relations(model, causality, known=known, states={}, signals=signal_substitutions(model))
     wanted = []
     for s in model.sensors.values():
-        # the junction's output on the sensor bond: flow of a De's 0-junction, effort of a Df's 1-junction
-        wanted.append(("f", s.name) if s.kind == "De" else ("e", s.name))
+        if s.name in causality.detectors:
+            # a detector: the junction's common variable on the sensor bond
+            wanted.append(("e", s.name) if s.kind == "De" else ("f", s.name))
+        else:
+            # the junction's output on the sensor bond: flow of a De's 0-junction, effort of a Df's 1-junction
+            wanted.append(("f", s.name) if s.kind == "De" else ("e", s.name))
     values = resolve(rels, wanted)
     modes = [model.symbols[m] for m in model.modes]
-    return [ARR(name, s.name, s.junction, binary_modes(values[w], modes))
-            for name, s, w in zip(model.arr_names(), model.sensors.values(), wanted)]
+    out = []
+    for name, s, w in zip(model.arr_names(), model.sensors.values(), wanted):
+        expr = known[s.name] - values[w] if s.name in causality.detectors else values[w]
+        out.append(ARR(name, s.name, s.junction, binary_modes(expr, modes)))
+    return out
+
+
+def structural_system(model: Model, causality: Causality | None = None, mode=None) -> EquationSystem:
+    """The model's causality-free equations with this module's known values: sources times
+    their efficiency factors, measurements divided by theirs; controlled junctions keep the
+    strong bond SCAPH gives them (one causality in every mode)."""
+    causality = causality or assign(model, DIAGNOSIS)
+    sensors = {s: sensor_value(model, s) for s in model.sensors}
+    sources = {e.name: source_value(model, e.name) for e in model.sources()}
+    return equations(model, sources=sources, sensors=sensors, signals=signal_substitutions(model),
+                     strong=causality.strong, mode=mode)
+
+
+def storage_fault_parameters(model: Model) -> set[sp.Symbol]:
+    """Parameters of storage laws that a candidate fault changes."""
+    targets = {p for f in model.faults.values() if f.kind == "parametric" for p in f.targets}
+    out = set()
+    for e in model.elements.values():
+        if e.kind in ("C", "I"):
+            syms = {s.name for law in e.laws.values() for s in law.free_symbols}
+            if e.parameter:
+                syms.add(e.parameter)
+            out |= {model.symbols[n] for n in syms & targets}
+    return out
+
+
+@dataclass(frozen=True)
+class ResidualSet:
+    """The residuals bgfdi diagnoses with, and why: the SCAPH AGARRs where they reach the model's
+    best structural isolability, completed by MSO residuals where they do not."""
+    arrs: tuple[ARR, ...]
+    causality: str
+    scaph_ok: bool
+    scaph_problems: tuple[str, ...]
+    candidates: int = 0                 # MSO residuals computable in this causality
+    msos: int = 0
+    mso_complete: bool = True
+    mso_seconds: float = 0.0
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+def select_arrs(model: Model, causality: str = DERIVATIVE) -> ResidualSet:
+    """A small residual set reaching the model's best structural isolability (in ``causality``,
+    derivative by default): the SCAPH AGARRs where they already do (the CyCab keeps eqs. 5, 9,
+    13), otherwise completed (or, where SCAPH gives up, replaced) by MSO residuals, chosen
+    greedily by the detectability and isolability they add, fewest differentiations first."""
+    from .isolability import signature_isolability, structural_isolability
+    from .signatures import fault_signature_matrix, nominal_mode
+
+    diag = assign(model, DIAGNOSIS)
+    scaph = derive_arrs(model, diag) if diag.ok else []
+    problems = tuple(diag.problems) + tuple(diag.loops)
+    faults = [f for f, v in model.faults.items() if v.kind != "mode"]
+    system = structural_system(model, diag)
+    mode = nominal_mode(model)
+    best = structural_isolability(model, system, causality, faults)
+
+    def iso(arrs: list[ARR]):
+        if not arrs:
+            return signature_isolability(faults, {f: () for f in faults})
+        fsm = fault_signature_matrix(model, arrs, mode)
+        return signature_isolability(faults, {r.fault: r.structural for r in fsm.rows})
+
+    if diag.ok and iso(scaph).covers(best):
+        return ResidualSet(tuple(scaph), causality, True, problems)
+    search = mso_search(system)
+    exact = storage_fault_parameters(model)
+    pool: list[ARR] = []
+    seen = {sp.srepr(a.expr) for a in scaph}
+    for mso in search.sets:
+        try:
+            r = realize(system, mso, causality, exact)
+        except ValueError:
+            continue
+        if r is None:
+            continue
+        modes = [model.symbols[m] for m in model.modes]
+        expr = binary_modes(r.expr, modes)
+        if expr == 0 or sp.srepr(expr) in seen:
+            continue
+        seen.add(sp.srepr(expr))
+        eqs = system.equations
+        node = eqs[r.residual_equation].node
+        sensors = [eqs[i].name for i in sorted(mso) if eqs[i].name in model.sensors]
+        pool.append(ARR("", ", ".join(sensors) or None, node, expr, "MSO",
+                        tuple(sorted(eqs[i].name for i in mso)), r.causality,
+                        tuple(r.states), None if r.exact is None else binary_modes(r.exact, modes)))
+    chosen = list(scaph)
+    current = iso(chosen)
+    while not current.covers(best):
+        scored = []
+        for i, cand in enumerate(pool):
+            trial = iso(chosen + [cand])
+            gain = (sum(trial.detectable) - sum(current.detectable), trial.pairs() - current.pairs())
+            if gain > (0, 0):
+                scored.append((gain, -len(cand.states), -sp.count_ops(cand.expr), -i, cand, trial))
+        if not scored:
+            break
+        scored.sort(key=lambda x: x[:4], reverse=True)
+        _, _, _, _, cand, trial = scored[0]
+        chosen.append(cand)
+        pool.remove(cand)
+        current = trial
+    # drop MSO residuals the others make redundant (last added first)
+    for cand in [a for a in reversed(chosen) if a.origin == "MSO"]:
+        rest = [a for a in chosen if a is not cand]
+        if rest and iso(rest).covers(current):
+            chosen = rest
+    k = len(scaph)
+    out = []
+    for a in chosen:
+        if a.origin == "MSO":
+            k += 1
+            a = ARR(f"ARR{k}", a.sensor, a.junction, a.expr, a.origin, a.equations, a.causality, a.states, a.exact)
+        out.append(a)
+    notes = []
+    if not current.covers(best):
+        notes.append("the computable residuals do not reach the best structural isolability "
+                     "(a law given in one form only, or an algebraic loop sympy cannot solve)")
+    if not search.complete:
+        notes.append(f"MSO search stopped after {len(search.sets)} sets")
+    return ResidualSet(tuple(out), causality, diag.ok, problems, len(pool) + len(chosen) - len(scaph),
+                       len(search.sets), search.complete, search.seconds, tuple(notes))
 
 
 def binary_modes(expr: sp.Expr, modes: list[sp.Symbol]) -> sp.Expr:

@@ -22,6 +22,7 @@ from .output import write_atomic
 
 
 USER_ERRORS = (ModelError, CausalityError, DataError, UsageError)
+CAUSALITY_CHOICES = ("derivative", "mixed")
 
 
 def parse_mode(text: str, model: Model) -> dict[str, int]:
@@ -80,14 +81,21 @@ def cmd_check(args: argparse.Namespace) -> int:
     diag = assign(model, DIAGNOSIS)
     print()
     print("causality for diagnosis (SCAPH: sources fixed, sensors inverted, storage in derivative causality)")
-    if not diag.ok:
-        for p in list(diag.problems) + list(diag.loops):
-            print(f"  problem: {p}")
-        raise CausalityError(list(diag.problems) + list(diag.loops))
-    from .arrs import derive_arrs
+    from .arrs import select_arrs
     from .signatures import all_modes
 
-    arrs = derive_arrs(model, diag)
+    chosen = select_arrs(model, args.causality)
+    if not diag.ok:
+        for p in list(diag.problems) + list(diag.loops):
+            print(f"  SCAPH: {p}")
+        if not chosen.arrs:
+            raise CausalityError(list(diag.problems) + list(diag.loops)
+                                 + [f"and no residual exists in {args.causality} causality (bgfdi isolability "
+                                    f"{args.model} proposes sensors)"])
+        print(f"  SCAPH leaves storage out of derivative causality or closes a loop: the residuals come from "
+              f"structural analysis ({chosen.msos} MSO sets, {chosen.candidates} computable in "
+              f"{args.causality} causality)")
+    arrs = list(chosen.arrs)
     bad = []
     for mode in all_modes(model):
         for a in arrs:
@@ -98,19 +106,26 @@ def cmd_check(args: argparse.Namespace) -> int:
         raise CausalityError(bad)
     n_modes = len(diag.modes_checked)
     print(f"  one assignment, valid in all {n_modes} mode(s)"
-          + (f" ({', '.join(model.modes)} in {{0, 1}}; checked: every AGARR is defined in each): controlled "
+          + (f" ({', '.join(model.modes)} in {{0, 1}}; checked: every residual is defined in each): controlled "
              "junction outputs are multiplied by their mode variable, so no causality is reassigned at a switch"
              if model.modes else ""))
     print("  storage: " + (", ".join(f"{k} {v}" for k, v in diag.storage.items()) or "none"))
-    if all(v == "derivative" for v in diag.storage.values()):
+    if diag.ok and all(v == "derivative" for v in diag.storage.values()):
         print("  all storage elements in derivative causality")
     for j in model.junctions.values():
-        if j.controlled:
+        if j.controlled and j.name in diag.strong:
             print(f"  controlled junction {j.name}: strong bond {diag.strong[j.name]} (preferred causality), "
                   f"outputs x {j.mode}")
+    for s in sorted(diag.detectors):
+        print(f"  sensor {s}: a second sensor on junction {model.sensors[s].junction}, a detector (its own residual)")
     print("  bond  from -> to  causal stroke:")
     for line in _causality_lines(model, diag):
         print(line)
+    print()
+    print(f"residuals ({args.causality} causality): " + ", ".join(
+        f"{a.name} ({'SCAPH, ' + str(a.sensor) if a.origin == 'SCAPH' else 'MSO at ' + a.junction})" for a in arrs))
+    for note in chosen.notes:
+        print(f"  note: {note}")
     sim = assign(model, SIMULATION)
     print()
     print("causality for simulation (SCAP, integral causality preferred)")
@@ -131,16 +146,33 @@ def cmd_graph(args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------ tables
 
 def cmd_tables(args: argparse.Namespace) -> int:
-    from .arrs import derive_arrs
+    from .arrs import select_arrs
     from .signatures import all_modes, fault_signature_matrix, mode_change_signature_matrix
     from .tables import render
 
     model = load_model(args.model)
-    arrs = derive_arrs(model)
+    arrs = list(select_arrs(model, args.causality).arrs)
+    if not arrs:
+        raise CausalityError([f"{model.name} has no residual in {args.causality} causality; "
+                              f"bgfdi isolability {args.model} proposes sensors"])
     modes = [parse_mode(args.mode, model)] if args.mode else all_modes(model)
     fsms = [fault_signature_matrix(model, arrs, m) for m in modes]
     mcsm = mode_change_signature_matrix(model, arrs, modes[0] if args.mode else None)
     _emit(render(args.format, arrs, fsms, mcsm), args.output)
+    return 0
+
+
+# ------------------------------------------------------------------ isolability
+
+def cmd_isolability(args: argparse.Namespace) -> int:
+    from .isolability_report import analyse, to_json, to_text
+
+    model = load_model(args.model)
+    if args.max_sensors < 0 or args.max_sensors > 6:
+        raise UsageError("--max-sensors must be between 0 and 6")
+    modes = [parse_mode(args.mode, model)] if args.mode else None
+    result = analyse(model, args.causality, modes, args.max_sensors)
+    _emit(to_json(result) if args.json else to_text(result), args.output)
     return 0
 
 
@@ -203,10 +235,12 @@ def _options(args: argparse.Namespace, model: Model):
     from optim import ENGINES
 
     from .diagnose import Options
+    from .identify import compiled
+    names = [a.name for a in compiled(model.path)[1]]
     thresholds = _pairs(args.threshold, "threshold")
     for k in thresholds:
-        if k not in model.arr_names():
-            raise UsageError(f"--threshold: '{k}' is no residual of {model.name} (use {', '.join(model.arr_names())})")
+        if k not in names:
+            raise UsageError(f"--threshold: '{k}' is no residual of {model.name} (use {', '.join(names)})")
     failures = _pairs(args.failure, "failure")
     for k in failures:
         if k not in model.faults:
@@ -309,6 +343,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     c = sub.add_parser("check", help="validate a model and show its causality")
     c.add_argument("model")
+    c.add_argument("--causality", choices=CAUSALITY_CHOICES, default="derivative",
+                   help="residuals that differentiate only (default) or may integrate (mixed)")
     c.set_defaults(func=cmd_check)
 
     g = sub.add_parser("graph", help="write Graphviz DOT with causal strokes")
@@ -321,8 +357,20 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("model")
     t.add_argument("--mode", help="one mode, e.g. a1=1,a2=1 (default: every mode)")
     t.add_argument("--format", choices=("text", "markdown", "latex", "json", "csv"), default="text")
+    t.add_argument("--causality", choices=CAUSALITY_CHOICES, default="derivative",
+                   help="residuals that differentiate only (default) or may integrate (mixed)")
     t.add_argument("-o", "--output", help="file to write (default: standard output)")
     t.set_defaults(func=cmd_tables)
+
+    iso = sub.add_parser("isolability", help="detectability and isolability per mode; sensor placement")
+    iso.add_argument("model")
+    iso.add_argument("--causality", choices=CAUSALITY_CHOICES, default="derivative",
+                     help="causal interpretation of differential constraints (default derivative)")
+    iso.add_argument("--mode", help="one mode, e.g. v=0 (default: every mode)")
+    iso.add_argument("--max-sensors", type=int, default=3, help="largest sensor set tried for placement")
+    iso.add_argument("--json", action="store_true", help="print the analysis as JSON")
+    iso.add_argument("-o", "--output", help="file to write (default: standard output)")
+    iso.set_defaults(func=cmd_isolability)
 
     s = sub.add_parser("simulate", help="simulate a scenario with faults injected; write a measurement CSV")
     s.add_argument("model")

@@ -61,7 +61,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     if meas.t.size < need:
         raise DataError(f"{meas.path}: {meas.t.size} samples are too few: the derivative window of {model.name} "
                         f"({model.derivative_window:g} s) needs at least {need}")
-    names = model.arr_names()
+    names = [a.name for a in arrs]
     try:
         thresholds = thresholds_for(model.thresholds, names, o.thresholds)
     except ValueError as exc:

@@ -34,7 +34,7 @@ from optim import ENGINES, bde
 from optim.core import fitness
 
 from . import encoding
-from .arrs import ARR, derive_arrs
+from .arrs import ARR, select_arrs
 from .encoding import FaultSpace
 from .residuals import Residual, compile_residuals, corrected_signals, derivative_orders, parameter_values
 
@@ -45,7 +45,7 @@ DEFAULT_BOUNDS = {"sensor": (0.05, 1.5), "source": (0.05, 1.5), "group": (0.1, 1
 def compiled(path: str) -> tuple[Model, tuple[ARR, ...], tuple[Residual, ...]]:
     """Model, AGARRs and residuals, derived once per process."""
     model = load_model(path)
-    arrs = tuple(derive_arrs(model))
+    arrs = tuple(select_arrs(model).arrs)
     return model, arrs, tuple(compile_residuals(model, list(arrs)))
 
 
@@ -257,11 +257,11 @@ def benchmark_problem(name: str, seed: int):
     if name != "scenario2":
         raise ValueError(f"unknown problem '{name}' (synthetic, synthetic-all, a synthetic case, or scenario2)")
     path = str(shipped_model("cycab_steering"))
-    model, _, residuals = compiled(path)
+    model, arrs, residuals = compiled(path)
     data = read_csv(reference_data("scenario2.csv"))
     raw = signals_from_data(model, data)
     win = window(data.t, raw, 32.0, model.samples, model.derivative_window)
-    weights = 1.0 / np.array([model.thresholds[a] for a in model.arr_names()])
+    weights = 1.0 / np.array([model.thresholds[a.name] for a in arrs])
     obj = Objective(model, residuals, win, ("R4", "beta_theta2"), weights, model.derivative_window)
     truth = [{"type": "abrupt", "value": 2.5221e7}, {"type": "incipient", "model": 2, "b": [-0.03]}]
     t_win = win.t[win.crop]

@@ -66,7 +66,11 @@ def compile_residual(model: Model, arr: ARR) -> Residual:
     used = sorted(set(used))
     signal_syms = [sp.Symbol(f"{s}__d{k}", real=True) for s, k in used]
     others = sorted((s for s in numeric.free_symbols if s not in set(signal_syms)), key=lambda s: s.name)
-    func = sp.lambdify(signal_syms + others, numeric, modules="numpy", cse=True)
+    if arr.states:
+        raise ValueError(f"{arr.name} integrates states (mixed causality); bgfdi evaluates residuals in "
+                         "derivative causality on data: use the derivative-causality residual set")
+    # dummify: a parameter may be named like a numpy function (exp, sign) without shadowing it
+    func = sp.lambdify(signal_syms + others, numeric, modules="numpy", cse=True, dummify=True)
     return Residual(arr.name, arr.sensor, func, tuple(used), tuple(s.name for s in others), expr)
 
 
