@@ -32,6 +32,8 @@ class Relation:
     inputs: tuple[Var, ...]
     law: Callable[..., sp.Expr]
     derivative: bool = False
+    energy: Callable[[sp.Expr], sp.Expr] | None = None   # storage: q(e) or p(f), the stored quantity
+    parameters: frozenset = frozenset()                   # symbols of the storage law
 
 
 def signal(name: str) -> sp.Expr:
@@ -141,12 +143,16 @@ def _storage(model: Model, e: Element, k: BondKey, form: str, states: Mapping[st
         (("f", k), ("e", k), "momentum", "f")
     if law_key in e.laws:
         u = sp.Dummy("u", real=True)
-        slope = sp.diff(e.laws[law_key].xreplace({LAW_VARIABLES[local]: u}), u)   # dQ/du
-        return Relation(out, (inp,), lambda x, dx: slope.xreplace({u: x}) * dx, derivative=True)
-    return Relation(out, (inp,), lambda x, dx: p * dx, derivative=True)
+        q = e.laws[law_key].xreplace({LAW_VARIABLES[local]: u})
+        slope = sp.diff(q, u)   # dQ/du
+        return Relation(out, (inp,), lambda x, dx: slope.xreplace({u: x}) * dx, derivative=True,
+                        energy=lambda x: q.xreplace({u: x}), parameters=frozenset(q.free_symbols - {u}))
+    return Relation(out, (inp,), lambda x, dx: p * dx, derivative=True, energy=lambda x: p * x,
+                    parameters=frozenset({p}))
 
 
-def resolve(rels: list[Relation], wanted: list[Var] | None = None) -> dict[Var, sp.Expr]:
+def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozenset = frozenset()
+            ) -> dict[Var, sp.Expr]:
     """Evaluate relations in causal order; only the ancestors of ``wanted`` if given.
 
     Time derivatives (storage elements in derivative causality) are propagated forward along the
@@ -154,7 +160,12 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None) -> dict[Var, 
     taken on that small local expression (chain rule, explicit t-dependence of modulated laws
     included), and the resolved inputs and their derivatives are substituted afterwards. No
     ``diff`` ever runs on a grown expression, so the cost per relation does not grow with the
-    model. Raises ValueError naming the variables of a causal loop."""
+    model. Raises ValueError naming the variables of a causal loop.
+
+    ``whole``: parameters whose storage laws are differentiated as a whole: such an element gives
+    ``Derivative(q(x), t)`` unexpanded (the rate of the stored quantity, exact when the parameter
+    varies in time: a capacitance fault changes e at constant q, and dq/dt carries the dC/dt e
+    term), for evaluation by :mod:`fdi.residuals`."""
     by_output = {r.output: r for r in rels}
     dag = nx.DiGraph()
     for r in rels:
@@ -190,6 +201,10 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None) -> dict[Var, 
             for _ in range(k):
                 values.append(sp.diff(values[-1], t))
             series[v] = values
+            continue
+        if r.derivative and r.energy is not None and r.parameters & whole:
+            inner = r.energy(series[r.inputs[0]][0])
+            series[v] = [sp.Derivative(inner, (t, j + 1)) for j in range(k + 1)]
             continue
         top = k + (1 if r.derivative else 0)
         local = [[sp.Dummy(f"u{i}_{j}") for j in range(top + 1)] for i in range(len(r.inputs))]

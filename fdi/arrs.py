@@ -90,12 +90,21 @@ def derive_arrs(model: Model, causality: Causality | None = None) -> list[ARR]:
             # the junction's output on the sensor bond: flow of a De's 0-junction, effort of a Df's 1-junction
             wanted.append(("f", s.name) if s.kind == "De" else ("e", s.name))
     values = resolve(rels, wanted)
+    whole = frozenset(storage_fault_parameters(model))
+    exact = resolve(rels, wanted, whole) if whole else None
     modes = [model.symbols[m] for m in model.modes]
     out = []
     for name, s, w in zip(model.arr_names(), model.sensors.values(), wanted):
-        expr = known[s.name] - values[w] if s.name in causality.detectors else values[w]
-        out.append(ARR(name, s.name, s.junction, binary_modes(expr, modes)))
+        forms = [values[w]] + ([exact[w]] if exact is not None else [])
+        forms = [known[s.name] - f if s.name in causality.detectors else f for f in forms]
+        ex = binary_modes(forms[1], modes) if len(forms) > 1 and forms[1].has(sp.Derivative) and \
+            any(not _plain_signal(d.expr) for d in forms[1].atoms(sp.Derivative)) else None
+        out.append(ARR(name, s.name, s.junction, binary_modes(forms[0], modes), exact=ex))
     return out
+
+
+def _plain_signal(x: sp.Expr) -> bool:
+    return isinstance(x, sp.core.function.AppliedUndef) and x.args == (t,)
 
 
 def structural_system(model: Model, causality: Causality | None = None, mode=None) -> EquationSystem:

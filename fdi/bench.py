@@ -40,6 +40,16 @@ def derive_rows(models: list[Path], sizes=CHAIN_SIZES) -> list[dict]:
             mode_change_signature_matrix(model, arrs)
         n = len(model.elements) + len(model.junctions)
         rows.append({"case": model.name, "elements": n, "arrs": len(model.sensors), "seconds": _best_of(job)})
+    if rows:
+        from bondgraph.structure import mso_search
+
+        from .arrs import select_arrs, structural_system
+        largest = max(rows, key=lambda r: r["elements"])
+        model = load_model(next(p for p in models if load_model(p).name == largest["case"]))
+        system = structural_system(model)
+        search = mso_search(system)
+        largest.update(mso_seconds=_best_of(lambda: mso_search(system)), msos=len(search.sets),
+                       equations=len(system.equations), select_seconds=_best_of(lambda: select_arrs(model), 1))
     for size in sizes:
         model = load_model_text(chain_yaml(size), f"chain_{size}")
         n = len(model.elements) + len(model.junctions)
@@ -59,6 +69,10 @@ def format_derive(rows: list[dict]) -> str:
             ratio = f"{r['seconds'] / base['seconds']:.1f}x"
         out.append(f"{r['case']:<26}{r['elements']:>9}{r['arrs']:>6}{r['seconds']:>11.4f}"
                    f"{r['seconds'] / r['elements']:>12.2e}{ratio:>8}")
+    for r in rows:
+        if "mso_seconds" in r:
+            out.append(f"MSO search, largest shipped model ({r['case']}, {r['equations']} equations): "
+                       f"{r['msos']} MSO sets in {r['mso_seconds']:.4f} s; residual selection {r['select_seconds']:.3f} s")
     if len(chains) >= 2:
         a, b = chains[0], chains[-1]
         growth = (b["seconds"] / a["seconds"]) / (b["elements"] / a["elements"])

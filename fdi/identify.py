@@ -104,13 +104,14 @@ class Objective:
         touched = set()
         for f in candidate:
             touched |= set(model.faults[f].symbols)
+        symbols_of = lambda r: set(r.symbols).union(*(symbols_of(i) for _, i in r.composites))
         self.varying_signals = {model.faults[f].targets[0] for f in candidate if model.faults[f].kind in ("sensor", "source")}
         self.active = [i for i, r in enumerate(residuals)
-                       if touched & set(r.symbols) or self.varying_signals & {s for s, _ in r.signals}]
+                       if touched & symbols_of(r) or self.varying_signals & {s for s, _ in r.signal_orders()}]
         base = corrected_signals(model, win.raw, win.ts, self.orders, None, window_s)
         self.base_signals = base
         c = win.crop
-        self.constant = sum(weights[i] * np.abs(np.asarray(residuals[i](base, self.nominal))[..., c]).sum()
+        self.constant = sum(weights[i] * np.abs(np.asarray(residuals[i](base, self.nominal, win.ts, window_s))[..., c]).sum()
                             for i in range(len(residuals)) if i not in self.active)
 
     def bounds(self) -> np.ndarray:
@@ -154,7 +155,7 @@ class Objective:
         total = np.full(real.shape[0], float(self.constant))
         with np.errstate(all="ignore"):
             for i in self.active:
-                r = np.asarray(self.residuals[i](signals, values), dtype=float)
+                r = np.asarray(self.residuals[i](signals, values, self.win.ts, self.window_s), dtype=float)
                 r = np.broadcast_to(r, (real.shape[0], r.shape[-1]))
                 total += self.weights[i] * np.abs(r[:, c]).sum(axis=1)
         return np.where(np.isfinite(total) & ~invalid, total, np.inf)
@@ -230,7 +231,8 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
             values[n] = bits[:, j:j + 1].astype(float)
         total = np.zeros(bits.shape[0])
         for i, r in enumerate(residuals):
-            out = np.broadcast_to(np.asarray(r(signals, values), dtype=float), (bits.shape[0], win.t.size))
+            out = np.broadcast_to(np.asarray(r(signals, values, win.ts, model.derivative_window), dtype=float),
+                                  (bits.shape[0], win.t.size))
             total += weights[i] * np.abs(out[:, c]).sum(axis=1)
         return total
     r = bde.minimize(cost, len(names), pop=max(8, 4 * len(names)), generations=20, seed=seed)

@@ -24,16 +24,33 @@ from .arrs import ARR
 @dataclass(frozen=True)
 class Residual:
     name: str
-    sensor: str
+    sensor: str | None
     func: Callable[..., np.ndarray]
     signals: tuple[tuple[str, int], ...]     # (signal, derivative order), in argument order
     symbols: tuple[str, ...]                 # parameters, remaining efficiency factors, modes
     expr: sp.Expr                            # the numeric form that was lambdified
+    composites: tuple = ()                   # (derivative order, inner kernel): d^k/dt^k of a stored quantity
 
-    def __call__(self, signals: Mapping[str, list[np.ndarray]], values: Mapping[str, object]) -> np.ndarray:
-        args = [signals[s][k] for s, k in self.signals] + [values[n] for n in self.symbols]
+    def __call__(self, signals: Mapping[str, list[np.ndarray]], values: Mapping[str, object],
+                 ts: float | None = None, window: float = derivatives.DEFAULT_WINDOW) -> np.ndarray:
+        args = [signals[s][k] for s, k in self.signals]
+        for order, inner in self.composites:
+            if ts is None:
+                raise ValueError(f"{self.name} differentiates a stored quantity numerically: pass ts")
+            x = np.asarray(inner(signals, values, ts, window), dtype=float)
+            bad = ~np.isfinite(x).all(axis=-1, keepdims=True)    # an individual past a pole: no residual
+            d = derivatives.estimate(np.where(np.isfinite(x), x, 0.0), ts, order, window)[order]
+            args.append(np.where(bad, np.nan, d))
+        args += [values[n] for n in self.symbols]
         out = self.func(*args)
         return np.asarray(out, dtype=float)
+
+    def signal_orders(self) -> list[tuple[str, int]]:
+        """Every (signal, derivative order) this kernel reads, its stored quantities' included."""
+        out = list(self.signals)
+        for _, inner in self.composites:
+            out += inner.signal_orders()
+        return out
 
 
 def numeric_form(model: Model, expr: sp.Expr) -> sp.Expr:
@@ -43,16 +60,37 @@ def numeric_form(model: Model, expr: sp.Expr) -> sp.Expr:
     return expr.xreplace(ones)
 
 
+def _plain(fn: sp.Expr) -> bool:
+    return isinstance(fn, sp.core.function.AppliedUndef) and fn.args == (t,)
+
+
 def compile_residual(model: Model, arr: ARR) -> Residual:
-    """Lambdify one AGARR: signal derivatives become plain array arguments."""
-    expr = numeric_form(model, arr.expr)
+    """Lambdify one ARR: signal derivatives become plain array arguments. Where the ARR has an
+    ``exact`` form (a storage law with a fault parameter), that form is compiled: the rate of the
+    stored quantity, ``Derivative(C*e(t), t)``, is evaluated by computing C*e on the data (C may
+    vary per individual and sample) and differentiating it with the same filter as the signals,
+    so that a capacitance that drops at t0 leaves q = C e continuous, as the simulator does."""
+    if arr.states:
+        raise ValueError(f"{arr.name} integrates states (mixed causality); bgfdi evaluates residuals in "
+                         "derivative causality on data: use the derivative-causality residual set")
+    return _compile(model, numeric_form(model, arr.exact if arr.exact is not None else arr.expr), arr.name, arr.sensor)
+
+
+def _compile(model: Model, expr: sp.Expr, name: str, sensor: str | None) -> Residual:
     names = list(model.sensors) + list(model.inputs)
+    whole = [d for d in expr.atoms(sp.Derivative) if not _plain(d.expr)]
+    outer = [d for d in whole if not any(o is not d and o.has(d) for o in whole)]
+    outer.sort(key=str)
+    composite_syms = [sp.Symbol(f"__stored{i}", real=True) for i in range(len(outer))]
+    composites = tuple((sum(c for v, c in d.variable_count if v == t), _compile(model, d.expr, name, sensor))
+                       for d in outer)
+    expr = expr.xreplace(dict(zip(outer, composite_syms)))
     replace: dict[sp.Expr, sp.Symbol] = {}
     used: list[tuple[str, int]] = []
     for d in sorted(expr.atoms(sp.Derivative), key=str):
         fn = d.expr
-        if not (isinstance(fn, sp.core.function.AppliedUndef) and fn.args == (t,)):
-            raise ValueError(f"{arr.name}: cannot evaluate the derivative {d} numerically")
+        if not _plain(fn):
+            raise ValueError(f"{name}: cannot evaluate the derivative {d} numerically")
         order = sum(c for v, c in d.variable_count if v == t)
         replace[d] = sp.Symbol(f"{fn.func.__name__}__d{order}", real=True)
         used.append((fn.func.__name__, order))
@@ -65,13 +103,11 @@ def compile_residual(model: Model, arr: ARR) -> Residual:
     numeric = numeric.xreplace({k: v for k, v in replace.items() if not isinstance(k, sp.Derivative)})
     used = sorted(set(used))
     signal_syms = [sp.Symbol(f"{s}__d{k}", real=True) for s, k in used]
-    others = sorted((s for s in numeric.free_symbols if s not in set(signal_syms)), key=lambda s: s.name)
-    if arr.states:
-        raise ValueError(f"{arr.name} integrates states (mixed causality); bgfdi evaluates residuals in "
-                         "derivative causality on data: use the derivative-causality residual set")
+    others = sorted((s for s in numeric.free_symbols if s not in set(signal_syms) and s not in set(composite_syms)),
+                    key=lambda s: s.name)
     # dummify: a parameter may be named like a numpy function (exp, sign) without shadowing it
-    func = sp.lambdify(signal_syms + others, numeric, modules="numpy", cse=True, dummify=True)
-    return Residual(arr.name, arr.sensor, func, tuple(used), tuple(s.name for s in others), expr)
+    func = sp.lambdify(signal_syms + composite_syms + others, numeric, modules="numpy", cse=True, dummify=True)
+    return Residual(name, sensor, func, tuple(used), tuple(s.name for s in others), expr, composites)
 
 
 def compile_residuals(model: Model, arrs: list[ARR]) -> list[Residual]:
@@ -82,7 +118,7 @@ def derivative_orders(residuals: list[Residual]) -> dict[str, int]:
     """The highest derivative of each signal that any residual needs."""
     orders: dict[str, int] = {}
     for r in residuals:
-        for s, k in r.signals:
+        for s, k in r.signal_orders():
             orders[s] = max(orders.get(s, 0), k)
     return orders
 
@@ -115,6 +151,6 @@ def evaluate(model: Model, residuals: list[Residual], raw: Mapping[str, np.ndarr
     """Residuals on data: array of shape (n_residuals, ..., samples)."""
     sig = corrected_signals(model, raw, ts, derivative_orders(residuals), betas, window)
     vals = parameter_values(model, values)
-    outs = [r(sig, vals) for r in residuals]
+    outs = [r(sig, vals, ts, window) for r in residuals]
     shape = np.broadcast_shapes(*[o.shape for o in outs], *[np.shape(v[0]) for v in sig.values()])
     return np.stack([np.broadcast_to(o, shape) for o in outs])

@@ -60,7 +60,12 @@ def _grid(header: list[str], rows: list[list[str]]) -> str:
 def to_text(arrs: list[ARR], fsms: list[FSM], mcsm: MCSM) -> str:
     out = ["Augmented global analytical redundancy relations (residual = expression)", ""]
     for a in arrs:
-        out.append(f"{a.name}  [sensor {a.sensor} on junction {a.junction}]")
+        if a.origin == "SCAPH":
+            out.append(f"{a.name}  [sensor {a.sensor} on junction {a.junction}]")
+        else:
+            how = "integrates states: " + ", ".join(str(x) for x, _ in a.states) if a.states else "derivative causality"
+            out.append(f"{a.name}  [MSO of {len(a.equations)} equations, residual at {a.junction}; sensors "
+                       f"{a.sensor}; {how}]")
         out.append(f"  0 = {arr_text(a)}")
         out.append("")
     for fsm in fsms:
