@@ -440,8 +440,8 @@ def _check_inverse(ctx, where, law: sp.Expr, law_var: str, inverse: sp.Expr, inv
             continue
         if abs(complex(back) - v) > 1e-6 * max(1.0, abs(v)):
             raise ctx.error(where + (inverse_key,),
-                            f"'{inverse_key}' is not the inverse of '{law_key}' (at {law_var} = {v}: "
-                            f"{law_key} gives {sp.N(out, 6)}, {inverse_key} of that gives {sp.N(back, 6)}); "
+                            f"'{inverse_key}' is not the inverse of '{law_key}' ({law_key} at {law_var} = {v} gives "
+                            f"{sp.N(out, 6)}, and {inverse_key} of that gives {law_var} = {sp.N(back, 6)}, not {v}); "
                             "give one relation in both forms, or only one of them")
 
 
