@@ -41,6 +41,11 @@ def signal(name: str) -> sp.Expr:
     return sp.Function(name, real=True)(t)
 
 
+def is_signal(expr: sp.Expr) -> bool:
+    """Whether ``expr`` is a bare signal ``name(t)`` (not an expression of signals)."""
+    return isinstance(expr, sp.core.function.AppliedUndef) and expr.args == (t,)
+
+
 def relations(model: Model, causality: Causality, *, known: Mapping[str, sp.Expr],
               states: Mapping[str, sp.Expr], signals: Mapping[sp.Symbol, sp.Expr]) -> list[Relation]:
     """One relation per computed bond variable.

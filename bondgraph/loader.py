@@ -186,7 +186,7 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
     for beta, owner in [(f"beta_{e.input or e.name}", e.input or e.name) for e in elements.values()
                         if e.kind in SOURCE_KINDS] + [(f"beta_{s}", s) for s in sensors]:
         if beta in taken:
-            raise ctx.error(_where_of(taken, beta, data), f"'{beta}' is the efficiency factor of '{owner}'; "
+            raise ctx.error(_where_of(taken, beta), f"'{beta}' is the efficiency factor of '{owner}'; "
                                                           "give this name to nothing else")
     for e in elements.values():
         if e.kind in SOURCE_KINDS:
@@ -214,7 +214,7 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
                  initial=initial, symbols=plain)
 
 
-def _where_of(taken: dict, name: str, data: dict) -> tuple:
+def _where_of(taken: dict, name: str) -> tuple:
     section = {"a parameter": "parameters", "a mode variable": "modes", "an input": "inputs",
                "a sensor signal": "sensors", "a definition": "definitions", "an element": "elements",
                "a junction": "junctions"}.get(taken[name], "parameters")
@@ -389,7 +389,7 @@ def _elements(ctx, data, symbols, claim, inputs, sensors) -> dict[str, Element]:
                     var = _LAW_VARS[(kind, law)]
                     laws[law] = _expr(ctx, spec[law], where + (law,), {**params, var: LAW_VARIABLES[var]})
             if kind in ("C", "I"):
-                laws = _storage_laws(ctx, where, kind, laws, fields.get("parameter"), symbols)
+                laws = _storage_laws(ctx, where, kind, laws, fields.get("parameter"))
             elif len(laws) == 2:
                 _check_inverse(ctx, where, laws["effort"], "f", laws["flow"], "e", "effort", "flow")
             if not laws and "parameter" not in fields:
@@ -445,7 +445,7 @@ def _check_inverse(ctx, where, law: sp.Expr, law_var: str, inverse: sp.Expr, inv
                             "give one relation in both forms, or only one of them")
 
 
-def _storage_laws(ctx, where, kind: str, laws: dict, parameter: str | None, symbols) -> dict:
+def _storage_laws(ctx, where, kind: str, laws: dict, parameter: str | None) -> dict:
     """A C (I) given by its effort (flow) law only gets the inverse law, solved symbolically, for
     derivative causality; a pair given both ways is checked for consistency."""
     law_key, inv_key, energy, local = (("effort", "displacement", "q", "e") if kind == "C"

@@ -23,7 +23,7 @@ import networkx as nx
 import sympy as sp
 
 from .model import t
-from .structure import DERIVATIVE, MIXED, EquationSystem, _match
+from .structure import DERIVATIVE, EquationSystem, _match
 
 
 @dataclass(frozen=True)
@@ -63,15 +63,7 @@ def plan(system: EquationSystem, eqs: Iterable[int], causality: str = DERIVATIVE
     m = _match(inc, eqs, _admissible(system, causality))
     if len(m) != len(eqs):
         return None
-    owner = {v: e for e, v in m.items()}
-    g = nx.DiGraph()
-    g.add_nodes_from(eqs)
-    for e in eqs:
-        for v in inc[e]:
-            if owner[v] != e:
-                g.add_edge(owner[v], e)
-    cond = nx.condensation(g)
-    blocks = [sorted(cond.nodes[c]["members"]) for c in nx.topological_sort(cond)]
+    blocks = _blocks(system, eqs, m)
     for b in blocks:
         if len(b) > 1:
             for e in b:
@@ -163,8 +155,7 @@ def _block(system, block, m, values, states, whole) -> None:
             values[x] = X
             pending.append([X, dx])
         rest = [e for e in block if e not in integrated]
-        sub = plan_subset(system, rest, m)
-        for b in sub:
+        for b in _blocks(system, rest, m):
             _block(system, b, m, values, states, whole)
         states.extend(pending)
         return
@@ -177,8 +168,10 @@ def _block(system, block, m, values, states, whole) -> None:
     values.update(sol[0])
 
 
-def plan_subset(system, eqs, m) -> list[list[int]]:
-    """Blocks of a subset with a fixed matching (the rest of a loop once its states are known)."""
+def _blocks(system: EquationSystem, eqs, m) -> list[list[int]]:
+    """The block-triangular order of ``eqs`` under the matching ``m`` (equation -> variable):
+    strongly connected blocks in topological order. Variables matched outside ``eqs`` count as
+    known (the rest of a loop once its states are)."""
     inc = system.incidence()
     owner = {m[e]: e for e in eqs}
     g = nx.DiGraph()

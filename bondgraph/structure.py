@@ -83,9 +83,6 @@ class EquationSystem:
     def incidence(self) -> list[frozenset]:
         return [e.variables for e in self.equations]
 
-    def index(self, name: str) -> int:
-        return next(i for i, e in enumerate(self.equations) if e.name == name)
-
 
 def bond_variables(bond) -> tuple[sp.Symbol, sp.Symbol]:
     return sp.Symbol(f"e[{bond}]", real=True), sp.Symbol(f"f[{bond}]", real=True)
@@ -127,10 +124,8 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
     without unknowns and identically zero are dropped)."""
     g = to_networkx(model)
     signals = dict(signals or {})
-    if sources is None:
-        sources = {}
-    if sensors is None:
-        sensors = {}
+    sources = sources or {}
+    sensors = sensors or {}
     eqs: list[Equation] = []
     variables: list[sp.Symbol] = []
     for b in model.bonds:
@@ -165,7 +160,7 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
             eqs += _two_port(model.elements[node], ps, sub)
     for s in model.sensors.values():
         j = model.junctions[s.junction]
-        ref = _reference_bond(model, g, j, strong)
+        ref = _reference_bond(g, j, strong)
         e, f = bond_variables(ref)
         common = e if j.base == "0" else f
         value = sensors.get(s.name, sp.Function(s.name, real=True)(t))
@@ -183,7 +178,7 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
     return EquationSystem(model.name, tuple(eqs), tuple(v for v in variables if v in used), dict(mode or {}) or None)
 
 
-def _reference_bond(model: Model, g, junction, strong) -> int:
+def _reference_bond(g, junction, strong) -> int:
     ps = [p for p in ports(g, junction.name) if not isinstance(p[0], str)]
     if junction.controlled and strong and strong.get(junction.name) is not None \
             and not isinstance(strong[junction.name], str):
@@ -215,9 +210,7 @@ def _junction_equations(model, node, kind, ps, strong, sub) -> list[Equation]:
         others = [sign[k] * var[k][total_i] for k in var if k != s]
         value = a * (-sign[s]) * sp.Add(*others)
         expr = ys - value
-        vs = {ys} | {var[k][total_i] for k in var if k != s}
-        if a == 0:
-            vs = {ys}
+        vs = {ys} | {var[k][total_i] for k in var if k != s}     # a mode at 0 leaves ys alone (_eq)
         out.append(_eq(f"{node}.balance", node, expr, vs, solutions={ys: value}))
         return out
     first = ps[0][0]
@@ -343,16 +336,21 @@ def overdetermined(incidence: Incidence, eqs: Iterable[int] | None = None) -> fr
     eqs = list(range(len(incidence))) if eqs is None else list(eqs)
     m = _match(incidence, eqs)
     match_var = {v: e for e, v in m.items()}
-    stack = [e for e in eqs if e not in m]
-    seen = set(stack)
+    return frozenset(_reach([e for e in eqs if e not in m], lambda e: incidence[e], match_var))
+
+
+def _reach(start: list, neighbours, matched: Mapping) -> set:
+    """Nodes reachable by alternating paths: from a node to any neighbour, then along the
+    neighbour's matching edge (Dulmage-Mendelsohn: M+ from free equations, M- from free variables)."""
+    seen = set(start)
+    stack = list(start)
     while stack:
-        e = stack.pop()
-        for v in incidence[e]:
-            e2 = match_var.get(v)
-            if e2 is not None and e2 not in seen:
-                seen.add(e2)
-                stack.append(e2)
-    return frozenset(seen)
+        for n in neighbours(stack.pop()):
+            other = matched.get(n)
+            if other is not None and other not in seen:
+                seen.add(other)
+                stack.append(other)
+    return seen
 
 
 def redundancy(system_or_incidence, eqs: Iterable[int] | None = None) -> int:
@@ -370,16 +368,7 @@ def _underdetermined_vars(incidence: Incidence, eqs: list[int]) -> set:
     for e in eqs:
         for v in incidence[e]:
             var_eqs.setdefault(v, []).append(e)
-    stack = [v for v in var_eqs if v not in matched]
-    seen = set(stack)
-    while stack:
-        v = stack.pop()
-        for e in var_eqs[v]:
-            w = m.get(e)
-            if w is not None and w not in seen:
-                seen.add(w)
-                stack.append(w)
-    return seen
+    return _reach([v for v in var_eqs if v not in matched], lambda v: var_eqs[v], m)
 
 
 def causal_overdetermined(system: EquationSystem, eqs: Iterable[int] | None = None,

@@ -9,16 +9,15 @@ variables stay symbols: every output of a controlled junction is multiplied by i
 """
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 
 import sympy as sp
 
 from bondgraph.causality import DIAGNOSIS, Causality, assign, require
-from bondgraph.equations import relations, resolve, signal
+from bondgraph.equations import is_signal, relations, resolve, signal
 from bondgraph.model import Model, t
 from bondgraph.sequential import realize
-from bondgraph.structure import DERIVATIVE, MIXED, EquationSystem, equations, mso_search
+from bondgraph.structure import DERIVATIVE, EquationSystem, equations, mso_search
 
 
 @dataclass(frozen=True)
@@ -97,14 +96,10 @@ def derive_arrs(model: Model, causality: Causality | None = None) -> list[ARR]:
     for name, s, w in zip(model.arr_names(), model.sensors.values(), wanted):
         forms = [values[w]] + ([exact[w]] if exact is not None else [])
         forms = [known[s.name] - f if s.name in causality.detectors else f for f in forms]
-        ex = binary_modes(forms[1], modes) if len(forms) > 1 and forms[1].has(sp.Derivative) and \
-            any(not _plain_signal(d.expr) for d in forms[1].atoms(sp.Derivative)) else None
-        out.append(ARR(name, s.name, s.junction, binary_modes(forms[0], modes), exact=ex))
+        stored_rate = len(forms) > 1 and any(not is_signal(d.expr) for d in forms[1].atoms(sp.Derivative))
+        out.append(ARR(name, s.name, s.junction, binary_modes(forms[0], modes),
+                       exact=binary_modes(forms[1], modes) if stored_rate else None))
     return out
-
-
-def _plain_signal(x: sp.Expr) -> bool:
-    return isinstance(x, sp.core.function.AppliedUndef) and x.args == (t,)
 
 
 def structural_system(model: Model, causality: Causality | None = None, mode=None) -> EquationSystem:
@@ -174,6 +169,7 @@ def select_arrs(model: Model, causality: str = DERIVATIVE) -> ResidualSet:
     exact = storage_fault_parameters(model)
     pool: list[ARR] = []
     seen = {sp.srepr(a.expr) for a in scaph}
+    modes = [model.symbols[m] for m in model.modes]
     for mso in search.sets:
         try:
             r = realize(system, mso, causality, exact)
@@ -181,7 +177,6 @@ def select_arrs(model: Model, causality: str = DERIVATIVE) -> ResidualSet:
             continue
         if r is None:
             continue
-        modes = [model.symbols[m] for m in model.modes]
         expr = binary_modes(r.expr, modes)
         if expr == 0 or sp.srepr(expr) in seen:
             continue
@@ -192,6 +187,7 @@ def select_arrs(model: Model, causality: str = DERIVATIVE) -> ResidualSet:
         pool.append(ARR("", ", ".join(sensors) or None, node, expr, "MSO",
                         tuple(sorted(eqs[i].name for i in mso)), r.causality,
                         tuple(r.states), None if r.exact is None else binary_modes(r.exact, modes)))
+    computable = len(pool)
     chosen = list(scaph)
     current = iso(chosen)
     while not current.covers(best):
@@ -226,7 +222,7 @@ def select_arrs(model: Model, causality: str = DERIVATIVE) -> ResidualSet:
                      "(a law given in one form only, or an algebraic loop sympy cannot solve)")
     if not search.complete:
         notes.append(f"MSO search stopped after {len(search.sets)} sets")
-    return ResidualSet(tuple(out), causality, diag.ok, problems, len(pool) + len(chosen) - len(scaph),
+    return ResidualSet(tuple(out), causality, diag.ok, problems, computable,
                        len(search.sets), search.complete, search.seconds, tuple(notes))
 
 

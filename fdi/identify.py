@@ -104,10 +104,9 @@ class Objective:
         touched = set()
         for f in candidate:
             touched |= set(model.faults[f].symbols)
-        symbols_of = lambda r: set(r.symbols).union(*(symbols_of(i) for _, i in r.composites))
         self.varying_signals = {model.faults[f].targets[0] for f in candidate if model.faults[f].kind in ("sensor", "source")}
         self.active = [i for i, r in enumerate(residuals)
-                       if touched & symbols_of(r) or self.varying_signals & {s for s, _ in r.signal_orders()}]
+                       if touched & r.parameter_names() or self.varying_signals & {s for s, _ in r.signal_orders()}]
         base = corrected_signals(model, win.raw, win.ts, self.orders, None, window_s)
         self.base_signals = base
         c = win.crop

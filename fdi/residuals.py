@@ -15,6 +15,7 @@ from typing import Callable, Mapping
 import numpy as np
 import sympy as sp
 
+from bondgraph.equations import is_signal
 from bondgraph.model import Model, t
 
 from . import derivatives
@@ -45,6 +46,10 @@ class Residual:
         out = self.func(*args)
         return np.asarray(out, dtype=float)
 
+    def parameter_names(self) -> set[str]:
+        """Every parameter, efficiency factor and mode this kernel reads, its stored quantities' included."""
+        return set(self.symbols).union(*(inner.parameter_names() for _, inner in self.composites))
+
     def signal_orders(self) -> list[tuple[str, int]]:
         """Every (signal, derivative order) this kernel reads, its stored quantities' included."""
         out = list(self.signals)
@@ -58,10 +63,6 @@ def numeric_form(model: Model, expr: sp.Expr) -> sp.Expr:
     ones = {model.beta_symbol(s): sp.Integer(1) for s in model.sensors}
     ones.update({model.beta_symbol(e.input): sp.Integer(1) for e in model.sources() if e.input})
     return expr.xreplace(ones)
-
-
-def _plain(fn: sp.Expr) -> bool:
-    return isinstance(fn, sp.core.function.AppliedUndef) and fn.args == (t,)
 
 
 def compile_residual(model: Model, arr: ARR) -> Residual:
@@ -78,7 +79,7 @@ def compile_residual(model: Model, arr: ARR) -> Residual:
 
 def _compile(model: Model, expr: sp.Expr, name: str, sensor: str | None) -> Residual:
     names = list(model.sensors) + list(model.inputs)
-    whole = [d for d in expr.atoms(sp.Derivative) if not _plain(d.expr)]
+    whole = [d for d in expr.atoms(sp.Derivative) if not is_signal(d.expr)]
     outer = [d for d in whole if not any(o is not d and o.has(d) for o in whole)]
     outer.sort(key=str)
     composite_syms = [sp.Symbol(f"__stored{i}", real=True) for i in range(len(outer))]
@@ -89,7 +90,7 @@ def _compile(model: Model, expr: sp.Expr, name: str, sensor: str | None) -> Resi
     used: list[tuple[str, int]] = []
     for d in sorted(expr.atoms(sp.Derivative), key=str):
         fn = d.expr
-        if not _plain(fn):
+        if not is_signal(fn):
             raise ValueError(f"{name}: cannot evaluate the derivative {d} numerically")
         order = sum(c for v, c in d.variable_count if v == t)
         replace[d] = sp.Symbol(f"{fn.func.__name__}__d{order}", real=True)
