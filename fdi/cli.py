@@ -249,7 +249,7 @@ def _options(args: argparse.Namespace, model: Model):
         raise UsageError(f"--engine: unknown engine '{args.engine}' (use {', '.join(ENGINES)})")
     return Options(thresholds=thresholds, waiting_time=args.wait, exoneration=not args.no_exoneration,
                    engine=args.engine, pop=args.pop, generations=args.generations, samples=args.samples,
-                   seed=args.seed, workers=args.workers, repeats=args.repeats, failures=failures)
+                   seed=args.seed, workers=args.workers, failures=failures)
 
 
 def _diagnose_and_print(model_path: str, data, options, args, data_name: str) -> int:
@@ -391,7 +391,6 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--samples", type=int, help="N samples from t_D for identification (default: the model's)")
         p.add_argument("--seed", type=int, default=0)
         p.add_argument("--workers", type=int, default=2, help="estimator processes (results do not depend on it)")
-        p.add_argument("--repeats", type=int, default=3, help="identifications of the winner for the RUL band")
         p.add_argument("--failure", action="append", metavar="FAULT=VALUE", help="failure value for prognosis")
         p.add_argument("--json", action="store_true", help="print the report as JSON")
         p.add_argument("--plot", metavar="DIR", help="write plots into DIR (needs the plot extra)")

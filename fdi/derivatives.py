@@ -7,14 +7,24 @@ noise grows as 1/ts^k. The window length sets the trade-off between noise and la
 seconds and rounded to an odd number of samples. All orders come from one fit, so the signal and
 its derivatives stay consistent; arrays of any leading shape (population x samples) are handled
 along the last axis.
+
+The filter is centred (it looks half a window ahead): no lag, but a sample's derivative is known
+half a window after it. The coefficients depend only on the window, the polynomial order and the
+sampling period, so they are computed once (numpy least squares, the same numbers as scipy's
+``savgol_coeffs``, without importing scipy.signal, which costs 0.4 s at start-up) and every order
+comes from one matrix product over the sliding windows.
 """
 from __future__ import annotations
 
+from functools import lru_cache
+from math import factorial
+
 import numpy as np
-from scipy.signal import savgol_filter
+from numpy.lib.stride_tricks import sliding_window_view
 
 DEFAULT_WINDOW = 0.25   # s
 DEFAULT_ORDER = 3
+BLOCK = 65536           # samples per block: the product over sliding windows copies n x the block
 
 
 def window_samples(window: float, ts: float, polyorder: int) -> int:
@@ -26,11 +36,51 @@ def window_samples(window: float, ts: float, polyorder: int) -> int:
 def estimate(x: np.ndarray, ts: float, orders: int, window: float = DEFAULT_WINDOW,
              polyorder: int = DEFAULT_ORDER, edges: str = "interp") -> list[np.ndarray]:
     """[x, dx/dt, ..., d^orders x/dt^orders] estimated along the last axis of ``x``.
-    ``edges``: how the first and last half-windows are treated (scipy's ``mode``): ``interp`` fits
-    a polynomial there; ``mirror`` is cheaper, for callers that crop the edges away."""
+
+    ``edges``: the first and last half-windows are either fitted by the polynomial of the first
+    (last) whole window (``interp``, as scipy's ``savgol_filter``), or filtered on the signal
+    mirrored about its end samples (``mirror``: cheaper, for callers that crop the edges away).
+
+    >>> t = np.arange(0, 1, 0.01)
+    >>> x, v = estimate(t ** 3, 0.01, 1, window=0.1)
+    >>> bool(np.allclose(v, 3 * t ** 2))
+    True
+    """
     x = np.asarray(x, dtype=float)
-    n = window_samples(window, ts, max(polyorder, orders))
+    p = max(polyorder, orders)
+    n = window_samples(window, ts, p)
     if x.shape[-1] < n:
         raise ValueError(f"{x.shape[-1]} samples are fewer than the derivative window ({n} samples)")
-    return [savgol_filter(x, n, max(polyorder, orders), deriv=k, delta=ts, axis=-1, mode=edges)
-            for k in range(orders + 1)]
+    if edges not in ("interp", "mirror"):
+        raise ValueError(f"edges must be 'interp' or 'mirror', not {edges!r}")
+    half = n // 2
+    if x.ndim == 2 and x.shape[0] * x.shape[1] > BLOCK:       # a population: in blocks of rows
+        step = max(1, BLOCK // x.shape[1])
+        parts = [estimate(x[i:i + step], ts, orders, window, polyorder, edges) for i in range(0, x.shape[0], step)]
+        return [np.concatenate([part[k] for part in parts]) for k in range(orders + 1)]
+    padded = np.pad(x, [(0, 0)] * (x.ndim - 1) + [(half, half)], mode="reflect")
+    out = sliding_window_view(padded, n, axis=-1) @ kernels(n, p, orders, float(ts), half)
+    if edges == "interp":
+        out[..., :half, :] = np.einsum("...n,npk->...pk", x[..., :n], kernels_at(n, p, orders, float(ts), 0, half))
+        out[..., -half:, :] = np.einsum("...n,npk->...pk", x[..., -n:],
+                                        kernels_at(n, p, orders, float(ts), half + 1, n))
+    return [out[..., k] for k in range(orders + 1)]
+
+
+@lru_cache(maxsize=64)
+def kernels(n: int, polyorder: int, orders: int, ts: float, pos: int) -> np.ndarray:
+    """(n, orders + 1): column k, applied to n samples, gives the k-th derivative at sample ``pos``
+    of the least-squares polynomial of order ``polyorder`` through them."""
+    offsets = (np.arange(n) - pos).astype(float)
+    fit = np.linalg.pinv(np.vander(offsets, polyorder + 1, increasing=True))    # (p + 1, n): samples -> coefficients
+    out = np.stack([factorial(k) / ts ** k * fit[k] for k in range(orders + 1)], axis=1)
+    out.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=64)
+def kernels_at(n: int, polyorder: int, orders: int, ts: float, first: int, stop: int) -> np.ndarray:
+    """(n, positions, orders + 1): the kernels for every position in [first, stop) of one window."""
+    out = np.stack([kernels(n, polyorder, orders, ts, pos) for pos in range(first, stop)], axis=1)
+    out.setflags(write=False)
+    return out

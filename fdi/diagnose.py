@@ -38,7 +38,6 @@ class Options:
     samples: int | None = None
     seed: int = 0
     workers: int = 1
-    repeats: int = 3
     failures: Mapping[str, float] = field(default_factory=dict)
     weights: str = "thresholds"
     settle: float = 1.0
@@ -131,11 +130,6 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     incipient = [f for f in best.faults if f["type"] == "incipient"]
     if incipient:
         clock = time.perf_counter()
-        repeats = []
-        if o.repeats > 1:
-            reruns = run_estimators(path, meas.t, raw, det.time, samples, [best.candidate] * (o.repeats - 1),
-                                    weights, settings, o.seed + 7919, o.workers)
-            repeats = [r_.faults for r_ in reruns]
         win = window(meas.t, raw, det.time, samples, model.derivative_window)
         now = win.t0 + (win.crop.stop - win.crop.start) * win.ts
         for f in incipient:
@@ -143,8 +137,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
             if failure is None:
                 continue
             nominal = fault_space(model, f["name"]).nominal
-            others = [next(x for x in rep if x["name"] == f["name"]) for rep in repeats]
-            report["prognosis"].append(prognose(f, nominal, failure, f.get("t0", win.t0), now, others))
+            report["prognosis"].append(prognose(f, nominal, failure, f.get("t0", win.t0), now))
         timings["prognosis"] = time.perf_counter() - clock
     return report
 

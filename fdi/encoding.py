@@ -165,6 +165,17 @@ def structure(spaces: list[FaultSpace], bits: np.ndarray) -> tuple:
     return tuple((TYPES[int(d.kind[0])], int(d.model[0]) if d.kind[0] == 2 else None) for d in ds)
 
 
+def free(spaces: list[FaultSpace], bits: np.ndarray) -> np.ndarray:
+    """The reals one individual's structure reads (bool, 9 per fault): an abrupt fault its value, an
+    intermittent one its value and period, an incipient one the coefficients of its model."""
+    mask = np.zeros(N_REAL * len(spaces), dtype=bool)
+    for i, d in enumerate(decode(spaces, np.zeros((1, N_REAL * len(spaces))), np.asarray(bits)[None, :])):
+        kind, base = int(d.kind[0]), N_REAL * i
+        slots = [0] if kind == 0 else [0, 1] if kind == 1 else COEFF_SLOTS[int(d.model[0])]
+        mask[[base + s for s in slots]] = True
+    return mask
+
+
 def describe(spaces: list[FaultSpace], real: np.ndarray, bits: np.ndarray) -> list[dict]:
     """The best individual as the report's fault entries (paper units)."""
     out = []
@@ -185,4 +196,4 @@ def describe(spaces: list[FaultSpace], real: np.ndarray, bits: np.ndarray) -> li
 
 
 __all__ = ["FaultSpace", "bounds", "onehot_groups", "repair_zeta", "decode", "encode", "profiles", "structure",
-           "describe", "N_COEFFICIENTS"]
+           "free", "describe", "N_COEFFICIENTS"]

@@ -11,7 +11,7 @@ leakage resistance): the formulas are written so that infinity is handled exactl
   (16) dP/dt = b1 P               -> P = P0 exp(b1 tau)
   (17) dP/dt = b2 P^2             -> 1/P = 1/P0 - b2 tau  (infinite P0 allowed; past the pole: inf)
   (18) d2P/dt2 = b3 dP/dt + P + b4 -> closed form, roots (b3 +- sqrt(b3^2 + 4))/2
-  (19) d2P/dt2 = b5 (dP/dt)^2 + b6 P + b7 -> classical RK4 on the sample grid (4 sub-steps)
+  (19) d2P/dt2 = b5 (dP/dt)^2 + b6 P + b7 -> classical RK4 on a 0.1 s grid, Hermite-interpolated
 """
 from __future__ import annotations
 
@@ -74,9 +74,10 @@ def _model18(tau: np.ndarray, p0: float, b3: np.ndarray, b4: np.ndarray) -> np.n
     return -b4 + a * np.exp(r1 * tau) + c * np.exp(r2 * tau)
 
 
-def _model19(tau: np.ndarray, p0: float, b5, b6, b7, step: float = 0.05) -> np.ndarray:
-    """RK4 in tau = t - t0 on a uniform grid of ``step`` seconds, linearly interpolated per row
-    (degradation is slow: a 0.05 s step keeps the error far below measurement noise)."""
+def _model19(tau: np.ndarray, p0: float, b5, b6, b7, step: float = 0.1) -> np.ndarray:
+    """RK4 in tau = t - t0 on a uniform grid of ``step`` seconds, all rows at once, read between grid
+    points by cubic Hermite interpolation on P and dP/dt (error O(step^4): 1e-5 of P against cos(tau)
+    at a rate of 1/s, where linear interpolation on a 0.05 s grid leaves h^2/8 P'' = 3e-4)."""
     b5, b6, b7 = (np.atleast_1d(np.asarray(x, dtype=float)) for x in (b5, b6, b7))
     pop = max(np.broadcast(b5, b6, b7).shape[0], tau.shape[0])
     tau = np.broadcast_to(tau, (pop, tau.shape[-1]))
@@ -85,9 +86,9 @@ def _model19(tau: np.ndarray, p0: float, b5, b6, b7, step: float = 0.05) -> np.n
     span = float(tau.max()) if tau.size else 0.0
     k = max(1, int(np.ceil(span / step)))
     h = span / k if span > 0 else step
-    grid = np.empty((pop, k + 1))
+    grid, slope = np.empty((pop, k + 1)), np.empty((pop, k + 1))
     p, v = np.full(pop, float(p0)), np.zeros(pop)
-    grid[:, 0] = p
+    grid[:, 0], slope[:, 0] = p, v
 
     def acc(p, v):
         return b5 * v * v + b6 * p + b7
@@ -100,12 +101,16 @@ def _model19(tau: np.ndarray, p0: float, b5, b6, b7, step: float = 0.05) -> np.n
             p = p + h / 6 * (k1p + 2 * k2p + 2 * k3p + k4p)
             v = v + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
             grid[:, i] = np.where(np.isfinite(p), p, np.inf)
+            slope[:, i] = np.where(np.isfinite(p), v, 0.0)
     x = np.clip(tau / h, 0, k)
     i0 = np.minimum(np.floor(x).astype(int), k - 1)
-    w = x - i0
+    s = x - i0
     rows = np.arange(pop)[:, None]
+    pa, pb, va, vb = grid[rows, i0], grid[rows, i0 + 1], slope[rows, i0] * h, slope[rows, i0 + 1] * h
+    s2, s3 = s * s, s * s * s
     with np.errstate(invalid="ignore"):
-        return grid[rows, i0] * (1 - w) + grid[rows, i0 + 1] * w
+        out = (2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb + (s3 - s2) * vb
+    return np.where(np.isfinite(pa) & np.isfinite(pb), out, np.inf)
 
 
 def profile(kind: str, t: np.ndarray, t0: float, nominal: float, *, value=None, period=None, model: int | None = None,

@@ -10,6 +10,8 @@ it is below the nominal value (an efficiency factor that decays) and from below 
 """
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from .profiles import incipient
@@ -45,14 +47,14 @@ def end_of_life(model_no: int, b: list[float], nominal: float, failure: float, t
     return float(t[i - 1] + (failure - p[i - 1]) / (p[i] - p[i - 1]) * step)
 
 
-def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float,
-             repeats: list[dict] | None = None) -> dict:
-    """EOL, RUL at ``now`` = tf + N ts, and the band from repeated identifications."""
+def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float) -> dict:
+    """EOL, RUL at ``now`` = tf + N ts, and the RUL band: the RULs at the corners of the
+    coefficients' 95 % likelihood-ratio intervals (``b_band``, from the final fit: see
+    ``fdi.identify.coefficient_band``); without a band, the band is the RUL itself."""
     eol = end_of_life(fault["model"], fault["b"], nominal, failure, tf, now)
     ruls = [eol - now]
-    for other in repeats or []:
-        if other.get("type") == "incipient":
-            ruls.append(end_of_life(other["model"], other["b"], nominal, failure, tf, now) - now)
+    for corner in itertools.product(*fault.get("b_band", [])):
+        ruls.append(end_of_life(fault["model"], list(corner), nominal, failure, tf, now) - now)
     finite = [r for r in ruls if np.isfinite(r)]
     return {"name": fault["name"], "failure": failure, "eol": eol, "rul": eol - now, "at": now,
             "rul_low": min(finite) if finite else float("inf"), "rul_high": max(finite) if finite else float("inf")}

@@ -33,16 +33,21 @@ class Residual:
     composites: tuple = ()                   # (derivative order, inner kernel): d^k/dt^k of a stored quantity
 
     def __call__(self, signals: Mapping[str, list[np.ndarray]], values: Mapping[str, object],
-                 ts: float | None = None, window: float = derivatives.DEFAULT_WINDOW) -> np.ndarray:
-        args = [signals[s][k] for s, k in self.signals]
+                 ts: float | None = None, window: float = derivatives.DEFAULT_WINDOW,
+                 crop: slice | None = None) -> np.ndarray:
+        """The residual on the samples of ``crop`` (all by default): signals and time-varying values
+        are cut before the kernel runs, stored quantities are differentiated on the whole span first."""
+        def cut(a):
+            return a[..., crop] if crop is not None and np.ndim(a) and np.shape(a)[-1] > 1 else a
+        args = [cut(signals[s][k]) for s, k in self.signals]
         for order, inner in self.composites:
             if ts is None:
                 raise ValueError(f"{self.name} differentiates a stored quantity numerically: pass ts")
             x = np.asarray(inner(signals, values, ts, window), dtype=float)
             bad = ~np.isfinite(x).all(axis=-1, keepdims=True)    # an individual past a pole: no residual
             d = derivatives.estimate(np.where(np.isfinite(x), x, 0.0), ts, order, window)[order]
-            args.append(np.where(bad, np.nan, d))
-        args += [values[n] for n in self.symbols]
+            args.append(cut(np.where(bad, np.nan, d)))
+        args += [cut(values[n]) for n in self.symbols]
         out = self.func(*args)
         return np.asarray(out, dtype=float)
 

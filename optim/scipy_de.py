@@ -9,13 +9,14 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from scipy.optimize import differential_evolution
 
 from .core import Counter, Result, check_bounds
 
 
 def minimize(objective, bounds, n_bits: int = 0, *, pop: int = 150, generations: int = 300, seed: int | None = 0,
              callback=None, **_ignored) -> Result:
+    from scipy.optimize import differential_evolution     # here: importing scipy.optimize takes 0.4 s
+
     t0 = time.perf_counter()
     bounds = check_bounds(bounds)
     nr = bounds.shape[0]

@@ -121,7 +121,7 @@ def test_bad_options_exit_2(capsys):
 
 def test_demo_simulates_and_diagnoses_scenario2(capsys):
     """The README's main command, end to end: own simulation of scenario 2, then the diagnosis."""
-    assert main(["demo", "--json", "--repeats", "1"]) == 0
+    assert main(["demo", "--json"]) == 0
     r = json.loads(capsys.readouterr().out)
     assert r["detection"]["final_coherence"] == [0, 1, 1]
     assert r["winner"] == ["R4", "beta_theta2"]

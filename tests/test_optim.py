@@ -117,7 +117,11 @@ def test_every_engine_solves_a_mixed_sphere(name):
     r = ENGINES[name](_sphere, [[-1, 1]] * 3, 3, pop=40, generations=80, seed=3)
     assert r.bits.tolist() == [True, False, True]
     assert r.cost < 1e-2
-    assert r.evaluations >= 0.97 * 40 * 81 and len(r.history) >= 2     # GA re-uses its elite: pop - 1 per generation
+    assert len(r.history) >= 2
+    if name == "AHDE":      # stops when its finalists have converged, never past the budget
+        assert r.evaluations <= 40 * 81
+    else:                   # the others spend it (GA re-uses its elite: pop - 1 per generation)
+        assert r.evaluations >= 0.97 * 40 * 81
     assert r.history[-1] <= r.history[0]
 
 

@@ -37,7 +37,7 @@ def test_halved_tank_capacitance_is_identified_within_5_percent(tmp_path):
         {"target": "A2", "type": "abrupt", "t0": 300, "value": truth}]}, model, "halved"))
     data = tmp_path / "halved.csv"
     data.write_text(to_csv(cols))
-    report = public(diagnose(path, data, Options(pop=40, generations=60, repeats=1)))
+    report = public(diagnose(path, data, Options(pop=40, generations=60)))
     (fault,) = report["diagnosis"]["faults"]
     assert fault["name"] == "A2" and fault["type"] == "abrupt"
     assert fault["value"] == pytest.approx(truth, rel=0.05)
