@@ -229,7 +229,7 @@ class Objective:
     def solve_magnitudes(self, base: dict, gains: dict, solve: dict) -> dict[int, np.ndarray]:
         """delta (u - u_nominal) per linear fault and individual, within the fault's bounds: two
         passes over the faults (each given the others), each a weighted least-squares step and
-        three reweightings w / max(|r|, 1e-3 mean|r|) towards the L1 minimum."""
+        two reweightings w / max(|r|, 1e-3 mean|r|) towards the L1 minimum."""
         n = next(iter(base.values())).shape[0]
         deltas = {j: np.zeros(n) for j in gains}
         for _ in range(2 if len(gains) > 1 else 1):
@@ -237,10 +237,12 @@ class Objective:
                 rest = {i: base[i] + sum(deltas[k][:, None] * gk[i] for k, gk in gains.items() if k != j and i in gk)
                         for i in g}
                 w = {i: np.full_like(rest[i], self.weights[i]) for i in g}
-                for _ in range(4):
+                for step in range(3):
                     num = sum((w[i] * rest[i] * g[i]).sum(axis=1) for i in g)
                     den = sum((w[i] * g[i] * g[i]).sum(axis=1) for i in g)
                     delta = np.where(den > 0, -num / np.where(den > 0, den, 1.0), 0.0)
+                    if step == 2:
+                        break
                     for i in g:
                         r = np.abs(rest[i] + delta[:, None] * g[i])
                         floor = 1e-3 * r.mean(axis=1, keepdims=True) + 1e-300
