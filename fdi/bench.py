@@ -101,8 +101,9 @@ def _optim_job(job: tuple) -> dict:
     else:
         from .identify import benchmark_problem
         p = benchmark_problem(case, seed)
-    r = ENGINES[method](p.cost, p.bounds(), p.n_bits, seed=seed, onehot=p.onehot, structure=p.structure, **settings)
-    ok = synthetic.recovered(p.spaces, p.truth, r.real, r.bits, p.t, p.t0)
+    r = ENGINES[method](p.cost, p.bounds(), p.n_bits, seed=seed, onehot=p.onehot, structure=p.structure, free=p.free,
+                        **settings)
+    ok = synthetic.recovered(p.spaces, p.truth, p.finish(r.real, r.bits), r.bits, p.t, p.t0)
     return {"method": method, "case": case, "seed": seed, "cost": r.cost, "fitness": float(r.fitness),
             "success": bool(ok), "evaluations": r.evaluations, "wall_s": r.wall_s, "overhead_s": r.overhead_s,
             "margin": r.extra.get("margin"), "history": [float(h) for h in np.asarray(r.history)[:: max(1, len(r.history) // 50)]]}

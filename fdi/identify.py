@@ -489,4 +489,5 @@ def benchmark_problem(name: str, seed: int):
     truth = [{"type": "abrupt", "value": 2.5221e7}, {"type": "incipient", "model": 2, "b": [-0.03]}]
     t_win = win.t[win.crop]
     fixed_onset = lambda real, bits: obj(np.hstack([real, np.full((real.shape[0], 1), 32.0)]), bits)
-    return Problem("scenario2", obj.spaces, truth, t_win, win.t0, fixed_onset, "scenario-2 identification, beta_theta2 & R4")
+    return Problem("scenario2", obj.spaces, truth, t_win, 32.0, fixed_onset, "scenario-2 identification, beta_theta2 & R4",
+                   objective=obj)

@@ -37,6 +37,11 @@ class Problem:
     t0: float
     cost: Callable[[np.ndarray, np.ndarray], np.ndarray]
     description: str = ""
+    objective: object = None          # an fdi.identify.Objective (onset fixed at t0) when the problem is on data
+
+    def _with_onset(self, real: np.ndarray) -> np.ndarray:
+        real = np.atleast_2d(real)
+        return np.hstack([real, np.full((real.shape[0], 1), self.t0)])
 
     @property
     def onehot(self):
@@ -47,6 +52,18 @@ class Problem:
 
     def bounds(self) -> np.ndarray:
         return encoding.bounds(self.spaces)
+
+    def free(self, bits: np.ndarray) -> np.ndarray:
+        """The reals a structure leaves to the search (the objective's, when it solves magnitudes)."""
+        if self.objective is not None:
+            return self.objective.free(bits)[:-1]
+        return encoding.free(self.spaces, bits)
+
+    def finish(self, real: np.ndarray, bits: np.ndarray) -> np.ndarray:
+        """The best individual with the magnitudes the objective solves written in."""
+        if self.objective is not None:
+            return self.objective.complete(self._with_onset(real), bits)[:-1]
+        return real
 
     @property
     def n_bits(self) -> int:

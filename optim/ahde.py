@@ -297,11 +297,15 @@ class AHDE:
                       len(self.history) - 1, time.perf_counter() - t0, self.counter.seconds, self.stop, extra)
 
 
+OPTIONS = ("tol", "patience", "eta", "first_rung", "screen", "spare", "restarts", "per_dim", "max_structures", "init")
+
+
 def minimize(objective, bounds, n_bits: int = 0, *, pop: int = 100, generations: int = 150, seed: int | None = 0,
              target: float | None = None, onehot: Sequence[Sequence[int]] = (), structure: Structure | None = None,
              free: Free | None = None, callback=None, **options) -> Result:
     """Minimise ``objective(real, bits)`` by structure racing (see the module doc); at most
-    ``pop * (generations + 1)`` evaluations."""
-    options.pop("stagnation", None)
+    ``pop * (generations + 1)`` evaluations. Options of other engines (``stagnation``, a GA's
+    ``pc``) are ignored, as they ignore these."""
     return AHDE(objective, bounds, n_bits, pop=pop, generations=generations, seed=seed, onehot=onehot,
-                structure=structure, free=free, target=target, callback=callback, **options).solve()
+                structure=structure, free=free, target=target, callback=callback,
+                **{k: v for k, v in options.items() if k in OPTIONS}).solve()
