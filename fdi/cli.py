@@ -385,7 +385,7 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--threshold", action="append", metavar="ARRk=VALUE", help="override a threshold")
         p.add_argument("--wait", type=float, help="waiting time T_wt in s (default: the model's)")
         p.add_argument("--no-exoneration", action="store_true", help="also admit sets whose union covers the coherence vector")
-        p.add_argument("--engine", default="AHDE", help="identification engine (AHDE, AHDE-paper, SHADE, scipy-DE, GA, AGA)")
+        p.add_argument("--engine", default="AHDE", help="identification engine (AHDE, AHDE-joint, AHDE-paper, SHADE, scipy-DE, GA, AGA)")
         p.add_argument("--pop", type=int, default=100, help="population per estimator (paper: 100)")
         p.add_argument("--generations", type=int, default=150, help="generations per estimator (paper: 150)")
         p.add_argument("--samples", type=int, help="N samples from t_D for identification (default: the model's)")

@@ -6,11 +6,12 @@ objective ``cost(real (pop, D), bits (pop, B)) -> (pop,)`` to minimise, real bou
 """
 from __future__ import annotations
 
-from . import ahde, ahde_paper, ga, scipy_de, shade
+from . import ahde, ahde_joint, ahde_paper, ga, scipy_de, shade
 from .core import Result, fitness
 
 ENGINES = {
     "AHDE": ahde.minimize,
+    "AHDE-joint": ahde_joint.minimize,
     "AHDE-paper": ahde_paper.minimize,
     "GA": ga.minimize,
     "AGA": ga.minimize_adaptive,

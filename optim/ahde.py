@@ -253,10 +253,36 @@ class AHDE:
             if not complete:                                # a partial start: let the leader's neighbours in
                 pool += self.spawn(self.neighbours(self.ranked()[0].bits))
             pool.sort(key=lambda b: b.best)
+            self.migrate(pool)
+            pool.sort(key=lambda b: b.best)
             close = sum(b.best <= pool[0].best * (1 + spare) for b in pool)
             survivors = pool[:max(2, int(np.ceil(len(pool) / self.eta)), min(close, len(pool) - 1))]
             generations, spare = 2 * generations, spare / 2
         return survivors[:2]
+
+    def migrate(self, branches: list[Branch]) -> None:
+        """Each branch gets a migrant: its best point with the reals it shares with the leader taken
+        from the leader's best (an intermittent fault's period found in one structure serves every
+        structure where that fault is intermittent); the migrant replaces the branch's worst point
+        when it is better."""
+        if len(branches) < 2:
+            return
+        leader = branches[0]
+        top = leader.x[int(np.argmin(leader.f))]
+        takers, migrants = [], []
+        for b in branches[1:]:
+            shared = np.intersect1d(b.free, leader.free)
+            if shared.size:
+                m = b.x[int(np.argmin(b.f))].copy()
+                m[shared] = top[shared]
+                takers.append(b)
+                migrants.append(m[None, :])
+        if not takers or self.counter.evaluations + len(takers) > self.budget:
+            return
+        for b, m, c in zip(takers, migrants, self.evaluate(migrants, takers)):
+            worst = int(np.argmax(b.f))
+            if c[0] < b.f[worst]:
+                b.x[worst], b.f[worst] = m[0], c[0]
 
     def restart(self, b: Branch) -> None:
         """A converged branch redrawn around its best point (10 % of each free range), the best kept:
@@ -275,6 +301,7 @@ class AHDE:
     def solve(self) -> Result:
         t0 = time.perf_counter()
         finalists = self.race()
+        self.migrate(sorted(finalists, key=lambda b: b.best))
         if self.stop == "converged":
             self.advance(finalists, self.budget, until_converged=True)
         for _ in range(self.restarts):                  # until a restart improves no finalist
