@@ -3,7 +3,9 @@
 Given a causal assignment, each bond's effort and flow is computed by exactly one node. The
 relations are built per node and resolved in topological order of the causal dependency graph,
 so that each expression is constructed once (no ``subs`` on growing expressions, no
-``simplify``): derivation stays near-linear in the size of the model. Storage elements in
+``simplify``): derivation stays near-linear in the size of the model. Long products of positive
+parameters (the cumulative moduli of a chain of transformers) are kept as one nested factor,
+:class:`ParameterProduct`, so that passing them on costs the same at every stage. Storage elements in
 derivative causality differentiate their input with ``sympy.diff`` (exact, chain rule included).
 
 Sign conventions are those of :mod:`bondgraph.model`. A controlled junction multiplies each of its
@@ -34,6 +36,41 @@ class Relation:
     derivative: bool = False
     energy: Callable[[sp.Expr], sp.Expr] | None = None   # storage: q(e) or p(f), the stored quantity
     parameters: frozenset = frozenset()                   # symbols of the storage law
+
+
+PRODUCT_LIMIT = 6     # positive parameter factors a term may carry before they are grouped
+
+
+class ParameterProduct(sp.UnevaluatedExpr):
+    """A product of positive parameters kept as one factor (``sympy.UnevaluatedExpr``, made
+    commutative and positive). Without it, every transformer of a chain multiplies the flows by
+    one more modulus and sympy re-sorts the whole product each time: derivation time grows with
+    the square of the chain's length. The expression is the same mathematically; ``.doit()``
+    flattens it, lambdify prints it as a parenthesised product."""
+    is_commutative = True
+
+    def _eval_is_positive(self) -> bool | None:
+        """True when every factor is (cheaper than asking the product: no sign analysis)."""
+        return True if all(f.is_positive for f in sp.Mul.make_args(self.args[0])) else None
+
+
+def _is_parameter_factor(f: sp.Expr) -> bool:
+    """A positive parameter, a grouped product of them, or a rational power of either."""
+    base = f.base if f.is_Pow and f.exp.is_Rational else f
+    return (base.is_Symbol and base != t or isinstance(base, ParameterProduct)) and base.is_positive is True
+
+
+def _compact(expr: sp.Expr) -> sp.Expr:
+    """``expr`` with the positive parameter factors of a product grouped into one
+    :class:`ParameterProduct` once there are more than :data:`PRODUCT_LIMIT` of them."""
+    if not expr.is_Mul or len(expr.args) <= PRODUCT_LIMIT:
+        return expr
+    group, rest = [], []
+    for f in expr.args:
+        (group if _is_parameter_factor(f) else rest).append(f)
+    if len(group) <= PRODUCT_LIMIT:
+        return expr
+    return sp.Mul(ParameterProduct(sp.Mul(*group)), *rest)
 
 
 def signal(name: str) -> sp.Expr:
@@ -156,6 +193,17 @@ def _storage(model: Model, e: Element, k: BondKey, form: str, states: Mapping[st
                     parameters=frozenset({p}))
 
 
+def _local_diff(law: sp.Expr, u: sp.Dummy) -> sp.Expr:
+    """d law / d u for a local law in dummy inputs. The laws of junctions and two-ports are
+    the input itself or a product with it once (x, a*x, x/m): their derivative is read off
+    directly, which spares sympy's general ``diff`` machinery on most of a large model."""
+    if law == u:
+        return sp.Integer(1)
+    if law.is_Mul and u in law.args and sum(f.has(u) for f in law.args) == 1:
+        return sp.Mul(*[f for f in law.args if f != u])
+    return sp.diff(law, u)
+
+
 def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozenset = frozenset()
             ) -> dict[Var, sp.Expr]:
     """Evaluate relations in causal order; only the ancestors of ``wanted`` if given.
@@ -217,12 +265,12 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
         laws = [law]
         for _ in range(k):
             prev = laws[-1]
-            step = sp.diff(prev, t)
+            step = sp.diff(prev, t) if prev.has(t) else sp.Integer(0)     # most laws are time-invariant
             for u in local:
                 for j in range(top):
                     if prev.has(u[j]):
-                        step += sp.diff(prev, u[j]) * u[j + 1]
+                        step += _local_diff(prev, u[j]) * u[j + 1]
             laws.append(step)
         subs = {u[j]: series[i][j] for u, i in zip(local, r.inputs) for j in range(len(u)) if j < len(series[i])}
-        series[v] = [expr.xreplace(subs) for expr in laws]
+        series[v] = [_compact(expr.xreplace(subs)) for expr in laws]
     return {v: series[v][0] for v in order}
