@@ -22,6 +22,7 @@ import sympy as sp
 from .causality import Causality
 from .graph import BondKey, ports, to_networkx
 from .model import LAW_VARIABLES, Element, Model, t
+from .program import Line, line_diff, name_line
 
 Var = tuple[str, BondKey]          # ('e' | 'f', bond key)
 
@@ -193,19 +194,8 @@ def _storage(model: Model, e: Element, k: BondKey, form: str, states: Mapping[st
                     parameters=frozenset({p}))
 
 
-def _local_diff(law: sp.Expr, u: sp.Dummy) -> sp.Expr:
-    """d law / d u for a local law in dummy inputs. The laws of junctions and two-ports are
-    the input itself or a product with it once (x, a*x, x/m): their derivative is read off
-    directly, which spares sympy's general ``diff`` machinery on most of a large model."""
-    if law == u:
-        return sp.Integer(1)
-    if law.is_Mul and u in law.args and sum(f.has(u) for f in law.args) == 1:
-        return sp.Mul(*[f for f in law.args if f != u])
-    return sp.diff(law, u)
-
-
-def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozenset = frozenset()
-            ) -> dict[Var, sp.Expr]:
+def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozenset = frozenset(),
+            program: list[Line] | None = None) -> dict[Var, sp.Expr]:
     """Evaluate relations in causal order; only the ancestors of ``wanted`` if given.
 
     Time derivatives (storage elements in derivative causality) are propagated forward along the
@@ -218,7 +208,11 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
     ``whole``: parameters whose storage laws are differentiated as a whole: such an element gives
     ``Derivative(q(x), t)`` unexpanded (the rate of the stored quantity, exact when the parameter
     varies in time: a capacitance fault changes e at constant q, and dq/dt carries the dC/dt e
-    term), for evaluation by :mod:`fdi.residuals`."""
+    term), for evaluation by :mod:`fdi.residuals`.
+
+    ``program``: when given, every computed expression is appended to it as a named line
+    (:mod:`bondgraph.program`) and passed on by its name, so that no value is nested through the
+    model: the returned values are names or atoms, for code generation (the simulator)."""
     by_output = {r.output: r for r in rels}
     dag = nx.DiGraph()
     for r in rels:
@@ -269,8 +263,10 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
             for u in local:
                 for j in range(top):
                     if prev.has(u[j]):
-                        step += _local_diff(prev, u[j]) * u[j + 1]
+                        step += line_diff(prev, u[j]) * u[j + 1]
             laws.append(step)
         subs = {u[j]: series[i][j] for u, i in zip(local, r.inputs) for j in range(len(u)) if j < len(series[i])}
         series[v] = [_compact(expr.xreplace(subs)) for expr in laws]
+        if program is not None:
+            series[v] = [name_line(expr, program) for expr in series[v]]
     return {v: series[v][0] for v in order}
