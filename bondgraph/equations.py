@@ -22,7 +22,7 @@ import sympy as sp
 from .causality import Causality
 from .graph import BondKey, ports, to_networkx
 from .model import LAW_VARIABLES, Element, Model, t
-from .program import Line, line_diff, name_line
+from .program import Program, line_diff
 
 Var = tuple[str, BondKey]          # ('e' | 'f', bond key)
 
@@ -195,7 +195,7 @@ def _storage(model: Model, e: Element, k: BondKey, form: str, states: Mapping[st
 
 
 def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozenset = frozenset(),
-            program: list[Line] | None = None) -> dict[Var, sp.Expr]:
+            program: Program | None = None) -> dict[Var, sp.Expr]:
     """Evaluate relations in causal order; only the ancestors of ``wanted`` if given.
 
     Time derivatives (storage elements in derivative causality) are propagated forward along the
@@ -210,7 +210,7 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
     varies in time: a capacitance fault changes e at constant q, and dq/dt carries the dC/dt e
     term), for evaluation by :mod:`fdi.residuals`.
 
-    ``program``: when given, every computed expression is appended to it as a named line
+    ``program``: when given, every computed expression is named in it as a line
     (:mod:`bondgraph.program`) and passed on by its name, so that no value is nested through the
     model: the returned values are names or atoms, for code generation (the simulator)."""
     by_output = {r.output: r for r in rels}
@@ -268,5 +268,5 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
         subs = {u[j]: series[i][j] for u, i in zip(local, r.inputs) for j in range(len(u)) if j < len(series[i])}
         series[v] = [_compact(expr.xreplace(subs)) for expr in laws]
         if program is not None:
-            series[v] = [name_line(expr, program) for expr in series[v]]
+            series[v] = [program.name(expr) for expr in series[v]]
     return {v: series[v][0] for v in order}

@@ -19,18 +19,38 @@ from sympy.printing.pycode import PythonCodePrinter
 Line = tuple[sp.Symbol, sp.Expr]
 
 
-def name_line(expr: sp.Expr, program: list[Line], prefix: str = "__v") -> sp.Expr:
-    """``expr`` itself when it is an atom, else a new name for it appended to ``program``."""
-    if expr.is_Atom:
-        return expr
-    name = sp.Symbol(f"{prefix}{len(program)}")
-    program.append((name, expr))
-    return name
+class Program:
+    """Lines in order, each a name for a small expression of atoms and earlier names."""
+
+    def __init__(self, prefix: str = "__v"):
+        self.lines: list[Line] = []
+        self.prefix = prefix
+        self._names: dict[sp.Expr, sp.Symbol] = {}
+
+    def name(self, expr: sp.Expr) -> sp.Expr:
+        """``expr`` itself when it is an atom, else its name: the existing one when the same
+        expression was named before (two bonds carrying one value compute it once), else a new line."""
+        if expr.is_Atom:
+            return expr
+        if expr not in self._names:
+            self._names[expr] = sp.Symbol(f"{self.prefix}{len(self.lines)}")
+            self.lines.append((self._names[expr], expr))
+        return self._names[expr]
 
 
-def substitute(program: Sequence[Line], mapping: dict) -> list[Line]:
-    """The program with ``mapping`` applied to every line (each line is small: linear in total)."""
-    return [(s, e.xreplace(mapping)) for s, e in program]
+def substitute(lines: Sequence[Line], mapping: dict) -> tuple[list[Line], dict]:
+    """``mapping`` applied to every line (each is small: linear in total). A line that becomes an
+    atom (a term that vanishes at x' = 0, say) is folded into the lines after it: returns the
+    remaining lines and ``mapping`` extended by the folded names, to apply to outputs too."""
+    mapping = dict(mapping)
+    out: list[Line] = []
+    for name, expr in lines:
+        expr = expr.xreplace(mapping)
+        if expr.is_Atom:
+            mapping[name] = expr
+        else:
+            out.append((name, expr))
+    return out, mapping
 
 
 def line_diff(expr: sp.Expr, var: sp.Symbol) -> sp.Expr:
@@ -52,7 +72,7 @@ def linear_coefficients(program: Sequence[Line], unknowns: Sequence[sp.Symbol]
     an unknown, ``{unknown: coefficient}``. Raises ValueError when a coefficient itself depends on
     an unknown (the program is not linear in them)."""
     grad: dict[sp.Symbol, dict[sp.Symbol, sp.Expr]] = {u: {u: sp.Integer(1)} for u in unknowns}
-    lines: list[Line] = []
+    coefficients = Program("__g")
     for name, expr in program:
         deps = [m for m in expr.free_symbols if m in grad]
         if not deps:
@@ -64,8 +84,8 @@ def linear_coefficients(program: Sequence[Line], unknowns: Sequence[sp.Symbol]
                 raise ValueError(f"not linear in {', '.join(str(u) for u in unknowns)}")
             for u, c in grad[m].items():
                 total[u] = total.get(u, sp.Integer(0)) + d * c
-        grad[name] = {u: name_line(c, lines, "__g") for u, c in total.items() if c != 0}
-    return lines, grad
+        grad[name] = {u: coefficients.name(c) for u, c in total.items() if c != 0}
+    return coefficients.lines, grad
 
 
 def triangular_order(coefficients: dict[int, dict[int, sp.Expr]], n: int) -> list[int] | None:
@@ -92,11 +112,37 @@ def needed_lines(program: Sequence[Line], outputs: Sequence[sp.Expr]) -> list[Li
     return kept
 
 
+def _shared_calls(lines: list[Line]) -> list[Line]:
+    """Common subexpressions of the lines that call functions (a modulus such as
+    1/(r cos(beta + theta)) enters every relation through its element) as lines of their own,
+    each placed before its first use. Lines of plain arithmetic are left alone: cse over
+    thousands of them would cost more than it saves."""
+    calls = [i for i, (_, e) in enumerate(lines) if e.atoms(sp.Function)]
+    if not calls:
+        return lines
+    shared, reduced = sp.cse([lines[i][1] for i in calls], symbols=sp.numbered_symbols("__c"))
+    pending = dict(shared)
+    order = [s for s, _ in shared]
+    replaced = dict(zip(calls, reduced))
+    out: list[Line] = []
+    for i, (name, expr) in enumerate(lines):
+        if i in replaced:
+            expr = replaced[i]
+            want = {s for s in expr.free_symbols if s in pending}
+            if want:
+                for s in reversed(order):              # a shared term may use earlier ones
+                    if s in want:
+                        want |= {u for u in pending[s].free_symbols if u in pending}
+                out += [(s, pending.pop(s)) for s in order if s in want]
+        out.append((name, expr))
+    return out
+
+
 def compile_lines(args: Iterable, program: Sequence[Line], outputs: Sequence[sp.Expr], modules: str) -> Callable:
     """lambdify with the program as its common subexpressions: printed line by line, never nested,
     terms in the order they have (sorting them for display is most of the cost of printing).
     Lines that no output needs are dropped. ``modules``: "math" (scalars) or "numpy" (arrays)."""
-    kept = needed_lines(program, outputs)
+    kept = _shared_calls(needed_lines(program, outputs))
     printer = (NumPyPrinter if modules == "numpy" else PythonCodePrinter)(
         {"fully_qualified_modules": False, "inline": True, "allow_unknown_functions": True, "order": "none"})
     return sp.lambdify(list(args), list(outputs), modules=modules, printer=printer, cse=lambda exprs: (kept, exprs))

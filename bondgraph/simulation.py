@@ -31,7 +31,7 @@ from scipy.integrate import solve_ivp
 
 from .causality import SIMULATION, assign
 from .equations import relations, resolve
-from .program import Line, compile_lines, linear_coefficients, name_line, needed_lines, substitute, triangular_order
+from .program import Line, Program, compile_lines, linear_coefficients, needed_lines, substitute, triangular_order
 from .errors import CausalityError
 from .model import LAW_VARIABLES, Element, Model, t
 
@@ -44,14 +44,16 @@ class SimulationError(Exception):
 class System:
     """The reduced state equations of one configuration, compiled to Python functions.
 
-    ``f(t, x, p)`` gives x' (tuples in, a list out; plain ``math``, one call per evaluation);
-    ``step`` is one ROS2 step of :func:`_ros2`; ``observe(t, x, p, dx)`` gives the outputs then the energy variables,
+    ``prepare(p)`` extends a parameter vector by the terms that depend on parameters only; with
+    that, ``f(t, x, c)`` gives x' (tuples in, a list out; plain ``math``, one call per evaluation)
+    and ``step`` is one ROS2 step of :func:`_ros2`; ``observe(t, x, p, dx)`` gives the outputs then the energy variables,
     elementwise over arrays of samples (numpy)."""
     states: list[str]                 # storage elements in integral causality, then sensor integrals
     kinds: list[str]                  # 'storage' | 'sensor'
     open_resistors: frozenset[str]
-    f: Callable                       # (t, x, p) -> x'
-    step: Callable                    # (t0, t1, h, x, W, p0, p1) -> x after one ROS2 step (W flat, row-major)
+    prepare: Callable                 # p -> c: parameters and the terms computed from them only
+    f: Callable                       # (t, x, c) -> x'
+    step: Callable                    # (t0, t1, h, x, W, c0, c1) -> x after one ROS2 step (W flat, row-major)
     observe: Callable                 # (t, x, p, dx) -> outputs, then the energy of every storage element
     output_names: list[str]           # sensor true values, then storage flows/efforts
     param_names: list[str]
@@ -60,7 +62,7 @@ class System:
 
     def derivative(self, t: float, x: np.ndarray, params: Sequence[float]) -> np.ndarray:
         """x' at one instant."""
-        return np.asarray(self.f(t, tuple(x), tuple(params)), dtype=float).reshape(-1)
+        return np.asarray(self.f(t, tuple(x), self.prepare(params)), dtype=float).reshape(-1)
 
     def outputs(self, t: float, x: np.ndarray, params: Sequence[float], dx: np.ndarray) -> np.ndarray:
         """Outputs (``output_names``) at one instant."""
@@ -85,12 +87,26 @@ def _specialise(model: Model, values: Mapping[str, float]) -> tuple[Model, froze
         law = e.laws.get("flow")
         if law is None and e.parameter is not None:
             law = LAW_VARIABLES["e"] / model.symbols[e.parameter]
-        if law is not None and sp.simplify(law.xreplace(subs)) == 0:
+        if law is not None and _vanishes(law.xreplace(subs)):
             opened.add(e.name)
             elements[e.name] = Element(e.name, "Sf", value=sp.Integer(0), description=f"{e.name} open (infinite)")
     if not opened:
         return model, frozenset()
     return replace(model, elements=elements), frozenset(opened)
+
+
+def _vanishes(law: sp.Expr) -> bool:
+    """Whether a law is identically zero. A value clearly off zero at a sample point (evaluated
+    to 50 digits, so that rounding cannot fake one) proves it is not, the common case, decided
+    without sympy's ``simplify``; otherwise simplify decides."""
+    if law == 0:
+        return True
+    free = sorted(law.free_symbols, key=str)
+    for sample in (sp.Rational(7, 10), sp.Rational(-13, 10), sp.Rational(29, 10)):
+        value = law.xreplace({s: sample * (k + 1) for k, s in enumerate(free)}).evalf(50)
+        if value.is_number and value.is_finite and abs(complex(value)) > 1e-30:
+            return False
+    return sp.simplify(law) == 0
 
 
 def build_system(model: Model, values: Mapping[str, float]) -> System:
@@ -147,7 +163,7 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     wanted = [("e", _bond_of(spec, e.name)) if e.kind == "I" else ("f", _bond_of(spec, e.name)) for e in integral]
     wanted += [("e", s.name) if s.kind == "De" else ("f", s.name) for s in spec.sensors.values()]
     flows = [("f", _bond_of(spec, e.name)) if e.kind == "I" else ("e", _bond_of(spec, e.name)) for e in storage]
-    program: list[Line] = []
+    program = Program()
     try:
         values_ = resolve(rels, wanted + flows, program=program)
     except ValueError as exc:
@@ -165,11 +181,11 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     def plain(expr: sp.Expr) -> sp.Expr:
         expr = expr.xreplace(to_sym) if expr.has(sp.Derivative) else expr
         return expr.xreplace(to_sym2)
-    program = [(s, plain(e)) for s, e in program]
-    residual = [name_line(plain(d), program) for d in derivs]
+    program.lines = [(s, plain(e)) for s, e in program.lines]
+    residual = [program.name(plain(d)) for d in derivs]
     outputs = [plain(sensor_vals[s]) for s in spec.sensors] + [plain(values_[f]) for f in flows]
     energies = [_energy(spec, e, var) for e, var in zip(storage, outputs[len(spec.sensors):])]
-    used = set().union(*(e.free_symbols for _, e in program), *(e.free_symbols for e in outputs + energies))
+    used = set().union(*(e.free_symbols for _, e in program.lines), *(e.free_symbols for e in outputs + energies))
     leftovers = sorted(s.name[9:] for s in used if s.name.startswith("__signal_"))
     if leftovers:
         raise SimulationError(f"a modulated element uses signal(s) {leftovers} that are not "
@@ -181,22 +197,23 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     p_sym = [sp.Symbol(f"_p{i}") for i in range(len(params))]
     t_sym = sp.Symbol("_t")
     rename = dict(zip(params, p_sym)) | {t: t_sym}
-    program = substitute(program, rename)
+    lines, _ = substitute(program.lines, rename)
     outputs = [e.xreplace(rename) for e in outputs + energies]
     try:
-        coeff_lines, grad = linear_coefficients(program, dx_sym)
+        coeff_lines, grad = linear_coefficients(lines, dx_sym)
     except ValueError:
         raise SimulationError("the state equations are not linear in the state derivatives; "
                               "this dependent storage cannot be reduced") from None
     coefficients = {i: {dx_sym.index(u): c for u, c in grad.get(r, {}).items()} for i, r in enumerate(residual)}
-    zero = {d: 0 for d in dx_sym}
-    at_rest = needed_lines(substitute(program, zero) + coeff_lines,
-                           residual + [c for row in coefficients.values() for c in row.values()])
-    f = _solver(at_rest, [r.xreplace(zero) for r in residual], coefficients, (t_sym, x_sym, p_sym))
+    at_rest, folded = substitute(lines + coeff_lines, {d: sp.Integer(0) for d in dx_sym})
+    residual = [r.xreplace(folded) for r in residual]
+    coefficients = {i: {j: c.xreplace(folded) for j, c in row.items()} for i, row in coefficients.items()}
+    at_rest = needed_lines(at_rest, residual + [c for row in coefficients.values() for c in row.values()])
+    f, prepare = _solver(at_rest, residual, coefficients, (t_sym, x_sym, p_sym))
     step = _step_function(f, n)
-    observe = compile_lines([t_sym, x_sym, p_sym, dx_sym], program, outputs, "numpy")
+    observe = compile_lines([t_sym, x_sym, p_sym, dx_sym], lines, outputs, "numpy")
     discontinuous = any(e.has(sp.sign, sp.Abs, sp.Heaviside) for _, e in at_rest)
-    return System(states, ["storage"] * n_st + ["sensor"] * len(integrals), opened, f, step, observe,
+    return System(states, ["storage"] * n_st + ["sensor"] * len(integrals), opened, prepare, f, step, observe,
                   list(spec.sensors) + [f"flow_{e.name}" for e in storage], [p.name for p in params],
                   [e.name for e in storage], discontinuous)
 
@@ -212,32 +229,57 @@ def _energy(spec: Model, e: Element, var: sp.Expr) -> sp.Expr:
 
 
 def _solver(lines: list[Line], residual: list[sp.Expr], coefficients: dict[int, dict[int, sp.Expr]],
-            args: tuple) -> Callable:
+            args: tuple) -> tuple[Callable, Callable]:
     """x' from x' = r(x) + G(x) x' (``lines`` evaluated at x' = 0, G sparse in ``coefficients``).
 
     When no cycle couples the x' (always so for independent storage, where G = 0), each x'_i is
-    solved in turn, (r_i + sum_j G_ij x'_j) / (1 - G_ii), as more lines of one compiled function. Otherwise G is evaluated and
-    (I - G) x' = r solved numerically at every call."""
+    solved in turn, (r_i + sum_j G_ij x'_j) / (1 - G_ii), as more lines of one compiled function.
+    Otherwise G is evaluated and (I - G) x' = r solved numerically at every call. Returns f(t, x, c)
+    and prepare(p) -> c: the lines that depend on parameters only are computed by prepare, once
+    per parameter vector, instead of at every evaluation."""
     n = len(residual)
+    t_sym, x_sym, p_sym = args
     order = triangular_order(coefficients, n)
     if order is not None:
-        solved = [sp.Symbol(f"_xd{i}") for i in range(n)]
+        outputs = [sp.Symbol(f"_xd{i}") for i in range(n)]
         lines = list(lines)
         for i in order:
             row = coefficients[i]
-            rest = sp.Add(residual[i], *[c * solved[j] for j, c in row.items() if j != i])
-            lines.append((solved[i], rest / (1 - row[i]) if i in row else rest))
-        return compile_lines(args, lines, solved, "math")
-    entries = [(i, j, c) for i, row in coefficients.items() for j, c in row.items()]
-    raw = compile_lines(args, lines, residual + [c for _, _, c in entries], "math")
-    rows, cols = [i for i, _, _ in entries], [j for _, j, _ in entries]
+            rest = sp.Add(residual[i], *[c * outputs[j] for j, c in row.items() if j != i])
+            lines.append((outputs[i], rest / (1 - row[i]) if i in row else rest))
+    else:
+        entries = [(i, j, c) for i, row in coefficients.items() for j, c in row.items()]
+        outputs = residual + [c for _, _, c in entries]
+        rows, cols = [i for i, _, _ in entries], [j for _, j, _ in entries]
+    constant, varying = _split_constant(needed_lines(lines, outputs), p_sym)
+    names = [s for s, _ in constant]
+    computed = compile_lines([p_sym], constant, names, "math")
 
-    def f(t_: float, x: tuple, p: tuple) -> np.ndarray:
-        values = raw(t_, x, p)
+    def prepare(p: Sequence[float]) -> tuple:
+        return (*p, *computed(tuple(p)))
+    raw = compile_lines([t_sym, x_sym, list(p_sym) + names], varying, outputs, "math")
+    if order is not None:
+        return raw, prepare
+
+    def f(t_: float, x: tuple, c: tuple) -> np.ndarray:
+        values = raw(t_, x, c)
         A = np.eye(n)
         A[rows, cols] -= values[n:]
         return np.linalg.solve(A, values[:n])
-    return f
+    return f, prepare
+
+
+def _split_constant(lines: list[Line], params: Sequence[sp.Symbol]) -> tuple[list[Line], list[Line]]:
+    """The lines that depend on parameters only (and on such lines), and the others."""
+    known = set(params)
+    constant, varying = [], []
+    for name, expr in lines:
+        if expr.free_symbols <= known:
+            constant.append((name, expr))
+            known.add(name)
+        else:
+            varying.append((name, expr))
+    return constant, varying
 
 
 UNROLLED = 12     # up to this many states a ROS2 step is generated as scalar code, beyond it uses numpy
@@ -355,12 +397,18 @@ class _ParameterTable:
         return np.column_stack([np.broadcast_to(np.asarray(v[n], dtype=float), times.shape) for n in self.names]
                                ) if self.names else np.zeros((len(times), 0))
 
-    def tuples(self, times: np.ndarray) -> list[tuple]:
-        """``rows`` as one tuple per instant, the same tuple throughout when nothing varies."""
+    def prepared(self, times: np.ndarray, prepare: Callable[[tuple], tuple]) -> list[tuple]:
+        """``prepare(p)`` at every instant of ``times``, computed once per run of instants with
+        the same parameters (the whole piece but for a time-varying fault)."""
         table = self.rows(times)
-        if not len(table) or np.all(table == table[0]):
-            return [tuple(table[0].tolist()) if len(table) else ()] * len(times)
-        return [tuple(r) for r in table.tolist()]
+        if not len(table):
+            return []
+        same = (table[1:] == table[:-1]) | (np.isnan(table[1:]) & np.isnan(table[:-1]))
+        firsts = np.flatnonzero(np.r_[True, ~np.all(same, axis=1)])
+        out: list[tuple] = []
+        for first, count in zip(firsts.tolist(), np.diff(np.r_[firsts, len(table)]).tolist()):
+            out += [prepare(tuple(table[first].tolist()))] * count
+        return out
 
 
 def _scipy(system: System, table: _ParameterTable, how: str, a: float, b: float, x: np.ndarray,
@@ -388,7 +436,7 @@ def _trajectory(model: Model, pieces: list[tuple[System, np.ndarray, np.ndarray]
     for system, ts, ys in pieces:
         table = _ParameterTable(values, system.param_names, vectorised)
         P = table.rows(ts)
-        dx = np.array([system.f(tt, tuple(y), tuple(p)) for tt, y, p in zip(ts, ys.T.tolist(), P.tolist())],
+        dx = np.array([system.derivative(tt, y, p) for tt, y, p in zip(ts, ys.T.tolist(), P.tolist())],
                       dtype=float).reshape(len(ts), -1)
         observed = system.observe(ts, tuple(ys), tuple(P.T), tuple(dx.T))
         for name, v in zip(system.output_names, observed):
@@ -445,10 +493,10 @@ def _ros2(system: System, table: _ParameterTable, a: float, b: float, x: np.ndar
         g = 1 + 1/sqrt(2).
 
     W = (I - g h J)^-1 is formed when the Jacobian is refreshed; a step is one call of
-    ``system.step`` with the parameters at both stages tabulated beforehand."""
+    ``system.step`` with the (prepared) parameters at both stages tabulated beforehand."""
     g = 1.0 + 1.0 / np.sqrt(2.0)
     starts, sizes, reached = _ros2_grid(a, b, pts, h_max)
-    p0, p1 = table.tuples(starts), table.tuples(starts + sizes)
+    c0, c1 = table.prepared(starts, system.prepare), table.prepared(starts + sizes, system.prepare)
     n_state = len(x)
     eye = np.eye(n_state)
     xx = tuple(float(v) for v in x)
@@ -460,9 +508,9 @@ def _ros2(system: System, table: _ParameterTable, a: float, b: float, x: np.ndar
         saved[0] = xx
     for k, (tt, h) in enumerate(zip(starts.tolist(), sizes.tolist())):
         if W is None or k % jac_every == 0 or h != h_used:
-            W = tuple(np.linalg.inv(eye - g * h * _jacobian(f, tt, xx, p0[k])).ravel().tolist())
+            W = tuple(np.linalg.inv(eye - g * h * _jacobian(f, tt, xx, c0[k])).ravel().tolist())
             h_used = h
-        xx = step(tt, tt + h, h, xx, W, p0[k], p1[k])
+        xx = step(tt, tt + h, h, xx, W, c0[k], c1[k])
         if k + 1 in marks:
             saved[k + 1] = xx
     ys = [saved[r] for r in reached]
@@ -470,16 +518,16 @@ def _ros2(system: System, table: _ParameterTable, a: float, b: float, x: np.ndar
                      np.asarray(ys, dtype=float).T if ys else np.zeros((n_state, 0)), np.asarray(xx, dtype=float))
 
 
-def _jacobian(f: Callable, tt: float, x: tuple, p: tuple) -> np.ndarray:
+def _jacobian(f: Callable, tt: float, x: tuple, c: tuple) -> np.ndarray:
     """Forward-difference Jacobian of x' (steps 1e-7 relative); non-finite entries set to zero
     (a square root at zero, say)."""
-    f0 = np.asarray(f(tt, x, p), dtype=float)
-    jac = np.empty((len(x), len(x)))
-    for j in range(len(x)):
-        d = 1e-7 * max(1.0, abs(x[j]))
-        xp = list(x)
-        xp[j] += d
-        jac[:, j] = (np.asarray(f(tt, tuple(xp), p), dtype=float) - f0) / d
+    f0 = f(tt, x, c)
+    columns = []
+    for j, xj in enumerate(x):
+        d = 1e-7 * max(1.0, abs(xj))
+        fj = f(tt, (*x[:j], xj + d, *x[j + 1:]), c)
+        columns.append([(a - b) / d for a, b in zip(fj, f0)])
+    jac = np.array(columns, dtype=float).T
     if not np.all(np.isfinite(jac)):
         jac = np.nan_to_num(jac, nan=0.0, posinf=0.0, neginf=0.0)
     return jac
