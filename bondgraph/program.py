@@ -4,14 +4,16 @@
 expression of earlier names`` instead of one expression nested through the whole model. The
 simulator then works on lines: the implicit equations ``x' = r(x, x')`` are linear in x', their
 coefficients ``dr_i/dx'_j`` come from forward differentiation line by line (only the lines that
-depend on some x'), and lambdify prints the lines as they are (``cse`` given the program). Every
-step is linear in the size of the model; no matrix of symbolic derivatives is formed.
+depend on some x'), and the lines are printed as they are into the body of a Python function.
+Every step is linear in the size of the model; no matrix of symbolic derivatives is formed.
 """
 from __future__ import annotations
 
-from typing import Callable, Iterable, Sequence
+import math
+from typing import Callable, Sequence
 
 import networkx as nx
+import numpy
 import sympy as sp
 from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.pycode import PythonCodePrinter
@@ -55,10 +57,12 @@ def substitute(lines: Sequence[Line], mapping: dict) -> tuple[list[Line], dict]:
 
 def line_diff(expr: sp.Expr, var: sp.Symbol) -> sp.Expr:
     """d expr/d var of one small expression (a line, a local law). The laws of junctions and
-    two-ports are the variable itself or a product with it once (x, a*x, x/m): their derivative
-    is read off directly, which spares sympy's general ``diff`` machinery on most of a model."""
+    two-ports are the variable itself, a product with it once (x, a*x, x/m) or sums of such
+    terms: their derivative is read off directly, which spares sympy's general ``diff`` machinery on most of a model."""
     if expr == var:
         return sp.Integer(1)
+    if expr.is_Add:
+        return sp.Add(*[line_diff(a, var) for a in expr.args if a.has(var)])
     if expr.is_Mul and var in expr.args and sum(f.has(var) for f in expr.args) == 1:
         return sp.Mul(*[f for f in expr.args if f != var])
     return sp.diff(expr, var)
@@ -138,11 +142,26 @@ def _shared_calls(lines: list[Line]) -> list[Line]:
     return out
 
 
-def compile_lines(args: Iterable, program: Sequence[Line], outputs: Sequence[sp.Expr], modules: str) -> Callable:
-    """lambdify with the program as its common subexpressions: printed line by line, never nested,
-    terms in the order they have (sorting them for display is most of the cost of printing).
-    Lines that no output needs are dropped. ``modules``: "math" (scalars) or "numpy" (arrays)."""
+def compile_lines(args: Sequence, program: Sequence[Line], outputs: Sequence[sp.Expr], modules: str) -> Callable:
+    """A Python function of ``args`` (symbols, or lists of symbols passed as one tuple) returning
+    the list of ``outputs``, with the program's lines as its body: printed one by one, never
+    nested, terms in the order they have (sorting them for display is most of the cost of
+    printing sympy). Lines that no output needs are dropped. ``modules``: "math" (scalars) or
+    "numpy" (arrays, elementwise)."""
     kept = _shared_calls(needed_lines(program, outputs))
     printer = (NumPyPrinter if modules == "numpy" else PythonCodePrinter)(
-        {"fully_qualified_modules": False, "inline": True, "allow_unknown_functions": True, "order": "none"})
-    return sp.lambdify(list(args), list(outputs), modules=modules, printer=printer, cse=lambda exprs: (kept, exprs))
+        {"fully_qualified_modules": True, "inline": True, "allow_unknown_functions": True, "order": "none"})
+    names, body = [], []
+    for k, arg in enumerate(args):
+        if isinstance(arg, (list, tuple)):
+            names.append(f"_arg{k}")
+            if arg:
+                body.append(f"{', '.join(str(s) for s in arg)}, = _arg{k}")
+        else:
+            names.append(str(arg))
+    body += [f"{name} = {printer.doprint(expr)}" for name, expr in kept]
+    body.append(f"return [{', '.join(printer.doprint(o) for o in outputs)}]")
+    source = f"def generated({', '.join(names)}):\n" + "".join(f"    {line}\n" for line in body)
+    namespace = {"math": math, "numpy": numpy}
+    exec(compile(source, "<bondgraph.program>", "exec"), namespace)
+    return namespace["generated"]

@@ -175,30 +175,26 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     n = len(states)
     x_sym = [sp.Symbol(f"_x{i}") for i in range(n)]
     dx_sym = [sp.Symbol(f"_dx{i}") for i in range(n)]
-    to_sym = {sp.Derivative(X[s], t): d for s, d in zip(states, dx_sym)}
-    to_sym2 = {X[s]: x for s, x in zip(states, x_sym)}
-
-    def plain(expr: sp.Expr) -> sp.Expr:
-        expr = expr.xreplace(to_sym) if expr.has(sp.Derivative) else expr
-        return expr.xreplace(to_sym2)
-    program.lines = [(s, plain(e)) for s, e in program.lines]
-    residual = [program.name(plain(d)) for d in derivs]
-    outputs = [plain(sensor_vals[s]) for s in spec.sensors] + [plain(values_[f]) for f in flows]
-    energies = [_energy(spec, e, var) for e, var in zip(storage, outputs[len(spec.sensors):])]
-    used = set().union(*(e.free_symbols for _, e in program.lines), *(e.free_symbols for e in outputs + energies))
+    residual = [program.name(d) for d in derivs]
+    outputs = [sensor_vals[s] for s in spec.sensors] + [values_[f] for f in flows]
+    outputs += [_energy(spec, e, var) for e, var in zip(storage, outputs[len(spec.sensors):])]
+    used = set().union(*(e.free_symbols for _, e in program.lines), *(e.free_symbols for e in outputs))
     leftovers = sorted(s.name[9:] for s in used if s.name.startswith("__signal_"))
     if leftovers:
         raise SimulationError(f"a modulated element uses signal(s) {leftovers} that are not "
                               "displacements or momenta; measure them as such or use a parameter")
-    params = sorted({s for s in used if not s.name.startswith(("__v", "_x", "_dx")) and s != t}
+    params = sorted({s for s in used if not s.name.startswith("__v") and s != t}
                     | {spec.symbols[k] for k in spec.parameters} | {spec.symbols[m] for m in spec.modes}
                     | {spec.symbols[f"beta_{e.input or e.name}"] for e in spec.sources() if e.name not in opened},
                     key=lambda s: s.name)
     p_sym = [sp.Symbol(f"_p{i}") for i in range(len(params))]
     t_sym = sp.Symbol("_t")
-    rename = dict(zip(params, p_sym)) | {t: t_sym}
-    lines, _ = substitute(program.lines, rename)
-    outputs = [e.xreplace(rename) for e in outputs + energies]
+    # one pass over the lines: d/dt of a state first (xreplace matches a node before its arguments),
+    # then states, parameters and time as plain symbols of the generated code
+    mapping = {sp.Derivative(X[s], t): d for s, d in zip(states, dx_sym)}
+    mapping |= {X[s]: x for s, x in zip(states, x_sym)} | dict(zip(params, p_sym)) | {t: t_sym}
+    lines, _ = substitute(program.lines, mapping)
+    outputs = [e.xreplace(mapping) for e in outputs]
     try:
         coeff_lines, grad = linear_coefficients(lines, dx_sym)
     except ValueError:
