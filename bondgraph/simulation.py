@@ -22,8 +22,10 @@ friction, leakage: see ``simulate``), otherwise by scipy's LSODA; Radau, BDF or 
 """
 from __future__ import annotations
 
+import time
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
-from typing import Callable, Mapping, Sequence
+from typing import Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 import sympy as sp
@@ -320,7 +322,7 @@ class Trajectory:
 def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapping[str, float]],
              breakpoints: Sequence[float] = (), initial: Mapping[str, float] | None = None,
              method: str = "auto", max_step: float | None = None, progress: Callable[[float], None] | None = None,
-             vectorised: bool = False) -> Trajectory:
+             vectorised: bool = False, stages: dict[str, float] | None = None) -> Trajectory:
     """Simulate on ``t_eval``. ``values(t)`` gives every parameter, efficiency factor and mode
     variable at time t (faults included); ``breakpoints`` are the instants where they jump. With
     ``vectorised``, ``values`` also takes an array of times and gives arrays (or constants): the
@@ -331,7 +333,11 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
     equations are discontinuous (Coulomb friction sign(v), leakage sqrt|dp|: error-controlled
     methods stall at the switching surface when a velocity sticks near zero, and a leak makes the
     problem stiff; a fixed step bounds the chatter to F_c/J * h, far below sensor resolution),
-    LSODA otherwise."""
+    LSODA otherwise.
+
+    ``stages``: if given, the CPU seconds of each stage are added to it: ``build`` (state
+    equations), ``integrate``, ``outputs``."""
+    clock = _StageClock(stages)
     initial = dict(initial or {})
     t_eval = np.asarray(t_eval, dtype=float)
     edges = sorted({float(t_eval[0]), float(t_eval[-1])} | {float(b) for b in breakpoints if t_eval[0] < b < t_eval[-1]})
@@ -344,7 +350,8 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
     for a, b in zip(edges[:-1], edges[1:]):
         spec, opened = _specialise(model, values(0.5 * (a + b)))
         if opened not in cache:
-            cache[opened] = _build(spec, opened)
+            with clock("build"):
+                cache[opened] = _build(spec, opened)
         new = cache[opened]
         if system is None:
             x = _initial_state(new, initial, a, values(a))
@@ -357,16 +364,34 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
         pts = t_eval[mask]
         table = _ParameterTable(values, system.param_names, vectorised)
         how = method if method != "auto" else ("ros2" if system.discontinuous else "LSODA")
-        if how == "ros2":
-            sol = _ros2(system, table, a, b, x, pts, min(max_step or 1e-3, 1e-3))
-        else:
-            sol = _scipy(system, table, how, a, b, x, pts, max_step)
+        with clock("integrate"):
+            if how == "ros2":
+                sol = _ros2(system, table, a, b, x, pts, min(max_step or 1e-3, 1e-3))
+            else:
+                sol = _scipy(system, table, how, a, b, x, pts, max_step)
         x = sol.end
         if pts.size:
             pieces.append((system, sol.t, sol.y))
         if progress:
             progress(b)
-    return _trajectory(model, pieces, values, vectorised, configs)
+    with clock("outputs"):
+        return _trajectory(model, pieces, values, vectorised, configs)
+
+
+class _StageClock:
+    """Adds the CPU time of ``with clock(stage):`` blocks to a dict, when one is given."""
+
+    def __init__(self, stages: dict[str, float] | None):
+        self.stages = stages
+
+    @contextmanager
+    def __call__(self, stage: str) -> Iterator[None]:
+        start = time.process_time()
+        try:
+            yield
+        finally:
+            if self.stages is not None:
+                self.stages[stage] = self.stages.get(stage, 0.0) + time.process_time() - start
 
 
 class _ParameterTable:

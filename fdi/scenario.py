@@ -211,8 +211,10 @@ def time_functions(model: Model, scenario: Scenario):
     return values, beta_sensors
 
 
-def run(model: Model, scenario: Scenario, *, progress=None, method: str = "auto") -> dict[str, np.ndarray]:
-    """Simulate a scenario and return the data columns (t, inputs, measured columns), SI units."""
+def run(model: Model, scenario: Scenario, *, progress=None, method: str = "auto",
+        stages: dict[str, float] | None = None) -> dict[str, np.ndarray]:
+    """Simulate a scenario and return the data columns (t, inputs, measured columns), SI units.
+    ``stages``: CPU seconds per stage of the simulation are added to it (see ``simulate``)."""
     n = int(round(scenario.T * scenario.fs))
     t = np.arange(n + 1) / scenario.fs
     values, beta_sensors = time_functions(model, scenario)
@@ -220,7 +222,7 @@ def run(model: Model, scenario: Scenario, *, progress=None, method: str = "auto"
     initial.update(scenario.initial)
     try:
         traj = simulate(model, t, values=values, breakpoints=breakpoints(scenario), initial=initial,
-                        progress=progress, method=method, vectorised=True)
+                        progress=progress, method=method, vectorised=True, stages=stages)
     except SimulationError as exc:
         raise ScenarioError(f"{scenario.path}: {exc}") from None
     rng = np.random.default_rng(scenario.seed)

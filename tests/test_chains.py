@@ -35,3 +35,17 @@ def test_grouped_products_are_positive_and_lambdify(chain):
     fn = sp.lambdify(list(values), product, "math")
     assert fn(*values.values()) == pytest.approx(float(product.doit().xreplace(values)), rel=1e-12)
     assert np.isfinite(fn(*values.values()))
+
+
+def test_chain_state_equations_simulate_and_bench_rejects_bad_sizes(capsys):
+    from bondgraph.simulation import build_system
+    from fdi.cli import main
+
+    model = load_model_text(chain_yaml(40), "chain_40")
+    values = {s.name: v for s, v in model.nominal_values().items()}
+    system = build_system(model, values)
+    assert system.states == ["I1"] and system.discontinuous        # nine inertias, one independent
+    p = [values[n] for n in system.param_names]
+    assert np.isfinite(system.derivative(0.3, np.array([0.01]), p)).all()
+    assert main(["bench", "derive", "--sizes", "10,x"]) == 2
+    assert "--sizes" in capsys.readouterr().err
