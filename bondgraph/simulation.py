@@ -48,8 +48,8 @@ class System:
 
     ``prepare(p)`` extends a parameter vector by the terms that depend on parameters only; with
     that, ``f(t, x, c)`` gives x' (tuples in, a list out; plain ``math``, one call per evaluation)
-    and ``step`` is one ROS2 step of :func:`_ros2`; ``observe(t, x, p, dx)`` gives the outputs then the energy variables,
-    elementwise over arrays of samples (numpy)."""
+    and ``step`` is one ROS2 step of :func:`_ros2`. ``observe(t, x, p, dx)`` gives the outputs,
+    then the energy variables, elementwise over arrays of samples (numpy)."""
     states: list[str]                 # storage elements in integral causality, then sensor integrals
     kinds: list[str]                  # 'storage' | 'sensor'
     open_resistors: frozenset[str]
@@ -197,6 +197,7 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     mapping |= {X[s]: x for s, x in zip(states, x_sym)} | dict(zip(params, p_sym)) | {t: t_sym}
     lines, _ = substitute(program.lines, mapping)
     outputs = [e.xreplace(mapping) for e in outputs]
+    residual = [r.xreplace(mapping) for r in residual]        # names, or atoms such as a parameter
     try:
         coeff_lines, grad = linear_coefficients(lines, dx_sym)
     except ValueError:
@@ -288,7 +289,7 @@ def _step_function(f: Callable, n: int) -> Callable:
     x + h (3 k1 + k2) / 2, with W flat (row-major). For a few states the products with W are
     generated as scalar Python (no array per stage: a step costs little more than its two calls of
     f); for many, numpy does them."""
-    if n > UNROLLED:
+    if n > UNROLLED or n == 0:
         def step(t0: float, t1: float, h: float, x: tuple, W: tuple, p0: tuple, p1: tuple) -> tuple:
             Wm = np.asarray(W).reshape(n, n)
             xv = np.asarray(x)
