@@ -29,7 +29,6 @@ from typing import Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 import sympy as sp
-from scipy.integrate import solve_ivp
 
 from .causality import SIMULATION, assign
 from .equations import relations, resolve
@@ -435,7 +434,10 @@ class _ParameterTable:
 
 def _scipy(system: System, table: _ParameterTable, how: str, a: float, b: float, x: np.ndarray,
            pts: np.ndarray, max_step: float | None) -> _Solution:
-    """One piece by a scipy ``solve_ivp`` method."""
+    """One piece by a scipy ``solve_ivp`` method (scipy.integrate imported here: loading it costs
+    a third of a second that a ROS2 run does not need)."""
+    from scipy.integrate import solve_ivp
+
     def rhs(tt, xx):
         return system.derivative(tt, xx, table.at(tt))
     sol = solve_ivp(rhs, (a, b), x, method=how, t_eval=pts if pts.size else None,
