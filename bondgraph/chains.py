@@ -3,7 +3,8 @@
 Stage i is a 1-junction with an inertia I_i and a friction R_i (viscous + Coulomb), coupled to
 the next stage by a transformer. A torque source drives stage 1; one Df sensor measures the speed
 of the last stage, so the single AGARR collects every element of the chain along one causal path
-(the hardest case for an equation deriver: expressions grow with n).
+(the hardest case for an equation deriver: expressions grow with n). The torque is sin(t), so
+the chain can be simulated too (state equations of n/4 coupled inertias).
 """
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ def chain_yaml(n_elements: int) -> str:
                   f"  b{i}: {{value: {1e-2 * i:.6g}, unit: N*m*s/rad}}",
                   f"  c{i}: {{value: {1e-3:.6g}, unit: N*m}}",
                   f"  n{i}: {{value: {1.0 + 0.01 * i:.6g}, unit: '-'}}"]
-    lines += ["data: {columns: [t, u, w]}", "inputs:", "  u: {column: u, unit: N*m}",
+    lines += ["data: {columns: [t, u, w]}", "inputs:", "  u: {column: u, unit: N*m, expr: 'sin(t)'}",
               "elements:", "  src: {type: MSe, input: u}"]
     junctions, bonds = ["junctions:"], ["bonds:"]
     bid = 1

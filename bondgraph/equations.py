@@ -3,7 +3,9 @@
 Given a causal assignment, each bond's effort and flow is computed by exactly one node. The
 relations are built per node and resolved in topological order of the causal dependency graph,
 so that each expression is constructed once (no ``subs`` on growing expressions, no
-``simplify``): derivation stays near-linear in the size of the model. Storage elements in
+``simplify``): derivation stays near-linear in the size of the model. Long products of positive
+parameters (the cumulative moduli of a chain of transformers) are kept as one nested factor,
+:class:`ParameterProduct`, so that passing them on costs the same at every stage. Storage elements in
 derivative causality differentiate their input with ``sympy.diff`` (exact, chain rule included).
 
 Sign conventions are those of :mod:`bondgraph.model`. A controlled junction multiplies each of its
@@ -20,6 +22,7 @@ import sympy as sp
 from .causality import Causality
 from .graph import BondKey, ports, to_networkx
 from .model import LAW_VARIABLES, Element, Model, t
+from .program import Program, line_diff
 
 Var = tuple[str, BondKey]          # ('e' | 'f', bond key)
 
@@ -34,6 +37,41 @@ class Relation:
     derivative: bool = False
     energy: Callable[[sp.Expr], sp.Expr] | None = None   # storage: q(e) or p(f), the stored quantity
     parameters: frozenset = frozenset()                   # symbols of the storage law
+
+
+PRODUCT_LIMIT = 6     # positive parameter factors a term may carry before they are grouped
+
+
+class ParameterProduct(sp.UnevaluatedExpr):
+    """A product of positive parameters kept as one factor (``sympy.UnevaluatedExpr``, made
+    commutative and positive). Without it, every transformer of a chain multiplies the flows by
+    one more modulus and sympy re-sorts the whole product each time: derivation time grows with
+    the square of the chain's length. The expression is the same mathematically; ``.doit()``
+    flattens it, lambdify prints it as a parenthesised product."""
+    is_commutative = True
+
+    def _eval_is_positive(self) -> bool | None:
+        """True when every factor is (cheaper than asking the product: no sign analysis)."""
+        return True if all(f.is_positive for f in sp.Mul.make_args(self.args[0])) else None
+
+
+def _is_parameter_factor(f: sp.Expr) -> bool:
+    """A positive parameter, a grouped product of them, or a rational power of either."""
+    base = f.base if f.is_Pow and f.exp.is_Rational else f
+    return (base.is_Symbol and base != t or isinstance(base, ParameterProduct)) and base.is_positive is True
+
+
+def _compact(expr: sp.Expr) -> sp.Expr:
+    """``expr`` with the positive parameter factors of a product grouped into one
+    :class:`ParameterProduct` once there are more than :data:`PRODUCT_LIMIT` of them."""
+    if not expr.is_Mul or len(expr.args) <= PRODUCT_LIMIT:
+        return expr
+    group, rest = [], []
+    for f in expr.args:
+        (group if _is_parameter_factor(f) else rest).append(f)
+    if len(group) <= PRODUCT_LIMIT:
+        return expr
+    return sp.Mul(ParameterProduct(sp.Mul(*group)), *rest)
 
 
 def signal(name: str) -> sp.Expr:
@@ -156,8 +194,8 @@ def _storage(model: Model, e: Element, k: BondKey, form: str, states: Mapping[st
                     parameters=frozenset({p}))
 
 
-def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozenset = frozenset()
-            ) -> dict[Var, sp.Expr]:
+def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozenset = frozenset(),
+            program: Program | None = None) -> dict[Var, sp.Expr]:
     """Evaluate relations in causal order; only the ancestors of ``wanted`` if given.
 
     Time derivatives (storage elements in derivative causality) are propagated forward along the
@@ -170,7 +208,11 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
     ``whole``: parameters whose storage laws are differentiated as a whole: such an element gives
     ``Derivative(q(x), t)`` unexpanded (the rate of the stored quantity, exact when the parameter
     varies in time: a capacitance fault changes e at constant q, and dq/dt carries the dC/dt e
-    term), for evaluation by :mod:`fdi.residuals`."""
+    term), for evaluation by :mod:`fdi.residuals`.
+
+    ``program``: when given, every computed expression is named in it as a line
+    (:mod:`bondgraph.program`) and passed on by its name, so that no value is nested through the
+    model: the returned values are names or atoms, for code generation (the simulator)."""
     by_output = {r.output: r for r in rels}
     dag = nx.DiGraph()
     for r in rels:
@@ -217,12 +259,14 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
         laws = [law]
         for _ in range(k):
             prev = laws[-1]
-            step = sp.diff(prev, t)
+            step = sp.diff(prev, t) if prev.has(t) else sp.Integer(0)     # most laws are time-invariant
             for u in local:
                 for j in range(top):
                     if prev.has(u[j]):
-                        step += sp.diff(prev, u[j]) * u[j + 1]
+                        step += line_diff(prev, u[j]) * u[j + 1]
             laws.append(step)
         subs = {u[j]: series[i][j] for u, i in zip(local, r.inputs) for j in range(len(u)) if j < len(series[i])}
-        series[v] = [expr.xreplace(subs) for expr in laws]
+        series[v] = [_compact(expr.xreplace(subs)) for expr in laws]
+        if program is not None:
+            series[v] = [program.name(expr) for expr in series[v]]
     return {v: series[v][0] for v in order}

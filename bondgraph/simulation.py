@@ -22,15 +22,17 @@ friction, leakage: see ``simulate``), otherwise by scipy's LSODA; Radau, BDF or 
 """
 from __future__ import annotations
 
+import time
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
-from typing import Callable, Mapping, Sequence
+from typing import Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 import sympy as sp
-from scipy.integrate import solve_ivp
 
 from .causality import SIMULATION, assign
 from .equations import relations, resolve
+from .program import Line, Program, compile_lines, linear_coefficients, needed_lines, substitute, triangular_order
 from .errors import CausalityError
 from .model import LAW_VARIABLES, Element, Model, t
 
@@ -41,26 +43,38 @@ class SimulationError(Exception):
 
 @dataclass
 class System:
-    """The reduced state equations of one configuration."""
+    """The reduced state equations of one configuration, compiled to Python functions.
+
+    ``prepare(p)`` extends a parameter vector by the terms that depend on parameters only; with
+    that, ``f(t, x, c)`` gives x' (tuples in, a list out; plain ``math``, one call per evaluation)
+    and ``step`` is one ROS2 step of :func:`_ros2`. ``observe(t, x, p, dx)`` gives the outputs,
+    then the energy variables, elementwise over arrays of samples (numpy)."""
     states: list[str]                 # storage elements in integral causality, then sensor integrals
     kinds: list[str]                  # 'storage' | 'sensor'
     open_resistors: frozenset[str]
-    matrix: Callable                  # A(x, params...) -> (n, n)
-    rhs: Callable                     # b(x, params...) -> (n,)
-    explicit: Callable | None         # x' directly, when A is diagonal (no linear solve needed)
-    outputs: Callable                 # (x, dx, params...) -> sensor true values, storage flows/efforts
-    output_names: list[str]
+    prepare: Callable                 # p -> c: parameters and the terms computed from them only
+    f: Callable                       # (t, x, c) -> x'
+    step: Callable                    # (t0, t1, h, x, W, c0, c1) -> x after one ROS2 step (W flat, row-major)
+    observe: Callable                 # (t, x, p, dx) -> outputs, then the energy of every storage element
+    output_names: list[str]           # sensor true values, then storage flows/efforts
     param_names: list[str]
-    energy: Callable                  # (x, dx, params) -> energy variable of every storage element (for mapping)
     storage_names: list[str]
     discontinuous: bool               # sign/abs/heaviside in the equations (Coulomb friction, leakage)
 
-    def derivative(self, t: float, x: np.ndarray, params: list[float]) -> np.ndarray:
-        """x' from A(x) x' = b(x): divided out when A is diagonal, a linear solve otherwise."""
-        if self.explicit is not None:
-            return np.array(self.explicit(t, *x, *params))
-        A = np.atleast_2d(np.asarray(self.matrix(t, *x, *params), dtype=float))
-        return np.linalg.solve(A, np.asarray(self.rhs(t, *x, *params), dtype=float).reshape(-1))
+    def derivative(self, t: float, x: np.ndarray, params: Sequence[float]) -> np.ndarray:
+        """x' at one instant."""
+        return np.asarray(self.f(t, tuple(x), self.prepare(params)), dtype=float).reshape(-1)
+
+    def outputs(self, t: float, x: np.ndarray, params: Sequence[float], dx: np.ndarray) -> np.ndarray:
+        """Outputs (``output_names``) at one instant."""
+        return self._observed(t, x, params, dx)[:len(self.output_names)]
+
+    def energy(self, t: float, x: np.ndarray, params: Sequence[float], dx: np.ndarray) -> np.ndarray:
+        """Energy variable of every storage element (``storage_names``) at one instant."""
+        return self._observed(t, x, params, dx)[len(self.output_names):]
+
+    def _observed(self, t, x, params, dx) -> np.ndarray:
+        return np.array([float(v) for v in self.observe(t, tuple(x), tuple(params), tuple(dx))])
 
 
 def _specialise(model: Model, values: Mapping[str, float]) -> tuple[Model, frozenset[str]]:
@@ -74,7 +88,7 @@ def _specialise(model: Model, values: Mapping[str, float]) -> tuple[Model, froze
         law = e.laws.get("flow")
         if law is None and e.parameter is not None:
             law = LAW_VARIABLES["e"] / model.symbols[e.parameter]
-        if law is not None and sp.simplify(law.xreplace(subs)) == 0:
+        if law is not None and _vanishes(law.xreplace(subs)):
             opened.add(e.name)
             elements[e.name] = Element(e.name, "Sf", value=sp.Integer(0), description=f"{e.name} open (infinite)")
     if not opened:
@@ -82,22 +96,27 @@ def _specialise(model: Model, values: Mapping[str, float]) -> tuple[Model, froze
     return replace(model, elements=elements), frozenset(opened)
 
 
+def _vanishes(law: sp.Expr) -> bool:
+    """Whether a law is identically zero. A value clearly off zero at a sample point (evaluated
+    to 50 digits, so that rounding cannot fake one) proves it is not, the common case, decided
+    without sympy's ``simplify``; otherwise simplify decides."""
+    if law == 0:
+        return True
+    free = sorted(law.free_symbols, key=str)
+    for sample in (sp.Rational(7, 10), sp.Rational(-13, 10), sp.Rational(29, 10)):
+        value = law.xreplace({s: sample * (k + 1) for k, s in enumerate(free)}).evalf(50)
+        if value.is_number and value.is_finite and abs(complex(value)) > 1e-30:
+            return False
+    return sp.simplify(law) == 0
+
+
 def build_system(model: Model, values: Mapping[str, float]) -> System:
-    """Derive and lambdify the state equations of the configuration these parameter values imply."""
+    """Derive and compile the state equations of the configuration these parameter values imply."""
     return _build(*_specialise(model, values))
 
 
-def _build(spec: Model, opened: frozenset[str]) -> System:
-    """The state equations of one configuration (a model with its open resistors replaced)."""
-    causality = assign(spec, SIMULATION)
-    bad = [p for p in causality.problems if "dependent storage" not in p]
-    if bad or causality.loops:
-        raise CausalityError(bad + list(causality.loops))
-    storage = [e for e in spec.elements.values() if e.kind in ("C", "I")]
-    integral = [e for e in storage if causality.storage[e.name] == "integral"]
-    integrals = [s for s in spec.sensors.values() if s.measures in ("displacement", "momentum")]
-    X = {e.name: sp.Function(f"x_{e.name}", real=True)(t) for e in integral}
-    X.update({s.name: sp.Function(f"x_{s.name}", real=True)(t) for s in integrals})
+def _known_values(spec: Model, opened: frozenset[str]) -> dict[str, sp.Expr]:
+    """What each source imposes (beta times its input expression or value); sensors impose nothing."""
     known: dict[str, sp.Expr] = {}
     for e in spec.sources():
         if e.name in opened:
@@ -114,78 +133,182 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
         known[e.name] = spec.symbols[f"beta_{e.input or e.name}"] * base
     for s in spec.sensors.values():
         known[s.name] = sp.Integer(0)
+    return known
+
+
+def _bond_of(spec: Model, element: str):
+    (b,) = [x.id for x in spec.bonds if element in (x.source, x.target)]
+    return b
+
+
+def _build(spec: Model, opened: frozenset[str]) -> System:
+    """The state equations of one configuration (a model with its open resistors replaced), as a
+    straight-line program (:mod:`bondgraph.program`): derived, reduced and compiled in time linear
+    in the size of the model."""
+    causality = assign(spec, SIMULATION)
+    bad = [p for p in causality.problems if "dependent storage" not in p]
+    if bad or causality.loops:
+        raise CausalityError(bad + list(causality.loops))
+    storage = [e for e in spec.elements.values() if e.kind in ("C", "I")]
+    integral = [e for e in storage if causality.storage[e.name] == "integral"]
+    integrals = [s for s in spec.sensors.values() if s.measures in ("displacement", "momentum")]
+    X = {e.name: sp.Function(f"x_{e.name}", real=True)(t) for e in integral}
+    X.update({s.name: sp.Function(f"x_{s.name}", real=True)(t) for s in integrals})
     signals = {spec.symbols[s.name]: X[s.name] for s in integrals}
     for s in spec.sensors.values():
         if spec.symbols[s.name] not in signals:
-            signals[spec.symbols[s.name]] = sp.Symbol(f"__signal_{s.name}")   # resolved below if used
+            signals[spec.symbols[s.name]] = sp.Symbol(f"__signal_{s.name}")   # an error below if used
     signals.update({spec.symbols[i]: spec.inputs[i].expr for i in spec.inputs if spec.inputs[i].expr is not None})
-    rels = relations(spec, causality, known=known, states={e.name: X[e.name] for e in integral}, signals=signals)
-    wanted = []
-    for e in integral:
-        (b,) = [x.id for x in spec.bonds if e.name in (x.source, x.target)]
-        wanted.append(("e", b) if e.kind == "I" else ("f", b))
-    for s in spec.sensors.values():
-        wanted.append(("e", s.name) if s.kind == "De" else ("f", s.name))
-    flows = []
-    for e in storage:
-        (b,) = [x.id for x in spec.bonds if e.name in (x.source, x.target)]
-        flows.append(("f", b) if e.kind == "I" else ("e", b))
+    rels = relations(spec, causality, known=_known_values(spec, opened),
+                     states={e.name: X[e.name] for e in integral}, signals=signals)
+    wanted = [("e", _bond_of(spec, e.name)) if e.kind == "I" else ("f", _bond_of(spec, e.name)) for e in integral]
+    wanted += [("e", s.name) if s.kind == "De" else ("f", s.name) for s in spec.sensors.values()]
+    flows = [("f", _bond_of(spec, e.name)) if e.kind == "I" else ("e", _bond_of(spec, e.name)) for e in storage]
+    program = Program()
     try:
-        values_ = resolve(rels, wanted + flows)
+        values_ = resolve(rels, wanted + flows, program=program)
     except ValueError as exc:
         raise SimulationError(str(exc)) from None
     n_st = len(integral)
-    derivs = [values_[w] for w in wanted[:n_st]]
     sensor_vals = {s.name: values_[w] for s, w in zip(spec.sensors.values(), wanted[n_st:])}
-    for s in integrals:
-        derivs.append(sensor_vals[s.name])
+    derivs = [values_[w] for w in wanted[:n_st]] + [sensor_vals[s.name] for s in integrals]
     states = [e.name for e in integral] + [s.name for s in integrals]
-    xs = [X[n] for n in states]
-    x_sym = [sp.Symbol(f"X{i}") for i in range(len(xs))]
-    dx_sym = [sp.Symbol(f"dX{i}") for i in range(len(xs))]
-    to_sym = {sp.Derivative(x, t): d for x, d in zip(xs, dx_sym)}
-    to_sym2 = dict(zip(xs, x_sym))
-
-    def plain(expr: sp.Expr) -> sp.Expr:
-        expr = expr.xreplace(to_sym) if expr.has(sp.Derivative) else expr
-        return expr.xreplace(to_sym2)
-    residual = [plain(d) for d in derivs]
-    F = [dx - r for dx, r in zip(dx_sym, residual)]
-    A = sp.Matrix([[sp.diff(f, d) for d in dx_sym] for f in F])
-    zero = {d: 0 for d in dx_sym}
-    b = sp.Matrix([-f.xreplace(zero) for f in F])
-    if any(entry.has(*dx_sym) for entry in A):
-        raise SimulationError("the state equations are not linear in the state derivatives; "
-                              "this dependent storage cannot be reduced")
-    leftovers = [s for s in set().union(*(m.free_symbols for m in list(A) + list(b))) if s.name.startswith("__signal_")]
+    n = len(states)
+    x_sym = [sp.Symbol(f"_x{i}") for i in range(n)]
+    dx_sym = [sp.Symbol(f"_dx{i}") for i in range(n)]
+    residual = [program.name(d) for d in derivs]
+    outputs = [sensor_vals[s] for s in spec.sensors] + [values_[f] for f in flows]
+    outputs += [_energy(spec, e, var) for e, var in zip(storage, outputs[len(spec.sensors):])]
+    used = set().union(*(e.free_symbols for _, e in program.lines), *(e.free_symbols for e in outputs))
+    leftovers = sorted(s.name[9:] for s in used if s.name.startswith("__signal_"))
     if leftovers:
-        raise SimulationError(f"a modulated element uses signal(s) {[s.name[9:] for s in leftovers]} that are not "
+        raise SimulationError(f"a modulated element uses signal(s) {leftovers} that are not "
                               "displacements or momenta; measure them as such or use a parameter")
-    params = sorted({s for s in set().union(*(m.free_symbols for m in list(A) + list(b))) if s not in x_sym
-                     and s != t} | {spec.symbols[n] for n in spec.parameters} | {spec.symbols[m] for m in spec.modes}
+    params = sorted({s for s in used if not s.name.startswith("__v") and s != t}
+                    | {spec.symbols[k] for k in spec.parameters} | {spec.symbols[m] for m in spec.modes}
                     | {spec.symbols[f"beta_{e.input or e.name}"] for e in spec.sources() if e.name not in opened},
                     key=lambda s: s.name)
-    args = [t] + x_sym + params
-    out_exprs = [plain(sensor_vals[s]) for s in spec.sensors] + [plain(values_[f]) for f in flows]
-    storage_energy = []
-    for e, f in zip(storage, flows):
-        var = plain(values_[f])
-        if e.parameter:
-            storage_energy.append(spec.symbols[e.parameter] * var)
+    p_sym = [sp.Symbol(f"_p{i}") for i in range(len(params))]
+    t_sym = sp.Symbol("_t")
+    # one pass over the lines: d/dt of a state first (xreplace matches a node before its arguments),
+    # then states, parameters and time as plain symbols of the generated code
+    mapping = {sp.Derivative(X[s], t): d for s, d in zip(states, dx_sym)}
+    mapping |= {X[s]: x for s, x in zip(states, x_sym)} | dict(zip(params, p_sym)) | {t: t_sym}
+    lines, _ = substitute(program.lines, mapping)
+    outputs = [e.xreplace(mapping) for e in outputs]
+    residual = [r.xreplace(mapping) for r in residual]        # names, or atoms such as a parameter
+    try:
+        coeff_lines, grad = linear_coefficients(lines, dx_sym)
+    except ValueError:
+        raise SimulationError("the state equations are not linear in the state derivatives; "
+                              "this dependent storage cannot be reduced") from None
+    coefficients = {i: {dx_sym.index(u): c for u, c in grad.get(r, {}).items()} for i, r in enumerate(residual)}
+    at_rest, folded = substitute(lines + coeff_lines, {d: sp.Integer(0) for d in dx_sym})
+    residual = [r.xreplace(folded) for r in residual]
+    coefficients = {i: {j: c.xreplace(folded) for j, c in row.items()} for i, row in coefficients.items()}
+    at_rest = needed_lines(at_rest, residual + [c for row in coefficients.values() for c in row.values()])
+    f, prepare = _solver(at_rest, residual, coefficients, (t_sym, x_sym, p_sym))
+    step = _step_function(f, n)
+    observe = compile_lines([t_sym, x_sym, p_sym, dx_sym], lines, outputs, "numpy")
+    discontinuous = any(e.has(sp.sign, sp.Abs, sp.Heaviside) for _, e in at_rest)
+    return System(states, ["storage"] * n_st + ["sensor"] * len(integrals), opened, prepare, f, step, observe,
+                  list(spec.sensors) + [f"flow_{e.name}" for e in storage], [p.name for p in params],
+                  [e.name for e in storage], discontinuous)
+
+
+def _energy(spec: Model, e: Element, var: sp.Expr) -> sp.Expr:
+    """The energy variable of a storage element (p of an I, q of a C) from its flow or effort."""
+    if e.parameter:
+        return spec.symbols[e.parameter] * var
+    law = e.laws.get("momentum" if e.kind == "I" else "displacement")
+    if law is None:
+        return sp.nan
+    return law.xreplace({LAW_VARIABLES["f" if e.kind == "I" else "e"]: var})
+
+
+def _solver(lines: list[Line], residual: list[sp.Expr], coefficients: dict[int, dict[int, sp.Expr]],
+            args: tuple) -> tuple[Callable, Callable]:
+    """x' from x' = r(x) + G(x) x' (``lines`` evaluated at x' = 0, G sparse in ``coefficients``).
+
+    When no cycle couples the x' (always so for independent storage, where G = 0), each x'_i is
+    solved in turn, (r_i + sum_j G_ij x'_j) / (1 - G_ii), as more lines of one compiled function.
+    Otherwise G is evaluated and (I - G) x' = r solved numerically at every call. Returns f(t, x, c)
+    and prepare(p) -> c: the lines that depend on parameters only are computed by prepare, once
+    per parameter vector, instead of at every evaluation."""
+    n = len(residual)
+    t_sym, x_sym, p_sym = args
+    order = triangular_order(coefficients, n)
+    if order is not None:
+        outputs = [sp.Symbol(f"_xd{i}") for i in range(n)]
+        lines = list(lines)
+        for i in order:
+            row = coefficients[i]
+            rest = sp.Add(residual[i], *[c * outputs[j] for j, c in row.items() if j != i])
+            lines.append((outputs[i], rest / (1 - row[i]) if i in row else rest))
+    else:
+        entries = [(i, j, c) for i, row in coefficients.items() for j, c in row.items()]
+        outputs = residual + [c for _, _, c in entries]
+        rows, cols = [i for i, _, _ in entries], [j for _, j, _ in entries]
+    constant, varying = _split_constant(needed_lines(lines, outputs), p_sym)
+    names = [s for s, _ in constant]
+    computed = compile_lines([p_sym], constant, names, "math")
+
+    def prepare(p: Sequence[float]) -> tuple:
+        return (*p, *computed(tuple(p)))
+    raw = compile_lines([t_sym, x_sym, list(p_sym) + names], varying, outputs, "math")
+    if order is not None:
+        return raw, prepare
+
+    def f(t_: float, x: tuple, c: tuple) -> np.ndarray:
+        values = raw(t_, x, c)
+        A = np.eye(n)
+        A[rows, cols] -= values[n:]
+        return np.linalg.solve(A, values[:n])
+    return f, prepare
+
+
+def _split_constant(lines: list[Line], params: Sequence[sp.Symbol]) -> tuple[list[Line], list[Line]]:
+    """The lines that depend on parameters only (and on such lines), and the others."""
+    known = set(params)
+    constant, varying = [], []
+    for name, expr in lines:
+        if expr.free_symbols <= known:
+            constant.append((name, expr))
+            known.add(name)
         else:
-            law = e.laws.get("momentum" if e.kind == "I" else "displacement")
-            if law is None:
-                storage_energy.append(sp.nan)
-            else:
-                storage_energy.append(law.xreplace({LAW_VARIABLES["f" if e.kind == "I" else "e"]: var}))
-    lam = lambda exprs, extra=(): sp.lambdify(args + list(extra), exprs, modules="numpy", cse=True)
-    explicit = None
-    if A.is_diagonal():
-        explicit = sp.lambdify(args, [b[i] / A[i, i] for i in range(len(xs))], modules="math", cse=True)
-    return System(states, ["storage"] * n_st + ["sensor"] * len(integrals), opened,
-                  lam(A), lam(b), explicit, lam(out_exprs, dx_sym), list(spec.sensors) + [f"flow_{e.name}" for e in storage],
-                  [p.name for p in params], lam(storage_energy, dx_sym), [e.name for e in storage],
-                  any(m.has(sp.sign, sp.Abs, sp.Heaviside) for m in list(A) + list(b)))
+            varying.append((name, expr))
+    return constant, varying
+
+
+UNROLLED = 12     # up to this many states a ROS2 step is generated as scalar code, beyond it uses numpy
+
+
+def _step_function(f: Callable, n: int) -> Callable:
+    """One ROS2 step (see :func:`_ros2`): k1 = W f(t0, x), k2 = W (f(t1, x + h k1) - 2 k1),
+    x + h (3 k1 + k2) / 2, with W flat (row-major). For a few states the products with W are
+    generated as scalar Python (no array per stage: a step costs little more than its two calls of
+    f); for many, numpy does them."""
+    if n > UNROLLED or n == 0:
+        def step(t0: float, t1: float, h: float, x: tuple, W: tuple, p0: tuple, p1: tuple) -> tuple:
+            Wm = np.asarray(W).reshape(n, n)
+            xv = np.asarray(x)
+            k1 = Wm @ np.asarray(f(t0, x, p0))
+            k2 = Wm @ (np.asarray(f(t1, tuple(xv + h * k1), p1)) - 2.0 * k1)
+            return tuple(xv + h * (1.5 * k1 + 0.5 * k2))
+        return step
+    r = range(n)
+    xs, ws = [f"x{i}" for i in r], [f"w{i}_{j}" for i in r for j in r]
+    lines = ["def step(t0, t1, h, x, W, p0, p1):",
+             f"    {', '.join(xs)}, = x",
+             f"    {', '.join(ws)}, = W",
+             f"    {', '.join(f'a{i}' for i in r)}, = f(t0, x, p0)"]
+    lines += [f"    k{i} = " + " + ".join(f"w{i}_{j}*a{j}" for j in r) for i in r]
+    lines += [f"    {', '.join(f'b{i}' for i in r)}, = f(t1, ({''.join(f'x{i} + h*k{i}, ' for i in r)}), p1)"]
+    lines += [f"    c{i} = " + " + ".join(f"w{i}_{j}*(b{j} - 2.0*k{j})" for j in r) for i in r]
+    lines += [f"    return ({''.join(f'x{i} + h*(1.5*k{i} + 0.5*c{i}), ' for i in r)})"]
+    namespace = {"f": f}
+    exec("\n".join(lines), namespace)
+    return namespace["step"]
 
 
 @dataclass
@@ -198,30 +321,37 @@ class Trajectory:
 
 def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapping[str, float]],
              breakpoints: Sequence[float] = (), initial: Mapping[str, float] | None = None,
-             method: str = "auto", max_step: float | None = None, progress: Callable[[float], None] | None = None
-             ) -> Trajectory:
+             method: str = "auto", max_step: float | None = None, progress: Callable[[float], None] | None = None,
+             vectorised: bool = False, stages: dict[str, float] | None = None) -> Trajectory:
     """Simulate on ``t_eval``. ``values(t)`` gives every parameter, efficiency factor and mode
-    variable at time t (faults included); ``breakpoints`` are the instants where they jump.
+    variable at time t (faults included); ``breakpoints`` are the instants where they jump. With
+    ``vectorised``, ``values`` also takes an array of times and gives arrays (or constants): the
+    parameters are then tabulated once per piece instead of once per step.
 
     ``method``: a scipy ``solve_ivp`` method (LSODA, Radau, BDF for stiff problems; RK45), ``ros2``
     (fixed-step L-stable Rosenbrock-W, step <= ``max_step``, default 1 ms), or ``auto``: ros2 when the
     equations are discontinuous (Coulomb friction sign(v), leakage sqrt|dp|: error-controlled
     methods stall at the switching surface when a velocity sticks near zero, and a leak makes the
     problem stiff; a fixed step bounds the chatter to F_c/J * h, far below sensor resolution),
-    LSODA otherwise."""
+    LSODA otherwise.
+
+    ``stages``: if given, the CPU seconds of each stage are added to it: ``build`` (state
+    equations), ``integrate``, ``outputs``."""
+    clock = _StageClock(stages)
     initial = dict(initial or {})
     t_eval = np.asarray(t_eval, dtype=float)
     edges = sorted({float(t_eval[0]), float(t_eval[-1])} | {float(b) for b in breakpoints if t_eval[0] < b < t_eval[-1]})
     cache: dict[frozenset, System] = {}
     max_step = max_step or float(np.min(np.diff(t_eval))) if t_eval.size > 1 else None
-    out_t, out_sig, out_states = [], {}, {}
+    pieces: list[tuple[System, np.ndarray, np.ndarray]] = []
     configs: list[tuple[float, frozenset[str]]] = []
     system: System | None = None
     x = None
     for a, b in zip(edges[:-1], edges[1:]):
         spec, opened = _specialise(model, values(0.5 * (a + b)))
         if opened not in cache:
-            cache[opened] = _build(spec, opened)
+            with clock("build"):
+                cache[opened] = _build(spec, opened)
         new = cache[opened]
         if system is None:
             x = _initial_state(new, initial, a, values(a))
@@ -232,50 +362,121 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
         system = new
         mask = (t_eval >= a) & ((t_eval < b) | (b == edges[-1]))
         pts = t_eval[mask]
-
-        last: list = [None, None]                       # the parameters of the last instant asked
-
-        def param_vec(tt, sys_=system, last=last):
-            if last[0] != tt:                           # integrators ask the same instant repeatedly
-                v = values(tt)
-                last[0], last[1] = tt, [v[p] for p in sys_.param_names]
-            return last[1]
-
-        def rhs(tt, xx, sys_=system):
-            return sys_.derivative(tt, xx, param_vec(tt))
+        table = _ParameterTable(values, system.param_names, vectorised)
         how = method if method != "auto" else ("ros2" if system.discontinuous else "LSODA")
-        if how == "ros2":
-            sol = _ros2(rhs, a, b, x, pts, min(max_step or 1e-3, 1e-3))
-            x = sol.end
-        else:
-            sol = solve_ivp(rhs, (a, b), x, method=how, t_eval=pts if pts.size else None,
-                            max_step=max_step or np.inf, rtol=1e-6, atol=1e-9)
-            if not sol.success:
-                raise SimulationError(f"integration failed between {a:g} s and {b:g} s: {sol.message} "
-                                      "(try method ros2)")
-            x = sol.y[:, -1]
-            if pts.size and sol.t[-1] < b:              # t_eval stopped short of the piece's end
-                x = solve_ivp(rhs, (sol.t[-1], b), x, method=how, max_step=max_step or np.inf,
-                              rtol=1e-6, atol=1e-9).y[:, -1]
+        with clock("integrate"):
+            if how == "ros2":
+                sol = _ros2(system, table, a, b, x, pts, min(max_step or 1e-3, 1e-3))
+            else:
+                sol = _scipy(system, table, how, a, b, x, pts, max_step)
+        x = sol.end
         if pts.size:
-            ys = sol.y
-            for i, tt in enumerate(sol.t):
-                p = param_vec(tt)
-                dx = rhs(tt, ys[:, i])
-                vals = np.asarray(system.outputs(tt, *ys[:, i], *p, *dx), dtype=float).reshape(-1)
-                for name, v in zip(system.output_names, vals):
-                    out_sig.setdefault(name, []).append(v)
-                for name, v in zip(system.states, ys[:, i]):
-                    out_states.setdefault(name, []).append(v)
-            out_t.extend(sol.t)
+            pieces.append((system, sol.t, sol.y))
         if progress:
             progress(b)
-    n = len(out_t)
-    sig = {k: np.asarray(v, dtype=float) for k, v in out_sig.items() if len(v) == n}
+    with clock("outputs"):
+        return _trajectory(model, pieces, values, vectorised, configs)
+
+
+class _StageClock:
+    """Adds the CPU time of ``with clock(stage):`` blocks to a dict, when one is given."""
+
+    def __init__(self, stages: dict[str, float] | None):
+        self.stages = stages
+
+    @contextmanager
+    def __call__(self, stage: str) -> Iterator[None]:
+        start = time.process_time()
+        try:
+            yield
+        finally:
+            if self.stages is not None:
+                self.stages[stage] = self.stages.get(stage, 0.0) + time.process_time() - start
+
+
+class _ParameterTable:
+    """The parameter vectors of one system at given instants: one call of ``values`` on an array
+    of times when it is vectorised, otherwise one call per instant (the last one remembered:
+    integrators ask the same instant repeatedly)."""
+
+    def __init__(self, values: Callable, names: list[str], vectorised: bool):
+        self.values, self.names, self.vectorised = values, names, vectorised
+        self._last: tuple[float | None, tuple] = (None, ())
+
+    def at(self, tt: float) -> tuple:
+        """The parameters at one instant."""
+        if self._last[0] != tt:
+            v = self.values(tt)
+            self._last = (tt, tuple(float(v[n]) for n in self.names))
+        return self._last[1]
+
+    def rows(self, times: np.ndarray) -> np.ndarray:
+        """The parameters at every instant of ``times``, (len(times), len(names))."""
+        if not self.vectorised:
+            return np.array([self.at(float(tt)) for tt in times]).reshape(len(times), len(self.names))
+        v = self.values(times)
+        return np.column_stack([np.broadcast_to(np.asarray(v[n], dtype=float), times.shape) for n in self.names]
+                               ) if self.names else np.zeros((len(times), 0))
+
+    def prepared(self, times: np.ndarray, prepare: Callable[[tuple], tuple]) -> list[tuple]:
+        """``prepare(p)`` at every instant of ``times``, computed once per run of instants with
+        the same parameters (the whole piece but for a time-varying fault)."""
+        table = self.rows(times)
+        if not len(table):
+            return []
+        same = (table[1:] == table[:-1]) | (np.isnan(table[1:]) & np.isnan(table[:-1]))
+        firsts = np.flatnonzero(np.r_[True, ~np.all(same, axis=1)])
+        out: list[tuple] = []
+        for first, count in zip(firsts.tolist(), np.diff(np.r_[firsts, len(table)]).tolist()):
+            out += [prepare(tuple(table[first].tolist()))] * count
+        return out
+
+
+def _scipy(system: System, table: _ParameterTable, how: str, a: float, b: float, x: np.ndarray,
+           pts: np.ndarray, max_step: float | None) -> _Solution:
+    """One piece by a scipy ``solve_ivp`` method (scipy.integrate imported here: loading it costs
+    a third of a second that a ROS2 run does not need)."""
+    from scipy.integrate import solve_ivp
+
+    def rhs(tt, xx):
+        return system.derivative(tt, xx, table.at(tt))
+    sol = solve_ivp(rhs, (a, b), x, method=how, t_eval=pts if pts.size else None,
+                    max_step=max_step or np.inf, rtol=1e-6, atol=1e-9)
+    if not sol.success:
+        raise SimulationError(f"integration failed between {a:g} s and {b:g} s: {sol.message} "
+                              "(try method ros2)")
+    end = sol.y[:, -1]
+    if pts.size and sol.t[-1] < b:              # t_eval stopped short of the piece's end
+        end = solve_ivp(rhs, (sol.t[-1], b), end, method=how, max_step=max_step or np.inf,
+                        rtol=1e-6, atol=1e-9).y[:, -1]
+    return _Solution(sol.t, sol.y, end)
+
+
+def _trajectory(model: Model, pieces: list[tuple[System, np.ndarray, np.ndarray]], values: Callable,
+                vectorised: bool, configs: list) -> Trajectory:
+    """Outputs at the output points of every piece, computed over all the piece's samples at once."""
+    out_sig: dict[str, list] = {}
+    out_states: dict[str, list] = {}
+    for system, ts, ys in pieces:
+        table = _ParameterTable(values, system.param_names, vectorised)
+        P = table.rows(ts)
+        dx = np.array([system.derivative(tt, y, p) for tt, y, p in zip(ts, ys.T.tolist(), P.tolist())],
+                      dtype=float).reshape(len(ts), -1)
+        observed = system.observe(ts, tuple(ys), tuple(P.T), tuple(dx.T))
+        for name, v in zip(system.output_names, observed):
+            out_sig.setdefault(name, []).append(np.broadcast_to(np.asarray(v, dtype=float), ts.shape))
+        for name, v in zip(system.states, ys):
+            out_states.setdefault(name, []).append(v)
+    n = sum(len(ts) for _, ts, _ in pieces)
+    sig = {k: np.concatenate(v) for k, v in out_sig.items()}
+    sig = {k: v for k, v in sig.items() if len(v) == n}
+    states = {k: np.concatenate(v) for k, v in out_states.items()}
+    states = {k: v for k, v in states.items() if len(v) == n}
     for s in model.sensors.values():
         if s.measures in ("displacement", "momentum"):
-            sig[s.name] = np.asarray(out_states.get(s.name, np.zeros(n)), dtype=float)
-    return Trajectory(np.asarray(out_t), sig, {k: np.asarray(v) for k, v in out_states.items() if len(v) == n}, configs)
+            sig[s.name] = states.get(s.name, np.zeros(n))
+    t_all = np.concatenate([ts for _, ts, _ in pieces]) if pieces else np.zeros(0)
+    return Trajectory(t_all, sig, states, configs)
 
 
 @dataclass
@@ -285,49 +486,75 @@ class _Solution:
     end: np.ndarray        # the state at the end of the piece
 
 
-def _ros2(rhs, a: float, b: float, x: np.ndarray, pts: np.ndarray, h_max: float, jac_every: int = 5) -> _Solution:
-    """ROS2 (Verwer, Spee, Blom & Hundsdorfer 1999): L-stable, order 2 with any Jacobian approximation
-    (a W-method), so a finite-difference Jacobian is refreshed only every ``jac_every`` steps.
-    Fixed step, landing exactly on every output point and on b.
-
-        (I - g h J) k1 = f(x),   (I - g h J) k2 = f(x + h k1) - 2 k1,   x+ = x + h (3 k1 + k2) / 2,
-        g = 1 + 1/sqrt(2)."""
-    g = 1.0 + 1.0 / np.sqrt(2.0)
+def _ros2_grid(a: float, b: float, pts: np.ndarray, h_max: float) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """Step start times and sizes landing exactly on every output point and on b, and the number
+    of steps taken when each output point is reached."""
     marks = list(pts) + ([b] if not pts.size or pts[-1] < b else [])
-    ts, ys = [], []
-    tt, xx = a, np.asarray(x, dtype=float)
-    n_state = xx.size
-    eye = np.eye(n_state)
-    count, lu = 0, None
-    h_used = None
+    starts, sizes, reached = [], [], []
+    tt = a
     for target in marks:
         span = target - tt
         if span > 0:
             n = max(1, int(np.ceil(span / h_max - 1e-9)))
             h = span / n
             for _ in range(n):
-                f0 = rhs(tt, xx)
-                if lu is None or count % jac_every == 0 or h != h_used:
-                    jac = np.empty((n_state, n_state))
-                    for j in range(n_state):
-                        d = 1e-7 * max(1.0, abs(xx[j]))
-                        xp = xx.copy()
-                        xp[j] += d
-                        jac[:, j] = (rhs(tt, xp) - f0) / d
-                    if not np.all(np.isfinite(jac)):
-                        jac = np.nan_to_num(jac, nan=0.0, posinf=0.0, neginf=0.0)
-                    lu = np.linalg.inv(eye - g * h * jac)
-                    h_used = h
-                count += 1
-                k1 = lu @ f0
-                k2 = lu @ (rhs(tt + h, xx + h * k1) - 2.0 * k1)
-                xx = xx + h * (1.5 * k1 + 0.5 * k2)
+                starts.append(tt)
+                sizes.append(h)
                 tt += h
             tt = target
         if pts.size and target in pts:
-            ts.append(target)
-            ys.append(xx.copy())
-    return _Solution(np.asarray(ts), np.asarray(ys).T if ys else np.zeros((n_state, 0)), xx)
+            reached.append(len(starts))
+    return np.asarray(starts), np.asarray(sizes), reached
+
+
+def _ros2(system: System, table: _ParameterTable, a: float, b: float, x: np.ndarray, pts: np.ndarray,
+          h_max: float, jac_every: int = 5) -> _Solution:
+    """ROS2 (Verwer, Spee, Blom & Hundsdorfer 1999): L-stable, order 2 with any Jacobian approximation
+    (a W-method), so a finite-difference Jacobian is refreshed only every ``jac_every`` steps.
+    Fixed step, landing exactly on every output point and on b.
+
+        (I - g h J) k1 = f(x),   (I - g h J) k2 = f(x + h k1) - 2 k1,   x+ = x + h (3 k1 + k2) / 2,
+        g = 1 + 1/sqrt(2).
+
+    W = (I - g h J)^-1 is formed when the Jacobian is refreshed; a step is one call of
+    ``system.step`` with the (prepared) parameters at both stages tabulated beforehand."""
+    g = 1.0 + 1.0 / np.sqrt(2.0)
+    starts, sizes, reached = _ros2_grid(a, b, pts, h_max)
+    c0, c1 = table.prepared(starts, system.prepare), table.prepared(starts + sizes, system.prepare)
+    n_state = len(x)
+    eye = np.eye(n_state)
+    xx = tuple(float(v) for v in x)
+    saved = {}
+    marks = set(reached)
+    W, h_used = None, None
+    step, f = system.step, system.f
+    if 0 in marks:
+        saved[0] = xx
+    for k, (tt, h) in enumerate(zip(starts.tolist(), sizes.tolist())):
+        if W is None or k % jac_every == 0 or h != h_used:
+            W = tuple(np.linalg.inv(eye - g * h * _jacobian(f, tt, xx, c0[k])).ravel().tolist())
+            h_used = h
+        xx = step(tt, tt + h, h, xx, W, c0[k], c1[k])
+        if k + 1 in marks:
+            saved[k + 1] = xx
+    ys = [saved[r] for r in reached]
+    return _Solution(pts[:len(ys)] if pts.size else np.zeros(0),
+                     np.asarray(ys, dtype=float).T if ys else np.zeros((n_state, 0)), np.asarray(xx, dtype=float))
+
+
+def _jacobian(f: Callable, tt: float, x: tuple, c: tuple) -> np.ndarray:
+    """Forward-difference Jacobian of x' (steps 1e-7 relative); non-finite entries set to zero
+    (a square root at zero, say)."""
+    f0 = f(tt, x, c)
+    columns = []
+    for j, xj in enumerate(x):
+        d = 1e-7 * max(1.0, abs(xj))
+        fj = f(tt, (*x[:j], xj + d, *x[j + 1:]), c)
+        columns.append([(a - b) / d for a, b in zip(fj, f0)])
+    jac = np.array(columns, dtype=float).T
+    if not np.all(np.isfinite(jac)):
+        jac = np.nan_to_num(jac, nan=0.0, posinf=0.0, neginf=0.0)
+    return jac
 
 
 def _initial_state(system: System, initial: Mapping[str, float], t0: float, vals: Mapping[str, float]) -> np.ndarray:
@@ -352,7 +579,7 @@ def _initial_state(system: System, initial: Mapping[str, float], t0: float, vals
         xx = x.copy()
         xx[free] = z
         dx = system.derivative(t0, xx, p)
-        out = np.asarray(system.outputs(t0, *xx, *p, *dx), dtype=float).reshape(-1)
+        out = system.outputs(t0, xx, p, dx)
         return (out[idx] - want) / np.maximum(1.0, np.abs(want))
     sol = least_squares(gap, x[free], xtol=1e-14, ftol=1e-14, gtol=1e-14)
     if np.max(np.abs(sol.fun)) > 1e-6:
@@ -365,6 +592,6 @@ def _carry_over(old: System, new: System, x: np.ndarray, t0: float, vals: Mappin
     """Map the state across a configuration change (see module doc)."""
     p = [vals[n] for n in old.param_names]
     dx = old.derivative(t0, x, p)
-    energy = dict(zip(old.storage_names, np.asarray(old.energy(t0, *x, *p, *dx), dtype=float).reshape(-1)))
+    energy = dict(zip(old.storage_names, old.energy(t0, x, p, dx)))
     current = dict(zip(old.states, x))
     return np.array([current.get(n, energy.get(n, 0.0)) for n in new.states], dtype=float)

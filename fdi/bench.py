@@ -1,4 +1,5 @@
-"""Benchmarks printed as tables: ``bgfdi bench derive`` (symbolic derivation time)."""
+"""Benchmarks printed as tables: ``bgfdi bench derive`` (symbolic derivation time: ARRs and
+state equations), ``bgfdi bench simulate`` (the CyCab scenario 2 by stage), ``optim``, ``diagnose``."""
 from __future__ import annotations
 
 import time
@@ -7,6 +8,7 @@ from pathlib import Path
 from bondgraph.causality import DIAGNOSIS, assign
 from bondgraph.chains import chain_yaml
 from bondgraph.loader import load_model, load_model_text
+from bondgraph.simulation import build_system
 
 from .arrs import derive_arrs
 from .signatures import all_modes, fault_signature_matrix, mode_change_signature_matrix
@@ -26,9 +28,10 @@ def _best_of(fn, repeat: int = 3) -> float:
     return best
 
 
-def derive_rows(models: list[Path], sizes=CHAIN_SIZES) -> list[dict]:
+def derive_rows(models: list[Path], sizes=CHAIN_SIZES, echo=None) -> list[dict]:
     """Time causality + AGARRs (+ signature matrices for shipped models), best of three cold runs
-    (sympy's cache cleared before each, so nothing derived earlier is reused)."""
+    (sympy's cache cleared before each, so nothing derived earlier is reused); chains also their
+    state equations (:func:`chain_row`, ``echo`` told each stage as it is measured)."""
     rows = []
     for path in models:
         model = load_model(path)
@@ -53,24 +56,40 @@ def derive_rows(models: list[Path], sizes=CHAIN_SIZES) -> list[dict]:
         largest.update(mso_seconds=_best_of(lambda: mso_search(system)), msos=len(search.sets),
                        equations=len(system.equations), select_seconds=_best_of(lambda: select_arrs(model), 1))
     for size in sizes:
-        model = load_model_text(chain_yaml(size), f"chain_{size}")
-        n = len(model.elements) + len(model.junctions)
-        rows.append({"case": f"chain N={size}", "elements": n, "arrs": len(model.sensors),
-                     "seconds": _best_of(lambda m=model: derive_arrs(m, assign(m, DIAGNOSIS)))})
+        rows.append(chain_row(size, echo))
     return rows
 
 
+def chain_row(size: int, echo=None) -> dict:
+    """Time the ARRs (causality + AGARRs) and the state equations (``build_system``: simulation
+    causality, reduction, compiled functions) of the generated chain of ``size`` elements, best
+    of three cold runs each; ``echo(line)`` is told each stage's time as it is measured."""
+    model = load_model_text(chain_yaml(size), f"chain_{size}")
+    n = len(model.elements) + len(model.junctions)
+    row = {"case": f"chain N={size}", "elements": n, "arrs": len(model.sensors)}
+    row["seconds"] = _best_of(lambda: derive_arrs(model, assign(model, DIAGNOSIS)))
+    if echo:
+        echo(f"chain N={size}: ARRs {row['seconds']:.3f} s")
+    values = {s.name: v for s, v in model.nominal_values().items()}
+    row["state_seconds"] = _best_of(lambda: build_system(model, values))
+    if echo:
+        echo(f"chain N={size}: state equations {row['state_seconds']:.3f} s")
+    return row
+
+
 def format_derive(rows: list[dict]) -> str:
-    out = ["Derivation of AGARRs (causality + elimination; shipped models also all MD-FSMs and the MCSM)",
-           f"{'case':<32}{'elements':>9}{'ARRs':>6}{'time [s]':>11}{'s/element':>12}{'ratio':>8}"]
+    out = ["Derivation of AGARRs (causality + elimination; shipped models also all MD-FSMs and the MCSM); "
+           "chains also their state equations for simulation (build_system)",
+           f"{'case':<32}{'elements':>9}{'ARRs':>6}{'time [s]':>11}{'s/element':>12}{'ratio':>8}{'state eqs [s]':>15}"]
     chains = [r for r in rows if r["case"].startswith("chain")]
     base = chains[0] if chains else None
     for r in rows:
         ratio = ""
         if base and r in chains:
             ratio = f"{r['seconds'] / base['seconds']:.1f}x"
+        state = f"{r['state_seconds']:.4f}" if "state_seconds" in r else ""
         out.append(f"{r['case']:<32}{r['elements']:>9}{r['arrs']:>6}{r['seconds']:>11.4f}"
-                   f"{r['seconds'] / r['elements']:>12.2e}{ratio:>8}")
+                   f"{r['seconds'] / r['elements']:>12.2e}{ratio:>8}{state:>15}")
     for r in rows:
         if "mso_seconds" in r:
             out.append(f"MSO search, largest shipped model ({r['case']}, {r['equations']} equations): "
@@ -80,6 +99,49 @@ def format_derive(rows: list[dict]) -> str:
         growth = (b["seconds"] / a["seconds"]) / (b["elements"] / a["elements"])
         out.append(f"chain growth: time x{b['seconds'] / a['seconds']:.1f} for elements x"
                    f"{b['elements'] / a['elements']:.1f} (1.0 per unit = linear; measured {growth:.2f})")
+    return "\n".join(out) + "\n"
+
+
+# ---------------------------------------------------------------- simulation
+
+REFERENCE_CPU_S = 2.3       # the same 60 s run by the independent simulator that made tests/data/cycab (issue 11)
+
+
+def simulate_rows(scenario_path: Path, repeat: int = 3) -> dict:
+    """CPU seconds of simulating a CyCab scenario (60 s of scenario 2) by stage: state equations,
+    integration, outputs, and the rest (sensor sampling: noise, quantisation); best of ``repeat``
+    cold runs (sympy's cache cleared before each)."""
+    from sympy.core.cache import clear_cache
+
+    from .resources import shipped_model
+    from .scenario import load_scenario, run
+
+    model = load_model(shipped_model("cycab_steering"))
+    scenario = load_scenario(scenario_path, model)
+    best: dict | None = None
+    for _ in range(repeat):
+        clear_cache()
+        stages: dict[str, float] = {}
+        start = time.process_time()
+        run(model, scenario, stages=stages)
+        total = time.process_time() - start
+        if best is None or total < best["total_s"]:
+            best = {"stages": stages, "total_s": total}
+    assert best is not None
+    best["stages"]["sampling"] = best["total_s"] - sum(best["stages"].values())
+    best.update(scenario=Path(scenario_path).name, T=scenario.T, reference_s=REFERENCE_CPU_S)
+    return best
+
+
+def format_simulate(row: dict) -> str:
+    out = [f"Simulation of the CyCab, {row['T']:g} s of {row['scenario']} (CPU seconds, one process, best of 3)",
+           f"{'stage':<20}{'CPU [s]':>10}"]
+    for stage, secs in row["stages"].items():
+        out.append(f"{stage:<20}{secs:>10.3f}")
+    out.append(f"{'total':<20}{row['total_s']:>10.3f}")
+    out.append(f"reference: {row['reference_s']:.1f} s CPU for the same run by the independent simulator that made "
+               f"tests/data/cycab, as measured in issue 11; ratio {row['reference_s'] / row['total_s']:.2f}x "
+               f"(above 1: faster than the reference)")
     return "\n".join(out) + "\n"
 
 

@@ -309,7 +309,17 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from .resources import shipped_models
 
     if args.what == "derive":
-        sys.stdout.write(bench.format_derive(bench.derive_rows(shipped_models())))
+        sizes = bench.CHAIN_SIZES
+        if args.sizes:
+            try:
+                sizes = tuple(int(x) for x in args.sizes.split(","))
+            except ValueError:
+                raise UsageError(f"--sizes: expected comma-separated chain sizes such as 1000,2000, got '{args.sizes}'") from None
+        sys.stdout.write(bench.format_derive(bench.derive_rows(shipped_models(), sizes, echo=print)))
+        return 0
+    if args.what == "simulate":
+        from .resources import scenarios_dir
+        sys.stdout.write(bench.format_simulate(bench.simulate_rows(scenarios_dir() / "cycab_scenario2.json")))
         return 0
     if args.what == "optim":
         import json
@@ -408,7 +418,8 @@ def build_parser() -> argparse.ArgumentParser:
     demo.set_defaults(func=cmd_demo)
 
     b = sub.add_parser("bench", help="benchmarks, printed as tables")
-    b.add_argument("what", choices=("derive", "optim", "diagnose"))
+    b.add_argument("what", choices=("derive", "simulate", "optim", "diagnose"))
+    b.add_argument("--sizes", help="derive: comma-separated chain sizes (default 10,20,50,100,200)")
     b.add_argument("--problem", default="synthetic", help="optim: synthetic (3 cases), synthetic-all, scenario2 or one case")
     b.add_argument("--runs", type=int, default=20, help="optim: independent runs per case (Table VI: 20)")
     b.add_argument("--methods", help="optim: comma-separated engines (default: all)")

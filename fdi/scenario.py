@@ -180,7 +180,8 @@ def breakpoints(scenario: Scenario) -> list[float]:
 
 
 def time_functions(model: Model, scenario: Scenario):
-    """values(t) for the simulator, and each sensor's beta(t) for the measurement."""
+    """values(t) for the simulator (vectorised: t may be an array), and each sensor's beta(t) for
+    the measurement."""
     nominal = {s.name: v for s, v in model.nominal_values().items()}
     param_fns: dict[str, Callable] = {}
     beta_sensors: dict[str, Callable] = {}
@@ -199,18 +200,21 @@ def time_functions(model: Model, scenario: Scenario):
         else:
             param_fns[fault.targets[0]] = fault_profile(e, float(model.modes[fault.targets[0]].nominal))
 
-    def values(t: float) -> dict[str, float]:
+    def values(t: float | np.ndarray) -> dict[str, float | np.ndarray]:
+        """Every parameter at time t (a float), or at every time of an array (arrays for faulted ones)."""
         v = dict(nominal)
         if param_fns:
-            arr = np.array([t])
+            arr = np.atleast_1d(np.asarray(t, dtype=float))
             for k, fn in param_fns.items():
-                v[k] = float(fn(arr)[0])
+                v[k] = np.asarray(fn(arr), dtype=float) if np.ndim(t) else float(fn(arr)[0])
         return v
     return values, beta_sensors
 
 
-def run(model: Model, scenario: Scenario, *, progress=None, method: str = "auto") -> dict[str, np.ndarray]:
-    """Simulate a scenario and return the data columns (t, inputs, measured columns), SI units."""
+def run(model: Model, scenario: Scenario, *, progress=None, method: str = "auto",
+        stages: dict[str, float] | None = None) -> dict[str, np.ndarray]:
+    """Simulate a scenario and return the data columns (t, inputs, measured columns), SI units.
+    ``stages``: CPU seconds per stage of the simulation are added to it (see ``simulate``)."""
     n = int(round(scenario.T * scenario.fs))
     t = np.arange(n + 1) / scenario.fs
     values, beta_sensors = time_functions(model, scenario)
@@ -218,7 +222,7 @@ def run(model: Model, scenario: Scenario, *, progress=None, method: str = "auto"
     initial.update(scenario.initial)
     try:
         traj = simulate(model, t, values=values, breakpoints=breakpoints(scenario), initial=initial,
-                        progress=progress, method=method)
+                        progress=progress, method=method, vectorised=True, stages=stages)
     except SimulationError as exc:
         raise ScenarioError(f"{scenario.path}: {exc}") from None
     rng = np.random.default_rng(scenario.seed)

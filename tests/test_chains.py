@@ -1,0 +1,51 @@
+"""Generated chains (benchmarks): compact derivation and state equations mean the same as the flat forms."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import sympy as sp
+
+import bondgraph.equations as equations
+from bondgraph.causality import DIAGNOSIS, assign
+from bondgraph.chains import chain_yaml
+from bondgraph.equations import ParameterProduct
+from bondgraph.loader import load_model_text
+from fdi.arrs import derive_arrs
+
+
+@pytest.fixture(scope="module")
+def chain():
+    return load_model_text(chain_yaml(120), "chain_120")
+
+
+def test_grouped_products_flatten_to_the_plain_arr(chain, monkeypatch):
+    grouped = derive_arrs(chain, assign(chain, DIAGNOSIS))[0].expr
+    assert grouped.has(ParameterProduct)
+    monkeypatch.setattr(equations, "PRODUCT_LIMIT", 10 ** 9)      # never group: sympy's flat products
+    flat = derive_arrs(chain, assign(chain, DIAGNOSIS))[0].expr
+    assert not flat.has(ParameterProduct)
+    assert grouped.doit() == flat
+
+
+def test_grouped_products_are_positive_and_lambdify(chain):
+    expr = derive_arrs(chain, assign(chain, DIAGNOSIS))[0].expr
+    product = next(iter(expr.atoms(ParameterProduct)))
+    assert product.is_positive and product.is_commutative
+    values = {s: 1.0 + 0.01 * i for i, s in enumerate(sorted(product.free_symbols, key=str))}
+    fn = sp.lambdify(list(values), product, "math")
+    assert fn(*values.values()) == pytest.approx(float(product.doit().xreplace(values)), rel=1e-12)
+    assert np.isfinite(fn(*values.values()))
+
+
+def test_chain_state_equations_simulate_and_bench_rejects_bad_sizes(capsys):
+    from bondgraph.simulation import build_system
+    from fdi.cli import main
+
+    model = load_model_text(chain_yaml(40), "chain_40")
+    values = {s.name: v for s, v in model.nominal_values().items()}
+    system = build_system(model, values)
+    assert system.states == ["I1"] and system.discontinuous        # nine inertias, one independent
+    p = [values[n] for n in system.param_names]
+    assert np.isfinite(system.derivative(0.3, np.array([0.01]), p)).all()
+    assert main(["bench", "derive", "--sizes", "10,x"]) == 2
+    assert "--sizes" in capsys.readouterr().err
