@@ -53,7 +53,7 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
     for p in report.get("prognosis", []):
         band = ""
         if p.get("rul_low") is not None and p.get("rul_high") is not None and p["rul_high"] != p["rul_low"]:
-            band = f" (spread of repeated estimations: {p['rul_low']:.2f} to {p['rul_high']:.2f} s)"
+            band = f" (95 % band from the fit: {p['rul_low']:.2f} to {p['rul_high']:.2f} s)"
         eol = p["eol"] if p["eol"] is not None else float("inf")
         out.append(f"prognosis: {p['name']} reaches its failure value {p['failure']:g} at EOL = {eol:.2f} s; "
                    f"RUL at {p['at']:.2f} s = {p['rul']:.2f} s{band}")
