@@ -160,11 +160,6 @@ class Objective:
     def onset(self, real: np.ndarray) -> np.ndarray:
         return np.atleast_2d(real)[:, -1]
 
-    def profiles(self, real: np.ndarray, bits: np.ndarray) -> list[np.ndarray]:
-        real = np.atleast_2d(real)
-        return encoding.profiles(self.spaces, encoding.decode(self.spaces, real[:, :-1], bits), self.win.t,
-                                 self.onset(real))
-
     def __call__(self, real: np.ndarray, bits: np.ndarray) -> np.ndarray:
         return self.evaluate(real, bits)[0]
 
@@ -296,11 +291,8 @@ class Objective:
                     for k, v in signals.items()}
             vals = values if n <= step else {k: v[rows] if np.ndim(v) == 2 and np.shape(v)[0] == n else v
                                              for k, v in values.items()}
-            out[rows] = self.residual_kernel(residual, part, vals)
+            out[rows] = residual(part, vals, self.win.ts, self.window_s, self.win.crop)
         return out
-
-    def residual_kernel(self, residual: Residual, signals: dict, values: dict) -> np.ndarray:
-        return residual(signals, values, self.win.ts, self.window_s, self.win.crop)
 
     def structure(self, bits: np.ndarray):
         return encoding.structure(self.spaces, bits)

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import itertools
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable, Hashable, Sequence
 
 import numpy as np
@@ -56,7 +56,6 @@ class Branch:
     F: np.ndarray                          # jDE scale factor per individual
     CR: np.ndarray                         # jDE crossover rate per individual
     stale: int = 0                         # generations without improvement of the best
-    history: list[float] = field(default_factory=list)
 
     @property
     def best(self) -> float:
@@ -162,7 +161,6 @@ class AHDE:
             keep = np.argsort(c, kind="stable")[:self.size(b.free.size)]
             b.x, b.f = b.x[keep], c[keep]
             b.F, b.CR = self.rng.uniform(0.1, 1.0, keep.size), self.rng.random(keep.size)
-            b.history.append(b.best)
             self.branches[b.key] = b
         self.record()
         return shells
@@ -220,8 +218,7 @@ class AHDE:
                 b.x[better], b.f[better] = trial[better], c[better]
                 b.F[better], b.CR[better] = F[better], CR[better]
                 b.stale = 0 if b.best < before * (1 - self.tol) else b.stale + 1
-                b.history.append(b.best)
-            self.record()
+                self.record()
             if self.target is not None and self.history[-1] <= self.target:
                 self.stop = "target"
                 return
