@@ -144,11 +144,24 @@ class Objective:
         self.linear = {f: h for f in candidate if (h := linear_transform(model, residuals, f, self.active))}
         self.enters = {j: {i: bool(set(model.faults[f].symbols) & residuals[i].parameter_names()) for i in self.active}
                        for j, f in enumerate(candidate)}
-        base = corrected_signals(model, win.raw, win.ts, self.orders, None, window_s)
-        self.base_signals = base
-        c = win.crop
-        self.constant = sum(weights[i] * np.abs(np.asarray(residuals[i](base, self.nominal, win.ts, window_s))[..., c]).sum()
-                            for i in range(len(residuals)) if i not in self.active)
+        self.base_signals = corrected_signals(model, win.raw, win.ts, self.orders, None, window_s)
+        self._constant: dict[int, float] = {}
+        # the screening fidelity: every stride-th sample, a sixth of the derivative window apart, so that
+        # the filtered residuals barely change between the samples left out
+        self.stride = max(1, int(round(window_s / win.ts)) // 6)
+
+    def constant(self, stride: int = 1) -> float:
+        """The weighted cost of the residuals no candidate fault touches (the same for everyone)."""
+        if stride not in self._constant:
+            c = self.crop(stride)
+            self._constant[stride] = float(sum(
+                self.weights[i] * np.abs(np.asarray(self.residuals[i](self.base_signals, self.nominal, self.win.ts,
+                                                                      self.window_s))[..., c]).sum()
+                for i in range(len(self.residuals)) if i not in self.active))
+        return self._constant[stride]
+
+    def crop(self, stride: int = 1) -> slice:
+        return slice(self.win.crop.start, self.win.crop.stop, stride)
 
     def bounds(self) -> np.ndarray:
         """The encoding's bounds plus the fault onset, last: the symmetric derivative filter makes a
@@ -163,12 +176,19 @@ class Objective:
     def __call__(self, real: np.ndarray, bits: np.ndarray) -> np.ndarray:
         return self.evaluate(real, bits)[0]
 
+    def coarse(self, real: np.ndarray, bits: np.ndarray) -> np.ndarray:
+        """The cost on every ``stride``-th sample, times ``stride``: what the engine screens and races
+        structures with (the residuals are filtered over a window six strides wide, so the ranking
+        holds); the finalists are then refined on every sample."""
+        return self.evaluate(real, bits, self.stride)[0]
+
     def complete(self, real: np.ndarray, bits: np.ndarray) -> np.ndarray:
         """One individual with the magnitudes the objective solves (``linear``) written in."""
         return self.evaluate(np.atleast_2d(real), np.atleast_2d(bits))[1][0]
 
-    def evaluate(self, real: np.ndarray, bits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Costs of a population, and the population with its solved magnitudes.
+    def evaluate(self, real: np.ndarray, bits: np.ndarray, stride: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """Costs of a population (on every ``stride``-th sample, scaled by ``stride``), and the
+        population with its solved magnitudes.
 
         A fault in ``linear`` (its magnitude enters every residual affinely through u = h(value))
         that is abrupt or intermittent has a two-level profile, so each residual is
@@ -177,7 +197,7 @@ class Objective:
         towards the L1 cost of eq. 24) instead of searched."""
         real, bits = np.atleast_2d(real), np.atleast_2d(bits)
         if real.shape[0] > ROWS:
-            parts = [self.evaluate(real[i:i + ROWS], bits[i:i + ROWS]) for i in range(0, real.shape[0], ROWS)]
+            parts = [self.evaluate(real[i:i + ROWS], bits[i:i + ROWS], stride) for i in range(0, real.shape[0], ROWS)]
             return np.concatenate([c for c, _ in parts]), np.vstack([r for _, r in parts])
         real = real.copy()
         decoded = encoding.decode(self.spaces, real[:, :-1], bits)
@@ -196,18 +216,18 @@ class Objective:
             ps[j] = np.where(rows[:, None], self.spaces[j].nominal, ps[j])
         values, signals, invalid = self.inputs(ps)
         n = real.shape[0]
-        total = np.full(n, float(self.constant))
+        total = np.full(n, self.constant(stride))
         with np.errstate(all="ignore"):
             plain = [i for i in self.active if not any(self.enters[j][i] for j in solve)]
             for i in plain:
-                total += self.weights[i] * np.abs(self.residual_values(self.residuals[i], signals, values, n)).sum(axis=1)
+                total += self.weights[i] * np.abs(self.residual_values(self.residuals[i], signals, values, n, stride)).sum(axis=1)
             joint = [i for i in self.active if i not in plain]
             if joint:
-                base = {i: self.residual_values(self.residuals[i], signals, values, n) for i in joint}
+                base = {i: self.residual_values(self.residuals[i], signals, values, n, stride) for i in joint}
                 gains = {}
                 for j in solve:          # a parametric fault: the signals stay, its parameters step
                     stepped = self.inputs([steps[j] if k == j else p for k, p in enumerate(ps)], signals)
-                    gains[j] = {i: self.residual_values(self.residuals[i], stepped[1], stepped[0], n) - base[i]
+                    gains[j] = {i: self.residual_values(self.residuals[i], stepped[1], stepped[0], n, stride) - base[i]
                                 for i in joint if self.enters[j][i]}
                 deltas = self.solve_magnitudes(base, gains, solve)
                 for i in joint:
@@ -219,7 +239,7 @@ class Objective:
                     v = from_u(to_u(space.nominal) + delta)
                     real[:, encoding.N_REAL * j] = np.where(solve[j], np.log10(v) if space.log else v,
                                                             real[:, encoding.N_REAL * j])
-        return np.where(np.isfinite(total) & ~invalid, total, np.inf), real
+        return np.where(np.isfinite(total) & ~invalid, stride * total, np.inf), real
 
     def solve_magnitudes(self, base: dict, gains: dict, solve: dict) -> dict[int, np.ndarray]:
         """delta (u - u_nominal) per linear fault and individual, within the fault's bounds: two
@@ -280,18 +300,20 @@ class Objective:
                                              self.window_s, edges="mirror"))
         return values, signals, invalid
 
-    def residual_values(self, residual: Residual, signals: dict, values: dict, n: int) -> np.ndarray:
+    def residual_values(self, residual: Residual, signals: dict, values: dict, n: int, stride: int = 1) -> np.ndarray:
         """(n, window samples): the kernel run on blocks of rows whose temporaries stay in the cache
         (measured on the CyCab's ARR3: 25 us per individual in blocks of 16, 94 us in one block of 300)."""
-        step = max(1, BLOCK // (self.win.crop.stop - self.win.crop.start))
-        out = np.empty((n, self.win.crop.stop - self.win.crop.start))
+        crop = self.crop(stride)
+        m = len(range(crop.start, crop.stop, stride))
+        step = max(1, BLOCK // m)
+        out = np.empty((n, m))
         for a in range(0, n, step):
             rows = slice(a, min(n, a + step))
             part = {k: v if n <= step else [x[rows] if np.ndim(x) == 2 and x.shape[0] == n else x for x in v]
                     for k, v in signals.items()}
             vals = values if n <= step else {k: v[rows] if np.ndim(v) == 2 and np.shape(v)[0] == n else v
                                              for k, v in values.items()}
-            out[rows] = residual(part, vals, self.win.ts, self.window_s, self.win.crop)
+            out[rows] = residual(part, vals, self.win.ts, self.window_s, crop)
         return out
 
     def structure(self, bits: np.ndarray):
@@ -341,7 +363,7 @@ def _run_estimator(job: tuple) -> EstimatorResult:
     init = [obj.encode(faults) for faults in known]
     r = engine(obj, obj.bounds(), encoding.N_BITS * len(obj.spaces), pop=settings["pop"],
                generations=settings["generations"], seed=seed, onehot=encoding.onehot_groups(obj.spaces),
-               structure=obj.structure, free=obj.free, init=init)
+               structure=obj.structure, free=obj.free, init=init, coarse=obj.coarse)
     margin = r.extra.get("margin")
     real = obj.complete(r.real, r.bits)
     faults = encoding.describe(obj.spaces, real[:-1], r.bits)

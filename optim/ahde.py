@@ -13,13 +13,15 @@ abrupt fault has one value, an incipient fault of model (16) one coefficient). S
    starts from a random sample of them and adds the one-decision neighbours of the leader after
    every rung, so every structure stays reachable;
    Given starting points (``init``: the fit of a smaller candidate set, extended by no-op faults),
-   the race starts instead from their structures and those one decision away, and grows from the
-   leader's neighbours: a superset is searched around what is already known;
+   the race starts instead from their structures and those one decision away from the best of
+   them, and grows from the leader's neighbours: a superset is searched around what is known;
 2. **races** them by successive halving (Jamieson & Talwalkar 2016): each structure gets a small
-   DE population over its free reals only (Latin hypercube start, ``2 d + 4`` individuals), all
+   DE population over its free reals only (the best ``2 d + 4`` of a Latin hypercube screen), all
    structures advance together (one vectorised objective call per generation), and after each rung
    the best third continue with twice the generations of the rung before;
-3. runs the **two finalists** to convergence (the population's cost spread within ``tol`` of its
+   Screen and race may run on a cheaper objective, ``coarse`` (the diagnosis: every k-th sample),
+   as they only rank structures (multi-fidelity successive halving, Li et al. 2018);
+3. re-evaluates the **two finalists** on the objective and runs them to convergence (the population's cost spread within ``tol`` of its
    best, or no improvement for ``patience`` generations, or the budget): the better wins, and the
    runner-up's cost over the winner's is the **discrimination margin** (near 1: the data hardly
    separate the two).
@@ -28,7 +30,8 @@ Inside a structure: DE/current-to-pbest/1/bin (Zhang & Sanderson 2009) with jDE 
 CR per individual (Brest et al. 2006), midpoint bound repair, greedy selection (eq. 22).
 
 Budget: at most ``pop * (generations + 1)`` evaluations, the paper's budget, but the race stops when
-the finalists have converged; on CyCab scenario 2 it uses about a tenth of it (``bgfdi bench diagnose``).
+the finalists have converged (evaluations of both fidelities count); on CyCab scenario 2 it uses
+about a sixth of it (``bgfdi bench diagnose``).
 """
 from __future__ import annotations
 
@@ -72,9 +75,9 @@ class AHDE:
     def __init__(self, objective, bounds, n_bits: int = 0, *, pop: int = 100, generations: int = 150,
                  seed: int | None = 0, onehot: Sequence[Sequence[int]] = (), structure: Structure | None = None,
                  free: Free | None = None, tol: float = 1e-4, patience: int = 15, eta: int = 3,
-                 first_rung: int = 2, screen: int = 3000, spare: float = 0.5, restarts: int = 3,
+                 first_rung: int = 2, screen: int = 3000, screen_each: int = 50, spare: float = 0.5, restarts: int = 3,
                  per_dim: int = 2, max_structures: int = 256, init: Sequence[tuple[np.ndarray, np.ndarray]] = (),
-                 target: float | None = None, callback=None) -> None:
+                 coarse=None, target: float | None = None, callback=None) -> None:
         self.bounds = check_bounds(bounds)
         self.n_bits = n_bits
         self.onehot = [tuple(g) for g in onehot]
@@ -83,12 +86,15 @@ class AHDE:
         self.rng = np.random.default_rng(seed)
         self.budget = pop * (generations + 1)
         self.tol, self.patience, self.eta, self.first_rung, self.screen = tol, patience, eta, first_rung, screen
+        self.screen_each = screen_each
         self.spare, self.restarts, self.per_dim = spare, restarts, per_dim
         self.max_structures, self.target, self.callback = max_structures, target, callback
         self.init = [(np.asarray(r, dtype=float), np.asarray(b, dtype=bool)) for r, b in init]
-        self.counter = Counter(objective)
+        self.objective = objective
+        self.counter = Counter(coarse or objective)        # the screen and race run on ``coarse`` when given
         self.history: list[float] = []
         self.branches: dict[Hashable, Branch] = {}
+        self.final: list[Branch] = []                      # the finalists, once the race is over
         self.stop = "converged"
 
     # ------------------------------------------------------------------ structures
@@ -132,7 +138,8 @@ class AHDE:
     def spawn(self, patterns: list[np.ndarray], limit: int | None = None, screen: int = 0) -> list[Branch]:
         """New branches for the structures of ``patterns`` not yet in the race. Each is screened on
         a Latin hypercube of its free reals, ``screen`` evaluations (at most a third of the budget
-        left) shared by the new structures (at least a population each), and keeps its best ``2 d + 4`` points as its DE population: a
+        left) shared by the new structures, at most ``screen_each`` and at least a population each
+        (a singleton's six structures need not take a pair's screen of 3000), and keeps its best ``2 d + 4`` points as its DE population: a
         wide screen finds the basin of a multimodal structure (an intermittent fault's period)."""
         picked: dict[Hashable, tuple[np.ndarray, np.ndarray]] = {}
         for bits in patterns:
@@ -144,7 +151,7 @@ class AHDE:
         if not picked:
             return []
         lo, hi = self.bounds[:, 0], self.bounds[:, 1]
-        share = min(screen, (self.budget - self.counter.evaluations) // 3) // len(picked)
+        share = min(screen // len(picked), self.screen_each, (self.budget - self.counter.evaluations) // 3 // len(picked))
         samples = []
         for key, (bits, free) in picked.items():
             size = max(self.size(free.size), share)
@@ -224,7 +231,7 @@ class AHDE:
                 return
 
     def record(self) -> None:
-        self.history.append(min(b.best for b in self.branches.values()))
+        self.history.append(min(b.best for b in (self.final or self.branches.values())))
         if self.callback:
             self.callback(len(self.history) - 1, self.history[-1])
 
@@ -236,7 +243,8 @@ class AHDE:
         """Successive halving down to two finalists; returns them, best first."""
         if self.init:
             seeds = [b for _, b in self.init]
-            self.spawn(seeds + [n for b in seeds for n in self.neighbours(b)], self.max_structures, self.screen // 4)
+            self.spawn(seeds + [n for b in self.leading_seeds() for n in self.neighbours(b)], self.max_structures,
+                       self.screen // 4)
             complete = False
         else:
             patterns, exhaustive = self.patterns()
@@ -256,6 +264,16 @@ class AHDE:
             survivors = pool[:max(2, int(np.ceil(len(pool) / self.eta)), min(close, len(pool) - 1))]
             generations, spare = 2 * generations, spare / 2
         return survivors[:2]
+
+    def leading_seeds(self) -> list[np.ndarray]:
+        """The bits of the starting points within ``spare`` of the best one (one evaluation each):
+        only their neighbours join the race, so a superset is searched around its subsets' best
+        fits, not around every subset's."""
+        real = np.vstack([r for r, _ in self.init])
+        bits = np.vstack([b for _, b in self.init])
+        cost = self.counter(np.clip(real, self.bounds[:, 0], self.bounds[:, 1]), bits)
+        best = float(np.min(cost))
+        return [b for b, c in zip(bits, cost) if c <= best * (1 + self.spare) or not np.isfinite(best)]
 
     def migrate(self, branches: list[Branch]) -> None:
         """Each branch gets a migrant: its best point with the reals it shares with the leader taken
@@ -295,9 +313,20 @@ class AHDE:
         b.x, b.f, b.stale = x, f, 0
         b.F, b.CR = self.rng.uniform(0.1, 1.0, x.shape[0]), self.rng.random(x.shape[0])
 
+    def refine(self, finalists: list[Branch]) -> None:
+        """From here on the objective itself: the finalists' populations re-evaluated on it."""
+        self.final = finalists
+        if self.counter.objective is self.objective:
+            return
+        self.counter.objective = self.objective
+        for b, c in zip(finalists, self.evaluate([b.x for b in finalists], finalists)):
+            b.f, b.stale = c, 0
+        self.record()
+
     def solve(self) -> Result:
         t0 = time.perf_counter()
         finalists = self.race()
+        self.refine(finalists)
         self.migrate(sorted(finalists, key=lambda b: b.best))
         if self.stop == "converged":
             self.advance(finalists, self.budget, until_converged=True)
@@ -315,13 +344,14 @@ class AHDE:
         win = finalists[0]
         i = int(np.argmin(win.f))
         margin = finalists[1].best / max(win.best, 1e-300) if len(finalists) > 1 else float("inf")
-        extra = {"margin": margin, "structures": [(b.key, b.best) for b in self.ranked()[:5]],
+        extra = {"margin": margin, "structures": [(b.key, b.best) for b in finalists],
                  "raced": len(self.branches)}
         return Result(win.x[i].copy(), win.bits.copy(), win.best, self.history, self.counter.evaluations,
                       len(self.history) - 1, time.perf_counter() - t0, self.counter.seconds, self.stop, extra)
 
 
-OPTIONS = ("tol", "patience", "eta", "first_rung", "screen", "spare", "restarts", "per_dim", "max_structures", "init")
+OPTIONS = ("tol", "patience", "eta", "first_rung", "screen", "screen_each", "spare", "restarts", "per_dim",
+           "max_structures", "init", "coarse")
 
 
 def minimize(objective, bounds, n_bits: int = 0, *, pop: int = 100, generations: int = 150, seed: int | None = 0,

@@ -152,3 +152,23 @@ def test_default_engine_identifies_fault_types_on_the_synthetic_problem():
     assert synthetic.recovered(p.spaces, p.truth, r.real, r.bits, p.t, p.t0)
     assert r.extra["margin"] > 1.0
     assert r.evaluations <= 150 * 301
+
+
+def test_racing_on_a_coarse_objective_reports_the_fine_one():
+    # the coarse objective ranks like the fine one but is offset by 100 (and counts its calls): the
+    # engine must race on it and report the cost, history end and point of the fine objective
+    calls = {"coarse": 0, "fine": 0}
+
+    def fine(real, bits):
+        calls["fine"] += real.shape[0]
+        return _sphere(real, bits)
+
+    def coarse(real, bits):
+        calls["coarse"] += real.shape[0]
+        return _sphere(real, bits) + 100.0
+
+    r = ENGINES["AHDE"](fine, [[-1, 1]] * 3, 3, pop=40, generations=80, seed=3, coarse=coarse)
+    assert r.bits.tolist() == [True, False, True]
+    assert r.cost == pytest.approx(float(_sphere(r.real[None, :], r.bits[None, :])[0])) and r.cost < 1e-2
+    assert r.history[-1] == r.cost
+    assert calls["coarse"] > 0 and calls["fine"] > 0 and r.evaluations == calls["coarse"] + calls["fine"]
