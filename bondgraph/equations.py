@@ -220,10 +220,14 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
         for v in r.inputs:
             dag.add_edge(v, r.output)
     nodes = set(dag.nodes)
-    if wanted is not None:
+    if wanted is not None:                         # every ancestor of wanted, in one backward sweep
         nodes = set(wanted)
-        for w in wanted:
-            nodes |= nx.ancestors(dag, w)
+        stack = [w for w in wanted if w in dag]
+        while stack:
+            for u in dag.predecessors(stack.pop()):
+                if u not in nodes:
+                    nodes.add(u)
+                    stack.append(u)
     sub = dag.subgraph(nodes)
     try:
         order = list(nx.topological_sort(sub))
