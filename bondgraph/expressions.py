@@ -5,10 +5,16 @@ Model files are data: an expression such as ``kf2*f + Fu2*sign(f)`` is parsed wi
 the arithmetic operators and the functions in :data:`FUNCTIONS` are accepted; anything else
 (attributes, subscripts, lambdas, strings, keyword arguments, ...) is refused with a message.
 Nothing here calls ``eval``, ``exec`` or ``sympify`` on the text.
+
+Limits that keep a hostile file from exhausting time or memory (docs/model-format.md): at most
+:data:`MAX_LENGTH` characters, a syntax tree at most :data:`MAX_DEPTH` levels deep, finite number
+literals, and numeric exponents of magnitude at most :data:`MAX_EXPONENT` (``9**9**9`` would
+otherwise be evaluated exactly by sympy, a number with 370 million digits).
 """
 from __future__ import annotations
 
 import ast
+import math
 from collections.abc import Mapping
 
 import sympy as sp
@@ -30,6 +36,11 @@ _BINOPS = {
 }
 
 
+MAX_LENGTH = 2000
+MAX_DEPTH = 100
+MAX_EXPONENT = 100
+
+
 class ExpressionError(ValueError):
     """An expression uses something outside the whitelist; the message says what to change."""
 
@@ -45,19 +56,54 @@ def parse_expression(text: str | int | float, symbols: Mapping[str, sp.Expr]) ->
     src = text.strip()
     if not src:
         raise ExpressionError("empty expression")
-    if len(src) > 2000:
-        raise ExpressionError("expression longer than 2000 characters")
+    if len(src) > MAX_LENGTH:
+        raise ExpressionError(f"expression longer than {MAX_LENGTH} characters; name parts of it under definitions")
     try:
         tree = ast.parse(src, mode="eval")
     except SyntaxError as exc:
-        raise ExpressionError(f"cannot parse '{src}': {exc.msg}") from None
-    return _build(tree.body, symbols, src)
+        raise ExpressionError(f"cannot parse '{_short(src)}': {exc.msg}") from None
+    except (RecursionError, MemoryError):
+        raise ExpressionError(f"expression nested too deeply ('{_short(src)}')") from None
+    if _depth(tree.body) > MAX_DEPTH:
+        raise ExpressionError(f"expression nested deeper than {MAX_DEPTH} levels ('{_short(src)}'); "
+                              "name parts of it under definitions")
+    expr = _build(tree.body, symbols, _short(src))
+    if expr.has(sp.zoo, sp.nan):
+        raise ExpressionError(f"'{_short(src)}' divides by zero")
+    return expr
+
+
+def _short(src: str, limit: int = 80) -> str:
+    """The expression as messages quote it: one line, at most ``limit`` characters."""
+    return src if len(src) <= limit else src[:limit - 3] + "..."
+
+
+def _depth(root: ast.AST) -> int:
+    """Levels of the syntax tree, counted without recursion (a 1000-deep tree must not overflow)."""
+    deepest, stack = 0, [(root, 1)]
+    while stack:
+        node, d = stack.pop()
+        deepest = max(deepest, d)
+        if d <= MAX_DEPTH:
+            stack.extend((child, d + 1) for child in ast.iter_child_nodes(node))
+    return deepest
+
+
+def _power(base: sp.Expr, exponent: sp.Expr, src: str) -> sp.Expr:
+    """base**exponent, refusing numeric exponents beyond MAX_EXPONENT (a power tower would be
+    evaluated exactly)."""
+    if exponent.is_number and not (exponent.is_finite and abs(float(exponent)) <= MAX_EXPONENT):
+        raise ExpressionError(f"exponent {_short(str(exponent), 20)} too large in '{src}' "
+                              f"(numeric exponents must be within +-{MAX_EXPONENT})")
+    return base ** exponent
 
 
 def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
     if isinstance(node, ast.Constant):
         if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
             raise ExpressionError(f"only numbers are allowed as constants in '{src}'")
+        if not math.isfinite(node.value) or abs(node.value) > 1e300:
+            raise ExpressionError(f"number {_short(str(node.value), 20)} out of range in '{src}' (at most 1e300)")
         return sp.Integer(node.value) if isinstance(node.value, int) else sp.Float(node.value)
     if isinstance(node, ast.Name):
         name = node.id
@@ -73,7 +119,10 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
         if op is None:
             hint = " (use ** for powers)" if isinstance(node.op, ast.BitXor) else ""
             raise ExpressionError(f"operator not allowed in '{src}'{hint}")
-        return op(_build(node.left, symbols, src), _build(node.right, symbols, src))
+        left, right = _build(node.left, symbols, src), _build(node.right, symbols, src)
+        if isinstance(node.op, ast.Pow):
+            return _power(left, right, src)
+        return op(left, right)
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
         value = _build(node.operand, symbols, src)
         return -value if isinstance(node.op, ast.USub) else value

@@ -25,7 +25,9 @@ from .units import UnitError, check_unit
 _TOP_KEYS = {"name", "description", "reference", "parameters", "definitions", "inputs", "modes",
              "elements", "junctions", "sensors", "bonds", "faults", "thresholds", "data",
              "diagnosis", "initial"}
-_RESERVED = {"t"}           # time, in input expressions; every other identifier is the user's
+_RESERVED = {"t"}
+MAX_TIME = 1.0e6             # s: a derivative window or waiting time beyond 11 days is a typing error
+MAX_SAMPLES = 10_000_000     # an identification window           # time, in input expressions; every other identifier is the user's
 
 
 class _Ctx:
@@ -44,43 +46,123 @@ class _Ctx:
         return ModelError(message, file=self.path, where=".".join(str(w) for w in where), line=line)
 
 
+MAX_BYTES = 1 << 20          # a model file: the CyCab's is 8 kB
+MAX_NODES = 200_000          # YAML nodes once aliases are expanded (an alias bomb is refused before expansion)
+MAX_NESTING = 64             # levels of YAML nesting
+
+
 def load_model(path: str | Path) -> Model:
     """Read a model file; raise ModelError with a one-line message on any problem."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        if p.is_dir():
+            raise ModelError("is a folder; give the model's YAML file", file=str(path))
+        with p.open("rb") as fh:
+            raw = fh.read(MAX_BYTES + 1)
     except OSError as exc:
         raise ModelError(f"cannot read model file ({exc.strerror})", file=str(path)) from None
+    if len(raw) > MAX_BYTES:
+        raise ModelError(f"larger than {MAX_BYTES >> 20} MB; a model file is a few kB of YAML", file=str(path))
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ModelError(f"not UTF-8 text (byte {exc.start}); save the file as UTF-8", file=str(path)) from None
     return load_model_text(text, str(path))
 
 
 def load_model_text(text: str, path: str = "<model>") -> Model:
-    """Parse model YAML given as text (``path`` is only used in messages)."""
+    """Parse model YAML given as text (``path`` is only used in messages). Only the safe loader's
+    tags; the document is composed once, measured (size with aliases expanded, nesting, recursive
+    aliases, keys) and only then constructed."""
+    if len(text) > MAX_BYTES:
+        raise ModelError(f"larger than {MAX_BYTES >> 20} MB; a model file is a few kB of YAML", file=path)
+    loader = None
     try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
+        loader = yaml.SafeLoader(text.lstrip("\ufeff"))      # the reader refuses control characters here
+        node = loader.get_single_node()
+        if node is None:
+            raise ModelError("the file is empty; see docs/model-format.md for the layout", file=path)
+        _measure(node, path)
+        lines: dict[tuple, int] = {}
+        _index_lines(node, (), lines, path)
+        data = loader.construct_document(node)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = mark.line + 1 if mark else None
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        if "could not determine a constructor" in str(exc):
+            problem = "a YAML tag (!!...) outside plain data; remove it"
         raise ModelError(f"not valid YAML: {problem}", file=path, line=line) from None
-    if node is None:
-        raise ModelError("the file is empty; see docs/model-format.md for the layout", file=path)
-    lines: dict[tuple, int] = {}
-    _index_lines(node, (), lines, path)
-    data = yaml.safe_load(text)
+    except RecursionError:
+        raise ModelError(f"YAML nested more than {MAX_NESTING} levels deep", file=path) from None
+    finally:
+        if loader is not None:
+            loader.dispose()
     ctx = _Ctx(path, lines)
     if not isinstance(data, dict):
         raise ctx.error((), "the top level must be a mapping with keys such as parameters, elements, bonds")
     return _build_model(data, ctx)
 
 
+def _measure(root: yaml.Node, path: str) -> None:
+    """Refuse a document that is too big once its aliases are expanded (a "billion laughs" of a
+    few hundred bytes), nested too deeply, or that refers to itself (a recursive alias). Each
+    distinct node is visited once: sizes are memoised, so the check itself stays small."""
+    size: dict[int, int] = {}
+    open_: set[int] = set()
+
+    def visit(node: yaml.Node, depth: int) -> int:
+        key = id(node)
+        if key in size:
+            return size[key]
+        if key in open_:
+            raise ModelError("a recursive YAML alias (an anchor used inside itself); write the data out",
+                             file=path, line=node.start_mark.line + 1)
+        if depth > MAX_NESTING:
+            raise ModelError(f"YAML nested more than {MAX_NESTING} levels deep", file=path,
+                             line=node.start_mark.line + 1)
+        open_.add(key)
+        children: list = []
+        if isinstance(node, yaml.MappingNode):
+            children = [n for pair in node.value for n in pair]
+        elif isinstance(node, yaml.SequenceNode):
+            children = node.value
+        total = 1 + sum(visit(c, depth + 1) for c in children)
+        open_.discard(key)
+        if total > MAX_NODES:
+            raise ModelError(f"the YAML expands to more than {MAX_NODES} values (aliases counted each time "
+                             "they are used); a model is far smaller", file=path, line=node.start_mark.line + 1)
+        size[key] = total
+        return total
+    visit(root, 0)
+
+
+_INF = re.compile(r"[-+]?\.(inf|Inf|INF)")
+
+
 def _index_lines(node: yaml.Node, where: tuple, lines: dict[tuple, int], path: str) -> None:
     lines[where] = node.start_mark.line + 1
+    if isinstance(node, yaml.ScalarNode) and node.tag.endswith(":float") and not _INF.fullmatch(node.value):
+        try:
+            big = math.isinf(float(node.value.replace("_", "")))
+        except ValueError:
+            big = False
+        if big:
+            raise ModelError(f"the number {node.value[:30]} is beyond the range of a double (1.8e308); "
+                             "write .inf for infinity", file=path, where=".".join(str(w) for w in where),
+                             line=node.start_mark.line + 1)
     if isinstance(node, yaml.MappingNode):
         seen: dict[Any, int] = {}
         for key_node, value_node in node.value:
+            if not isinstance(key_node, yaml.ScalarNode):
+                raise ModelError("a key must be a plain name or number, not a list or mapping", file=path,
+                                 where=".".join(str(w) for w in where), line=key_node.start_mark.line + 1)
             key = key_node.value
             if key_node.tag.endswith(":int"):
+                if not re.fullmatch(r"[-+]?[0-9]+", key):
+                    raise ModelError(f"write '{key}' as a plain decimal integer (YAML reads it as "
+                                     "hexadecimal, octal or base 60)", file=path,
+                                     where=".".join(str(w) for w in where + (key,)), line=key_node.start_mark.line + 1)
                 key = int(key)
             if key in seen:
                 raise ModelError(
@@ -124,15 +206,52 @@ def _name(ctx: _Ctx, name: Any, where: tuple) -> str:
     return name
 
 
-def _number(ctx: _Ctx, value: Any, where: tuple, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        if isinstance(value, str):
-            try:
-                return float(value)
-            except ValueError:
-                pass
-        raise ctx.error(where, f"{what} must be a number (use .inf for infinity), got {value!r}")
-    return float(value)
+def _number(ctx: _Ctx, value: Any, where: tuple, what: str, *, infinite: bool = False, minimum: float | None = None,
+            above: float | None = None, maximum: float | None = None, integer: bool = False) -> float:
+    """A number where the model needs one: never NaN; infinite only where ``infinite`` (a leakage
+    resistance of a healthy part); at least ``minimum``, more than ``above``, at most ``maximum``."""
+    number = None
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        number = float(value)
+    elif isinstance(value, str):
+        try:
+            number = float(value)
+        except ValueError:
+            pass
+    if number is None:
+        hint = " (use .inf for infinity)" if infinite else ""
+        raise ctx.error(where, f"{what} must be a number{hint}, got {_shown(value)}")
+    if math.isnan(number):
+        raise ctx.error(where, f"{what} is NaN; give a number")
+    if math.isinf(number) and isinstance(value, str) and not re.fullmatch(r"[-+]?\.?inf(inity)?", value.strip(), re.I):
+        raise ctx.error(where, f"{what} {value[:30]} is beyond the range of a double (1.8e308); write .inf for infinity")
+    if math.isinf(number) and not infinite:
+        raise ctx.error(where, f"{what} must be finite, got {value}")
+    if integer and number != int(number):
+        raise ctx.error(where, f"{what} must be a whole number, got {value}")
+    if minimum is not None and number < minimum:
+        raise ctx.error(where, f"{what} must be at least {minimum:g}, got {value}")
+    if above is not None and not number > above:
+        raise ctx.error(where, f"{what} must be more than {above:g}, got {value}")
+    if maximum is not None and number > maximum:
+        raise ctx.error(where, f"{what} must be at most {maximum:g}, got {value}")
+    return number
+
+
+def _shown(value: Any) -> str:
+    """A value as a message quotes it: a list or mapping by its kind, text cut short."""
+    if isinstance(value, (list, dict)):
+        return f"a {'list' if isinstance(value, list) else 'mapping'}"
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _ref(ctx: _Ctx, value: Any, where: tuple, what: str) -> str:
+    """The name of something defined elsewhere in the file (a parameter, input, sensor, mode,
+    junction or data column): one plain name, not a list or a mapping."""
+    if isinstance(value, bool) or not isinstance(value, (str, int, float)):
+        raise ctx.error(where, f"{what} must be one name, got {_shown(value)}")
+    return str(value)
 
 
 def _expr(ctx: _Ctx, text: Any, where: tuple, symbols: dict[str, sp.Expr]) -> sp.Expr:
@@ -171,9 +290,12 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
     parameters = _parameters(ctx, data, symbols, claim)
     modes = _modes(ctx, data, symbols, claim)
     data_spec = _spec(ctx, data.get("data") or {}, ("data",), {"columns", "sampling_time"})
-    columns = tuple(str(c) for c in data_spec.get("columns", []) or [])
+    raw_columns = data_spec.get("columns") or []
+    if not isinstance(raw_columns, list):
+        raise ctx.error(("data", "columns"), f"columns must be a list of column names such as [t, u, y], got {_shown(raw_columns)}")
+    columns = tuple(_ref(ctx, c, ("data", "columns", i), "a column") for i, c in enumerate(raw_columns))
     column_symbols = {c: sp.Symbol(c, real=True) for c in columns if c != "t"}
-    sampling_time = (_number(ctx, data_spec["sampling_time"], ("data", "sampling_time"), "sampling_time")
+    sampling_time = (_number(ctx, data_spec["sampling_time"], ("data", "sampling_time"), "sampling_time", above=0)
                      if "sampling_time" in data_spec else None)
     inputs = _inputs(ctx, data, symbols, claim, columns)
     sensors = _sensors(ctx, data, symbols, claim, column_symbols, columns)
@@ -196,11 +318,12 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
     faults = _faults(ctx, data, parameters, sensors, elements, modes)
     thresholds = _thresholds(ctx, data, sensors)
     diag = _spec(ctx, data.get("diagnosis") or {}, ("diagnosis",), {"waiting_time", "samples", "derivative_window"})
-    window = _number(ctx, diag.get("derivative_window", 0.25), ("diagnosis", "derivative_window"), "derivative_window")
-    if not window > 0:
-        raise ctx.error(("diagnosis", "derivative_window"), "derivative_window must be a positive time in s")
-    waiting_time = _number(ctx, diag.get("waiting_time", 0.0), ("diagnosis", "waiting_time"), "waiting_time")
-    samples = int(_number(ctx, diag.get("samples", 1000), ("diagnosis", "samples"), "samples"))
+    window = _number(ctx, diag.get("derivative_window", 0.25), ("diagnosis", "derivative_window"),
+                     "derivative_window (a time in s)", above=0, maximum=MAX_TIME)
+    waiting_time = _number(ctx, diag.get("waiting_time", 0.0), ("diagnosis", "waiting_time"),
+                           "waiting_time (a time in s)", minimum=0, maximum=MAX_TIME)
+    samples = int(_number(ctx, diag.get("samples", 1000), ("diagnosis", "samples"), "samples", integer=True,
+                          minimum=2, maximum=MAX_SAMPLES))
     initial = {str(k): _number(ctx, v, ("initial", k), "initial value")
                for k, v in _mapping(ctx, data.get("initial"), ("initial",)).items()}
     name = data.get("name") or Path(ctx.path).stem
@@ -231,9 +354,7 @@ def _parameters(ctx, data, symbols, claim) -> dict[str, Parameter]:
         _spec(ctx, spec, where, {"value", "unit", "description"})
         if "value" not in spec or spec["value"] is None:
             raise ctx.error(where, f"parameter '{name}' has no value; add value: <number> (SI units)")
-        value = _number(ctx, spec["value"], where + ("value",), f"parameter '{name}'")
-        if math.isnan(value):
-            raise ctx.error(where + ("value",), f"parameter '{name}' is NaN; give a number")
+        value = _number(ctx, spec["value"], where + ("value",), f"parameter '{name}'", infinite=True)
         unit = _unit(ctx, spec.get("unit"), where + ("unit",))
         claim(name, "a parameter", where)
         # physical constants with a positive nominal value are positive: sign(k*x) -> sign(x)
@@ -264,6 +385,8 @@ def _inputs(ctx, data, symbols, claim, columns) -> dict[str, Input]:
         _name(ctx, name, where)
         spec = _spec(ctx, spec if spec is not None else {}, where, {"column", "expr", "unit", "description"})
         column = spec.get("column")
+        if column is not None:
+            column = _ref(ctx, column, where + ("column",), "column")
         if column is not None and columns and column not in columns:
             raise ctx.error(where + ("column",), f"column '{column}' is not among data.columns {list(columns)}")
         expr = None
@@ -292,6 +415,7 @@ def _sensors(ctx, data, symbols, claim, column_symbols, columns) -> dict[str, Se
             raise ctx.error(where + ("type",), f"sensor type '{kind}' unknown; use De (effort) or Df (flow)")
         if not spec.get("junction"):
             raise ctx.error(where, f"sensor '{name}' is on no junction; add junction: <name of a 0- or 1-junction>")
+        _ref(ctx, spec["junction"], where + ("junction",), "junction")
         default = "effort" if kind == "De" else "flow"
         measures = spec.get("measures", default)
         allowed = ("effort", "momentum") if kind == "De" else ("flow", "displacement")
@@ -302,7 +426,7 @@ def _sensors(ctx, data, symbols, claim, column_symbols, columns) -> dict[str, Se
                 raise ctx.error(where + ("expr",), "list the data columns under data.columns to use them in expr")
             signal = _expr(ctx, spec["expr"], where + ("expr",), column_symbols)
         else:
-            column = spec.get("column", name)
+            column = _ref(ctx, spec.get("column", name), where + ("column",), "column")
             if columns and column not in columns:
                 raise ctx.error(where + ("column",), f"column '{column}' is not among data.columns {list(columns)}")
             signal = sp.Symbol(str(column), real=True)
@@ -332,8 +456,8 @@ def _per_column(ctx, value, where, signal: sp.Expr) -> dict[str, float]:
         for k in value:
             if k not in cols:
                 raise ctx.error(where + (k,), f"'{k}' is not a column of this sensor ({', '.join(cols)})")
-        return {str(k): _number(ctx, v, where + (k,), "value") for k, v in value.items()}
-    number = _number(ctx, value, where, "value")
+        return {str(k): _number(ctx, v, where + (k,), "value", minimum=0) for k, v in value.items()}
+    number = _number(ctx, value, where, "value", minimum=0)
     return {c: number for c in cols}
 
 
@@ -379,7 +503,7 @@ def _elements(ctx, data, symbols, claim, inputs, sensors) -> dict[str, Element]:
         fields: dict[str, Any] = {}
         if kind in ("R", "C", "I"):
             if spec.get("parameter") is not None:
-                pname = spec["parameter"]
+                pname = _ref(ctx, spec["parameter"], where + ("parameter",), "parameter")
                 if pname not in symbols or not isinstance(symbols[pname], sp.Symbol):
                     raise ctx.error(where + ("parameter",), f"undefined parameter '{pname}'; add it under parameters")
                 fields["parameter"] = pname
@@ -410,6 +534,7 @@ def _elements(ctx, data, symbols, claim, inputs, sensors) -> dict[str, Element]:
             fields["modulus"] = modulus
         else:
             if kind in ("MSe", "MSf") and spec.get("input") is not None:
+                _ref(ctx, spec["input"], where + ("input",), "input")
                 if spec["input"] not in inputs:
                     raise ctx.error(where + ("input",), f"undefined input '{spec['input']}'; add it under inputs")
                 fields["input"] = spec["input"]
@@ -489,6 +614,7 @@ def _junctions(ctx, data, claim, modes) -> dict[str, Junction]:
         if kind.endswith("c"):
             if mode is None:
                 raise ctx.error(where, f"controlled junction '{name}' needs mode: <mode variable>")
+            mode = _ref(ctx, mode, where + ("mode",), "mode")
             if mode not in modes:
                 raise ctx.error(where + ("mode",), f"undefined mode variable '{mode}'; add it under modes")
         elif mode is not None:
@@ -538,10 +664,13 @@ def _check_ports(ctx, elements, junctions, bonds) -> None:
                                        f"(bonds {', '.join(str(b.id) for b in attached)})")
         elif len(attached) != 1:
             raise ctx.error(where, f"{e.kind} '{name}' has {len(attached)} bonds; a one-port element needs exactly one")
-    for name in junctions:
+    for name, j in junctions.items():
         attached = [b for b in bonds if name in (b.source, b.target)]
         if not attached:
             raise ctx.error(("junctions", name), f"junction '{name}' has no bonds; connect it or remove it")
+        if j.kind.endswith("c") and len(attached) < 2:
+            raise ctx.error(("junctions", name), f"controlled junction '{name}' has {len(attached)} bond; it switches "
+                                                 "power between at least two")
 
 
 def _check_sensor_junctions(ctx, sensors, junctions) -> None:
@@ -571,14 +700,17 @@ def _faults(ctx, data, parameters, sensors, elements, modes) -> dict[str, Fault]
             targets = spec.get("parameters")
             if isinstance(targets, str):
                 targets = [targets]
-            if not targets:
+            if not targets or not isinstance(targets, list):
                 raise ctx.error(where, "a parametric fault needs parameters: [names]")
+            targets = [_ref(ctx, p, where + ("parameters",), "a parameter") for p in targets]
             for p in targets:
                 if p not in parameters:
                     raise ctx.error(where + ("parameters",), f"undefined parameter '{p}' in fault '{name}'")
         else:
             key = kind
             target = spec.get(key)
+            if target is not None:
+                target = _ref(ctx, target, where + (key,), key)
             pool = {"sensor": sensors, "source": sources, "mode": modes}[kind]
             if target not in pool:
                 raise ctx.error(where + (key,), f"fault '{name}' names {key} '{target}', which is not defined "
@@ -588,7 +720,9 @@ def _faults(ctx, data, parameters, sensors, elements, modes) -> dict[str, Fault]
         if bounds is not None:
             if not isinstance(bounds, list) or len(bounds) != 2:
                 raise ctx.error(where + ("bounds",), "bounds must be [low, high]")
-            bounds = tuple(_number(ctx, b, where + ("bounds",), "bound") for b in bounds)
+            bounds = tuple(_number(ctx, b, where + ("bounds",), "bound", infinite=True) for b in bounds)
+            if not all(math.isfinite(b) for b in bounds) and kind != "parametric":
+                raise ctx.error(where + ("bounds",), "bounds must be finite")
             if not bounds[0] < bounds[1]:
                 raise ctx.error(where + ("bounds",), "bounds must be [low, high] with low < high")
         value = spec.get("value")
@@ -614,8 +748,6 @@ def _thresholds(ctx, data, sensors) -> dict[str, float]:
         if not (isinstance(arr, str) and re.fullmatch(r"ARR[1-9][0-9]*", arr)):
             raise ctx.error(("thresholds", key), f"'{key}' is no residual (use ARR1, ARR2, ... as `bgfdi tables` "
                                                  f"names them, or a sensor name: {', '.join(sensors) or 'none'})")
-        number = _number(ctx, value, ("thresholds", key), "threshold")
-        if not number > 0:
-            raise ctx.error(("thresholds", key), "a threshold must be positive")
+        number = _number(ctx, value, ("thresholds", key), "threshold", above=0)
         out[arr] = number
     return out

@@ -7,6 +7,10 @@ for another model) raise :class:`DataError` with one line that names the file an
 from __future__ import annotations
 
 import csv
+import gzip
+import io
+import itertools
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
@@ -33,34 +37,61 @@ class Measurements:
 
 
 CHUNK = 65536          # rows parsed at a time: memory stays near the size of the numbers read
+MAX_VALUES = 100_000_000   # numbers in one file (800 MB as float64): beyond, split the file
+MAX_TIME = 1.0e9           # s (31 years): a time column beyond it is not seconds
+BOMS = ((b"\xef\xbb\xbf", "utf-8-sig"), (b"\xff\xfe", "utf-16"), (b"\xfe\xff", "utf-16"))
+
+
+def _open_text(path: str | Path) -> io.TextIOWrapper:
+    """The file as text: gunzipped when it starts with gzip's magic bytes, decoded as UTF-8, or
+    as UTF-16 when it starts with that byte-order mark (a spreadsheet's "Unicode text")."""
+    raw = open(path, "rb")
+    head = raw.peek(4)[:4] if hasattr(raw, "peek") else b""
+    if head[:2] == b"\x1f\x8b":
+        raw = gzip.open(raw, "rb")
+        head = raw.peek(4)[:4]
+    encoding = next((name for bom, name in BOMS if head.startswith(bom)), "utf-8")
+    return io.TextIOWrapper(raw, encoding=encoding, newline="")
 
 
 def read_csv(path: str | Path) -> Measurements:
     """Read a measurement file row by row into float64 blocks (a 200 MB file takes about its own
-    size in memory, where a list of rows took 14 times it). A UTF-8 byte-order mark is skipped."""
-    p = Path(path)
+    size in memory, where a list of rows took 14 times it). Accepted as well: a UTF-8 byte-order
+    mark, UTF-16 with its mark, a gzip-compressed file, and semicolons as separators (then a
+    decimal comma is read as a point)."""
     try:
-        with p.open(newline="", encoding="utf-8-sig") as fh:
-            reader = csv.reader(fh)
+        if Path(path).is_dir():
+            raise DataError(f"{path}: is a folder; give a measurement CSV file")
+        with _open_text(path) as fh:
+            first = fh.readline()
+            delimiter = ";" if first.count(";") > first.count(",") else ","
+            reader = csv.reader(itertools.chain([first], fh), delimiter=delimiter)
             header = [h.strip() for h in next(reader, [])]
             if "t" not in header:
-                raise DataError(f"{path}: no 't' column in the header ({','.join(header)}); "
+                shown = delimiter.join(header)
+                raise DataError(f"{path}: no 't' column in the header ({shown[:80]}); "
                                 "the first column must be time in s")
-            blocks, rows = [], []
+            comma = delimiter == ";"
+            blocks, rows, count = [], [], 0
             for row in reader:
                 if row:
                     rows.append(row)
                 if len(rows) == CHUNK:
-                    blocks.append(_numbers(path, rows, len(header)))
+                    blocks.append(_numbers(path, rows, len(header), comma))
+                    count += len(rows) * len(header)
                     rows = []
+                    if count > MAX_VALUES:
+                        raise DataError(f"{path}: more than {MAX_VALUES:.0e} values; split the file")
             if rows or not blocks:
-                blocks.append(_numbers(path, rows, len(header)))
+                blocks.append(_numbers(path, rows, len(header), comma))
     except OSError as exc:
-        raise DataError(f"{path}: cannot read ({exc.strerror})") from None
-    except UnicodeDecodeError as exc:
-        raise DataError(f"{path}: not UTF-8 text (byte {exc.start}); save the file as UTF-8 CSV") from None
-    except csv.Error as exc:
-        raise DataError(f"{path}: not a CSV file ({exc})") from None
+        what = exc.strerror or str(exc)
+        raise DataError(f"{path}: cannot read ({what})") from None
+    except (UnicodeDecodeError, UnicodeError) as exc:
+        at = f" (byte {exc.start})" if isinstance(exc, UnicodeDecodeError) else ""
+        raise DataError(f"{path}: not UTF-8 text{at}; save the file as UTF-8 CSV") from None
+    except (csv.Error, EOFError, zlib.error) as exc:
+        raise DataError(f"{path}: not a CSV file ({str(exc)[:80]})") from None
     table = np.concatenate(blocks) if len(blocks) > 1 else blocks[0]
     del blocks
     if table.shape[0] < 2:
@@ -72,6 +103,9 @@ def read_csv(path: str | Path) -> Measurements:
     cols = {h: np.ascontiguousarray(table[:, i]) for i, h in enumerate(header)}
     del table
     time = cols["t"]
+    if np.abs(time).max() > MAX_TIME:
+        raise DataError(f"{path}: time values beyond {MAX_TIME:.0e} s (largest {np.abs(time).max():.3g}); "
+                        "the t column must be time in s")
     dt = np.diff(time)
     if np.any(dt <= 0):
         i = int(np.flatnonzero(dt <= 0)[0])
@@ -83,14 +117,17 @@ def read_csv(path: str | Path) -> Measurements:
     return Measurements(str(path), time, cols)
 
 
-def _numbers(path, rows: list[list[str]], width: int) -> np.ndarray:
-    """A block of rows as a (rows, width) float array; empty fields become NaN."""
+def _numbers(path, rows: list[list[str]], width: int, comma: bool = False) -> np.ndarray:
+    """A block of rows as a (rows, width) float array; empty fields become NaN; with ``comma``
+    (a semicolon-separated file) a decimal comma is read as a point."""
     if any(len(r) != width for r in rows):
         raise DataError(f"{path}: rows do not all have {width} values")
     try:
+        if comma:
+            rows = [[x.replace(",", ".") for x in r] for r in rows]
         return np.array([[float(x) if x.strip() else np.nan for x in r] for r in rows], dtype=float).reshape(-1, width)
     except ValueError as exc:
-        raise DataError(f"{path}: a value is not a number ({exc})") from None
+        raise DataError(f"{path}: a value is not a number ({str(exc)[:80]})") from None
 
 
 def check_against_model(model: Model, data: Measurements) -> None:

@@ -1,0 +1,143 @@
+"""Hostile inputs of issue 12, one case each: a model, scenario, data file or option a careless or
+malicious user might give. Shared by ``tests/test_hostile.py`` (every case) and ``tests/fuzz.py``.
+
+A case is ``(id, files, argv, expect)``: ``files`` maps a file name to its text or bytes (written
+into a fresh folder), ``argv`` the command with ``{name}`` standing for that file's path, and
+``expect`` is ``"error"`` (exit 2, one line naming the file or option) or ``"ok"`` (valid but
+unusual: exit 0).
+"""
+from __future__ import annotations
+
+import gzip
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+TANK = (ROOT / "models" / "two_tank_valve.yaml").read_text(encoding="utf-8")
+CYCAB = str(ROOT / "models" / "cycab_steering.yaml")
+NOMINAL = (Path(__file__).resolve().parent / "data" / "cycab" / "nominal.csv").read_text(encoding="utf-8")
+
+
+def tank(old: str, new: str) -> str:
+    """The two-tank model with one piece of text replaced (the piece must be there)."""
+    assert old in TANK, old
+    return TANK.replace(old, new, 1)
+
+
+def check(text: str | bytes, name: str = "m.yaml") -> tuple[dict, list[str]]:
+    return {name: text}, ["check", "{" + name + "}"]
+
+
+def tables(text: str | bytes) -> tuple[dict, list[str]]:
+    return {"m.yaml": text}, ["tables", "{m.yaml}", "--mode", "v=1"]
+
+
+def data(text: str | bytes, *options: str) -> tuple[dict, list[str]]:
+    return {"d.csv": text}, ["diagnose", CYCAB, "{d.csv}", "--workers", "1", *options]
+
+
+def scenario(text: str, *options: str) -> tuple[dict, list[str]]:
+    return {"s.json": text}, ["simulate", CYCAB, "{s.json}", "-o", "{out}/o.csv", *options]
+
+
+LAUGHS = "a: &a [x, x, x, x, x, x, x, x, x]\n" + "".join(
+    f"{c}: &{c} [{', '.join(['*' + p] * 9)}]\n" for p, c in zip("abcdefgh", "bcdefghi"))
+_NOMINAL_LINES = NOMINAL.splitlines(keepends=True)
+SHORT = "".join(_NOMINAL_LINES[:1200])            # 12 s of nominal data: no detection, fast
+
+CASES: list[tuple[str, dict, list[str], str]] = [
+    # ------------------------------------------------------------------ model files
+    ("yaml-python-tag", *check(tank("name: two_tank_valve", 'name: !!python/object/apply:os.system ["echo hi"]')), "error"),
+    ("model-latin1", *check(tank("Pump into tank 1", "Pompe \u00e0 l'entr\u00e9e").encode("latin-1")), "error"),
+    ("model-binary", *check(b"\x00\x01\x02\xff\xfe" * 20), "error"),
+    ("recursive-alias", *check(TANK + "extra: &x [1, *x]\n"), "error"),
+    ("complex-key", *check(TANK + "? [a, b]\n: 1\n"), "error"),
+    ("bond-id-hex", *check(tank("  1: [pump, J1]", "  0x9: [pump, J1]")), "error"),
+    ("bond-id-sexagesimal", *check(tank("  1: [pump, J1]", "  1:30: [pump, J1]")), "error"),
+    ("samples-inf", *check(tank("samples: 1000", "samples: .inf")), "error"),
+    ("samples-nan", *check(tank("samples: 1000", "samples: .nan")), "error"),
+    ("samples-zero", *check(tank("samples: 1000", "samples: 0")), "error"),
+    ("sensor-list", *check(tank("beta_p1:  {kind: sensor, sensor: p1}", "beta_p1:  {kind: sensor, sensor: [p1]}")), "error"),
+    ("mode-list", *check(tank("v:        {kind: mode, mode: v,", "v:        {kind: mode, mode: [v],")), "error"),
+    ("parameter-list", *check(tank("valve:  {type: R, parameter: R12}", "valve:  {type: R, parameter: [R12]}")), "error"),
+    ("parameter-mapping", *check(tank("valve:  {type: R, parameter: R12}", "valve:  {type: R, parameter: {a: 1}}")), "error"),
+    ("input-list", *check(tank("pump:   {type: MSf, input: Qin}", "pump:   {type: MSf, input: [Qin]}")), "error"),
+    ("parameters-number", *check("name: x\nparameters: 1.5\n"), "error"),
+    ("columns-number", *check(tank("columns: [t, Qin, p1, p2]", "columns: 5")), "error"),
+    ("c-without-law", *check(tank('tank2:  {type: C, effort: "rho*g*q/A2", displacement: "A2*e/(rho*g)"}',
+                                  "tank2:  {type: C}")), "error"),
+    ("controlled-junction-one-bond", *check(tank("  5: [Jv, J2]\n", "").replace("  4: [Jv, valve]\n", "")
+                                            .replace("  valve:  {type: R, parameter: R12}\n", "")), "error"),
+    ("value-overflow", *check(tank("value: 1.0e7,", "value: 1e999999,")), "error"),
+    ("value-nan", *check(tank("value: 1.0e7,", "value: .nan,")), "error"),
+    ("value-string", *check(tank("value: 1.0e7,", "value: big,")), "error"),
+    ("window-huge", *check(tank("derivative_window: 5.0", "derivative_window: 1e300")), "error"),
+    ("window-negative", *check(tank("derivative_window: 5.0", "derivative_window: -1")), "error"),
+    ("waiting-nan", *check(tank("waiting_time: 10.0", "waiting_time: .nan")), "error"),
+    ("threshold-inf", *check(tank("ARR1: 1.0e-4,", "ARR1: .inf,")), "error"),
+    ("threshold-negative", *check(tank("ARR1: 1.0e-4,", "ARR1: -1,")), "error"),
+    ("threshold-string", *check(tank("ARR1: 1.0e-4,", "ARR1: high,")), "error"),
+    ("sampling-zero", *check(tank("sampling_time: 0.1", "sampling_time: 0")), "error"),
+    ("noise-negative", *check(tank("noise: 20.0}\n  p2", "noise: -20.0}\n  p2")), "error"),
+    ("initial-list", *check(tank("p1: 3000.0", "p1: [3000.0]")), "error"),
+    ("tables-division-by-zero", *tables(tank('effort: "rho*g*q/A1"', 'effort: "rho*g*q/(A1 - A1)"')), "error"),
+    ("name-keyword", *check(tank("  R12: {value", "  lambda: {value").replace("parameter: R12", "parameter: lambda")), "error"),
+    ("top-level-list", *check("- a\n- b\n"), "error"),
+    ("empty-file", *check(""), "error"),
+    ("crlf-model", *check(TANK.replace("\n", "\r\n")), "ok"),
+    ("bom-model", *check("\ufeff" + TANK), "ok"),
+    # ------------------------------------------------------------------ denial of service
+    ("power-tower", *check(tank('flow: "Cd*sign(e)*sqrt(abs(e))"', 'flow: "Cd*e**9**9**9"')), "error"),
+    ("huge-exponent", *check(tank('flow: "Cd*sign(e)*sqrt(abs(e))"', 'flow: "Cd*e**123456789"')), "error"),
+    ("billion-laughs", *check(LAUGHS + TANK), "error"),
+    ("chained-plus", *check(tank('flow: "Cd*sign(e)*sqrt(abs(e))"', 'flow: "' + "e+" * 990 + 'e"')), "error"),
+    ("unary-minus", *check(tank('flow: "Cd*sign(e)*sqrt(abs(e))"', 'flow: "' + "-" * 1990 + 'e"')), "error"),
+    ("nested-parentheses", *check(tank('flow: "Cd*sign(e)*sqrt(abs(e))"', 'flow: "' + "(" * 600 + "e" + ")" * 600 + '"')), "error"),
+    ("long-expression", *check(tank('flow: "Cd*sign(e)*sqrt(abs(e))"', 'flow: "' + "+".join(["e"] * 3000) + '"')), "error"),
+    ("big-document", *check(TANK + "#" + "x" * (11 << 20) + "\n"), "error"),
+    ("deep-nesting", *check(TANK + "extra: " + "[" * 5000 + "]" * 5000 + "\n"), "error"),
+    # ------------------------------------------------------------------ data files
+    ("data-gzip", *data(gzip.compress(SHORT.encode())), "ok"),
+    ("data-binary", *data(b"\x00\x9f\x92\x96" * 300), "error"),
+    ("data-utf16", *data(SHORT.encode("utf-16")), "ok"),
+    ("data-latin1", *data(SHORT.replace("t,u_in", "t,u_in").encode("latin-1") + b"# \xe9\n"), "error"),
+    ("data-bom", *data("\ufeff" + SHORT), "ok"),
+    ("data-crlf", *data(SHORT.replace("\n", "\r\n")), "ok"),
+    ("data-semicolon", *data(SHORT.replace(",", ";")), "ok"),
+    ("data-blank-last-line", *data(SHORT + "\n\n"), "ok"),
+    ("data-header-only", *data(_NOMINAL_LINES[0]), "error"),
+    ("data-empty", *data(""), "error"),
+    ("data-time-huge", *data(_NOMINAL_LINES[0] + "".join(f"{1e301 * (i + 1)},0,0,0,1e5,1e5\n" for i in range(600))), "error"),
+    ("data-time-backwards", *data(_NOMINAL_LINES[0] + "".join(f"{-0.01 * i},0,0,0,1e5,1e5\n" for i in range(600))), "error"),
+    ("data-nan", *data(SHORT + "12.0,nan,0,0,1e5,1e5\n"), "error"),
+    ("data-ragged", *data(SHORT + "12.0,0,0\n"), "error"),
+    ("data-text-cell", *data(SHORT + "12.0,zero,0,0,1e5,1e5\n"), "error"),
+    ("data-missing-file", {}, ["diagnose", CYCAB, "{out}/nothing.csv"], "error"),
+    # ------------------------------------------------------------------ scenario files
+    ("scenario-T-nan", *scenario('{"T": NaN, "fs": 100}'), "error"),
+    ("scenario-T-inf", *scenario('{"T": Infinity, "fs": 100}'), "error"),
+    ("scenario-T-huge", *scenario('{"T": 1e7, "fs": 100}'), "error"),
+    ("scenario-fs-tiny", *scenario('{"T": 10, "fs": 1e-9}'), "error"),
+    ("scenario-target-list", *scenario('{"T": 1, "fs": 100, "faults": [{"target": ["R4"], "type": "abrupt", "value": 1e7, "t0": 0.5}]}'), "error"),
+    ("scenario-noise-list", *scenario('{"T": 1, "fs": 100, "noise": [1, 2]}'), "error"),
+    ("scenario-int-key", *scenario('{"T": 1, "fs": 100, "noise": {"1": 2}}'), "error"),
+    ("scenario-not-json", *scenario("{T: [}"), "error"),
+    ("scenario-list", *scenario("[1, 2]"), "error"),
+    ("scenario-method-bogus", *scenario('{"T": 1, "fs": 100}', "--method", "bogus"), "error"),
+    # ------------------------------------------------------------------ options
+    ("option-pop-zero", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--pop", "0"], "error"),
+    ("option-generations-zero", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--generations", "0"], "error"),
+    ("option-wait-negative", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--wait", "-5"], "error"),
+    ("option-wait-nan", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--wait", "nan"], "error"),
+    ("option-threshold-negative", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--threshold", "ARR1=-1"], "error"),
+    ("option-threshold-unknown", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--threshold", "ARR9=1"], "error"),
+    ("option-samples-zero", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--samples", "0"], "error"),
+    ("option-workers-zero", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--workers", "0"], "error"),
+    ("option-failure-bad", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--failure", "beta_theta2=abc"], "error"),
+    ("option-engine-bogus", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--engine", "bogus"], "error"),
+    ("option-mode-bad", {}, ["tables", CYCAB, "--mode", "a1=7"], "error"),
+    ("option-sizes-bad", {}, ["bench", "derive", "--sizes", "10,-3"], "error"),
+    # ------------------------------------------------------------------ outputs
+    ("output-directory", {}, ["tables", CYCAB, "-o", "{out}"], "error"),
+    ("output-missing-folder", {}, ["tables", CYCAB, "-o", "{out}/no/such/folder/t.txt"], "error"),
+    ("output-dash", {}, ["tables", CYCAB, "--mode", "a1=1,a2=1", "-o", "-"], "ok"),
+]
