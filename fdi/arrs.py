@@ -253,3 +253,15 @@ def binary_modes(expr: sp.Expr, modes: list[sp.Symbol]) -> sp.Expr:
 
     expr = expr.replace(lambda e: isinstance(e, (sp.sign, sp.Abs)) and isinstance(e.args[0], sp.Mul), fn_rule)
     return expr.replace(lambda e: isinstance(e, sp.Pow), pow_rule)
+
+
+def undefined_in_modes(model: Model, arrs: list[ARR], modes: list[dict[str, int]]) -> list[str]:
+    """The residuals that have no value in some mode (a division by a mode variable that is 0
+    there, or an infinite term): one text per residual and mode, empty when all are defined."""
+    bad = []
+    for mode in modes:
+        for a in arrs:
+            e = a.expr.xreplace({model.symbols[m]: v for m, v in mode.items()})
+            if e.has(sp.zoo, sp.nan, sp.oo, -sp.oo):
+                bad.append(f"{a.name} undefined in mode {mode}")
+    return bad

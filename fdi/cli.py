@@ -1,15 +1,19 @@
 """The ``bgfdi`` command: a thin argparse front over bondgraph, fdi and optim.
 
 User mistakes (bad model, scenario or data files, bad options) print one line on stderr and exit
-with code 2; nothing is half-written (outputs go through fdi.output.write_atomic).
+with code 2, before any work where they can be seen before it; nothing is half-written (outputs go
+through fdi.output.write_atomic, ``-o -`` is standard output). A reader that goes away (``| head``)
+ends the command quietly. See docs/cli.md.
 """
 from __future__ import annotations
 
 import argparse
+import math
+import os
 import sys
 from collections import Counter
+from typing import Callable
 
-import sympy as sp
 
 from bondgraph.causality import DIAGNOSIS, SIMULATION, Causality, assign
 from bondgraph.errors import CausalityError, ModelError
@@ -18,11 +22,142 @@ from bondgraph.model import Model
 
 from .cli_errors import UsageError
 from .data import DataError
-from .output import write_atomic
+from .diagnose import MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
+from .output import check_output, is_stdout, write_atomic
 
 
 USER_ERRORS = (ModelError, CausalityError, DataError, UsageError)
 CAUSALITY_CHOICES = ("derivative", "mixed")
+MAX_WORKERS = 256          # processes; more is a typo (and on a forkserver platform, that many processes)
+MAX_WAIT = 1e6             # s, as for the model's waiting_time
+MAX_CHAIN = 10_000         # bench derive: a chain of 2000 elements takes about 11 s
+
+
+# ------------------------------------------------------------------ option values
+
+class Parser(argparse.ArgumentParser):
+    """argparse with its errors as one line (``bgfdi: error: --pop: must be ...``), exit code 2:
+    the usage text would make a second line, and the option's help is one ``--help`` away."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        message = message.removeprefix("argument ")
+        hint = "" if "must be" in message else f" (see {self.prog} --help)"
+        self.exit(2, f"bgfdi: error: {message}{hint}\n")
+
+
+def _bad(expected: str, text: str) -> argparse.ArgumentTypeError:
+    return argparse.ArgumentTypeError(f"must be {expected}, got {text if text.strip() else repr(text)}")
+
+
+def whole(low: int, high: int | None = None) -> Callable[[str], int]:
+    """An argparse type: an integer in [low, high] (no upper bound when ``high`` is None)."""
+    span = f">= {low}" if high is None else f"from {low} to {high}"
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise _bad(f"an integer {span}", text) from None
+        if value < low or (high is not None and value > high):
+            raise _bad(f"an integer {span}", text)
+        return value
+    return parse
+
+
+def _real_value(text: str, low: float | None, strict: bool, high: float | None) -> float | None:
+    """``text`` as a finite float within the bounds, or None."""
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    if not math.isfinite(value) or (high is not None and value > high):
+        return None
+    if low is not None and (value < low or (strict and value == low)):
+        return None
+    return value
+
+
+def _real_span(low: float | None, strict: bool, high: float | None) -> str:
+    span = "a finite number"
+    if low is not None:
+        span += f" {'>' if strict else '>='} {low:g}"
+    if high is not None:
+        span += f"{' and' if low is not None else ''} <= {high:g}"
+    return span
+
+
+def real(low: float | None = None, strict: bool = False, high: float | None = None) -> Callable[[str], float]:
+    """An argparse type: a finite float, >= ``low`` (> with ``strict``), <= ``high``."""
+    def parse(text: str) -> float:
+        value = _real_value(text, low, strict, high)
+        if value is None:
+            raise _bad(_real_span(low, strict, high), text)
+        return value
+    return parse
+
+
+def pair(low: float | None = None, strict: bool = False) -> Callable[[str], tuple[str, float]]:
+    """An argparse type: NAME=VALUE with a finite VALUE (> ``low`` with ``strict``); the name is
+    checked against the model once it is loaded."""
+    def parse(text: str) -> tuple[str, float]:
+        name, sep, value = text.partition("=")
+        if not sep or not name.strip():
+            raise argparse.ArgumentTypeError(f"must be NAME=VALUE, got {text!r}")
+        number = _real_value(value, low, strict, None)
+        if number is None:
+            raise argparse.ArgumentTypeError(f"{name.strip()}: must be {_real_span(low, strict, None)}, got {value!r}")
+        return name.strip(), number
+    return parse
+
+
+def method(text: str) -> str:
+    """An argparse type: the integrator of ``simulate`` (fdi.scenario.METHODS, any case)."""
+    from .scenario import METHODS, ScenarioError, check_method
+    try:
+        return check_method(text)
+    except ScenarioError:
+        raise argparse.ArgumentTypeError(f"must be one of {', '.join(METHODS)}, got {text!r}") from None
+
+
+def chain_sizes(text: str) -> tuple[int, ...]:
+    """An argparse type: comma-separated chain sizes for ``bench derive``, each 1 to MAX_CHAIN."""
+    parse = whole(1, MAX_CHAIN)
+    try:
+        sizes = tuple(parse(x.strip()) for x in text.split(","))
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"must be comma-separated chain sizes from 1 to {MAX_CHAIN}, such as "
+                                         f"1000,2000, got {text!r}") from None
+    return sizes
+
+
+def check_plot(path: str | None, folder: bool) -> None:
+    """``--plot``: matplotlib present, and a PNG file (or a folder, for a diagnosis) that can be
+    written, refused before any work as ``-o`` is."""
+    if path is None:
+        return
+    import importlib.util
+    if importlib.util.find_spec("matplotlib") is None:
+        from .cli_errors import need_matplotlib
+        raise need_matplotlib()
+    if is_stdout(path):
+        raise UsageError("--plot: standard output takes no plot; name a " + ("folder" if folder else "PNG file"))
+    if not folder:
+        check_output(path, "--plot")
+        return
+    from pathlib import Path
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise UsageError(f"--plot: '{path}' is a file; name a folder for the plots")
+    if not p.exists() and not p.parent.is_dir():
+        raise UsageError(f"--plot: folder '{p.parent}' does not exist; create it or name a folder in an existing one")
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Every output the command will write, checked before it starts (nothing is then computed
+    only to fail at the end)."""
+    if getattr(args, "output", None) is not None:
+        check_output(args.output, "-o")
+    check_plot(getattr(args, "plot", None), folder=args.command in ("diagnose", "demo"))
 
 
 def parse_mode(text: str, model: Model) -> dict[str, int]:
@@ -40,10 +175,13 @@ def parse_mode(text: str, model: Model) -> dict[str, int]:
 
 
 def _emit(text: str, out: str | None) -> None:
-    if out:
-        write_atomic(out, text)
-    else:
-        sys.stdout.write(text)
+    """``text`` to the file ``out`` (atomically), or to standard output (no -o, or -o -)."""
+    write_atomic(out if out else "-", text)
+
+
+def _note(text: str, out: str | None) -> None:
+    """A status line: on stdout, unless the result itself goes there (-o -)."""
+    print(text, file=sys.stderr if is_stdout(out) else sys.stdout)
 
 
 # ------------------------------------------------------------------ check / graph
@@ -81,7 +219,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     diag = assign(model, DIAGNOSIS)
     print()
     print("causality for diagnosis (SCAPH: sources fixed, sensors inverted, storage in derivative causality)")
-    from .arrs import select_arrs
+    from .arrs import select_arrs, undefined_in_modes
     from .signatures import all_modes
 
     chosen = select_arrs(model, args.causality)
@@ -96,12 +234,7 @@ def cmd_check(args: argparse.Namespace) -> int:
               f"structural analysis ({chosen.msos} MSO sets, {chosen.candidates} computable in "
               f"{args.causality} causality)")
     arrs = list(chosen.arrs)
-    bad = []
-    for mode in all_modes(model):
-        for a in arrs:
-            e = a.expr.xreplace({model.symbols[m]: v for m, v in mode.items()})
-            if e.has(sp.zoo, sp.nan, sp.oo, -sp.oo):
-                bad.append(f"{a.name} undefined in mode {mode}")
+    bad = undefined_in_modes(model, arrs, all_modes(model))
     if bad:
         raise CausalityError(bad)
     n_modes = len(diag.modes_checked)
@@ -146,7 +279,7 @@ def cmd_graph(args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------ tables
 
 def cmd_tables(args: argparse.Namespace) -> int:
-    from .arrs import select_arrs
+    from .arrs import select_arrs, undefined_in_modes
     from .signatures import all_modes, fault_signature_matrix, mode_change_signature_matrix
     from .tables import render
 
@@ -156,6 +289,9 @@ def cmd_tables(args: argparse.Namespace) -> int:
         raise CausalityError([f"{model.name} has no residual in {args.causality} causality; "
                               f"bgfdi isolability {args.model} proposes sensors"])
     modes = [parse_mode(args.mode, model)] if args.mode else all_modes(model)
+    bad = undefined_in_modes(model, arrs, modes)
+    if bad:
+        raise CausalityError(bad)
     fsms = [fault_signature_matrix(model, arrs, m) for m in modes]
     mcsm = mode_change_signature_matrix(model, arrs, modes[0] if args.mode else None)
     _emit(render(args.format, arrs, fsms, mcsm), args.output)
@@ -168,8 +304,6 @@ def cmd_isolability(args: argparse.Namespace) -> int:
     from .isolability_report import analyse, to_json, to_text
 
     model = load_model(args.model)
-    if args.max_sensors < 0 or args.max_sensors > 6:
-        raise UsageError("--max-sensors must be between 0 and 6")
     modes = [parse_mode(args.mode, model)] if args.mode else None
     result = analyse(model, args.causality, modes, args.max_sensors)
     _emit(to_json(result) if args.json else to_text(result), args.output)
@@ -196,75 +330,88 @@ class Progress:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    from .scenario import ScenarioError, load_scenario, run, to_csv
+    from dataclasses import replace
+
+    from .scenario import check_steps, csv_chunks, load_scenario, run
 
     model = load_model(args.model)
-    try:
-        scenario = load_scenario(args.scenario, model)
-        if args.seed is not None:
-            from dataclasses import replace
-            scenario = replace(scenario, seed=args.seed)
-        columns = run(model, scenario, progress=Progress(scenario.T, "simulating"), method=args.method)
-    except ScenarioError as exc:
-        raise UsageError(str(exc)) from None
-    write_atomic(args.output, to_csv(columns))
-    print(f"wrote {args.output}: {len(columns['t'])} samples of {', '.join(columns)}")
+    scenario = load_scenario(args.scenario, model)          # ScenarioError is a UsageError: one line
+    if args.seed is not None:
+        scenario = replace(scenario, seed=args.seed)
+    check_steps(scenario, args.method)
+    columns = run(model, scenario, progress=Progress(scenario.T, "simulating"), method=args.method)
+    write_atomic(args.output, csv_chunks(columns))
+    where = "standard output" if is_stdout(args.output) else args.output
+    _note(f"wrote {where}: {len(columns['t'])} samples of {', '.join(columns)}", args.output)
     if args.plot:
         from .plots import plot_signals
         plot_signals(columns, args.plot)
-        print(f"plot: {args.plot}")
+        _note(f"plot: {args.plot}", args.output)
     return 0
 
 
 # ------------------------------------------------------------------ diagnose / demo
 
-def _pairs(items: list[str] | None, what: str, cast=float) -> dict:
-    out = {}
-    for item in items or []:
-        name, sep, value = item.partition("=")
-        if not sep:
-            raise UsageError(f"--{what} takes NAME=VALUE, got '{item}'")
-        try:
-            out[name.strip()] = cast(value)
-        except ValueError:
-            raise UsageError(f"--{what} {name}: '{value}' is not a number") from None
+def _named(pairs: list[tuple[str, float]] | None, option: str, known: list[str], what: str) -> dict[str, float]:
+    """NAME=VALUE pairs (values checked while parsing) whose names must be in ``known``."""
+    out = dict(pairs or [])
+    for k in out:
+        if k not in known:
+            raise UsageError(f"{option}: '{k}' is no {what} (use {', '.join(known)})")
     return out
 
 
 def _options(args: argparse.Namespace, model: Model):
+    """The diagnosis Options from the command line; the names in --threshold and --failure are
+    checked against the model here, every value was checked while parsing."""
     from optim import ENGINES
 
     from .diagnose import Options
     from .identify import compiled
-    names = [a.name for a in compiled(model.path)[1]]
-    thresholds = _pairs(args.threshold, "threshold")
-    for k in thresholds:
-        if k not in names:
-            raise UsageError(f"--threshold: '{k}' is no residual of {model.name} (use {', '.join(names)})")
-    failures = _pairs(args.failure, "failure")
-    for k in failures:
-        if k not in model.faults:
-            raise UsageError(f"--failure: '{k}' is no fault of {model.name}")
     if args.engine not in ENGINES:
         raise UsageError(f"--engine: unknown engine '{args.engine}' (use {', '.join(ENGINES)})")
-    return Options(thresholds=thresholds, waiting_time=args.wait, exoneration=not args.no_exoneration,
-                   engine=args.engine, pop=args.pop, generations=args.generations, samples=args.samples,
-                   seed=args.seed, workers=args.workers, failures=failures)
+    names = [a.name for a in compiled(model.path)[1]]
+    thresholds = _named(args.threshold, "--threshold", names, f"residual of {model.name}")
+    failures = _named(args.failure, "--failure", list(model.faults), f"fault of {model.name}")
+    options = Options(thresholds=thresholds, waiting_time=args.wait, exoneration=not args.no_exoneration,
+                      engine=args.engine, pop=args.pop, generations=args.generations, samples=args.samples,
+                      seed=args.seed, workers=args.workers, failures=failures)
+    options.check()
+    return options
+
+
+def _report_dict(report: dict, timings: bool) -> dict:
+    """The public report; wall-clock times only with ``--timings`` (the estimators' wall_s and
+    objective_s, and ``timings`` by stage), so that two runs of one diagnosis are byte-identical."""
+    from .diagnose import public
+    out = public(report)
+    if timings:
+        out["timings"] = public(dict(report.get("_timings", {})))
+    else:
+        out["estimators"] = [{k: v for k, v in e.items() if k not in ("wall_s", "objective_s")}
+                             for e in out.get("estimators", [])]
+    return out
+
+
+def _timings_line(report: dict) -> str:
+    stages = report.get("_timings", {})
+    return "timings: " + ", ".join(f"{k} {v:.2f} s" for k, v in stages.items()) + "\n"
 
 
 def _diagnose_and_print(model_path: str, data, options, args, data_name: str) -> int:
     import json
 
-    from .diagnose import diagnose, public
+    from .diagnose import diagnose
     from .identify import compiled
     from .report import to_text
     model = compiled(str(model_path))[0]
     bar = Progress(1.0, "estimators")
     report = diagnose(model_path, data, options, progress=lambda done, total: bar(done / total))
+    public = _report_dict(report, args.timings)
     if args.json:
-        text = json.dumps(public(report), indent=1) + "\n"
+        text = json.dumps(public, indent=1) + "\n"
     else:
-        text = to_text(public(report), model.name, data_name)
+        text = to_text(public, model.name, data_name) + (_timings_line(report) if args.timings else "")
     _emit(text, getattr(args, "output", None))
     if getattr(args, "plot", None):
         from .plots import plot_diagnosis
@@ -275,31 +422,36 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from .data import read_csv
+    from .diagnose import check_samples
     from .identify import compiled
 
     model = compiled(args.model)[0]
     options = _options(args, model)
     data = read_csv(args.data)
+    check_samples(options.samples, data.ts, "--samples")
     return _diagnose_and_print(args.model, data, options, args, args.data)
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
     """Simulate CyCab scenario 2 with bgfdi's own simulator, diagnose it, print the report."""
     from .data import Measurements
+    from .diagnose import check_samples
+    from .identify import compiled
     from .resources import scenarios_dir, shipped_model
     from .scenario import load_scenario, run
 
-    from .identify import compiled
     path = str(shipped_model("cycab_steering"))
     model = compiled(path)[0]
+    options = _options(args, model)                          # bad options refused before simulating
     scenario = load_scenario(scenarios_dir() / f"cycab_{args.scenario}.json", model)
+    check_samples(options.samples, 1.0 / scenario.fs, "--samples")
     print(f"simulating CyCab {args.scenario} ({scenario.T:g} s; faults: "
           + (", ".join(f"{f.target} {f.type} from {f.t0:g} s" for f in scenario.faults) or "none") + ")",
           file=sys.stderr)
     cols = run(model, scenario, progress=Progress(scenario.T, "simulating"))
     data = Measurements(f"simulated {args.scenario}", cols["t"], cols)
     print("diagnosing ...", file=sys.stderr)
-    return _diagnose_and_print(path, data, _options(args, model), args, f"simulated CyCab {args.scenario}")
+    return _diagnose_and_print(path, data, options, args, f"simulated CyCab {args.scenario}")
 
 
 # ------------------------------------------------------------------ bench
@@ -309,12 +461,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from .resources import shipped_models
 
     if args.what == "derive":
-        sizes = bench.CHAIN_SIZES
-        if args.sizes:
-            try:
-                sizes = tuple(int(x) for x in args.sizes.split(","))
-            except ValueError:
-                raise UsageError(f"--sizes: expected comma-separated chain sizes such as 1000,2000, got '{args.sizes}'") from None
+        sizes = args.sizes or bench.CHAIN_SIZES
         sys.stdout.write(bench.format_derive(bench.derive_rows(shipped_models(), sizes, echo=print)))
         return 0
     if args.what == "simulate":
@@ -348,7 +495,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------ main
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="bgfdi", description="Fault diagnosis and prognosis with hybrid bond graphs.")
+    p = Parser(prog="bgfdi", description="Fault diagnosis and prognosis with hybrid bond graphs.")
     sub = p.add_subparsers(dest="command", required=True)
 
     c = sub.add_parser("check", help="validate a model and show its causality")
@@ -359,7 +506,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     g = sub.add_parser("graph", help="write Graphviz DOT with causal strokes")
     g.add_argument("model")
-    g.add_argument("-o", "--output", help="file to write (default: standard output)")
+    g.add_argument("-o", "--output", help="file to write (default, or -: standard output)")
     g.add_argument("--purpose", choices=(DIAGNOSIS, SIMULATION), default=DIAGNOSIS)
     g.set_defaults(func=cmd_graph)
 
@@ -369,7 +516,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--format", choices=("text", "markdown", "latex", "json", "csv"), default="text")
     t.add_argument("--causality", choices=CAUSALITY_CHOICES, default="derivative",
                    help="residuals that differentiate only (default) or may integrate (mixed)")
-    t.add_argument("-o", "--output", help="file to write (default: standard output)")
+    t.add_argument("-o", "--output", help="file to write (default, or -: standard output)")
     t.set_defaults(func=cmd_tables)
 
     iso = sub.add_parser("isolability", help="detectability and isolability per mode; sensor placement")
@@ -377,34 +524,41 @@ def build_parser() -> argparse.ArgumentParser:
     iso.add_argument("--causality", choices=CAUSALITY_CHOICES, default="derivative",
                      help="causal interpretation of differential constraints (default derivative)")
     iso.add_argument("--mode", help="one mode, e.g. v=0 (default: every mode)")
-    iso.add_argument("--max-sensors", type=int, default=3, help="largest sensor set tried for placement")
+    iso.add_argument("--max-sensors", type=whole(0, 6), default=3, help="largest sensor set tried for placement (0 to 6)")
     iso.add_argument("--json", action="store_true", help="print the analysis as JSON")
-    iso.add_argument("-o", "--output", help="file to write (default: standard output)")
+    iso.add_argument("-o", "--output", help="file to write (default, or -: standard output)")
     iso.set_defaults(func=cmd_isolability)
 
     s = sub.add_parser("simulate", help="simulate a scenario with faults injected; write a measurement CSV")
     s.add_argument("model")
     s.add_argument("scenario", help="scenario file (JSON or YAML)")
-    s.add_argument("-o", "--output", required=True, help="CSV file to write")
-    s.add_argument("--seed", type=int, help="override the scenario's noise seed")
-    s.add_argument("--method", default="auto", help="auto (default), ros2, LSODA, Radau, BDF or RK45")
+    s.add_argument("-o", "--output", required=True, help="CSV file to write (-: standard output)")
+    s.add_argument("--seed", type=whole(0), help="override the scenario's noise seed (an integer >= 0)")
+    s.add_argument("--method", type=method, default="auto", help="auto (default), ros2, LSODA, Radau, BDF or RK45")
     s.add_argument("--plot", metavar="PNG", help="also plot the signals (needs the plot extra)")
     s.set_defaults(func=cmd_simulate)
 
     def diagnosis_options(p: argparse.ArgumentParser) -> None:
-        p.add_argument("--threshold", action="append", metavar="ARRk=VALUE", help="override a threshold")
-        p.add_argument("--wait", type=float, help="waiting time T_wt in s (default: the model's)")
+        p.add_argument("--threshold", action="append", type=pair(0, strict=True), metavar="ARRk=VALUE",
+                       help="override a threshold (VALUE > 0)")
+        p.add_argument("--wait", type=real(0, high=MAX_WAIT), help="waiting time T_wt in s, >= 0 (default: the model's)")
         p.add_argument("--no-exoneration", action="store_true", help="also admit sets whose union covers the coherence vector")
         p.add_argument("--engine", default="AHDE", help="identification engine (AHDE, AHDE-joint, AHDE-paper, SHADE, scipy-DE, GA, AGA)")
-        p.add_argument("--pop", type=int, default=100, help="population per estimator (paper: 100)")
-        p.add_argument("--generations", type=int, default=150, help="generations per estimator (paper: 150)")
-        p.add_argument("--samples", type=int, help="N samples from t_D for identification (default: the model's)")
-        p.add_argument("--seed", type=int, default=0)
-        p.add_argument("--workers", type=int, default=2, help="estimator processes (results do not depend on it)")
-        p.add_argument("--failure", action="append", metavar="FAULT=VALUE", help="failure value for prognosis")
+        p.add_argument("--pop", type=whole(MIN_POP, MAX_POP), default=100,
+                       help=f"population per estimator, {MIN_POP} to {MAX_POP} (paper: 100)")
+        p.add_argument("--generations", type=whole(1, MAX_GENERATIONS), default=150,
+                       help="generations per estimator, >= 1 (paper: 150)")
+        p.add_argument("--samples", type=whole(MIN_SAMPLES),
+                       help=f"N samples from t_D for identification, >= {MIN_SAMPLES} (default: the model's)")
+        p.add_argument("--seed", type=whole(0), default=0, help="random seed, an integer >= 0")
+        p.add_argument("--workers", type=whole(1, MAX_WORKERS), default=2,
+                       help=f"estimator processes, 1 to {MAX_WORKERS} (results do not depend on it)")
+        p.add_argument("--failure", action="append", type=pair(), metavar="FAULT=VALUE", help="failure value for prognosis")
         p.add_argument("--json", action="store_true", help="print the report as JSON")
+        p.add_argument("--timings", action="store_true",
+                       help="add wall-clock times to the report (without them two runs give identical reports)")
         p.add_argument("--plot", metavar="DIR", help="write plots into DIR (needs the plot extra)")
-        p.add_argument("-o", "--output", help="write the report to a file instead of standard output")
+        p.add_argument("-o", "--output", help="write the report to a file instead of standard output (-)")
 
     d = sub.add_parser("diagnose", help="detect, isolate, identify and prognose faults in a measurement file")
     d.add_argument("model")
@@ -419,20 +573,48 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", help="benchmarks, printed as tables")
     b.add_argument("what", choices=("derive", "simulate", "optim", "diagnose"))
-    b.add_argument("--sizes", help="derive: comma-separated chain sizes (default 10,20,50,100,200)")
+    b.add_argument("--sizes", type=chain_sizes,
+                   help=f"derive: comma-separated chain sizes, 1 to {MAX_CHAIN} (default 10,20,50,100,200)")
     b.add_argument("--problem", default="synthetic", help="optim: synthetic (3 cases), synthetic-all, scenario2 or one case")
-    b.add_argument("--runs", type=int, default=20, help="optim: independent runs per case (Table VI: 20)")
+    b.add_argument("--runs", type=whole(1), default=20, help="optim: independent runs per case, >= 1 (Table VI: 20)")
     b.add_argument("--methods", help="optim: comma-separated engines (default: all)")
-    b.add_argument("--workers", type=int, default=2, help="processes (diagnose: default 1 core is measured with 1)")
+    b.add_argument("--workers", type=whole(1, MAX_WORKERS), default=2,
+                   help="processes (diagnose: default 1 core is measured with 1)")
     b.add_argument("--json", action="store_true", help="optim: print the summary as JSON")
     b.set_defaults(func=cmd_bench)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    """Run one command; its exit code. A closed standard output (``| head``) ends it quietly with
+    code 1, as the Python documentation recommends (SIGPIPE is not restored: a worker process
+    could die of it)."""
     try:
+        code = _run(argv)
+        sys.stdout.flush()
+        return code
+    except BrokenPipeError:
+        _silence_stdout()
+        return 1
+
+
+def _silence_stdout() -> None:
+    """Point standard output at /dev/null, so that the interpreter's last flush cannot fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):     # no real file behind sys.stdout (tests)
+        pass
+
+
+def _run(argv: list[str] | None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:                  # a bad option (one line printed) or --help: its code, returned
+        return 0 if exc.code is None else exc.code if isinstance(exc.code, int) else 2
+    try:
+        check_outputs(args)
         return args.func(args)
     except CausalityError as exc:
         print(f"bgfdi: error: {getattr(args, 'model', '')}: causality: {'; '.join(exc.problems)}", file=sys.stderr)

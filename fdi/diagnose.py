@@ -7,6 +7,7 @@ faults. The result is the report dictionary whose JSON shape ``bgfdi diagnose --
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,6 +18,7 @@ import numpy as np
 from bondgraph.errors import ModelError
 from optim import DEFAULT_ENGINE, ENGINES
 
+from .cli_errors import UsageError
 from .data import DataError, Measurements, read_csv, signals_from_data
 from .derivatives import DEFAULT_ORDER, window_samples
 from .detect import detect, thresholds_for
@@ -43,18 +45,78 @@ class Options:
     settle: float = 1.0
     mode: Mapping[str, int] | None = None
 
+    def check(self) -> None:
+        """Refuse settings that would crash a worker or give a nonsense diagnosis (a population
+        too small for DE's mutation, no generation, a negative waiting time or threshold), with one
+        line naming the field; the CLI checks its options the same way while parsing them."""
+        if self.engine not in ENGINES:
+            raise UsageError(f"Options.engine: unknown engine '{self.engine}' (use {', '.join(ENGINES)})")
+        _whole("pop", self.pop, MIN_POP, MAX_POP)
+        _whole("generations", self.generations, 1, MAX_GENERATIONS)
+        _whole("workers", self.workers, 1)
+        _whole("seed", self.seed, 0)
+        if self.samples is not None:
+            _whole("samples", self.samples, MIN_SAMPLES)
+        if self.waiting_time is not None:
+            _real("waiting_time", self.waiting_time, 0.0)
+        for name, value in self.thresholds.items():
+            _real(f"thresholds[{name}]", value, 0.0, strict=True)
+        for name, value in self.failures.items():
+            _real(f"failures[{name}]", value)
+
+
+MIN_POP = 4                # DE's mutation takes three other members of the population
+MAX_POP = 100_000          # a population is held in memory: 100 000 members is far past the paper's 100
+MAX_GENERATIONS = 1_000_000
+MIN_SAMPLES = 2            # N samples from t_D: fewer leave nothing to fit
+MIN_WINDOW_S = 0.5         # s: identify.fault_space searches intermittent periods from 0.5 s to N * t_s
+
+
+def min_samples(ts: float) -> int:
+    """The fewest identification samples N for data sampled every ``ts`` s: N * ts must reach
+    MIN_WINDOW_S, or the period's search interval would be empty."""
+    n = max(MIN_SAMPLES, math.ceil(MIN_WINDOW_S / ts))
+    while n * ts < MIN_WINDOW_S:
+        n += 1
+    return n
+
+
+def check_samples(samples: int | None, ts: float, option: str = "Options.samples") -> None:
+    """``samples`` (None: the model's) spans at least MIN_WINDOW_S of data sampled every ``ts`` s."""
+    if samples is not None and samples < min_samples(ts):
+        raise UsageError(f"{option}: must be at least {min_samples(ts)} for data sampled every {ts:g} s "
+                         f"(N * t_s >= {MIN_WINDOW_S:g} s, the shortest intermittent period identified), got {samples}")
+
+
+def _whole(name: str, value, low: int, high: int | None = None) -> None:
+    """``value`` is an int in [low, high]; else a UsageError naming ``Options.<name>``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low \
+            or (high is not None and value > high):
+        span = f">= {low}" if high is None else f"from {low} to {high}"
+        raise UsageError(f"Options.{name}: must be an integer {span}, got {value!r}")
+
+
+def _real(name: str, value, low: float | None = None, strict: bool = False) -> None:
+    """``value`` is a finite number, >= ``low`` (> with ``strict``); else a UsageError."""
+    ok = not isinstance(value, bool) and isinstance(value, (int, float, np.number)) and bool(np.isfinite(value))
+    if ok and low is not None:
+        ok = value > low if strict else value >= low
+    if not ok:
+        bound = "" if low is None else f" {'>' if strict else '>='} {low:g}"
+        raise UsageError(f"Options.{name}: must be a finite number{bound}, got {value!r}")
+
 
 def diagnose(model_path: str | Path, data: str | Path | Measurements, options: Options | None = None,
              progress=None) -> dict:
     """Run the whole pipeline; returns the report (plus private keys starting with '_' for plots)."""
     o = options or Options()
-    if o.engine not in ENGINES:
-        raise ValueError(f"unknown engine '{o.engine}' (use {', '.join(ENGINES)})")
+    o.check()
     timings: dict[str, float] = {}
     clock = time.perf_counter()
     path = str(model_path)
     model, arrs, residuals = compiled(path)
     meas = data if isinstance(data, Measurements) else read_csv(data)
+    check_samples(o.samples, meas.ts)
     raw = signals_from_data(model, meas)
     need = window_samples(model.derivative_window, meas.ts, DEFAULT_ORDER) + 1
     if meas.t.size < need:
@@ -110,6 +172,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
                 return report
     if not candidates:
         return report
+    check_window(meas, det.time, samples)
     clock = time.perf_counter()
     settings = {"engine": o.engine, "pop": o.pop, "generations": o.generations}
     results = run_estimators(path, meas.t, raw, det.time, samples, candidates, weights, settings, o.seed,
@@ -140,6 +203,16 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
             report["prognosis"].append(prognose(f, nominal, failure, f.get("t0", win.t0), now))
         timings["prognosis"] = time.perf_counter() - clock
     return report
+
+
+def check_window(meas: Measurements, t0: float, samples: int) -> None:
+    """The identification window (N samples from t_D, as identify.window cuts it) spans at least
+    MIN_WINDOW_S: data that end just after the detection leave no period to search."""
+    i0 = int(np.searchsorted(meas.t, t0 - 1e-9))
+    span = min(samples, meas.t.size - i0) * meas.ts
+    if span < MIN_WINDOW_S:
+        raise DataError(f"{meas.path}: the data end {span:g} s after the detection at t_D = {t0:g} s; identification "
+                        f"needs at least {MIN_WINDOW_S:g} s after t_D: record longer")
 
 
 PARSIMONY = 0.05

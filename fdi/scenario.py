@@ -14,13 +14,20 @@ model: a parametric fault on one parameter takes ``value`` as the parameter's fa
 group (R5 = kf5, Fu5) ``value`` multiplies every parameter of the group (incipient profiles then
 start from 1). A sensor fault multiplies the measurement by beta(t); a source fault multiplies the
 source; a mode fault sets the mode variable to the fault's value (default 0) from t0.
+
+Every key and number is checked where it enters, and the run's size is bounded (MAX_BYTES,
+MAX_SAMPLES, MAX_STEPS, MAX_SWITCHES; docs/simulation.md) so that no file can hang the simulator
+or exhaust memory. Problems are :class:`ScenarioError`, a UsageError: one line, exit code 2.
 """
 from __future__ import annotations
 
 import json
+import math
+import reprlib
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
 import numpy as np
 import sympy as sp
@@ -30,12 +37,20 @@ from bondgraph.model import Model
 from bondgraph.simulation import SimulationError, simulate
 
 from . import profiles
+from .cli_errors import UsageError
 
 TYPES = ("abrupt", "intermittent", "incipient", "mode")
+METHODS = ("auto", "ros2", "LSODA", "Radau", "BDF", "RK45")
+MAX_BYTES = 1 << 20           # a scenario file is a few lines; more is a mistake (or an attack)
+MAX_SAMPLES = 10_000_000      # T * fs: 10 million samples, about 0.5 GB of columns
+ROS2_STEP = 1e-3              # the fixed step of ROS2 (bondgraph.simulation), at most 1 ms
+MAX_STEPS = 10_000_000        # T * max(fs, 1/ROS2_STEP) for ros2 and auto: about 3 min of integration
+MAX_SWITCHES = 10_000         # switching instants of intermittent faults (each starts a new piece)
 
 
-class ScenarioError(ValueError):
-    """A scenario file that cannot be run (one line: file, fault, what to change)."""
+class ScenarioError(UsageError, ValueError):
+    """A scenario file that cannot be run (one line: file, key, what to change). A UsageError, so
+    the CLI prints it as one line with exit code 2."""
 
 
 @dataclass(frozen=True)
@@ -61,29 +76,125 @@ class Scenario:
     resolution: dict
 
 
-def load_scenario(path: str | Path, model: Model) -> Scenario:
-    p = Path(path)
+def _short_repr() -> reprlib.Repr:
+    r = reprlib.Repr()                       # keyword arguments only from Python 3.12
+    r.maxlevel, r.maxlist, r.maxdict, r.maxstring, r.maxother = 1, 4, 4, 40, 40
+    return r
+
+
+_REPR = _short_repr()
+
+
+def _show(value) -> str:
+    """A short, bounded rendering of a bad value for a message (an alias bomb stays short)."""
+    return _REPR.repr(value)
+
+
+def _read_text(p: Path, path: str) -> str:
+    """The file's text: at most MAX_BYTES, UTF-8 (a byte-order mark is allowed)."""
     try:
-        text = p.read_text(encoding="utf-8")
+        with open(p, "rb") as fh:
+            raw = fh.read(MAX_BYTES + 1)
     except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read ({exc.strerror})") from None
+        raise ScenarioError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if len(raw) > MAX_BYTES:
+        raise ScenarioError(f"{path}: larger than {MAX_BYTES >> 20} MB; a scenario file is a few lines")
     try:
-        data = json.loads(text) if p.suffix.lower() == ".json" else yaml.safe_load(text)
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(f"{path}: not UTF-8 text (byte {exc.start}); save it as UTF-8") from None
+
+
+def load_scenario(path: str | Path, model: Model) -> Scenario:
+    """Read and check a scenario file (JSON by its .json suffix, YAML otherwise)."""
+    p = Path(path)
+    text = _read_text(p, str(path))
+    kind = "JSON" if p.suffix.lower() == ".json" else "YAML"
+    try:
+        data = json.loads(text) if kind == "JSON" else yaml.safe_load(text)
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
-        raise ScenarioError(f"{path}: not valid {'JSON' if p.suffix.lower() == '.json' else 'YAML'}: "
-                            f"{str(exc).splitlines()[0]}") from None
+        raise ScenarioError(f"{path}: not valid {kind}: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+    except ValueError:                              # an integer of more than 4300 digits
+        raise ScenarioError(f"{path}: a number has too many digits to read; write it with an exponent (1.0e+7)") from None
+    except RecursionError:
+        raise ScenarioError(f"{path}: not valid {kind}: nested too deeply") from None
     return parse_scenario(data, model, str(path))
 
 
-def _num(path: str, where: str, value, what: str) -> float:
+def _num(path: str, where: str, value, what: str, *, low: float | None = None, strict: bool = False) -> float:
+    """``value`` as a finite float, at least ``low`` (above it if ``strict``); else one line that
+    names the file and key."""
+    if isinstance(value, str):
+        try:
+            float(value)
+        except ValueError:
+            pass
+        else:
+            raise ScenarioError(f"{path}: {where}: {what} is the text {value!r}; write it as a number "
+                                "(YAML reads 1e7 as text: write 1.0e+7)")
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ScenarioError(f"{path}: {where}: {what} must be a number, got {value!r}")
-    return float(value)
+        raise ScenarioError(f"{path}: {where}: {what} must be a number, got {_show(value)}")
+    try:
+        x = float(value)
+    except OverflowError:
+        x = float("inf")
+    if not math.isfinite(x):
+        raise ScenarioError(f"{path}: {where}: {what} must be a finite number, got {_show(value)}")
+    if low is not None and (x < low or (strict and x == low)):
+        raise ScenarioError(f"{path}: {where}: {what} must be {'>' if strict else '>='} {low:g}, got {x:g}")
+    return x
+
+
+def _mapping(path: str, where: str, value) -> dict:
+    """A mapping whose keys are all text (YAML also makes numbers, dates and lists keys)."""
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise ScenarioError(f"{path}: {where} must be a mapping of names to values, got {_show(value)}")
+    for k in value:
+        if not isinstance(k, str):
+            raise ScenarioError(f"{path}: {where}: the key {_show(k)} is no name; keys are names (quote them)")
+    return value
+
+
+def _run_length(path: str, data: dict) -> tuple[float, float]:
+    """T and fs: finite, positive, at least two and at most MAX_SAMPLES samples."""
+    T = _num(path, "T", data.get("T", 60), "the run's length (s)", low=0, strict=True)
+    fs = _num(path, "fs", data.get("fs", 100), "the sampling rate (Hz)", low=0, strict=True)
+    n = T * fs
+    if n < 1:
+        raise ScenarioError(f"{path}: T * fs = {n:g}: the run must have at least 2 samples; raise T or fs")
+    if n > MAX_SAMPLES:
+        raise ScenarioError(f"{path}: T * fs = {n:g} samples, more than the limit of {MAX_SAMPLES:,}; "
+                            "lower T or fs")
+    return T, fs
+
+
+def _seed(path: str, value) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise ScenarioError(f"{path}: seed must be an integer >= 0, got {_show(value)}")
+    return value
+
+
+WHAT = {"noise": "a standard deviation", "resolution": "a quantisation step"}
+
+
+def _column_values(path: str, key: str, data: dict, model: Model) -> dict[str, float]:
+    """``noise`` or ``resolution``: data column -> finite number >= 0."""
+    out = {}
+    for k, v in _mapping(path, key, data.get(key)).items():
+        if model.columns and k not in model.columns:
+            raise ScenarioError(f"{path}: {key}: '{k}' is no data column of {model.name} "
+                                f"(use {', '.join(c for c in model.columns if c != 't')})")
+        out[k] = _num(path, f"{key}.{k}", v, WHAT[key], low=0)
+    return out
 
 
 def parse_scenario(data, model: Model, path: str = "<scenario>") -> Scenario:
+    """Check every key and number of a scenario (as read from its file) against ``model``."""
     if not isinstance(data, dict):
-        raise ScenarioError(f"{path}: the scenario must be a mapping with T, fs and faults")
+        raise ScenarioError(f"{path}: the scenario must be a mapping with T, fs and faults, got {_show(data)}")
+    _mapping(path, "the scenario", data)
     known = {"seed", "T", "fs", "faults", "noise", "resolution"}
     initial = {}
     for key, value in data.items():
@@ -95,45 +206,47 @@ def parse_scenario(data, model: Model, path: str = "<scenario>") -> Scenario:
             initial[name] = _num(path, key, value, "an initial value")
         elif key not in known:
             raise ScenarioError(f"{path}: unknown key '{key}' (use seed, T, fs, faults, noise, resolution, <name>_0)")
-    T = _num(path, "T", data.get("T", 60), "T")
-    fs = _num(path, "fs", data.get("fs", 100), "fs")
-    if T <= 0 or fs <= 0:
-        raise ScenarioError(f"{path}: T and fs must be positive")
-    seed = data.get("seed", 0)
-    if isinstance(seed, bool) or not isinstance(seed, int):
-        raise ScenarioError(f"{path}: seed must be an integer")
-    faults = []
+    T, fs = _run_length(path, data)
+    seed = _seed(path, data.get("seed", 0))
     raw = data.get("faults") or []
     if not isinstance(raw, list):
-        raise ScenarioError(f"{path}: faults must be a list")
-    for i, f in enumerate(raw):
-        faults.append(_event(path, i, f, model, T))
-    noise = {str(k): _num(path, f"noise.{k}", v, "noise") for k, v in (data.get("noise") or {}).items()}
-    resolution = {str(k): _num(path, f"resolution.{k}", v, "resolution") for k, v in (data.get("resolution") or {}).items()}
-    for k in list(noise) + list(resolution):
-        if model.columns and k not in model.columns:
-            raise ScenarioError(f"{path}: noise/resolution: '{k}' is no data column of {model.name}")
+        raise ScenarioError(f"{path}: faults must be a list of mappings, got {_show(raw)}")
+    faults = [_event(path, i, f, model, T, fs) for i, f in enumerate(raw)]
+    switches = sum(2 * (T - e.t0) / e.period for e in faults if e.type == "intermittent")
+    if switches > MAX_SWITCHES:
+        raise ScenarioError(f"{path}: the intermittent faults switch {switches:.0f} times, more than the limit "
+                            f"of {MAX_SWITCHES:,}; lengthen their period")
+    noise = _column_values(path, "noise", data, model)
+    resolution = _column_values(path, "resolution", data, model)
     return Scenario(path, seed, T, fs, initial, tuple(faults), noise, resolution)
 
 
-def _event(path: str, i: int, f, model: Model, T: float) -> FaultEvent:
+def _target(path: str, where: str, f: dict, model: Model) -> str:
+    target = f.get("target")
+    if not isinstance(target, str) or target not in model.faults:
+        shown = f"'{target}'" if isinstance(target, str) else _show(target)
+        raise ScenarioError(f"{path}: {where}.target: unknown target {shown}; name one fault of {model.name} "
+                            f"({', '.join(model.faults)})")
+    return target
+
+
+def _event(path: str, i: int, f, model: Model, T: float, fs: float) -> FaultEvent:
+    """One fault of the scenario, every field checked."""
     where = f"faults[{i}]"
     if not isinstance(f, dict):
-        raise ScenarioError(f"{path}: {where}: a fault is a mapping with target, type, t0")
-    target = f.get("target")
-    if target not in model.faults:
-        raise ScenarioError(f"{path}: {where}: unknown target '{target}' (faults of {model.name}: "
-                            f"{', '.join(model.faults)})")
+        raise ScenarioError(f"{path}: {where}: a fault is a mapping with target, type, t0, got {_show(f)}")
+    _mapping(path, where, f)
+    target = _target(path, where, f, model)
     fault = model.faults[target]
     kind = f.get("type")
-    if kind not in TYPES:
-        raise ScenarioError(f"{path}: {where}: unknown type '{kind}' (use {', '.join(TYPES)})")
+    if not isinstance(kind, str) or kind not in TYPES:
+        raise ScenarioError(f"{path}: {where}: unknown type {_show(kind)} (use {', '.join(TYPES)})")
     if (kind == "mode") != (fault.kind == "mode"):
         raise ScenarioError(f"{path}: {where}: target '{target}' is a {fault.kind} fault; "
                             + ("use type mode" if fault.kind == "mode" else "type mode is for mode variables"))
     if "t0" not in f:
         raise ScenarioError(f"{path}: {where}: missing t0 (the fault's start time in s)")
-    t0 = _num(path, f"{where}.t0", f["t0"], "t0")
+    t0 = _num(path, f"{where}.t0", f["t0"], "the start time (s)")
     if not 0 <= t0 < T:
         raise ScenarioError(f"{path}: {where}: t0 = {t0:g} s is outside the run (0 to T = {T:g} s)")
     value = period = model_no = None
@@ -141,24 +254,40 @@ def _event(path: str, i: int, f, model: Model, T: float) -> FaultEvent:
     if kind in ("abrupt", "intermittent"):
         if "value" not in f:
             raise ScenarioError(f"{path}: {where}: missing value (the faulty value of {target})")
-        value = _num(path, f"{where}.value", f["value"], "value")
+        value = _num(path, f"{where}.value", f["value"], "the faulty value")
     if kind == "intermittent":
-        if "period" not in f:
-            raise ScenarioError(f"{path}: {where}: missing period (s) of the intermittent fault")
-        period = _num(path, f"{where}.period", f["period"], "period")
-        if period <= 0:
-            raise ScenarioError(f"{path}: {where}: period must be positive")
+        period = _period(path, where, f, fs)
     if kind == "incipient":
-        model_no = f.get("model")
-        if model_no not in (1, 2, 3, 4):
-            raise ScenarioError(f"{path}: {where}: model must be 1, 2, 3 or 4 (eqs. 16-19)")
-        b = tuple(_num(path, f"{where}.b", x, "a coefficient") for x in (f.get("b") or []))
-        need = profiles.N_COEFFICIENTS[model_no]
-        if len(b) != need:
-            raise ScenarioError(f"{path}: {where}: model {model_no} needs b with {need} coefficient(s)")
+        model_no, b = _incipient(path, where, f)
     if kind == "mode":
         value = fault.value if fault.value is not None else 0.0
     return FaultEvent(target, kind, t0, value, period, model_no, b)
+
+
+def _period(path: str, where: str, f: dict, fs: float) -> float:
+    """The period of an intermittent fault: at least two samples, so that both halves are seen."""
+    if "period" not in f:
+        raise ScenarioError(f"{path}: {where}: missing period (s) of the intermittent fault")
+    period = _num(path, f"{where}.period", f["period"], "the period (s)", low=0, strict=True)
+    if period < 2 / fs:
+        raise ScenarioError(f"{path}: {where}.period: {period:g} s is shorter than two samples (2/fs = {2 / fs:g} s); "
+                            "lengthen it")
+    return period
+
+
+def _incipient(path: str, where: str, f: dict) -> tuple[int, tuple[float, ...]]:
+    """Degradation model 1-4 (eqs. 16-19) and its coefficients b."""
+    model_no = f.get("model")
+    if isinstance(model_no, bool) or model_no not in (1, 2, 3, 4) or not isinstance(model_no, int):
+        raise ScenarioError(f"{path}: {where}.model: must be 1, 2, 3 or 4 (eqs. 16-19), got {_show(model_no)}")
+    raw = f.get("b") or []
+    if not isinstance(raw, list):
+        raise ScenarioError(f"{path}: {where}.b: must be a list of numbers, got {_show(raw)}")
+    b = tuple(_num(path, f"{where}.b[{k}]", x, "a coefficient") for k, x in enumerate(raw))
+    need = profiles.N_COEFFICIENTS[model_no]
+    if len(b) != need:
+        raise ScenarioError(f"{path}: {where}: model {model_no} needs b with {need} coefficient(s)")
+    return model_no, b
 
 
 def fault_profile(event: FaultEvent, nominal: float) -> Callable[[np.ndarray], np.ndarray]:
@@ -211,20 +340,66 @@ def time_functions(model: Model, scenario: Scenario):
     return values, beta_sensors
 
 
+def check_method(method: str) -> str:
+    """The integrator's canonical name (any case: ``lsoda`` is LSODA), or one line naming the choices."""
+    for m in METHODS:
+        if str(method).lower() == m.lower():
+            return m
+    raise ScenarioError(f"--method: unknown integrator '{method}' (use {', '.join(METHODS)})")
+
+
+def check_steps(scenario: Scenario, method: str) -> None:
+    """Refuse a run the fixed-step integrator would take hours over: ROS2 (chosen by ``auto`` for
+    discontinuous models) steps at most 1 ms, so it takes T * max(fs, 1000) steps."""
+    if method not in ("auto", "ros2"):
+        return
+    steps = scenario.T * max(scenario.fs, 1 / ROS2_STEP)
+    if steps > MAX_STEPS:
+        raise ScenarioError(f"{scenario.path}: T = {scenario.T:g} s takes {steps:.3g} steps of ROS2 (1 ms each), more "
+                            f"than the limit of {MAX_STEPS:,}; shorten T (at most {MAX_STEPS * ROS2_STEP:g} s), or "
+                            "for a smooth model choose --method LSODA")
+
+
 def run(model: Model, scenario: Scenario, *, progress=None, method: str = "auto",
         stages: dict[str, float] | None = None) -> dict[str, np.ndarray]:
     """Simulate a scenario and return the data columns (t, inputs, measured columns), SI units.
-    ``stages``: CPU seconds per stage of the simulation are added to it (see ``simulate``)."""
+    ``stages``: CPU seconds per stage of the simulation are added to it (see ``simulate``).
+    A run whose numbers leave the floats (a fault value that divides by zero) is a ScenarioError
+    naming the first column and time, never a CSV of NaN."""
+    method = check_method(method)
+    check_steps(scenario, method)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore")           # numpy's overflow, scipy's LSODA: reported once, below
+        try:
+            cols = _run(model, scenario, progress, method, stages)
+        except SimulationError as exc:
+            raise ScenarioError(f"{scenario.path}: {exc}") from None
+        except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
+            if isinstance(exc, UsageError):
+                raise
+            raise ScenarioError(f"{scenario.path}: the simulation failed ({type(exc).__name__}: "
+                                f"{str(exc).splitlines()[0] if str(exc) else 'no message'}); check the fault values") from None
+    _check_finite(scenario, cols)
+    return cols
+
+
+def _check_finite(scenario: Scenario, cols: dict[str, np.ndarray]) -> None:
+    for name, x in cols.items():
+        bad = np.flatnonzero(~np.isfinite(x))
+        if bad.size:
+            raise ScenarioError(f"{scenario.path}: the simulated {name} is not finite from t = "
+                                f"{cols['t'][bad[0]]:g} s; check the fault values and initial values")
+
+
+def _run(model: Model, scenario: Scenario, progress, method: str,
+         stages: dict[str, float] | None) -> dict[str, np.ndarray]:
     n = int(round(scenario.T * scenario.fs))
     t = np.arange(n + 1) / scenario.fs
     values, beta_sensors = time_functions(model, scenario)
     initial = dict(model.initial)
     initial.update(scenario.initial)
-    try:
-        traj = simulate(model, t, values=values, breakpoints=breakpoints(scenario), initial=initial,
-                        progress=progress, method=method, vectorised=True, stages=stages)
-    except SimulationError as exc:
-        raise ScenarioError(f"{scenario.path}: {exc}") from None
+    traj = simulate(model, t, values=values, breakpoints=breakpoints(scenario), initial=initial,
+                    progress=progress, method=method, vectorised=True, stages=stages)
     rng = np.random.default_rng(scenario.seed)
     cols: dict[str, np.ndarray] = {"t": traj.t}
     nominal = {s: v for s, v in model.nominal_values().items()}
@@ -251,8 +426,15 @@ def run(model: Model, scenario: Scenario, *, progress=None, method: str = "auto"
     return {c: cols[c] for c in order + [c for c in cols if c not in order]}
 
 
-def to_csv(columns: dict[str, np.ndarray]) -> str:
+def csv_chunks(columns: dict[str, np.ndarray], rows: int = 10_000) -> Iterator[str]:
+    """The CSV text in pieces of ``rows`` lines, so that 10 million samples never make one string."""
     names = list(columns)
-    rows = np.column_stack([columns[n] for n in names])
-    lines = [",".join(names)] + [",".join(f"{v:.10g}" for v in row) for row in rows]
-    return "\n".join(lines) + "\n"
+    yield ",".join(names) + "\n"
+    table = np.column_stack([columns[n] for n in names])
+    for a in range(0, table.shape[0], rows):
+        yield "".join(",".join(f"{v:.10g}" for v in row) + "\n" for row in table[a:a + rows])
+
+
+def to_csv(columns: dict[str, np.ndarray]) -> str:
+    """The columns as one CSV text (header, then one line per sample)."""
+    return "".join(csv_chunks(columns))
