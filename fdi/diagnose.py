@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Mapping
 
@@ -21,7 +21,7 @@ from optim import DEFAULT_ENGINE, ENGINES
 from .cli_errors import UsageError
 from .data import DataError, Measurements, read_csv, signals_from_data
 from .derivatives import DEFAULT_ORDER, window_samples
-from .detect import detect, thresholds_for
+from .detect import detect, inconsistency, thresholds_for
 from .identify import compiled, estimate_mode, fault_space, run_estimators, window
 from .isolate import candidate_sets, suspected_mode_changes
 from .prognose import prognose
@@ -190,11 +190,26 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
         return report
     report["diagnosis"]["faults"] = best.faults
     report["winner"] = list(best.candidate)
-    incipient = [f for f in best.faults if f["type"] == "incipient"]
+    win = window(meas.t, raw, det.time, samples, model.derivative_window)
+    now = win.t0 + (win.crop.stop - win.crop.start) * win.ts
+    clock = time.perf_counter()
+    report["episodes"] = []
+    lit = latched(r, meas.t, thresholds, det.index, o.settle)
+    j = int(np.searchsorted(meas.t, det.decision_time, side="right")) - 1
+    while (change := next_change(lit, j)) is not None:
+        k, j = change, decision_index(meas.t, change, wait)
+        coherence = tuple(int(x) for x in lit[:, j])
+        episode = redecide(path, meas, raw, det, weights, settings, o, fsm, report["diagnosis"]["faults"],
+                           float(meas.t[k]), float(meas.t[j]), coherence, samples, len(report["episodes"]) + 1)
+        report["episodes"].append(episode)
+        report["diagnosis"]["faults"] = episode["faults"]
+        report["winner"] = episode["winner"]
+        now = float(meas.t[j])
+    if report["episodes"]:
+        timings["re-diagnosis"] = time.perf_counter() - clock
+    incipient = [f for f in report["diagnosis"]["faults"] if f["type"] == "incipient"]
     if incipient:
         clock = time.perf_counter()
-        win = window(meas.t, raw, det.time, samples, model.derivative_window)
-        now = win.t0 + (win.crop.stop - win.crop.start) * win.ts
         for f in incipient:
             failure = o.failures.get(f["name"], model.faults[f["name"]].failure)
             if failure is None:
@@ -203,6 +218,65 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
             report["prognosis"].append(prognose(f, nominal, failure, f.get("t0", win.t0), now))
         timings["prognosis"] = time.perf_counter() - clock
     return report
+
+
+def latched(r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, start: int, settle: float) -> np.ndarray:
+    """The coherence vector latched from sample ``start`` (the detection) on, at every sample."""
+    bad = inconsistency(r, thresholds) & (t >= t[0] + settle)[None, :]
+    bad[:, :start] = False
+    return np.maximum.accumulate(bad, axis=1)
+
+
+def next_change(lit: np.ndarray, j: int) -> int | None:
+    """The first sample after ``j`` where the latched coherence gains a residual, or None."""
+    later = np.flatnonzero((lit[:, j + 1:] != lit[:, j:j + 1]).any(axis=0))
+    return int(j + 1 + later[0]) if later.size else None
+
+
+def decision_index(t: np.ndarray, k: int, wait: float) -> int:
+    """The sample of the decision for a change at sample ``k``: the waiting time later, or the last."""
+    return max(k, min(t.size - 1, int(np.searchsorted(t, t[k] + wait, side="right")) - 1))
+
+
+MAX_GROWTH = 6      # a re-decision fits at most this many times the identification window
+
+
+def redecide(path: str, meas: Measurements, raw: dict, det, weights: np.ndarray, settings: dict, o: Options,
+             fsm, known: list[dict], t_change: float, t_decision: float, coherence: tuple[int, ...],
+             samples: int, episode: int) -> dict:
+    """A later decision: the coherence vector gained a residual at ``t_change`` after the diagnosis
+    ``known`` was made. Candidate sets come from the new coherence vector; every set is fitted on
+    the data since the first onset (t_D to the new decision, at most MAX_GROWTH windows), so their
+    costs compare. A set that contains the known faults is fitted twice: keeping them at their fit,
+    each with its own onset, while the others are searched with an onset at the change (a second
+    fault), and afresh with one onset (a slow fault seen late); a set no larger than the known one
+    is fitted afresh (the first decision may have been wrong); all start from the known fit.
+    Larger sets that drop a known fault are not tried. The winner is chosen as at the first
+    decision."""
+    model = compiled(path)[0]
+    names = {f["name"] for f in known}
+    plan = []
+    for c in candidate_sets(fsm, coherence, o.exoneration):
+        if names < set(c):
+            plan.append((tuple(x for x in c if x not in names), known, (t_change, t_change + model.derivative_window)))
+        if names < set(c) or len(c) <= len(names):
+            plan.append((tuple(c), [], None))
+    i0 = int(np.searchsorted(meas.t, det.time - 1e-9))
+    i1 = int(np.searchsorted(meas.t, t_decision, side="right"))
+    span = min(max(samples, i1 - i0), MAX_GROWTH * samples)
+    start = float(meas.t[max(i0, i1 - span)])
+    results = run_estimators(path, meas.t, raw, start, span, [p[0] for p in plan], weights, settings,
+                             o.seed + 7919 * episode, o.workers, None, [p[1] for p in plan], [p[2] for p in plan],
+                             [[known] for _ in plan])
+    full = [replace(e, candidate=tuple(f["name"] for f in p[1]) + e.candidate, faults=list(p[1]) + e.faults)
+            for e, p in zip(results, plan)]
+    best = select_winner(full)
+    return {"time": t_change, "decision_time": t_decision, "coherence": list(coherence),
+            "candidates": [list(e.candidate) for e in full],
+            "estimators": [{"candidate": list(e.candidate), "fitness": e.fitness, "margin": e.margin, "cost": e.cost,
+                            "faults": e.faults, "evaluations": e.evaluations, "wall_s": e.wall_s,
+                            "objective_s": e.objective_s} for e in full],
+            "winner": list(best.candidate), "faults": best.faults}
 
 
 def check_window(meas: Measurements, t0: float, samples: int) -> None:

@@ -127,13 +127,21 @@ class Objective:
     """cost(real, bits) of one candidate set on one data window (vectorised over the population)."""
 
     def __init__(self, model: Model, residuals: tuple[Residual, ...], win: Window, candidate: tuple[str, ...],
-                 weights: np.ndarray, window_s: float) -> None:
+                 weights: np.ndarray, window_s: float, fixed: list[dict] = (),
+                 onset: tuple[float, float] | None = None) -> None:
+        """``fixed``: faults already identified (report entries with ``t0``), held at their fit
+        with their own onset while ``candidate`` is searched (a second fault after a first decision);
+        ``onset``: where the candidate's onset is searched (default: the window's first
+        ``window_s`` seconds)."""
         self.model, self.residuals, self.win, self.candidate = model, residuals, win, candidate
         span = (win.crop.stop - win.crop.start) * win.ts
         self.spaces = [fault_space(model, f, span) for f in candidate]
         self.weights = weights
         self.window_s = window_s
+        self.onset_bounds = onset
+        self.fixed = list(fixed)
         self.nominal = parameter_values(model)
+        fixed_betas = self._fix(span)
         self.orders = derivative_orders(list(residuals))
         touched = set()
         for f in candidate:
@@ -144,11 +152,30 @@ class Objective:
         self.linear = {f: h for f in candidate if (h := linear_transform(model, residuals, f, self.active))}
         self.enters = {j: {i: bool(set(model.faults[f].symbols) & residuals[i].parameter_names()) for i in self.active}
                        for j, f in enumerate(candidate)}
-        self.base_signals = corrected_signals(model, win.raw, win.ts, self.orders, None, window_s)
+        self.base_signals = corrected_signals(model, win.raw, win.ts, self.orders, fixed_betas or None, window_s)
         self._constant: dict[int, float] = {}
         # the screening fidelity: every stride-th sample, a sixth of the derivative window apart, so that
         # the filtered residuals barely change between the samples left out
         self.stride = max(1, int(round(window_s / win.ts)) // 6)
+
+    def _fix(self, span: float) -> dict[str, np.ndarray]:
+        """Fold the fixed faults into the base values (parameter profiles) and return their sensor
+        and source profiles (efficiency factors), all (1, window samples)."""
+        betas: dict[str, np.ndarray] = {}
+        for f in self.fixed:
+            space = fault_space(self.model, f["name"], span)
+            real, bits = encoding.encode([space], [f])
+            (p,) = encoding.profiles([space], encoding.decode([space], real[None, :], bits[None, :]), self.win.t,
+                                     f.get("t0", self.win.t0))
+            fault = self.model.faults[f["name"]]
+            if fault.kind in ("sensor", "source"):
+                betas[fault.targets[0]] = p
+            elif len(fault.targets) == 1:
+                self.nominal[fault.targets[0]] = p
+            else:
+                for target in fault.targets:
+                    self.nominal[target] = self.nominal[target] * p
+        return betas
 
     def constant(self, stride: int = 1) -> float:
         """The weighted cost of the residuals no candidate fault touches (the same for everyone)."""
@@ -167,7 +194,7 @@ class Objective:
         """The encoding's bounds plus the fault onset, last: the symmetric derivative filter makes a
         residual cross up to half a window *before* the fault starts, so the onset is searched in
         [t_D, t_D + window]."""
-        onset = [[self.win.t0, self.win.t0 + self.window_s]]
+        onset = [list(self.onset_bounds or (self.win.t0, self.win.t0 + self.window_s))]
         return np.vstack([encoding.bounds(self.spaces), onset])
 
     def onset(self, real: np.ndarray) -> np.ndarray:
@@ -355,10 +382,11 @@ class EstimatorResult:
 
 
 def _run_estimator(job: tuple) -> EstimatorResult:
-    path, t, raw, t0, samples, candidate, weights, settings, seed, known = job
+    path, t, raw, t0, samples, candidate, weights, settings, seed, known, fixed, onset = job
     model, _, residuals = compiled(path)
     win = window(t, raw, t0, samples, model.derivative_window)
-    obj = Objective(model, residuals, win, tuple(candidate), np.asarray(weights), model.derivative_window)
+    obj = Objective(model, residuals, win, tuple(candidate), np.asarray(weights), model.derivative_window,
+                    fixed=fixed, onset=onset)
     engine = ENGINES[settings["engine"]]
     init = [obj.encode(faults) for faults in known]
     r = engine(obj, obj.bounds(), encoding.N_BITS * len(obj.spaces), pop=settings["pop"],
@@ -428,17 +456,27 @@ def _crossing(obj: Objective, real: np.ndarray, bits: np.ndarray, j: int, span: 
 
 def run_estimators(path: str, t: np.ndarray, raw: Mapping[str, np.ndarray], t0: float, samples: int,
                    candidates: list[tuple[str, ...]], weights: np.ndarray, settings: dict, seed: int,
-                   workers: int = 1, progress=None) -> list[EstimatorResult]:
+                   workers: int = 1, progress=None, fixed: list[list[dict]] | None = None,
+                   onsets: list[tuple[float, float] | None] | None = None,
+                   known: list[list[dict]] | None = None) -> list[EstimatorResult]:
     """One estimator per candidate set (seed + 1000 * index each), in ``workers`` processes, smaller
     sets first: a set starts from the fits of the sets it contains, its other faults as no-ops
-    (the engine searches around them; results do not depend on ``workers``)."""
+    (the engine searches around them; results do not depend on ``workers``).
+
+    Per candidate set, optionally: ``fixed`` faults held at an earlier fit (each with its onset),
+    the ``onsets`` interval its own onset is searched in, and ``known`` fits to start from."""
+    fixed = fixed or [[] for _ in candidates]
+    onsets = onsets or [None for _ in candidates]
+    known = known or [[] for _ in candidates]
     done: dict[int, EstimatorResult] = {}
     pool = ProcessPoolExecutor(min(workers, len(candidates))) if workers > 1 and len(candidates) > 1 else None
     try:
         for size in sorted({len(c) for c in candidates}):
             wave = [i for i, c in enumerate(candidates) if len(c) == size]
             jobs = [(path, t, dict(raw), t0, samples, candidates[i], weights, settings, seed + 1000 * i,
-                     [r.faults for r in done.values() if set(r.candidate) < set(candidates[i])]) for i in wave]
+                     known[i] + [r.faults for j, r in done.items()
+                                 if set(r.candidate) < set(candidates[i]) and fixed[j] == fixed[i]],
+                     fixed[i], onsets[i]) for i in wave]
             results = pool.map(_run_estimator, jobs) if pool and len(jobs) > 1 else map(_run_estimator, jobs)
             for i, r in zip(wave, results):
                 done[i] = r

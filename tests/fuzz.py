@@ -259,9 +259,12 @@ def run(target: str, cases: int, seed: int = 0) -> collections.Counter:
 
 def main_fuzz(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("targets", nargs="*", default=list(TARGETS), choices=list(TARGETS) + [[]])
+    ap.add_argument("targets", nargs="*", help=f"some of {', '.join(TARGETS)} (default: all)")
     ap.add_argument("--cases", type=int, default=10000)
     args = ap.parse_args(argv)
+    unknown = [t for t in args.targets if t not in TARGETS]
+    if unknown:
+        ap.error(f"unknown target(s) {', '.join(unknown)}; use {', '.join(TARGETS)}")
     bad = 0
     for target in args.targets or list(TARGETS):
         t0 = time.perf_counter()
