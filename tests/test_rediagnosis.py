@@ -1,0 +1,68 @@
+"""Re-diagnosis as evidence arrives (issue 10): the three ways a one-shot decision at t_D + T_wt
+was wrong on CyCab runs, each a shipped scenario whose design is the truth.
+
+- a slow incipient drift of beta_theta1 lights ARR2 first (one-shot answer: an R4 fault) and ARR1
+  only at 49 s;
+- an abrupt R4 leak with a slow beta_theta2 drift: ARR3 fires 17 s after the decision (one-shot
+  answer: R4 alone, its value 12 % off);
+- a second fault (beta_theta2 abrupt at 35 s) 20 s after the first (R4 at 15 s).
+"""
+from __future__ import annotations
+
+import pytest
+
+from bondgraph.loader import load_model
+from fdi.data import Measurements
+from fdi.diagnose import Options, diagnose, public
+from fdi.resources import scenarios_dir
+from fdi.scenario import load_scenario, run
+
+from .conftest import CYCAB
+
+REPORTS: dict = {}
+
+
+def report(name: str) -> dict:
+    if name not in REPORTS:
+        model = load_model(CYCAB)
+        columns = run(model, load_scenario(scenarios_dir() / f"cycab_{name}.json", model))
+        meas = Measurements(name, columns["t"], {k: v for k, v in columns.items()})
+        REPORTS[name] = public(diagnose(CYCAB, meas, Options(workers=2, seed=0)))
+    return REPORTS[name]
+
+
+def _fault(r, name):
+    return next(f for f in r["diagnosis"]["faults"] if f["name"] == name)
+
+
+def test_a_late_residual_overturns_a_wrong_first_decision():
+    r = report("late_drift")
+    assert r["detection"]["final_coherence"] == [0, 1, 0] and r["estimators"][0]["candidate"] == ["R4"]
+    (episode,) = r["episodes"]
+    assert episode["coherence"] == [1, 1, 0] and episode["time"] > 40
+    assert r["winner"] == ["beta_theta1"]
+    b1 = _fault(r, "beta_theta1")
+    assert b1["type"] == "incipient" and b1["model"] == 1 and b1["b"][0] == pytest.approx(-0.05, rel=0.05)
+
+
+def test_a_slow_drift_seen_late_is_identified_with_the_leak():
+    r = report("slow_drift")
+    assert r["detection"]["final_coherence"] == [0, 1, 0]
+    assert [e["coherence"] for e in r["episodes"]] == [[0, 1, 1]]
+    assert sorted(r["winner"]) == ["R4", "beta_theta2"]
+    r4, b2 = _fault(r, "R4"), _fault(r, "beta_theta2")
+    assert r4["type"] == "abrupt" and r4["value"] == pytest.approx(2.5e7, rel=0.02)
+    assert b2["type"] == "incipient" and b2["model"] == 2 and b2["b"][0] == pytest.approx(-0.008, rel=0.05)
+    (p,) = r["prognosis"]
+    # designed: 1/beta = 1 + 0.008 (t - 20) reaches 1/0.5 at t = 145 s
+    assert p["eol"] == pytest.approx(145.0, rel=0.05)
+
+
+def test_a_second_fault_after_the_first_decision_is_found():
+    r = report("second_fault")
+    r4 = _fault(r, "R4")
+    assert r4["type"] == "abrupt" and r4["value"] == pytest.approx(2.5e7, rel=0.02) and r4["t0"] < 16
+    assert r["episodes"] and r["episodes"][-1]["coherence"] == [1, 1, 1]
+    b2 = _fault(r, "beta_theta2")
+    assert b2["type"] == "abrupt" and b2["value"] == pytest.approx(0.8, rel=0.02)
+    assert b2["t0"] == pytest.approx(35.0, abs=0.3)          # its own onset, not the first fault's
