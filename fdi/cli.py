@@ -387,10 +387,8 @@ def _report_dict(report: dict, timings: bool) -> dict:
     out = public(report)
     if timings:
         out["timings"] = public(dict(report.get("_timings", {})))
-    else:
-        out["estimators"] = [{k: v for k, v in e.items() if k not in ("wall_s", "objective_s")}
-                             for e in out.get("estimators", [])]
-    return out
+        return out
+    return _strip_timings(out)
 
 
 def _timings_line(report: dict) -> str:
@@ -430,6 +428,51 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     data = read_csv(args.data)
     check_samples(options.samples, data.ts, "--samples")
     return _diagnose_and_print(args.model, data, options, args, args.data)
+
+
+def cmd_monitor(args: argparse.Namespace) -> int:
+    """Feed the stream to a Monitor block by block; each event is one JSON line on standard output
+    (or in the -o file, written when the stream ends)."""
+    import json
+
+    from .data import blocks, open_text
+    from .identify import compiled
+    from .monitor import Monitor
+
+    model = compiled(args.model)[0]
+    options = _options(args, model)
+    lines: list[str] = []
+
+    def emit(event: dict) -> None:
+        if not args.timings:
+            event = _strip_timings(event)
+        line = json.dumps(event, sort_keys=False, default=float)
+        if args.output and not is_stdout(args.output):
+            lines.append(line)
+        else:
+            print(line, flush=True)
+    source = "standard input" if args.data == "-" else args.data
+    fh = sys.stdin if args.data == "-" else open_text(args.data)
+    try:
+        monitor = Monitor(args.model, emit, options, source)
+        for header, block in blocks(fh, source, args.block):
+            monitor.feed(header, block)
+        monitor.close()
+    finally:
+        if fh is not sys.stdin:
+            fh.close()
+    if lines:
+        write_atomic(args.output, "\n".join(lines) + "\n")
+    return 0
+
+
+def _strip_timings(x):
+    """An event without wall-clock entries (so that two runs print the same lines)."""
+    if isinstance(x, dict):
+        return {k: _strip_timings(v) for k, v in x.items() if k not in ("wall_s", "objective_s", "timings")}
+    if isinstance(x, list):
+        return [_strip_timings(v) for v in x]
+    return x
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
@@ -565,6 +608,14 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("data", help="measurement CSV (t first, SI units)")
     diagnosis_options(d)
     d.set_defaults(func=cmd_diagnose)
+
+    mon = sub.add_parser("monitor", help="watch a measurement stream: JSON-lines events as the samples arrive")
+    mon.add_argument("model")
+    mon.add_argument("data", help="measurement CSV file, or - for a CSV stream on standard input (header first)")
+    mon.add_argument("--block", type=whole(1, 1_000_000), default=50,
+                     help="rows read before the residuals are brought up to date (default 50)")
+    diagnosis_options(mon)
+    mon.set_defaults(func=cmd_monitor)
 
     demo = sub.add_parser("demo", help="simulate CyCab scenario 2 and diagnose it (the main job)")
     demo.add_argument("--scenario", default="scenario2", choices=("nominal", "scenario1", "scenario2", "scenario3"))

@@ -13,7 +13,7 @@ import itertools
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping
+from typing import Iterator, Mapping
 
 import numpy as np
 import sympy as sp
@@ -54,36 +54,33 @@ def _open_text(path: str | Path) -> io.TextIOWrapper:
     return io.TextIOWrapper(raw, encoding=encoding, newline="")
 
 
-def read_csv(path: str | Path) -> Measurements:
-    """Read a measurement file row by row into float64 blocks (a 200 MB file takes about its own
-    size in memory, where a list of rows took 14 times it). Accepted as well: a UTF-8 byte-order
-    mark, UTF-16 with its mark, a gzip-compressed file, and semicolons as separators (then a
-    decimal comma is read as a point)."""
+def blocks(fh, path: str, rows: int = CHUNK) -> Iterator[tuple[list[str], np.ndarray]]:
+    """(header, block of at most ``rows`` rows as float64) from a CSV text stream, as the rows
+    arrive (a file, or standard input for the monitor); the header is checked for a ``t`` column,
+    the separator found from it (semicolons: a decimal comma is read as a point). Empty fields are
+    NaN; the caller checks them. Decoding and CSV errors become one-line DataErrors."""
     try:
-        if Path(path).is_dir():
-            raise DataError(f"{path}: is a folder; give a measurement CSV file")
-        with _open_text(path) as fh:
-            first = fh.readline()
-            delimiter = ";" if first.count(";") > first.count(",") else ","
-            reader = csv.reader(itertools.chain([first], fh), delimiter=delimiter)
-            header = [h.strip() for h in next(reader, [])]
-            if "t" not in header:
-                shown = delimiter.join(header)
-                raise DataError(f"{path}: no 't' column in the header ({shown[:80]}); "
-                                "the first column must be time in s")
-            comma = delimiter == ";"
-            blocks, rows, count = [], [], 0
-            for row in reader:
-                if row:
-                    rows.append(row)
-                if len(rows) == CHUNK:
-                    blocks.append(_numbers(path, rows, len(header), comma))
-                    count += len(rows) * len(header)
-                    rows = []
-                    if count > MAX_VALUES:
-                        raise DataError(f"{path}: more than {MAX_VALUES:.0e} values; split the file")
-            if rows or not blocks:
-                blocks.append(_numbers(path, rows, len(header), comma))
+        first = fh.readline()
+        delimiter = ";" if first.count(";") > first.count(",") else ","
+        reader = csv.reader(itertools.chain([first], fh), delimiter=delimiter)
+        header = [h.strip() for h in next(reader, [])]
+        if "t" not in header:
+            shown = delimiter.join(header)
+            raise DataError(f"{path}: no 't' column in the header ({shown[:80]}); "
+                            "the first column must be time in s")
+        comma = delimiter == ";"
+        pending, count = [], 0
+        for row in reader:
+            if row:
+                pending.append(row)
+            if len(pending) == rows:
+                count += len(pending) * len(header)
+                if count > MAX_VALUES:
+                    raise DataError(f"{path}: more than {MAX_VALUES:.0e} values; split the file")
+                yield header, _numbers(path, pending, len(header), comma)
+                pending = []
+        if pending:
+            yield header, _numbers(path, pending, len(header), comma)
     except OSError as exc:
         what = exc.strerror or str(exc)
         raise DataError(f"{path}: cannot read ({what})") from None
@@ -92,8 +89,39 @@ def read_csv(path: str | Path) -> Measurements:
         raise DataError(f"{path}: not UTF-8 text{at}; save the file as UTF-8 CSV") from None
     except (csv.Error, EOFError, zlib.error) as exc:
         raise DataError(f"{path}: not a CSV file ({str(exc)[:80]})") from None
-    table = np.concatenate(blocks) if len(blocks) > 1 else blocks[0]
-    del blocks
+
+
+def open_text(path: str | Path):
+    """A measurement file as text (see :func:`_open_text`), errors as one-line DataErrors."""
+    try:
+        if Path(path).is_dir():
+            raise DataError(f"{path}: is a folder; give a measurement CSV file")
+        return _open_text(path)
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read ({exc.strerror or exc})") from None
+
+
+def read_csv(path: str | Path) -> Measurements:
+    """Read a measurement file row by row into float64 blocks (a 200 MB file takes about its own
+    size in memory, where a list of rows took 14 times it). Accepted as well: a UTF-8 byte-order
+    mark, UTF-16 with its mark, a gzip-compressed file, and semicolons as separators (then a
+    decimal comma is read as a point)."""
+    header: list[str] = []
+    parts = []
+    with open_text(path) as fh:
+        for header, block in blocks(fh, str(path)):
+            parts.append(block)
+    if not parts:
+        parts.append(np.zeros((0, max(1, len(header)))))
+    blocks_ = parts
+    table = np.concatenate(blocks_) if len(blocks_) > 1 else blocks_[0]
+    del blocks_, parts
+    return checked(str(path), header, table)
+
+
+def checked(path: str, header: list[str], table: np.ndarray) -> Measurements:
+    """Measurements from a parsed table (rows x columns of ``header``), after the checks every
+    source of data gets: two samples at least, no NaN, time increasing on a uniform axis."""
     if table.shape[0] < 2:
         raise DataError(f"{path}: needs a header row and at least two samples")
     bad = np.flatnonzero(~np.isfinite(table).all(axis=1))
@@ -146,19 +174,41 @@ def check_against_model(model: Model, data: Measurements) -> None:
                         f"{other}; columns found: {', '.join(data.columns)}")
 
 
+_SIGNALS: dict[int, tuple[Model, dict]] = {}     # lambdified sensor and input expressions per model
+
+
+def _signal_functions(model: Model) -> dict:
+    """(argument names, function) of each sensor's signal and each input without a column,
+    lambdified once per model (the monitor asks for them on every block of rows)."""
+    hit = _SIGNALS.get(id(model))
+    if hit is not None and hit[0] is model:
+        return hit[1]
+    out = {}
+    for s in model.sensors.values():
+        syms = sorted(s.signal.free_symbols, key=lambda x: x.name)
+        out[s.name] = ([x.name for x in syms], sp.lambdify(syms, s.signal, modules="numpy"))
+    nominal = {k: v for k, v in model.nominal_values().items()}
+    for i in model.inputs.values():
+        if not i.column:
+            out[i.name] = (["t"], sp.lambdify([sp.Symbol("t", real=True)], i.expr.xreplace(nominal), modules="numpy"))
+    if len(_SIGNALS) > 16:
+        _SIGNALS.clear()
+    _SIGNALS[id(model)] = (model, out)
+    return out
+
+
 def signals_from_data(model: Model, data: Measurements) -> dict[str, np.ndarray]:
     """Each sensor's measured signal and each input, by name, from the data columns."""
     check_against_model(model, data)
+    functions = _signal_functions(model)
     out: dict[str, np.ndarray] = {}
     for s in model.sensors.values():
-        syms = sorted(s.signal.free_symbols, key=lambda x: x.name)
-        fn = sp.lambdify(syms, s.signal, modules="numpy")
-        out[s.name] = np.asarray(fn(*[data.columns[x.name] for x in syms]), dtype=float) * np.ones_like(data.t)
+        names, fn = functions[s.name]
+        out[s.name] = np.asarray(fn(*[data.columns[x] for x in names]), dtype=float) * np.ones_like(data.t)
     for i in model.inputs.values():
         if i.column:
             out[i.name] = data.columns[i.column]
         else:
-            nominal = {k: v for k, v in model.nominal_values().items()}
-            fn = sp.lambdify([sp.Symbol("t", real=True)], i.expr.xreplace(nominal), modules="numpy")
+            names, fn = functions[i.name]
             out[i.name] = np.asarray(fn(data.t), dtype=float) * np.ones_like(data.t)
     return out

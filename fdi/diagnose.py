@@ -107,7 +107,7 @@ def _real(name: str, value, low: float | None = None, strict: bool = False) -> N
 
 
 def diagnose(model_path: str | Path, data: str | Path | Measurements, options: Options | None = None,
-             progress=None) -> dict:
+             progress=None, memo: dict | None = None) -> dict:
     """Run the whole pipeline; returns the report (plus private keys starting with '_' for plots)."""
     o = options or Options()
     o.check()
@@ -176,7 +176,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     clock = time.perf_counter()
     settings = {"engine": o.engine, "pop": o.pop, "generations": o.generations}
     results = run_estimators(path, meas.t, raw, det.time, samples, candidates, weights, settings, o.seed,
-                             o.workers, progress)
+                             o.workers, progress, memo=memo)
     timings["identification"] = time.perf_counter() - clock
     report["estimators"] = [{"candidate": list(e.candidate), "fitness": e.fitness, "history": e.history,
                              "margin": e.margin, "cost": e.cost, "faults": e.faults, "evaluations": e.evaluations,
@@ -200,7 +200,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
         k, j = change, decision_index(meas.t, change, wait)
         coherence = tuple(int(x) for x in lit[:, j])
         episode = redecide(path, meas, raw, det, weights, settings, o, fsm, report["diagnosis"]["faults"],
-                           float(meas.t[k]), float(meas.t[j]), coherence, samples, len(report["episodes"]) + 1)
+                           float(meas.t[k]), float(meas.t[j]), coherence, samples, len(report["episodes"]) + 1, memo)
         report["episodes"].append(episode)
         report["diagnosis"]["faults"] = episode["faults"]
         report["winner"] = episode["winner"]
@@ -243,7 +243,7 @@ MAX_GROWTH = 6      # a re-decision fits at most this many times the identificat
 
 def redecide(path: str, meas: Measurements, raw: dict, det, weights: np.ndarray, settings: dict, o: Options,
              fsm, known: list[dict], t_change: float, t_decision: float, coherence: tuple[int, ...],
-             samples: int, episode: int) -> dict:
+             samples: int, episode: int, memo: dict | None = None) -> dict:
     """A later decision: the coherence vector gained a residual at ``t_change`` after the diagnosis
     ``known`` was made. Candidate sets come from the new coherence vector; every set is fitted on
     the data since the first onset (t_D to the new decision, at most MAX_GROWTH windows), so their
@@ -267,11 +267,11 @@ def redecide(path: str, meas: Measurements, raw: dict, det, weights: np.ndarray,
     start = float(meas.t[max(i0, i1 - span)])
     results = run_estimators(path, meas.t, raw, start, span, [p[0] for p in plan], weights, settings,
                              o.seed + 7919 * episode, o.workers, None, [p[1] for p in plan], [p[2] for p in plan],
-                             [[known] for _ in plan])
+                             [[known] for _ in plan], memo)
     full = [replace(e, candidate=tuple(f["name"] for f in p[1]) + e.candidate, faults=list(p[1]) + e.faults)
             for e, p in zip(results, plan)]
     best = select_winner(full)
-    return {"time": t_change, "decision_time": t_decision, "coherence": list(coherence),
+    return {"time": t_change, "decision_time": t_decision, "coherence": list(coherence), "previous": known,
             "candidates": [list(e.candidate) for e in full],
             "estimators": [{"candidate": list(e.candidate), "fitness": e.fitness, "margin": e.margin, "cost": e.cost,
                             "faults": e.faults, "evaluations": e.evaluations, "wall_s": e.wall_s,

@@ -20,6 +20,7 @@ number of worker processes.
 """
 from __future__ import annotations
 
+import json
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from functools import lru_cache
@@ -458,13 +459,15 @@ def run_estimators(path: str, t: np.ndarray, raw: Mapping[str, np.ndarray], t0: 
                    candidates: list[tuple[str, ...]], weights: np.ndarray, settings: dict, seed: int,
                    workers: int = 1, progress=None, fixed: list[list[dict]] | None = None,
                    onsets: list[tuple[float, float] | None] | None = None,
-                   known: list[list[dict]] | None = None) -> list[EstimatorResult]:
+                   known: list[list[dict]] | None = None, memo: dict | None = None) -> list[EstimatorResult]:
     """One estimator per candidate set (seed + 1000 * index each), in ``workers`` processes, smaller
     sets first: a set starts from the fits of the sets it contains, its other faults as no-ops
     (the engine searches around them; results do not depend on ``workers``).
 
     Per candidate set, optionally: ``fixed`` faults held at an earlier fit (each with its onset),
-    the ``onsets`` interval its own onset is searched in, and ``known`` fits to start from."""
+    the ``onsets`` interval its own onset is searched in, and ``known`` fits to start from.
+    ``memo``: results of earlier calls on a stream that has since grown (the monitor), reused when
+    the job and its data window are the same."""
     fixed = fixed or [[] for _ in candidates]
     onsets = onsets or [None for _ in candidates]
     known = known or [[] for _ in candidates]
@@ -477,15 +480,30 @@ def run_estimators(path: str, t: np.ndarray, raw: Mapping[str, np.ndarray], t0: 
                      known[i] + [r.faults for j, r in done.items()
                                  if set(r.candidate) < set(candidates[i]) and fixed[j] == fixed[i]],
                      fixed[i], onsets[i]) for i in wave]
-            results = pool.map(_run_estimator, jobs) if pool and len(jobs) > 1 else map(_run_estimator, jobs)
-            for i, r in zip(wave, results):
+            keys = [_job_key(job) for job in jobs] if memo is not None else [None] * len(jobs)
+            todo = [job for job, key in zip(jobs, keys) if key is None or key not in memo]
+            fresh = iter(pool.map(_run_estimator, todo) if pool and len(todo) > 1 else map(_run_estimator, todo))
+            results = [memo[key] if key is not None and key in memo else next(fresh) for key in keys]
+            for i, r, key in zip(wave, results, keys):
                 done[i] = r
+                if key is not None:
+                    memo[key] = r
                 if progress:
                     progress(len(done), len(candidates))
     finally:
         if pool:
             pool.shutdown()
     return [done[i] for i in range(len(candidates))]
+
+
+def _job_key(job: tuple) -> str:
+    """What an estimator's result depends on: its settings and the samples of its window."""
+    path, t, raw, t0, samples, candidate, weights, settings, seed, known, fixed, onset = job
+    i0 = int(np.searchsorted(t, t0 - 1e-9))
+    margin = int(np.ceil(compiled(path)[0].derivative_window / float(t[1] - t[0])))
+    end = min(t.size, i0 + samples + margin)     # the window's last sample, as window() cuts it
+    return json.dumps([path, t0, samples, end, list(candidate), list(map(float, weights)), settings, seed, known,
+                       fixed, onset], default=float, sort_keys=True)
 
 
 def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, weights: np.ndarray,

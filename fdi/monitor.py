@@ -1,0 +1,194 @@
+"""The monitor: residuals, detection and decisions on a stream of samples, as events.
+
+``bgfdi monitor model.yaml DATA`` (DATA a CSV file, or ``-`` for a CSV stream on standard input)
+feeds the samples to a :class:`Monitor` block by block and prints one JSON object per line for
+each event, in stream time:
+
+- ``start``: the residuals, their thresholds, and the lag of the derivative estimate;
+- ``detection``: the first threshold crossing t_D and the coherence vector there;
+- ``coherence``: every later change of the latched coherence vector;
+- ``decision``: at t_D + T_wt (once the N identification samples have arrived), and again T_wt
+  after each later change of the coherence vector: candidate sets, the identified faults, the
+  fault-mode estimate, and the prognosis (RUL and its band) of incipient faults;
+- ``summary``: at the end of the stream, the report ``bgfdi diagnose --json`` gives for the same
+  samples (the same engine: the final decisions are recomputed on all the data, reusing every
+  identification whose data window has not changed).
+
+Each event carries ``t`` (the stream time it refers to) and ``known_at`` (the time of the last
+sample received when it was emitted): the difference is the latency of the method, chiefly the
+waiting time and the identification window, plus the lag.
+
+Residuals are causal up to a lag: the Savitzky–Golay derivative at time t needs the samples up to
+t + W/2 (W the derivative window), so a residual sample is final, and used for detection, half a
+window after it was measured (0.125 s on the CyCab). They are computed on the new samples only,
+with a margin of one window on each side, and equal those of the whole file.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from .data import DataError, Measurements, checked, signals_from_data
+from .detect import inconsistency, thresholds_for
+from .diagnose import Options, diagnose, public
+from .identify import compiled
+from .residuals import evaluate
+
+Emit = Callable[[dict], None]
+
+
+@dataclass
+class Monitor:
+    """A stream's state: its samples, its final residuals, and where detection and decisions stand.
+    ``feed`` takes blocks of rows; ``close`` ends the stream and returns the summary report."""
+    model_path: str
+    emit: Emit
+    options: Options = field(default_factory=Options)
+    source: str = "<stream>"
+    header: list[str] = field(default_factory=list)
+    n: int = 0                          # samples received
+    done: int = 0                       # samples whose residuals are final
+    residuals: list[np.ndarray] = field(default_factory=list)
+    t_detect: float | None = None
+    lit: np.ndarray | None = None       # latched coherence
+    pending: list[float] = field(default_factory=list)       # decision times not yet reached
+    decided: int = 0                    # decisions emitted
+    memo: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.options.check()
+        self.model, self.arrs, self.compiled = compiled(self.model_path)
+        self.names = [a.name for a in self.arrs]
+        self.thresholds = thresholds_for(self.model.thresholds, self.names, self.options.thresholds)
+        self.wait = self.model.waiting_time if self.options.waiting_time is None else self.options.waiting_time
+        self.samples = self.options.samples or self.model.samples
+        self.lag = self.model.derivative_window / 2
+        self.emit({"event": "start", "model": self.model.name, "residuals": self.names,
+                   "thresholds": dict(zip(self.names, map(float, self.thresholds))), "lag_s": self.lag,
+                   "waiting_time_s": self.wait})
+
+    # ------------------------------------------------------------------ data in
+    def feed(self, header: list[str], block: np.ndarray) -> None:
+        """A block of rows (columns of ``header``, one of them ``t``)."""
+        if not self.header:
+            self.header = list(header)
+            self.buffer = np.empty((1024, len(header)))
+            self.ti = self.header.index("t")
+        if block.size == 0:
+            return
+        self._append(block)
+        if self.n < 3:
+            return
+        t = self.buffer[:self.n, self.ti]
+        ts = float(t[1] - t[0])
+        margin = int(math.ceil(self.model.derivative_window / ts)) + 1
+        final = self.n - int(math.ceil(self.lag / ts)) - 1          # residuals final up to here (exclusive)
+        if final <= self.done or self.n <= 2 * margin:
+            return
+        a = max(0, self.done - 2 * margin)
+        segment = Measurements(self.source, t[a:], {h: self.buffer[a:self.n, i] for i, h in enumerate(self.header)})
+        raw = signals_from_data(self.model, segment)
+        r = evaluate(self.model, list(self.compiled), raw, ts, window=self.model.derivative_window)
+        self.residuals.append(np.asarray(r)[:, self.done - a:final - a])
+        start, self.done = self.done, final
+        self._detect(t, start, final)
+        self._decide()
+
+    def _append(self, block: np.ndarray) -> None:
+        """Rows into the buffer (grown by doubling), each block checked as read_csv checks a file:
+        finite values, time increasing with the first step, uniform within 1e-3 of it."""
+        bad = np.flatnonzero(~np.isfinite(block).all(axis=1))
+        if bad.size:
+            raise DataError(f"{self.source}: a row with NaN or missing values at sample {self.n + bad[0] + 1}")
+        while self.n + block.shape[0] > self.buffer.shape[0]:
+            self.buffer = np.concatenate([self.buffer, np.empty_like(self.buffer)])
+        self.buffer[self.n:self.n + block.shape[0]] = block
+        self.n += block.shape[0]
+        t = self.buffer[max(0, self.n - block.shape[0] - 1):self.n, self.ti]
+        if self.n >= 2:
+            ts = self.buffer[1, self.ti] - self.buffer[0, self.ti]
+            dt = np.diff(t)
+            if ts <= 0 or np.any(np.abs(dt - ts) > 1e-3 * ts + 1e-9 * abs(t[-1])):
+                k = int(np.argmax(np.abs(dt - ts) > 1e-3 * ts)) if dt.size else 0
+                raise DataError(f"{self.source}: time must increase by a constant step ({ts:g} s at first); "
+                                f"step {dt[k] if dt.size else ts:g} s at t = {t[min(k + 1, t.size - 1)]:g} s")
+
+    def measurements(self) -> Measurements:
+        """Every sample received, checked as a file is."""
+        return checked(self.source, self.header, self.buffer[:self.n])
+
+    # ------------------------------------------------------------------ detection
+    def _detect(self, t: np.ndarray, start: int, stop: int) -> None:
+        r = self.residuals[-1]
+        bad = inconsistency(r, self.thresholds) & (t[start:stop] >= t[0] + self.options.settle)[None, :]
+        known_at = float(t[self.n - 1])
+        for k in range(bad.shape[1]):
+            if self.lit is None:
+                if not bad[:, k].any():
+                    continue
+                self.lit = bad[:, k].copy()
+                self.t_detect = float(t[start + k])
+                self.emit({"event": "detection", "t": self.t_detect, "coherence": self.lit.astype(int).tolist(),
+                           "known_at": known_at})
+                self.pending.append(self.t_detect + self.wait)
+                continue
+            grown = bad[:, k] & ~self.lit
+            if grown.any():
+                self.lit |= bad[:, k]
+                tc = float(t[start + k])
+                self.emit({"event": "coherence", "t": tc, "coherence": self.lit.astype(int).tolist(),
+                           "known_at": known_at})
+                if self.decided or tc > self.pending[0]:
+                    self.pending.append(tc + self.wait)
+
+    # ------------------------------------------------------------------ decisions
+    def _decide(self) -> None:
+        """Run the diagnosis on the samples so far once a decision time has passed and the data it
+        needs (N samples from t_D, the filter's margin) have arrived."""
+        if not self.pending or self.t_detect is None:
+            return
+        t = self.buffer[:self.n, self.ti]
+        t_now, margin = float(t[self.done - 1]), self.model.derivative_window + 2 * (t[1] - t[0])
+        t_last = float(t[-1])
+        ready = self.t_detect + self.samples * (t[1] - t[0]) + margin     # the first window and its margin
+        due = [d for d in self.pending if d <= t_now and d + margin <= t_last]
+        if not due or t_last < ready:
+            return
+        self.pending = [d for d in self.pending if d not in due]
+        report = public(diagnose(self.model_path, self.measurements(), self.options, memo=self.memo))
+        self._report_decisions(report, float(t[-1]))
+
+    def _report_decisions(self, report: dict, known_at: float) -> None:
+        decisions = []
+        if report["detection"] is not None:
+            first = {"t": report["detection"]["decision_time"], "coherence": report["detection"]["final_coherence"],
+                     "candidates": report["candidates"], "faults": report["diagnosis"]["faults"]
+                     if not report.get("episodes") else report["episodes"][0]["previous"]}
+            decisions.append(first)
+        for e in report.get("episodes", []):
+            decisions.append({"t": e["decision_time"], "coherence": e["coherence"], "candidates": e["candidates"],
+                              "faults": e["faults"]})
+        for d in decisions[self.decided:]:
+            event = {"event": "decision", **d, "known_at": known_at}
+            if d is decisions[-1]:
+                event["faults"] = report["diagnosis"]["faults"]
+                event["mode"] = report["mode"]
+                event["prognosis"] = report["prognosis"]
+            elif d["faults"] is None:
+                event.pop("faults")
+            self.emit(event)
+        self.decided = max(self.decided, len(decisions))
+
+    def close(self) -> dict:
+        """The end of the stream: the summary, the diagnosis of every sample received."""
+        if self.n < 2:
+            raise DataError(f"{self.source}: the stream ended before two samples arrived")
+        meas = self.measurements()
+        report = diagnose(self.model_path, meas, self.options, memo=self.memo)
+        out = public(report)
+        self._report_decisions(out, float(meas.t[-1]))
+        self.emit({"event": "summary", **out})
+        return report

@@ -1,0 +1,70 @@
+"""The monitor (issue 10): a stream gives the residuals, events and final diagnosis of the file."""
+from __future__ import annotations
+
+import io
+import json
+
+import numpy as np
+
+from fdi.cli import main
+from fdi.data import read_csv, signals_from_data
+from fdi.diagnose import Options
+from fdi.identify import compiled
+from fdi.monitor import Monitor
+from fdi.residuals import evaluate
+
+from .conftest import CYCAB, DATA
+
+
+def _table(name: str):
+    m = read_csv(DATA / f"{name}.csv")
+    header = list(m.columns)
+    return m, header, np.column_stack([m.columns[h] for h in header])
+
+
+def test_streamed_residuals_equal_those_of_the_whole_file():
+    # the Savitzky-Golay filter is local: computed on each block with a margin of one window, the
+    # residuals equal the whole file's wherever the window is complete (all but the last lag)
+    m, header, table = _table("scenario2")
+    mon = Monitor(str(CYCAB), lambda e: None, Options(workers=1))
+    for a in range(0, 2000, 37):                     # 20 s in uneven blocks, before the detection
+        mon.feed(header, table[a:a + 37])
+    streamed = np.concatenate(mon.residuals, axis=1)
+    model, _, residuals = compiled(str(CYCAB))
+    whole = evaluate(model, list(residuals), signals_from_data(model, m), m.ts, window=model.derivative_window)
+    assert streamed.shape[1] == mon.done >= 2000 - 20
+    np.testing.assert_allclose(streamed[:, 50:], whole[:, 50:mon.done], rtol=1e-9, atol=1e-12)
+
+
+def test_events_of_scenario1_in_stream_time():
+    _, header, table = _table("scenario1")
+    events: list[dict] = []
+    mon = Monitor(str(CYCAB), events.append, Options(workers=1))
+    for a in range(0, table.shape[0], 100):
+        mon.feed(header, table[a:a + 100])
+    mon.close()
+    kinds = [e["event"] for e in events]
+    assert kinds[0] == "start" and kinds[-1] == "summary" and "detection" in kinds and "decision" in kinds
+    detection = events[kinds.index("detection")]
+    decision = events[kinds.index("decision")]
+    summary = events[-1]                             # the diagnosis of the whole file
+    assert detection["t"] == summary["detection"]["time"] == 31.88
+    assert detection["known_at"] >= detection["t"] + events[0]["lag_s"]
+    # decided once the waiting time has passed and N = 1000 samples (10 s) have arrived
+    assert decision["t"] == summary["detection"]["decision_time"] and decision["known_at"] >= 31.88 + 10
+    assert {f["name"] for f in decision["faults"]} == {"R4", "beta_theta1"}
+
+
+def test_stdin_stream_ends_with_the_diagnosis_of_the_file(capsys, monkeypatch):
+    path = str(DATA / "scenario2.csv")
+    assert main(["diagnose", str(CYCAB), path, "--json", "--workers", "1"]) == 0
+    batch = json.loads(capsys.readouterr().out)
+    with open(path, encoding="utf-8") as fh:
+        monkeypatch.setattr("sys.stdin", io.StringIO(fh.read()))
+    assert main(["monitor", str(CYCAB), "-", "--workers", "1"]) == 0
+    lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    summary = dict(lines[-1])
+    assert summary.pop("event") == "summary"
+    assert summary == batch
+    prognoses = [e["prognosis"] for e in lines if e["event"] == "decision" and e.get("prognosis")]
+    assert prognoses and prognoses[-1][0]["name"] == "beta_theta2"
