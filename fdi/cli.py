@@ -430,6 +430,38 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     return _diagnose_and_print(args.model, data, options, args, args.data)
 
 
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    """Each scenario simulated, diagnosed and scored (fdi.evaluate); a table or --json."""
+    import json
+
+    from .evaluate import evaluate_scenario, format_scores, suite_files, summary
+    from .identify import compiled
+    from .scenario import load_scenario
+
+    model = compiled(args.model)[0]
+    options = _options(args, model)
+    files = suite_files(args.scenarios)
+    if not files:
+        raise UsageError(f"no scenario files in {', '.join(args.scenarios)}")
+    for f in files:                                   # every file checked before the first simulation
+        load_scenario(f, model)
+    scores = []
+    for i, f in enumerate(files):
+        print(f"[{i + 1}/{len(files)}] {f.name}", file=sys.stderr, flush=True)
+        scores.append(evaluate_scenario(args.model, f, options))
+    totals = summary(scores)
+    if args.json:
+        text = json.dumps({"model": model.name, "summary": totals, "scenarios": [s.to_dict() for s in scores]},
+                          indent=1, default=float) + "\n"
+    else:
+        text = format_scores(scores, totals)
+    _emit(text, args.output)
+    if args.plot:
+        from .plots import plot_rul_cone
+        plot_rul_cone(scores, args.plot)
+    return 0
+
+
 def cmd_monitor(args: argparse.Namespace) -> int:
     """Feed the stream to a Monitor block by block; each event is one JSON line on standard output
     (or in the -o file, written when the stream ends)."""
@@ -528,6 +560,15 @@ def cmd_bench(args: argparse.Namespace) -> int:
         summary = bench.summarise_optim(args.problem, args.runs, rows)
         sys.stdout.write(json.dumps(summary, indent=1) + "\n" if args.json else bench.format_optim(summary))
         return 0
+    if args.what == "accuracy":
+        from .diagnose import Options
+        from .evaluate import evaluate_scenario, format_scores, suite_files, summary
+        from .resources import scenarios_dir, shipped_model
+        for suite in sorted(p for p in scenarios_dir().iterdir() if p.is_dir() and p.name.startswith("suite_")):
+            model = str(shipped_model(suite.name.removeprefix("suite_")))
+            scores = [evaluate_scenario(model, f, Options(workers=args.workers)) for f in suite_files([str(suite)])]
+            sys.stdout.write(f"{suite.name} ({model})\n" + format_scores(scores, summary(scores)) + "\n")
+        return 0
     if args.what == "diagnose":
         from .resources import reference_data
         sys.stdout.write(bench.format_diagnose(bench.diagnose_rows(reference_data("scenario2.csv"), args.workers)))
@@ -609,6 +650,12 @@ def build_parser() -> argparse.ArgumentParser:
     diagnosis_options(d)
     d.set_defaults(func=cmd_diagnose)
 
+    ev = sub.add_parser("evaluate", help="simulate, diagnose and score a suite of scenarios against their designs")
+    ev.add_argument("model")
+    ev.add_argument("scenarios", nargs="+", help="scenario files or folders of them (a suite)")
+    diagnosis_options(ev)
+    ev.set_defaults(func=cmd_evaluate)
+
     mon = sub.add_parser("monitor", help="watch a measurement stream: JSON-lines events as the samples arrive")
     mon.add_argument("model")
     mon.add_argument("data", help="measurement CSV file, or - for a CSV stream on standard input (header first)")
@@ -623,7 +670,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.set_defaults(func=cmd_demo)
 
     b = sub.add_parser("bench", help="benchmarks, printed as tables")
-    b.add_argument("what", choices=("derive", "simulate", "optim", "diagnose"))
+    b.add_argument("what", choices=("derive", "simulate", "optim", "diagnose", "accuracy"))
     b.add_argument("--sizes", type=chain_sizes,
                    help=f"derive: comma-separated chain sizes, 1 to {MAX_CHAIN} (default 10,20,50,100,200)")
     b.add_argument("--problem", default="synthetic", help="optim: synthetic (3 cases), synthetic-all, scenario2 or one case")

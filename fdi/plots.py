@@ -107,3 +107,29 @@ def plot_diagnosis(report: dict, folder: str | Path, model) -> list[Path]:
         fig.savefig(written[-1], dpi=110)
         plt.close(fig)
     return written
+
+
+def plot_rul_cone(scores, path: str | Path, alpha: float = 0.2) -> Path:
+    """RUL predictions of a suite against the time since each fault's onset, over the true RUL and
+    its alpha cone (Saxena et al. 2010): one marker per prediction at 50 % and 90 % of life."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for s in scores:
+        for r in s.rul:
+            elapsed = r["fraction"] * (r["true_rul"] / (1 - r["fraction"]))
+            life = elapsed + r["true_rul"]
+            if r["rul"] is not None:
+                ax.plot(elapsed / life, r["rul"] / life, "o", label=f"{s.name} ({r['fault']})" if r["fraction"] == 0.5 else None)
+    x = np.linspace(0, 1, 50)
+    ax.plot(x, 1 - x, "k-", lw=1, label="true RUL")
+    ax.fill_between(x, (1 - alpha) * (1 - x), (1 + alpha) * (1 - x), color="0.85", label=f"alpha = {alpha:g} cone")
+    ax.set_xlabel("time since onset / life [-]")
+    ax.set_ylabel("RUL / life [-]")
+    ax.set_xlim(0, 1)
+    ax.set_ylim(0, 1.5)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)

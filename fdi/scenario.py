@@ -62,6 +62,7 @@ class FaultEvent:
     period: float | None = None
     model: int | None = None
     b: tuple[float, ...] = ()
+    failure: float | None = None       # the value at which the part has failed (the truth of a RUL)
 
 
 @dataclass(frozen=True)
@@ -261,7 +262,8 @@ def _event(path: str, i: int, f, model: Model, T: float, fs: float) -> FaultEven
         model_no, b = _incipient(path, where, f)
     if kind == "mode":
         value = fault.value if fault.value is not None else 0.0
-    return FaultEvent(target, kind, t0, value, period, model_no, b)
+    failure = None if f.get("failure") is None else _num(path, f"{where}.failure", f["failure"], "the failure value")
+    return FaultEvent(target, kind, t0, value, period, model_no, b, failure)
 
 
 def _period(path: str, where: str, f: dict, fs: float) -> float:

@@ -1,0 +1,233 @@
+"""How well the toolkit diagnoses: a suite of scenarios simulated, diagnosed and scored against
+their designs (``bgfdi evaluate``, ``bgfdi bench accuracy``).
+
+Per scenario, with the measures of the diagnosis competitions (DXC: detection delay, false alarms,
+isolation accuracy) and of prognostics (Saxena et al., "Metrics for offline evaluation of
+prognostic performance", IJPHM 2010: relative accuracy and alpha-lambda accuracy):
+
+- **detection delay**: t_D minus the first fault's onset; a **false alarm** is a detection in a
+  run without faults or before the first onset (less half a derivative window: the centred
+  filter lets a residual cross that much before the fault starts);
+- **isolated**: the diagnosed faults are exactly the scenario's (a mode fault by its mode);
+- **typed**: every scenario fault found with its type, and an incipient one with its model;
+- **identification error**: relative error of each found fault's value (abrupt, intermittent),
+  period, and degradation coefficients (the largest, for an incipient fault);
+- **RUL at 50 % and 90 % of life**: for an incipient fault with a failure value, its true end of
+  life from the design; at the times when 50 % and 90 % of the life from its onset have passed,
+  the data up to then are diagnosed and the incipient fit refreshed on them
+  (``fdi.diagnose.refresh_prognosis``); the relative error of the RUL there, and alpha-lambda
+  accuracy: the prediction within alpha = 20 % of the true RUL (lambda measured from the onset).
+
+The truth is the scenario's design; the data are bgfdi's own simulation of it, with the
+scenario's noise seed.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .data import Measurements
+from .diagnose import Options, diagnose, public, refresh_prognosis
+from .identify import compiled
+from .prognose import end_of_life
+from .scenario import FaultEvent, load_scenario, run
+
+ALPHA = 0.2
+LIFE_POINTS = (0.5, 0.9)
+
+
+@dataclass
+class Score:
+    """One scenario against its design."""
+    name: str
+    truth: list[str]
+    found: list[str]
+    detection: float | None
+    delay: float | None
+    false_alarm: bool
+    isolated: bool
+    typed: bool
+    errors: dict[str, float] = field(default_factory=dict)
+    rul: list[dict] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def _nominal(model, target: str) -> float:
+    f = model.faults[target]
+    if f.kind in ("sensor", "source") or len(f.targets) > 1:
+        return 1.0
+    return model.parameters[f.targets[0]].value
+
+
+def _relative(found: float, true: float) -> float:
+    return abs(found - true) / abs(true) if true else abs(found - true)
+
+
+def identification_errors(events: list[FaultEvent], faults: list[dict]) -> dict[str, float]:
+    """The largest relative error of each found fault's identified magnitudes against the design."""
+    out = {}
+    by_name = {f["name"]: f for f in faults}
+    for e in events:
+        f = by_name.get(e.target)
+        if f is None or f["type"] != e.type or e.type == "mode":
+            continue
+        errs = []
+        if e.type in ("abrupt", "intermittent") and e.value is not None:
+            errs.append(_relative(f["value"], e.value))
+        if e.type == "intermittent" and e.period is not None:
+            errs.append(_relative(f["period"], e.period))
+        if e.type == "incipient" and f.get("model") == e.model and e.b:
+            errs += [_relative(x, y) for x, y in zip(f["b"], e.b)]
+        if errs:
+            out[e.target] = max(errs)
+    return out
+
+
+def score(name: str, events: list[FaultEvent], report: dict, mode_names: dict[str, str], early: float = 0.0) -> Score:
+    """A diagnosis report against the scenario's fault events. ``early``: how long before a fault's
+    onset a detection still counts as its detection (the centred derivative filter lets a residual
+    cross up to half a window before the fault starts)."""
+    truth = sorted({e.target for e in events})
+    faults = report["diagnosis"]["faults"]
+    found = sorted({f["name"] for f in faults})
+    det = report["detection"]
+    onset = min((e.t0 for e in events), default=None)
+    t_d = det["time"] if det else None
+    false_alarm = t_d is not None and (onset is None or t_d < onset - early)
+    delay = t_d - onset if t_d is not None and onset is not None and not false_alarm else None
+    by_name = {f["name"]: f for f in faults}
+    for f in faults:                       # a mode fault is reported by its mode variable
+        if f["type"] == "mode":
+            by_name.setdefault(mode_names.get(f["name"], f["name"]), f)
+    found_named = sorted({mode_names.get(n, n) for n in found} | set(found))
+    isolated = set(truth) == {n for n in found_named if n in set(truth)} and len(found) == len(truth)
+    typed = all(e.target in by_name and by_name[e.target]["type"] == e.type
+                and (e.type != "incipient" or by_name[e.target].get("model") == e.model) for e in events)
+    return Score(name, truth, found, t_d, delay, false_alarm, isolated, typed,
+                 identification_errors(events, faults))
+
+
+def evaluate_scenario(model_path: str, scenario_path: str | Path, options: Options | None = None) -> Score:
+    """Simulate one scenario, diagnose it, score it; RUL checkpoints for its incipient faults."""
+    o = options or Options()
+    model = compiled(model_path)[0]
+    scenario = load_scenario(scenario_path, model)
+    cols = run(model, scenario)
+    meas = Measurements(str(scenario_path), cols["t"], cols)
+    report = public(diagnose(model_path, meas, o))
+    mode_names = {f.name: f.targets[0] for f in model.faults.values() if f.kind == "mode"}
+    mode_names.update({f.targets[0]: f.name for f in model.faults.values() if f.kind == "mode"})
+    s = score(Path(scenario_path).stem, list(scenario.faults), report, mode_names,
+              early=model.derivative_window / 2 + 1.0 / scenario.fs)
+    s.rul = rul_checkpoints(model_path, model, scenario, meas, report, o)
+    return s
+
+
+def rul_checkpoints(model_path: str, model, scenario, meas: Measurements, report: dict, o: Options) -> list[dict]:
+    """For each incipient design fault with a failure value: the RUL the toolkit gives at 50 % and
+    90 % of its life (the data up to then diagnosed and refitted), against the true RUL."""
+    out = []
+    for e in scenario.faults:
+        failure = e.failure if e.failure is not None else model.faults[e.target].failure
+        if e.type != "incipient" or failure is None:
+            continue
+        eol = end_of_life(e.model, list(e.b), _nominal(model, e.target), failure, e.t0, e.t0)
+        if not math.isfinite(eol):
+            continue
+        for fraction in LIFE_POINTS:
+            at = e.t0 + fraction * (eol - e.t0)
+            entry = {"fault": e.target, "fraction": fraction, "t": at, "true_rul": eol - at, "rul": None,
+                     "error": None, "alpha_ok": False}
+            k = int(np.searchsorted(meas.t, at, side="right"))
+            if k >= meas.t.size + 1 or at > meas.t[-1]:
+                entry["note"] = "the run ends before this point of life"
+                out.append(entry)
+                continue
+            prefix = Measurements(meas.path, meas.t[:k], {c: v[:k] for c, v in meas.columns.items()})
+            try:
+                part = public(diagnose(model_path, prefix, o))
+            except Exception as exc:         # noqa: BLE001 - a prefix too short to decide is scored as a miss
+                entry["note"] = f"no diagnosis at this point ({type(exc).__name__})"
+                out.append(entry)
+                continue
+            if not any(f["name"] == e.target and f["type"] == "incipient" for f in part["diagnosis"]["faults"]):
+                entry["note"] = "the fault is not diagnosed incipient at this point"
+                out.append(entry)
+                continue
+            _, prognosis = refresh_prognosis(model_path, prefix, part, o)
+            p = next((p for p in prognosis if p["name"] == e.target), None)
+            if p is not None and math.isfinite(p["rul"]):
+                entry["rul"] = p["rul"]
+                entry["error"] = (p["rul"] - entry["true_rul"]) / entry["true_rul"]
+                entry["alpha_ok"] = abs(entry["error"]) <= ALPHA
+            out.append(entry)
+    return out
+
+
+def summary(scores: list[Score]) -> dict:
+    """Totals over a suite."""
+    faulty = [s for s in scores if s.truth]
+    nominal = [s for s in scores if not s.truth]
+    delays = [s.delay for s in faulty if s.delay is not None]
+    errors = [e for s in faulty for e in s.errors.values()]
+    ruls = [r for s in scores for r in s.rul]
+    at = {f: [r for r in ruls if r["fraction"] == f] for f in LIFE_POINTS}
+    return {
+        "scenarios": len(scores), "faulty": len(faulty), "nominal": len(nominal),
+        "false_alarms": sum(s.false_alarm for s in scores),
+        "missed": sum(s.detection is None for s in faulty),
+        "mean_delay_s": float(np.mean(delays)) if delays else None,
+        "isolation_accuracy": float(np.mean([s.isolated for s in faulty])) if faulty else None,
+        "type_accuracy": float(np.mean([s.typed for s in faulty])) if faulty else None,
+        "identification_error_median": float(np.median(errors)) if errors else None,
+        "identification_within_5pct": float(np.mean([e <= 0.05 for e in errors])) if errors else None,
+        **{f"rul_error_{int(f * 100)}": (float(np.median([abs(r["error"]) for r in at[f] if r["error"] is not None]))
+                                         if any(r["error"] is not None for r in at[f]) else None) for f in LIFE_POINTS},
+        **{f"alpha_lambda_{int(f * 100)}": (float(np.mean([r["alpha_ok"] for r in at[f]])) if at[f] else None)
+           for f in LIFE_POINTS},
+    }
+
+
+def _pct(x) -> str:
+    return "-" if x is None else f"{100 * x:.0f} %"
+
+
+def format_scores(scores: list[Score], totals: dict) -> str:
+    """The suite as a table and its totals, as `bgfdi evaluate` prints them."""
+    lines = [f"{'scenario':<32}{'truth':<28}{'found':<28}{'delay [s]':>10}  {'isolated':<9}{'typed':<6}"
+             f"{'max id. error':>14}  RUL error at 50 % / 90 % of life"]
+    for s in scores:
+        delay = "false alarm" if s.false_alarm else ("-" if s.delay is None else f"{s.delay:.2f}")
+        err = max(s.errors.values()) if s.errors else None
+        rul = " / ".join("-" if r["error"] is None else f"{100 * r['error']:+.1f} %" for r in s.rul) or "-"
+        lines.append(f"{s.name:<32}{', '.join(s.truth) or 'none':<28}{', '.join(s.found) or 'none':<28}{delay:>10}  "
+                     f"{'yes' if s.isolated or not s.truth else 'no':<9}{'yes' if s.typed else 'no':<6}"
+                     f"{_pct(err):>14}  {rul}")
+    t = totals
+    lines += ["",
+              f"{t['scenarios']} scenarios ({t['faulty']} with faults, {t['nominal']} nominal): "
+              f"{t['false_alarms']} false alarm(s), {t['missed']} missed; mean detection delay "
+              f"{'-' if t['mean_delay_s'] is None else format(t['mean_delay_s'], '.2f')} s",
+              f"isolation accuracy {_pct(t['isolation_accuracy'])}, type and model accuracy {_pct(t['type_accuracy'])}, "
+              f"identified values within 5 %: {_pct(t['identification_within_5pct'])} "
+              f"(median error {_pct(t['identification_error_median'])})",
+              f"RUL: median |error| {_pct(t['rul_error_50'])} at 50 % of life, {_pct(t['rul_error_90'])} at 90 %; "
+              f"alpha-lambda accuracy (alpha {ALPHA:g}) {_pct(t['alpha_lambda_50'])} at 50 %, "
+              f"{_pct(t['alpha_lambda_90'])} at 90 %"]
+    return "\n".join(lines) + "\n"
+
+
+def suite_files(paths: list[str]) -> list[Path]:
+    """Scenario files from files and folders (every *.json and *.yaml in a folder, sorted)."""
+    out: list[Path] = []
+    for p in map(Path, paths):
+        if p.is_dir():
+            out += sorted(q for q in p.iterdir() if q.suffix.lower() in (".json", ".yaml", ".yml"))
+        else:
+            out.append(p)
+    return out

@@ -1,0 +1,50 @@
+"""bgfdi evaluate (issue 10): scores of designed reports, and one scenario end to end."""
+from __future__ import annotations
+
+import pytest
+
+from fdi.evaluate import evaluate_scenario, score, summary
+from fdi.resources import scenarios_dir
+from fdi.scenario import FaultEvent
+
+from .conftest import CYCAB
+
+LEAK = FaultEvent("R4", "abrupt", 30.0, value=2.5e7)
+DRIFT = FaultEvent("beta_theta2", "incipient", 30.0, model=2, b=(-0.03,), failure=0.5)
+
+
+def _report(t_d, faults):
+    return {"detection": None if t_d is None else {"time": t_d}, "diagnosis": {"faults": faults}}
+
+
+def test_scores_of_designed_reports():
+    right = score("x", [LEAK, DRIFT], _report(30.4, [
+        {"name": "R4", "type": "abrupt", "value": 2.55e7},
+        {"name": "beta_theta2", "type": "incipient", "model": 2, "b": [-0.0291]}]), {}, early=0.13)
+    assert right.delay == pytest.approx(0.4) and not right.false_alarm and right.isolated and right.typed
+    assert right.errors == {"R4": pytest.approx(0.02), "beta_theta2": pytest.approx(0.03)}
+    extra = score("x", [LEAK], _report(30.0, [{"name": "R4", "type": "abrupt", "value": 2.5e7},
+                                               {"name": "R5", "type": "abrupt", "value": 1.0}]), {})
+    assert not extra.isolated and extra.typed
+    wrong_model = score("x", [DRIFT], _report(31.0, [{"name": "beta_theta2", "type": "incipient", "model": 1,
+                                                      "b": [-0.02]}]), {})
+    assert wrong_model.isolated and not wrong_model.typed and wrong_model.errors == {}
+    early = score("x", [LEAK], _report(29.8, [{"name": "R4", "type": "abrupt", "value": 2.5e7}]), {}, early=0.13)
+    assert early.false_alarm and early.delay is None
+    nominal = score("x", [], _report(12.0, []), {})
+    assert nominal.false_alarm
+    mode = score("x", [FaultEvent("a1", "mode", 32.0, value=0.0)],
+                 _report(32.1, [{"name": "a1", "type": "mode", "value": 0}]), {})
+    assert mode.isolated and mode.typed
+    totals = summary([right, extra, wrong_model, early, nominal])
+    assert totals["false_alarms"] == 2 and totals["isolation_accuracy"] == pytest.approx(3 / 4)
+
+
+def test_one_scenario_end_to_end_with_its_rul_checkpoints():
+    s = evaluate_scenario(str(CYCAB), scenarios_dir() / "suite_cycab_steering" / "theta2_incipient17.json")
+    assert s.isolated and s.typed and not s.false_alarm and 0 < s.delay < 5
+    assert s.errors["beta_theta2"] < 0.05
+    # the design: 1/beta = 1 + 0.03 (t - 20) reaches 1/0.5 at 53.33 s; 50 % and 90 % of life at 36.7 s and 50 s
+    assert [round(r["t"], 2) for r in s.rul] == [36.67, 50.0]
+    for r in s.rul:
+        assert r["rul"] is not None and abs(r["error"]) < 0.125 and r["alpha_ok"]
