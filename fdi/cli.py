@@ -375,7 +375,7 @@ def _options(args: argparse.Namespace, model: Model):
     failures = _named(args.failure, "--failure", list(model.faults), f"fault of {model.name}")
     options = Options(thresholds=thresholds, waiting_time=args.wait, exoneration=not args.no_exoneration,
                       engine=args.engine, pop=args.pop, generations=args.generations, samples=args.samples,
-                      seed=args.seed, workers=args.workers, failures=failures)
+                      seed=args.seed, workers=args.workers, failures=failures, max_set=args.max_set)
     options.check()
     return options
 
@@ -486,7 +486,7 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     source = "standard input" if args.data == "-" else args.data
     fh = sys.stdin if args.data == "-" else open_text(args.data)
     try:
-        monitor = Monitor(args.model, emit, options, source)
+        monitor = Monitor(args.model, emit, options, source, refresh=args.refresh)
         for header, block in blocks(fh, source, args.block):
             monitor.feed(header, block)
         monitor.close()
@@ -627,6 +627,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="override a threshold (VALUE > 0)")
         p.add_argument("--wait", type=real(0, high=MAX_WAIT), help="waiting time T_wt in s, >= 0 (default: the model's)")
         p.add_argument("--no-exoneration", action="store_true", help="also admit sets whose union covers the coherence vector")
+        p.add_argument("--max-set", type=whole(1, 6), default=3,
+                       help="largest candidate set identified, 1 to 6 (default 3); larger ones are counted in the report")
         p.add_argument("--engine", default="AHDE", help="identification engine (AHDE, AHDE-joint, AHDE-paper, SHADE, scipy-DE, GA, AGA)")
         p.add_argument("--pop", type=whole(MIN_POP, MAX_POP), default=100,
                        help=f"population per estimator, {MIN_POP} to {MAX_POP} (paper: 100)")
@@ -661,6 +663,8 @@ def build_parser() -> argparse.ArgumentParser:
     mon.add_argument("data", help="measurement CSV file, or - for a CSV stream on standard input (header first)")
     mon.add_argument("--block", type=whole(1, 1_000_000), default=50,
                      help="rows read before the residuals are brought up to date (default 50)")
+    mon.add_argument("--refresh", type=real(0.1, high=1e6), default=5.0,
+                     help="seconds between refreshed prognoses of a growing fault (default 5)")
     diagnosis_options(mon)
     mon.set_defaults(func=cmd_monitor)
 

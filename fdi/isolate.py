@@ -33,6 +33,13 @@ def candidate_sets(fsm: FSM, coherence: tuple[int, ...], exoneration: bool = Tru
     return out
 
 
+def pruned_sets(fsm: FSM, coherence: tuple[int, ...], exoneration: bool = True, max_size: int = 3) -> int:
+    """How many sets of ``max_size + 1`` faults would also explain the coherence vector: what the cap
+    on candidate-set size leaves out (reported, so that a cap never prunes silently)."""
+    return len(candidate_sets(fsm, coherence, exoneration, max_size + 1)) - len(
+        candidate_sets(fsm, coherence, exoneration, max_size))
+
+
 def suspected_mode_changes(mcsm: MCSM, coherence: tuple[int, ...]) -> list[str]:
     c = tuple(int(x) for x in coherence)
     return [r.mode_change for r in mcsm.rows if r.signature == c and any(c)]

@@ -10,6 +10,8 @@ each event, in stream time:
 - ``decision``: at t_D + T_wt (once the N identification samples have arrived), and again T_wt
   after each later change of the coherence vector: candidate sets, the identified faults, the
   fault-mode estimate, and the prognosis (RUL and its band) of incipient faults;
+- ``prognosis``: every ``refresh`` seconds after a decision with a growing fault, its fit
+  refreshed on the data so far (``fdi.diagnose.refresh_prognosis``) and the RUL re-issued;
 - ``summary``: at the end of the stream, the report ``bgfdi diagnose --json`` gives for the same
   samples (the same engine: the final decisions are recomputed on all the data, reusing every
   identification whose data window has not changed).
@@ -33,7 +35,7 @@ import numpy as np
 
 from .data import DataError, Measurements, checked, signals_from_data
 from .detect import inconsistency, thresholds_for
-from .diagnose import Options, diagnose, public
+from .diagnose import Options, diagnose, public, refresh_prognosis
 from .identify import compiled
 from .residuals import evaluate
 
@@ -57,6 +59,9 @@ class Monitor:
     pending: list[float] = field(default_factory=list)       # decision times not yet reached
     decided: int = 0                    # decisions emitted
     memo: dict = field(default_factory=dict)
+    refresh: float = 5.0                # s between prognosis refreshes
+    latest: dict | None = None          # the last decision's report
+    next_refresh: float = math.inf
 
     def __post_init__(self) -> None:
         self.options.check()
@@ -96,6 +101,7 @@ class Monitor:
         start, self.done = self.done, final
         self._detect(t, start, final)
         self._decide()
+        self._refresh()
 
     def _append(self, block: np.ndarray) -> None:
         """Rows into the buffer (grown by doubling), each block checked as read_csv checks a file:
@@ -160,6 +166,22 @@ class Monitor:
         self.pending = [d for d in self.pending if d not in due]
         report = public(diagnose(self.model_path, self.measurements(), self.options, memo=self.memo))
         self._report_decisions(report, float(t[-1]))
+        self.latest = report
+        self.next_refresh = float(t[-1]) + self.refresh
+
+    def _refresh(self) -> None:
+        """Every ``refresh`` seconds after a decision with a growing fault, its fit refreshed on the
+        data so far and the prognosis re-issued (a ``prognosis`` event)."""
+        if self.latest is None or not self.latest.get("prognosis") or self.pending:
+            return
+        t_last = float(self.buffer[self.n - 1, self.ti])
+        if t_last < self.next_refresh:
+            return
+        self.next_refresh = t_last + self.refresh
+        faults, prognosis = refresh_prognosis(self.model_path, self.measurements(), self.latest, self.options,
+                                              self.memo)
+        self.emit({"event": "prognosis", "t": t_last, "faults": [f for f in faults if f["type"] == "incipient"],
+                   "prognosis": public({"p": prognosis})["p"], "known_at": t_last})
 
     def _report_decisions(self, report: dict, known_at: float) -> None:
         decisions = []

@@ -39,13 +39,25 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
     out.append("mode: " + (" ".join(f"{k}={v}" for k, v in mode.items()) or "(none)"))
     cands = report.get("candidates") or []
     out.append("candidate sets: " + ("; ".join("{" + ", ".join(c) + "}" for c in cands) if cands else "none"))
+    if report.get("pruned"):
+        p = report["pruned"]
+        out.append(f"  ({p['sets']} set(s) of {p['max_set'] + 1} faults also explain it and were not identified: "
+                   f"raise --max-set to include them)")
     if report.get("estimators"):
         out.append("estimators (fitness = 1/(sum_l sum_n |G_l|/threshold_l + 1e-12), higher is better):")
         winner = report.get("winner")
         for e in sorted(report["estimators"], key=lambda e: -e["fitness"]):
-            mark = "*" if e["candidate"] == winner else " "
+            mark = "*" if e["candidate"] == winner and not report.get("episodes") else " "
             out.append(f" {mark} {{{', '.join(e['candidate'])}}}: fitness {e['fitness']:.4g}; {_confidence(e['margin'])}")
-        out.append("  (* the winner: the fittest, unless a smaller set fits within 5 %)")
+        out.append("  (* the winner: the smallest information criterion, 2 N_eff ln(cost) + ln(N_eff) per identified "
+                   "parameter)")
+    for a in report.get("alternatives", []):
+        out.append(f"  nearly as good: {{{', '.join(a['candidate'])}}} (criterion +{a['criterion']:.2f}, cost "
+                   f"{a['cost']:.4g}): " + "; ".join(_fault(f) for f in a["faults"]))
+    for e in report.get("episodes", []):
+        out.append(f"at {e['time']:.2f} s the coherence vector became {list(e['coherence'])}; decided again at "
+                   f"{e['decision_time']:.2f} s over {len(e['candidates'])} candidate set(s): "
+                   f"{{{', '.join(e['winner'])}}}")
     faults = report["diagnosis"]["faults"]
     out.append("diagnosis:" + ("" if faults else " no fault explains the coherence vector"))
     for f in faults:
