@@ -297,6 +297,9 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
     column_symbols = {c: sp.Symbol(c, real=True) for c in columns if c != "t"}
     sampling_time = (_number(ctx, data_spec["sampling_time"], ("data", "sampling_time"), "sampling_time", above=0)
                      if "sampling_time" in data_spec else None)
+    for m in modes.values():
+        if m.column is not None and columns and m.column not in columns:
+            raise ctx.error(("modes", m.name, "column"), f"column '{m.column}' is not among data.columns {list(columns)}")
     inputs = _inputs(ctx, data, symbols, claim, columns)
     sensors = _sensors(ctx, data, symbols, claim, column_symbols, columns)
     definitions = _definitions(ctx, data, symbols, claim)
@@ -368,13 +371,22 @@ def _modes(ctx, data, symbols, claim) -> dict[str, Mode]:
     for name, spec in _mapping(ctx, data.get("modes"), ("modes",)).items():
         where = ("modes", name)
         _name(ctx, name, where)
-        spec = _spec(ctx, spec if spec is not None else {}, where, {"nominal", "description"})
+        spec = _spec(ctx, spec if spec is not None else {}, where, {"nominal", "description", "column", "expr"})
         nominal = spec.get("nominal", 1)
         if nominal not in (0, 1) or isinstance(nominal, bool):
             raise ctx.error(where + ("nominal",), f"mode '{name}' nominal value must be 0 or 1")
+        column = None if spec.get("column") is None else _ref(ctx, spec["column"], where + ("column",), "column")
+        expr = None
+        if spec.get("expr") is not None:
+            if column is None:
+                raise ctx.error(where + ("expr",), "expr is the command a simulation gives a commanded mode; "
+                                                   "give column: <data column of the command> too")
+            params = {k: v for k, v in symbols.items()}
+            params["t"] = t
+            expr = _expr(ctx, spec["expr"], where + ("expr",), params)
         claim(name, "a mode variable", where)
         symbols[name] = sp.Symbol(name, real=True)
-        out[name] = Mode(name, int(nominal), _text(spec, "description"))
+        out[name] = Mode(name, int(nominal), _text(spec, "description"), column, expr)
     return out
 
 

@@ -51,9 +51,14 @@ class Input:
 
 @dataclass(frozen=True)
 class Mode:
+    """A mode variable (0 or 1) of controlled junctions. A *commanded* mode follows a data column
+    (``column``: the controller's command, sample by sample; ``expr``, a function of t, is the
+    command simulation gives): the physical mode disagreeing with the command is a mode fault."""
     name: str
     nominal: int
     description: str = ""
+    column: str | None = None
+    expr: sp.Expr | None = None
 
 
 @dataclass(frozen=True)

@@ -166,6 +166,7 @@ def check_against_model(model: Model, data: Measurements) -> None:
     for i in model.inputs.values():
         if i.column:
             needed.add(i.column)
+    needed |= {m.column for m in model.modes.values() if m.column}
     missing = sorted(needed - set(data.columns))
     if missing:
         found = len(set(data.columns) & needed)
@@ -211,4 +212,13 @@ def signals_from_data(model: Model, data: Measurements) -> dict[str, np.ndarray]
         else:
             names, fn = functions[i.name]
             out[i.name] = np.asarray(fn(data.t), dtype=float) * np.ones_like(data.t)
+    for m in model.modes.values():
+        if m.column:
+            out[m.name] = (np.asarray(data.columns[m.column], dtype=float) >= 0.5).astype(float)
     return out
+
+
+def commanded(model: Model, raw: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The commanded mode variables' values, sample by sample (0 or 1; a command column is read
+    as 1 from 0.5 up), by mode name: residuals evaluate each sample in its commanded mode."""
+    return {m.name: np.asarray(raw[m.name]) for m in model.modes.values() if m.column and m.name in raw}

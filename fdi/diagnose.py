@@ -19,7 +19,7 @@ from bondgraph.errors import ModelError
 from optim import DEFAULT_ENGINE, ENGINES
 
 from .cli_errors import UsageError
-from .data import DataError, Measurements, read_csv, signals_from_data
+from .data import DataError, Measurements, commanded, read_csv, signals_from_data
 from .derivatives import DEFAULT_ORDER, window_samples
 from .detect import detect, inconsistency, thresholds_for
 from .identify import compiled, estimate_mode, fault_space, run_estimators, window
@@ -133,7 +133,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     samples = o.samples or model.samples
     timings["load"] = time.perf_counter() - clock
     clock = time.perf_counter()
-    r = evaluate(model, list(residuals), raw, meas.ts, window=model.derivative_window)
+    r = evaluate(model, list(residuals), raw, meas.ts, window=model.derivative_window, values=commanded(model, raw))
     timings["residuals"] = time.perf_counter() - clock
     det = detect(r, meas.t, thresholds, wait, o.settle)
     mode = dict(o.mode or nominal_mode(model))
@@ -144,6 +144,10 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
         return report
     report["detection"] = {"time": det.time, "coherence": list(det.coherence), "decision_time": det.decision_time,
                            "final_coherence": list(det.final_coherence)}
+    for name, values in commanded(model, raw).items():      # the mode the controller commands at t_D
+        if not o.mode or name not in o.mode:
+            mode[name] = int(values[det.index])
+            report["mode"] = mode
     clock = time.perf_counter()
     fsm = fault_signature_matrix(model, list(arrs), mode)
     mcsm = mode_change_signature_matrix(model, list(arrs), mode)
@@ -167,9 +171,9 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
         report["mode_estimate"] = estimated
         changed = [m for m in estimated if estimated[m] != mode[m]]
         if changed:
-            by_var = {f.targets[0]: f.name for f in model.faults.values() if f.kind == "mode"}
             mode_fault = {"mode": estimated, "cost": mode_cost,
-                          "faults": [{"name": by_var.get(m, m), "type": "mode", "value": estimated[m]} for m in changed]}
+                          "faults": [{"name": mode_fault_name(model, m, estimated[m]), "type": "mode",
+                                      "value": estimated[m]} for m in changed]}
             report["mode_fault_cost"] = mode_cost
             if not candidates:
                 report["mode"] = estimated
@@ -177,7 +181,11 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
                 return report
     if not candidates:
         return report
-    check_window(meas, det.time, samples)
+    try:
+        check_window(meas, det.time, samples)
+    except DataError as exc:                  # detected at the end of the data: reported, not identified
+        report["note"] = str(exc).split(": ", 1)[-1]
+        return report
     clock = time.perf_counter()
     settings = {"engine": o.engine, "pop": o.pop, "generations": o.generations}
     results = run_estimators(path, meas.t, raw, det.time, samples, candidates, weights, settings, o.seed,
@@ -235,6 +243,14 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
             report["prognosis"].append(prognose(f, nominal, failure, f.get("t0", win.t0), now))
         timings["prognosis"] = time.perf_counter() - clock
     return report
+
+
+def mode_fault_name(model, variable: str, value: int) -> str:
+    """The model's mode fault that puts ``variable`` at ``value`` (a valve stuck closed, or one stuck
+    open), else the first fault on the variable, else the variable itself."""
+    on = [f for f in model.faults.values() if f.kind == "mode" and f.targets[0] == variable]
+    exact = [f for f in on if (0 if f.value is None else int(f.value)) == int(value)]
+    return (exact or on)[0].name if on else variable
 
 
 def latched(r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, start: int, settle: float) -> np.ndarray:

@@ -38,6 +38,7 @@ from optim.core import fitness
 from . import encoding
 from .arrs import ARR, select_arrs
 from .encoding import FaultSpace
+from .data import commanded
 from .residuals import Residual, compile_residuals, corrected_signals, derivative_orders, parameter_values
 
 ROWS = 256             # individuals per objective block (bounds memory on wide screening calls)
@@ -142,6 +143,7 @@ class Objective:
         self.onset_bounds = onset
         self.fixed = list(fixed)
         self.nominal = parameter_values(model)
+        self.nominal.update({m: v[None, :] for m, v in commanded(model, win.raw).items()})
         fixed_betas = self._fix(span)
         self.orders = derivative_orders(list(residuals))
         touched = set()
@@ -512,9 +514,12 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
     them; the others keep their current values), same cost as eq. (24)."""
     names = list(variables or model.modes)
     nominal = parameter_values(model)
+    nominal.update(commanded(model, win.raw))        # commanded modes follow their command sample by sample
     signals = corrected_signals(model, win.raw, win.ts, derivative_orders(list(residuals)), None, model.derivative_window)
     c = win.crop
-    current = {m: int(model.modes[m].nominal) for m in model.modes}
+    # the mode each variable should be in: the command at the window's start, or the nominal mode
+    current = {m: int(np.asarray(nominal[m]).reshape(-1)[c.start]) if np.ndim(nominal[m]) else int(model.modes[m].nominal)
+               for m in model.modes}
 
     def cost(real: np.ndarray, bits: np.ndarray) -> np.ndarray:
         values = dict(nominal)
@@ -532,9 +537,9 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
     best = r.bits.copy()
     best_cost = float(r.cost)
     for j in range(len(names)):
-        if best[j] != bool(model.modes[names[j]].nominal):
+        if best[j] != bool(current[names[j]]):
             trial = best.copy()
-            trial[j] = bool(model.modes[names[j]].nominal)
+            trial[j] = bool(current[names[j]])
             trial_cost = float(cost(np.zeros((1, 0)), trial[None, :])[0])
             if trial_cost <= 1.01 * best_cost:
                 best, best_cost = trial, min(best_cost, trial_cost)

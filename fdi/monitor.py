@@ -33,7 +33,7 @@ from typing import Callable
 
 import numpy as np
 
-from .data import DataError, Measurements, checked, signals_from_data
+from .data import DataError, Measurements, checked, commanded, signals_from_data
 from .detect import inconsistency, thresholds_for
 from .diagnose import Options, diagnose, public, refresh_prognosis
 from .identify import compiled
@@ -96,7 +96,8 @@ class Monitor:
         a = max(0, self.done - 2 * margin)
         segment = Measurements(self.source, t[a:], {h: self.buffer[a:self.n, i] for i, h in enumerate(self.header)})
         raw = signals_from_data(self.model, segment)
-        r = evaluate(self.model, list(self.compiled), raw, ts, window=self.model.derivative_window)
+        r = evaluate(self.model, list(self.compiled), raw, ts, window=self.model.derivative_window,
+                     values=commanded(self.model, raw))
         self.residuals.append(np.asarray(r)[:, self.done - a:final - a])
         start, self.done = self.done, final
         self._detect(t, start, final)

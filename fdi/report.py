@@ -59,6 +59,8 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
                    f"{e['decision_time']:.2f} s over {len(e['candidates'])} candidate set(s): "
                    f"{{{', '.join(e['winner'])}}}")
     faults = report["diagnosis"]["faults"]
+    if report.get("note"):
+        out.append(f"note: {report['note']}")
     out.append("diagnosis:" + ("" if faults else " no fault explains the coherence vector"))
     for f in faults:
         out.append(f"  {_fault(f)}")

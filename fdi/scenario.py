@@ -330,6 +330,17 @@ def time_functions(model: Model, scenario: Scenario):
             param_fns[f"beta_{fault.targets[0]}"] = fault_profile(e, 1.0)
         else:
             param_fns[fault.targets[0]] = fault_profile(e, float(model.modes[fault.targets[0]].nominal))
+    for m in model.modes.values():                 # a commanded mode follows its command, unless stuck
+        if m.column and m.expr is not None:
+            command = command_function(model, m.name)
+            stuck = [e for e in scenario.faults if model.faults[e.target].kind == "mode"
+                     and model.faults[e.target].targets[0] == m.name]
+            if stuck:
+                e = stuck[0]
+                param_fns[m.name] = (lambda cmd, t0, v: (lambda t: np.where(np.asarray(t) >= t0, v, cmd(t))))(
+                    command, e.t0, float(e.value))
+            else:
+                param_fns[m.name] = command
 
     def values(t: float | np.ndarray) -> dict[str, float | np.ndarray]:
         """Every parameter at time t (a float), or at every time of an array (arrays for faulted ones)."""
@@ -340,6 +351,14 @@ def time_functions(model: Model, scenario: Scenario):
                 v[k] = np.asarray(fn(arr), dtype=float) if np.ndim(t) else float(fn(arr)[0])
         return v
     return values, beta_sensors
+
+
+def command_function(model: Model, mode: str) -> Callable[[np.ndarray], np.ndarray]:
+    """A commanded mode's command as 0/1 at times t (its expression read as 1 from 0.5 up)."""
+    nominal = {s: v for s, v in model.nominal_values().items()}
+    fn = sp.lambdify([sp.Symbol("t", real=True)], model.modes[mode].expr.xreplace(nominal), modules="numpy")
+    return lambda t: (np.asarray(fn(np.asarray(t, dtype=float)), dtype=float) * np.ones_like(t, dtype=float)
+                      >= 0.5).astype(float)
 
 
 def check_method(method: str) -> str:
@@ -400,7 +419,9 @@ def _run(model: Model, scenario: Scenario, progress, method: str,
     values, beta_sensors = time_functions(model, scenario)
     initial = dict(model.initial)
     initial.update(scenario.initial)
-    traj = simulate(model, t, values=values, breakpoints=breakpoints(scenario), initial=initial,
+    switches = [float(t[k + 1]) for m in model.modes.values() if m.column and m.expr is not None
+                for k in np.flatnonzero(np.diff(command_function(model, m.name)(t)))]
+    traj = simulate(model, t, values=values, breakpoints=sorted(set(breakpoints(scenario)) | set(switches)), initial=initial,
                     progress=progress, method=method, vectorised=True, stages=stages)
     rng = np.random.default_rng(scenario.seed)
     cols: dict[str, np.ndarray] = {"t": traj.t}
@@ -408,6 +429,12 @@ def _run(model: Model, scenario: Scenario, progress, method: str,
     for name, inp in model.inputs.items():
         fn = sp.lambdify([sp.Symbol("t", real=True)], inp.expr.xreplace(nominal), modules="numpy")
         cols[inp.column or name] = np.asarray(fn(traj.t), dtype=float) * np.ones_like(traj.t)
+    for m in model.modes.values():                 # the command, as the controller logged it
+        if m.column:
+            if m.expr is None:
+                raise ScenarioError(f"{model.path}: modes.{m.name}: a commanded mode needs expr: <command as a "
+                                    "function of t> to be simulated")
+            cols[m.column] = command_function(model, m.name)(traj.t)
     for s in model.sensors.values():
         measured = traj.signals[s.name] * (beta_sensors[s.name](traj.t) if s.name in beta_sensors else 1.0)
         mapping = s.column_values(None)

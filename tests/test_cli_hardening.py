@@ -189,11 +189,13 @@ def test_options_checked_by_the_api_too(tmp_path):
     assert min_samples(0.01) == 50 and min_samples(0.1) == 5 and min_samples(1.0) == 2
 
 
-def test_data_ending_just_after_the_detection_is_one_line(tmp_path, capsys):
+def test_data_ending_just_after_the_detection_is_reported_not_identified(tmp_path, capsys):
     lines = (DATA / "scenario1.csv").read_text().splitlines()[:3210]          # ends 0.21 s after t_D
     (tmp_path / "cut.csv").write_text("\n".join(lines) + "\n")
-    assert main(["diagnose", str(CYCAB), str(tmp_path / "cut.csv"), "--workers", "1"]) == 2
-    assert "needs at least 0.5 s after t_D" in one_error_line(capsys)
+    assert main(["diagnose", str(CYCAB), str(tmp_path / "cut.csv"), "--workers", "1", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["detection"]["time"] == 31.88 and report["diagnosis"]["faults"] == []
+    assert "needs at least 0.5 s after t_D" in report["note"]
 
 
 # ------------------------------------------------------------------ scenario files

@@ -1,0 +1,51 @@
+"""Commanded modes (issue 10): a mode variable that follows a data column; a valve that does not
+follow its command is a mode fault (models/two_tank_commanded.yaml, designed scenarios)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bondgraph.errors import ModelError
+from bondgraph.loader import load_model, load_model_text
+from fdi.data import Measurements
+from fdi.diagnose import Options, diagnose, public
+from fdi.resources import scenarios_dir
+from fdi.scenario import load_scenario, run
+
+from .conftest import MODELS
+
+MODEL = MODELS / "two_tank_commanded.yaml"
+
+
+def _diagnose(name: str) -> dict:
+    model = load_model(MODEL)
+    cols = run(model, load_scenario(scenarios_dir() / "suite_two_tank_commanded" / f"{name}.json", model))
+    return cols, public(diagnose(str(MODEL), Measurements(name, cols["t"], cols), Options(workers=2, seed=0)))
+
+
+def test_the_command_is_simulated_and_logged():
+    cols, report = _diagnose("nominal")
+    assert np.array_equal(cols["v_cmd"], (cols["t"] <= 300).astype(float))     # heaviside(300 - t): open, then closed
+    assert report["detection"] is None                                        # residuals follow the command
+
+
+def test_a_valve_stuck_open_against_its_command_is_a_mode_fault():
+    _, report = _diagnose("stuck_open")
+    # stuck open from 250 s: unseen while the command is open too, seen when it closes the valve at 300 s
+    assert 300 <= report["detection"]["time"] < 301
+    assert report["diagnosis"]["faults"] == [{"name": "v_open", "type": "mode", "value": 1}]
+
+
+def test_a_valve_stuck_closed_against_its_command_is_a_mode_fault():
+    _, report = _diagnose("stuck_closed")
+    assert 150 <= report["detection"]["time"] < 152
+    assert report["diagnosis"]["faults"] == [{"name": "v_closed", "type": "mode", "value": 0}]
+
+
+def test_a_command_expression_needs_its_column():
+    text = MODEL.read_text(encoding="utf-8").replace("column: v_cmd, ", "")
+    with pytest.raises(ModelError, match="give column"):
+        load_model_text(text, "m.yaml")
+    text = MODEL.read_text(encoding="utf-8").replace("column: v_cmd", "column: valve")
+    with pytest.raises(ModelError, match="not among data.columns"):
+        load_model_text(text, "m.yaml")
