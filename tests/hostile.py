@@ -112,6 +112,13 @@ CASES: list[tuple[str, dict, list[str], str]] = [
     ("data-ragged", *data(SHORT + "12.0,0,0\n"), "error"),
     ("data-text-cell", *data(SHORT + "12.0,zero,0,0,1e5,1e5\n"), "error"),
     ("data-missing-file", {}, ["diagnose", CYCAB, "{out}/nothing.csv"], "error"),
+    ("monitor-binary", {"d.csv": b"\x00\x9f\x92\x96" * 300}, ["monitor", CYCAB, "{d.csv}", "--workers", "1"], "error"),
+    ("monitor-time-jump", {"d.csv": _NOMINAL_LINES[0] + "0,0,0,0,1,1\n0.01,0,0,0,1,1\n0.05,0,0,0,1,1\n"},
+     ["monitor", CYCAB, "{d.csv}", "--workers", "1"], "error"),
+    ("monitor-block-zero", {"d.csv": SHORT}, ["monitor", CYCAB, "{d.csv}", "--block", "0"], "error"),
+    ("monitor-ok", {"d.csv": SHORT}, ["monitor", CYCAB, "{d.csv}", "--workers", "1"], "ok"),
+    ("evaluate-missing", {}, ["evaluate", CYCAB, "{out}/none.json"], "error"),
+    ("evaluate-empty-folder", {}, ["evaluate", CYCAB, "{out}"], "error"),
     # ------------------------------------------------------------------ scenario files
     ("scenario-T-nan", *scenario('{"T": NaN, "fs": 100}'), "error"),
     ("scenario-T-inf", *scenario('{"T": Infinity, "fs": 100}'), "error"),
