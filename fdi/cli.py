@@ -499,12 +499,9 @@ def cmd_monitor(args: argparse.Namespace) -> int:
 
 
 def _strip_timings(x):
-    """An event without wall-clock entries (so that two runs print the same lines)."""
-    if isinstance(x, dict):
-        return {k: _strip_timings(v) for k, v in x.items() if k not in ("wall_s", "objective_s", "timings")}
-    if isinstance(x, list):
-        return [_strip_timings(v) for v in x]
-    return x
+    """An event or report without wall-clock entries (so that two runs print the same lines)."""
+    from .diagnose import deterministic
+    return deterministic(x)
 
 
 def cmd_demo(args: argparse.Namespace) -> int:

@@ -437,6 +437,16 @@ def alternatives(results, winner, n_eff: float, mode_fault: dict | None = None) 
     return sorted(out, key=lambda a: a["criterion"])
 
 
+def deterministic(x):
+    """A report (or any part of it) without wall-clock entries, so that two runs of one diagnosis
+    compare equal (``--timings`` keeps them)."""
+    if isinstance(x, dict):
+        return {k: deterministic(v) for k, v in x.items() if k not in ("wall_s", "objective_s", "timings")}
+    if isinstance(x, list):
+        return [deterministic(v) for v in x]
+    return x
+
+
 def public(report: dict) -> dict:
     """The report without its private (plotting) entries, JSON-ready."""
     def clean(x):

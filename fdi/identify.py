@@ -21,6 +21,7 @@ number of worker processes.
 from __future__ import annotations
 
 import json
+import os
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from functools import lru_cache
@@ -46,9 +47,20 @@ BLOCK = 32768          # samples x individuals per block of the objective (about
 DEFAULT_BOUNDS = {"sensor": (0.05, 1.5), "source": (0.05, 1.5), "group": (0.1, 10.0)}
 
 
-@lru_cache(maxsize=4)
 def compiled(path: str) -> tuple[Model, tuple[ARR, ...], tuple[Residual, ...]]:
-    """Model, AGARRs and residuals, derived once per process."""
+    """Model, AGARRs and residuals of a model file, derived once per process and file version:
+    the cache is keyed by the file's path, size and modification time, so a model edited between
+    two diagnoses (in a notebook) is derived again, never served stale."""
+    try:
+        st = os.stat(path)
+        version = (st.st_size, st.st_mtime_ns)
+    except OSError:
+        version = None                             # load_model reports the file as missing
+    return _compiled(str(path), version)
+
+
+@lru_cache(maxsize=8)
+def _compiled(path: str, version) -> tuple[Model, tuple[ARR, ...], tuple[Residual, ...]]:
     model = load_model(path)
     arrs = tuple(select_arrs(model).arrs)
     return model, arrs, tuple(compile_residuals(model, list(arrs)))

@@ -9,9 +9,9 @@ from .cli_errors import need_matplotlib
 
 
 def _plt():
+    """pyplot, with whatever backend matplotlib chooses (inline in a notebook, Agg without a
+    display): bgfdi never forces one."""
     try:
-        import matplotlib
-        matplotlib.use("Agg")
         import matplotlib.pyplot as plt
         return plt
     except ImportError:
@@ -34,15 +34,27 @@ def plot_signals(columns: dict[str, np.ndarray], path: str | Path) -> None:
 
 
 def plot_diagnosis(report: dict, folder: str | Path, model) -> list[Path]:
-    """Residuals with thresholds and t_D (Figs. 4, 7, 11, 13), fitness evolution of every estimator
-    (Figs. 9, 12), identified fault profiles, and the RUL prediction. Returns the files written."""
-    from .identify import fault_space
-    from .profiles import profile
-
+    """The figures of :func:`diagnosis_figures` written as PNG files into ``folder``; returns them."""
     plt = _plt()
     out_dir = Path(folder)
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
+    for name, fig in diagnosis_figures(report, model).items():
+        written.append(out_dir / f"{name}.png")
+        fig.savefig(written[-1], dpi=110)
+        plt.close(fig)
+    return written
+
+
+def diagnosis_figures(report: dict, model) -> dict:
+    """Residuals with thresholds and t_D (Figs. 4, 7, 11, 13), fitness evolution of every estimator
+    (Figs. 9, 12), identified fault profiles, and the RUL prediction, as matplotlib Figures by name
+    (the caller shows, saves or closes them)."""
+    from .identify import fault_space
+    from .profiles import profile
+
+    plt = _plt()
+    figures = {}
     t, r, thr, names = report["_t"], report["_residuals"], report["_thresholds"], report["_names"]
     det = report.get("detection")
     fig, axes = plt.subplots(len(names), 1, figsize=(9, 2.2 * len(names)), sharex=True)
@@ -56,9 +68,7 @@ def plot_diagnosis(report: dict, folder: str | Path, model) -> list[Path]:
         ax.set_ylabel(name)
     np.atleast_1d(axes)[-1].set_xlabel("t [s]")
     fig.tight_layout()
-    written.append(out_dir / "residuals.png")
-    fig.savefig(written[-1], dpi=110)
-    plt.close(fig)
+    figures["residuals"] = fig
     if report.get("estimators"):
         fig, ax = plt.subplots(figsize=(7, 4))
         for e in report["estimators"]:
@@ -67,9 +77,7 @@ def plot_diagnosis(report: dict, folder: str | Path, model) -> list[Path]:
         ax.set_ylabel("best fitness")
         ax.legend(fontsize=8)
         fig.tight_layout()
-        written.append(out_dir / "fitness.png")
-        fig.savefig(written[-1], dpi=110)
-        plt.close(fig)
+        figures["fitness"] = fig
     faults = [f for f in report["diagnosis"]["faults"] if f["type"] != "mode"]
     if faults and det:
         fig, axes = plt.subplots(len(faults), 1, figsize=(8, 2.4 * len(faults)))
@@ -85,9 +93,7 @@ def plot_diagnosis(report: dict, folder: str | Path, model) -> list[Path]:
             ax.set_title(f"{f['name']}: identified {f['type']} profile", fontsize=9)
             ax.set_xlabel("t [s]")
         fig.tight_layout()
-        written.append(out_dir / "profiles.png")
-        fig.savefig(written[-1], dpi=110)
-        plt.close(fig)
+        figures["profiles"] = fig
     for prog in report.get("prognosis", []):
         f = next(x for x in faults if x["name"] == prog["name"])
         t0 = f.get("t0", det["time"])
@@ -103,10 +109,8 @@ def plot_diagnosis(report: dict, folder: str | Path, model) -> list[Path]:
         ax.legend(fontsize=8)
         ax.set_xlabel("t [s]")
         fig.tight_layout()
-        written.append(out_dir / f"rul_{prog['name']}.png")
-        fig.savefig(written[-1], dpi=110)
-        plt.close(fig)
-    return written
+        figures[f"rul_{prog['name']}"] = fig
+    return figures
 
 
 def plot_rul_cone(scores, path: str | Path, alpha: float = 0.2) -> Path:
@@ -115,11 +119,16 @@ def plot_rul_cone(scores, path: str | Path, alpha: float = 0.2) -> Path:
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for s in scores:
-        for r in s.rul:
-            elapsed = r["fraction"] * (r["true_rul"] / (1 - r["fraction"]))
-            life = elapsed + r["true_rul"]
-            if r["rul"] is not None:
-                ax.plot(elapsed / life, r["rul"] / life, "o", label=f"{s.name} ({r['fault']})" if r["fraction"] == 0.5 else None)
+        for fault in dict.fromkeys(r["fault"] for r in s.rul):
+            points = []
+            for r in s.rul:
+                if r["fault"] == fault and r["rul"] is not None:
+                    elapsed = r["fraction"] * r["true_rul"] / (1 - r["fraction"])   # life L: RUL* = (1 - f) L
+                    life = elapsed + r["true_rul"]
+                    points.append((elapsed / life, r["rul"] / life))
+            if points:
+                xs, ys = zip(*points)
+                ax.plot(xs, ys, "o-", lw=0.8, label=f"{s.name} ({fault})")
     x = np.linspace(0, 1, 50)
     ax.plot(x, 1 - x, "k-", lw=1, label="true RUL")
     ax.fill_between(x, (1 - alpha) * (1 - x), (1 + alpha) * (1 - x), color="0.85", label=f"alpha = {alpha:g} cone")

@@ -1,0 +1,76 @@
+"""The notebook API (issue 13): diagnose(model, data) -> Diagnosis."""
+from __future__ import annotations
+
+import importlib.util
+import json
+
+import numpy as np
+import pytest
+
+from fdi.api import Diagnosis, diagnose, measurements
+from fdi.cli import main
+from fdi.data import DataError, read_csv
+
+from .conftest import CYCAB, DATA, MODELS
+
+
+class FrameLike:
+    """What the API reads of a pandas DataFrame: column names and a float matrix."""
+
+    def __init__(self, columns: dict):
+        self.columns = list(columns)
+        self._m = np.column_stack(list(columns.values()))
+
+    def to_numpy(self, dtype=float):
+        return self._m.astype(dtype)
+
+
+def test_a_dataframe_gives_the_cli_json(capsys):
+    m = read_csv(DATA / "scenario1.csv")
+    d = diagnose(str(CYCAB), FrameLike(dict(m.columns)), workers=1)
+    assert isinstance(d, Diagnosis) and d.detection["time"] == 31.88
+    assert {f["name"] for f in d.faults} == {"R4", "beta_theta1"}
+    assert main(["diagnose", str(CYCAB), str(DATA / "scenario1.csv"), "--json", "--workers", "1"]) == 0
+    assert d.to_json() == capsys.readouterr().out
+    assert "<table>" in d._repr_html_() and "R4" in d._repr_html_()
+
+
+def test_dicts_and_structured_arrays_and_bad_data():
+    m = read_csv(DATA / "nominal.csv")
+    cols = {k: v[:1500] for k, v in m.columns.items()}
+    assert diagnose(str(CYCAB), cols, workers=1).detection is None
+    rec = np.rec.fromarrays(list(cols.values()), names=list(cols))
+    assert measurements(rec).t.size == 1500
+    with pytest.raises(DataError, match="no 't' column"):
+        measurements({"time": [0.0, 1.0]})
+    with pytest.raises(DataError, match="DataFrame"):
+        measurements(42)
+
+
+def test_editing_the_model_file_changes_the_next_diagnosis(tmp_path):
+    path = tmp_path / "tank.yaml"
+    text = (MODELS / "two_tank_valve.yaml").read_text(encoding="utf-8")
+    path.write_text(text, encoding="utf-8")
+    data = {"t": np.arange(0, 200, 0.1)}
+    data["Qin"] = 1e-4 * (1 + 0.5 * np.sin(0.01 * data["t"]))
+    data["p1"] = np.full_like(data["t"], 5000.0)                  # not the model's equilibrium: residuals fire
+    data["p2"] = np.full_like(data["t"], 2000.0)
+    first = diagnose(str(path), data, workers=1)
+    assert first.detection is not None
+    path.write_text(text.replace("thresholds: {ARR1: 1.0e-4, ARR2: 1.0e-4, ARR3: 1.5e-4}",
+                                 "thresholds: {ARR1: 1.0e3, ARR2: 1.0e3, ARR3: 1.0e3}"), encoding="utf-8")
+    assert diagnose(str(path), data, workers=1).detection is None   # the new thresholds, not a stale cache
+
+
+def test_yaml_text_as_the_model():
+    m = read_csv(DATA / "nominal.csv")
+    text = CYCAB.read_text(encoding="utf-8")
+    d = diagnose(text, {k: v[:1500] for k, v in m.columns.items()}, workers=1)
+    assert d.detection is None and d.model_path.endswith(".yaml")
+
+
+@pytest.mark.skipif(importlib.util.find_spec("matplotlib") is None, reason="the plot extra is not installed")
+def test_plot_returns_figures():
+    m = read_csv(DATA / "scenario1.csv")
+    figures = diagnose(str(CYCAB), dict(m.columns), workers=1).plot()
+    assert {"residuals", "fitness", "profiles"} <= set(figures)
