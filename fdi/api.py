@@ -1,10 +1,13 @@
 """The notebook API: ``diagnose(model, data, config) -> Diagnosis``.
 
-    >>> from fdi.api import diagnose                                        # doctest: +SKIP
-    >>> d = diagnose("models/cycab_steering.yaml", "tests/data/cycab/scenario2.csv")
-    >>> d.faults[0]["name"], d.prognosis[0]["rul"]
-    ('R4', 23.3...)
-    >>> d.to_json() == open("scenario2.json").read()       # what `bgfdi diagnose --json` prints
+    >>> from fdi.api import diagnose
+    >>> d = diagnose("models/cycab_steering.yaml", "tests/data/cycab/scenario2.csv", workers=1)
+    >>> [(f["name"], f["type"]) for f in d.faults]
+    [('R4', 'abrupt'), ('beta_theta2', 'incipient')]
+    >>> round(d.prognosis[0]["rul"], 1)
+    23.3
+
+``d.to_json()`` is what ``bgfdi diagnose --json`` prints for the same file.
 
 The model is a path to a YAML file, or YAML text; a :class:`bondgraph.model.Model` is taken by
 the path it was loaded from. The data are a CSV path, a pandas DataFrame, a dict of arrays, a numpy

@@ -265,3 +265,37 @@ def undefined_in_modes(model: Model, arrs: list[ARR], modes: list[dict[str, int]
             if e.has(sp.zoo, sp.nan, sp.oo, -sp.oo):
                 bad.append(f"{a.name} undefined in mode {mode}")
     return bad
+
+
+def arr_unit(model: Model, arr: ARR) -> str:
+    """The unit of a residual: the junction law it comes from sums flows at a 0-junction and
+    efforts at a 1-junction, and effort x flow is power (W). The common variable's unit comes from
+    the sensor on that junction (divided by s when it measures a displacement or a momentum). An
+    MSO residual written at a C or I element is its storage law in derivative causality (f = C de/dt,
+    e = I df/dt): the variable its junction sums too. ``?`` when no sensor there says it.
+
+    >>> from bondgraph.loader import load_model
+    >>> m = load_model("models/two_tank_valve.yaml")
+    >>> arr_unit(m, select_arrs(m).arrs[0])
+    'm^3/s'
+    """
+    from bondgraph.units import combine, dimension, format_dimension
+
+    name = arr.junction
+    if name not in model.junctions:            # an MSO residual written at a storage element: its law
+        bonded = [b.target if b.source == name else b.source for b in model.bonds if name in (b.source, b.target)]
+        element = model.elements.get(name)
+        if element is None or element.kind not in ("C", "I") or len(bonded) != 1 or bonded[0] not in model.junctions:
+            return "?"
+        name = bonded[0]                       # in derivative causality: f = C de/dt, e = I df/dt
+    sensors = [s for s in model.sensors.values() if s.junction == name]
+    if not sensors:
+        return "?"
+    s = sensors[0]
+    try:
+        measured = dimension(s.unit)
+    except ValueError:
+        return "?"
+    if s.measures in ("displacement", "momentum"):
+        measured = combine((measured, 1), (dimension("s"), -1))
+    return format_dimension(combine((dimension("W"), 1), (measured, -1)))

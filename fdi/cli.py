@@ -397,6 +397,7 @@ def _timings_line(report: dict) -> str:
 
 
 def _diagnose_and_print(model_path: str, data, options, args, data_name: str) -> int:
+    """Diagnose, print (text or --json), plot; 3 with --fail-on-fault when a fault was found, else 0."""
     import json
 
     from .diagnose import diagnose
@@ -415,7 +416,7 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
         from .plots import plot_diagnosis
         for p in plot_diagnosis(report, args.plot, model):
             print(f"plot: {p}", file=sys.stderr)
-    return 0
+    return 3 if getattr(args, "fail_on_fault", False) and public["diagnosis"]["faults"] else 0
 
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
@@ -425,9 +426,82 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
     model = compiled(args.model)[0]
     options = _options(args, model)
-    data = read_csv(args.data)
+    if len(args.data) > 1 or args.jobs > 1:
+        return _diagnose_batch(args, options)
+    data = read_csv(args.data[0])
     check_samples(options.samples, data.ts, "--samples")
-    return _diagnose_and_print(args.model, data, options, args, args.data)
+    return _diagnose_and_print(args.model, data, options, args, args.data[0])
+
+
+def _diagnose_one(job: tuple) -> dict:
+    """One file of a batch (in a worker process, which keeps the derived model between files): its
+    report as one JSON object, or the one-line error a bad file gives."""
+    from dataclasses import replace
+
+    from .diagnose import check_samples, deterministic, diagnose, public
+    model_path, path, options, timings = job
+    from .data import read_csv
+    try:
+        data = read_csv(path)
+        check_samples(options.samples, data.ts, "--samples")
+        report = diagnose(model_path, data, replace(options, workers=1))
+    except USER_ERRORS as exc:
+        return {"file": path, "error": str(exc)}
+    out = public(report)
+    if timings:
+        out["timings"] = public(dict(report.get("_timings", {})))
+    return {"file": path, **(out if timings else deterministic(out))}
+
+
+def _diagnose_batch(args: argparse.Namespace, options) -> int:
+    """Several files: one JSON line each, in the order given; ``--jobs`` processes. A bad file
+    gives its line with an ``error`` and the others go on; the exit status is 2 if any was bad,
+    else 3 with ``--fail-on-fault`` when any has a fault, else 0."""
+    import json
+    from concurrent.futures import ProcessPoolExecutor
+
+    jobs = [(args.model, path, options, args.timings) for path in args.data]
+    if args.jobs > 1:
+        with ProcessPoolExecutor(min(args.jobs, len(jobs))) as pool:
+            lines = list(pool.map(_diagnose_one, jobs))
+    else:
+        lines = [_diagnose_one(job) for job in jobs]
+    text = "".join(json.dumps(line, default=float) + "\n" for line in lines)
+    _emit(text, getattr(args, "output", None))
+    if any("error" in line for line in lines):
+        for line in lines:
+            if "error" in line:
+                print(f"bgfdi: error: {line['error']}", file=sys.stderr)
+        return 2
+    if args.fail_on_fault and any(line["diagnosis"]["faults"] for line in lines):
+        return 3
+    return 0
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("bgfdi")
+    except PackageNotFoundError:
+        return "unknown (not installed)"
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    """Thresholds from nominal runs; printed, or written into a copy of the model (-o)."""
+    import json
+    from pathlib import Path
+
+    from .calibrate import calibrate, format_calibration, with_thresholds
+    from .identify import compiled
+
+    compiled(args.model)                                   # the model checked before the runs are read
+    c = calibrate(args.model, args.runs, args.margin, args.quantile)
+    text = json.dumps(c.to_dict(), indent=1) + "\n" if args.json else format_calibration(c)
+    if args.output:
+        write_atomic(args.output, with_thresholds(Path(args.model).read_text(encoding="utf-8"), c))
+        _note(f"wrote {args.output} with the calibrated thresholds", args.output)
+    sys.stdout.write(text)
+    return 0
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
@@ -577,6 +651,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     p = Parser(prog="bgfdi", description="Fault diagnosis and prognosis with hybrid bond graphs.")
+    p.add_argument("--version", action="version", version=f"bgfdi {_version()}")
     sub = p.add_subparsers(dest="command", required=True)
 
     c = sub.add_parser("check", help="validate a model and show its causality")
@@ -645,9 +720,22 @@ def build_parser() -> argparse.ArgumentParser:
 
     d = sub.add_parser("diagnose", help="detect, isolate, identify and prognose faults in a measurement file")
     d.add_argument("model")
-    d.add_argument("data", help="measurement CSV (t first, SI units)")
+    d.add_argument("data", nargs="+", help="measurement CSV file(s) (t first, SI units); several: one JSON line each")
+    d.add_argument("--jobs", type=whole(1, MAX_WORKERS), default=1,
+                   help="files diagnosed at once (each job one process that keeps the derived model)")
+    d.add_argument("--fail-on-fault", action="store_true",
+                   help="exit with status 3 when a fault is diagnosed in any file (for scripts and CI)")
     diagnosis_options(d)
     d.set_defaults(func=cmd_diagnose)
+
+    cal = sub.add_parser("calibrate", help="thresholds from fault-free runs, each residual with its unit")
+    cal.add_argument("model")
+    cal.add_argument("runs", nargs="+", help="nominal measurement CSV files")
+    cal.add_argument("--margin", type=real(1.0, high=1e6), default=1.5, help="factor on the level (default 1.5)")
+    cal.add_argument("--quantile", type=real(0.5, high=1.0), help="use this quantile of |r| instead of its peak")
+    cal.add_argument("--json", action="store_true", help="print the calibration as JSON")
+    cal.add_argument("-o", "--output", help="write a copy of the model with the calibrated thresholds")
+    cal.set_defaults(func=cmd_calibrate)
 
     ev = sub.add_parser("evaluate", help="simulate, diagnose and score a suite of scenarios against their designs")
     ev.add_argument("model")

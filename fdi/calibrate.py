@@ -1,0 +1,110 @@
+"""Thresholds from fault-free runs (``bgfdi calibrate``).
+
+A residual's threshold must stay above what noise, filter and model error make of it when
+nothing is wrong, and as low as that allows so that faults are seen early. From nominal runs:
+
+- ``peak`` (default): the largest |r| of each residual over all the runs (after the settling
+  second), times a margin (1.5: the peak of a longer or noisier run exceeds the one seen);
+- ``quantile``: the q-quantile of |r| over all samples, times the margin (for long records with
+  rare spikes; a quantile below 1 accepts that fraction of samples above the threshold).
+
+With two runs or more the false-alarm rate is estimated by leaving each run out: thresholds from
+the others, and whether the left-out run crosses one. Each residual's unit is given
+(:func:`fdi.arrs.arr_unit`): it depends on the junction it sums at (m^3/s for one residual of a
+hydraulic model, Pa or N*m for the next).
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from .arrs import arr_unit
+from .data import Measurements, commanded, read_csv, signals_from_data
+from .identify import compiled
+from .residuals import evaluate
+
+DEFAULT_MARGIN = 1.5
+
+
+@dataclass
+class Calibration:
+    """Thresholds by residual, their units and the measurements behind them."""
+    model: str
+    names: list[str]
+    units: list[str]
+    peaks: list[list[float]]            # per run, per residual: max |r| after settling
+    thresholds: list[float]
+    rule: str
+    margin: float
+    false_alarms: list[bool] | None     # per run left out: did it cross a threshold of the others?
+    runs: list[str]
+
+    @property
+    def false_alarm_rate(self) -> float | None:
+        return None if self.false_alarms is None else float(np.mean(self.false_alarms))
+
+    def to_dict(self) -> dict:
+        return {**asdict(self), "false_alarm_rate": self.false_alarm_rate}
+
+
+def nominal_residuals(model_path: str, data: str | Measurements, settle: float = 1.0) -> np.ndarray:
+    """|r| of every residual on one run, the settling time left out: (residuals, samples)."""
+    model, _, residuals = compiled(model_path)
+    meas = data if isinstance(data, Measurements) else read_csv(data)
+    raw = signals_from_data(model, meas)
+    r = evaluate(model, list(residuals), raw, meas.ts, window=model.derivative_window, values=commanded(model, raw))
+    keep = meas.t >= meas.t[0] + settle
+    return np.abs(np.asarray(r))[:, keep]
+
+
+def _threshold(samples: list[np.ndarray], quantile: float | None, margin: float) -> np.ndarray:
+    joined = np.concatenate(samples, axis=1)
+    level = joined.max(axis=1) if quantile is None else np.quantile(joined, quantile, axis=1)
+    return margin * level
+
+
+def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quantile: float | None = None,
+              settle: float = 1.0) -> Calibration:
+    """Thresholds from nominal ``runs`` (paths or Measurements); see the module doc."""
+    model, arrs, _ = compiled(model_path)
+    samples = [nominal_residuals(model_path, run, settle) for run in runs]
+    thresholds = _threshold(samples, quantile, margin)
+    false_alarms = None
+    if len(samples) > 1:
+        false_alarms = []
+        for i, left in enumerate(samples):
+            others = _threshold(samples[:i] + samples[i + 1:], quantile, margin)
+            false_alarms.append(bool((left > others[:, None]).any()))
+    names = [a.name for a in arrs]
+    return Calibration(model.name, names, [arr_unit(model, a) for a in arrs],
+                       [[float(x) for x in s.max(axis=1)] for s in samples], [float(x) for x in thresholds],
+                       "peak" if quantile is None else f"quantile {quantile:g}", margin, false_alarms,
+                       [getattr(r, "path", str(r)) for r in runs])
+
+
+def format_calibration(c: Calibration) -> str:
+    lines = [f"thresholds of {c.model} from {len(c.runs)} nominal run(s): {c.rule} of |r| x {c.margin:g}",
+             f"{'residual':<10}{'unit':<10}{'largest |r|':>14}{'threshold':>14}"]
+    for i, name in enumerate(c.names):
+        peak = max(p[i] for p in c.peaks)
+        lines.append(f"{name:<10}{c.units[i]:<10}{peak:>14.4g}{c.thresholds[i]:>14.4g}")
+    if c.false_alarms is None:
+        lines.append("false alarms: give two runs or more to estimate them (each is left out in turn)")
+    else:
+        lines.append(f"false alarms, each run left out in turn: {sum(c.false_alarms)} of {len(c.false_alarms)} "
+                     f"({100 * c.false_alarm_rate:.0f} %)")
+    lines.append("thresholds: {" + ", ".join(f"{n}: {t:.4g}" for n, t in zip(c.names, c.thresholds)) + "}")
+    return "\n".join(lines) + "\n"
+
+
+def with_thresholds(text: str, c: Calibration) -> str:
+    """The model file's text with its top-level ``thresholds`` replaced by the calibrated ones (the
+    rest of the file, comments included, untouched); added at the end when there is none."""
+    line = "thresholds: {" + ", ".join(f"{n}: {t:.4g}" for n, t in zip(c.names, c.thresholds)) + "}"
+    line += f"   # bgfdi calibrate: {c.rule} of |r| x {c.margin:g} over {len(c.runs)} nominal run(s)\n"
+    pattern = re.compile(r"^thresholds:.*\n(?:[ \t]+.*\n)*", re.M)      # the key and its indented lines
+    if pattern.search(text):
+        return pattern.sub(lambda _: line, text, count=1)
+    return text.rstrip("\n") + "\n\n" + line
