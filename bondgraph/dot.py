@@ -11,16 +11,20 @@ from .model import Model
 
 
 def _quote(s: str) -> str:
-    return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    """A DOT string: backslashes and quotes escaped, a line break as DOT's own \\n."""
+    return '"' + s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
 
 
 def to_dot(model: Model, causality: Causality) -> str:
-    lines = [f"digraph {_quote(model.name)} {{", "  rankdir=LR;", "  node [fontname=Helvetica, shape=plaintext];",
+    # rankdir LR lays a chain of elements out as a strip; TB with a size and ratio keeps a model of a
+    # few dozen nodes on a page
+    lines = [f"digraph {_quote(model.name)} {{", "  rankdir=TB; ratio=compress; size=\"8,10\";",
+             "  node [fontname=Helvetica, shape=plaintext];",
              "  edge [fontname=Helvetica, fontsize=10];",
              f"  label={_quote(f'{model.name}: {causality.purpose} causality')}; labelloc=t;"]
     for e in model.elements.values():
         storage = causality.storage.get(e.name)
-        extra = f"\\n({storage})" if storage else ""
+        extra = f"\n({storage})" if storage else ""
         lines.append(f"  {_quote(e.name)} [label={_quote(e.kind + ':' + e.name + extra)}];")
     for j in model.junctions.values():
         if j.controlled:
