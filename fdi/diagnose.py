@@ -190,8 +190,11 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     settings = {"engine": o.engine, "pop": o.pop, "generations": o.generations}
     results = run_estimators(path, meas.t, raw, det.time, samples, candidates, weights, settings, o.seed,
                              o.workers, progress, memo=memo)
-    results = refit_early_onsets(path, meas, raw, det.time, samples, candidates, results, weights, settings, o, wait,
-                                 memo)
+    # a drift may have started long before it crossed a threshold: its onset is searched back to the
+    # start of the data (after the settling time)
+    lookback = max(wait, det.time - float(meas.t[0]) - o.settle)
+    results = refit_early_onsets(path, meas, raw, det.time, samples, candidates, results, weights, settings, o,
+                                 lookback, memo)
     timings["identification"] = time.perf_counter() - clock
     report["estimators"] = [{"candidate": list(e.candidate), "fitness": e.fitness, "history": e.history,
                              "margin": e.margin, "cost": e.cost, "faults": e.faults, "evaluations": e.evaluations,
@@ -277,9 +280,9 @@ REFIT_REACH = 2.5   # a refit with an earlier onset lowered a biased drift's cos
 def refit_early_onsets(path: str, meas: Measurements, raw: dict, t_d: float, samples: int, candidates: list,
                        results: list, weights: np.ndarray, settings: dict, o: Options, lookback: float,
                        memo: dict | None = None) -> list:
-    """Estimators whose incipient fault was fitted with its onset at t_D, the earliest the search
-    allows, refitted from their fit with the onset free up to ``lookback`` (the waiting time) before
-    t_D; the better fit is kept. A slow drift crosses its threshold well after it starts, and fitted
+    """Estimators fitted with their onset at t_D, the earliest the search allows, refitted from
+    their fit (and the structures one decision away: an abrupt fault may be a drift seen late) with
+    the onset free up to ``lookback`` before t_D (back to the data's start); the better fit is kept. A slow drift crosses its threshold well after it starts, and fitted
     from t_D on, its rate comes out biased while spurious extra faults absorb the rest (measured: a
     beta_theta2 drift from 20 s, detected at 22.5 s: b2 -0.042 for -0.03, and {R4, R5, beta_theta2}
     won; refitted: b2 -0.0298, onset 19.98 s, and beta_theta2 alone wins). Only fits within
@@ -287,8 +290,8 @@ def refit_early_onsets(path: str, meas: Measurements, raw: dict, t_d: float, sam
     onset range for every fit makes an intermittent fault's phase far harder to find."""
     ts = float(meas.t[1] - meas.t[0])
     best = min(e.cost for e in results)
-    redo = [i for i, e in enumerate(results) if any(f["type"] == "incipient" for f in e.faults)
-            and min(f["t0"] for f in e.faults) <= t_d + 1.5 * ts and e.cost <= REFIT_REACH * best]
+    redo = [i for i, e in enumerate(results) if e.faults and min(f["t0"] for f in e.faults) <= t_d + 1.5 * ts
+            and e.cost <= REFIT_REACH * best]
     if not redo or lookback <= 0:
         return results
     window_s = compiled(path)[0].derivative_window
