@@ -57,15 +57,18 @@ def diagnosis_figures(report: dict, model) -> dict:
     figures = {}
     t, r, thr, names = report["_t"], report["_residuals"], report["_thresholds"], report["_names"]
     det = report.get("detection")
+    units = _residual_units(model, names)
     fig, axes = plt.subplots(len(names), 1, figsize=(9, 2.2 * len(names)), sharex=True)
-    for ax, name, ri, ti in zip(np.atleast_1d(axes), names, r, thr):
-        ax.plot(t, ri, lw=0.7)
-        ax.axhline(ti, color="k", ls="--", lw=0.8)
+    for k, (ax, name, ri, ti) in enumerate(zip(np.atleast_1d(axes), names, r, thr)):
+        ax.plot(t, ri, lw=0.7, label="residual")
+        ax.axhline(ti, color="k", ls="--", lw=0.8, label="threshold")
         ax.axhline(-ti, color="k", ls="--", lw=0.8)
         if det:
-            ax.axvline(det["time"], color="r", lw=0.8)
-            ax.axvline(det["decision_time"], color="r", ls=":", lw=0.8)
-        ax.set_ylabel(name)
+            ax.axvline(det["time"], color="r", lw=0.8, label="detection $t_D$")
+            ax.axvline(det["decision_time"], color="r", ls=":", lw=0.8, label="decision $t_D + T_{wt}$")
+        ax.set_ylabel(f"{name} [{units.get(name, '?')}]")
+        if k == 0:
+            ax.legend(fontsize=7, loc="upper left", ncol=4)
     np.atleast_1d(axes)[-1].set_xlabel("t [s]")
     fig.tight_layout()
     figures["residuals"] = fig
@@ -111,6 +114,17 @@ def diagnosis_figures(report: dict, model) -> dict:
         fig.tight_layout()
         figures[f"rul_{prog['name']}"] = fig
     return figures
+
+
+def _residual_units(model, names: list[str]) -> dict[str, str]:
+    """Each residual's unit (fdi.arrs.arr_unit), by name."""
+    from .arrs import arr_unit
+    from .identify import compiled
+    try:
+        arrs = compiled(model.path)[1]
+    except Exception:                         # noqa: BLE001 - a model not from a file: no units, still a plot
+        return {}
+    return {a.name: arr_unit(model, a) for a in arrs if a.name in names}
 
 
 def plot_rul_cone(scores, path: str | Path, alpha: float = 0.2) -> Path:
