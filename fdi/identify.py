@@ -410,10 +410,14 @@ def _run_estimator(job: tuple) -> EstimatorResult:
     margin = r.extra.get("margin")
     real = obj.complete(r.real, r.bits)
     faults = encoding.describe(obj.spaces, real[:-1], r.bits)
+    end = win.t0 + (win.crop.stop - win.crop.start) * win.ts
     for i, f in enumerate(faults):
         f["t0"] = float(real[-1])
         if f["type"] == "incipient":
             f["b_band"] = coefficient_band(obj, real, r.bits, r.cost, i)
+        elif f["type"] == "intermittent" and f["t0"] + f["period"] / 2 >= end:
+            # no switch inside the window: on the data seen, an abrupt fault (the same profile)
+            faults[i] = {"name": f["name"], "type": "abrupt", "value": f["value"], "t0": f["t0"]}
     return EstimatorResult(tuple(candidate), r.cost, float(fitness(r.cost)), [float(fitness(c)) for c in r.history],
                            None if margin is None or not np.isfinite(margin) else float(margin),
                            faults, r.evaluations, r.wall_s, r.objective_s)

@@ -59,6 +59,9 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
                    f"{e['decision_time']:.2f} s over {len(e['candidates'])} candidate set(s): "
                    f"{{{', '.join(e['winner'])}}}")
     faults = report["diagnosis"]["faults"]
+    for f in report.get("insignificant", []):
+        out.append(f"  left out: {_fault(f)} (its parameters do not pay on the data since the detection: "
+                   f"criterion {f['criterion_without']:+.2f} without it)")
     if report.get("note"):
         out.append(f"note: {report['note']}")
     out.append("diagnosis:" + ("" if faults else " no fault explains the coherence vector"))
