@@ -16,9 +16,14 @@ ones start from the values their variables had just before the switch (p = I f, 
 Mode variables (controlled junctions) are inputs of the equations; the diagnostic hybrid bond graph
 form (outputs x a) serves every mode with one causality.
 
-The ODE is solved piece by piece between breakpoints (fault instants, switching instants): by
-ROS2, a fixed-step L-stable Rosenbrock-W method, when the equations are discontinuous (Coulomb
-friction, leakage: see ``simulate``), otherwise by scipy's LSODA; Radau, BDF or RK45 on request.
+The ODE is solved piece by piece between breakpoints (fault instants, switching instants), each
+piece with its parameters' one-sided limits at its ends (a profile's value at a switching instant
+may be the other side's: R4 = inf at an intermittent leak's switch, where eq. 15 gives the mean,
+and at an incipient leak's onset): by ROS2, a fixed-step L-stable Rosenbrock-W method, when the equations are
+discontinuous (Coulomb friction, leakage: see ``simulate``), otherwise by scipy's LSODA; Radau, BDF
+or RK45 on request. ROS2 watches its own steps and takes backward Euler where a stiff law has no
+slope to linearise (a leak at zero flow, right after it opens or as the pressure reverses): see
+``_ros2``.
 """
 from __future__ import annotations
 
@@ -208,7 +213,7 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     coefficients = {i: {j: c.xreplace(folded) for j, c in row.items()} for i, row in coefficients.items()}
     at_rest = needed_lines(at_rest, residual + [c for row in coefficients.values() for c in row.values()])
     f, prepare = _solver(at_rest, residual, coefficients, (t_sym, x_sym, p_sym))
-    step = _step_function(f, n)
+    step = _step_function(f, n, n_st)
     observe = compile_lines([t_sym, x_sym, p_sym, dx_sym], lines, outputs, "numpy")
     discontinuous = any(e.has(sp.sign, sp.Abs, sp.Heaviside) for _, e in at_rest)
     return System(states, ["storage"] * n_st + ["sensor"] * len(integrals), opened, prepare, f, step, observe,
@@ -281,20 +286,39 @@ def _split_constant(lines: list[Line], params: Sequence[sp.Symbol]) -> tuple[lis
 
 
 UNROLLED = 12     # up to this many states a ROS2 step is generated as scalar code, beyond it uses numpy
+GAMMA = 1.0 + 1.0 / 2.0 ** 0.5      # ROS2's gamma (L-stable)
+LINEARITY = 4.0   # a step whose stage 2 misses the Jacobian's prediction by more than this many x' is redone
+SLACK = 1e-3      # ... unless the miss would move the state by less than this fraction of itself per step
+STIFF = 10.0      # a flagged step ending where h * (spectral radius of J) exceeds this is redone by backward Euler
+EDGE = 1e-9       # s: parameters at a piece's ends are its one-sided limits, taken this far inside
 
 
-def _step_function(f: Callable, n: int) -> Callable:
+def _step_function(f: Callable, n: int, checked: int | None = None) -> Callable:
     """One ROS2 step (see :func:`_ros2`): k1 = W f(t0, x), k2 = W (f(t1, x + h k1) - 2 k1),
-    x + h (3 k1 + k2) / 2, with W flat (row-major). For a few states the products with W are
-    generated as scalar Python (no array per stage: a step costs little more than its two calls of
-    f); for many, numpy does them."""
+    x + h (3 k1 + k2) / 2, with W flat (row-major). Returns the new state and whether the
+    Jacobian behind W held along the step: stage 2 evaluates b = f(t1, x + h k1), which the
+    Jacobian J of W predicts as a + h J k1 = a + (k1 - a)/gamma (from (I - gamma h J) k1 = a,
+    a = f(t0, x)); the step is flagged when, for some state, the miss exceeds LINEARITY |a| +
+    SLACK |x| / h (NaN fails). That happens when the stiffness grew since J was formed (a leak whose
+    flow left zero: d(R4^2 f|f|)/df = 2 R4^2 |f|), where the W-method turns unstable once the true
+    stiffness exceeds some 4 times J's, and at a Coulomb friction reversal, where a fresh J changes
+    nothing. A few hundred of the 60 000 steps of a CyCab run are flagged. Only the first
+    ``checked`` states (default all) are checked: the storage states, where stiff modes live; the
+    sensor integrals after them are quadratures of those.
+    For a few states the products with W are generated as scalar Python (no array per stage: a
+    step costs little more than its two calls of f); for many, numpy does them."""
+    q, ig = 1.0 - 1.0 / GAMMA, 1.0 / GAMMA
+    m = n if checked is None else checked
     if n > UNROLLED or n == 0:
-        def step(t0: float, t1: float, h: float, x: tuple, W: tuple, p0: tuple, p1: tuple) -> tuple:
+        def step(t0: float, t1: float, h: float, x: tuple, W: tuple, p0: tuple, p1: tuple) -> tuple[tuple, bool]:
             Wm = np.asarray(W).reshape(n, n)
             xv = np.asarray(x)
-            k1 = Wm @ np.asarray(f(t0, x, p0))
-            k2 = Wm @ (np.asarray(f(t1, tuple(xv + h * k1), p1)) - 2.0 * k1)
-            return tuple(xv + h * (1.5 * k1 + 0.5 * k2))
+            a = np.asarray(f(t0, x, p0))
+            k1 = Wm @ a
+            b = np.asarray(f(t1, tuple(xv + h * k1), p1))
+            k2 = Wm @ (b - 2.0 * k1)
+            ok = bool(np.all((np.abs(b - q * a - ig * k1) <= LINEARITY * np.abs(a) + SLACK / h * np.abs(xv))[:m]))
+            return tuple(xv + h * (1.5 * k1 + 0.5 * k2)), ok
         return step
     r = range(n)
     xs, ws = [f"x{i}" for i in r], [f"w{i}_{j}" for i in r for j in r]
@@ -305,7 +329,11 @@ def _step_function(f: Callable, n: int) -> Callable:
     lines += [f"    k{i} = " + " + ".join(f"w{i}_{j}*a{j}" for j in r) for i in r]
     lines += [f"    {', '.join(f'b{i}' for i in r)}, = f(t1, ({''.join(f'x{i} + h*k{i}, ' for i in r)}), p1)"]
     lines += [f"    c{i} = " + " + ".join(f"w{i}_{j}*(b{j} - 2.0*k{j})" for j in r) for i in r]
-    lines += [f"    return ({''.join(f'x{i} + h*(1.5*k{i} + 0.5*c{i}), ' for i in r)})"]
+    lines += [f"    s = {SLACK!r}/h",
+              "    ok = (" + " and\n          ".join(
+                  f"abs(b{i} - {q!r}*a{i} - {ig!r}*k{i}) <= {LINEARITY!r}*abs(a{i}) + s*abs(x{i})"
+                  for i in range(m)) + ")" if m else "    ok = True"]
+    lines += [f"    return ({''.join(f'x{i} + h*(1.5*k{i} + 0.5*c{i}), ' for i in r)}), ok"]
     namespace = {"f": f}
     exec("\n".join(lines), namespace)
     return namespace["step"]
@@ -322,7 +350,8 @@ class Trajectory:
 def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapping[str, float]],
              breakpoints: Sequence[float] = (), initial: Mapping[str, float] | None = None,
              method: str = "auto", max_step: float | None = None, progress: Callable[[float], None] | None = None,
-             vectorised: bool = False, stages: dict[str, float] | None = None) -> Trajectory:
+             vectorised: bool = False, stages: dict[str, float] | None = None,
+             tolerances: tuple[float, float] = (1e-6, 1e-9)) -> Trajectory:
     """Simulate on ``t_eval``. ``values(t)`` gives every parameter, efficiency factor and mode
     variable at time t (faults included); ``breakpoints`` are the instants where they jump. With
     ``vectorised``, ``values`` also takes an array of times and gives arrays (or constants): the
@@ -333,7 +362,8 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
     equations are discontinuous (Coulomb friction sign(v), leakage sqrt|dp|: error-controlled
     methods stall at the switching surface when a velocity sticks near zero, and a leak makes the
     problem stiff; a fixed step bounds the chatter to F_c/J * h, far below sensor resolution),
-    LSODA otherwise.
+    LSODA otherwise. ``tolerances``: rtol and atol of the scipy methods (a leak makes the pressure
+    so sensitive to the flows, dp = R4^2 f|f|, that checking it takes far tighter ones).
 
     ``stages``: if given, the CPU seconds of each stage are added to it: ``build`` (state
     equations), ``integrate``, ``outputs``."""
@@ -343,35 +373,42 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
     edges = sorted({float(t_eval[0]), float(t_eval[-1])} | {float(b) for b in breakpoints if t_eval[0] < b < t_eval[-1]})
     cache: dict[frozenset, System] = {}
     max_step = max_step or float(np.min(np.diff(t_eval))) if t_eval.size > 1 else None
-    pieces: list[tuple[System, np.ndarray, np.ndarray]] = []
+    pieces: list[tuple[System, np.ndarray, np.ndarray, tuple[float, float]]] = []
     configs: list[tuple[float, frozenset[str]]] = []
     system: System | None = None
     x = None
+    span = (edges[0], edges[0])
     for a, b in zip(edges[:-1], edges[1:]):
         spec, opened = _specialise(model, values(0.5 * (a + b)))
         if opened not in cache:
             with clock("build"):
                 cache[opened] = _build(spec, opened)
         new = cache[opened]
+        # the piece's parameters are their limits from inside it: at a switching instant a profile
+        # may give the other side's value, or a mean (R4 = inf at the onset of a leak)
+        previous, span = span, (a + min(EDGE, 0.25 * (b - a)), b - min(EDGE, 0.25 * (b - a)))
+        # a state new in this configuration starts on the constraint that just ended (an opened
+        # leak with no flow yet): the first step is then one of backward Euler (see _ros2)
+        fresh_states = system is not None and bool(set(new.states) - set(system.states))
         if system is None:
-            x = _initial_state(new, initial, a, values(a))
+            x = _initial_state(new, initial, a, values(span[0]))
         elif new is not system:
-            x = _carry_over(system, new, x, a, values(a - 1e-9))
+            x = _carry_over(system, new, x, a, values(previous[1]))
         if new is not system:
             configs.append((a, new.open_resistors))
         system = new
         mask = (t_eval >= a) & ((t_eval < b) | (b == edges[-1]))
         pts = t_eval[mask]
-        table = _ParameterTable(values, system.param_names, vectorised)
+        table = _ParameterTable(values, system.param_names, vectorised, span)
         how = method if method != "auto" else ("ros2" if system.discontinuous else "LSODA")
         with clock("integrate"):
             if how == "ros2":
-                sol = _ros2(system, table, a, b, x, pts, min(max_step or 1e-3, 1e-3))
+                sol = _ros2(system, table, a, b, x, pts, min(max_step or 1e-3, 1e-3), implicit_start=fresh_states)
             else:
-                sol = _scipy(system, table, how, a, b, x, pts, max_step)
+                sol = _scipy(system, table, how, a, b, x, pts, max_step, tolerances)
         x = sol.end
         if pts.size:
-            pieces.append((system, sol.t, sol.y))
+            pieces.append((system, sol.t, sol.y, span))
         if progress:
             progress(b)
     with clock("outputs"):
@@ -397,14 +434,19 @@ class _StageClock:
 class _ParameterTable:
     """The parameter vectors of one system at given instants: one call of ``values`` on an array
     of times when it is vectorised, otherwise one call per instant (the last one remembered:
-    integrators ask the same instant repeatedly)."""
+    integrators ask the same instant repeatedly). Instants are clipped into ``span`` (the piece,
+    shrunk by EDGE at both ends), so that a piece never sees the value a profile takes at the
+    switching instant that bounds it."""
 
-    def __init__(self, values: Callable, names: list[str], vectorised: bool):
+    def __init__(self, values: Callable, names: list[str], vectorised: bool,
+                 span: tuple[float, float] = (-np.inf, np.inf)):
         self.values, self.names, self.vectorised = values, names, vectorised
+        self.span = span
         self._last: tuple[float | None, tuple] = (None, ())
 
     def at(self, tt: float) -> tuple:
         """The parameters at one instant."""
+        tt = min(max(tt, self.span[0]), self.span[1])
         if self._last[0] != tt:
             v = self.values(tt)
             self._last = (tt, tuple(float(v[n]) for n in self.names))
@@ -414,6 +456,7 @@ class _ParameterTable:
         """The parameters at every instant of ``times``, (len(times), len(names))."""
         if not self.vectorised:
             return np.array([self.at(float(tt)) for tt in times]).reshape(len(times), len(self.names))
+        times = np.clip(times, *self.span)
         v = self.values(times)
         return np.column_stack([np.broadcast_to(np.asarray(v[n], dtype=float), times.shape) for n in self.names]
                                ) if self.names else np.zeros((len(times), 0))
@@ -433,32 +476,33 @@ class _ParameterTable:
 
 
 def _scipy(system: System, table: _ParameterTable, how: str, a: float, b: float, x: np.ndarray,
-           pts: np.ndarray, max_step: float | None) -> _Solution:
+           pts: np.ndarray, max_step: float | None, tolerances: tuple[float, float] = (1e-6, 1e-9)) -> _Solution:
     """One piece by a scipy ``solve_ivp`` method (scipy.integrate imported here: loading it costs
     a third of a second that a ROS2 run does not need)."""
     from scipy.integrate import solve_ivp
 
     def rhs(tt, xx):
         return system.derivative(tt, xx, table.at(tt))
+    rtol, atol = tolerances
     sol = solve_ivp(rhs, (a, b), x, method=how, t_eval=pts if pts.size else None,
-                    max_step=max_step or np.inf, rtol=1e-6, atol=1e-9)
+                    max_step=max_step or np.inf, rtol=rtol, atol=atol)
     if not sol.success:
         raise SimulationError(f"integration failed between {a:g} s and {b:g} s: {sol.message} "
                               "(try method ros2)")
     end = sol.y[:, -1]
     if pts.size and sol.t[-1] < b:              # t_eval stopped short of the piece's end
         end = solve_ivp(rhs, (sol.t[-1], b), end, method=how, max_step=max_step or np.inf,
-                        rtol=1e-6, atol=1e-9).y[:, -1]
+                        rtol=rtol, atol=atol).y[:, -1]
     return _Solution(sol.t, sol.y, end)
 
 
-def _trajectory(model: Model, pieces: list[tuple[System, np.ndarray, np.ndarray]], values: Callable,
-                vectorised: bool, configs: list) -> Trajectory:
+def _trajectory(model: Model, pieces: list[tuple[System, np.ndarray, np.ndarray, tuple[float, float]]],
+                values: Callable, vectorised: bool, configs: list) -> Trajectory:
     """Outputs at the output points of every piece, computed over all the piece's samples at once."""
     out_sig: dict[str, list] = {}
     out_states: dict[str, list] = {}
-    for system, ts, ys in pieces:
-        table = _ParameterTable(values, system.param_names, vectorised)
+    for system, ts, ys, span in pieces:
+        table = _ParameterTable(values, system.param_names, vectorised, span)
         P = table.rows(ts)
         dx = np.array([system.derivative(tt, y, p) for tt, y, p in zip(ts, ys.T.tolist(), P.tolist())],
                       dtype=float).reshape(len(ts), -1)
@@ -467,7 +511,7 @@ def _trajectory(model: Model, pieces: list[tuple[System, np.ndarray, np.ndarray]
             out_sig.setdefault(name, []).append(np.broadcast_to(np.asarray(v, dtype=float), ts.shape))
         for name, v in zip(system.states, ys):
             out_states.setdefault(name, []).append(v)
-    n = sum(len(ts) for _, ts, _ in pieces)
+    n = sum(len(ts) for _, ts, _, _ in pieces)
     sig = {k: np.concatenate(v) for k, v in out_sig.items()}
     sig = {k: v for k, v in sig.items() if len(v) == n}
     states = {k: np.concatenate(v) for k, v in out_states.items()}
@@ -475,7 +519,7 @@ def _trajectory(model: Model, pieces: list[tuple[System, np.ndarray, np.ndarray]
     for s in model.sensors.values():
         if s.measures in ("displacement", "momentum"):
             sig[s.name] = states.get(s.name, np.zeros(n))
-    t_all = np.concatenate([ts for _, ts, _ in pieces]) if pieces else np.zeros(0)
+    t_all = np.concatenate([ts for _, ts, _, _ in pieces]) if pieces else np.zeros(0)
     return Trajectory(t_all, sig, states, configs)
 
 
@@ -508,7 +552,7 @@ def _ros2_grid(a: float, b: float, pts: np.ndarray, h_max: float) -> tuple[np.nd
 
 
 def _ros2(system: System, table: _ParameterTable, a: float, b: float, x: np.ndarray, pts: np.ndarray,
-          h_max: float, jac_every: int = 5) -> _Solution:
+          h_max: float, jac_every: int = 5, implicit_start: bool = False) -> _Solution:
     """ROS2 (Verwer, Spee, Blom & Hundsdorfer 1999): L-stable, order 2 with any Jacobian approximation
     (a W-method), so a finite-difference Jacobian is refreshed only every ``jac_every`` steps.
     Fixed step, landing exactly on every output point and on b.
@@ -517,8 +561,21 @@ def _ros2(system: System, table: _ParameterTable, a: float, b: float, x: np.ndar
         g = 1 + 1/sqrt(2).
 
     W = (I - g h J)^-1 is formed when the Jacobian is refreshed; a step is one call of
-    ``system.step`` with the (prepared) parameters at both stages tabulated beforehand."""
-    g = 1.0 + 1.0 / np.sqrt(2.0)
+    ``system.step`` with the (prepared) parameters at both stages tabulated beforehand.
+
+    Order 2 holds for any J, stability does not. A step whose stage 2 shows that the stiffness
+    outgrew J (see :func:`_step_function`) is redone with J refreshed at its start; if it is still
+    flagged and ends where the system is stiff at the step's scale (:func:`_stiff`), it is replaced
+    by a step of backward Euler solved by Newton's method (:func:`_implicit_euler`). That is a stiff
+    law with no slope where the step starts: a leak whose flow f crosses zero as the pressure
+    reverses, d(R4^2 f|f|)/df = 0 there, so no Jacobian taken at the start sees the stiffness and
+    a linearly implicit step overshoots the leak's flow many times over (then dp = R4^2 f|f| by its
+    square); backward Euler, L-stable and solved to convergence, lands on the slow manifold (the leak's flow
+    at the pressure the rest imposes). A flagged step that ends non-stiff (a Coulomb reversal: the
+    jump has no slope to find) keeps its ROS2 result, so runs without a leak are as before.
+
+    ``implicit_start``: the first step is one of backward Euler, as after a configuration change
+    that adds a state: it starts from the constraint that just ended (an opened leak, no flow yet)."""
     starts, sizes, reached = _ros2_grid(a, b, pts, h_max)
     c0, c1 = table.prepared(starts, system.prepare), table.prepared(starts + sizes, system.prepare)
     n_state = len(x)
@@ -528,13 +585,22 @@ def _ros2(system: System, table: _ParameterTable, a: float, b: float, x: np.ndar
     marks = set(reached)
     W, h_used = None, None
     step, f = system.step, system.f
+    first = 0 if implicit_start else -1
     if 0 in marks:
         saved[0] = xx
     for k, (tt, h) in enumerate(zip(starts.tolist(), sizes.tolist())):
-        if W is None or k % jac_every == 0 or h != h_used:
-            W = tuple(np.linalg.inv(eye - g * h * _jacobian(f, tt, xx, c0[k])).ravel().tolist())
+        fresh = k % jac_every == 0 or h != h_used
+        if fresh:
+            W = tuple(np.linalg.inv(eye - GAMMA * h * _jacobian(f, tt, xx, c0[k])).ravel().tolist())
             h_used = h
-        xx = step(tt, tt + h, h, xx, W, c0[k], c1[k])
+        new, ok = step(tt, tt + h, h, xx, W, c0[k], c1[k])
+        if not ok or k == first:                       # rare: a few hundred steps in 60 000
+            if not ok and not fresh:
+                W = tuple(np.linalg.inv(eye - GAMMA * h * _jacobian(f, tt, xx, c0[k])).ravel().tolist())
+                new, ok = step(tt, tt + h, h, xx, W, c0[k], c1[k])
+            if k == first or not ok and _stiff(f, tt + h, h, new, c1[k]):
+                new = _implicit_euler(f, tt + h, h, xx, c1[k]) or new
+        xx = new
         if k + 1 in marks:
             saved[k + 1] = xx
     ys = [saved[r] for r in reached]
@@ -542,17 +608,70 @@ def _ros2(system: System, table: _ParameterTable, a: float, b: float, x: np.ndar
                      np.asarray(ys, dtype=float).T if ys else np.zeros((n_state, 0)), np.asarray(xx, dtype=float))
 
 
-def _jacobian(f: Callable, tt: float, x: tuple, c: tuple) -> np.ndarray:
-    """Forward-difference Jacobian of x' (steps 1e-7 relative); non-finite entries set to zero
-    (a square root at zero, say)."""
-    f0 = f(tt, x, c)
+def _stiff(f: Callable, t1: float, h: float, y: tuple, c: tuple) -> bool:
+    """Whether the system is stiff at the scale of the step where a step ends: the spectral radius
+    of h J there (unit-free) above STIFF, or the end not finite."""
+    if not all(np.isfinite(y)):
+        return True
+    return bool(np.max(np.abs(np.linalg.eigvals(h * _jacobian(f, t1, y, c)))) > STIFF)
+
+
+def _implicit_euler(f: Callable, t1: float, h: float, x: tuple, c: tuple, iterations: int = 60) -> tuple | None:
+    """y = x + h f(t1, y), by Newton's method from y = x with the Jacobian at every iterate (a
+    leak's law is monotone: from the overshoot of the first iterate each one halves the excess, then
+    converges quadratically). When the residual stops falling (three iterations running; Newton
+    cycles at a Coulomb reversal, where the step's solution sticks between the two signs) or
+    ``iterations`` are spent, the iterate of least residual after the start (None if there is
+    none: the first solve failed or left the floats)."""
+    xv = np.asarray(x, dtype=float)
+    if not xv.size:
+        return x
+    y = xv.copy()
+    eye = np.eye(len(xv))
+    weights, best, least, previous, stalled = None, None, np.inf, np.inf, 0
+    for k in range(iterations):
+        fy = np.asarray(f(t1, tuple(y.tolist()), c), dtype=float)
+        residual = xv + h * fy - y
+        if weights is None:                    # residuals are measured on the scale of the start
+            scale = np.abs(xv) + h * np.abs(fy)
+            weights = 1.0 / np.where(scale > 0, scale, 1.0)
+        size = float(np.max(np.abs(residual) * weights))
+        if not size == size:                   # NaN
+            break
+        if k and size < least:
+            best, least = y, size
+        stalled = stalled + 1 if size > 0.9 * previous else 0
+        if stalled >= 3:
+            break
+        previous = size
+        jac = _jacobian(f, t1, tuple(y.tolist()), c, fy.tolist())
+        try:
+            d = np.linalg.solve(eye - h * jac, residual)
+        except np.linalg.LinAlgError:
+            break
+        y = y + d
+        if not np.all(np.isfinite(y)):
+            break
+        if np.all(np.abs(d) <= 1e-10 * (np.abs(y) + h * np.abs(fy))):
+            return tuple(y.tolist())
+    return None if best is None else tuple(best.tolist())
+
+
+def _jacobian(f: Callable, tt: float, x: tuple, c: tuple, f0: Sequence[float] | None = None) -> np.ndarray:
+    """Forward-difference Jacobian of x' (steps 1e-7 relative, at least 1e-10 absolute); non-finite
+    entries set to zero (a square root at zero, say). ``f0``: f(tt, x, c) when known. The floor is
+    small because a stiff law may bend within a small fraction of a state: a floor of 1e-7 moved
+    the CyCab's motor momentum (2e-3) by 5e-5 of itself and the pump's flow by 2.5e-9 m^3/s, more
+    than a whole leak's flow at R4 = 1e11, whose slope the Jacobian then missed."""
+    if f0 is None:
+        f0 = f(tt, x, c)
     columns = []
     for j, xj in enumerate(x):
-        d = 1e-7 * max(1.0, abs(xj))
+        d = 1e-7 * max(1e-3, abs(xj))
         fj = f(tt, (*x[:j], xj + d, *x[j + 1:]), c)
         columns.append([(a - b) / d for a, b in zip(fj, f0)])
     jac = np.array(columns, dtype=float).T
-    if not np.all(np.isfinite(jac)):
+    if not np.isfinite(jac).all():
         jac = np.nan_to_num(jac, nan=0.0, posinf=0.0, neginf=0.0)
     return jac
 

@@ -1,6 +1,7 @@
 """Simulation from the YAML: CyCab scenarios, an analytic check, other models, bad scenarios."""
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -12,11 +13,13 @@ from bondgraph.simulation import build_system, simulate
 from fdi.cli import main
 from fdi.data import Measurements, read_csv, signals_from_data
 from fdi.residuals import compile_residuals, evaluate
-from fdi.scenario import ScenarioError, load_scenario, parse_scenario, run
+from fdi.scenario import ScenarioError, breakpoints, load_scenario, parse_scenario, run, time_functions
 
 from .conftest import DATA, MODELS
 
 THRESHOLDS = np.array([1.0, 5.5e-6, 15.0])
+SUITE = MODELS / "scenarios" / "suite_cycab_steering"
+R4_FAULTS = ["r4_incipient", "r4_intermittent", "r4_abrupt_small"]
 
 
 @pytest.fixture(scope="module")
@@ -181,3 +184,56 @@ def test_ros2_converges_at_second_order_to_a_tight_scipy_reference(make, T):
                           for i, s in enumerate(system.states)))
     assert errors[0] < 1e-4
     assert errors[0] / errors[1] > 3.0
+
+
+@pytest.mark.parametrize("name", R4_FAULTS)
+def test_r4_faults_simulate_and_the_oil_obeys_the_leak_law(cycab, name):
+    """R4 faults other than the reference abrupt ones: an incipient leak from R4 = inf (eq. 17:
+    1/R4 = -b2 (t - t0)), one that opens and closes every 3 s, an abrupt one from another state.
+    They simulate, and the cylinder's oil balance holds with the orifice law: the flow the pump
+    delivers, k5 k4 theta1', minus the flow the piston takes, A r_a cos(beta + theta2) theta2'
+    (both from the simulated angles, differentiated), is the leak's flow sign(dp) sqrt|dp| / R4(t)
+    while R4 is finite, and nothing while it is infinite."""
+    shipped = load_scenario(SUITE / f"{name}.json", cycab)
+    exact = dataclasses.replace(shipped, noise={"p1": 0.0, "p2": 0.0},
+                                resolution={c: 0.0 for c in ("theta1", "theta2", "p1", "p2")})
+    cols = run(cycab, exact)                      # raises on any sample that is not finite
+    assert all(np.all(np.isfinite(v)) for v in cols.values())
+    t, th1, th2, dp = cols["t"], cols["theta1"], cols["theta2"], cols["p1"] - cols["p2"]
+    assert np.abs(dp).max() < 4e6                 # within the transducers' 40 bar
+    p = {k: v.value for k, v in cycab.parameters.items()}
+    beta = np.arctan(p["w"] / (2 * p["L"]))
+    pump = p["k5"] * p["k4"] * np.gradient(th1, t)
+    leak = pump - p["A"] * p["r_a"] * np.cos(beta + th2) * np.gradient(th2, t)
+    R4 = np.broadcast_to(time_functions(cycab, exact)[0](t)["R4"], t.shape)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        law = np.where(np.isfinite(R4), np.sign(dp) * np.sqrt(np.abs(dp)) / R4, 0.0)
+    edges = np.array([0.0, exact.T, *breakpoints(exact)])
+    away = np.abs(t[:, None] - edges[None, :]).min(axis=1) > 0.05
+    scale = np.abs(pump).max()
+    assert np.abs(law[away]).max() > 0.05 * scale                  # it leaks
+    assert np.abs(leak - law)[away].max() < 0.01 * scale
+    assert np.median(np.abs(leak - law)[away]) < 1e-4 * scale
+
+
+@pytest.mark.parametrize("name", ["r4_incipient", "r4_intermittent"])
+def test_r4_onset_agrees_with_radau_at_tight_tolerances(cycab, name):
+    """Across the onset (the configuration switch: a new state whose leak has no flow yet, R4
+    falling from inf as 1/(t - t0) for the incipient fault), the ROS2 run of bgfdi simulate (1 ms
+    steps) against scipy's Radau at rtol 1e-10 (error-controlled, its own Newton iteration) from
+    the same state 0.2 s before: the angles within the encoders' resolution, dp within 5 kPa (2.5
+    times the pressure sensors' noise: dp = R4^2 f|f| is steep in the flow, d dp/df = 2 R4 sqrt|dp|,
+    some 2e12 Pa s/m^3 at R4 = 2e9, where 1 ms steps leave 3.5 kPa, 1 % of the swing)."""
+    sc = load_scenario(SUITE / f"{name}.json", cycab)
+    values, _ = time_functions(cycab, sc)
+    t0 = sc.faults[0].t0
+    n0 = int(round((t0 - 0.2) * sc.fs))
+    t = np.arange(n0, int(round((t0 + 0.3) * sc.fs)) + 1) / sc.fs
+    kw = {"values": values, "breakpoints": breakpoints(sc), "vectorised": True}
+    before = simulate(cycab, np.arange(n0 + 1) / sc.fs, initial={**cycab.initial, **sc.initial}, **kw)
+    start = {k: v[-1] for k, v in before.states.items()}
+    ours = simulate(cycab, t, initial=start, **kw)
+    radau = simulate(cycab, t, initial=start, method="Radau", tolerances=(1e-10, 1e-15), **kw)
+    err = {s: np.abs(ours.signals[s] - radau.signals[s]) for s in ("theta1", "theta2", "dp")}
+    assert err["theta1"].max() < 6.3e-4 and err["theta2"].max() < 7.7e-4
+    assert err["dp"].max() < 5e3
