@@ -235,10 +235,10 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
         now = float(meas.t[j])
     if report["episodes"]:
         timings["re-diagnosis"] = time.perf_counter() - clock
-        kept, dropped = significant(path, meas, raw, det.time, now, samples, report["diagnosis"]["faults"], weights)
-        if dropped:
-            report["diagnosis"]["faults"] = kept
-            report["insignificant"] = dropped
+    kept, dropped = significant(path, meas, raw, det.time, now, samples, report["diagnosis"]["faults"], weights)
+    if dropped:
+        report["diagnosis"]["faults"] = kept
+        report["insignificant"] = dropped
     incipient = [f for f in report["diagnosis"]["faults"] if f["type"] == "incipient"]
     if incipient:
         clock = time.perf_counter()
