@@ -34,6 +34,7 @@ from bondgraph.model import Model
 from .data import DataError, Measurements, checked, read_csv
 from .diagnose import Options, deterministic, public
 from .diagnose import diagnose as _diagnose
+from .report import describe_fault
 
 
 @dataclass
@@ -98,22 +99,12 @@ class Diagnosis:
         rows = [("detection", "none" if d is None else
                  f"t<sub>D</sub> = {d['time']:.2f} s, coherence {d['coherence']}; at {d['decision_time']:.2f} s: "
                  f"{d['final_coherence']}")]
-        rows += [(f["name"], _describe(f)) for f in self.faults] or [("diagnosis", "no fault")]
+        rows += [(f["name"], describe_fault(f).split(": ", 1)[1]) for f in self.faults] or [("diagnosis", "no fault")]
         rows += [(f"RUL of {p['name']}", f"{p['rul']:.2f} s at {p['at']:.2f} s (EOL {p['eol']:.2f} s)")
                  for p in self.prognosis if p.get("rul") is not None]
         body = "".join(f"<tr><th style='text-align:left'>{html.escape(str(k))}</th><td style='text-align:left'>"
                        f"{html.escape(str(v)) if '<sub>' not in str(v) else v}</td></tr>" for k, v in rows)
         return f"<table><caption>bgfdi diagnosis</caption>{body}</table>"
-
-
-def _describe(f: dict) -> str:
-    if f["type"] == "abrupt":
-        return f"abrupt, value {f['value']:.5g}"
-    if f["type"] == "intermittent":
-        return f"intermittent, value {f['value']:.5g}, period {f['period']:.4g} s"
-    if f["type"] == "incipient":
-        return f"incipient, model {f['model']}, b = {[round(x, 6) for x in f['b']]}"
-    return f"mode fault (value {f['value']})"
 
 
 def model_file(model: str | Path | Model) -> str:

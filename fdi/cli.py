@@ -383,12 +383,12 @@ def _options(args: argparse.Namespace, model: Model):
 def _report_dict(report: dict, timings: bool) -> dict:
     """The public report; wall-clock times only with ``--timings`` (the estimators' wall_s and
     objective_s, and ``timings`` by stage), so that two runs of one diagnosis are byte-identical."""
-    from .diagnose import public
+    from .diagnose import deterministic, public
     out = public(report)
     if timings:
         out["timings"] = public(dict(report.get("_timings", {})))
         return out
-    return _strip_timings(out)
+    return deterministic(out)
 
 
 def _timings_line(report: dict) -> str:
@@ -542,6 +542,7 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     import json
 
     from .data import blocks, open_text
+    from .diagnose import deterministic
     from .identify import compiled
     from .monitor import Monitor
 
@@ -551,7 +552,7 @@ def cmd_monitor(args: argparse.Namespace) -> int:
 
     def emit(event: dict) -> None:
         if not args.timings:
-            event = _strip_timings(event)
+            event = deterministic(event)
         line = json.dumps(event, sort_keys=False, default=float)
         if args.output and not is_stdout(args.output):
             lines.append(line)
@@ -570,12 +571,6 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     if lines:
         write_atomic(args.output, "\n".join(lines) + "\n")
     return 0
-
-
-def _strip_timings(x):
-    """An event or report without wall-clock entries (so that two runs print the same lines)."""
-    from .diagnose import deterministic
-    return deterministic(x)
 
 
 def cmd_demo(args: argparse.Namespace) -> int:

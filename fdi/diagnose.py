@@ -208,13 +208,10 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
         # closed also looks like a clogged one, and a pair of component faults can over-fit the window)
         report["mode"] = mode_fault["mode"]
         report["diagnosis"]["faults"] = mode_fault["faults"]
-        report["alternatives"] = [{"candidate": list(e.candidate), "faults": e.faults, "cost": e.cost,
-                                   "criterion": information(e.cost, e.faults, n_eff)
-                                   - information(mode_fault["cost"], mode_fault["faults"], n_eff)}
-                                  for e in results if information(e.cost, e.faults, n_eff)
-                                  - information(mode_fault["cost"], mode_fault["faults"], n_eff) < 2.0]
+        report["alternatives"] = alternatives(results, mode_fault, n_eff)
         return report
-    report["alternatives"] = alternatives(results, best, n_eff, mode_fault)
+    report["alternatives"] = alternatives(results, {"cost": best.cost, "faults": best.faults}, n_eff, mode_fault,
+                                          skip=best)
     report["diagnosis"]["faults"] = best.faults
     report["winner"] = list(best.candidate)
     win = window(meas.t, raw, det.time, samples, model.derivative_window)
@@ -287,10 +284,8 @@ def significant(path: str, meas: Measurements, raw: dict, t_d: float, now: float
     transient of ARR1 had asked for). A fault that is structurally needed but numerically a no-op
     is reported apart, not hidden."""
     model, _, residuals = compiled(path)
-    i0 = int(np.searchsorted(meas.t, t_d - 1e-9))
-    i1 = int(np.searchsorted(meas.t, now, side="right"))
-    span = min(max(samples, i1 - i0), MAX_GROWTH * samples)
-    win = window(meas.t, raw, float(meas.t[max(i0, i1 - span)]), span, model.derivative_window)
+    start, span = since_detection(meas.t, t_d, now, samples, MAX_GROWTH)
+    win = window(meas.t, raw, start, span, model.derivative_window)
     n_eff = effective_samples(span, len(residuals), meas.ts, model.derivative_window)
 
     def cost(fs: list[dict]) -> float:
@@ -340,6 +335,15 @@ def refit_early_onsets(path: str, meas: Measurements, raw: dict, t_d: float, sam
     return out
 
 
+def since_detection(t: np.ndarray, t_d: float, end: float, samples: int, cap: int) -> tuple[float, int]:
+    """(start, samples) of the window from the detection t_D to ``end`` (at least ``samples`` long,
+    at most ``cap`` identification windows, keeping the latest data when capped)."""
+    i0 = int(np.searchsorted(t, t_d - 1e-9))
+    i1 = int(np.searchsorted(t, end, side="right"))
+    span = min(max(samples, i1 - i0), cap * samples, t.size - i0)
+    return float(t[max(i0, min(i1, t.size) - span)]), span
+
+
 MAX_GROWTH = 6      # a re-decision fits at most this many times the identification window
 
 
@@ -363,10 +367,7 @@ def redecide(path: str, meas: Measurements, raw: dict, det, weights: np.ndarray,
             plan.append((tuple(x for x in c if x not in names), known, (t_change, t_change + model.derivative_window)))
         if names < set(c) or len(c) <= len(names):
             plan.append((tuple(c), [], None))
-    i0 = int(np.searchsorted(meas.t, det.time - 1e-9))
-    i1 = int(np.searchsorted(meas.t, t_decision, side="right"))
-    span = min(max(samples, i1 - i0), MAX_GROWTH * samples)
-    start = float(meas.t[max(i0, i1 - span)])
+    start, span = since_detection(meas.t, det.time, t_decision, samples, MAX_GROWTH)
     results = run_estimators(path, meas.t, raw, start, span, [p[0] for p in plan], weights, settings,
                              o.seed + 7919 * episode, o.workers, None, [p[1] for p in plan], [p[2] for p in plan],
                              [[known] for _ in plan], memo)
@@ -405,9 +406,7 @@ def refresh_prognosis(path: str, meas: Measurements, report: dict, options: Opti
     weights = 1.0 / thresholds if o.weights == "thresholds" else np.ones(len(names))
     samples = o.samples or model.samples
     raw = signals_from_data(model, meas)
-    i0 = int(np.searchsorted(meas.t, report["detection"]["time"] - 1e-9))
-    span = min(meas.t.size - i0, MAX_REFIT * samples)
-    start = float(meas.t[meas.t.size - span])
+    start, span = since_detection(meas.t, report["detection"]["time"], float(meas.t[-1]), samples, MAX_REFIT)
     t0 = min(f["t0"] for f in growing)
     w = model.derivative_window
     settings = {"engine": o.engine, "pop": o.pop, "generations": o.generations}
@@ -460,19 +459,17 @@ def select_winner(results, n_eff: float):
     return min(results, key=lambda e: (information(e.cost, e.faults, n_eff), len(e.candidate)))
 
 
-def alternatives(results, winner, n_eff: float, mode_fault: dict | None = None) -> list[dict]:
-    """Explanations the data hardly separate from the winner (criterion within 2 of it: a valve
-    stuck closed and its conductance at zero), with their costs, for the report."""
-    best = information(winner.cost, winner.faults, n_eff)
-    out = [{"candidate": list(e.candidate), "faults": e.faults, "cost": e.cost,
-            "criterion": information(e.cost, e.faults, n_eff) - best}
-           for e in results if e is not winner and information(e.cost, e.faults, n_eff) - best < 2.0]
-    if mode_fault is not None:
-        d = information(mode_fault["cost"], mode_fault["faults"], n_eff) - best
-        if d < 2.0:
-            out.append({"candidate": [f["name"] for f in mode_fault["faults"]], "faults": mode_fault["faults"],
-                        "cost": mode_fault["cost"], "criterion": d})
-    return sorted(out, key=lambda a: a["criterion"])
+def alternatives(results, winner: dict, n_eff: float, mode_fault: dict | None = None, skip=None) -> list[dict]:
+    """Explanations the data hardly separate from the winner (``cost`` and ``faults``; criterion
+    within 2 of it: a valve stuck closed and its conductance at zero), with their costs, for the
+    report. ``skip``: the estimator that is the winner."""
+    best = information(winner["cost"], winner["faults"], n_eff)
+    others = [(list(e.candidate), e.faults, e.cost) for e in results if e is not skip]
+    if mode_fault is not None and mode_fault is not winner:
+        others.append(([f["name"] for f in mode_fault["faults"]], mode_fault["faults"], mode_fault["cost"]))
+    out = [{"candidate": c, "faults": fs, "cost": cost, "criterion": information(cost, fs, n_eff) - best}
+           for c, fs, cost in others]
+    return sorted((a for a in out if a["criterion"] < 2.0), key=lambda a: a["criterion"])
 
 
 def deterministic(x):

@@ -29,9 +29,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .data import Measurements
+from .cli_errors import UsageError
+from .data import DataError, Measurements
 from .diagnose import Options, diagnose, public, refresh_prognosis
-from .identify import compiled
+from .identify import compiled, fault_space
 from .prognose import end_of_life
 from .scenario import FaultEvent, load_scenario, run
 
@@ -55,13 +56,6 @@ class Score:
 
     def to_dict(self) -> dict:
         return asdict(self)
-
-
-def _nominal(model, target: str) -> float:
-    f = model.faults[target]
-    if f.kind in ("sensor", "source") or len(f.targets) > 1:
-        return 1.0
-    return model.parameters[f.targets[0]].value
 
 
 def _relative(found: float, true: float) -> float:
@@ -136,7 +130,7 @@ def rul_checkpoints(model_path: str, model, scenario, meas: Measurements, report
         failure = e.failure if e.failure is not None else model.faults[e.target].failure
         if e.type != "incipient" or failure is None:
             continue
-        eol = end_of_life(e.model, list(e.b), _nominal(model, e.target), failure, e.t0, e.t0)
+        eol = end_of_life(e.model, list(e.b), fault_space(model, e.target).nominal, failure, e.t0, e.t0)
         if not math.isfinite(eol):
             continue
         for fraction in LIFE_POINTS:
@@ -151,7 +145,7 @@ def rul_checkpoints(model_path: str, model, scenario, meas: Measurements, report
             prefix = Measurements(meas.path, meas.t[:k], {c: v[:k] for c, v in meas.columns.items()})
             try:
                 part = public(diagnose(model_path, prefix, o))
-            except Exception as exc:         # noqa: BLE001 - a prefix too short to decide is scored as a miss
+            except (DataError, UsageError) as exc:    # a prefix too short to decide is scored as a miss
                 entry["note"] = f"no diagnosis at this point ({type(exc).__name__})"
                 out.append(entry)
                 continue

@@ -118,11 +118,13 @@ def diagnosis_figures(report: dict, model) -> dict:
 
 def _residual_units(model, names: list[str]) -> dict[str, str]:
     """Each residual's unit (fdi.arrs.arr_unit), by name."""
+    from bondgraph.errors import ModelError
+
     from .arrs import arr_unit
     from .identify import compiled
     try:
         arrs = compiled(model.path)[1]
-    except Exception:                         # noqa: BLE001 - a model not from a file: no units, still a plot
+    except (ModelError, OSError):              # a model not from a file: no units, still a plot
         return {}
     return {a.name: arr_unit(model, a) for a in arrs if a.name in names}
 

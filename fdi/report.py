@@ -6,7 +6,8 @@ def _vec(v) -> str:
     return "[" + " ".join(str(x) for x in v) + "]"
 
 
-def _fault(f: dict) -> str:
+def describe_fault(f: dict) -> str:
+    """One fault of a report in words, as the text report and the notebook table show it."""
     if f["type"] == "abrupt":
         return f"{f['name']}: abrupt, value {f['value']:.5g}"
     if f["type"] == "intermittent":
@@ -53,20 +54,20 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
                    "parameter)")
     for a in report.get("alternatives", []):
         out.append(f"  nearly as good: {{{', '.join(a['candidate'])}}} (criterion +{a['criterion']:.2f}, cost "
-                   f"{a['cost']:.4g}): " + "; ".join(_fault(f) for f in a["faults"]))
+                   f"{a['cost']:.4g}): " + "; ".join(describe_fault(f) for f in a["faults"]))
     for e in report.get("episodes", []):
         out.append(f"at {e['time']:.2f} s the coherence vector became {list(e['coherence'])}; decided again at "
                    f"{e['decision_time']:.2f} s over {len(e['candidates'])} candidate set(s): "
                    f"{{{', '.join(e['winner'])}}}")
     faults = report["diagnosis"]["faults"]
     for f in report.get("insignificant", []):
-        out.append(f"  left out: {_fault(f)} (its parameters do not pay on the data since the detection: "
+        out.append(f"  left out: {describe_fault(f)} (its parameters do not pay on the data since the detection: "
                    f"criterion {f['criterion_without']:+.2f} without it)")
     if report.get("note"):
         out.append(f"note: {report['note']}")
     out.append("diagnosis:" + ("" if faults else " no fault explains the coherence vector"))
     for f in faults:
-        out.append(f"  {_fault(f)}")
+        out.append(f"  {describe_fault(f)}")
     for p in report.get("prognosis", []):
         band = ""
         if p.get("rul_low") is not None and p.get("rul_high") is not None and p["rul_high"] != p["rul_low"]:
