@@ -1,7 +1,7 @@
 """The notebook API: ``diagnose(model, data, config) -> Diagnosis``.
 
     >>> from fdi.api import diagnose
-    >>> d = diagnose("models/cycab_steering.yaml", "tests/data/cycab/scenario2.csv", workers=1)
+    >>> d = diagnose("models/cycab_steering.yaml", "models/data/cycab/scenario2.csv", workers=1)
     >>> [(f["name"], f["type"]) for f in d.faults]
     [('R4', 'abrupt'), ('beta_theta2', 'incipient')]
     >>> round(d.prognosis[0]["rul"], 1)
@@ -34,7 +34,6 @@ from bondgraph.model import Model
 from .data import DataError, Measurements, checked, read_csv
 from .diagnose import Options, deterministic, public
 from .diagnose import diagnose as _diagnose
-from .report import describe_fault
 
 
 @dataclass
@@ -159,3 +158,19 @@ def diagnose(model: str | Path | Model, data: Any, config: Options | None = None
     report = _diagnose(path, meas, o)
     return Diagnosis(deterministic(public(report)), path, report["_residuals"], report["_t"], report["_thresholds"],
                      list(report["_names"]))
+
+
+def _vec(v) -> str:
+    return "[" + " ".join(str(x) for x in v) + "]"
+
+
+def describe_fault(f: dict) -> str:
+    """One fault of a report in words, as the text report and the notebook table show it."""
+    if f["type"] == "abrupt":
+        return f"{f['name']}: abrupt, value {f['value']:.5g}"
+    if f["type"] == "intermittent":
+        return f"{f['name']}: intermittent, value {f['value']:.5g}, period {f['period']:.4g} s"
+    if f["type"] == "incipient":
+        b = ", ".join(f"{x:.5g}" for x in f["b"])
+        return f"{f['name']}: incipient, model {f['model']} (eq. {15 + f['model']}, eta {_vec(f['eta'])}), b = [{b}]"
+    return f"{f['name']}: fault mode ({f['name']} = {f.get('value', 0)})"

@@ -18,7 +18,7 @@ import numpy as np
 from bondgraph.errors import ModelError
 from optim import DEFAULT_ENGINE, ENGINES
 
-from .cli_errors import UsageError
+from .errors import UsageError
 from .data import DataError, Measurements, commanded, read_csv, signals_from_data
 from .derivatives import DEFAULT_ORDER, window_samples
 from .detect import detect, inconsistency, thresholds_for

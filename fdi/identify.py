@@ -561,24 +561,3 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
                 best, best_cost = trial, min(best_cost, trial_cost)
     current.update({n: int(b) for n, b in zip(names, best)})
     return current, best_cost
-
-
-def benchmark_problem(name: str, seed: int):
-    """The scenario-2 identification (beta_theta2 & R4 on the shipped reference data) for the bench."""
-    from .resources import reference_data, shipped_model
-    from .data import read_csv, signals_from_data
-    from .synthetic import Problem
-    if name != "scenario2":
-        raise ValueError(f"unknown problem '{name}' (synthetic, synthetic-all, a synthetic case, or scenario2)")
-    path = str(shipped_model("cycab_steering"))
-    model, arrs, residuals = compiled(path)
-    data = read_csv(reference_data("scenario2.csv"))
-    raw = signals_from_data(model, data)
-    win = window(data.t, raw, 32.0, model.samples, model.derivative_window)
-    weights = 1.0 / np.array([model.thresholds[a.name] for a in arrs])
-    obj = Objective(model, residuals, win, ("R4", "beta_theta2"), weights, model.derivative_window)
-    truth = [{"type": "abrupt", "value": 2.5221e7}, {"type": "incipient", "model": 2, "b": [-0.03]}]
-    t_win = win.t[win.crop]
-    fixed_onset = lambda real, bits: obj(np.hstack([real, np.full((real.shape[0], 1), 32.0)]), bits)
-    return Problem("scenario2", obj.spaces, truth, t_win, 32.0, fixed_onset, "scenario-2 identification, beta_theta2 & R4",
-                   objective=obj)

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli_errors import need_matplotlib
+from .errors import need_matplotlib
 
 
 def _plt():

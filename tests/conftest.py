@@ -10,7 +10,7 @@ from fdi.arrs import derive_arrs
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = ROOT / "models"
-DATA = Path(__file__).resolve().parent / "data" / "cycab"
+DATA = Path(__file__).resolve().parent.parent / "models" / "data" / "cycab"
 CYCAB = MODELS / "cycab_steering.yaml"
 SHIPPED = sorted(MODELS.glob("*.yaml"))
 

@@ -33,16 +33,16 @@ from hypothesis import strategies as st
 from bondgraph.causality import DIAGNOSIS, assign
 from bondgraph.errors import CausalityError, ModelError
 from bondgraph.loader import load_model, load_model_text
-from fdi.cli import main
-from fdi.cli_errors import UsageError
+from fdi.app.cli import main
+from fdi.errors import UsageError
 from fdi.data import DataError, check_against_model, read_csv
-from fdi.scenario import ScenarioError, parse_scenario
+from fdi.app.scenario import ScenarioError, parse_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
 TANK_TEXT = (ROOT / "models" / "two_tank_valve.yaml").read_text(encoding="utf-8")
 TANK = yaml.safe_load(TANK_TEXT)
 CYCAB = load_model(ROOT / "models" / "cycab_steering.yaml")
-NOMINAL = (ROOT / "tests" / "data" / "cycab" / "nominal.csv").read_text(encoding="utf-8").splitlines()
+NOMINAL = (ROOT / "models" / "data" / "cycab" / "nominal.csv").read_text(encoding="utf-8").splitlines()
 OWN_ERRORS = (ModelError, CausalityError, DataError, ScenarioError, UsageError)
 SLOW_S = 5.0                 # "never more than a few seconds"
 ALARM_S = 20                 # a case still running then is a hang

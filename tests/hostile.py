@@ -14,7 +14,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 TANK = (ROOT / "models" / "two_tank_valve.yaml").read_text(encoding="utf-8")
 CYCAB = str(ROOT / "models" / "cycab_steering.yaml")
-NOMINAL = (Path(__file__).resolve().parent / "data" / "cycab" / "nominal.csv").read_text(encoding="utf-8")
+NOMINAL = (Path(__file__).resolve().parent.parent / "models" / "data" / "cycab" / "nominal.csv").read_text(encoding="utf-8")
 
 
 def tank(old: str, new: str) -> str:
@@ -131,16 +131,16 @@ CASES: list[tuple[str, dict, list[str], str]] = [
     ("scenario-list", *scenario("[1, 2]"), "error"),
     ("scenario-method-bogus", *scenario('{"T": 1, "fs": 100}', "--method", "bogus"), "error"),
     # ------------------------------------------------------------------ options
-    ("option-pop-zero", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--pop", "0"], "error"),
-    ("option-generations-zero", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--generations", "0"], "error"),
-    ("option-wait-negative", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--wait", "-5"], "error"),
-    ("option-wait-nan", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--wait", "nan"], "error"),
-    ("option-threshold-negative", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--threshold", "ARR1=-1"], "error"),
-    ("option-threshold-unknown", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--threshold", "ARR9=1"], "error"),
-    ("option-samples-zero", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--samples", "0"], "error"),
-    ("option-workers-zero", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--workers", "0"], "error"),
-    ("option-failure-bad", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--failure", "beta_theta2=abc"], "error"),
-    ("option-engine-bogus", {}, ["diagnose", CYCAB, str(ROOT / "tests/data/cycab/scenario2.csv"), "--engine", "bogus"], "error"),
+    ("option-pop-zero", {}, ["diagnose", CYCAB, str(ROOT / "models/data/cycab/scenario2.csv"), "--pop", "0"], "error"),
+    ("option-generations-zero", {}, ["diagnose", CYCAB, str(ROOT / "models/data/cycab/scenario2.csv"), "--generations", "0"], "error"),
+    ("option-wait-negative", {}, ["diagnose", CYCAB, str(ROOT / "models/data/cycab/scenario2.csv"), "--wait", "-5"], "error"),
+    ("option-wait-nan", {}, ["diagnose", CYCAB, str(ROOT / "models/data/cycab/scenario2.csv"), "--wait", "nan"], "error"),
+    ("option-threshold-negative", {}, ["diagnose", CYCAB, str(ROOT / "models/data/cycab/scenario2.csv"), "--threshold", "ARR1=-1"], "error"),
+    ("option-threshold-unknown", {}, ["diagnose", CYCAB, str(ROOT / "models/data/cycab/scenario2.csv"), "--threshold", "ARR9=1"], "error"),
+    ("option-samples-zero", {}, ["diagnose", CYCAB, str(ROOT / "models/data/cycab/scenario2.csv"), "--samples", "0"], "error"),
+    ("option-workers-zero", {}, ["diagnose", CYCAB, str(ROOT / "models/data/cycab/scenario2.csv"), "--workers", "0"], "error"),
+    ("option-failure-bad", {}, ["diagnose", CYCAB, str(ROOT / "models/data/cycab/scenario2.csv"), "--failure", "beta_theta2=abc"], "error"),
+    ("option-engine-bogus", {}, ["diagnose", CYCAB, str(ROOT / "models/data/cycab/scenario2.csv"), "--engine", "bogus"], "error"),
     ("option-mode-bad", {}, ["tables", CYCAB, "--mode", "a1=7"], "error"),
     ("option-sizes-bad", {}, ["bench", "derive", "--sizes", "10,-3"], "error"),
     # ------------------------------------------------------------------ outputs

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from fdi.api import Diagnosis, diagnose, measurements
-from fdi.cli import main
+from fdi.app.cli import main
 from fdi.data import DataError, read_csv
 
 from .conftest import CYCAB, DATA, MODELS

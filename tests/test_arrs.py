@@ -11,7 +11,7 @@ from sympy.parsing.sympy_parser import parse_expr
 from bondgraph.loader import load_model
 from bondgraph.model import t
 from fdi.arrs import derive_arrs
-from fdi.cli import main
+from fdi.app.cli import main
 
 from .conftest import MODELS
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import json
 
-from fdi.cli import main
+from fdi.app.cli import main
 
 from .conftest import CYCAB, DATA
 

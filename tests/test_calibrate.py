@@ -7,8 +7,8 @@ import numpy as np
 from bondgraph.loader import load_model, load_model_text
 from fdi.calibrate import calibrate, nominal_residuals, with_thresholds
 from fdi.data import Measurements
-from fdi.resources import scenarios_dir
-from fdi.scenario import load_scenario, run
+from fdi.app.resources import scenarios_dir
+from fdi.app.scenario import load_scenario, run
 
 from .conftest import CYCAB, DATA
 

@@ -6,7 +6,7 @@ import pytest
 from bondgraph.causality import DIAGNOSIS, SIMULATION, assign
 from bondgraph.graph import to_networkx
 from bondgraph.loader import load_model, load_model_text
-from fdi.cli import main
+from fdi.app.cli import main
 
 from .conftest import SHIPPED
 from .test_loader import BASE

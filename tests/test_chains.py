@@ -39,7 +39,7 @@ def test_grouped_products_are_positive_and_lambdify(chain):
 
 def test_chain_state_equations_simulate_and_bench_rejects_bad_sizes(capsys):
     from bondgraph.simulation import build_system
-    from fdi.cli import main
+    from fdi.app.cli import main
 
     model = load_model_text(chain_yaml(40), "chain_40")
     values = {s.name: v for s, v in model.nominal_values().items()}

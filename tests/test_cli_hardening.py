@@ -12,11 +12,11 @@ import threading
 
 import pytest
 
-from fdi.cli import main
-from fdi.cli_errors import UsageError
+from fdi.app.cli import main
+from fdi.errors import UsageError
 from fdi.diagnose import Options, diagnose, min_samples
-from fdi.output import write_atomic
-from fdi.scenario import MAX_SAMPLES, MAX_STEPS, ScenarioError, check_method, check_steps, parse_scenario
+from fdi.app.output import write_atomic
+from fdi.app.scenario import MAX_SAMPLES, MAX_STEPS, ScenarioError, check_method, check_steps, parse_scenario
 
 from .conftest import CYCAB, DATA, ROOT
 
@@ -103,7 +103,7 @@ def test_simulate_to_standard_output_keeps_the_csv_clean(tmp_path, capsys, monke
 def test_a_reader_that_goes_away_ends_the_command_quietly():
     """``bgfdi check ... | head -0``: the read end is closed before anything is written, so every
     write fails with EPIPE; the command must end with code 1 and no traceback."""
-    proc = subprocess.Popen([sys.executable, "-m", "fdi.cli", "check", str(CYCAB)], cwd=ROOT,
+    proc = subprocess.Popen([sys.executable, "-m", "fdi.app.cli", "check", str(CYCAB)], cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     proc.stdout.close()
     err = proc.stderr.read().decode()
@@ -111,7 +111,7 @@ def test_a_reader_that_goes_away_ends_the_command_quietly():
 
 
 def test_a_real_shell_pipe_into_head():
-    shell = f"'{sys.executable}' -m fdi.cli tables '{CYCAB}' --format latex | head -1"
+    shell = f"'{sys.executable}' -m fdi.app.cli tables '{CYCAB}' --format latex | head -1"
     done = subprocess.run(["bash", "-c", shell], cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert done.returncode == 0 and len(done.stdout.splitlines()) == 1
     assert "Traceback" not in done.stderr and "BrokenPipe" not in done.stderr

@@ -9,8 +9,8 @@ from bondgraph.errors import ModelError
 from bondgraph.loader import load_model, load_model_text
 from fdi.data import Measurements
 from fdi.diagnose import Options, diagnose, public
-from fdi.resources import scenarios_dir
-from fdi.scenario import load_scenario, run
+from fdi.app.resources import scenarios_dir
+from fdi.app.scenario import load_scenario, run
 
 from .conftest import MODELS
 

@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from fdi.cli import main
+from fdi.app.cli import main
 from fdi.diagnose import Options, diagnose, public
 from fdi.prognose import end_of_life
 

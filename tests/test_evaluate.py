@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import pytest
 
-from fdi.evaluate import evaluate_scenario, score, summary
-from fdi.resources import scenarios_dir
-from fdi.scenario import FaultEvent
+from fdi.app.evaluate import evaluate_scenario, score, summary
+from fdi.app.resources import scenarios_dir
+from fdi.app.scenario import FaultEvent
 
 from .conftest import CYCAB
 

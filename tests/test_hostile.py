@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from fdi.cli import main
+from fdi.app.cli import main
 
 from .hostile import CASES
 

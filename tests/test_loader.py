@@ -9,7 +9,7 @@ import pytest
 
 from bondgraph.errors import ModelError
 from bondgraph.loader import load_model, load_model_text
-from fdi.cli import main
+from fdi.app.cli import main
 
 from .conftest import CYCAB, SHIPPED
 
@@ -132,7 +132,7 @@ def test_cli_bad_model_exits_2_with_one_line(tmp_path, capsys):
 def test_console_script_prints_no_traceback(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text(BASE.replace("  R: {value: 100.0, unit: Ohm}", "  R: {unit: Ohm}"))
-    proc = subprocess.run([sys.executable, "-m", "fdi.cli", "check", str(bad)], capture_output=True, text=True)
+    proc = subprocess.run([sys.executable, "-m", "fdi.app.cli", "check", str(bad)], capture_output=True, text=True)
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and "has no value" in proc.stderr
 

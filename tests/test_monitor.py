@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from fdi.cli import main
+from fdi.app.cli import main
 from fdi.data import read_csv, signals_from_data
 from fdi.diagnose import Options
 from fdi.identify import compiled

@@ -4,7 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fdi import encoding, synthetic
+from fdi import encoding
+from fdi.app import synthetic
 from fdi.encoding import FaultSpace
 from optim import ENGINES, ahde_paper, bde, core, ga, shade
 

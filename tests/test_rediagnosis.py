@@ -14,8 +14,8 @@ import pytest
 from bondgraph.loader import load_model
 from fdi.data import Measurements
 from fdi.diagnose import Options, diagnose, public
-from fdi.resources import scenarios_dir
-from fdi.scenario import load_scenario, run
+from fdi.app.resources import scenarios_dir
+from fdi.app.scenario import load_scenario, run
 
 from .conftest import CYCAB
 

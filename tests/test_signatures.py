@@ -5,7 +5,7 @@ import csv
 import io
 import json
 
-from fdi.cli import main
+from fdi.app.cli import main
 from fdi.signatures import all_modes, fault_signature_matrix, mode_change_signature_matrix
 
 TABLE_I = {  # structural signature at mode [a1 a2] = [1 1]

@@ -10,10 +10,10 @@ import scipy.linalg
 
 from bondgraph.loader import load_model
 from bondgraph.simulation import build_system, simulate
-from fdi.cli import main
+from fdi.app.cli import main
 from fdi.data import Measurements, read_csv, signals_from_data
 from fdi.residuals import compile_residuals, evaluate
-from fdi.scenario import ScenarioError, breakpoints, load_scenario, parse_scenario, run, time_functions
+from fdi.app.scenario import ScenarioError, breakpoints, load_scenario, parse_scenario, run, time_functions
 
 from .conftest import DATA, MODELS
 

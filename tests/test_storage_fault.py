@@ -11,7 +11,7 @@ import pytest
 from bondgraph.loader import load_model
 from fdi.arrs import select_arrs
 from fdi.diagnose import Options, diagnose, public
-from fdi.scenario import parse_scenario, run, to_csv
+from fdi.app.scenario import parse_scenario, run, to_csv
 
 from .conftest import MODELS
 

@@ -15,7 +15,7 @@ from bondgraph.loader import load_model, load_model_text
 from bondgraph.model import t
 from bondgraph.structure import DERIVATIVE, MIXED, mso_sets
 from fdi.arrs import derive_arrs, select_arrs, structural_system
-from fdi.cli import main
+from fdi.app.cli import main
 from fdi.isolability import fault_equations, sensor_placement, signature_isolability, structural_isolability
 from fdi.signatures import fault_signature_matrix
 

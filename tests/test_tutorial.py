@@ -20,7 +20,7 @@ def test_the_tutorial_runs_as_written(tmp_path):
             (tmp_path / m.group(1)).write_text(body, encoding="utf-8")
         elif lang == "sh":
             for line in body.strip().splitlines():
-                command = re.sub(r"\bbgfdi ", f"{sys.executable} -m fdi.cli ", line)
+                command = re.sub(r"\bbgfdi ", f"{sys.executable} -m fdi.app.cli ", line)
                 done = subprocess.run(["bash", "-c", command], cwd=tmp_path, capture_output=True, text=True,
                                       timeout=300)
                 assert done.returncode == 0, f"{line}: {done.stderr}"

@@ -29,11 +29,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli_errors import UsageError
-from .data import DataError, Measurements
-from .diagnose import Options, diagnose, public, refresh_prognosis
-from .identify import compiled, fault_space
-from .prognose import end_of_life
+from ..errors import UsageError
+from ..data import DataError, Measurements
+from ..diagnose import Options, diagnose, public, refresh_prognosis
+from ..identify import compiled, fault_space
+from ..prognose import end_of_life
 from .scenario import FaultEvent, load_scenario, run
 
 ALPHA = 0.2

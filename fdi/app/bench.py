@@ -10,8 +10,8 @@ from bondgraph.chains import chain_yaml
 from bondgraph.loader import load_model, load_model_text
 from bondgraph.simulation import build_system
 
-from .arrs import derive_arrs
-from .signatures import all_modes, fault_signature_matrix, mode_change_signature_matrix
+from ..arrs import derive_arrs
+from ..signatures import all_modes, fault_signature_matrix, mode_change_signature_matrix
 
 CHAIN_SIZES = (10, 20, 50, 100, 200)
 
@@ -37,7 +37,7 @@ def derive_rows(models: list[Path], sizes=CHAIN_SIZES, echo=None) -> list[dict]:
         model = load_model(path)
 
         def job(model=model):
-            from .arrs import select_arrs
+            from ..arrs import select_arrs
             arrs = list(select_arrs(model).arrs)          # SCAPH, completed by MSO residuals where needed
             for mode in all_modes(model):
                 fault_signature_matrix(model, arrs, mode)
@@ -48,7 +48,7 @@ def derive_rows(models: list[Path], sizes=CHAIN_SIZES, echo=None) -> list[dict]:
     if rows:
         from bondgraph.structure import mso_search
 
-        from .arrs import select_arrs, structural_system
+        from ..arrs import select_arrs, structural_system
         largest = max(rows, key=lambda r: r["elements"])
         model = load_model(next(p for p in models if load_model(p).name == largest["case"]))
         system = structural_system(model)
@@ -104,7 +104,7 @@ def format_derive(rows: list[dict]) -> str:
 
 # ---------------------------------------------------------------- simulation
 
-REFERENCE_CPU_S = 2.3       # the same 60 s run by the independent simulator that made tests/data/cycab (issue 11)
+REFERENCE_CPU_S = 2.3       # the same 60 s run by the independent simulator that made models/data/cycab (issue 11)
 
 
 def simulate_rows(scenario_path: Path, repeat: int = 3) -> dict:
@@ -140,7 +140,7 @@ def format_simulate(row: dict) -> str:
         out.append(f"{stage:<20}{secs:>10.3f}")
     out.append(f"{'total':<20}{row['total_s']:>10.3f}")
     out.append(f"reference: {row['reference_s']:.1f} s CPU for the same run by the independent simulator that made "
-               f"tests/data/cycab, as measured in issue 11; ratio {row['reference_s'] / row['total_s']:.2f}x "
+               f"models/data/cycab, as measured in issue 11; ratio {row['reference_s'] / row['total_s']:.2f}x "
                f"(above 1: faster than the reference)")
     return "\n".join(out) + "\n"
 
@@ -161,7 +161,6 @@ def _optim_job(job: tuple) -> dict:
     if case in synthetic.CASES:
         p = synthetic.problem(case, seed)
     else:
-        from .identify import benchmark_problem
         p = benchmark_problem(case, seed)
     r = ENGINES[method](p.cost, p.bounds(), p.n_bits, seed=seed, onehot=p.onehot, structure=p.structure, free=p.free,
                         **settings)
@@ -219,7 +218,7 @@ def format_optim(summary: dict) -> str:
 def diagnose_rows(data_path: Path, workers: int = 1) -> dict:
     """Stage times of one diagnosis of scenario 2 at the paper's settings (population 100,
     150 generations, five estimators), and the share of identification spent in the objective."""
-    from .diagnose import Options, diagnose
+    from ..diagnose import Options, diagnose
     from .resources import shipped_model
 
     t0 = time.perf_counter()
@@ -242,3 +241,26 @@ def format_diagnose(row: dict) -> str:
     out.append(f"identification: {row['evaluations']} evaluations; {100 * share:.0f} % of estimator time in residual "
                f"evaluation (the objective), {row['estimator_s'] - row['objective_s']:.2f} s in the engines")
     return "\n".join(out) + "\n"
+
+
+def benchmark_problem(name: str, seed: int):
+    """The scenario-2 identification (beta_theta2 & R4 on the shipped reference data) for the bench."""
+    import numpy as np
+    from .resources import reference_data, shipped_model
+    from .synthetic import Problem
+    from ..data import read_csv, signals_from_data
+    from ..identify import Objective, compiled, window
+    if name != "scenario2":
+        raise ValueError(f"unknown problem '{name}' (synthetic, synthetic-all, a synthetic case, or scenario2)")
+    path = str(shipped_model("cycab_steering"))
+    model, arrs, residuals = compiled(path)
+    data = read_csv(reference_data("scenario2.csv"))
+    raw = signals_from_data(model, data)
+    win = window(data.t, raw, 32.0, model.samples, model.derivative_window)
+    weights = 1.0 / np.array([model.thresholds[a.name] for a in arrs])
+    obj = Objective(model, residuals, win, ("R4", "beta_theta2"), weights, model.derivative_window)
+    truth = [{"type": "abrupt", "value": 2.5221e7}, {"type": "incipient", "model": 2, "b": [-0.03]}]
+    t_win = win.t[win.crop]
+    fixed_onset = lambda real, bits: obj(np.hstack([real, np.full((real.shape[0], 1), 32.0)]), bits)
+    return Problem("scenario2", obj.spaces, truth, t_win, 32.0, fixed_onset, "scenario-2 identification, beta_theta2 & R4",
+                   objective=obj)

@@ -36,8 +36,8 @@ import yaml
 from bondgraph.model import Model
 from bondgraph.simulation import SimulationError, simulate
 
-from . import profiles
-from .cli_errors import UsageError
+from .. import profiles
+from ..errors import UsageError
 
 TYPES = ("abrupt", "intermittent", "incipient", "mode")
 METHODS = ("auto", "ros2", "LSODA", "Radau", "BDF", "RK45")

@@ -2,7 +2,7 @@
 
 User mistakes (bad model, scenario or data files, bad options) print one line on stderr and exit
 with code 2, before any work where they can be seen before it; nothing is half-written (outputs go
-through fdi.output.write_atomic, ``-o -`` is standard output). A reader that goes away (``| head``)
+through fdi.app.output.write_atomic, ``-o -`` is standard output). A reader that goes away (``| head``)
 ends the command quietly. See docs/cli.md.
 """
 from __future__ import annotations
@@ -20,9 +20,9 @@ from bondgraph.errors import CausalityError, ModelError
 from bondgraph.loader import load_model
 from bondgraph.model import Model
 
-from .cli_errors import UsageError
-from .data import DataError
-from .diagnose import MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
+from ..errors import UsageError
+from ..data import DataError
+from ..diagnose import MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
 from .output import check_output, is_stdout, write_atomic
 
 
@@ -111,7 +111,7 @@ def pair(low: float | None = None, strict: bool = False) -> Callable[[str], tupl
 
 
 def method(text: str) -> str:
-    """An argparse type: the integrator of ``simulate`` (fdi.scenario.METHODS, any case)."""
+    """An argparse type: the integrator of ``simulate`` (fdi.app.scenario.METHODS, any case)."""
     from .scenario import METHODS, ScenarioError, check_method
     try:
         return check_method(text)
@@ -137,7 +137,7 @@ def check_plot(path: str | None, folder: bool) -> None:
         return
     import importlib.util
     if importlib.util.find_spec("matplotlib") is None:
-        from .cli_errors import need_matplotlib
+        from ..errors import need_matplotlib
         raise need_matplotlib()
     if is_stdout(path):
         raise UsageError("--plot: standard output takes no plot; name a " + ("folder" if folder else "PNG file"))
@@ -219,8 +219,8 @@ def cmd_check(args: argparse.Namespace) -> int:
     diag = assign(model, DIAGNOSIS)
     print()
     print("causality for diagnosis (SCAPH: sources fixed, sensors inverted, storage in derivative causality)")
-    from .arrs import select_arrs, undefined_in_modes
-    from .signatures import all_modes
+    from ..arrs import select_arrs, undefined_in_modes
+    from ..signatures import all_modes
 
     chosen = select_arrs(model, args.causality)
     if not diag.ok:
@@ -279,9 +279,9 @@ def cmd_graph(args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------ tables
 
 def cmd_tables(args: argparse.Namespace) -> int:
-    from .arrs import select_arrs, undefined_in_modes
-    from .signatures import all_modes, fault_signature_matrix, mode_change_signature_matrix
-    from .tables import render
+    from ..arrs import select_arrs, undefined_in_modes
+    from ..signatures import all_modes, fault_signature_matrix, mode_change_signature_matrix
+    from ..tables import render
 
     model = load_model(args.model)
     arrs = list(select_arrs(model, args.causality).arrs)
@@ -344,7 +344,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     where = "standard output" if is_stdout(args.output) else args.output
     _note(f"wrote {where}: {len(columns['t'])} samples of {', '.join(columns)}", args.output)
     if args.plot:
-        from .plots import plot_signals
+        from ..plots import plot_signals
         plot_signals(columns, args.plot)
         _note(f"plot: {args.plot}", args.output)
     return 0
@@ -366,8 +366,8 @@ def _options(args: argparse.Namespace, model: Model):
     checked against the model here, every value was checked while parsing."""
     from optim import ENGINES
 
-    from .diagnose import Options
-    from .identify import compiled
+    from ..diagnose import Options
+    from ..identify import compiled
     if args.engine not in ENGINES:
         raise UsageError(f"--engine: unknown engine '{args.engine}' (use {', '.join(ENGINES)})")
     names = [a.name for a in compiled(model.path)[1]]
@@ -383,7 +383,7 @@ def _options(args: argparse.Namespace, model: Model):
 def _report_dict(report: dict, timings: bool) -> dict:
     """The public report; wall-clock times only with ``--timings`` (the estimators' wall_s and
     objective_s, and ``timings`` by stage), so that two runs of one diagnosis are byte-identical."""
-    from .diagnose import deterministic, public
+    from ..diagnose import deterministic, public
     out = public(report)
     if timings:
         out["timings"] = public(dict(report.get("_timings", {})))
@@ -400,8 +400,8 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
     """Diagnose, print (text or --json), plot; 3 with --fail-on-fault when a fault was found, else 0."""
     import json
 
-    from .diagnose import diagnose
-    from .identify import compiled
+    from ..diagnose import diagnose
+    from ..identify import compiled
     from .report import to_text
     model = compiled(str(model_path))[0]
     bar = Progress(1.0, "estimators")
@@ -413,16 +413,16 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
         text = to_text(public, model.name, data_name) + (_timings_line(report) if args.timings else "")
     _emit(text, getattr(args, "output", None))
     if getattr(args, "plot", None):
-        from .plots import plot_diagnosis
+        from ..plots import plot_diagnosis
         for p in plot_diagnosis(report, args.plot, model):
             print(f"plot: {p}", file=sys.stderr)
     return 3 if getattr(args, "fail_on_fault", False) and public["diagnosis"]["faults"] else 0
 
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
-    from .data import read_csv
-    from .diagnose import check_samples
-    from .identify import compiled
+    from ..data import read_csv
+    from ..diagnose import check_samples
+    from ..identify import compiled
 
     model = compiled(args.model)[0]
     options = _options(args, model)
@@ -438,9 +438,9 @@ def _diagnose_one(job: tuple) -> dict:
     report as one JSON object, or the one-line error a bad file gives."""
     from dataclasses import replace
 
-    from .diagnose import check_samples, deterministic, diagnose, public
+    from ..diagnose import check_samples, deterministic, diagnose, public
     model_path, path, options, timings = job
-    from .data import read_csv
+    from ..data import read_csv
     try:
         data = read_csv(path)
         check_samples(options.samples, data.ts, "--samples")
@@ -491,8 +491,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     import json
     from pathlib import Path
 
-    from .calibrate import calibrate, format_calibration, with_thresholds
-    from .identify import compiled
+    from ..calibrate import calibrate, format_calibration, with_thresholds
+    from ..identify import compiled
 
     compiled(args.model)                                   # the model checked before the runs are read
     c = calibrate(args.model, args.runs, args.margin, args.quantile)
@@ -505,11 +505,11 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    """Each scenario simulated, diagnosed and scored (fdi.evaluate); a table or --json."""
+    """Each scenario simulated, diagnosed and scored (fdi.app.evaluate); a table or --json."""
     import json
 
     from .evaluate import evaluate_scenario, format_scores, suite_files, summary
-    from .identify import compiled
+    from ..identify import compiled
     from .scenario import load_scenario
 
     model = compiled(args.model)[0]
@@ -531,7 +531,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         text = format_scores(scores, totals)
     _emit(text, args.output)
     if args.plot:
-        from .plots import plot_rul_cone
+        from ..plots import plot_rul_cone
         plot_rul_cone(scores, args.plot)
     return 0
 
@@ -541,10 +541,10 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     (or in the -o file, written when the stream ends)."""
     import json
 
-    from .data import blocks, open_text
-    from .diagnose import deterministic
-    from .identify import compiled
-    from .monitor import Monitor
+    from ..data import blocks, open_text
+    from ..diagnose import deterministic
+    from ..identify import compiled
+    from ..monitor import Monitor
 
     model = compiled(args.model)[0]
     options = _options(args, model)
@@ -575,9 +575,9 @@ def cmd_monitor(args: argparse.Namespace) -> int:
 
 def cmd_demo(args: argparse.Namespace) -> int:
     """Simulate CyCab scenario 2 with bgfdi's own simulator, diagnose it, print the report."""
-    from .data import Measurements
-    from .diagnose import check_samples
-    from .identify import compiled
+    from ..data import Measurements
+    from ..diagnose import check_samples
+    from ..identify import compiled
     from .resources import scenarios_dir, shipped_model
     from .scenario import load_scenario, run
 
@@ -627,7 +627,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         sys.stdout.write(json.dumps(summary, indent=1) + "\n" if args.json else bench.format_optim(summary))
         return 0
     if args.what == "accuracy":
-        from .diagnose import Options
+        from ..diagnose import Options
         from .evaluate import evaluate_scenario, format_scores, suite_files, summary
         from .resources import scenarios_dir, shipped_model
         for suite in sorted(p for p in scenarios_dir().iterdir() if p.is_dir() and p.name.startswith("suite_")):

@@ -10,9 +10,9 @@ from bondgraph.causality import DIAGNOSIS, assign
 from bondgraph.model import Model
 from bondgraph.structure import DERIVATIVE, MIXED
 
-from .arrs import select_arrs, structural_system
-from .isolability import Isolability, sensor_placement, signature_isolability, structural_isolability
-from .signatures import all_modes, fault_signature_matrix
+from ..arrs import select_arrs, structural_system
+from ..isolability import Isolability, sensor_placement, signature_isolability, structural_isolability
+from ..signatures import all_modes, fault_signature_matrix
 
 
 @dataclass(frozen=True)

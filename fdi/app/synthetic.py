@@ -22,8 +22,8 @@ from typing import Callable
 
 import numpy as np
 
-from . import encoding
-from .encoding import FaultSpace
+from .. import encoding
+from ..encoding import FaultSpace
 
 T0, TS, N = 32.0, 0.01, 1000
 

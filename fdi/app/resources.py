@@ -13,7 +13,7 @@ def models_dir() -> Path:
             return path
     except ModuleNotFoundError:
         pass
-    return Path(__file__).resolve().parent.parent / "models"
+    return Path(__file__).resolve().parents[2] / "models"
 
 
 def shipped_models() -> list[Path]:
@@ -29,8 +29,6 @@ def scenarios_dir() -> Path:
 
 
 def reference_data(name: str) -> Path:
-    """A CyCab reference measurement file (shipped with the tests; used by the scenario-2 bench)."""
-    here = Path(__file__).resolve().parent.parent / "tests" / "data" / "cycab" / name
-    if here.exists():
-        return here
-    raise FileNotFoundError(f"{name}: the CyCab reference data ship with the source tree (tests/data/cycab)")
+    """A CyCab reference measurement file (``models/data/cycab``: the paper's four runs, made by an
+    independent simulator; shipped with the package for the demo and the scenario-2 bench)."""
+    return models_dir() / "data" / "cycab" / name

@@ -14,7 +14,7 @@ import tempfile
 from pathlib import Path
 from typing import Iterable
 
-from .cli_errors import UsageError
+from ..errors import UsageError
 
 STDOUT = "-"
 

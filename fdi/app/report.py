@@ -1,21 +1,11 @@
 """The diagnosis report as readable text (JSON comes from fdi.diagnose.public)."""
 from __future__ import annotations
 
+from ..api import describe_fault
+
 
 def _vec(v) -> str:
     return "[" + " ".join(str(x) for x in v) + "]"
-
-
-def describe_fault(f: dict) -> str:
-    """One fault of a report in words, as the text report and the notebook table show it."""
-    if f["type"] == "abrupt":
-        return f"{f['name']}: abrupt, value {f['value']:.5g}"
-    if f["type"] == "intermittent":
-        return f"{f['name']}: intermittent, value {f['value']:.5g}, period {f['period']:.4g} s"
-    if f["type"] == "incipient":
-        b = ", ".join(f"{x:.5g}" for x in f["b"])
-        return f"{f['name']}: incipient, model {f['model']} (eq. {15 + f['model']}, eta {_vec(f['eta'])}), b = [{b}]"
-    return f"{f['name']}: fault mode ({f['name']} = {f.get('value', 0)})"
 
 
 def _confidence(margin) -> str:
