@@ -30,8 +30,9 @@ def test_streamed_residuals_equal_those_of_the_whole_file():
     for a in range(0, 2000, 37):                     # 20 s in uneven blocks, before the detection
         mon.feed(header, table[a:a + 37])
     streamed = np.concatenate(mon.residuals, axis=1)
-    model, _, residuals = compiled(str(CYCAB))
-    whole = evaluate(model, list(residuals), signals_from_data(model, m), m.ts, window=model.derivative_window)
+    c = compiled(str(CYCAB))
+    model = c.model
+    whole = evaluate(model, list(c.residuals), signals_from_data(model, m), m.ts, window=c.config.derivative_window)
     assert streamed.shape[1] == mon.done >= 2000 - 20
     np.testing.assert_allclose(streamed[:, 50:], whole[:, 50:mon.done], rtol=1e-9, atol=1e-12)
 

@@ -199,7 +199,9 @@ def _causality_lines(model: Model, c: Causality) -> list[str]:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    model = load_model(args.model)
+    from ..config import load
+
+    model, _ = load(args.model)                  # the bond graph and the monitor settings both checked
     kinds = Counter(e.kind for e in model.elements.values())
     jkinds = Counter(j.kind for j in model.junctions.values())
     print(f"model {model.name} ({args.model})")
@@ -344,8 +346,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     where = "standard output" if is_stdout(args.output) else args.output
     _note(f"wrote {where}: {len(columns['t'])} samples of {', '.join(columns)}", args.output)
     if args.plot:
-        from ..plots import plot_signals
-        plot_signals(columns, args.plot)
+        from ..plots import column_units, plot_signals
+        plot_signals(columns, args.plot, column_units(model), [(f.target, f.t0) for f in scenario.faults])
         _note(f"plot: {args.plot}", args.output)
     return 0
 
@@ -370,7 +372,7 @@ def _options(args: argparse.Namespace, model: Model):
     from ..identify import compiled
     if args.engine not in ENGINES:
         raise UsageError(f"--engine: unknown engine '{args.engine}' (use {', '.join(ENGINES)})")
-    names = [a.name for a in compiled(model.path)[1]]
+    names = [a.name for a in compiled(model.path).arrs]
     thresholds = _named(args.threshold, "--threshold", names, f"residual of {model.name}")
     failures = _named(args.failure, "--failure", list(model.faults), f"fault of {model.name}")
     options = Options(thresholds=thresholds, waiting_time=args.wait, exoneration=not args.no_exoneration,
@@ -403,7 +405,7 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
     from ..diagnose import diagnose
     from ..identify import compiled
     from .report import to_text
-    model = compiled(str(model_path))[0]
+    model = compiled(str(model_path)).model
     bar = Progress(1.0, "estimators")
     report = diagnose(model_path, data, options, progress=lambda done, total: bar(done / total))
     public = _report_dict(report, args.timings)
@@ -424,7 +426,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..diagnose import check_samples
     from ..identify import compiled
 
-    model = compiled(args.model)[0]
+    model = compiled(args.model).model
     options = _options(args, model)
     if len(args.data) > 1 or args.jobs > 1:
         return _diagnose_batch(args, options)
@@ -512,7 +514,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from ..identify import compiled
     from .scenario import load_scenario
 
-    model = compiled(args.model)[0]
+    model = compiled(args.model).model
     options = _options(args, model)
     files = suite_files(args.scenarios)
     if not files:
@@ -546,7 +548,7 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     from ..identify import compiled
     from ..monitor import Monitor
 
-    model = compiled(args.model)[0]
+    model = compiled(args.model).model
     options = _options(args, model)
     lines: list[str] = []
 
@@ -582,7 +584,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from .scenario import load_scenario, run
 
     path = str(shipped_model("cycab_steering"))
-    model = compiled(path)[0]
+    model = compiled(path).model
     options = _options(args, model)                          # bad options refused before simulating
     scenario = load_scenario(scenarios_dir() / f"cycab_{args.scenario}.json", model)
     check_samples(options.samples, 1.0 / scenario.fs, "--samples")
