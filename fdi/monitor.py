@@ -52,7 +52,8 @@ class Monitor:
     header: list[str] = field(default_factory=list)
     n: int = 0                          # samples received
     done: int = 0                       # samples whose residuals are final
-    residuals: list[np.ndarray] = field(default_factory=list)
+    residuals: np.ndarray | None = None   # the last block of final residuals (residuals x samples)
+    history: float = 3600.0             # s of samples kept before a detection (bounded memory)
     t_detect: float | None = None
     lit: np.ndarray | None = None       # latched coherence
     pending: list[float] = field(default_factory=list)       # decision times not yet reached
@@ -99,11 +100,28 @@ class Monitor:
         raw = signals_from_data(self.model, segment)
         r = evaluate(self.model, list(self.compiled), raw, ts, window=self.window,
                      values=commanded(self.model, raw))
-        self.residuals.append(np.asarray(r)[:, self.done - a:final - a])
+        self.residuals = np.asarray(r)[:, self.done - a:final - a]
         start, self.done = self.done, final
         self._detect(t, start, final)
         self._decide()
         self._refresh()
+        self._forget(ts, margin)
+
+    def _forget(self, ts: float, margin: int) -> None:
+        """Before a detection, rows older than ``history`` seconds are dropped, so a stream watched
+        for days holds at most that much (an hour of 8 columns at 100 Hz: 23 MB). The rows are
+        shifted once as many have aged out as are kept (amortised: each row is copied once); the
+        margin the next residual block needs stays. A stream no longer than ``history`` keeps
+        every sample, and its summary is ``bgfdi diagnose`` on the whole file."""
+        keep = max(int(math.ceil(self.history / ts)), 4 * margin)
+        if self.t_detect is not None or self.n < 2 * keep:
+            return
+        drop = min(self.n - keep, self.done - 2 * margin)
+        if drop <= 0:
+            return
+        self.buffer[:self.n - drop] = self.buffer[drop:self.n].copy()
+        self.n -= drop
+        self.done -= drop
 
     def _append(self, block: np.ndarray) -> None:
         """Rows into the buffer (grown by doubling), each block checked as read_csv checks a file:
@@ -130,7 +148,7 @@ class Monitor:
 
     # ------------------------------------------------------------------ detection
     def _detect(self, t: np.ndarray, start: int, stop: int) -> None:
-        r = self.residuals[-1]
+        r = self.residuals
         bad = inconsistency(r, self.thresholds) & (t[start:stop] >= t[0] + self.options.settle)[None, :]
         known_at = float(t[self.n - 1])
         for k in range(bad.shape[1]):

@@ -563,7 +563,7 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     source = "standard input" if args.data == "-" else args.data
     fh = sys.stdin if args.data == "-" else open_text(args.data)
     try:
-        monitor = Monitor(args.model, emit, options, source, refresh=args.refresh)
+        monitor = Monitor(args.model, emit, options, source, refresh=args.refresh, history=args.history)
         for header, block in blocks(fh, source, args.block):
             monitor.feed(header, block)
         monitor.close()
@@ -747,6 +747,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="rows read before the residuals are brought up to date (default 50)")
     mon.add_argument("--refresh", type=real(0.1, high=1e6), default=5.0,
                      help="seconds between refreshed prognoses of a growing fault (default 5)")
+    mon.add_argument("--history", type=real(1.0, high=1e9), default=3600.0,
+                     help="seconds of samples kept before a detection: memory stays bounded on an endless "
+                          "stream (default 3600)")
     diagnosis_options(mon)
     mon.set_defaults(func=cmd_monitor)
 
