@@ -30,6 +30,9 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
     out.append("mode: " + (" ".join(f"{k}={v}" for k, v in mode.items()) or "(none)"))
     cands = report.get("candidates") or []
     out.append("candidate sets: " + ("; ".join("{" + ", ".join(c) + "}" for c in cands) if cands else "none"))
+    if report.get("exoneration_relaxed"):
+        out.append("  (no fault set's signature equals the coherence vector: exoneration relaxed to the smallest "
+                   "sets that cover it)")
     if report.get("pruned"):
         p = report["pruned"]
         out.append(f"  ({p['sets']} set(s) of {p['max_set'] + 1} faults also explain it and were not identified: "
