@@ -224,7 +224,7 @@ class Cluster:
         from distributed import Client, LocalCluster
         if self.address == "local":
             n = self.workers or max(1, os.cpu_count() or 1)
-            self.cluster = LocalCluster(n_workers=n, processes=True, threads_per_worker=1, dashboard_address=None,
+            self.cluster = LocalCluster(n_workers=n, processes=True, threads_per_worker=1, dashboard_address=":0",
                                         silence_logs=logging.ERROR)
             self.client = Client(self.cluster)
             return self.client
