@@ -189,17 +189,29 @@ def _optim_job(job: tuple) -> dict:
             "margin": r.extra.get("margin"), "history": [float(h) for h in np.asarray(r.history)[:: max(1, len(r.history) // 50)]]}
 
 
-def optim_rows(problem: str, runs: int, methods: list[str], workers: int = 2, settings: dict | None = None) -> list[dict]:
-    from concurrent.futures import ProcessPoolExecutor
+def optim_rows(problem: str, runs: int, methods: list[str], workers: int = 2, settings: dict | None = None,
+               progress=None) -> list[dict]:
+    """Every run of every method on every case of ``problem``, in ``workers`` processes;
+    ``progress(done, total)`` told as runs finish."""
+    from concurrent.futures import ProcessPoolExecutor, as_completed
 
     from . import synthetic
     cases = synthetic.GROUPS.get(problem, (problem,))
     settings = settings or TABLE_VI
     jobs = [(m, c, s, settings) for m in methods for c in cases for s in range(runs)]
     if workers <= 1:
-        return [_optim_job(j) for j in jobs]
+        rows = []
+        for j in jobs:
+            rows.append(_optim_job(j))
+            if progress:
+                progress(len(rows), len(jobs))
+        return rows
     with ProcessPoolExecutor(workers) as pool:
-        return list(pool.map(_optim_job, jobs))
+        futures = [pool.submit(_optim_job, j) for j in jobs]
+        for done, _ in enumerate(as_completed(futures), 1):
+            if progress:
+                progress(done, len(jobs))
+        return [f.result() for f in futures]
 
 
 def summarise_optim(problem: str, runs: int, rows: list[dict]) -> dict:

@@ -687,7 +687,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
         for m in methods:
             if m not in ENGINES:
                 raise UsageError(f"--methods: unknown engine '{m}' (use {', '.join(ENGINES)})")
-        rows = bench.optim_rows(args.problem, args.runs, methods, workers=args.workers)
+        with Steps("optimiser runs", "runs") as tick:
+            rows = bench.optim_rows(args.problem, args.runs, methods, workers=args.workers, progress=tick)
         summary = bench.summarise_optim(args.problem, args.runs, rows)
         sys.stdout.write(json.dumps({"benchmark": "optim", **summary}, indent=1) + "\n" if args.json
                          else bench.format_optim(summary))
