@@ -3,14 +3,20 @@
 ``yaml.safe_load`` semantics (the safe loader's node tree is used to find line numbers and
 duplicate keys); every expression goes through :func:`bondgraph.expressions.parse_expression`.
 Every mistake raises :class:`ModelError` naming the file, the key and (where known) the line.
+
+The bond graph is read from the physical sections. The monitor's settings in the same file
+(``thresholds``, ``diagnosis``, and the ``bounds``/``failure`` of each fault) are no physics: they are
+accepted here and read by :mod:`fdi.config` through the same :class:`Document`, so both readers
+give the same one-line messages.
 """
 from __future__ import annotations
 
 import keyword
 import math
 import re
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 import sympy as sp
 import yaml
@@ -22,12 +28,12 @@ from .model import (LAW_VARIABLES, ELEMENT_KINDS, FAULT_KINDS, JUNCTION_KINDS, S
                     Sensor, t)
 from .units import UnitError, check_unit
 
+MONITOR_KEYS = {"thresholds", "diagnosis"}      # read by fdi.config, not by the bond graph
+MONITOR_FAULT_KEYS = {"bounds", "failure"}      # ditto, in each fault
 _TOP_KEYS = {"name", "description", "reference", "parameters", "definitions", "inputs", "modes",
-             "elements", "junctions", "sensors", "bonds", "faults", "thresholds", "data",
-             "diagnosis", "initial"}
+             "elements", "junctions", "sensors", "bonds", "faults", "data", "initial"} | MONITOR_KEYS
 _RESERVED = {"t"}
-MAX_TIME = 1.0e6             # s: a derivative window or waiting time beyond 11 days is a typing error
-MAX_SAMPLES = 10_000_000     # an identification window           # time, in input expressions; every other identifier is the user's
+MAX_TIME = 1.0e6             # s: a time beyond 11 days in a model file is a typing error
 
 
 class _Ctx:
@@ -46,6 +52,48 @@ class _Ctx:
         return ModelError(message, file=self.path, where=".".join(str(w) for w in where), line=line)
 
 
+@dataclass(frozen=True)
+class Document:
+    """A model file read safely: its plain data and the line of each key. Readers of its sections
+    validate through it, so every message names the file, the key and the line the same way.
+
+    >>> doc = read_document_text("thresholds: {ARR1: 0.5}\\n", "m.yaml")
+    >>> doc.number(doc.data["thresholds"]["ARR1"], ("thresholds", "ARR1"), "threshold", above=0)
+    0.5
+    >>> doc.number(-1, ("thresholds", "ARR1"), "threshold", above=0)
+    Traceback (most recent call last):
+    ...
+    bondgraph.errors.ModelError: m.yaml:1: thresholds.ARR1: threshold must be more than 0, got -1
+    """
+    path: str
+    data: dict
+    lines: Mapping[tuple, int]
+
+    @property
+    def _ctx(self) -> "_Ctx":
+        return _Ctx(self.path, dict(self.lines))
+
+    def error(self, where: tuple, message: str) -> ModelError:
+        """A ModelError for the key at ``where`` (a path of keys), with its line when known."""
+        return self._ctx.error(where, message)
+
+    def mapping(self, value: Any, where: tuple, required: bool = False) -> dict:
+        """``value`` as a mapping of name: settings ({} when absent and not ``required``)."""
+        return _mapping(self._ctx, value, where, required)
+
+    def spec(self, value: Any, where: tuple, allowed: set[str]) -> dict:
+        """``value`` as a mapping whose keys are all in ``allowed``."""
+        return _spec(self._ctx, value, where, allowed)
+
+    def number(self, value: Any, where: tuple, what: str, **limits) -> float:
+        """``value`` as a finite number within ``limits`` (see :func:`_number`)."""
+        return _number(self._ctx, value, where, what, **limits)
+
+    def ref(self, value: Any, where: tuple, what: str) -> str:
+        """``value`` as one name of something defined elsewhere in the file."""
+        return _ref(self._ctx, value, where, what)
+
+
 MAX_BYTES = 1 << 20          # a model file: the CyCab's is 8 kB
 MAX_NODES = 200_000          # YAML nodes once aliases are expanded (an alias bomb is refused before expansion)
 MAX_NESTING = 64             # levels of YAML nesting
@@ -53,6 +101,21 @@ MAX_NESTING = 64             # levels of YAML nesting
 
 def load_model(path: str | Path) -> Model:
     """Read a model file; raise ModelError with a one-line message on any problem."""
+    return model_from_document(read_document(path))
+
+
+def load_model_text(text: str, path: str = "<model>") -> Model:
+    """A model from YAML text (``path`` is only used in messages)."""
+    return model_from_document(read_document_text(text, path))
+
+
+def model_from_document(doc: Document) -> Model:
+    """The bond graph of a read model file (its physical sections)."""
+    return _build_model(doc.data, doc._ctx)
+
+
+def read_document(path: str | Path) -> Document:
+    """Read a model file safely (at most 1 MB of UTF-8 YAML, measured before it is constructed)."""
     p = Path(path)
     try:
         if p.is_dir():
@@ -67,10 +130,10 @@ def load_model(path: str | Path) -> Model:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise ModelError(f"not UTF-8 text (byte {exc.start}); save the file as UTF-8", file=str(path)) from None
-    return load_model_text(text, str(path))
+    return read_document_text(text, str(path))
 
 
-def load_model_text(text: str, path: str = "<model>") -> Model:
+def read_document_text(text: str, path: str = "<model>") -> Document:
     """Parse model YAML given as text (``path`` is only used in messages). Only the safe loader's
     tags; the document is composed once, measured (size with aliases expanded, nesting, recursive
     aliases, keys) and only then constructed."""
@@ -98,10 +161,10 @@ def load_model_text(text: str, path: str = "<model>") -> Model:
     finally:
         if loader is not None:
             loader.dispose()
-    ctx = _Ctx(path, lines)
     if not isinstance(data, dict):
-        raise ctx.error((), "the top level must be a mapping with keys such as parameters, elements, bonds")
-    return _build_model(data, ctx)
+        raise _Ctx(path, lines).error((), "the top level must be a mapping with keys such as parameters, elements, "
+                                          "bonds")
+    return Document(path, data, lines)
 
 
 def _measure(root: yaml.Node, path: str) -> None:
@@ -319,14 +382,6 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
     for s in sensors.values():
         symbols[f"beta_{s.name}"] = sp.Symbol(f"beta_{s.name}", positive=True)
     faults = _faults(ctx, data, parameters, sensors, elements, modes)
-    thresholds = _thresholds(ctx, data, sensors)
-    diag = _spec(ctx, data.get("diagnosis") or {}, ("diagnosis",), {"waiting_time", "samples", "derivative_window"})
-    window = _number(ctx, diag.get("derivative_window", 0.25), ("diagnosis", "derivative_window"),
-                     "derivative_window (a time in s)", above=0, maximum=MAX_TIME)
-    waiting_time = _number(ctx, diag.get("waiting_time", 0.0), ("diagnosis", "waiting_time"),
-                           "waiting_time (a time in s)", minimum=0, maximum=MAX_TIME)
-    samples = int(_number(ctx, diag.get("samples", 1000), ("diagnosis", "samples"), "samples", integer=True,
-                          minimum=2, maximum=MAX_SAMPLES))
     initial = {str(k): _number(ctx, v, ("initial", k), "initial value")
                for k, v in _mapping(ctx, data.get("initial"), ("initial",)).items()}
     name = data.get("name") or Path(ctx.path).stem
@@ -334,9 +389,7 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
     return Model(name=str(name), path=ctx.path, description=_text(data, "description"),
                  reference=_text(data, "reference"), parameters=parameters, definitions=definitions,
                  inputs=inputs, modes=modes, elements=elements, junctions=junctions, sensors=sensors,
-                 bonds=bonds, faults=faults, thresholds=thresholds, columns=columns,
-                 sampling_time=sampling_time, waiting_time=waiting_time, samples=samples,
-                 derivative_window=window,
+                 bonds=bonds, faults=faults, columns=columns, sampling_time=sampling_time,
                  initial=initial, symbols=plain)
 
 
@@ -704,7 +757,7 @@ def _faults(ctx, data, parameters, sensors, elements, modes) -> dict[str, Fault]
     for name, spec in _mapping(ctx, data.get("faults"), ("faults",)).items():
         where = ("faults", name)
         spec = _spec(ctx, spec, where, {"kind", "parameters", "sensor", "source", "mode", "value",
-                                        "failure", "bounds", "description"})
+                                        "description"} | MONITOR_FAULT_KEYS)
         kind = spec.get("kind")
         if kind not in FAULT_KINDS:
             raise ctx.error(where + ("kind",), f"fault kind '{kind}' unknown (use {', '.join(FAULT_KINDS)})")
@@ -728,38 +781,12 @@ def _faults(ctx, data, parameters, sensors, elements, modes) -> dict[str, Fault]
                 raise ctx.error(where + (key,), f"fault '{name}' names {key} '{target}', which is not defined "
                                                 f"(known: {', '.join(pool) or 'none'})")
             targets = [target]
-        bounds = spec.get("bounds")
-        if bounds is not None:
-            if not isinstance(bounds, list) or len(bounds) != 2:
-                raise ctx.error(where + ("bounds",), "bounds must be [low, high]")
-            bounds = tuple(_number(ctx, b, where + ("bounds",), "bound", infinite=True) for b in bounds)
-            if not all(math.isfinite(b) for b in bounds) and kind != "parametric":
-                raise ctx.error(where + ("bounds",), "bounds must be finite")
-            if not bounds[0] < bounds[1]:
-                raise ctx.error(where + ("bounds",), "bounds must be [low, high] with low < high")
         value = spec.get("value")
         if kind == "mode":
             value = 0 if value is None else value
             if value not in (0, 1):
                 raise ctx.error(where + ("value",), "a fault mode's value is 0 or 1")
-        failure = spec.get("failure")
         out[name] = Fault(name, kind, tuple(str(x) for x in targets),
-                          None if failure is None else _number(ctx, failure, where + ("failure",), "failure"),
                           None if value is None else _number(ctx, value, where + ("value",), "value"),
-                          bounds, _text(spec, "description"))
-    return out
-
-
-def _thresholds(ctx, data, sensors) -> dict[str, float]:
-    """Thresholds by residual name (ARR1, ARR2, ...: which residuals exist is decided by the
-    residual selection, and checked when the diagnosis starts) or by the sensor of an AGARR."""
-    by_sensor = {s: f"ARR{i + 1}" for i, s in enumerate(sensors)}
-    out: dict[str, float] = {}
-    for key, value in _mapping(ctx, data.get("thresholds"), ("thresholds",)).items():
-        arr = by_sensor.get(key, key)
-        if not (isinstance(arr, str) and re.fullmatch(r"ARR[1-9][0-9]*", arr)):
-            raise ctx.error(("thresholds", key), f"'{key}' is no residual (use ARR1, ARR2, ... as `bgfdi tables` "
-                                                 f"names them, or a sensor name: {', '.join(sensors) or 'none'})")
-        number = _number(ctx, value, ("thresholds", key), "threshold", above=0)
-        out[arr] = number
+                          _text(spec, "description"))
     return out

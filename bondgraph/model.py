@@ -134,13 +134,13 @@ class Bond:
 @dataclass(frozen=True)
 class Fault:
     """A candidate fault. ``targets`` are parameter names (parametric), one sensor or source
-    name (its efficiency factor beta), or one mode variable (mode)."""
+    name (its efficiency factor beta), or one mode variable (mode); ``value`` is the faulty mode of
+    a mode fault (0: stuck off, 1: stuck on). How a fault is searched (bounds) and when it is a
+    failure are monitor settings: :class:`fdi.config.MonitorConfig`."""
     name: str
     kind: str
     targets: tuple[str, ...]
-    failure: float | None = None
     value: float | None = None
-    bounds: tuple[float, float] | None = None
     description: str = ""
 
     @property
@@ -166,14 +166,29 @@ class Model:
     sensors: Mapping[str, Sensor]
     bonds: tuple[Bond, ...]
     faults: Mapping[str, Fault]
-    thresholds: Mapping[str, float]
     columns: tuple[str, ...]
     sampling_time: float | None
-    waiting_time: float
-    samples: int
-    derivative_window: float
     initial: Mapping[str, float]
     symbols: Mapping[str, sp.Symbol]
+
+    def _repr_html_(self) -> str:
+        """A notebook's summary: elements, junctions, sensors, modes and faults, parameters with units."""
+        from collections import Counter
+        from html import escape
+
+        def counts(kinds) -> str:
+            return ", ".join(f"{n} {k}" for k, n in sorted(Counter(kinds).items())) or "none"
+        rows = [("elements", counts(e.kind for e in self.elements.values())),
+                ("junctions", counts(j.kind for j in self.junctions.values())),
+                ("bonds", str(len(self.bonds))),
+                ("sensors", ", ".join(f"{s.name} ({s.kind} on {s.junction}, {s.unit})" for s in self.sensors.values())),
+                ("modes", ", ".join(f"{m.name} (nominal {m.nominal})" for m in self.modes.values()) or "none"),
+                ("faults", ", ".join(f"{f.name} ({f.kind})" for f in self.faults.values()) or "none"),
+                ("parameters", ", ".join(f"{p.name} = {p.value:g} {p.unit}" for p in self.parameters.values()))]
+        body = "".join(f"<tr><th style='text-align:left'>{escape(k)}</th><td style='text-align:left'>{escape(v)}</td></tr>"
+                       for k, v in rows)
+        title = escape(self.name + (f": {self.description}" if self.description else ""))
+        return f"<table><caption>{title}</caption>{body}</table>"
 
     def bonds_of(self, node: str) -> list[Bond]:
         return [b for b in self.bonds if node in (b.source, b.target)]

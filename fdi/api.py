@@ -12,8 +12,10 @@
 The model is a path to a YAML file, or YAML text; a :class:`bondgraph.model.Model` is taken by
 the path it was loaded from. The data are a CSV path, a pandas DataFrame, a dict of arrays, a numpy
 structured array, or :class:`fdi.data.Measurements` (a ``t`` column in seconds; the model's
-columns). ``config`` is :class:`fdi.diagnose.Options` (thresholds, waiting time, engine, ...),
-or its fields as keyword arguments. Nothing is cached across an edit: a model file is derived
+columns). ``config`` is the monitor settings (:class:`fdi.config.MonitorConfig`: thresholds,
+windows, fault bounds and failure values; by default the model file's), or
+:class:`fdi.diagnose.Options` (engine, seed, workers, threshold overrides, ...), whose fields may
+also be given as keyword arguments. Nothing is cached across an edit: a model file is derived
 again when it changes on disk.
 """
 from __future__ import annotations
@@ -31,6 +33,7 @@ import numpy as np
 
 from bondgraph.model import Model
 
+from .config import MonitorConfig
 from .data import DataError, Measurements, checked, read_csv
 from .diagnose import Options, deterministic, public
 from .diagnose import diagnose as _diagnose
@@ -91,7 +94,7 @@ class Diagnosis:
         from .plots import diagnosis_figures
         private = {**self.report, "_t": self.t, "_residuals": self.residuals, "_thresholds": self.thresholds,
                    "_names": self.names}
-        return diagnosis_figures(private, compiled(self.model_path)[0])
+        return diagnosis_figures(private, compiled(self.model_path).model)
 
     def _repr_html_(self) -> str:
         d = self.detection
@@ -149,9 +152,14 @@ def measurements(data: Any, name: str = "data") -> Measurements:
     return checked(name, header, table)
 
 
-def diagnose(model: str | Path | Model, data: Any, config: Options | None = None, **options) -> Diagnosis:
-    """Detect, isolate, identify and prognose (see :mod:`fdi.diagnose`); ``options`` are fields of
-    :class:`Options` that override ``config``."""
+def diagnose(model: str | Path | Model, data: Any, config: MonitorConfig | Options | None = None,
+             **options) -> Diagnosis:
+    """Detect, isolate, identify and prognose (see :mod:`fdi.diagnose`). ``config``: the monitor
+    settings (a :class:`fdi.config.MonitorConfig`, e.g. ``fdi.config.load(path)[1].replace(...)``)
+    in place of the model file's, or run :class:`Options`; ``options`` are fields of
+    :class:`Options` that override it."""
+    if isinstance(config, MonitorConfig):
+        config = Options(settings=config)
     o = replace(config or Options(), **options) if options else (config or Options())
     path = model_file(model)
     meas = measurements(data)

@@ -42,6 +42,11 @@ class ARR:
     states: tuple = ()
     exact: sp.Expr | None = None
 
+    def _repr_latex_(self) -> str:
+        """The relation as a notebook shows it: ``ARR1: 0 = ...``, signals' derivatives dotted."""
+        from .tables import arr_latex
+        return rf"$\displaystyle \mathrm{{{self.name}}}:\quad 0 = {arr_latex(self)}$"
+
 
 def sensor_value(model: Model, name: str) -> sp.Expr:
     """The true value of a sensor's signal: measurement over efficiency factor."""

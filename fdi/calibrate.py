@@ -51,10 +51,12 @@ class Calibration:
 
 def nominal_residuals(model_path: str, data: str | Measurements, settle: float = 1.0) -> np.ndarray:
     """|r| of every residual on one run, the settling time left out: (residuals, samples)."""
-    model, _, residuals = compiled(model_path)
+    c = compiled(model_path)
+    model = c.model
     meas = data if isinstance(data, Measurements) else read_csv(data)
     raw = signals_from_data(model, meas)
-    r = evaluate(model, list(residuals), raw, meas.ts, window=model.derivative_window, values=commanded(model, raw))
+    r = evaluate(model, list(c.residuals), raw, meas.ts, window=c.config.derivative_window,
+                 values=commanded(model, raw))
     keep = meas.t >= meas.t[0] + settle
     return np.abs(np.asarray(r))[:, keep]
 
@@ -68,7 +70,7 @@ def _threshold(samples: list[np.ndarray], quantile: float | None, margin: float)
 def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quantile: float | None = None,
               settle: float = 1.0) -> Calibration:
     """Thresholds from nominal ``runs`` (paths or Measurements); see the module doc."""
-    model, arrs, _ = compiled(model_path)
+    model, arrs = compiled(model_path).model, compiled(model_path).arrs
     samples = [nominal_residuals(model_path, run, settle) for run in runs]
     thresholds = _threshold(samples, quantile, margin)
     false_alarms = None

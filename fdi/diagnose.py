@@ -22,7 +22,8 @@ from .errors import UsageError
 from .data import DataError, Measurements, commanded, read_csv, signals_from_data
 from .derivatives import DEFAULT_ORDER, window_samples
 from .detect import detect, inconsistency, thresholds_for
-from .identify import Objective, compiled, estimate_mode, fault_space, run_estimators, window
+from .config import MonitorConfig
+from .identify import Compiled, Objective, compiled, estimate_mode, nominal, run_estimators, window
 from .isolate import candidate_sets, pruned_sets, suspected_mode_changes
 from .prognose import prognose
 from .residuals import evaluate
@@ -45,6 +46,7 @@ class Options:
     weights: str = "thresholds"
     settle: float = 1.0
     mode: Mapping[str, int] | None = None
+    settings: MonitorConfig | None = None   # the monitor settings to use instead of the model file's
 
     def check(self) -> None:
         """Refuse settings that would crash a worker or give a nonsense diagnosis (a population
@@ -116,24 +118,26 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     timings: dict[str, float] = {}
     clock = time.perf_counter()
     path = str(model_path)
-    model, arrs, residuals = compiled(path)
+    c = compiled_for(path, o)
+    model, config, arrs, residuals = c.model, c.config, c.arrs, c.residuals
+    w = config.derivative_window
     meas = data if isinstance(data, Measurements) else read_csv(data)
     check_samples(o.samples, meas.ts)
     raw = signals_from_data(model, meas)
-    need = window_samples(model.derivative_window, meas.ts, DEFAULT_ORDER) + 1
+    need = window_samples(w, meas.ts, DEFAULT_ORDER) + 1
     if meas.t.size < need:
         raise DataError(f"{meas.path}: {meas.t.size} samples are too few: the derivative window of {model.name} "
-                        f"({model.derivative_window:g} s) needs at least {need}")
+                        f"({w:g} s) needs at least {need}")
     names = [a.name for a in arrs]
     try:
-        thresholds = thresholds_for(model.thresholds, names, o.thresholds)
+        thresholds = thresholds_for(config.thresholds, names, o.thresholds)
     except ValueError as exc:
         raise ModelError(str(exc), file=model.path, where="thresholds") from None
-    wait = model.waiting_time if o.waiting_time is None else o.waiting_time
-    samples = o.samples or model.samples
+    wait = config.waiting_time if o.waiting_time is None else o.waiting_time
+    samples = o.samples or config.samples
     timings["load"] = time.perf_counter() - clock
     clock = time.perf_counter()
-    r = evaluate(model, list(residuals), raw, meas.ts, window=model.derivative_window, values=commanded(model, raw))
+    r = evaluate(model, list(residuals), raw, meas.ts, window=w, values=commanded(model, raw))
     timings["residuals"] = time.perf_counter() - clock
     det = detect(r, meas.t, thresholds, wait, o.settle)
     mode = dict(o.mode or nominal_mode(model))
@@ -163,12 +167,15 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     mode_fault = None
     if suspects:
         clock = time.perf_counter()
-        win = window(meas.t, raw, det.time, samples, model.derivative_window)
+        win = window(meas.t, raw, det.time, samples, w)
         by_fault = {f.name: f.targets[0] for f in model.faults.values() if f.kind == "mode"}
         variables = sorted({by_fault.get(m, m) for m in suspects})
-        estimated, mode_cost = estimate_mode(model, residuals, win, weights, o.seed, variables)
+        estimate = estimate_mode(model, residuals, win, weights, o.seed, w, variables)
+        estimated, mode_cost = estimate.mode, estimate.cost
         timings["mode estimation"] = time.perf_counter() - clock
         report["mode_estimate"] = estimated
+        if estimate.table:
+            report["mode_costs"] = estimate.table
         changed = [m for m in estimated if estimated[m] != mode[m]]
         if changed:
             mode_fault = {"mode": estimated, "cost": mode_cost,
@@ -187,7 +194,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
         report["note"] = str(exc).split(": ", 1)[-1]
         return report
     clock = time.perf_counter()
-    settings = {"engine": o.engine, "pop": o.pop, "generations": o.generations}
+    settings = {"engine": o.engine, "pop": o.pop, "generations": o.generations, "config": o.settings}
     results = run_estimators(path, meas.t, raw, det.time, samples, candidates, weights, settings, o.seed,
                              o.workers, progress, memo=memo)
     # a drift may have started long before it crossed a threshold: its onset is searched back to the
@@ -199,7 +206,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     report["estimators"] = [{"candidate": list(e.candidate), "fitness": e.fitness, "history": e.history,
                              "margin": e.margin, "cost": e.cost, "faults": e.faults, "evaluations": e.evaluations,
                              "wall_s": e.wall_s, "objective_s": e.objective_s} for e in results]
-    n_eff = effective_samples(samples, len(residuals), meas.ts, model.derivative_window)
+    n_eff = effective_samples(samples, len(residuals), meas.ts, w)
     best = select_winner(results, n_eff)
     if mode_fault is not None and (information(mode_fault["cost"], mode_fault["faults"], n_eff)
                                    <= information(best.cost, best.faults, n_eff)):
@@ -214,7 +221,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
                                           skip=best)
     report["diagnosis"]["faults"] = best.faults
     report["winner"] = list(best.candidate)
-    win = window(meas.t, raw, det.time, samples, model.derivative_window)
+    win = window(meas.t, raw, det.time, samples, w)
     now = win.t0 + (win.crop.stop - win.crop.start) * win.ts
     clock = time.perf_counter()
     report["episodes"] = []
@@ -232,7 +239,9 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
         now = float(meas.t[j])
     if report["episodes"]:
         timings["re-diagnosis"] = time.perf_counter() - clock
-    kept, dropped = significant(path, meas, raw, det.time, now, samples, report["diagnosis"]["faults"], weights)
+    report["window"] = [float(det.time), float(now)]          # the data the final fit saw, in s
+    kept, dropped = significant(path, meas, raw, det.time, now, samples, report["diagnosis"]["faults"], weights,
+                                o.settings)
     if dropped:
         report["diagnosis"]["faults"] = kept
         report["insignificant"] = dropped
@@ -240,13 +249,18 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     if incipient:
         clock = time.perf_counter()
         for f in incipient:
-            failure = o.failures.get(f["name"], model.faults[f["name"]].failure)
+            failure = o.failures.get(f["name"], config.failure(f["name"]))
             if failure is None:
                 continue
-            nominal = fault_space(model, f["name"]).nominal
-            report["prognosis"].append(prognose(f, nominal, failure, f.get("t0", win.t0), now))
+            report["prognosis"].append(prognose(f, nominal(model, f["name"]), failure, f.get("t0", win.t0), now))
         timings["prognosis"] = time.perf_counter() - clock
     return report
+
+
+def compiled_for(path: str, o: Options) -> Compiled:
+    """The compiled model file, with ``o.settings`` in place of the file's monitor settings when given."""
+    c = compiled(path)
+    return c if o.settings is None else replace(c, config=o.settings)
 
 
 def mode_fault_name(model, variable: str, value: int) -> str:
@@ -276,20 +290,22 @@ def decision_index(t: np.ndarray, k: int, wait: float) -> int:
 
 
 def significant(path: str, meas: Measurements, raw: dict, t_d: float, now: float, samples: int,
-                faults: list[dict], weights: np.ndarray) -> tuple[list[dict], list[dict]]:
+                faults: list[dict], weights: np.ndarray,
+                settings: MonitorConfig | None = None) -> tuple[list[dict], list[dict]]:
     """The faults of a final diagnosis that earn their parameters on the data since the detection,
     and those that do not. Each fault is held at its fit and removed in turn; while the information
     criterion is no worse without one, the least useful goes (a first decision's fault that a later
     one made redundant: measured on the CyCab second-fault run, beta_theta1 at 1.0006 that a
     transient of ARR1 had asked for). A fault that is structurally needed but numerically a no-op
     is reported apart, not hidden."""
-    model, _, residuals = compiled(path)
+    c = compiled_for(path, Options(settings=settings))
+    model, residuals, w = c.model, c.residuals, c.config.derivative_window
     start, span = since_detection(meas.t, t_d, now, samples, MAX_GROWTH)
-    win = window(meas.t, raw, start, span, model.derivative_window)
-    n_eff = effective_samples(span, len(residuals), meas.ts, model.derivative_window)
+    win = window(meas.t, raw, start, span, w)
+    n_eff = effective_samples(span, len(residuals), meas.ts, w)
 
     def cost(fs: list[dict]) -> float:
-        return Objective(model, residuals, win, (), weights, model.derivative_window, fixed=fs).constant()
+        return Objective(model, residuals, win, (), weights, w, fixed=fs, config=c.config).constant()
     kept, dropped = [f for f in faults if f["type"] != "mode"], []
     modes = [f for f in faults if f["type"] == "mode"]
     while len(kept) > 1:
@@ -324,7 +340,7 @@ def refit_early_onsets(path: str, meas: Measurements, raw: dict, t_d: float, sam
             and e.cost <= REFIT_REACH * best]
     if not redo or lookback <= 0:
         return results
-    window_s = compiled(path)[0].derivative_window
+    window_s = compiled_for(path, o).config.derivative_window
     refits = run_estimators(path, meas.t, raw, t_d, samples, [candidates[i] for i in redo], weights, settings,
                             o.seed + 15485863, o.workers, None, None, [(t_d - lookback, t_d + window_s)] * len(redo),
                             [[results[i].faults] for i in redo], memo)
@@ -359,21 +375,22 @@ def redecide(path: str, meas: Measurements, raw: dict, det, weights: np.ndarray,
     is fitted afresh (the first decision may have been wrong); all start from the known fit.
     Larger sets that drop a known fault are not tried. The winner is chosen as at the first
     decision."""
-    model = compiled(path)[0]
+    c = compiled_for(path, o)
+    w = c.config.derivative_window
     names = {f["name"] for f in known}
     plan = []
-    for c in candidate_sets(fsm, coherence, o.exoneration, o.max_set):
-        if names < set(c):
-            plan.append((tuple(x for x in c if x not in names), known, (t_change, t_change + model.derivative_window)))
-        if names < set(c) or len(c) <= len(names):
-            plan.append((tuple(c), [], None))
+    for s in candidate_sets(fsm, coherence, o.exoneration, o.max_set):
+        if names < set(s):
+            plan.append((tuple(x for x in s if x not in names), known, (t_change, t_change + w)))
+        if names < set(s) or len(s) <= len(names):
+            plan.append((tuple(s), [], None))
     start, span = since_detection(meas.t, det.time, t_decision, samples, MAX_GROWTH)
     results = run_estimators(path, meas.t, raw, start, span, [p[0] for p in plan], weights, settings,
                              o.seed + 7919 * episode, o.workers, None, [p[1] for p in plan], [p[2] for p in plan],
                              [[known] for _ in plan], memo)
     full = [replace(e, candidate=tuple(f["name"] for f in p[1]) + e.candidate, faults=list(p[1]) + e.faults)
             for e, p in zip(results, plan)]
-    n_eff = effective_samples(span, len(compiled(path)[2]), meas.ts, model.derivative_window)
+    n_eff = effective_samples(span, len(c.residuals), meas.ts, w)
     best = select_winner(full, n_eff)
     return {"time": t_change, "decision_time": t_decision, "coherence": list(coherence), "previous": known,
             "candidates": [list(e.candidate) for e in full],
@@ -395,26 +412,27 @@ def refresh_prognosis(path: str, meas: Measurements, report: dict, options: Opti
     faults and the prognosis; unchanged when there is no incipient fault with a failure value."""
     o = options or Options()
     faults = list(report["diagnosis"]["faults"])
-    model, arrs, _ = compiled(path)
-    failures = {f["name"]: o.failures.get(f["name"], model.faults[f["name"]].failure) for f in faults}
+    c = compiled_for(path, o)
+    model, config, arrs = c.model, c.config, c.arrs
+    failures = {f["name"]: o.failures.get(f["name"], config.failure(f["name"])) for f in faults}
     growing = [f for f in faults if f["type"] == "incipient" and failures.get(f["name"]) is not None]
     if not growing or report.get("detection") is None:
         return faults, list(report.get("prognosis", []))
     others = [f for f in faults if f not in growing]
     names = [a.name for a in arrs]
-    thresholds = thresholds_for(model.thresholds, names, o.thresholds)
+    thresholds = thresholds_for(config.thresholds, names, o.thresholds)
     weights = 1.0 / thresholds if o.weights == "thresholds" else np.ones(len(names))
-    samples = o.samples or model.samples
+    samples = o.samples or config.samples
     raw = signals_from_data(model, meas)
     start, span = since_detection(meas.t, report["detection"]["time"], float(meas.t[-1]), samples, MAX_REFIT)
     t0 = min(f["t0"] for f in growing)
-    w = model.derivative_window
-    settings = {"engine": o.engine, "pop": o.pop, "generations": o.generations}
+    w = config.derivative_window
+    settings = {"engine": o.engine, "pop": o.pop, "generations": o.generations, "config": o.settings}
     (result,) = run_estimators(path, meas.t, raw, start, span, [tuple(f["name"] for f in growing)], weights,
                                settings, o.seed + 104729, 1, None, [others], [(t0 - w, t0 + w)], [[growing]], memo)
     refit = others + result.faults
     now = float(meas.t[-1])
-    prognosis = [prognose(f, fault_space(model, f["name"]).nominal, failures[f["name"]], f["t0"], now)
+    prognosis = [prognose(f, nominal(model, f["name"]), failures[f["name"]], f["t0"], now)
                  for f in result.faults if f["type"] == "incipient"]
     return refit, prognosis
 

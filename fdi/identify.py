@@ -20,6 +20,7 @@ number of worker processes.
 """
 from __future__ import annotations
 
+import itertools
 import json
 import os
 from concurrent.futures import ProcessPoolExecutor
@@ -31,12 +32,12 @@ import numpy as np
 import sympy as sp
 
 from bondgraph.errors import ModelError
-from bondgraph.loader import load_model
 from bondgraph.model import Model
 from optim import ENGINES, bde
 from optim.core import fitness
 
 from . import encoding
+from .config import MonitorConfig, load as load_monitor
 from .arrs import ARR, select_arrs
 from .encoding import FaultSpace
 from .data import commanded
@@ -47,44 +48,65 @@ BLOCK = 32768          # samples x individuals per block of the objective (about
 DEFAULT_BOUNDS = {"sensor": (0.05, 1.5), "source": (0.05, 1.5), "group": (0.1, 10.0)}
 
 
-def compiled(path: str) -> tuple[Model, tuple[ARR, ...], tuple[Residual, ...]]:
-    """Model, AGARRs and residuals of a model file, derived once per process and file version:
-    the cache is keyed by the file's path, size and modification time, so a model edited between
-    two diagnoses (in a notebook) is derived again, never served stale."""
+@dataclass(frozen=True)
+class Compiled:
+    """A model file ready to monitor: its bond graph, its monitor settings, the AGARRs the
+    residual selection keeps and their compiled residual kernels."""
+    model: Model
+    config: MonitorConfig
+    arrs: tuple[ARR, ...]
+    residuals: tuple[Residual, ...]
+
+
+def compiled(path: str) -> Compiled:
+    """A model file derived once per process and file version: the cache is keyed by the file's
+    path, size and modification time, so a model edited between two diagnoses (in a notebook) is
+    derived again, never served stale."""
     try:
         st = os.stat(path)
         version = (st.st_size, st.st_mtime_ns)
     except OSError:
-        version = None                             # load_model reports the file as missing
+        version = None                             # the loader reports the file as missing
     return _compiled(str(path), version)
 
 
 @lru_cache(maxsize=8)
-def _compiled(path: str, version) -> tuple[Model, tuple[ARR, ...], tuple[Residual, ...]]:
-    model = load_model(path)
+def _compiled(path: str, version) -> Compiled:
+    model, config = load_monitor(path)
     arrs = tuple(select_arrs(model).arrs)
-    return model, arrs, tuple(compile_residuals(model, list(arrs)))
+    return Compiled(model, config, arrs, tuple(compile_residuals(model, list(arrs))))
 
 
-def fault_space(model: Model, name: str, span: float | None = None) -> FaultSpace:
-    """The search space of a candidate fault; ``span`` (s), the data window, caps the intermittent
-    period: a period longer than the window is indistinguishable from an abrupt fault."""
+def nominal(model: Model, name: str) -> float:
+    """The nominal value of fault ``name``'s decision: 1 for an efficiency factor or a group of
+    parameters (a common factor), else its parameter's value (possibly infinite: a healthy leak)."""
     f = model.faults[name]
-    if f.kind in ("sensor", "source"):
-        nominal, bounds = 1.0, f.bounds or DEFAULT_BOUNDS[f.kind]
+    if f.kind in ("sensor", "source") or len(f.targets) > 1:
+        return 1.0
+    return float(model.parameters[f.targets[0]].value)
+
+
+def fault_space(model: Model, name: str, span: float | None = None,
+                config: MonitorConfig | None = None) -> FaultSpace:
+    """The search space of a candidate fault: the bounds the monitor settings give, else a factor
+    of 100 around a parameter's nominal value (0.05-1.5 for an efficiency factor, 0.1-10 for a
+    group's common factor). ``span`` (s), the data window, caps the intermittent period: a period
+    longer than the window is indistinguishable from an abrupt fault."""
+    f = model.faults[name]
+    value, given = nominal(model, name), config.bounds(name) if config else None
+    if given is not None:
+        bounds = given
+    elif f.kind in ("sensor", "source"):
+        bounds = DEFAULT_BOUNDS[f.kind]
     elif len(f.targets) > 1:
-        nominal, bounds = 1.0, f.bounds or DEFAULT_BOUNDS["group"]
+        bounds = DEFAULT_BOUNDS["group"]
+    elif not np.isfinite(value):
+        raise ModelError("nominal value is infinite: give bounds: [low, high] to identify this fault",
+                         file=model.path, where=f"faults.{name}")
     else:
-        nominal = model.parameters[f.targets[0]].value
-        if f.bounds is None:
-            if not np.isfinite(nominal):
-                raise ModelError("nominal value is infinite: give bounds: [low, high] to identify this fault",
-                                 file=model.path, where=f"faults.{name}")
-            bounds = (nominal / 100.0, nominal * 100.0) if nominal > 0 else (nominal * 100.0, nominal / 100.0)
-        else:
-            bounds = f.bounds
+        bounds = (value / 100.0, value * 100.0) if value > 0 else (value * 100.0, value / 100.0)
     period = (0.5, span) if span else encoding.DEFAULT_PERIOD
-    return FaultSpace.make(name, nominal, tuple(bounds), period=period)
+    return FaultSpace.make(name, value, tuple(bounds), period=period)
 
 
 LINEAR = {"identity": (lambda v: v, lambda u: u),
@@ -142,14 +164,15 @@ class Objective:
 
     def __init__(self, model: Model, residuals: tuple[Residual, ...], win: Window, candidate: tuple[str, ...],
                  weights: np.ndarray, window_s: float, fixed: list[dict] = (),
-                 onset: tuple[float, float] | None = None) -> None:
-        """``fixed``: faults already identified (report entries with ``t0``), held at their fit
+                 onset: tuple[float, float] | None = None, config: MonitorConfig | None = None) -> None:
+        """``config``: the monitor settings (the faults' search bounds); ``fixed``: faults already identified (report entries with ``t0``), held at their fit
         with their own onset while ``candidate`` is searched (a second fault after a first decision);
         ``onset``: where the candidate's onset is searched (default: the window's first
         ``window_s`` seconds)."""
         self.model, self.residuals, self.win, self.candidate = model, residuals, win, candidate
         span = (win.crop.stop - win.crop.start) * win.ts
-        self.spaces = [fault_space(model, f, span) for f in candidate]
+        self.config = config
+        self.spaces = [fault_space(model, f, span, config) for f in candidate]
         self.weights = weights
         self.window_s = window_s
         self.onset_bounds = onset
@@ -178,7 +201,7 @@ class Objective:
         and source profiles (efficiency factors), all (1, window samples)."""
         betas: dict[str, np.ndarray] = {}
         for f in self.fixed:
-            space = fault_space(self.model, f["name"], span)
+            space = fault_space(self.model, f["name"], span, self.config)
             real, bits = encoding.encode([space], [f])
             (p,) = encoding.profiles([space], encoding.decode([space], real[None, :], bits[None, :]), self.win.t,
                                      f.get("t0", self.win.t0))
@@ -398,10 +421,12 @@ class EstimatorResult:
 
 def _run_estimator(job: tuple) -> EstimatorResult:
     path, t, raw, t0, samples, candidate, weights, settings, seed, known, fixed, onset = job
-    model, _, residuals = compiled(path)
-    win = window(t, raw, t0, samples, model.derivative_window)
-    obj = Objective(model, residuals, win, tuple(candidate), np.asarray(weights), model.derivative_window,
-                    fixed=fixed, onset=onset)
+    c = compiled(path)
+    config = settings.get("config") or c.config        # the caller's monitor settings, else the file's
+    model, residuals, w = c.model, c.residuals, config.derivative_window
+    win = window(t, raw, t0, samples, w)
+    obj = Objective(model, residuals, win, tuple(candidate), np.asarray(weights), w, fixed=fixed, onset=onset,
+                    config=config)
     engine = ENGINES[settings["engine"]]
     init = [obj.encode(faults) for faults in known]
     r = engine(obj, obj.bounds(), encoding.N_BITS * len(obj.spaces), pop=settings["pop"],
@@ -518,20 +543,38 @@ def _job_key(job: tuple) -> str:
     """What an estimator's result depends on: its settings and the samples of its window."""
     path, t, raw, t0, samples, candidate, weights, settings, seed, known, fixed, onset = job
     i0 = int(np.searchsorted(t, t0 - 1e-9))
-    margin = int(np.ceil(compiled(path)[0].derivative_window / float(t[1] - t[0])))
+    margin = int(np.ceil((settings.get("config") or compiled(path).config).derivative_window / float(t[1] - t[0])))
     end = min(t.size, i0 + samples + margin)     # the window's last sample, as window() cuts it
     return json.dumps([path, t0, samples, end, list(candidate), list(map(float, weights)), settings, seed, known,
-                       fixed, onset], default=float, sort_keys=True)
+                       fixed, onset], default=_plain, sort_keys=True)
+
+
+def _plain(x):
+    """JSON for a job key: numbers as floats, the monitor settings (a frozen dataclass) by repr."""
+    return repr(x) if isinstance(x, MonitorConfig) else float(x)
+
+
+MODE_TABLE = 4     # suspected mode variables up to which every combination's cost is reported (16 rows)
+
+
+@dataclass(frozen=True)
+class ModeEstimate:
+    """The fault-mode estimator's answer: every mode variable's estimated value, its cost, and
+    (for at most MODE_TABLE suspected variables) the cost of every combination of them, the
+    evidence behind the estimate (plotted as the paper's Fig. 8)."""
+    mode: dict[str, int]
+    cost: float
+    table: list[dict]
 
 
 def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, weights: np.ndarray,
-                  seed: int, variables: list[str] | None = None) -> tuple[dict[str, int], float]:
+                  seed: int, window_s: float, variables: list[str] | None = None) -> ModeEstimate:
     """The fault-mode estimator: BDE over the suspected mode variables (Sec. III-C: the MCSM names
     them; the others keep their current values), same cost as eq. (24)."""
     names = list(variables or model.modes)
     nominal = parameter_values(model)
     nominal.update(commanded(model, win.raw))        # commanded modes follow their command sample by sample
-    signals = corrected_signals(model, win.raw, win.ts, derivative_orders(list(residuals)), None, model.derivative_window)
+    signals = corrected_signals(model, win.raw, win.ts, derivative_orders(list(residuals)), None, window_s)
     c = win.crop
     # the mode each variable should be in: the command at the window's start, or the nominal mode
     current = {m: int(np.asarray(nominal[m]).reshape(-1)[c.start]) if np.ndim(nominal[m]) else int(model.modes[m].nominal)
@@ -543,7 +586,7 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
             values[n] = bits[:, j:j + 1].astype(float)
         total = np.zeros(bits.shape[0])
         for i, r in enumerate(residuals):
-            out = np.broadcast_to(np.asarray(r(signals, values, win.ts, model.derivative_window), dtype=float),
+            out = np.broadcast_to(np.asarray(r(signals, values, win.ts, window_s), dtype=float),
                                   (bits.shape[0], win.t.size))
             total += weights[i] * np.abs(out[:, c]).sum(axis=1)
         return total
@@ -560,4 +603,9 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
             if trial_cost <= 1.01 * best_cost:
                 best, best_cost = trial, min(best_cost, trial_cost)
     current.update({n: int(b) for n, b in zip(names, best)})
-    return current, best_cost
+    table = []
+    if len(names) <= MODE_TABLE:
+        combos = np.array(list(itertools.product((0, 1), repeat=len(names))), dtype=bool)
+        table = [{"mode": {n: int(v) for n, v in zip(names, row)}, "cost": float(c)}
+                 for row, c in zip(combos, cost(np.zeros((len(combos), 0)), combos))]
+    return ModeEstimate(current, best_cost, table)

@@ -35,8 +35,7 @@ import numpy as np
 
 from .data import DataError, Measurements, checked, commanded, signals_from_data
 from .detect import inconsistency, thresholds_for
-from .diagnose import Options, diagnose, public, refresh_prognosis
-from .identify import compiled
+from .diagnose import Options, compiled_for, diagnose, public, refresh_prognosis
 from .residuals import evaluate
 
 Emit = Callable[[dict], None]
@@ -53,7 +52,8 @@ class Monitor:
     header: list[str] = field(default_factory=list)
     n: int = 0                          # samples received
     done: int = 0                       # samples whose residuals are final
-    residuals: list[np.ndarray] = field(default_factory=list)
+    residuals: np.ndarray | None = None   # the last block of final residuals (residuals x samples)
+    history: float = 3600.0             # s of samples kept before a detection (bounded memory)
     t_detect: float | None = None
     lit: np.ndarray | None = None       # latched coherence
     pending: list[float] = field(default_factory=list)       # decision times not yet reached
@@ -65,12 +65,14 @@ class Monitor:
 
     def __post_init__(self) -> None:
         self.options.check()
-        self.model, self.arrs, self.compiled = compiled(self.model_path)
+        c = compiled_for(self.model_path, self.options)
+        self.model, self.config, self.arrs, self.compiled = c.model, c.config, c.arrs, c.residuals
         self.names = [a.name for a in self.arrs]
-        self.thresholds = thresholds_for(self.model.thresholds, self.names, self.options.thresholds)
-        self.wait = self.model.waiting_time if self.options.waiting_time is None else self.options.waiting_time
-        self.samples = self.options.samples or self.model.samples
-        self.lag = self.model.derivative_window / 2
+        self.thresholds = thresholds_for(self.config.thresholds, self.names, self.options.thresholds)
+        self.wait = self.config.waiting_time if self.options.waiting_time is None else self.options.waiting_time
+        self.samples = self.options.samples or self.config.samples
+        self.window = self.config.derivative_window
+        self.lag = self.window / 2
         self.emit({"event": "start", "model": self.model.name, "residuals": self.names,
                    "thresholds": dict(zip(self.names, map(float, self.thresholds))), "lag_s": self.lag,
                    "waiting_time_s": self.wait})
@@ -89,20 +91,37 @@ class Monitor:
             return
         t = self.buffer[:self.n, self.ti]
         ts = float(t[1] - t[0])
-        margin = int(math.ceil(self.model.derivative_window / ts)) + 1
+        margin = int(math.ceil(self.window / ts)) + 1
         final = self.n - int(math.ceil(self.lag / ts)) - 1          # residuals final up to here (exclusive)
         if final <= self.done or self.n <= 2 * margin:
             return
         a = max(0, self.done - 2 * margin)
         segment = Measurements(self.source, t[a:], {h: self.buffer[a:self.n, i] for i, h in enumerate(self.header)})
         raw = signals_from_data(self.model, segment)
-        r = evaluate(self.model, list(self.compiled), raw, ts, window=self.model.derivative_window,
+        r = evaluate(self.model, list(self.compiled), raw, ts, window=self.window,
                      values=commanded(self.model, raw))
-        self.residuals.append(np.asarray(r)[:, self.done - a:final - a])
+        self.residuals = np.asarray(r)[:, self.done - a:final - a]
         start, self.done = self.done, final
         self._detect(t, start, final)
         self._decide()
         self._refresh()
+        self._forget(ts, margin)
+
+    def _forget(self, ts: float, margin: int) -> None:
+        """Before a detection, rows older than ``history`` seconds are dropped, so a stream watched
+        for days holds at most that much (an hour of 8 columns at 100 Hz: 23 MB). The rows are
+        shifted once as many have aged out as are kept (amortised: each row is copied once); the
+        margin the next residual block needs stays. A stream no longer than ``history`` keeps
+        every sample, and its summary is ``bgfdi diagnose`` on the whole file."""
+        keep = max(int(math.ceil(self.history / ts)), 4 * margin)
+        if self.t_detect is not None or self.n < 2 * keep:
+            return
+        drop = min(self.n - keep, self.done - 2 * margin)
+        if drop <= 0:
+            return
+        self.buffer[:self.n - drop] = self.buffer[drop:self.n].copy()
+        self.n -= drop
+        self.done -= drop
 
     def _append(self, block: np.ndarray) -> None:
         """Rows into the buffer (grown by doubling), each block checked as read_csv checks a file:
@@ -129,7 +148,7 @@ class Monitor:
 
     # ------------------------------------------------------------------ detection
     def _detect(self, t: np.ndarray, start: int, stop: int) -> None:
-        r = self.residuals[-1]
+        r = self.residuals
         bad = inconsistency(r, self.thresholds) & (t[start:stop] >= t[0] + self.options.settle)[None, :]
         known_at = float(t[self.n - 1])
         for k in range(bad.shape[1]):
@@ -158,7 +177,7 @@ class Monitor:
         if not self.pending or self.t_detect is None:
             return
         t = self.buffer[:self.n, self.ti]
-        t_now, margin = float(t[self.done - 1]), self.model.derivative_window + 2 * (t[1] - t[0])
+        t_now, margin = float(t[self.done - 1]), self.window + 2 * (t[1] - t[0])
         t_last = float(t[-1])
         ready = self.t_detect + self.samples * (t[1] - t[0]) + margin     # the first window and its margin
         due = [d for d in self.pending if d <= t_now and d + margin <= t_last]

@@ -18,15 +18,36 @@ def _plt():
         raise need_matplotlib() from None
 
 
-def plot_signals(columns: dict[str, np.ndarray], path: str | Path) -> None:
-    """Every data column against time, one panel each."""
+def column_units(model) -> dict[str, str]:
+    """The unit of each data column a model reads: an input's unit, a sensor's unit where the
+    column is the sensor's signal itself (a column computed from a signal, p1 = 1e5 + dp, keeps
+    the sensor's unit too: an offset or a sum of pressures is a pressure)."""
+    out = {i.column: i.unit for i in model.inputs.values() if i.column}
+    for s in model.sensors.values():
+        for c in sorted(str(x) for x in s.signal.free_symbols):
+            out.setdefault(c, s.unit)
+    for m in model.modes.values():
+        if m.column:
+            out[m.column] = "-"
+    return out
+
+
+def plot_signals(columns: dict[str, np.ndarray], path: str | Path, units: dict[str, str] | None = None,
+                 onsets: list[tuple[str, float]] = ()) -> None:
+    """Every data column against time, one panel each, labelled with its unit; ``onsets`` (fault
+    name, time in s) drawn as vertical lines on every panel."""
     plt = _plt()
+    units = units or {}
     names = [c for c in columns if c != "t"]
     fig, axes = plt.subplots(len(names), 1, figsize=(9, 1.8 * len(names)), sharex=True)
-    for ax, name in zip(np.atleast_1d(axes), names):
-        ax.plot(columns["t"], columns[name], lw=0.8)
-        ax.set_ylabel(name)
+    for k, (ax, name) in enumerate(zip(np.atleast_1d(axes), names)):
+        ax.plot(columns["t"], columns[name], lw=0.8, label=name)
+        for j, (fault, t0) in enumerate(onsets):
+            ax.axvline(t0, color=f"C{j + 1}", ls="--", lw=0.8, label=f"{fault} onset ({t0:g} s)" if k == 0 else None)
+        ax.set_ylabel(f"{name} [{units.get(name, '?')}]")
         ax.grid(alpha=0.3)
+        if k == 0 and onsets:
+            ax.legend(fontsize=7, loc="upper left", ncol=4)
     np.atleast_1d(axes)[-1].set_xlabel("t [s]")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -50,7 +71,7 @@ def diagnosis_figures(report: dict, model) -> dict:
     """Residuals with thresholds and t_D (Figs. 4, 7, 11, 13), fitness evolution of every estimator
     (Figs. 9, 12), identified fault profiles, and the RUL prediction, as matplotlib Figures by name
     (the caller shows, saves or closes them)."""
-    from .identify import fault_space
+    from .identify import nominal as nominal_value
     from .profiles import profile
 
     plt = _plt()
@@ -81,20 +102,27 @@ def diagnosis_figures(report: dict, model) -> dict:
         ax.legend(fontsize=8)
         fig.tight_layout()
         figures["fitness"] = fig
+    if report.get("mode_costs"):
+        figures["mode_estimate"] = _mode_figure(plt, report)
     faults = [f for f in report["diagnosis"]["faults"] if f["type"] != "mode"]
     if faults and det:
         fig, axes = plt.subplots(len(faults), 1, figsize=(8, 2.4 * len(faults)))
+        start, end = _data_window(report, t)
         for ax, f in zip(np.atleast_1d(axes), faults):
             t0 = f.get("t0", det["time"])
-            tt = np.linspace(t0 - 2, t0 + 12, 1400)
-            nominal = fault_space(model, f["name"]).nominal
+            tt = np.linspace(min(t0, start) - 2, end + 2, 1400)
+            nominal = nominal_value(model, f["name"])
             p = np.asarray(profile(f["type"], tt, t0, nominal, value=f.get("value"), period=f.get("period"),
                                    model=f.get("model"), b=[f.get("b", [0])])).reshape(-1)
-            ax.plot(tt, np.where(np.isfinite(p), p, np.nan), lw=1.0)
+            ax.plot(tt, np.where(np.isfinite(p), p, np.nan), lw=1.0, label="identified profile")
+            ax.axvspan(start, end, color="0.9", label="data window")
+            ax.axvline(t0, color="C1", ls="--", lw=0.8, label=f"onset {t0:.2f} s")
             if not np.isfinite(nominal):
-                ax.text(0.01, 0.9, "nominal value: infinite", transform=ax.transAxes, fontsize=8)
+                ax.text(0.01, 0.9, "nominal value: infinite (a healthy part)", transform=ax.transAxes, fontsize=8)
             ax.set_title(f"{f['name']}: identified {f['type']} profile", fontsize=9)
+            ax.set_ylabel(f"{f['name']} [{fault_unit(model, f['name'])}]")
             ax.set_xlabel("t [s]")
+            ax.legend(fontsize=7, loc="best")
         fig.tight_layout()
         figures["profiles"] = fig
     for prog in report.get("prognosis", []):
@@ -102,18 +130,62 @@ def diagnosis_figures(report: dict, model) -> dict:
         t0 = f.get("t0", det["time"])
         end = prog["eol"] if prog["eol"] and np.isfinite(prog["eol"]) else t0 + 60
         tt = np.linspace(t0, end + 5, 2000)
-        p = np.asarray(profile("incipient", tt, t0, fault_space(model, f["name"]).nominal, model=f["model"],
+        p = np.asarray(profile("incipient", tt, t0, nominal_value(model, f["name"]), model=f["model"],
                                b=[f["b"]])).reshape(-1)
         fig, ax = plt.subplots(figsize=(7, 3.5))
         ax.plot(tt, p, label=f"identified {prog['name']}")
         ax.axhline(prog["failure"], color="r", ls="--", label="failure value")
         ax.axvline(prog["at"], color="k", ls=":", label=f"now ({prog['at']:.1f} s)")
         ax.axvline(end, color="r", lw=0.8, label=f"EOL {end:.1f} s, RUL {prog['rul']:.1f} s")
-        ax.legend(fontsize=8)
+        low, high = prog.get("rul_low"), prog.get("rul_high")
+        if low is not None and high is not None and np.isfinite(low) and np.isfinite(high) and high > low:
+            ax.axvspan(prog["at"] + low, prog["at"] + high, color="r", alpha=0.12,
+                       label=f"RUL band {low:.1f}-{high:.1f} s (95 % coefficient intervals)")
+        ax.legend(fontsize=7)
+        ax.set_ylabel(f"{prog['name']} [{fault_unit(model, prog['name'])}]")
         ax.set_xlabel("t [s]")
         fig.tight_layout()
         figures[f"rul_{prog['name']}"] = fig
     return figures
+
+
+def fault_unit(model, name: str) -> str:
+    """The unit of a fault's magnitude: its parameter's unit, or '-' for an efficiency factor or a
+    group's common factor."""
+    f = model.faults[name]
+    if f.kind == "parametric" and len(f.targets) == 1:
+        return model.parameters[f.targets[0]].unit
+    return "-"
+
+
+def _data_window(report: dict, t: np.ndarray) -> tuple[float, float]:
+    """The data the final fit saw (the report's ``window``: t_D to the end of the last decision's
+    window); t_D to the decision time for older reports."""
+    det = report["detection"]
+    start, end = report.get("window") or (det["time"], det["decision_time"])
+    return float(start), float(min(max(end, start), t[-1]))
+
+
+def _mode_figure(plt, report: dict):
+    """The fault-mode estimate (the paper's Fig. 8): the weighted residual cost, eq. (24), of every
+    combination of the suspected mode variables on the identification window; the estimate is the
+    lowest, the mode in force before the detection is marked."""
+    rows = report["mode_costs"]
+    labels = [" ".join(f"{k}={v}" for k, v in r["mode"].items()) for r in rows]
+    costs = [r["cost"] for r in rows]
+    estimate = report.get("mode_estimate", {})
+    fig, ax = plt.subplots(figsize=(7, 0.5 * len(rows) + 1.6))
+    colors = ["C3" if all(estimate.get(k) == v for k, v in r["mode"].items()) else "C0" for r in rows]
+    ax.barh(range(len(rows)), costs, color=colors)
+    ax.set_yticks(range(len(rows)), labels)
+    for i, r in enumerate(rows):
+        if all(report["mode"].get(k) == v for k, v in r["mode"].items()):
+            ax.text(costs[i], i, "  mode before t_D", va="center", fontsize=8)
+    ax.set_xscale("log")
+    ax.set_xlabel("weighted residual cost, eq. (24) [-] (red: the estimate)")
+    ax.set_title("fault-mode estimate", fontsize=9)
+    fig.tight_layout()
+    return fig
 
 
 def _residual_units(model, names: list[str]) -> dict[str, str]:
@@ -123,7 +195,7 @@ def _residual_units(model, names: list[str]) -> dict[str, str]:
     from .arrs import arr_unit
     from .identify import compiled
     try:
-        arrs = compiled(model.path)[1]
+        arrs = compiled(model.path).arrs
     except (ModelError, OSError):              # a model not from a file: no units, still a plot
         return {}
     return {a.name: arr_unit(model, a) for a in arrs if a.name in names}

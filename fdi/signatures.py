@@ -39,6 +39,10 @@ class FSM:
     def row(self, fault: str) -> FaultRow:
         return next(r for r in self.rows if r.fault == fault)
 
+    def _repr_html_(self) -> str:
+        from .tables import fsm_html
+        return fsm_html(self)
+
 
 @dataclass(frozen=True)
 class ModeChangeRow:
@@ -54,6 +58,10 @@ class MCSM:
     mode: Mapping[str, int]
     columns: tuple[str, ...]
     rows: tuple[ModeChangeRow, ...]
+
+    def _repr_html_(self) -> str:
+        from .tables import mcsm_html
+        return mcsm_html(self)
 
 
 def all_modes(model: Model) -> list[dict[str, int]]:

@@ -9,6 +9,7 @@ with signals as functions of t.
 from __future__ import annotations
 
 import csv
+import html
 import io
 import json
 import re
@@ -130,6 +131,28 @@ def to_markdown(arrs: list[ARR], fsms: list[FSM], mcsm: MCSM) -> str:
     for r in mcsm.rows:
         out.append(f"| {r.mode_change} | " + " | ".join(map(str, r.signature)) + f" | {r.Db} | {r.Ib} |")
     return "\n".join(out) + "\n"
+
+
+def _html_table(caption: str, header: list[str], rows: list[list[str]]) -> str:
+    esc = lambda x: html.escape(str(x))
+    head = "".join(f"<th>{esc(h)}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in r) + "</tr>" for r in rows)
+    return f"<table><caption>{esc(caption)}</caption><tr>{head}</tr>{body}</table>"
+
+
+def fsm_html(fsm: FSM) -> str:
+    """An MD-FSM as an HTML table (a notebook's view): the structural signature, the nominal one
+    in brackets where it differs (a term that vanishes at the nominal values), Db."""
+    rows = [[r.fault] + [str(s) if s == n else f"{s} [{n}]" for s, n in zip(r.structural, r.nominal)] + [r.Db]
+            for r in fsm.rows]
+    return _html_table(f"MD-FSM at mode {_mode_label(dict(fsm.mode))}", ["fault", *fsm.columns, "Db"], rows)
+
+
+def mcsm_html(mcsm: MCSM) -> str:
+    """The MCSM as an HTML table: each mode change's signature, Db and Ib."""
+    rows = [[r.mode_change, *r.signature, r.Db, r.Ib] for r in mcsm.rows]
+    return _html_table(f"MCSM from mode {_mode_label(dict(mcsm.mode))}", ["mode change", *mcsm.columns, "Db", "Ib"],
+                       rows)
 
 
 def _latex_escape(s: str) -> str:

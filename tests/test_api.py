@@ -71,5 +71,33 @@ def test_yaml_text_as_the_model():
 @pytest.mark.skipif(importlib.util.find_spec("matplotlib") is None, reason="the plot extra is not installed")
 def test_plot_returns_figures():
     m = read_csv(DATA / "scenario1.csv")
-    figures = diagnose(str(CYCAB), dict(m.columns), workers=1).plot()
-    assert {"residuals", "fitness", "profiles"} <= set(figures)
+    d = diagnose(str(CYCAB), dict(m.columns), workers=1)
+    figures = d.plot()
+    assert {"residuals", "fitness", "profiles", "mode_estimate"} <= set(figures)
+    # units from the model: ARR1 is a torque balance (N*m), R4's leak law sqrt|dp|/R4 gives Pa^0.5*s/m^3
+    labels = [ax.get_ylabel() for ax in figures["residuals"].axes]
+    assert labels[0] == "ARR1 [N*m]"
+    assert [ax.get_ylabel() for ax in figures["profiles"].axes][0] == "R4 [Pa^0.5*s/m^3]"
+    # the fault-mode estimate (Fig. 8): coherence [1 1 0] suspects a broken belt; a2 = 1 costs least
+    mode_axes = figures["mode_estimate"].axes[0]
+    assert [t.get_text() for t in mode_axes.get_yticklabels()] == ["a2=0", "a2=1"]
+    assert d.report["mode_estimate"]["a2"] == 1
+    costs = {tuple(r["mode"].items()): r["cost"] for r in d.report["mode_costs"]}
+    assert costs[(("a2", 1),)] < costs[(("a2", 0),)]
+    import matplotlib.pyplot as plt
+    for fig in figures.values():
+        fig.canvas.draw()                      # renders, not only builds
+        plt.close(fig)
+
+
+def test_monitor_settings_given_in_a_notebook_replace_the_files():
+    """A MonitorConfig passed as ``config`` is used instead of the file's (the file untouched):
+    thresholds above every residual detect nothing; a shorter waiting time moves the decision."""
+    from fdi.config import load
+    _, config = load(CYCAB)
+    data = read_csv(DATA / "scenario2.csv")
+    quiet = config.replace(thresholds={"ARR1": 1e9, "ARR2": 1e9, "ARR3": 1e9})
+    assert diagnose(str(CYCAB), data, quiet, workers=1).detection is None
+    d = diagnose(str(CYCAB), data, config.replace(waiting_time=2.0), workers=1)
+    assert abs(d.detection["decision_time"] - d.detection["time"] - 2.0) <= 0.011     # 2 s, to a sample
+    assert load(CYCAB)[1].waiting_time == 5.0

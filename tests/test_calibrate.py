@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bondgraph.loader import load_model, load_model_text
+from bondgraph.loader import load_model
+from fdi.config import load_text
 from fdi.calibrate import calibrate, nominal_residuals, with_thresholds
 from fdi.data import Measurements
 from fdi.app.resources import scenarios_dir
@@ -42,5 +43,5 @@ def test_thresholds_written_into_the_model_text():
     before = [ln for ln in text.splitlines() if not ln.startswith("thresholds:")]
     after = [ln for ln in out.splitlines() if not ln.startswith("thresholds:")]
     assert before == after                                         # every other line, comments included, kept
-    model = load_model_text(out, "calibrated.yaml")
-    assert [model.thresholds[n] for n in c.names] == [float(f"{t:.4g}") for t in c.thresholds]
+    _, config = load_text(out, "calibrated.yaml")
+    assert [config.thresholds[n] for n in c.names] == [float(f"{t:.4g}") for t in c.thresholds]

@@ -48,6 +48,13 @@ def test_check_json_has_the_sensors_modes_and_residuals_of_the_paper(check_json)
     assert {f["name"] for f in d["faults"]} >= set(TABLE_I) | set(TABLE_II)
 
 
+def test_check_json_has_the_monitor_settings_of_the_file(check_json):
+    m = check_json["monitor"]
+    assert m["thresholds"] == {"ARR1": 1.0, "ARR2": 5.5e-6, "ARR3": 15.0}
+    assert (m["waiting_time"], m["samples"], m["derivative_window"]) == (5.0, 1000, 0.25)
+    assert m["faults"]["beta_theta2"] == {"bounds": [0.0, 1.5], "failure": 0.5}     # the encoder fails at 0.5
+
+
 def test_check_json_gives_the_causality_of_fig_2(check_json):
     diag = check_json["diagnosis"]
     assert diag["ok"] and diag["problems"] == [] and diag["loops"] == [] and diag["modes_checked"] == 4

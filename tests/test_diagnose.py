@@ -152,11 +152,12 @@ def test_coarse_cost_agrees_with_the_full_cost_on_scenario2():
     # stays within 5 % of eq. (24), and ranks them alike
     from fdi.data import read_csv, signals_from_data
     from fdi.identify import Objective, compiled, window
-    model, _, residuals = compiled(str(CYCAB))
+    c = compiled(str(CYCAB))
+    model, residuals, config = c.model, c.residuals, c.config
     meas = read_csv(DATA / "scenario2.csv")
-    win = window(meas.t, signals_from_data(model, meas), 32.0, model.samples, model.derivative_window)
-    weights = 1.0 / np.asarray([model.thresholds[r.name] for r in residuals])
-    obj = Objective(model, residuals, win, ("R4", "beta_theta2"), weights, model.derivative_window)
+    win = window(meas.t, signals_from_data(model, meas), 32.0, config.samples, config.derivative_window)
+    weights = 1.0 / np.asarray([config.thresholds[r.name] for r in residuals])
+    obj = Objective(model, residuals, win, ("R4", "beta_theta2"), weights, config.derivative_window, config=config)
     assert obj.stride == 4
     truth = obj.encode([{"name": "R4", "type": "abrupt", "value": 2.5221e7, "t0": 32.0},
                         {"name": "beta_theta2", "type": "incipient", "model": 2, "b": [-0.03], "t0": 32.0}])

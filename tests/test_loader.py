@@ -48,8 +48,6 @@ def test_cycab_loads_with_the_fixed_names(cycab):
     assert list(cycab.modes) == ["a1", "a2"]
     assert set(cycab.faults) == {"R4", "R5", "beta_theta1", "beta_theta2", "beta_dp", "a1", "a2"}
     assert cycab.faults["R5"].targets == ("kf5", "Fu5")
-    assert dict(cycab.thresholds) == {"ARR1": 1.0, "ARR2": 5.5e-6, "ARR3": 15.0}
-    assert cycab.waiting_time == 5.0
     assert cycab.parameters["k1"].value == 5.0 and cycab.parameters["kf5"].value == 300.0
     assert str(cycab.sensors["dp"].signal) == "p1 - p2"
 
@@ -147,3 +145,24 @@ def test_check_cycab(capsys):
     out = capsys.readouterr().out
     assert "one assignment, valid in all 4 mode(s)" in out
     assert "all storage elements in derivative causality" in out
+
+
+def test_monitor_settings_are_read_apart_from_the_bond_graph():
+    """The bond graph is physics only; the file's thresholds, diagnosis section and each fault's
+    bounds and failure value are the monitor's (fdi.config), as the CyCab file writes them."""
+    from fdi.config import load
+    model, config = load(CYCAB)
+    assert not hasattr(model, "thresholds") and not hasattr(model.faults["R4"], "bounds")
+    assert dict(config.thresholds) == {"ARR1": 1.0, "ARR2": 5.5e-6, "ARR3": 15.0}
+    assert (config.waiting_time, config.samples, config.derivative_window) == (5.0, 1000, 0.25)
+    assert config.failure("beta_theta2") is not None and config.bounds("R4") is not None
+    assert config.replace(thresholds={"ARR2": 1e-5}).thresholds == {"ARR1": 1.0, "ARR2": 1e-5, "ARR3": 15.0}
+
+
+def test_monitor_settings_errors_name_file_key_and_line():
+    from fdi.config import load_text
+    bad = BASE + "diagnosis:\n  waiting_time: -1\n"
+    with pytest.raises(ModelError, match=r"rc.yaml:\d+: diagnosis.waiting_time: .*at least 0"):
+        load_text(bad, "rc.yaml")
+    with pytest.raises(ModelError, match="thresholds.nope: 'nope' is no residual"):
+        load_text(BASE + "thresholds: {nope: 1}\n", "rc.yaml")

@@ -27,11 +27,16 @@ def test_streamed_residuals_equal_those_of_the_whole_file():
     # residuals equal the whole file's wherever the window is complete (all but the last lag)
     m, header, table = _table("scenario2")
     mon = Monitor(str(CYCAB), lambda e: None, Options(workers=1))
+    pieces, done = [], 0
     for a in range(0, 2000, 37):                     # 20 s in uneven blocks, before the detection
         mon.feed(header, table[a:a + 37])
-    streamed = np.concatenate(mon.residuals, axis=1)
-    model, _, residuals = compiled(str(CYCAB))
-    whole = evaluate(model, list(residuals), signals_from_data(model, m), m.ts, window=model.derivative_window)
+        if mon.done > done:
+            pieces.append(mon.residuals)
+            done = mon.done
+    streamed = np.concatenate(pieces, axis=1)
+    c = compiled(str(CYCAB))
+    model = c.model
+    whole = evaluate(model, list(c.residuals), signals_from_data(model, m), m.ts, window=c.config.derivative_window)
     assert streamed.shape[1] == mon.done >= 2000 - 20
     np.testing.assert_allclose(streamed[:, 50:], whole[:, 50:mon.done], rtol=1e-9, atol=1e-12)
 
@@ -68,3 +73,28 @@ def test_stdin_stream_ends_with_the_diagnosis_of_the_file(capsys, monkeypatch):
     assert summary == batch
     prognoses = [e["prognosis"] for e in lines if e["event"] == "decision" and e.get("prognosis")]
     assert prognoses and prognoses[-1][0]["name"] == "beta_theta2"
+
+
+def test_a_long_stream_keeps_a_bounded_history_and_still_detects():
+    """Before a detection only ``history`` seconds are kept: the buffer stays bounded over a long
+    nominal stream, the residuals stay those of the whole file, and a fault afterwards is detected
+    at the time the whole file gives (scenario 2's R4 leak and encoder drift from 32 s)."""
+    m, header, table = _table("scenario2")
+    events: list[dict] = []
+    mon = Monitor(str(CYCAB), events.append, Options(workers=1), history=5.0)
+    sizes = []
+    for a in range(0, 3300, 50):                     # up to 33 s, the detection at 31.98 s
+        mon.feed(header, table[a:a + 50])
+        sizes.append(mon.n)
+    assert max(sizes[:60]) <= 2 * 500 + 50          # 5 s at 100 Hz kept, shifted at twice that
+    assert mon.buffer[0, mon.ti] > 10.0             # the start of the stream was forgotten
+    detection = next(e for e in events if e["event"] == "detection")
+    whole = next(e for e in _events_of_whole(header, table[:3300]) if e["event"] == "detection")
+    assert detection["t"] == whole["t"] and detection["coherence"] == whole["coherence"]
+
+
+def _events_of_whole(header, table):
+    events: list[dict] = []
+    mon = Monitor(str(CYCAB), events.append, Options(workers=1))
+    mon.feed(header, table)
+    return events

@@ -6,6 +6,7 @@ import pytest
 
 from fdi import derivatives
 from fdi.data import DataError, read_csv, signals_from_data
+from fdi.config import load
 from fdi.residuals import compile_residuals, evaluate
 
 from .conftest import DATA
@@ -20,7 +21,7 @@ def residuals(cycab, cycab_arrs):
 
 def _run(model, residuals, name):
     data = read_csv(DATA / f"{name}.csv")
-    r = evaluate(model, residuals, signals_from_data(model, data), data.ts, window=model.derivative_window)
+    r = evaluate(model, residuals, signals_from_data(model, data), data.ts, window=load(model.path)[1].derivative_window)
     return data.t, r
 
 

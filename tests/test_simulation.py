@@ -12,6 +12,7 @@ from bondgraph.loader import load_model
 from bondgraph.simulation import build_system, simulate
 from fdi.app.cli import main
 from fdi.data import Measurements, read_csv, signals_from_data
+from fdi.config import load
 from fdi.residuals import compile_residuals, evaluate
 from fdi.app.scenario import ScenarioError, breakpoints, load_scenario, parse_scenario, run, time_functions
 
@@ -37,7 +38,7 @@ def _simulate(model, name, T=None, **override):
 
 
 def _residuals(model, residuals, m):
-    return evaluate(model, residuals, signals_from_data(model, m), m.ts, window=model.derivative_window)
+    return evaluate(model, residuals, signals_from_data(model, m), m.ts, window=load(model.path)[1].derivative_window)
 
 
 def _coherence(t, r, a, b):

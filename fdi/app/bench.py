@@ -292,12 +292,13 @@ def benchmark_problem(name: str, seed: int):
     if name != "scenario2":
         raise ValueError(f"unknown problem '{name}' (synthetic, synthetic-all, a synthetic case, or scenario2)")
     path = str(shipped_model("cycab_steering"))
-    model, arrs, residuals = compiled(path)
+    c = compiled(path)
+    model, config = c.model, c.config
     data = read_csv(reference_data("scenario2.csv"))
     raw = signals_from_data(model, data)
-    win = window(data.t, raw, 32.0, model.samples, model.derivative_window)
-    weights = 1.0 / np.array([model.thresholds[a.name] for a in arrs])
-    obj = Objective(model, residuals, win, ("R4", "beta_theta2"), weights, model.derivative_window)
+    win = window(data.t, raw, 32.0, config.samples, config.derivative_window)
+    weights = 1.0 / np.array([config.thresholds[a.name] for a in c.arrs])
+    obj = Objective(model, c.residuals, win, ("R4", "beta_theta2"), weights, config.derivative_window, config=config)
     truth = [{"type": "abrupt", "value": 2.5221e7}, {"type": "incipient", "model": 2, "b": [-0.03]}]
     t_win = win.t[win.crop]
     fixed_onset = lambda real, bits: obj(np.hstack([real, np.full((real.shape[0], 1), 32.0)]), bits)

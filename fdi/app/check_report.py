@@ -3,10 +3,10 @@ one JSON object (shape in docs/cli.md). The text report is cli.cmd_check; the tw
 from __future__ import annotations
 
 import json
+import math
 
 from bondgraph.causality import DIAGNOSIS, SIMULATION, Causality, assign
 from bondgraph.errors import CausalityError
-from bondgraph.loader import load_model
 from bondgraph.model import Model
 
 from .progress import stage
@@ -40,8 +40,10 @@ def analyse(path: str, causality: str = "derivative") -> dict:
     from ..arrs import select_arrs, undefined_in_modes
     from ..signatures import all_modes
 
+    from ..config import load
+
     with stage("load"):
-        model = load_model(path)
+        model, config = load(path)               # the bond graph and the monitor settings both checked
     with stage("diagnostic causality (SCAPH)"):
         diag = assign(model, DIAGNOSIS)
     with stage(f"residual selection ({causality} causality)"):
@@ -75,7 +77,21 @@ def analyse(path: str, causality: str = "derivative") -> dict:
             "notes": list(chosen.notes),
         },
         "simulation": _causality(model, sim),
+        "monitor": _monitor(config),
     }
+
+
+def _finite(x: float | None) -> float | None:
+    return None if x is None or not math.isfinite(x) else float(x)
+
+
+def _monitor(config) -> dict:
+    """The monitor settings of the file (SI: times in s; thresholds in each residual's unit;
+    an unbounded end of a fault's search bounds is null)."""
+    return {"thresholds": dict(config.thresholds), "waiting_time": config.waiting_time, "samples": config.samples,
+            "derivative_window": config.derivative_window,
+            "faults": {name: {"bounds": None if f.bounds is None else [_finite(b) for b in f.bounds],
+                              "failure": _finite(f.failure)} for name, f in config.faults.items()}}
 
 
 def to_json(report: dict) -> str:

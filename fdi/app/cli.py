@@ -223,8 +223,10 @@ def cmd_check(args: argparse.Namespace) -> int:
         from .check_report import analyse
         _emit(_json_text(analyse(args.model, args.causality)), None)
         return 0
+    from ..config import load
+
     with stage("load"):
-        model = load_model(args.model)
+        model, _ = load(args.model)              # the bond graph and the monitor settings both checked
     kinds = Counter(e.kind for e in model.elements.values())
     jkinds = Counter(j.kind for j in model.junctions.values())
     print(f"model {model.name} ({args.model})")
@@ -373,8 +375,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if not args.json:
         _note(f"wrote {where}: {len(columns['t'])} samples of {', '.join(columns)}", args.output)
     if args.plot:
-        from ..plots import plot_signals
-        plot_signals(columns, args.plot)
+        from ..plots import column_units, plot_signals
+        plot_signals(columns, args.plot, column_units(model), [(f.target, f.t0) for f in scenario.faults])
         if not args.json:
             _note(f"plot: {args.plot}", args.output)
     if args.json:
@@ -413,7 +415,7 @@ def _options(args: argparse.Namespace, model: Model):
     from ..identify import compiled
     if args.engine not in ENGINES:
         raise UsageError(f"--engine: unknown engine '{args.engine}' (use {', '.join(ENGINES)})")
-    names = [a.name for a in compiled(model.path)[1]]
+    names = [a.name for a in compiled(model.path).arrs]
     thresholds = _named(args.threshold, "--threshold", names, f"residual of {model.name}")
     failures = _named(args.failure, "--failure", list(model.faults), f"fault of {model.name}")
     options = Options(thresholds=thresholds, waiting_time=args.wait, exoneration=not args.no_exoneration,
@@ -446,7 +448,7 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
     from ..diagnose import diagnose
     from ..identify import compiled
     from .report import to_text
-    model = compiled(str(model_path))[0]
+    model = compiled(str(model_path)).model
     with Steps("estimators") as tick:
         report = diagnose(model_path, data, options, progress=tick)
     for name, seconds in report.get("_timings", {}).items():
@@ -470,7 +472,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..identify import compiled
 
     _check_fleet_options(args)
-    model = compiled(args.model)[0]
+    model = compiled(args.model).model
     options = _options(args, model)
     if len(args.data) > 1 or (args.jobs or 1) > 1 or args.scheduler:
         return _diagnose_batch(args, options)
@@ -563,7 +565,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from ..identify import compiled
     from .scenario import load_scenario
 
-    model = compiled(args.model)[0]
+    model = compiled(args.model).model
     options = _options(args, model)
     files = suite_files(args.scenarios)
     if not files:
@@ -609,7 +611,7 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     from ..identify import compiled
     from ..monitor import Monitor
 
-    model = compiled(args.model)[0]
+    model = compiled(args.model).model
     options = _options(args, model)
     lines: list[str] = []
 
@@ -624,7 +626,7 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     source = "standard input" if args.data == "-" else args.data
     fh = sys.stdin if args.data == "-" else open_text(args.data)
     try:
-        monitor = Monitor(args.model, emit, options, source, refresh=args.refresh)
+        monitor = Monitor(args.model, emit, options, source, refresh=args.refresh, history=args.history)
         for header, block in blocks(fh, source, args.block):
             monitor.feed(header, block)
         monitor.close()
@@ -645,7 +647,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from .scenario import load_scenario, run
 
     path = str(shipped_model("cycab_steering"))
-    model = compiled(path)[0]
+    model = compiled(path).model
     options = _options(args, model)                          # bad options refused before simulating
     scenario = load_scenario(scenarios_dir() / f"cycab_{args.scenario}.json", model)
     check_samples(options.samples, 1.0 / scenario.fs, "--samples")
@@ -830,6 +832,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="rows read before the residuals are brought up to date (default 50)")
     mon.add_argument("--refresh", type=real(0.1, high=1e6), default=5.0,
                      help="seconds between refreshed prognoses of a growing fault (default 5)")
+    mon.add_argument("--history", type=real(1.0, high=1e9), default=3600.0,
+                     help="seconds of samples kept before a detection: memory stays bounded on an endless "
+                          "stream (default 3600)")
     diagnosis_options(mon)
     mon.set_defaults(func=cmd_monitor)
 

@@ -32,7 +32,7 @@ import numpy as np
 from ..errors import UsageError
 from ..data import DataError, Measurements
 from ..diagnose import Options, diagnose, public, refresh_prognosis
-from ..identify import compiled, fault_space
+from ..identify import compiled, nominal
 from ..prognose import end_of_life
 from .scenario import FaultEvent, load_scenario, run
 
@@ -109,7 +109,8 @@ def score(name: str, events: list[FaultEvent], report: dict, mode_names: dict[st
 def evaluate_scenario(model_path: str, scenario_path: str | Path, options: Options | None = None) -> Score:
     """Simulate one scenario, diagnose it, score it; RUL checkpoints for its incipient faults."""
     o = options or Options()
-    model = compiled(model_path)[0]
+    c = compiled(model_path)
+    model, config = c.model, c.config
     scenario = load_scenario(scenario_path, model)
     cols = run(model, scenario)
     meas = Measurements(str(scenario_path), cols["t"], cols)
@@ -117,7 +118,7 @@ def evaluate_scenario(model_path: str, scenario_path: str | Path, options: Optio
     mode_names = {f.name: f.targets[0] for f in model.faults.values() if f.kind == "mode"}
     mode_names.update({f.targets[0]: f.name for f in model.faults.values() if f.kind == "mode"})
     s = score(Path(scenario_path).stem, list(scenario.faults), report, mode_names,
-              early=model.derivative_window / 2 + 1.0 / scenario.fs)
+              early=config.derivative_window / 2 + 1.0 / scenario.fs)
     s.rul = rul_checkpoints(model_path, model, scenario, meas, report, o)
     return s
 
@@ -125,12 +126,12 @@ def evaluate_scenario(model_path: str, scenario_path: str | Path, options: Optio
 def rul_checkpoints(model_path: str, model, scenario, meas: Measurements, report: dict, o: Options) -> list[dict]:
     """For each incipient design fault with a failure value: the RUL the toolkit gives at 50 % and
     90 % of its life (the data up to then diagnosed and refitted), against the true RUL."""
-    out = []
+    out, config = [], compiled(model_path).config
     for e in scenario.faults:
-        failure = e.failure if e.failure is not None else model.faults[e.target].failure
+        failure = e.failure if e.failure is not None else config.failure(e.target)
         if e.type != "incipient" or failure is None:
             continue
-        eol = end_of_life(e.model, list(e.b), fault_space(model, e.target).nominal, failure, e.t0, e.t0)
+        eol = end_of_life(e.model, list(e.b), nominal(model, e.target), failure, e.t0, e.t0)
         if not math.isfinite(eol):
             continue
         for fraction in LIFE_POINTS:

@@ -1,0 +1,144 @@
+"""The monitor's settings, read from a model file's diagnosis sections.
+
+The bond graph (:class:`bondgraph.model.Model`) is physics only. How it is monitored lives here:
+the threshold of each residual, the waiting time T_wt, the identification window, the derivative
+window, and per fault the search bounds and the failure value a prognosis runs to. The sections::
+
+    thresholds: {ARR1: 0.012, theta2: 0.003}     # by residual name or by the sensor of its AGARR
+    diagnosis: {waiting_time: 2.0, samples: 1000, derivative_window: 0.25}
+    faults:
+      R4_leak: {kind: parametric, parameters: [R4], bounds: [1e5, .inf], failure: 2e6}
+
+>>> from bondgraph.loader import read_document_text
+>>> text = '''
+... parameters: {C: {value: 1.0e-3, unit: F}, R: {value: 100.0, unit: Ohm}}
+... data: {columns: [t, i_in, v]}
+... inputs: {i_in: {unit: A, column: i_in}}
+... elements: {src: {type: MSf, input: i_in}, c: {type: C, parameter: C}, r: {type: R, parameter: R}}
+... junctions: {j: {type: "0"}}
+... sensors: {v: {type: De, junction: j, column: v, unit: V}}
+... bonds: {1: [src, j], 2: [j, c], 3: [j, r]}
+... faults: {R_up: {kind: parametric, parameters: [R], bounds: [1, 1000], failure: 500}}
+... thresholds: {v: 0.01}
+... diagnosis: {waiting_time: 1.5}
+... '''
+>>> model, config = load_text(text, "rl.yaml")
+>>> config.thresholds, config.waiting_time, config.bounds("R_up"), config.failure("R_up")
+({'ARR1': 0.01}, 1.5, (1.0, 1000.0), 500.0)
+>>> config.replace(waiting_time=3.0).waiting_time      # a variant for a notebook, the file untouched
+3.0
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field, replace as _replace
+from pathlib import Path
+from typing import Mapping
+
+from bondgraph.loader import Document, model_from_document, read_document, read_document_text
+from bondgraph.model import Model
+
+MAX_TIME = 1.0e6             # s: a derivative window or waiting time beyond 11 days is a typing error
+MAX_SAMPLES = 10_000_000     # samples in an identification window
+DEFAULT_WAITING_TIME = 0.0   # s
+DEFAULT_SAMPLES = 1000       # the paper's identification window (Section IV)
+DEFAULT_DERIVATIVE_WINDOW = 0.25   # s: the Savitzky-Golay window of the residuals' derivatives
+
+
+@dataclass(frozen=True)
+class FaultSettings:
+    """How one candidate fault is identified: search ``bounds`` [low, high] (None: the defaults of
+    :func:`fdi.identify.fault_space`) and the ``failure`` value its prognosis runs to (None: none)."""
+    bounds: tuple[float, float] | None = None
+    failure: float | None = None
+
+
+@dataclass(frozen=True)
+class MonitorConfig:
+    """The settings of a monitor of one model: thresholds by residual name (ARR1, ARR2, ...), the
+    waiting time T_wt (s) after the first detection before isolation decides, the identification
+    window in samples, the derivative window (s), and :class:`FaultSettings` by fault name."""
+    thresholds: Mapping[str, float] = field(default_factory=dict)
+    waiting_time: float = DEFAULT_WAITING_TIME
+    samples: int = DEFAULT_SAMPLES
+    derivative_window: float = DEFAULT_DERIVATIVE_WINDOW
+    faults: Mapping[str, FaultSettings] = field(default_factory=dict)
+
+    def bounds(self, fault: str) -> tuple[float, float] | None:
+        """The search bounds of ``fault`` given in the file, or None."""
+        s = self.faults.get(fault)
+        return None if s is None else s.bounds
+
+    def failure(self, fault: str) -> float | None:
+        """The failure value of ``fault`` given in the file, or None."""
+        s = self.faults.get(fault)
+        return None if s is None else s.failure
+
+    def replace(self, **changes) -> "MonitorConfig":
+        """A copy with some fields changed (``thresholds`` merged by name into the file's)."""
+        if "thresholds" in changes:
+            changes["thresholds"] = {**self.thresholds, **changes["thresholds"]}
+        return _replace(self, **changes)
+
+
+def read_config(doc: Document, model: Model) -> MonitorConfig:
+    """The monitor settings of a read model file; a ModelError (file, key, line) on a bad value."""
+    diag = doc.spec(doc.data.get("diagnosis") or {}, ("diagnosis",), {"waiting_time", "samples", "derivative_window"})
+    window = doc.number(diag.get("derivative_window", DEFAULT_DERIVATIVE_WINDOW), ("diagnosis", "derivative_window"),
+                        "derivative_window (a time in s)", above=0, maximum=MAX_TIME)
+    waiting = doc.number(diag.get("waiting_time", DEFAULT_WAITING_TIME), ("diagnosis", "waiting_time"),
+                         "waiting_time (a time in s)", minimum=0, maximum=MAX_TIME)
+    samples = int(doc.number(diag.get("samples", DEFAULT_SAMPLES), ("diagnosis", "samples"), "samples",
+                             integer=True, minimum=2, maximum=MAX_SAMPLES))
+    return MonitorConfig(thresholds=_thresholds(doc, model), waiting_time=waiting, samples=samples,
+                         derivative_window=window, faults=_fault_settings(doc, model))
+
+
+def _thresholds(doc: Document, model: Model) -> dict[str, float]:
+    """Thresholds by residual name (ARR1, ARR2, ...: which residuals exist is decided by the
+    residual selection, and checked when the diagnosis starts) or by the sensor of an AGARR."""
+    by_sensor = {s: f"ARR{i + 1}" for i, s in enumerate(model.sensors)}
+    out: dict[str, float] = {}
+    for key, value in doc.mapping(doc.data.get("thresholds"), ("thresholds",)).items():
+        arr = by_sensor.get(key, key)
+        if not (isinstance(arr, str) and re.fullmatch(r"ARR[1-9][0-9]*", arr)):
+            raise doc.error(("thresholds", key), f"'{key}' is no residual (use ARR1, ARR2, ... as `bgfdi tables` "
+                                                 f"names them, or a sensor name: {', '.join(model.sensors) or 'none'})")
+        out[arr] = doc.number(value, ("thresholds", key), "threshold", above=0)
+    return out
+
+
+def _fault_settings(doc: Document, model: Model) -> dict[str, FaultSettings]:
+    out: dict[str, FaultSettings] = {}
+    for name, spec in doc.mapping(doc.data.get("faults"), ("faults",)).items():
+        where = ("faults", name)
+        bounds = spec.get("bounds")
+        if bounds is not None:
+            if not isinstance(bounds, list) or len(bounds) != 2:
+                raise doc.error(where + ("bounds",), "bounds must be [low, high]")
+            bounds = tuple(doc.number(b, where + ("bounds",), "bound", infinite=True) for b in bounds)
+            if not all(math.isfinite(b) for b in bounds) and model.faults[name].kind != "parametric":
+                raise doc.error(where + ("bounds",), "bounds must be finite")
+            if not bounds[0] < bounds[1]:
+                raise doc.error(where + ("bounds",), "bounds must be [low, high] with low < high")
+        failure = spec.get("failure")
+        if failure is not None:
+            failure = doc.number(failure, where + ("failure",), "failure")
+        if bounds is not None or failure is not None:
+            out[str(name)] = FaultSettings(bounds, failure)
+    return out
+
+
+def load(path: str | Path) -> tuple[Model, MonitorConfig]:
+    """The bond graph and the monitor settings of a model file, read once."""
+    doc = read_document(path)
+    model = model_from_document(doc)
+    return model, read_config(doc, model)
+
+
+def load_text(text: str, path: str = "<model>") -> tuple[Model, MonitorConfig]:
+    """As :func:`load`, from YAML text (``path`` names it in messages)."""
+    doc = read_document_text(text, path)
+    model = model_from_document(doc)
+    return model, read_config(doc, model)
