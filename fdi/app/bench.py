@@ -102,6 +102,19 @@ def format_derive(rows: list[dict]) -> str:
     return "\n".join(out) + "\n"
 
 
+def derive_json(rows: list[dict]) -> dict:
+    """``bench derive --json``: every case with the same keys (null where not measured), seconds
+    best of three cold runs; the MSO search of the largest shipped model apart."""
+    cases, mso = [], None
+    for r in rows:
+        cases.append({"case": r["case"], "chain": r["case"].startswith("chain"), "elements": r["elements"],
+                      "arrs": r["arrs"], "arrs_s": r["seconds"], "state_equations_s": r.get("state_seconds")})
+        if "mso_seconds" in r:
+            mso = {"case": r["case"], "equations": r["equations"], "msos": r["msos"], "search_s": r["mso_seconds"],
+                   "selection_s": r["select_seconds"]}
+    return {"benchmark": "derive", "cases": cases, "mso": mso}
+
+
 # ---------------------------------------------------------------- simulation
 
 REFERENCE_CPU_S = 2.3       # the same 60 s run by the independent simulator that made models/data/cycab (issue 11)
@@ -145,6 +158,12 @@ def format_simulate(row: dict) -> str:
     return "\n".join(out) + "\n"
 
 
+def simulate_json(row: dict) -> dict:
+    """``bench simulate --json``: CPU seconds by stage (best of three), the simulated span in s."""
+    return {"benchmark": "simulate", "scenario": row["scenario"], "duration": row["T"],
+            "stages_cpu_s": dict(row["stages"]), "total_cpu_s": row["total_s"], "reference_cpu_s": row["reference_s"]}
+
+
 # ---------------------------------------------------------------- optimisers (Table VI protocol)
 
 TABLE_VI = {"pop": 150, "generations": 300, "pc": 0.55, "pm": 0.08}
@@ -170,17 +189,29 @@ def _optim_job(job: tuple) -> dict:
             "margin": r.extra.get("margin"), "history": [float(h) for h in np.asarray(r.history)[:: max(1, len(r.history) // 50)]]}
 
 
-def optim_rows(problem: str, runs: int, methods: list[str], workers: int = 2, settings: dict | None = None) -> list[dict]:
-    from concurrent.futures import ProcessPoolExecutor
+def optim_rows(problem: str, runs: int, methods: list[str], workers: int = 2, settings: dict | None = None,
+               progress=None) -> list[dict]:
+    """Every run of every method on every case of ``problem``, in ``workers`` processes;
+    ``progress(done, total)`` told as runs finish."""
+    from concurrent.futures import ProcessPoolExecutor, as_completed
 
     from . import synthetic
     cases = synthetic.GROUPS.get(problem, (problem,))
     settings = settings or TABLE_VI
     jobs = [(m, c, s, settings) for m in methods for c in cases for s in range(runs)]
     if workers <= 1:
-        return [_optim_job(j) for j in jobs]
+        rows = []
+        for j in jobs:
+            rows.append(_optim_job(j))
+            if progress:
+                progress(len(rows), len(jobs))
+        return rows
     with ProcessPoolExecutor(workers) as pool:
-        return list(pool.map(_optim_job, jobs))
+        futures = [pool.submit(_optim_job, j) for j in jobs]
+        for done, _ in enumerate(as_completed(futures), 1):
+            if progress:
+                progress(done, len(jobs))
+        return [f.result() for f in futures]
 
 
 def summarise_optim(problem: str, runs: int, rows: list[dict]) -> dict:
@@ -241,6 +272,14 @@ def format_diagnose(row: dict) -> str:
     out.append(f"identification: {row['evaluations']} evaluations; {100 * share:.0f} % of estimator time in residual "
                f"evaluation (the objective), {row['estimator_s'] - row['objective_s']:.2f} s in the engines")
     return "\n".join(out) + "\n"
+
+
+def diagnose_json(row: dict) -> dict:
+    """``bench diagnose --json``: wall seconds by stage of one diagnosis of scenario 2."""
+    return {"benchmark": "diagnose", "data": "scenario2.csv", "pop": 100, "generations": 150,
+            "workers": row["workers"], "estimators": row["estimators"], "stages_s": dict(row["stages"]),
+            "total_s": row["total_s"], "estimator_s": row["estimator_s"], "objective_s": row["objective_s"],
+            "evaluations": row["evaluations"]}
 
 
 def benchmark_problem(name: str, seed: int):

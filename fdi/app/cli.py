@@ -24,6 +24,7 @@ from ..errors import UsageError
 from ..data import DataError
 from ..diagnose import MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
 from .output import check_output, is_stdout, write_atomic
+from .progress import LOG, NORMAL, QUIET, VERBOSE, Progress, Steps, configure, stage
 
 
 USER_ERRORS = (ModelError, CausalityError, DataError, UsageError)
@@ -130,6 +131,15 @@ def chain_sizes(text: str) -> tuple[int, ...]:
     return sizes
 
 
+def scheduler(text: str) -> str:
+    """An argparse type: ``local`` or a dask scheduler address (fdi.app.fleet.check_address)."""
+    from .fleet import check_address
+    try:
+        return check_address(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def check_plot(path: str | None, folder: bool) -> None:
     """``--plot``: matplotlib present, and a PNG file (or a folder, for a diagnosis) that can be
     written, refused before any work as ``-o`` is."""
@@ -180,8 +190,18 @@ def _emit(text: str, out: str | None) -> None:
 
 
 def _note(text: str, out: str | None) -> None:
-    """A status line: on stdout, unless the result itself goes there (-o -)."""
-    print(text, file=sys.stderr if is_stdout(out) else sys.stdout)
+    """A status line: on stdout, unless the result itself goes there (-o -): then a note on
+    stderr (silenced by -q)."""
+    if is_stdout(out):
+        LOG.info(text)
+    else:
+        print(text)
+
+
+def _json_text(data) -> str:
+    """The --json output of a command: indented, numbers as floats (numpy's too)."""
+    import json
+    return json.dumps(data, indent=1, default=float) + "\n"
 
 
 # ------------------------------------------------------------------ check / graph
@@ -199,9 +219,14 @@ def _causality_lines(model: Model, c: Causality) -> list[str]:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    if args.json:
+        from .check_report import analyse
+        _emit(_json_text(analyse(args.model, args.causality)), None)
+        return 0
     from ..config import load
 
-    model, _ = load(args.model)                  # the bond graph and the monitor settings both checked
+    with stage("load"):
+        model, _ = load(args.model)              # the bond graph and the monitor settings both checked
     kinds = Counter(e.kind for e in model.elements.values())
     jkinds = Counter(j.kind for j in model.junctions.values())
     print(f"model {model.name} ({args.model})")
@@ -218,13 +243,15 @@ def cmd_check(args: argparse.Namespace) -> int:
           + f" -> {2 ** len(model.modes)} mode(s)")
     print(f"  faults     {len(model.faults)}: " + ", ".join(
         f"{f.name} ({f.kind}: {', '.join(f.targets)})" for f in model.faults.values()))
-    diag = assign(model, DIAGNOSIS)
+    with stage("diagnostic causality (SCAPH)"):
+        diag = assign(model, DIAGNOSIS)
     print()
     print("causality for diagnosis (SCAPH: sources fixed, sensors inverted, storage in derivative causality)")
     from ..arrs import select_arrs, undefined_in_modes
     from ..signatures import all_modes
 
-    chosen = select_arrs(model, args.causality)
+    with stage(f"residual selection ({args.causality} causality)"):
+        chosen = select_arrs(model, args.causality)
     if not diag.ok:
         for p in list(diag.problems) + list(diag.loops):
             print(f"  SCAPH: {p}")
@@ -285,8 +312,11 @@ def cmd_tables(args: argparse.Namespace) -> int:
     from ..signatures import all_modes, fault_signature_matrix, mode_change_signature_matrix
     from ..tables import render
 
-    model = load_model(args.model)
-    arrs = list(select_arrs(model, args.causality).arrs)
+    fmt = _tables_format(args)
+    with stage("load"):
+        model = load_model(args.model)
+    with stage(f"residuals ({args.causality} causality)"):
+        arrs = list(select_arrs(model, args.causality).arrs)
     if not arrs:
         raise CausalityError([f"{model.name} has no residual in {args.causality} causality; "
                               f"bgfdi isolability {args.model} proposes sensors"])
@@ -294,10 +324,18 @@ def cmd_tables(args: argparse.Namespace) -> int:
     bad = undefined_in_modes(model, arrs, modes)
     if bad:
         raise CausalityError(bad)
-    fsms = [fault_signature_matrix(model, arrs, m) for m in modes]
-    mcsm = mode_change_signature_matrix(model, arrs, modes[0] if args.mode else None)
-    _emit(render(args.format, arrs, fsms, mcsm), args.output)
+    with stage(f"signature matrices ({len(modes)} mode(s))"):
+        fsms = [fault_signature_matrix(model, arrs, m) for m in modes]
+        mcsm = mode_change_signature_matrix(model, arrs, modes[0] if args.mode else None)
+    _emit(render(fmt, arrs, fsms, mcsm), args.output)
     return 0
+
+
+def _tables_format(args: argparse.Namespace) -> str:
+    """--json is --format json; with another --format it is a contradiction, refused."""
+    if args.json and args.format not in (None, "json"):
+        raise UsageError(f"--json: contradicts --format {args.format}; give one of them")
+    return "json" if args.json else args.format or "text"
 
 
 # ------------------------------------------------------------------ isolability
@@ -314,23 +352,6 @@ def cmd_isolability(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------ simulate
 
-class Progress:
-    """A one-line progress bar on stderr (only on a terminal, so logs stay clean)."""
-
-    def __init__(self, total: float, label: str) -> None:
-        self.total, self.label = total, label
-        self.on = sys.stderr.isatty()
-
-    def __call__(self, done: float) -> None:
-        if self.on:
-            frac = min(1.0, done / self.total) if self.total else 1.0
-            bar = "#" * int(30 * frac)
-            sys.stderr.write(f"\r{self.label} [{bar:<30}] {100 * frac:5.1f}%")
-            if frac >= 1.0:
-                sys.stderr.write("\n")
-            sys.stderr.flush()
-
-
 def cmd_simulate(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
@@ -341,15 +362,37 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.seed is not None:
         scenario = replace(scenario, seed=args.seed)
     check_steps(scenario, args.method)
-    columns = run(model, scenario, progress=Progress(scenario.T, "simulating"), method=args.method)
-    write_atomic(args.output, csv_chunks(columns))
+    if args.json and is_stdout(args.output):
+        raise UsageError("--json: standard output carries the CSV (-o -); write the CSV to a file or drop --json")
+    stages: dict[str, float] = {}
+    with Progress(scenario.T, "simulating", "s") as bar:
+        columns = run(model, scenario, progress=bar, method=args.method, stages=stages)
+    for name, seconds in stages.items():
+        LOG.debug("simulation stage %s: %.3f s CPU", name, seconds)
+    with stage("writing the CSV"):
+        write_atomic(args.output, csv_chunks(columns))
     where = "standard output" if is_stdout(args.output) else args.output
-    _note(f"wrote {where}: {len(columns['t'])} samples of {', '.join(columns)}", args.output)
+    if not args.json:
+        _note(f"wrote {where}: {len(columns['t'])} samples of {', '.join(columns)}", args.output)
     if args.plot:
         from ..plots import column_units, plot_signals
         plot_signals(columns, args.plot, column_units(model), [(f.target, f.t0) for f in scenario.faults])
-        _note(f"plot: {args.plot}", args.output)
+        if not args.json:
+            _note(f"plot: {args.plot}", args.output)
+    if args.json:
+        sys.stdout.write(_json_text(_simulation_summary(model, scenario, columns, args)))
     return 0
+
+
+def _simulation_summary(model: Model, scenario, columns: dict, args: argparse.Namespace) -> dict:
+    """simulate --json: what was simulated and written (times in s)."""
+    from dataclasses import asdict
+    t = columns["t"]
+    return {"model": model.name, "scenario": str(args.scenario), "output": args.output, "plot": args.plot,
+            "samples": int(len(t)), "columns": list(columns), "t_start": float(t[0]), "t_end": float(t[-1]),
+            "sampling_time": 1.0 / scenario.fs, "seed": scenario.seed, "method": args.method,
+            "faults": [{k: list(v) if isinstance(v, tuple) else v for k, v in asdict(f).items()}
+                       for f in scenario.faults]}
 
 
 # ------------------------------------------------------------------ diagnose / demo
@@ -406,8 +449,10 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
     from ..identify import compiled
     from .report import to_text
     model = compiled(str(model_path)).model
-    bar = Progress(1.0, "estimators")
-    report = diagnose(model_path, data, options, progress=lambda done, total: bar(done / total))
+    with Steps("estimators") as tick:
+        report = diagnose(model_path, data, options, progress=tick)
+    for name, seconds in report.get("_timings", {}).items():
+        LOG.debug("diagnosis stage %s: %.3f s", name, seconds)
     public = _report_dict(report, args.timings)
     if args.json:
         text = json.dumps(public, indent=1) + "\n"
@@ -417,7 +462,7 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
     if getattr(args, "plot", None):
         from ..plots import plot_diagnosis
         for p in plot_diagnosis(report, args.plot, model):
-            print(f"plot: {p}", file=sys.stderr)
+            LOG.info(f"plot: {p}")
     return 3 if getattr(args, "fail_on_fault", False) and public["diagnosis"]["faults"] else 0
 
 
@@ -426,9 +471,10 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..diagnose import check_samples
     from ..identify import compiled
 
+    _check_fleet_options(args)
     model = compiled(args.model).model
     options = _options(args, model)
-    if len(args.data) > 1 or args.jobs > 1:
+    if len(args.data) > 1 or (args.jobs or 1) > 1 or args.scheduler:
         return _diagnose_batch(args, options)
     data = read_csv(args.data[0])
     check_samples(options.samples, data.ts, "--samples")
@@ -436,44 +482,49 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
 
 def _diagnose_one(job: tuple) -> dict:
-    """One file of a batch (in a worker process, which keeps the derived model between files): its
-    report as one JSON object, or the one-line error a bad file gives."""
-    from dataclasses import replace
+    """One file of a batch: fdi.app.fleet.diagnose_file (kept for callers of this name)."""
+    from .fleet import diagnose_file
+    return diagnose_file(*job)
 
-    from ..diagnose import check_samples, deterministic, diagnose, public
-    model_path, path, options, timings = job
-    from ..data import read_csv
-    try:
-        data = read_csv(path)
-        check_samples(options.samples, data.ts, "--samples")
-        report = diagnose(model_path, data, replace(options, workers=1))
-    except USER_ERRORS as exc:
-        return {"file": path, "error": str(exc)}
-    out = public(report)
-    if timings:
-        out["timings"] = public(dict(report.get("_timings", {})))
-    return {"file": path, **(out if timings else deterministic(out))}
+
+def _check_fleet_options(args: argparse.Namespace) -> None:
+    """--scheduler: the dask extra installed; --jobs only with a LocalCluster (a running cluster
+    has its own workers). Checked before any work."""
+    if not args.scheduler:
+        return
+    from .fleet import have_dask, need_dask
+    if not have_dask():
+        raise need_dask()
+    if args.scheduler != "local" and args.jobs is not None:
+        raise UsageError(f"--jobs: the cluster at {args.scheduler} runs as many files at once as it has workers; "
+                         "drop --jobs, or give --scheduler local --jobs N for a LocalCluster of N processes")
 
 
 def _diagnose_batch(args: argparse.Namespace, options) -> int:
-    """Several files: one JSON line each, in the order given; ``--jobs`` processes. A bad file
-    gives its line with an ``error`` and the others go on; the exit status is 2 if any was bad,
-    else 3 with ``--fail-on-fault`` when any has a fault, else 0."""
+    """Several files: one JSON line each, in the order given; ``--jobs`` processes, or a dask
+    cluster (``--scheduler``), through fdi.app.fleet.diagnose_many. A bad file gives its line with
+    an ``error`` and the others go on; the exit status is 2 if any was bad, else 3 with
+    ``--fail-on-fault`` when any has a fault, else 0."""
     import json
-    from concurrent.futures import ProcessPoolExecutor
+    from contextlib import nullcontext
 
-    jobs = [(args.model, path, options, args.timings) for path in args.data]
-    if args.jobs > 1:
-        with ProcessPoolExecutor(min(args.jobs, len(jobs))) as pool:
-            lines = list(pool.map(_diagnose_one, jobs))
-    else:
-        lines = [_diagnose_one(job) for job in jobs]
+    from .fleet import Cluster, diagnose_many, workers_of
+    jobs = args.jobs or 1
+    where = (f"dask scheduler {args.scheduler}" if args.scheduler and args.scheduler != "local"
+             else "a dask LocalCluster" if args.scheduler else f"{min(jobs, len(args.data))} process(es)")
+    with (Cluster(args.scheduler, args.jobs) if args.scheduler else nullcontext()) as client:
+        if client is not None:
+            LOG.debug("dask scheduler %s: %d worker(s)", client.scheduler.address, workers_of(client))
+        LOG.info(f"diagnosing {len(args.data)} file(s) on {where}")
+        with Steps("diagnosed", "files") as tick, stage("fleet"):
+            lines = diagnose_many(args.model, args.data, options, client=client, jobs=jobs, timings=args.timings,
+                                  progress=tick)
     text = "".join(json.dumps(line, default=float) + "\n" for line in lines)
     _emit(text, getattr(args, "output", None))
     if any("error" in line for line in lines):
         for line in lines:
             if "error" in line:
-                print(f"bgfdi: error: {line['error']}", file=sys.stderr)
+                LOG.error(line["error"])
         return 2
     if args.fail_on_fault and any(line["diagnosis"]["faults"] for line in lines):
         return 3
@@ -521,10 +572,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         raise UsageError(f"no scenario files in {', '.join(args.scenarios)}")
     for f in files:                                   # every file checked before the first simulation
         load_scenario(f, model)
-    scores = []
-    for i, f in enumerate(files):
-        print(f"[{i + 1}/{len(files)}] {f.name}", file=sys.stderr, flush=True)
-        scores.append(evaluate_scenario(args.model, f, options))
+    scores = _evaluate_files(args.model, files, options)
     totals = summary(scores)
     if args.json:
         text = json.dumps({"model": model.name, "summary": totals, "scenarios": [s.to_dict() for s in scores]},
@@ -536,6 +584,21 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         from ..plots import plot_rul_cone
         plot_rul_cone(scores, args.plot)
     return 0
+
+
+def _evaluate_files(model_path: str, files: list, options) -> list:
+    """Each scenario simulated, diagnosed and scored, with progress (one line each with -v)."""
+    import time
+
+    from .evaluate import evaluate_scenario
+    scores = []
+    with Progress(len(files), f"evaluating {model_path}", "scenarios") as bar:
+        for f in files:
+            start = time.perf_counter()
+            scores.append(evaluate_scenario(model_path, f, options))
+            LOG.debug("scenario %s: %.2f s", f.name, time.perf_counter() - start)
+            bar.advance()
+    return scores
 
 
 def cmd_monitor(args: argparse.Namespace) -> int:
@@ -588,12 +651,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
     options = _options(args, model)                          # bad options refused before simulating
     scenario = load_scenario(scenarios_dir() / f"cycab_{args.scenario}.json", model)
     check_samples(options.samples, 1.0 / scenario.fs, "--samples")
-    print(f"simulating CyCab {args.scenario} ({scenario.T:g} s; faults: "
-          + (", ".join(f"{f.target} {f.type} from {f.t0:g} s" for f in scenario.faults) or "none") + ")",
-          file=sys.stderr)
-    cols = run(model, scenario, progress=Progress(scenario.T, "simulating"))
+    LOG.info(f"simulating CyCab {args.scenario} ({scenario.T:g} s; faults: "
+             + (", ".join(f"{f.target} {f.type} from {f.t0:g} s" for f in scenario.faults) or "none") + ")")
+    with Progress(scenario.T, "simulating", "s") as bar, stage("simulation"):
+        cols = run(model, scenario, progress=bar)
     data = Measurements(f"simulated {args.scenario}", cols["t"], cols)
-    print("diagnosing ...", file=sys.stderr)
+    LOG.info("diagnosing ...")
     return _diagnose_and_print(path, data, options, args, f"simulated CyCab {args.scenario}")
 
 
@@ -605,11 +668,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     if args.what == "derive":
         sizes = args.sizes or bench.CHAIN_SIZES
-        sys.stdout.write(bench.format_derive(bench.derive_rows(shipped_models(), sizes, echo=print)))
+        rows = bench.derive_rows(shipped_models(), sizes, echo=LOG.info if args.json else print)
+        sys.stdout.write(_json_text(bench.derive_json(rows)) if args.json else bench.format_derive(rows))
         return 0
     if args.what == "simulate":
         from .resources import scenarios_dir
-        sys.stdout.write(bench.format_simulate(bench.simulate_rows(scenarios_dir() / "cycab_scenario2.json")))
+        row = bench.simulate_rows(scenarios_dir() / "cycab_scenario2.json")
+        sys.stdout.write(_json_text(bench.simulate_json(row)) if args.json else bench.format_simulate(row))
         return 0
     if args.what == "optim":
         import json
@@ -624,22 +689,32 @@ def cmd_bench(args: argparse.Namespace) -> int:
         for m in methods:
             if m not in ENGINES:
                 raise UsageError(f"--methods: unknown engine '{m}' (use {', '.join(ENGINES)})")
-        rows = bench.optim_rows(args.problem, args.runs, methods, workers=args.workers)
+        with Steps("optimiser runs", "runs") as tick:
+            rows = bench.optim_rows(args.problem, args.runs, methods, workers=args.workers, progress=tick)
         summary = bench.summarise_optim(args.problem, args.runs, rows)
-        sys.stdout.write(json.dumps(summary, indent=1) + "\n" if args.json else bench.format_optim(summary))
+        sys.stdout.write(json.dumps({"benchmark": "optim", **summary}, indent=1) + "\n" if args.json
+                         else bench.format_optim(summary))
         return 0
     if args.what == "accuracy":
         from ..diagnose import Options
-        from .evaluate import evaluate_scenario, format_scores, suite_files, summary
+        from .evaluate import format_scores, suite_files, summary
         from .resources import scenarios_dir, shipped_model
+        suites = []
         for suite in sorted(p for p in scenarios_dir().iterdir() if p.is_dir() and p.name.startswith("suite_")):
             model = str(shipped_model(suite.name.removeprefix("suite_")))
-            scores = [evaluate_scenario(model, f, Options(workers=args.workers)) for f in suite_files([str(suite)])]
-            sys.stdout.write(f"{suite.name} ({model})\n" + format_scores(scores, summary(scores)) + "\n")
+            scores = _evaluate_files(model, suite_files([str(suite)]), Options(workers=args.workers))
+            if args.json:
+                suites.append({"suite": suite.name, "model": load_model(model).name, "summary": summary(scores),
+                               "scenarios": [s.to_dict() for s in scores]})
+            else:
+                sys.stdout.write(f"{suite.name} ({model})\n" + format_scores(scores, summary(scores)) + "\n")
+        if args.json:
+            sys.stdout.write(_json_text({"benchmark": "accuracy", "suites": suites}))
         return 0
     if args.what == "diagnose":
         from .resources import reference_data
-        sys.stdout.write(bench.format_diagnose(bench.diagnose_rows(reference_data("scenario2.csv"), args.workers)))
+        row = bench.diagnose_rows(reference_data("scenario2.csv"), args.workers)
+        sys.stdout.write(_json_text(bench.diagnose_json(row)) if args.json else bench.format_diagnose(row))
         return 0
     raise UsageError(f"unknown benchmark '{args.what}'")
 
@@ -649,12 +724,14 @@ def cmd_bench(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     p = Parser(prog="bgfdi", description="Fault diagnosis and prognosis with hybrid bond graphs.")
     p.add_argument("--version", action="version", version=f"bgfdi {_version()}")
+    _verbosity_options(p, suppress=False)
     sub = p.add_subparsers(dest="command", required=True)
 
     c = sub.add_parser("check", help="validate a model and show its causality")
     c.add_argument("model")
     c.add_argument("--causality", choices=CAUSALITY_CHOICES, default="derivative",
                    help="residuals that differentiate only (default) or may integrate (mixed)")
+    c.add_argument("--json", action="store_true", help="print the summary, causality and residuals as JSON")
     c.set_defaults(func=cmd_check)
 
     g = sub.add_parser("graph", help="write Graphviz DOT with causal strokes")
@@ -666,7 +743,9 @@ def build_parser() -> argparse.ArgumentParser:
     t = sub.add_parser("tables", help="AGARRs, MD-FSM and MCSM")
     t.add_argument("model")
     t.add_argument("--mode", help="one mode, e.g. a1=1,a2=1 (default: every mode)")
-    t.add_argument("--format", choices=("text", "markdown", "latex", "json", "csv"), default="text")
+    t.add_argument("--format", choices=("text", "markdown", "latex", "json", "csv"),
+                   help="text (default), markdown, latex, json or csv")
+    t.add_argument("--json", action="store_true", help="the same as --format json")
     t.add_argument("--causality", choices=CAUSALITY_CHOICES, default="derivative",
                    help="residuals that differentiate only (default) or may integrate (mixed)")
     t.add_argument("-o", "--output", help="file to write (default, or -: standard output)")
@@ -689,6 +768,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--seed", type=whole(0), help="override the scenario's noise seed (an integer >= 0)")
     s.add_argument("--method", type=method, default="auto", help="auto (default), ros2, LSODA, Radau, BDF or RK45")
     s.add_argument("--plot", metavar="PNG", help="also plot the signals (needs the plot extra)")
+    s.add_argument("--json", action="store_true",
+                   help="print a JSON summary of the run on standard output (the CSV goes to -o FILE)")
     s.set_defaults(func=cmd_simulate)
 
     def diagnosis_options(p: argparse.ArgumentParser) -> None:
@@ -718,8 +799,12 @@ def build_parser() -> argparse.ArgumentParser:
     d = sub.add_parser("diagnose", help="detect, isolate, identify and prognose faults in a measurement file")
     d.add_argument("model")
     d.add_argument("data", nargs="+", help="measurement CSV file(s) (t first, SI units); several: one JSON line each")
-    d.add_argument("--jobs", type=whole(1, MAX_WORKERS), default=1,
-                   help="files diagnosed at once (each job one process that keeps the derived model)")
+    d.add_argument("--jobs", type=whole(1, MAX_WORKERS),
+                   help="files diagnosed at once (each job one process that keeps the derived model; default 1); "
+                        "with --scheduler local, the LocalCluster's worker processes (default: one per core)")
+    d.add_argument("--scheduler", type=scheduler, metavar="local|ADDRESS",
+                   help="run the files on dask (the dask extra): local for a LocalCluster, or the address of a "
+                        "running scheduler such as tcp://10.0.0.5:8786 (docs/cli.md, Fleets)")
     d.add_argument("--fail-on-fault", action="store_true",
                    help="exit with status 3 when a fault is diagnosed in any file (for scripts and CI)")
     diagnosis_options(d)
@@ -767,9 +852,21 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--methods", help="optim: comma-separated engines (default: all)")
     b.add_argument("--workers", type=whole(1, MAX_WORKERS), default=2,
                    help="processes (diagnose: default 1 core is measured with 1)")
-    b.add_argument("--json", action="store_true", help="optim: print the summary as JSON")
+    b.add_argument("--json", action="store_true", help="print the measurements as JSON (docs/cli.md)")
     b.set_defaults(func=cmd_bench)
+    for command in sub.choices.values():
+        _verbosity_options(command, suppress=True)
     return p
+
+
+def _verbosity_options(p: argparse.ArgumentParser, suppress: bool) -> None:
+    """-q/-v, before the command (``bgfdi -q simulate ...``) or after it (``bgfdi simulate -q``)."""
+    default = {"default": argparse.SUPPRESS} if suppress else {}
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("-q", "--quiet", action="store_true", **default,
+                       help="no progress or notes on standard error (warnings and errors still print)")
+    group.add_argument("-v", "--verbose", action="store_true", **default,
+                       help="also stage timings and details on standard error")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -800,17 +897,20 @@ def _run(argv: list[str] | None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:                  # a bad option (one line printed) or --help: its code, returned
         return 0 if exc.code is None else exc.code if isinstance(exc.code, int) else 2
+    configure(QUIET if args.quiet else VERBOSE if args.verbose else NORMAL)
     try:
+        if args.quiet and args.verbose:
+            raise UsageError("-q and -v: give one of them")
         check_outputs(args)
         return args.func(args)
     except CausalityError as exc:
-        print(f"bgfdi: error: {getattr(args, 'model', '')}: causality: {'; '.join(exc.problems)}", file=sys.stderr)
+        LOG.error(f"{getattr(args, 'model', '')}: causality: {'; '.join(exc.problems)}")
         return 2
     except USER_ERRORS as exc:
-        print(f"bgfdi: error: {exc}", file=sys.stderr)
+        LOG.error(str(exc))
         return 2
     except KeyboardInterrupt:
-        print("bgfdi: interrupted", file=sys.stderr)
+        LOG.critical("interrupted")
         return 130
 
 

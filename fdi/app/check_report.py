@@ -1,0 +1,98 @@
+"""``bgfdi check --json``: the model's summary, both causality assignments and its residuals as
+one JSON object (shape in docs/cli.md). The text report is cli.cmd_check; the two say the same."""
+from __future__ import annotations
+
+import json
+import math
+
+from bondgraph.causality import DIAGNOSIS, SIMULATION, Causality, assign
+from bondgraph.errors import CausalityError
+from bondgraph.model import Model
+
+from .progress import stage
+
+
+def _bonds(model: Model, c: Causality) -> list[dict]:
+    """Every bond with its causal stroke: which end receives the effort (the stroke's end) and which
+    the flow; the sensors' signal bonds after the power bonds."""
+    out = []
+    for b in model.bonds:
+        recv = c.effort_to.get(b.id)
+        out.append({"bond": b.id, "from": b.source, "to": b.target, "effort_to": recv,
+                    "flow_to": b.other(recv) if recv is not None else None, "signal": False})
+    for s in model.sensors.values():
+        recv = c.effort_to.get(s.name)
+        out.append({"bond": s.name, "from": s.junction, "to": s.name, "effort_to": recv,
+                    "flow_to": (s.name if recv == s.junction else s.junction) if recv is not None else None,
+                    "signal": True})
+    return out
+
+
+def _causality(model: Model, c: Causality) -> dict:
+    return {"ok": c.ok, "problems": list(c.problems), "loops": list(c.loops),
+            "modes_checked": len(c.modes_checked), "storage": dict(c.storage), "resistors": dict(c.resistors),
+            "strong": dict(c.strong), "detectors": sorted(c.detectors), "bonds": _bonds(model, c)}
+
+
+def analyse(path: str, causality: str = "derivative") -> dict:
+    """What ``bgfdi check`` reports, as plain data. A model without any residual, or with one
+    undefined in some mode, is a CausalityError as for the text report."""
+    from ..arrs import select_arrs, undefined_in_modes
+    from ..signatures import all_modes
+
+    from ..config import load
+
+    with stage("load"):
+        model, config = load(path)               # the bond graph and the monitor settings both checked
+    with stage("diagnostic causality (SCAPH)"):
+        diag = assign(model, DIAGNOSIS)
+    with stage(f"residual selection ({causality} causality)"):
+        chosen = select_arrs(model, causality)
+    if not diag.ok and not chosen.arrs:
+        raise CausalityError(list(diag.problems) + list(diag.loops)
+                             + [f"and no residual exists in {causality} causality (bgfdi isolability "
+                                f"{path} proposes sensors)"])
+    arrs = list(chosen.arrs)
+    bad = undefined_in_modes(model, arrs, all_modes(model))
+    if bad:
+        raise CausalityError(bad)
+    with stage("simulation causality (SCAP)"):
+        sim = assign(model, SIMULATION)
+    return {
+        "model": model.name,
+        "file": str(path),
+        "reference": model.reference or None,
+        "elements": [{"name": e.name, "kind": e.kind} for e in model.elements.values()],
+        "junctions": [{"name": j.name, "kind": j.kind, "mode": j.mode} for j in model.junctions.values()],
+        "sensors": [{"name": s.name, "kind": s.kind, "junction": s.junction, "measures": s.measures, "unit": s.unit}
+                    for s in model.sensors.values()],
+        "modes": [{"name": m.name, "nominal": m.nominal} for m in model.modes.values()],
+        "faults": [{"name": f.name, "kind": f.kind, "targets": list(f.targets)} for f in model.faults.values()],
+        "diagnosis": _causality(model, diag),
+        "residuals": {
+            "causality": causality,
+            "from_structure": not diag.ok,
+            "msos": chosen.msos if not diag.ok else None,
+            "arrs": [{"name": a.name, "origin": a.origin, "sensor": a.sensor, "junction": a.junction} for a in arrs],
+            "notes": list(chosen.notes),
+        },
+        "simulation": _causality(model, sim),
+        "monitor": _monitor(config),
+    }
+
+
+def _finite(x: float | None) -> float | None:
+    return None if x is None or not math.isfinite(x) else float(x)
+
+
+def _monitor(config) -> dict:
+    """The monitor settings of the file (SI: times in s; thresholds in each residual's unit;
+    an unbounded end of a fault's search bounds is null)."""
+    return {"thresholds": dict(config.thresholds), "waiting_time": config.waiting_time, "samples": config.samples,
+            "derivative_window": config.derivative_window,
+            "faults": {name: {"bounds": None if f.bounds is None else [_finite(b) for b in f.bounds],
+                              "failure": _finite(f.failure)} for name, f in config.faults.items()}}
+
+
+def to_json(report: dict) -> str:
+    return json.dumps(report, indent=1) + "\n"

@@ -1,0 +1,249 @@
+"""Fleets: many measurement files diagnosed with one model, one report each, in the files' order.
+
+``bgfdi diagnose model a.csv b.csv ... --jobs N`` runs them in N local processes;
+``--scheduler local`` on a dask LocalCluster, ``--scheduler tcp://host:8786`` on a running dask
+cluster (the optional extra ``pip install 'bgfdi[dask]'``). From Python::
+
+    from fdi.app.fleet import diagnose_many
+    reports = diagnose_many("models/cycab_steering.yaml", ["a.csv", "b.csv"], jobs=2)
+    reports = diagnose_many(model, files, client=Client("tcp://10.0.0.5:8786"))
+
+Each report is what ``bgfdi diagnose FILE --json`` prints, with the file first (``{"file": ...,
+"detection": ..., ...}``), or ``{"file": ..., "error": "..."}`` for a file that cannot be
+diagnosed (a bad file does not stop the others). Every file is diagnosed in one process with one
+estimator process (``workers=1``): the diagnosis is seeded, so the reports are the same bytes
+whichever way they are run (processes, a LocalCluster, a remote cluster) and whatever the order
+the files finish in. Each worker process keeps the derived model between files (``compiled``'s
+cache), so a model is derived once per worker, not once per file.
+
+On dask, this process reads the model and every file (with the reader and checks of the local
+path, so a bad file gives the same line) and sends them to the workers: the workers need bgfdi
+installed (the same version), not the files. Each worker writes the model once into its temporary
+folder and keeps it derived.
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+import re
+from dataclasses import replace
+from pathlib import Path
+from typing import Callable, Iterable, Sequence
+
+from ..errors import UsageError
+
+CONNECT_TIMEOUT = 10.0          # s a scheduler address is given to answer
+DASK_EXTRA = "pip install 'bgfdi[dask]'"
+ADDRESS = re.compile(r"^(?:(?:tcp|tls|ucx|ws|wss)://)?(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.\-]+):\d{1,5}/?$")
+
+
+def have_dask() -> bool:
+    """dask.distributed importable (the ``dask`` extra)."""
+    try:
+        return importlib.util.find_spec("distributed") is not None
+    except (ImportError, ValueError):
+        return False
+
+
+def need_dask(option: str = "--scheduler") -> UsageError:
+    return UsageError(f"{option}: running on dask needs dask.distributed: {DASK_EXTRA}")
+
+
+def check_address(text: str) -> str:
+    """``local`` or a dask scheduler address with its port (``tcp://10.0.0.5:8786``,
+    ``10.0.0.5:8786``, ``tls://host:8786``, ``tcp://[::1]:8786``); anything else is a ValueError."""
+    text = text.strip()
+    if text == "local" or (ADDRESS.match(text) and not text.startswith("-")):
+        return text
+    raise ValueError(f"must be local or a dask scheduler address such as tcp://10.0.0.5:8786, got {text!r}")
+
+
+# ------------------------------------------------------------------ one file
+
+def _user_errors() -> tuple:
+    from bondgraph.errors import CausalityError, ModelError
+
+    from ..data import DataError
+    return ModelError, CausalityError, DataError, UsageError
+
+
+def read_file(path: str, options):
+    """The measurements of one file, checked against ``options.samples`` (DataError, UsageError)."""
+    from ..data import read_csv
+    from ..diagnose import check_samples
+    data = read_csv(path)
+    check_samples(options.samples, data.ts, "--samples")
+    return data
+
+
+def diagnose_data(model_path: str, path: str, data, options, timings: bool = False) -> dict:
+    """One file's measurements diagnosed (in a worker): its report as one JSON-ready object with
+    the file first, or the one-line error."""
+    from ..diagnose import deterministic, diagnose, public
+    try:
+        report = diagnose(model_path, data, replace(options, workers=1))
+    except _user_errors() as exc:
+        return {"file": path, "error": str(exc)}
+    out = public(report)
+    if timings:
+        out["timings"] = public(dict(report.get("_timings", {})))
+    return {"file": path, **(out if timings else deterministic(out))}
+
+
+def diagnose_file(model_path: str, path: str, options, timings: bool = False) -> dict:
+    """One file of a fleet, read and diagnosed in this process (a local worker process, which keeps
+    the derived model between files)."""
+    try:
+        data = read_file(path, options)
+    except _user_errors() as exc:
+        return {"file": path, "error": str(exc)}
+    return diagnose_data(model_path, path, data, options, timings)
+
+
+def _job(job: tuple) -> dict:
+    return diagnose_file(*job)
+
+
+def model_copy(text: str, stem: str) -> str:
+    """The model's YAML written once per machine into the temporary folder (``bgfdi-model-HASH/
+    STEM.yaml``: the file keeps its name, which a model without ``name:`` is named after); its path."""
+    import hashlib
+    import tempfile
+    digest = hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+    folder = Path(tempfile.gettempdir()) / f"bgfdi-model-{digest}"
+    path = folder / f"{stem}.yaml"
+    if not path.exists():
+        folder.mkdir(exist_ok=True)
+        tmp = folder / f".{stem}.{os.getpid()}.tmp"
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(path)
+    return str(path)
+
+
+def _remote_job(model_text: str, stem: str, path: str, data, options, timings: bool) -> dict:
+    """One file on a dask worker: the model from its text (the worker needs no copy of the files),
+    the measurements as read by the client."""
+    return diagnose_data(model_copy(model_text, stem), path, data, options, timings)
+
+
+# ------------------------------------------------------------------ many files
+
+def diagnose_many(model, files: Iterable[str | Path], options=None, *, client=None, jobs: int = 1,
+                  timings: bool = False, progress: Callable[[int, int], None] | None = None) -> list[dict]:
+    """Diagnose every file with one model; the reports in the order of ``files``.
+
+    ``model``: a path, a loaded Model or YAML text (as for :func:`fdi.api.diagnose`); ``options``
+    an :class:`fdi.diagnose.Options` (checked first; its ``workers`` is set to 1 per file).
+    ``client``: a ``dask.distributed.Client``, whose workers run the files; without one, ``jobs``
+    local processes (1: in this process). ``timings`` adds wall-clock times to each report (they
+    then differ between runs). ``progress(done, total)`` is called as files finish."""
+    from ..api import model_file
+    from ..diagnose import Options
+
+    options = options or Options()
+    options.check()
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise UsageError(f"jobs: must be an integer >= 1, got {jobs!r}")
+    path = model_file(model)
+    files = [str(f) for f in files]
+    if not files:
+        return []
+    if client is not None:
+        return _on_dask(client, path, files, options, timings, progress)
+    work = [(path, f, options, timings) for f in files]
+    if jobs <= 1 or len(work) == 1:
+        out = []
+        for job in work:
+            out.append(_job(job))
+            if progress:
+                progress(len(out), len(work))
+        return out
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    with ProcessPoolExecutor(min(jobs, len(work))) as pool:
+        futures = [pool.submit(_job, job) for job in work]
+        for done, _ in enumerate(as_completed(futures), 1):
+            if progress:
+                progress(done, len(work))
+        return [f.result() for f in futures]
+
+
+def _on_dask(client, model_path: str, files: list[str], options, timings: bool, progress) -> list[dict]:
+    """The files on a dask cluster. The client reads the model and each file (errors as for local
+    processes: the same reader on the same path) and sends them; the workers diagnose."""
+    from distributed import as_completed
+
+    from bondgraph.errors import ModelError
+    try:
+        text = Path(model_path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ModelError(f"cannot read ({exc.strerror or exc})", file=model_path) from None
+    stem = Path(model_path).stem
+    model_ref = client.scatter(text, broadcast=True, hash=False)
+    out: list[dict | None] = [None] * len(files)
+    pending = {}
+    done = 0
+    for i, path in enumerate(files):
+        try:
+            data = read_file(path, options)
+        except _user_errors() as exc:
+            out[i] = {"file": path, "error": str(exc)}
+            done += 1
+            if progress:
+                progress(done, len(files))
+            continue
+        pending[client.submit(_remote_job, model_ref, stem, path, data, options, timings, pure=False)] = i
+    try:
+        for future in as_completed(list(pending)):
+            out[pending[future]] = future.result()
+            done += 1
+            if progress:
+                progress(done, len(files))
+    finally:
+        for future in pending:
+            future.release()
+        model_ref.release()
+    return out
+
+
+# ------------------------------------------------------------------ clusters
+
+class Cluster:
+    """``with Cluster(address, workers) as client:`` a Client of a new LocalCluster (``local``: that
+    many worker processes, one thread each) or of the scheduler at ``address``; closed at the end.
+    A missing extra or a scheduler that does not answer is a UsageError (one line, exit 2)."""
+
+    def __init__(self, address: str, workers: int | None = None) -> None:
+        self.address, self.workers = address, workers
+        self.cluster = self.client = None
+
+    def __enter__(self):
+        if not have_dask():
+            raise need_dask()
+        import logging
+
+        from distributed import Client, LocalCluster
+        if self.address == "local":
+            n = self.workers or max(1, os.cpu_count() or 1)
+            self.cluster = LocalCluster(n_workers=n, processes=True, threads_per_worker=1, dashboard_address=":0",
+                                        silence_logs=logging.ERROR)
+            self.client = Client(self.cluster)
+            return self.client
+        try:
+            self.client = Client(self.address, timeout=CONNECT_TIMEOUT)
+        except (OSError, TimeoutError) as exc:
+            raise UsageError(f"--scheduler: no dask scheduler answers at {self.address} "
+                             f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__}); "
+                             f"start one with 'dask scheduler' and workers with 'dask worker ADDRESS', "
+                             f"or check the address") from None
+        return self.client
+
+    def __exit__(self, *exc) -> None:
+        if self.client is not None:
+            self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+
+def workers_of(client) -> int:
+    """How many workers a client's cluster has now."""
+    return len(client.scheduler_info().get("workers", {}))
