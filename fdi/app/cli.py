@@ -561,7 +561,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     """Each scenario simulated, diagnosed and scored (fdi.app.evaluate); a table or --json."""
     import json
 
-    from .evaluate import evaluate_scenario, format_scores, suite_files, summary
+    from .evaluate import format_scores, suite_files, summary
     from ..identify import compiled
     from .scenario import load_scenario
 

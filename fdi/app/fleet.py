@@ -28,7 +28,7 @@ import os
 import re
 from dataclasses import replace
 from pathlib import Path
-from typing import Callable, Iterable, Sequence
+from typing import Callable, Iterable
 
 from ..errors import UsageError
 
