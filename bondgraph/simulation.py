@@ -141,9 +141,14 @@ def _known_values(spec: Model, opened: frozenset[str]) -> dict[str, sp.Expr]:
     return known
 
 
-def _bond_of(spec: Model, element: str):
-    (b,) = [x.id for x in spec.bonds if element in (x.source, x.target)]
-    return b
+def _bonds_of(spec: Model, elements: list[Element]) -> dict[str, int]:
+    """The bond of each of these one-port elements (one pass over the bonds)."""
+    names = {e.name for e in elements}
+    found: dict[str, list[int]] = {n: [] for n in names}
+    for x in spec.bonds:
+        for end in {x.source, x.target} & names:
+            found[end].append(x.id)
+    return {n: b for n, (b,) in found.items()}
 
 
 def _build(spec: Model, opened: frozenset[str]) -> System:
@@ -166,9 +171,10 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     signals.update({spec.symbols[i]: spec.inputs[i].expr for i in spec.inputs if spec.inputs[i].expr is not None})
     rels = relations(spec, causality, known=_known_values(spec, opened),
                      states={e.name: X[e.name] for e in integral}, signals=signals)
-    wanted = [("e", _bond_of(spec, e.name)) if e.kind == "I" else ("f", _bond_of(spec, e.name)) for e in integral]
+    bond = _bonds_of(spec, storage)
+    wanted = [("e" if e.kind == "I" else "f", bond[e.name]) for e in integral]
     wanted += [("e", s.name) if s.kind == "De" else ("f", s.name) for s in spec.sensors.values()]
-    flows = [("f", _bond_of(spec, e.name)) if e.kind == "I" else ("e", _bond_of(spec, e.name)) for e in storage]
+    flows = [("f" if e.kind == "I" else "e", bond[e.name]) for e in storage]
     program = Program()
     try:
         values_ = resolve(rels, wanted + flows, program=program)
