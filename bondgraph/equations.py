@@ -255,8 +255,9 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
             series[v] = [program.name(combine([(c, series[i][j + shift]) for c, i in zip(r.coefficients, r.inputs)]))
                          for j in range(k + 1)]
             continue
-        if program is not None and k == 0 and not r.derivative:     # no derivative: the law on the names
-            series[v] = [program.name(r.law(*[series[i][0] for i in r.inputs]))]
+        if k == 0 and not r.derivative:           # no derivative: the law on the values themselves
+            expr = _compact(r.law(*[series[i][0] for i in r.inputs]))
+            series[v] = [expr if program is None else program.name(expr)]
             continue
         top = k + (1 if r.derivative else 0)
         local = [[sp.Dummy(f"u{i}_{j}") for j in range(top + 1)] for i in range(len(r.inputs))]

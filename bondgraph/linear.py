@@ -69,13 +69,16 @@ class Linear:
         if cache is None:
             cache = {}
         pairs = []
+        changed = False
         for c, v in self.terms:
             if c in cache:
                 c2 = cache[c]
             else:
                 c2 = cache[c] = c.xreplace(mapping)
-            pairs.append((c2, mapping.get(v, v)))
-        return combine(pairs)
+            v2 = mapping.get(v, v)
+            changed = changed or c2 is not c or v2 is not v
+            pairs.append((c2, v2))
+        return combine(pairs) if changed else self
 
     def has(self, *patterns) -> bool:
         """Whether a coefficient has any of ``patterns`` (the atoms are plain names)."""

