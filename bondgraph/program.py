@@ -6,6 +6,8 @@ simulator then works on lines: the implicit equations ``x' = r(x, x')`` are line
 coefficients ``dr_i/dx'_j`` come from forward differentiation line by line (only the lines that
 depend on some x'), and the lines are printed as they are into the body of a Python function.
 Every step is linear in the size of the model; no matrix of symbolic derivatives is formed.
+A line's right-hand side is a sympy expression or, for the many linear ones, a
+:class:`bondgraph.linear.Linear` sum of terms, which every function here handles term by term.
 """
 from __future__ import annotations
 

@@ -127,8 +127,8 @@ def _collector_paused() -> Iterator[None]:
     """Python's cyclic garbage collector off for the derivation, restored as it was after it.
     The derivation makes some hundred thousand short-lived sympy objects, almost none in
     cycles (freed by reference counting); the collector's passes over them and the heap of
-    sympy's caches cost a fifth of deriving a 2000-element chain (measured: 0.62 s CPU with it,
-    0.54 s without; peak memory alike)."""
+    sympy's caches cost a sixth to a fifth of deriving a 2000-element chain (measured: about
+    0.63 s CPU with it, 0.54 s without; peak memory alike)."""
     was = gc.isenabled()
     gc.disable()
     try:
