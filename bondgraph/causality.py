@@ -28,7 +28,7 @@ from typing import Mapping
 import networkx as nx
 
 from .errors import CausalityError
-from .graph import BondKey, ports, to_networkx
+from .graph import BondKey, port_table, to_networkx
 from .model import SOURCE_KINDS, Model
 
 DIAGNOSIS = "diagnosis"
@@ -61,7 +61,7 @@ class _Assigner:
         self.model = model
         self.purpose = purpose
         self.g = to_networkx(model)
-        self.ports = {n: ports(self.g, n) for n in self.g.nodes}
+        self.ports = port_table(self.g)
         self.effort_to: dict[BondKey, str] = {}
         self.fixed: dict[str, str] = {}   # one-port node -> 'gives' | 'receives' (effort)
         self.problems: list[str] = []
@@ -266,9 +266,10 @@ def dependency_graph(model: Model, causality: Causality) -> nx.DiGraph:
     """Which bond variable is computed from which: nodes ('e'|'f', bond); edge attribute
     ``kind`` is 'algebraic' or 'derivative' (through a storage element in derivative causality)."""
     g = to_networkx(model)
+    table = port_table(g)
     dep = nx.DiGraph()
     for node, kind in g.nodes(data="kind"):
-        ps = ports(g, node)
+        ps = table[node]
         recv = {k: causality.effort_to.get(k) == node for k, _, _ in ps}
         if kind in ("0", "1", "0c", "1c"):
             s = causality.strong.get(node)
@@ -311,6 +312,8 @@ def algebraic_loops(model: Model, causality: Causality) -> list[str]:
     """Causal loops made of algebraic relations only (and derivative loops), as readable text."""
     dep = dependency_graph(model, causality)
     out: list[str] = []
+    if nx.is_directed_acyclic_graph(dep):          # the common case, decided in linear time
+        return out
     for cycle in nx.simple_cycles(dep):
         kinds = {dep.edges[cycle[i], cycle[(i + 1) % len(cycle)]]["kind"] for i in range(len(cycle))}
         bonds = sorted({str(v[1]) for v in cycle})

@@ -16,11 +16,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable, Mapping
 
-import networkx as nx
 import sympy as sp
 
 from .causality import Causality
-from .graph import BondKey, ports, to_networkx
+from .graph import BondKey, port_table, to_networkx
+from .linear import combine
 from .model import LAW_VARIABLES, Element, Model, t
 from .program import Program, line_diff
 
@@ -37,6 +37,8 @@ class Relation:
     derivative: bool = False
     energy: Callable[[sp.Expr], sp.Expr] | None = None   # storage: q(e) or p(f), the stored quantity
     parameters: frozenset = frozenset()                   # symbols of the storage law
+    coefficients: tuple[sp.Expr, ...] | None = None       # linear law: output = sum(c_i * input_i)
+                                                          # (derivative: c * d(input)/dt)
 
 
 PRODUCT_LIMIT = 6     # positive parameter factors a term may carry before they are grouped
@@ -93,10 +95,11 @@ def relations(model: Model, causality: Causality, *, known: Mapping[str, sp.Expr
     signal symbols that modulated elements use (e.g. theta2 in F1(theta2)).
     """
     g = to_networkx(model)
+    table = port_table(g)
     out: list[Relation] = []
     recv = causality.effort_to
     for node, kind in g.nodes(data="kind"):
-        ps = ports(g, node)
+        ps = table[node]
         if kind in ("0", "1", "0c", "1c"):
             out.extend(_junction(model, node, kind, ps, causality))
         elif kind in ("TF", "MTF", "GY", "MGY"):
@@ -121,13 +124,15 @@ def _junction(model: Model, node: str, kind: str, ps, causality: Causality) -> l
     a = model.symbols[junction.mode] if junction.controlled else sp.Integer(1)
     common, total = ("e", "f") if kind[0] == "0" else ("f", "e")
     sign = {k: s for k, _, s in ps}
-    rels = [Relation((common, k), ((common, strong),), (lambda x, a=a: a * x)) for k, _, _ in ps if k != strong]
+    rels = [Relation((common, k), ((common, strong),), (lambda x, a=a: a * x), coefficients=(a,))
+            for k, _, _ in ps if k != strong]
     others = tuple((total, k) for k, _, _ in ps if k != strong)
     weights = [sign[k] for _, k in others]
 
     def balance(*xs, a=a, s=sign[strong], w=weights):
         return a * (-s) * sp.Add(*[wi * xi for wi, xi in zip(w, xs)])
-    rels.append(Relation((total, strong), others, balance))
+    rels.append(Relation((total, strong), others, balance,
+                         coefficients=tuple(a * (-sign[strong] * wi) for wi in weights)))
     return rels
 
 
@@ -143,17 +148,18 @@ def _two_port(e: Element, ps, recv, signals) -> list[Relation]:
     (b1, _, s1), (b2, _, s2) = ps
     if s1 < 0:                      # b1 must be the bond bringing power in
         b1, b2 = b2, b1
+    times, over = (m,), (1 / m,)
     if e.kind in ("TF", "MTF"):     # e1 = m e2, f2 = m f1
         if recv[b1] == e.name:
-            return [Relation(("e", b2), (("e", b1),), lambda x: x / m),
-                    Relation(("f", b1), (("f", b2),), lambda x: x / m)]
-        return [Relation(("e", b1), (("e", b2),), lambda x: m * x),
-                Relation(("f", b2), (("f", b1),), lambda x: m * x)]
+            return [Relation(("e", b2), (("e", b1),), lambda x: x / m, coefficients=over),
+                    Relation(("f", b1), (("f", b2),), lambda x: x / m, coefficients=over)]
+        return [Relation(("e", b1), (("e", b2),), lambda x: m * x, coefficients=times),
+                Relation(("f", b2), (("f", b1),), lambda x: m * x, coefficients=times)]
     if recv[b1] == e.name:          # GY, effort in on both ports: f2 = e1/r, f1 = e2/r
-        return [Relation(("f", b2), (("e", b1),), lambda x: x / m),
-                Relation(("f", b1), (("e", b2),), lambda x: x / m)]
-    return [Relation(("e", b1), (("f", b2),), lambda x: m * x),
-            Relation(("e", b2), (("f", b1),), lambda x: m * x)]
+        return [Relation(("f", b2), (("e", b1),), lambda x: x / m, coefficients=over),
+                Relation(("f", b1), (("e", b2),), lambda x: x / m, coefficients=over)]
+    return [Relation(("e", b1), (("f", b2),), lambda x: m * x, coefficients=times),
+            Relation(("e", b2), (("f", b1),), lambda x: m * x, coefficients=times)]
 
 
 def _resistor(model: Model, e: Element, k: BondKey, form: str) -> Relation:
@@ -162,12 +168,12 @@ def _resistor(model: Model, e: Element, k: BondKey, form: str) -> Relation:
             law = e.laws["effort"]
             return Relation(("e", k), (("f", k),), lambda x: law.xreplace({LAW_VARIABLES["f"]: x}))
         r = model.symbols[e.parameter]
-        return Relation(("e", k), (("f", k),), lambda x: r * x)
+        return Relation(("e", k), (("f", k),), lambda x: r * x, coefficients=(r,))
     if "flow" in e.laws:
         law = e.laws["flow"]
         return Relation(("f", k), (("e", k),), lambda x: law.xreplace({LAW_VARIABLES["e"]: x}))
     r = model.symbols[e.parameter]
-    return Relation(("f", k), (("e", k),), lambda x: x / r)
+    return Relation(("f", k), (("e", k),), lambda x: x / r, coefficients=(1 / r,))
 
 
 def _storage(model: Model, e: Element, k: BondKey, form: str, states: Mapping[str, sp.Expr]) -> Relation:
@@ -191,7 +197,7 @@ def _storage(model: Model, e: Element, k: BondKey, form: str, states: Mapping[st
         return Relation(out, (inp,), lambda x, dx: slope.xreplace({u: x}) * dx, derivative=True,
                         energy=lambda x: q.xreplace({u: x}), parameters=frozenset(q.free_symbols - {u}))
     return Relation(out, (inp,), lambda x, dx: p * dx, derivative=True, energy=lambda x: p * x,
-                    parameters=frozenset({p}))
+                    parameters=frozenset({p}), coefficients=(p,))
 
 
 def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozenset = frozenset(),
@@ -212,28 +218,13 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
 
     ``program``: when given, every computed expression is named in it as a line
     (:mod:`bondgraph.program`) and passed on by its name, so that no value is nested through the
-    model: the returned values are names or atoms, for code generation (the simulator)."""
+    model: the returned values are names or atoms, for code generation (the simulator). A law
+    linear with constant coefficients (junctions, transformers, gyrators, linear resistors and
+    storage elements) is then built as a :class:`bondgraph.linear.Linear` line, without sympy."""
     by_output = {r.output: r for r in rels}
-    dag = nx.DiGraph()
-    for r in rels:
-        dag.add_node(r.output)
-        for v in r.inputs:
-            dag.add_edge(v, r.output)
-    nodes = set(dag.nodes)
-    if wanted is not None:                         # every ancestor of wanted, in one backward sweep
-        nodes = set(wanted)
-        stack = [w for w in wanted if w in dag]
-        while stack:
-            for u in dag.predecessors(stack.pop()):
-                if u not in nodes:
-                    nodes.add(u)
-                    stack.append(u)
-    sub = dag.subgraph(nodes)
-    try:
-        order = list(nx.topological_sort(sub))
-    except nx.NetworkXUnfeasible:
-        cycle = nx.find_cycle(sub)
-        raise ValueError("causal loop through " + ", ".join(f"{v[0]}{v[1]}" for v, _ in cycle)) from None
+    variables = dict.fromkeys(v for r in rels for v in (*r.inputs, r.output))
+    roots = list(variables) if wanted is None else [w for w in wanted if w in variables]
+    order = _causal_order(by_output, roots)
     missing = [v for v in order if v not in by_output]
     if missing:
         v = missing[0]
@@ -251,11 +242,22 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
             values = [r.law()]
             for _ in range(k):
                 values.append(sp.diff(values[-1], t))
-            series[v] = values
+            series[v] = values if program is None else [program.name(x) for x in values]
             continue
         if r.derivative and r.energy is not None and r.parameters & whole:
             inner = r.energy(series[r.inputs[0]][0])
             series[v] = [sp.Derivative(inner, (t, j + 1)) for j in range(k + 1)]
+            continue
+        if program is not None and r.coefficients is not None and (k == 0 or not _varying(r.coefficients)):
+            # a linear law with constant coefficients: its j-th derivative is the same sum of
+            # the inputs' j-th derivatives (of their first derivatives for a storage element)
+            shift = 1 if r.derivative else 0
+            series[v] = [program.name(combine([(c, series[i][j + shift]) for c, i in zip(r.coefficients, r.inputs)]))
+                         for j in range(k + 1)]
+            continue
+        if k == 0 and not r.derivative:           # no derivative: the law on the values themselves
+            expr = _compact(r.law(*[series[i][0] for i in r.inputs]))
+            series[v] = [expr if program is None else program.name(expr)]
             continue
         top = k + (1 if r.derivative else 0)
         local = [[sp.Dummy(f"u{i}_{j}") for j in range(top + 1)] for i in range(len(r.inputs))]
@@ -274,3 +276,38 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
         if program is not None:
             series[v] = [program.name(expr) for expr in series[v]]
     return {v: series[v][0] for v in order}
+
+
+def _causal_order(by_output: Mapping[Var, Relation], roots: list[Var]) -> list[Var]:
+    """``roots`` and every variable they are computed from, each after its inputs (depth first,
+    with an explicit stack: a chain of thousands of elements is as deep). Raises ValueError
+    naming the variables of a causal loop."""
+    order: list[Var] = []
+    done: set[Var] = set()
+    for root in roots:
+        if root in done:
+            continue
+        path, on_path = [root], {root}
+        stack = [iter(by_output[root].inputs if root in by_output else ())]
+        while stack:
+            for u in stack[-1]:
+                if u in on_path:
+                    loop = path[path.index(u):]
+                    raise ValueError("causal loop through " + ", ".join(f"{v[0]}{v[1]}" for v in loop))
+                if u not in done:
+                    path.append(u)
+                    on_path.add(u)
+                    stack.append(iter(by_output[u].inputs if u in by_output else ()))
+                    break
+            else:
+                v = path.pop()
+                on_path.discard(v)
+                stack.pop()
+                done.add(v)
+                order.append(v)
+    return order
+
+
+def _varying(coefficients: tuple[sp.Expr, ...]) -> bool:
+    """Whether a coefficient changes in time (a modulus of a signal or of a state)."""
+    return any(c.has(t) for c in coefficients)

@@ -29,6 +29,22 @@ def to_networkx(model: Model) -> nx.MultiDiGraph:
     return g
 
 
+def port_table(g: nx.MultiDiGraph) -> dict[str, list[tuple[BondKey, str, int]]]:
+    """:func:`ports` of every node, in one pass over the edges."""
+    table: dict[str, list[tuple[BondKey, str, int]]] = {n: [] for n in g.nodes}
+    for u, v, k in g.edges(keys=True):
+        table[u].append((k, v, -1))
+        table[v].append((k, u, +1))
+    for ps in table.values():
+        ps.sort(key=_port_order)
+    return table
+
+
+def _port_order(p: tuple[BondKey, str, int]) -> tuple:
+    """Power bonds by id, then signal bonds by name; out-going before in-coming on a self-loop."""
+    return (isinstance(p[0], str), str(p[0]) if isinstance(p[0], str) else p[0])
+
+
 def ports(g: nx.MultiDiGraph, node: str) -> list[tuple[BondKey, str, int]]:
     """(bond key, neighbour, sign) for each bond of ``node``; sign +1 if power flows into it."""
     out = [(k, v, -1) for _, v, k in g.out_edges(node, keys=True)]

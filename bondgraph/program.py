@@ -6,6 +6,8 @@ simulator then works on lines: the implicit equations ``x' = r(x, x')`` are line
 coefficients ``dr_i/dx'_j`` come from forward differentiation line by line (only the lines that
 depend on some x'), and the lines are printed as they are into the body of a Python function.
 Every step is linear in the size of the model; no matrix of symbolic derivatives is formed.
+A line's right-hand side is a sympy expression or, for the many linear ones, a
+:class:`bondgraph.linear.Linear` sum of terms, which every function here handles term by term.
 """
 from __future__ import annotations
 
@@ -18,7 +20,9 @@ import sympy as sp
 from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.pycode import PythonCodePrinter
 
-Line = tuple[sp.Symbol, sp.Expr]
+from .linear import Linear, as_expr, combine, replace
+
+Line = tuple[sp.Symbol, "sp.Expr | Linear"]     # name = expression (sympy, or a Linear sum of names)
 
 
 class Program:
@@ -29,7 +33,7 @@ class Program:
         self.prefix = prefix
         self._names: dict[sp.Expr, sp.Symbol] = {}
 
-    def name(self, expr: sp.Expr) -> sp.Expr:
+    def name(self, expr: sp.Expr | Linear) -> sp.Expr:
         """``expr`` itself when it is an atom, else its name: the existing one when the same
         expression was named before (two bonds carrying one value compute it once), else a new line."""
         if expr.is_Atom:
@@ -46,8 +50,9 @@ def substitute(lines: Sequence[Line], mapping: dict) -> tuple[list[Line], dict]:
     remaining lines and ``mapping`` extended by the folded names, to apply to outputs too."""
     mapping = dict(mapping)
     out: list[Line] = []
+    cache: dict = {}
     for name, expr in lines:
-        expr = expr.xreplace(mapping)
+        expr = replace(expr, mapping, cache)
         if expr.is_Atom:
             mapping[name] = expr
         else:
@@ -78,17 +83,22 @@ def linear_coefficients(program: Sequence[Line], unknowns: Sequence[sp.Symbol]
     grad: dict[sp.Symbol, dict[sp.Symbol, sp.Expr]] = {u: {u: sp.Integer(1)} for u in unknowns}
     coefficients = Program("__g")
     for name, expr in program:
-        deps = [m for m in expr.free_symbols if m in grad]
+        if isinstance(expr, Linear):
+            deps = [(m, d) for d, m in expr.terms if m in grad]
+        else:
+            deps = [(m, None) for m in expr.free_symbols if m in grad]
         if not deps:
             continue
-        total: dict[sp.Symbol, sp.Expr] = {}
-        for m in deps:
-            d = line_diff(expr, m)
+        total: dict[sp.Symbol, list] = {}
+        for m, d in deps:
+            if d is None:
+                d = line_diff(expr, m)
             if d.free_symbols & grad.keys():
                 raise ValueError(f"not linear in {', '.join(str(u) for u in unknowns)}")
             for u, c in grad[m].items():
-                total[u] = total.get(u, sp.Integer(0)) + d * c
-        grad[name] = {u: coefficients.name(c) for u, c in total.items() if c != 0}
+                total.setdefault(u, []).append((d, c))
+        named = {u: coefficients.name(combine(pairs)) for u, pairs in total.items()}
+        grad[name] = {u: c for u, c in named.items() if c is not sp.S.Zero}
     return coefficients.lines, grad
 
 
@@ -120,11 +130,19 @@ def _shared_calls(lines: list[Line]) -> list[Line]:
     """Common subexpressions of the lines that call functions (a modulus such as
     1/(r cos(beta + theta)) enters every relation through its element) as lines of their own,
     each placed before its first use. Lines of plain arithmetic are left alone: cse over
-    thousands of them would cost more than it saves."""
-    calls = [i for i, (_, e) in enumerate(lines) if e.atoms(sp.Function)]
-    if not calls:
+    thousands of them would cost more than it saves; so are the calling lines when no call
+    occurs twice (a friction law sign(f_i) per element of a chain: nothing to share)."""
+    known: dict[sp.Expr, bool] = {}
+    calls = [i for i, (_, e) in enumerate(lines) if _calls(e, known)]
+    exprs = [as_expr(lines[i][1]) for i in calls]
+    seen: set = set()
+    for node in (n for e in exprs for n in sp.preorder_traversal(e) if isinstance(n, sp.Function)):
+        if node in seen:
+            break
+        seen.add(node)
+    else:
         return lines
-    shared, reduced = sp.cse([lines[i][1] for i in calls], symbols=sp.numbered_symbols("__c"))
+    shared, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("__c"))
     pending = dict(shared)
     order = [s for s, _ in shared]
     replaced = dict(zip(calls, reduced))
@@ -142,6 +160,26 @@ def _shared_calls(lines: list[Line]) -> list[Line]:
     return out
 
 
+def _calls(expr: sp.Expr | Linear, known: dict[sp.Expr, bool]) -> bool:
+    """Whether ``expr`` calls a function; ``known`` remembers the answer for coefficients, which
+    many linear lines share."""
+    if isinstance(expr, Linear):
+        return any(_calls(c, known) for c, _ in expr.terms)
+    if expr.is_Atom:
+        return False
+    if expr not in known:
+        known[expr] = bool(expr.atoms(sp.Function))
+    return known[expr]
+
+
+def _code(printer: PythonCodePrinter, expr: sp.Expr) -> str:
+    """``printer.doprint(expr)`` for one line's expression; without doprint's preparation (an
+    assignment target, real parts of unevaluated products) where it has nothing to do."""
+    if expr.is_Symbol:
+        return printer._print(expr)
+    return printer.doprint(expr) if expr.has(sp.re) else printer._print(expr)
+
+
 def compile_lines(args: Sequence, program: Sequence[Line], outputs: Sequence[sp.Expr], modules: str) -> Callable:
     """A Python function of ``args`` (symbols, or lists of symbols passed as one tuple) returning
     the list of ``outputs``, with the program's lines as its body: printed one by one, never
@@ -156,11 +194,18 @@ def compile_lines(args: Sequence, program: Sequence[Line], outputs: Sequence[sp.
         if isinstance(arg, (list, tuple)):
             names.append(f"_arg{k}")
             if arg:
-                body.append(f"{', '.join(str(s) for s in arg)}, = _arg{k}")
+                body.append(f"{', '.join(_code(printer, s) for s in arg)}, = _arg{k}")
         else:
-            names.append(str(arg))
-    body += [f"{name} = {printer.doprint(expr)}" for name, expr in kept]
-    body.append(f"return [{', '.join(printer.doprint(o) for o in outputs)}]")
+            names.append(_code(printer, arg))
+    printed: dict[sp.Expr, str] = {}
+
+    def text(expr: sp.Expr) -> str:            # coefficients and names recur: each printed once
+        if expr not in printed:
+            printed[expr] = _code(printer, expr)
+        return printed[expr]
+    body += [f"{text(name)} = {expr.code(text) if isinstance(expr, Linear) else _code(printer, expr)}"
+             for name, expr in kept]
+    body.append(f"return [{', '.join(_code(printer, o) for o in outputs)}]")
     source = f"def generated({', '.join(names)}):\n" + "".join(f"    {line}\n" for line in body)
     namespace = {"math": math, "numpy": numpy}
     exec(compile(source, "<bondgraph.program>", "exec"), namespace)

@@ -49,3 +49,26 @@ def test_chain_state_equations_simulate_and_bench_rejects_bad_sizes(capsys):
     assert np.isfinite(system.derivative(0.3, np.array([0.01]), p)).all()
     assert main(["bench", "derive", "--sizes", "10,x"]) == 2
     assert "--sizes" in capsys.readouterr().err
+
+
+def test_chain_state_equation_is_the_hand_derived_one():
+    """One independent inertia: with N_i the product of the moduli before stage i (f_i = N_i f_1),
+    power balance gives p' = (u - sum N_i R_i(N_i f_1)) / (1 + sum_{i>1} J_i N_i^2 / J_1),
+    f_1 = p / J_1, R_i(f) = b_i f + c_i sign(f)."""
+    from bondgraph.simulation import build_system
+
+    stages = 12
+    model = load_model_text(chain_yaml(4 * stages), "chain_48")
+    values = {s.name: v for s, v in model.nominal_values().items()}
+    system = build_system(model, values)
+    p = [values[n] for n in system.param_names]
+    for tt, x in ((0.3, 0.01), (1.7, -0.4), (2.2, 3.0)):
+        f1 = x / values["J1"]
+        ratio, drive, inertia = 1.0, values["beta_u"] * np.sin(tt), 1.0
+        for i in range(1, stages + 1):
+            f = ratio * f1
+            drive -= ratio * (values[f"b{i}"] * f + values[f"c{i}"] * np.sign(f))
+            if i > 1:
+                inertia += values[f"J{i}"] * ratio ** 2 / values["J1"]
+            ratio *= values.get(f"n{i}", 1.0)
+        assert system.derivative(tt, np.array([x]), p)[0] == pytest.approx(drive / inertia, rel=1e-12)
