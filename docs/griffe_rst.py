@@ -4,7 +4,9 @@ habits, which Markdown reads differently. At load time, before mkdocstrings rend
 - a doctest block (``>>>`` lines up to the next blank line) becomes a fenced Python block, where
   Markdown would read ``>>>`` as nested quotes and ``[[...]]`` output as a link;
 - a Sphinx role (``:func:`name```, ``:class:`~mod.Name```, ...) becomes an optional cross-reference:
-  a link where the name is documented, the name in code where it is not (never a build warning).
+  a link where the name is documented, the name in code where it is not (never a build warning);
+- a list right under a line of text gets the blank line Markdown needs to see it as a list;
+- a ``*`` between two word characters (``e = R*f``) is a product, not the start of emphasis.
 
 The source is untouched: doctest still runs the examples as written. mkdocs.yml loads this file
 in the python handler's ``extensions``; it needs griffe >= 1 (``griffe.Extension``, ``on_instance``).
@@ -47,6 +49,39 @@ def doctest_fences(text: str) -> str:
     return "\n".join(out)
 
 
+LIST_ITEM = re.compile(r"\s*(?:[-*+]|\d+[.)])\s")
+CODE_SPAN = re.compile(r"(`+)(?:.|\n)*?\1")
+PRODUCT = re.compile(r"(?<=\w)\*(?=\w)")
+
+
+def prose(text: str) -> str:
+    """Outside fences: a blank line before a list that follows text, products' asterisks escaped."""
+    lines = text.split("\n")
+    out: list[str] = []
+    fenced = False
+    for line in lines:
+        if FENCE.match(line):
+            fenced = not fenced
+        elif not fenced:
+            prev = out[-1] if out else ""
+            if (LIST_ITEM.match(line) and prev.strip() and not LIST_ITEM.match(prev)
+                    and len(prev) - len(prev.lstrip()) <= len(line) - len(line.lstrip())
+                    and not prev.startswith((" ", "\t"))):
+                out.append("")
+            line = "".join(PRODUCT.sub(r"\\*", p) if i % 2 == 0 else p for i, p in enumerate(_spans(line)))
+        out.append(line)
+    return "\n".join(out)
+
+
+def _spans(line: str) -> list[str]:
+    """A line cut into text and code spans, alternately (text first)."""
+    pieces, last = [], 0
+    for m in CODE_SPAN.finditer(line):
+        pieces += [line[last:m.start()], m.group(0)]
+        last = m.end()
+    return pieces + [line[last:]]
+
+
 def _target(obj: griffe.Object, role: str, name: str) -> str:
     if name.split(".")[0] in PACKAGES:
         return name
@@ -72,10 +107,10 @@ def roles(text: str, obj: griffe.Object) -> str:
 
 
 class RestructuredProse(griffe.Extension):
-    """Doctest blocks fenced and Sphinx roles linked, in every docstring griffe loads."""
+    """Doctest blocks fenced, Sphinx roles linked, lists and products kept, in every docstring."""
 
     def on_instance(self, *, obj: griffe.Object, **kwargs: Any) -> None:
         doc = obj.docstring
-        if doc is None or (">>>" not in doc.value and ":`" not in doc.value):
+        if doc is None:
             return
-        doc.value = roles(doctest_fences(doc.value), obj)
+        doc.value = roles(prose(doctest_fences(doc.value)), obj)

@@ -54,3 +54,21 @@ def test_mkdocs_build_strict(tmp_path):
         assert (tmp_path / "site" / page).is_file(), page
     api = (tmp_path / "site" / "api" / "fdi" / "index.html").read_text(encoding="utf-8")
     assert 'id="fdi.api.diagnose"' in api and 'id="fdi.api.Diagnosis"' in api
+
+
+@pytest.mark.skipif(importlib.util.find_spec("griffe") is None, reason="the docs extra is not installed")
+def test_docstring_rewrites():
+    spec = importlib.util.spec_from_file_location("griffe_rst", ROOT / "docs" / "griffe_rst.py")
+    ext = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ext)
+    text = "Example:\n    >>> f(1)\n    [[1]]\n\nAfter."
+    assert ext.doctest_fences(text) == "Example:\n\n```python\n>>> f(1)\n[[1]]\n```\n\nAfter."
+    assert ext.prose("Laws:\n- e = R*f, ``a*b``\n- *this*") == "Laws:\n\n- e = R\\*f, ``a*b``\n- *this*"
+    assert ext.prose("```\nx = a*b\n```") == "```\nx = a*b\n```"
+    import griffe
+    module = griffe.Module("pkg")
+    cls = griffe.Class("Thing", parent=module)
+    linked = ext.roles(":func:`f` :meth:`go` :class:`~fdi.api.Diagnosis`", cls)
+    assert linked == ('<autoref identifier="pkg.f" optional><code>f</code></autoref> '
+                      '<autoref identifier="pkg.Thing.go" optional><code>go</code></autoref> '
+                      '<autoref identifier="fdi.api.Diagnosis" optional><code>Diagnosis</code></autoref>')
