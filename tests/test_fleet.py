@@ -117,3 +117,13 @@ def test_no_scheduler_at_the_address(capsys, monkeypatch):
     out, err = capsys.readouterr()
     assert out == "" and err.count("\n") == 1
     assert err.startswith(f"bgfdi: error: --scheduler: no dask scheduler answers at tcp://127.0.0.1:{port}")
+
+
+def test_monitor_settings_reach_every_file():
+    """A MonitorConfig given to diagnose_many replaces the file's settings in every diagnosis:
+    thresholds above every residual detect nothing in the four reference files."""
+    from fdi.config import load
+    quiet = load(CYCAB)[1].replace(thresholds={"ARR1": 1e9, "ARR2": 1e9, "ARR3": 1e9})
+    reports = fleet.diagnose_many(CYCAB, FILES, quiet, jobs=2)
+    assert [r["file"] for r in reports] == FILES
+    assert all(r["detection"] is None and r["diagnosis"]["faults"] == [] for r in reports)

@@ -133,13 +133,17 @@ def diagnose_many(model, files: Iterable[str | Path], options=None, *, client=No
     """Diagnose every file with one model; the reports in the order of ``files``.
 
     ``model``: a path, a loaded Model or YAML text (as for :func:`fdi.api.diagnose`); ``options``
-    an :class:`fdi.diagnose.Options` (checked first; its ``workers`` is set to 1 per file).
+    an :class:`fdi.diagnose.Options` (checked first; its ``workers`` is set to 1 per file), or a
+    :class:`fdi.config.MonitorConfig` to use instead of the model file's monitor settings.
     ``client``: a ``dask.distributed.Client``, whose workers run the files; without one, ``jobs``
     local processes (1: in this process). ``timings`` adds wall-clock times to each report (they
     then differ between runs). ``progress(done, total)`` is called as files finish."""
     from ..api import model_file
+    from ..config import MonitorConfig
     from ..diagnose import Options
 
+    if isinstance(options, MonitorConfig):
+        options = Options(settings=options)
     options = options or Options()
     options.check()
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
