@@ -13,7 +13,7 @@ import itertools
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator, Mapping
+from typing import Callable, Iterator, Mapping
 
 import numpy as np
 import sympy as sp
@@ -54,11 +54,16 @@ def _open_text(path: str | Path) -> io.TextIOWrapper:
     return io.TextIOWrapper(raw, encoding=encoding, newline="")
 
 
-def blocks(fh, path: str, rows: int = CHUNK) -> Iterator[tuple[list[str], np.ndarray]]:
+def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None = None
+           ) -> Iterator[tuple[list[str], np.ndarray]]:
     """(header, block of at most ``rows`` rows as float64) from a CSV text stream, as the rows
     arrive (a file, or standard input for the monitor); the header is checked for a ``t`` column,
     the separator found from it (semicolons: a decimal comma is read as a point). Empty fields are
-    NaN; the caller checks them. Decoding and CSV errors become one-line DataErrors."""
+    NaN; the caller checks them. Decoding and CSV errors become one-line DataErrors.
+
+    With ``cut`` (a stream: the monitor), a last row with fewer values than the header, a stream
+    cut while a row was written, is dropped and ``cut(message)`` told; a short row anywhere
+    else is an error, as it is in a file."""
     try:
         first = fh.readline()
         delimiter = ";" if first.count(";") > first.count(",") else ","
@@ -70,17 +75,23 @@ def blocks(fh, path: str, rows: int = CHUNK) -> Iterator[tuple[list[str], np.nda
                             "the first column must be time in s")
         comma = delimiter == ";"
         pending, count = [], 0
+        width = len(header)
         for row in reader:
             if row:
                 pending.append(row)
-            if len(pending) == rows:
-                count += len(pending) * len(header)
+            if len(pending) >= rows:
+                count += len(pending) * width
                 if count > MAX_VALUES:
                     raise DataError(f"{path}: more than {MAX_VALUES:.0e} values; split the file")
-                yield header, _numbers(path, pending, len(header), comma)
-                pending = []
+                held = [pending.pop()] if cut and len(pending[-1]) < width and len(pending) > 0 else []
+                if pending:                       # a short last row waits: it may be where the stream ends
+                    yield header, _numbers(path, pending, width, comma)
+                pending = held
+        if cut and pending and len(pending[-1]) < width:
+            short = pending.pop()
+            cut(f"{path}: the last row was cut ({len(short)} of {width} values): dropped")
         if pending:
-            yield header, _numbers(path, pending, len(header), comma)
+            yield header, _numbers(path, pending, width, comma)
     except OSError as exc:
         what = exc.strerror or str(exc)
         raise DataError(f"{path}: cannot read ({what})") from None

@@ -5,6 +5,7 @@ import io
 import json
 
 import numpy as np
+import pytest
 
 from fdi.app.cli import main
 from fdi.data import read_csv, signals_from_data
@@ -98,3 +99,23 @@ def _events_of_whole(header, table):
     mon = Monitor(str(CYCAB), events.append, Options(workers=1))
     mon.feed(header, table)
     return events
+
+
+@pytest.mark.parametrize("block", [1, 50])
+def test_a_stream_cut_mid_row_ends_with_its_summary(capsys, monkeypatch, block):
+    """A producer killed while writing a row: the partial last row is dropped with one warning
+    and the stream's summary still comes (the rows before it, a nominal run: nothing detected).
+    A short row in the middle of a stream stays an error (exit 2), as in a file."""
+    text = (DATA / "nominal.csv").read_text(encoding="utf-8")[:200000]
+    assert not text.endswith("\n") and len(text.splitlines()[-1].split(",")) < 6      # cut inside a row
+    monkeypatch.setattr("sys.stdin", io.StringIO(text))
+    assert main(["monitor", str(CYCAB), "-", "--block", str(block)]) == 0
+    captured = capsys.readouterr()
+    lines = [json.loads(line) for line in captured.out.splitlines()]
+    assert lines[-1]["event"] == "summary" and lines[-1]["detection"] is None
+    assert "the last row was cut (2 of 6 values): dropped" in captured.err
+    rows = text.splitlines()
+    broken = "\n".join(rows[:1000] + [rows[1000][:12]] + rows[1001:3000]) + "\n"
+    monkeypatch.setattr("sys.stdin", io.StringIO(broken))
+    assert main(["monitor", str(CYCAB), "-", "--block", str(block)]) == 2
+    assert "rows do not all have 6 values" in capsys.readouterr().err

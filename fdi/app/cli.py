@@ -627,7 +627,7 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     fh = sys.stdin if args.data == "-" else open_text(args.data)
     try:
         monitor = Monitor(args.model, emit, options, source, refresh=args.refresh, history=args.history)
-        for header, block in blocks(fh, source, args.block):
+        for header, block in blocks(fh, source, args.block, cut=LOG.warning):   # a stream cut mid-row
             monitor.feed(header, block)
         monitor.close()
     finally:
