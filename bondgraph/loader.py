@@ -39,7 +39,7 @@ MAX_TIME = 1.0e6             # s: a time beyond 11 days in a model file is a typ
 class _Ctx:
     """File name and line map shared by the validation helpers."""
 
-    def __init__(self, path: str, lines: dict[tuple, int]) -> None:
+    def __init__(self, path: str, lines: Mapping[tuple, int]) -> None:
         self.path = path
         self.lines = lines
 
@@ -71,7 +71,7 @@ class Document:
 
     @property
     def _ctx(self) -> "_Ctx":
-        return _Ctx(self.path, dict(self.lines))
+        return _Ctx(self.path, self.lines)
 
     def error(self, where: tuple, message: str) -> ModelError:
         """A ModelError for the key at ``where`` (a path of keys), with its line when known."""

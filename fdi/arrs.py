@@ -303,4 +303,34 @@ def arr_unit(model: Model, arr: ARR) -> str:
         return "?"
     if s.measures in ("displacement", "momentum"):
         measured = combine((measured, 1), (dimension("s"), -1))
-    return format_dimension(combine((dimension("W"), 1), (measured, -1)))
+    summed = _summed_dimension(model, name, measured)
+    return format_dimension(summed if summed is not None else combine((dimension("W"), 1), (measured, -1)))
+
+
+def _summed_dimension(model: Model, junction: str, common: dict[str, float]) -> dict[str, float] | None:
+    """The dimension of the variable a junction sums, read off an element on it: a source of that
+    variable (its input's unit), a storage element (C: f = C de/dt, I: e = I df/dt) or a linear R
+    (f = e/R at a 0-junction, e = R f at a 1-junction), with ``common`` the junction's common
+    variable. None when no element says it; then effort x flow = power gives it. This is what
+    makes a pseudo bond graph right (thermal: effort K, flow W; their product is no power)."""
+    from bondgraph.units import combine, dimension
+
+    zero = model.junctions[junction].base == "0"
+    per_second = {"s": -1.0}
+    for b in model.bonds_of(junction):
+        e = model.elements.get(b.other(junction))
+        if e is None:
+            continue
+        try:
+            if e.kind == ("MSf" if zero else "MSe") and e.input in model.inputs:
+                return dimension(model.inputs[e.input].unit)
+            if e.parameter is None or e.parameter not in model.parameters:
+                continue
+            par = dimension(model.parameters[e.parameter].unit)
+            if e.kind == ("C" if zero else "I") and not e.laws:
+                return combine((par, 1), (common, 1), (per_second, 1))
+            if e.kind == "R" and not e.laws:
+                return combine((common, 1), (par, -1 if zero else 1))
+        except ValueError:
+            continue
+    return None

@@ -23,6 +23,7 @@ import numpy as np
 from .arrs import arr_unit
 from .data import Measurements, commanded, read_csv, signals_from_data
 from .identify import compiled
+from .detect import settling
 from .residuals import evaluate
 
 DEFAULT_MARGIN = 1.5
@@ -57,7 +58,7 @@ def nominal_residuals(model_path: str, data: str | Measurements, settle: float =
     raw = signals_from_data(model, meas)
     r = evaluate(model, list(c.residuals), raw, meas.ts, window=c.config.derivative_window,
                  values=commanded(model, raw))
-    keep = meas.t >= meas.t[0] + settle
+    keep = meas.t >= meas.t[0] + settling(settle, c.config.derivative_window)
     return np.abs(np.asarray(r))[:, keep]
 
 
@@ -70,7 +71,8 @@ def _threshold(samples: list[np.ndarray], quantile: float | None, margin: float)
 def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quantile: float | None = None,
               settle: float = 1.0) -> Calibration:
     """Thresholds from nominal ``runs`` (paths or Measurements); see the module doc."""
-    model, arrs = compiled(model_path).model, compiled(model_path).arrs
+    c = compiled(model_path)
+    model, arrs = c.model, c.arrs
     samples = [nominal_residuals(model_path, run, settle) for run in runs]
     thresholds = _threshold(samples, quantile, margin)
     false_alarms = None

@@ -83,7 +83,7 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
                 count += len(pending) * width
                 if count > MAX_VALUES:
                     raise DataError(f"{path}: more than {MAX_VALUES:.0e} values; split the file")
-                held = [pending.pop()] if cut and len(pending[-1]) < width and len(pending) > 0 else []
+                held = [pending.pop()] if cut and len(pending[-1]) < width else []
                 if pending:                       # a short last row waits: it may be where the stream ends
                     yield header, _numbers(path, pending, width, comma)
                 pending = held

@@ -21,10 +21,10 @@ from optim import DEFAULT_ENGINE, ENGINES
 from .errors import UsageError
 from .data import DataError, Measurements, commanded, read_csv, signals_from_data
 from .derivatives import DEFAULT_ORDER, window_samples
-from .detect import detect, inconsistency, thresholds_for
+from .detect import detect, inconsistency, settling, thresholds_for
 from .config import MonitorConfig
 from .identify import Compiled, Objective, compiled, estimate_mode, nominal, run_estimators, window
-from .isolate import candidate_sets, pruned_sets, suspected_mode_changes
+from .isolate import candidate_sets, pruned_sets, relaxed_sets, suspected_mode_changes
 from .prognose import prognose
 from .residuals import evaluate
 from .signatures import fault_signature_matrix, mode_change_signature_matrix, nominal_mode
@@ -118,7 +118,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     timings: dict[str, float] = {}
     clock = time.perf_counter()
     path = str(model_path)
-    c = compiled_for(path, o)
+    c = compiled_for(path, o.settings)
     model, config, arrs, residuals = c.model, c.config, c.arrs, c.residuals
     w = config.derivative_window
     meas = data if isinstance(data, Measurements) else read_csv(data)
@@ -139,7 +139,8 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     clock = time.perf_counter()
     r = evaluate(model, list(residuals), raw, meas.ts, window=w, values=commanded(model, raw))
     timings["residuals"] = time.perf_counter() - clock
-    det = detect(r, meas.t, thresholds, wait, o.settle)
+    settle = settling(o.settle, w)
+    det = detect(r, meas.t, thresholds, wait, settle)
     mode = dict(o.mode or nominal_mode(model))
     report: dict = {"detection": None, "mode": mode, "candidates": [], "estimators": [],
                     "diagnosis": {"faults": []}, "prognosis": [],
@@ -204,7 +205,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
                              o.workers, progress, memo=memo)
     # a drift may have started long before it crossed a threshold: its onset is searched back to the
     # start of the data (after the settling time)
-    lookback = max(wait, det.time - float(meas.t[0]) - o.settle)
+    lookback = max(wait, det.time - float(meas.t[0]) - settle)
     results = refit_early_onsets(path, meas, raw, det.time, samples, candidates, results, weights, settings, o,
                                  lookback, memo)
     timings["identification"] = time.perf_counter() - clock
@@ -230,7 +231,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     now = win.t0 + (win.crop.stop - win.crop.start) * win.ts
     clock = time.perf_counter()
     report["episodes"] = []
-    lit = latched(r, meas.t, thresholds, det.index, o.settle)
+    lit = latched(r, meas.t, thresholds, det.index, settle)
     j = int(np.searchsorted(meas.t, det.decision_time, side="right")) - 1
     while (change := next_change(lit, j)) is not None:
         k, j = change, decision_index(meas.t, change, wait)
@@ -262,22 +263,10 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     return report
 
 
-def relaxed_sets(fsm, coherence, max_set: int) -> list[tuple[str, ...]]:
-    """The smallest fault sets whose signatures cover the coherence vector, when no set matches it
-    exactly and no mode change explains it. Exoneration assumes every residual a fault enters
-    crosses its threshold; a fault that moves one residual past a tight threshold and leaves
-    another under a looser one breaks it (measured: a pump at 30 % of its flow in the two-tank
-    model fires ARR1, 1e-4 m^3/s, but not the total mass balance ARR3, 1.5e-4: no candidate, no
-    diagnosis). The report says when this relaxation was used."""
-    covering = candidate_sets(fsm, coherence, False, max_set)
-    smallest = min((len(c) for c in covering), default=0)
-    return [c for c in covering if len(c) == smallest]
-
-
-def compiled_for(path: str, o: Options) -> Compiled:
-    """The compiled model file, with ``o.settings`` in place of the file's monitor settings when given."""
+def compiled_for(path: str, settings: MonitorConfig | None) -> Compiled:
+    """The compiled model file, with ``settings`` in place of the file's monitor settings when given."""
     c = compiled(path)
-    return c if o.settings is None else replace(c, config=o.settings)
+    return c if settings is None else replace(c, config=settings)
 
 
 def mode_fault_name(model, variable: str, value: int) -> str:
@@ -315,7 +304,7 @@ def significant(path: str, meas: Measurements, raw: dict, t_d: float, now: float
     one made redundant: measured on the CyCab second-fault run, beta_theta1 at 1.0006 that a
     transient of ARR1 had asked for). A fault that is structurally needed but numerically a no-op
     is reported apart, not hidden."""
-    c = compiled_for(path, Options(settings=settings))
+    c = compiled_for(path, settings)
     model, residuals, w = c.model, c.residuals, c.config.derivative_window
     start, span = since_detection(meas.t, t_d, now, samples, MAX_GROWTH)
     win = window(meas.t, raw, start, span, w)
@@ -357,7 +346,7 @@ def refit_early_onsets(path: str, meas: Measurements, raw: dict, t_d: float, sam
             and e.cost <= REFIT_REACH * best]
     if not redo or lookback <= 0:
         return results
-    window_s = compiled_for(path, o).config.derivative_window
+    window_s = compiled_for(path, o.settings).config.derivative_window
     refits = run_estimators(path, meas.t, raw, t_d, samples, [candidates[i] for i in redo], weights, settings,
                             o.seed + 15485863, o.workers, None, None, [(t_d - lookback, t_d + window_s)] * len(redo),
                             [[results[i].faults] for i in redo], memo)
@@ -392,7 +381,7 @@ def redecide(path: str, meas: Measurements, raw: dict, det, weights: np.ndarray,
     is fitted afresh (the first decision may have been wrong); all start from the known fit.
     Larger sets that drop a known fault are not tried. The winner is chosen as at the first
     decision."""
-    c = compiled_for(path, o)
+    c = compiled_for(path, o.settings)
     w = c.config.derivative_window
     names = {f["name"] for f in known}
     plan = []
@@ -429,7 +418,7 @@ def refresh_prognosis(path: str, meas: Measurements, report: dict, options: Opti
     faults and the prognosis; unchanged when there is no incipient fault with a failure value."""
     o = options or Options()
     faults = list(report["diagnosis"]["faults"])
-    c = compiled_for(path, o)
+    c = compiled_for(path, o.settings)
     model, config, arrs = c.model, c.config, c.arrs
     failures = {f["name"]: o.failures.get(f["name"], config.failure(f["name"])) for f in faults}
     growing = [f for f in faults if f["type"] == "incipient" and failures.get(f["name"]) is not None]

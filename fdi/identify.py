@@ -264,6 +264,10 @@ class Objective:
         if real.shape[0] > ROWS:
             parts = [self.evaluate(real[i:i + ROWS], bits[i:i + ROWS], stride) for i in range(0, real.shape[0], ROWS)]
             return np.concatenate([c for c, _ in parts]), np.vstack([r for _, r in parts])
+        with np.errstate(all="ignore"):      # an individual whose signals overflow costs inf, silently
+            return self._evaluate(real, bits, stride)
+
+    def _evaluate(self, real: np.ndarray, bits: np.ndarray, stride: int) -> tuple[np.ndarray, np.ndarray]:
         real = real.copy()
         decoded = encoding.decode(self.spaces, real[:, :-1], bits)
         solve = {}
@@ -282,28 +286,27 @@ class Objective:
         values, signals, invalid = self.inputs(ps)
         n = real.shape[0]
         total = np.full(n, self.constant(stride))
-        with np.errstate(all="ignore"):
-            plain = [i for i in self.active if not any(self.enters[j][i] for j in solve)]
-            for i in plain:
-                total += self.weights[i] * np.abs(self.residual_values(self.residuals[i], signals, values, n, stride)).sum(axis=1)
-            joint = [i for i in self.active if i not in plain]
-            if joint:
-                base = {i: self.residual_values(self.residuals[i], signals, values, n, stride) for i in joint}
-                gains = {}
-                for j in solve:          # a parametric fault: the signals stay, its parameters step
-                    stepped = self.inputs([steps[j] if k == j else p for k, p in enumerate(ps)], signals)
-                    gains[j] = {i: self.residual_values(self.residuals[i], stepped[1], stepped[0], n, stride) - base[i]
-                                for i in joint if self.enters[j][i]}
-                deltas = self.solve_magnitudes(base, gains, solve)
-                for i in joint:
-                    r = base[i] + sum(deltas[j][:, None] * g[i] for j, g in gains.items() if i in g)
-                    total += self.weights[i] * np.abs(r).sum(axis=1)
-                for j, delta in deltas.items():
-                    space = self.spaces[j]
-                    to_u, from_u = LINEAR[self.linear[space.name]]
-                    v = from_u(to_u(space.nominal) + delta)
-                    real[:, encoding.N_REAL * j] = np.where(solve[j], np.log10(v) if space.log else v,
-                                                            real[:, encoding.N_REAL * j])
+        plain = [i for i in self.active if not any(self.enters[j][i] for j in solve)]
+        for i in plain:
+            total += self.weights[i] * np.abs(self.residual_values(self.residuals[i], signals, values, n, stride)).sum(axis=1)
+        joint = [i for i in self.active if i not in plain]
+        if joint:
+            base = {i: self.residual_values(self.residuals[i], signals, values, n, stride) for i in joint}
+            gains = {}
+            for j in solve:          # a parametric fault: the signals stay, its parameters step
+                stepped = self.inputs([steps[j] if k == j else p for k, p in enumerate(ps)], signals)
+                gains[j] = {i: self.residual_values(self.residuals[i], stepped[1], stepped[0], n, stride) - base[i]
+                            for i in joint if self.enters[j][i]}
+            deltas = self.solve_magnitudes(base, gains, solve)
+            for i in joint:
+                r = base[i] + sum(deltas[j][:, None] * g[i] for j, g in gains.items() if i in g)
+                total += self.weights[i] * np.abs(r).sum(axis=1)
+            for j, delta in deltas.items():
+                space = self.spaces[j]
+                to_u, from_u = LINEAR[self.linear[space.name]]
+                v = from_u(to_u(space.nominal) + delta)
+                real[:, encoding.N_REAL * j] = np.where(solve[j], np.log10(v) if space.log else v,
+                                                        real[:, encoding.N_REAL * j])
         return np.where(np.isfinite(total) & ~invalid, stride * total, np.inf), real
 
     def solve_magnitudes(self, base: dict, gains: dict, solve: dict) -> dict[int, np.ndarray]:

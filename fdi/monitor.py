@@ -34,7 +34,7 @@ from typing import Callable
 import numpy as np
 
 from .data import DataError, Measurements, checked, commanded, signals_from_data
-from .detect import inconsistency, thresholds_for
+from .detect import inconsistency, settling, thresholds_for
 from .diagnose import Options, compiled_for, diagnose, public, refresh_prognosis
 from .residuals import evaluate
 
@@ -65,7 +65,7 @@ class Monitor:
 
     def __post_init__(self) -> None:
         self.options.check()
-        c = compiled_for(self.model_path, self.options)
+        c = compiled_for(self.model_path, self.options.settings)
         self.model, self.config, self.arrs, self.compiled = c.model, c.config, c.arrs, c.residuals
         self.names = [a.name for a in self.arrs]
         self.thresholds = thresholds_for(self.config.thresholds, self.names, self.options.thresholds)
@@ -149,7 +149,7 @@ class Monitor:
     # ------------------------------------------------------------------ detection
     def _detect(self, t: np.ndarray, start: int, stop: int) -> None:
         r = self.residuals
-        bad = inconsistency(r, self.thresholds) & (t[start:stop] >= t[0] + self.options.settle)[None, :]
+        bad = inconsistency(r, self.thresholds) & (t[start:stop] >= t[0] + settling(self.options.settle, self.window))[None, :]
         known_at = float(t[self.n - 1])
         for k in range(bad.shape[1]):
             if self.lit is None:

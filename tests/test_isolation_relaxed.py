@@ -1,4 +1,4 @@
-"""Exoneration relaxed when nothing matches (fdi.diagnose.relaxed_sets): a fault that fires one
+"""Exoneration relaxed when nothing matches (fdi.isolate.relaxed_sets): a fault that fires one
 residual past a tight threshold and leaves another it enters under a looser one. Designed truth:
 the two-tank model's pump at 30 % of its flow from 250 s (models/scenarios/suite_two_tank_valve)."""
 from __future__ import annotations
@@ -6,8 +6,8 @@ from __future__ import annotations
 from bondgraph.loader import load_model
 from fdi.arrs import select_arrs
 from fdi.data import Measurements
-from fdi.diagnose import Options, diagnose, public, relaxed_sets
-from fdi.isolate import candidate_sets
+from fdi.diagnose import Options, diagnose, public
+from fdi.isolate import candidate_sets, relaxed_sets
 from fdi.signatures import fault_signature_matrix
 from fdi.app.resources import scenarios_dir
 from fdi.app.scenario import load_scenario, run

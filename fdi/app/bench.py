@@ -193,25 +193,12 @@ def optim_rows(problem: str, runs: int, methods: list[str], workers: int = 2, se
                progress=None) -> list[dict]:
     """Every run of every method on every case of ``problem``, in ``workers`` processes;
     ``progress(done, total)`` told as runs finish."""
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
     from . import synthetic
+    from .parallel import map_in_order
     cases = synthetic.GROUPS.get(problem, (problem,))
     settings = settings or TABLE_VI
     jobs = [(m, c, s, settings) for m in methods for c in cases for s in range(runs)]
-    if workers <= 1:
-        rows = []
-        for j in jobs:
-            rows.append(_optim_job(j))
-            if progress:
-                progress(len(rows), len(jobs))
-        return rows
-    with ProcessPoolExecutor(workers) as pool:
-        futures = [pool.submit(_optim_job, j) for j in jobs]
-        for done, _ in enumerate(as_completed(futures), 1):
-            if progress:
-                progress(done, len(jobs))
-        return [f.result() for f in futures]
+    return map_in_order(_optim_job, jobs, workers, progress)
 
 
 def summarise_optim(problem: str, runs: int, rows: list[dict]) -> dict:

@@ -119,14 +119,15 @@ def evaluate_scenario(model_path: str, scenario_path: str | Path, options: Optio
     mode_names.update({f.targets[0]: f.name for f in model.faults.values() if f.kind == "mode"})
     s = score(Path(scenario_path).stem, list(scenario.faults), report, mode_names,
               early=config.derivative_window / 2 + 1.0 / scenario.fs)
-    s.rul = rul_checkpoints(model_path, model, scenario, meas, report, o)
+    s.rul = rul_checkpoints(model_path, model, config, scenario, meas, report, o)
     return s
 
 
-def rul_checkpoints(model_path: str, model, scenario, meas: Measurements, report: dict, o: Options) -> list[dict]:
+def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements, report: dict,
+                    o: Options) -> list[dict]:
     """For each incipient design fault with a failure value: the RUL the toolkit gives at 50 % and
     90 % of its life (the data up to then diagnosed and refitted), against the true RUL."""
-    out, config = [], compiled(model_path).config
+    out = []
     for e in scenario.faults:
         failure = e.failure if e.failure is not None else config.failure(e.target)
         if e.type != "incipient" or failure is None:

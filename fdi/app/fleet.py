@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 from ..errors import UsageError
+from .parallel import map_in_order
 
 CONNECT_TIMEOUT = 10.0          # s a scheduler address is given to answer
 DASK_EXTRA = "pip install 'bgfdi[dask]'"
@@ -154,21 +155,7 @@ def diagnose_many(model, files: Iterable[str | Path], options=None, *, client=No
         return []
     if client is not None:
         return _on_dask(client, path, files, options, timings, progress)
-    work = [(path, f, options, timings) for f in files]
-    if jobs <= 1 or len(work) == 1:
-        out = []
-        for job in work:
-            out.append(_job(job))
-            if progress:
-                progress(len(out), len(work))
-        return out
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-    with ProcessPoolExecutor(min(jobs, len(work))) as pool:
-        futures = [pool.submit(_job, job) for job in work]
-        for done, _ in enumerate(as_completed(futures), 1):
-            if progress:
-                progress(done, len(work))
-        return [f.result() for f in futures]
+    return map_in_order(_job, [(path, f, options, timings) for f in files], jobs, progress)
 
 
 def _on_dask(client, model_path: str, files: list[str], options, timings: bool, progress) -> list[dict]:
