@@ -434,7 +434,8 @@ def _run_estimator(job: tuple) -> EstimatorResult:
     init = [obj.encode(faults) for faults in known]
     r = engine(obj, obj.bounds(), encoding.N_BITS * len(obj.spaces), pop=settings["pop"],
                generations=settings["generations"], seed=seed, onehot=encoding.onehot_groups(obj.spaces),
-               structure=obj.structure, free=obj.free, init=init, coarse=obj.coarse)
+               structure=obj.structure, free=obj.free, init=init, coarse=obj.coarse,
+               family=lambda bits: encoding.family(obj.spaces, bits))
     margin = r.extra.get("margin")
     real = obj.complete(r.real, r.bits)
     faults = encoding.describe(obj.spaces, real[:-1], r.bits)

@@ -5,7 +5,10 @@ import pytest
 
 from fdi.app.evaluate import evaluate_scenario, score, summary
 from fdi.app.resources import scenarios_dir
-from fdi.app.scenario import FaultEvent
+from fdi.app.scenario import FaultEvent, load_scenario, run
+from fdi.data import Measurements
+from fdi.diagnose import Options, diagnose, public
+from fdi.identify import compiled
 
 from .conftest import CYCAB
 
@@ -48,3 +51,18 @@ def test_one_scenario_end_to_end_with_its_rul_checkpoints():
     assert [round(r["t"], 2) for r in s.rul] == [36.67, 50.0]
     for r in s.rul:
         assert r["rul"] is not None and abs(r["error"]) < 0.125 and r["alpha_ok"]
+
+
+
+def test_a_slow_eq18_drift_alone_is_isolated_and_typed():
+    # the design: beta_theta2 of eq. (18) with b3 = -3, b4 = -1.002 from 25 s, growing as exp(0.303 tau):
+    # detected only at ~35 s, its fit from there needs b3 < -3 (a slower rate), which the search
+    # reaches through the growth rate log10(r1); it was {R4, R5} or eq. (16) before
+    path = scenarios_dir() / "suite_cycab_steering" / "theta2_incipient18.json"
+    c = compiled(str(CYCAB))
+    scenario = load_scenario(path, c.model)
+    cols = run(c.model, scenario)
+    report = public(diagnose(str(CYCAB), Measurements(str(path), cols["t"], cols), Options()))
+    s = score("i18", list(scenario.faults), report, {}, early=0.13)
+    assert s.found == ["beta_theta2"] and s.isolated and s.typed and not s.false_alarm
+    assert s.errors["beta_theta2"] < 0.05

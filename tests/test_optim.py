@@ -173,3 +173,71 @@ def test_racing_on_a_coarse_objective_reports_the_fine_one():
     assert r.cost == pytest.approx(float(_sphere(r.real[None, :], r.bits[None, :])[0])) and r.cost < 1e-2
     assert r.history[-1] == r.cost
     assert calls["coarse"] > 0 and calls["fine"] > 0 and r.evaluations == calls["coarse"] + calls["fine"]
+
+
+def _branch(key, bits, free, x, f):
+    from optim.ahde import Branch
+    n = len(f)
+    return Branch(key, np.asarray(bits, dtype=bool), np.asarray(free), np.asarray(x, dtype=float),
+                  np.asarray(f, dtype=float), np.ones(n), np.ones(n))
+
+
+def test_each_family_keeps_its_best_structure_through_the_first_rungs():
+    from optim.ahde import AHDE
+    e = AHDE(_sphere, [[-1, 1]] * 3, 3, family=lambda b: int(b[0]))
+    pool = [_branch("a", [0, 0, 0], [0], [[0, 0, 0]], [1.0]), _branch("b", [0, 1, 0], [0], [[0, 0, 0]], [1.1]),
+            _branch("c", [1, 0, 0], [1], [[0, 0, 0]], [1.3]), _branch("d", [1, 1, 0], [1], [[0, 0, 0]], [1.4]),
+            _branch("far", [0, 0, 1], [0], [[0, 0, 0]], [9.0])]
+    kept = e.champions(pool, pool[:2])
+    assert [b.key for b in kept] == ["c"]                  # family 1's best, within the spare of the leader (50 %)
+    assert e.champions(pool, pool[:3]) == []                # a family already represented
+    e.family = lambda b: (int(b[0]), int(b[2]))
+    assert [b.key for b in e.champions(pool, pool[:2])] == ["c"]   # 'far' costs 9x the leader: not kept
+
+
+def test_a_structure_left_behind_comes_back_with_the_winners_reals():
+    # structure A (bit 0) and B (bit 1) share real 1: A's optimum is x1 = 0.7 at cost 1, B's the same x1 at
+    # cost 0.1. B left the race with x1 = -0.5 (cost 5); the winner A has found x1 = 0.7: B must come back
+    # as a finalist at cost 0.1, from a point with A's x1 and its own x2
+    from optim.ahde import AHDE
+
+    def cost(real, bits):
+        b = np.asarray(bits, dtype=bool)
+        a_cost = 1.0 + (real[:, 1] - 0.7) ** 2
+        b_cost = 0.1 + (real[:, 1] - 0.7) ** 2 + (real[:, 2] - 0.2) ** 2
+        return np.where(b[:, 1], b_cost, a_cost)
+
+    e = AHDE(cost, [[-1, 1]] * 3, 2, onehot=[(0, 1)], free=lambda b: np.array([False, True, bool(b[1])]))
+    e.counter.objective = e.objective
+    win = _branch(("A",), [1, 0], [1], [[0, 0.7, 0], [0, 0.6, 0]], [1.0, 1.01])
+    left = _branch(("B",), [0, 1], [1, 2], [[0, -0.5, 0.2]], [5.0])
+    e.describe = lambda b: ("A",) if b[0] else ("B",)
+    e.branches = {win.key: win, left.key: left}
+    finalists = [win]
+    back = e.revive(finalists)
+    assert back is left and finalists == [win, left]
+    assert back.best == pytest.approx(0.1)
+    assert back.x[int(np.argmin(back.f)), 1:].tolist() == pytest.approx([0.7, 0.2])
+    assert e.revive([win, left]) is None                 # B now leads and A's point with B's x1 is worse
+
+
+def test_eq18_is_searched_through_its_growth_rate():
+    from scipy.integrate import solve_ivp
+    space = FaultSpace.make("beta", 1.0, (0.05, 1.5))
+    truth = {"type": "incipient", "model": 3, "b": [-3.0, -1.002]}
+    real, bits = encoding.encode([space], [truth])
+    r1 = (-3.0 + np.sqrt(13.0)) / 2                      # the growing root of s^2 - b3 s - 1
+    assert real[4] == pytest.approx(np.log10(r1))
+    assert encoding.describe([space], real, bits)[0]["b"] == [pytest.approx(-3.0), pytest.approx(-1.002)]
+    # the decoded profile solves d2P/dt2 = b3 dP/dt + P + b4 from P = 1, dP/dt = 0
+    t = np.linspace(0.0, 12.0, 121)
+    (p,) = encoding.profiles([space], encoding.decode([space], real[None, :], bits[None, :]), t, 0.0)
+    ode = solve_ivp(lambda _, y: [y[1], -3.0 * y[1] + y[0] - 1.002], (0, 12), [1.0, 0.0], t_eval=t, rtol=1e-10,
+                    atol=1e-12)
+    assert np.allclose(p[0], ode.y[0], atol=1e-8)
+    # the bounds reach drifts far slower than b3 = -3 allowed (r1 >= 0.30/s): time constants up to 100 s
+    lo, hi = encoding.bounds([space])[4]
+    assert 10 ** lo == pytest.approx(0.01) and 10 ** hi == pytest.approx(10.0)
+    slow = real.copy()
+    slow[4] = lo
+    assert encoding.describe([space], slow, bits)[0]["b"][0] < -3.7

@@ -182,7 +182,7 @@ def _optim_job(job: tuple) -> dict:
     else:
         p = benchmark_problem(case, seed)
     r = ENGINES[method](p.cost, p.bounds(), p.n_bits, seed=seed, onehot=p.onehot, structure=p.structure, free=p.free,
-                        **settings)
+                        family=p.family, **settings)
     ok = synthetic.recovered(p.spaces, p.truth, p.finish(r.real, r.bits), r.bits, p.t, p.t0)
     return {"method": method, "case": case, "seed": seed, "cost": r.cost, "fitness": float(r.fitness),
             "success": bool(ok), "evaluations": r.evaluations, "wall_s": r.wall_s, "overhead_s": r.overhead_s,

@@ -50,6 +50,9 @@ class Problem:
     def structure(self, bits: np.ndarray):
         return encoding.structure(self.spaces, bits)
 
+    def family(self, bits: np.ndarray):
+        return encoding.family(self.spaces, bits)
+
     def bounds(self) -> np.ndarray:
         return encoding.bounds(self.spaces)
 
