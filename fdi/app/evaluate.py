@@ -151,8 +151,11 @@ def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements
                 entry["note"] = f"no diagnosis at this point ({type(exc).__name__})"
                 out.append(entry)
                 continue
-            if not any(f["name"] == e.target and f["type"] == "incipient" for f in part["diagnosis"]["faults"]):
+            if part["detection"] is None:
+                entry["note"] = "nothing is detected yet at this point of life"
+            elif not any(f["name"] == e.target and f["type"] == "incipient" for f in part["diagnosis"]["faults"]):
                 entry["note"] = "the fault is not diagnosed incipient at this point"
+            if "note" in entry:
                 out.append(entry)
                 continue
             _, prognosis = refresh_prognosis(model_path, prefix, part, o)
