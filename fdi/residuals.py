@@ -84,13 +84,18 @@ def compile_residual(model: Model, arr: ARR) -> Residual:
 
 def _compile(model: Model, expr: sp.Expr, name: str, sensor: str | None) -> Residual:
     names = list(model.sensors) + list(model.inputs)
-    whole = [d for d in expr.atoms(sp.Derivative) if not is_signal(d.expr)]
-    outer = [d for d in whole if not any(o is not d and o.has(d) for o in whole)]
-    outer.sort(key=str)
-    composite_syms = [sp.Symbol(f"__stored{i}", real=True) for i in range(len(outer))]
-    composites = tuple((sum(c for v, c in d.variable_count if v == t), _compile(model, d.expr, name, sensor))
-                       for d in outer)
-    expr = expr.xreplace(dict(zip(outer, composite_syms)))
+    composite_syms: list[sp.Symbol] = []
+    stored: list[tuple[int, Residual]] = []
+    while True:     # outermost first: a rate may also appear inside another (three tanks: d(C1 p1)/dt in d(C2 (...))/dt)
+        whole = [d for d in expr.atoms(sp.Derivative) if not is_signal(d.expr)]
+        if not whole:
+            break
+        outer = sorted((d for d in whole if not any(o is not d and o.has(d) for o in whole)), key=str)
+        syms = [sp.Symbol(f"__stored{len(composite_syms) + i}", real=True) for i in range(len(outer))]
+        stored += [(sum(c for v, c in d.variable_count if v == t), _compile(model, d.expr, name, sensor)) for d in outer]
+        composite_syms += syms
+        expr = expr.xreplace(dict(zip(outer, syms)))
+    composites = tuple(stored)
     replace: dict[sp.Expr, sp.Symbol] = {}
     used: list[tuple[str, int]] = []
     for d in sorted(expr.atoms(sp.Derivative), key=str):

@@ -73,6 +73,29 @@ def test_three_tank_residuals_are_the_hand_derived_mass_balances(tank3):
     assert sorted(map(sorted, iso.classes())) == sorted(map(sorted, FDT["classes"]["der"]))
 
 
+
+def test_three_tank_residuals_evaluate_with_a_rate_inside_a_rate(tank3):
+    # with tank faults, ARR1 keeps the stored quantities whole: d(CT1 p1)/dt appears alone and inside
+    # d(CT2 (p1 - Rv1 (q0 - d(CT1 p1)/dt)))/dt; compiling that raised ValueError (every diagnose of
+    # this model). Designed truth: a nominal run stays at noise level, tank 1 narrowed to half its
+    # capacity (volume kept, pressure doubled) at 300 s makes both residuals (both contain CT1) fire
+    from fdi.app.scenario import parse_scenario, run
+    from fdi.data import Measurements, signals_from_data
+    from fdi.residuals import compile_residuals, evaluate
+    m, _ = tank3
+    arrs = select_arrs(m).arrs
+    assert arrs[0].exact is not None and arrs[0].exact.has(sp.Derivative(m.symbols["CT1"] * sp.Function("p1", real=True)(t)
+                                                                        / m.beta_symbol("p1"), t))
+    residuals = compile_residuals(m, arrs)
+    peaks = []
+    for faults in ([], [{"target": "fT1", "type": "abrupt", "t0": 300, "value": 1.5698e-6 / 2}]):
+        cols = run(m, parse_scenario({"T": 600, "fs": 10, "seed": 1, "faults": faults}, m, "tanks"))
+        r = evaluate(m, residuals, signals_from_data(m, Measurements("tanks", cols["t"], cols)), 0.1, window=5.0)
+        late = (cols["t"] > 305) & (cols["t"] < 590)
+        peaks.append(np.abs(r[:, late]).max(axis=1))
+    assert np.all(peaks[0] < 1e-3) and np.all(peaks[1] > 3e-3)
+
+
 def test_three_tank_sensor_placement_proposes_q3(tank3):
     m, system = tank3
     p = sensor_placement(m, system, DERIVATIVE)
