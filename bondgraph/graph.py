@@ -49,4 +49,4 @@ def ports(g: nx.MultiDiGraph, node: str) -> list[tuple[BondKey, str, int]]:
     """(bond key, neighbour, sign) for each bond of ``node``; sign +1 if power flows into it."""
     out = [(k, v, -1) for _, v, k in g.out_edges(node, keys=True)]
     out += [(k, u, +1) for u, _, k in g.in_edges(node, keys=True)]
-    return sorted(out, key=lambda p: (isinstance(p[0], str), str(p[0]) if isinstance(p[0], str) else p[0]))
+    return sorted(out, key=_port_order)

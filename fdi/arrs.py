@@ -288,7 +288,7 @@ def arr_unit(model: Model, arr: ARR) -> str:
 
     name = arr.junction
     if name not in model.junctions:            # an MSO residual written at a storage element: its law
-        bonded = [b.target if b.source == name else b.source for b in model.bonds if name in (b.source, b.target)]
+        bonded = [b.other(name) for b in model.bonds_of(name)]
         element = model.elements.get(name)
         if element is None or element.kind not in ("C", "I") or len(bonded) != 1 or bonded[0] not in model.junctions:
             return "?"

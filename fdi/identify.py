@@ -387,6 +387,9 @@ class Objective:
     def structure(self, bits: np.ndarray):
         return encoding.structure(self.spaces, bits)
 
+    def family(self, bits: np.ndarray):
+        return encoding.family(self.spaces, bits)
+
     def encode(self, faults: list[dict]) -> tuple[np.ndarray, np.ndarray]:
         """A known fit of some of this candidate's faults (report entries with ``t0``) as one
         individual: the faults it names as fitted, the others as no-ops (abrupt at their nominal
@@ -434,8 +437,7 @@ def _run_estimator(job: tuple) -> EstimatorResult:
     init = [obj.encode(faults) for faults in known]
     r = engine(obj, obj.bounds(), encoding.N_BITS * len(obj.spaces), pop=settings["pop"],
                generations=settings["generations"], seed=seed, onehot=encoding.onehot_groups(obj.spaces),
-               structure=obj.structure, free=obj.free, init=init, coarse=obj.coarse,
-               family=lambda bits: encoding.family(obj.spaces, bits))
+               structure=obj.structure, family=obj.family, free=obj.free, init=init, coarse=obj.coarse)
     margin = r.extra.get("margin")
     real = obj.complete(r.real, r.bits)
     faults = encoding.describe(obj.spaces, real[:-1], r.bits)

@@ -48,8 +48,7 @@ def relaxed_sets(fsm: FSM, coherence: tuple[int, ...], max_set: int = 3) -> list
 def pruned_sets(fsm: FSM, coherence: tuple[int, ...], exoneration: bool = True, max_size: int = 3) -> int:
     """How many sets of ``max_size + 1`` faults would also explain the coherence vector: what the cap
     on candidate-set size leaves out (reported, so that a cap never prunes silently)."""
-    return len(candidate_sets(fsm, coherence, exoneration, max_size + 1)) - len(
-        candidate_sets(fsm, coherence, exoneration, max_size))
+    return sum(len(s) == max_size + 1 for s in candidate_sets(fsm, coherence, exoneration, max_size + 1))
 
 
 def suspected_mode_changes(mcsm: MCSM, coherence: tuple[int, ...]) -> list[str]:

@@ -27,9 +27,10 @@ abrupt fault has one value, an incipient fault of model (16) one coefficient). S
    without this, 6 of 8 with it);
    Screen and race may run on a cheaper objective, ``coarse`` (the diagnosis: every k-th sample),
    as they only rank structures (multi-fidelity successive halving, Li et al. 2018);
-3. re-evaluates the **two finalists** on the objective and runs them to convergence (the population's cost spread within ``tol`` of its
-   best, or no improvement for ``patience`` generations, or the budget), then redraws them around
-   their best points, 10 % of each range, while that improves, then the leader alone at 1 % (a
+3. re-evaluates the **two finalists** on the objective and runs them to convergence (the
+   population's cost spread within ``tol`` of its best, or no improvement for ``patience``
+   generations, or the budget), then redraws them around their best points, 10 % of each range,
+   while that improves, then the leader alone at 1 % (a
    population collapses in a narrow ridge before its bottom: R4 4 % off on 2 of 20 seeds of
    scenario 1 without the 1 % round);
 4. **revives** a structure left behind: every other structure (and the winner's one-decision
@@ -88,9 +89,9 @@ class AHDE:
     def __init__(self, objective, bounds, n_bits: int = 0, *, pop: int = 100, generations: int = 150,
                  seed: int | None = 0, onehot: Sequence[Sequence[int]] = (), structure: Structure | None = None,
                  free: Free | None = None, tol: float = 1e-4, patience: int = 15, eta: int = 3,
-                 first_rung: int = 2, screen: int = 3000, screen_each: int = 50, spare: float = 0.5, restarts: int = 3, finest: float = 0.01,
-                 revivals: int = 2,
-                 per_dim: int = 2, max_structures: int = 256, init: Sequence[tuple[np.ndarray, np.ndarray]] = (),
+                 first_rung: int = 2, screen: int = 3000, screen_each: int = 50, spare: float = 0.5, restarts: int = 3,
+                 finest: float = 0.01, revivals: int = 2, per_dim: int = 2, max_structures: int = 256,
+                 init: Sequence[tuple[np.ndarray, np.ndarray]] = (),
                  coarse=None, family: Structure | None = None, protect: int = 3, target: float | None = None,
                  callback=None) -> None:
         self.bounds = check_bounds(bounds)
@@ -163,7 +164,7 @@ class AHDE:
         for bits in patterns:
             key = self.describe(bits)
             if key not in self.branches and key not in picked:
-                picked[key] = (bits, np.flatnonzero(np.asarray(self.free(bits), dtype=bool)))
+                picked[key] = (bits, self.free_reals(bits))
                 if limit and len(picked) >= limit:
                     break
         if not picked:
@@ -189,6 +190,10 @@ class AHDE:
             self.branches[b.key] = b
         self.record()
         return shells
+
+    def free_reals(self, bits: np.ndarray) -> np.ndarray:
+        """The indices of the reals the structure of ``bits`` reads."""
+        return np.flatnonzero(np.asarray(self.free(bits), dtype=bool))
 
     def size(self, d: int) -> int:
         """The DE population of a structure with d free reals."""
@@ -319,21 +324,23 @@ class AHDE:
         if len(branches) < 2:
             return
         leader = branches[0]
-        top = leader.x[int(np.argmin(leader.f))]
-        takers, migrants = [], []
-        for b in branches[1:]:
-            shared = np.intersect1d(b.free, leader.free)
-            if shared.size:
-                m = b.x[int(np.argmin(b.f))].copy()
-                m[shared] = top[shared]
-                takers.append(b)
-                migrants.append(m[None, :])
+        takers = [b for b in branches[1:] if np.intersect1d(b.free, leader.free).size]
+        migrants = [self.migrant(b, leader) for b in takers]
         if not takers or self.counter.evaluations + len(takers) > self.budget:
             return
         for b, m, c in zip(takers, migrants, self.evaluate(migrants, takers)):
             worst = int(np.argmax(b.f))
             if c[0] < b.f[worst]:
                 b.x[worst], b.f[worst] = m[0], c[0]
+
+    @staticmethod
+    def migrant(b: Branch, leader: Branch) -> np.ndarray:
+        """``b``'s best point with the free reals it shares with ``leader`` taken from the leader's
+        best, as one row."""
+        m = b.x[int(np.argmin(b.f))].copy()
+        shared = np.intersect1d(b.free, leader.free)
+        m[shared] = leader.x[int(np.argmin(leader.f)), shared]
+        return m[None, :]
 
     def restart(self, b: Branch, scale: float = 0.1) -> None:
         """A converged branch redrawn around its best point (``scale`` of each free range), the best
@@ -388,22 +395,17 @@ class AHDE:
         finalist takes it in place of its worst point, any other structure joins the finalists
         with a population drawn around it (``restart``). Returns the structure to polish."""
         win = min(finalists, key=lambda b: b.best)
-        top = win.x[int(np.argmin(win.f))]
         shells = [b for b in self.branches.values() if b.key != win.key and b.free.size]
+        unseen = {}                                        # neighbours never raced, from the winner's point
         for bits in self.neighbours(win.bits):
-            key = self.describe(bits)
-            if key not in self.branches and key not in {s.key for s in shells}:
-                free = np.flatnonzero(np.asarray(self.free(bits), dtype=bool))
-                if free.size:
-                    shells.append(Branch(key, bits, free, top[None, :].copy(), np.full(1, np.inf), np.ones(1), np.ones(1)))
+            key, free = self.describe(bits), self.free_reals(bits)
+            if key not in self.branches and key not in unseen and free.size:
+                unseen[key] = Branch(key, bits, free, win.x[win.f.argmin()][None, :].copy(), np.zeros(1), np.ones(1),
+                                     np.ones(1))
+        shells += unseen.values()
         if not shells or self.counter.evaluations + len(shells) > self.budget:
             return None
-        migrants = []
-        for b in shells:
-            m = b.x[int(np.argmin(b.f))].copy()
-            shared = np.intersect1d(b.free, win.free)
-            m[shared] = top[shared]
-            migrants.append(m[None, :])
+        migrants = [self.migrant(b, win) for b in shells]
         costs = [c[0] for c in self.evaluate(migrants, shells)]
         j = int(np.argmin(costs))
         if not costs[j] < win.best * (1 - self.tol):
@@ -446,8 +448,8 @@ class AHDE:
                       len(self.history) - 1, time.perf_counter() - t0, self.counter.seconds, self.stop, extra)
 
 
-OPTIONS = ("tol", "patience", "eta", "first_rung", "screen", "screen_each", "spare", "restarts", "finest", "revivals", "per_dim",
-           "max_structures", "init", "coarse", "family", "protect")
+OPTIONS = ("tol", "patience", "eta", "first_rung", "screen", "screen_each", "spare", "restarts", "finest", "revivals",
+           "per_dim", "max_structures", "init", "coarse", "family", "protect")
 
 
 def minimize(objective, bounds, n_bits: int = 0, *, pop: int = 100, generations: int = 150, seed: int | None = 0,

@@ -2,7 +2,6 @@
 one JSON object (shape in docs/cli.md). The text report is cli.cmd_check; the two say the same."""
 from __future__ import annotations
 
-import json
 import math
 
 from bondgraph.causality import DIAGNOSIS, SIMULATION, Causality, assign
@@ -92,7 +91,3 @@ def _monitor(config) -> dict:
             "derivative_window": config.derivative_window,
             "faults": {name: {"bounds": None if f.bounds is None else [_finite(b) for b in f.bounds],
                               "failure": _finite(f.failure)} for name, f in config.faults.items()}}
-
-
-def to_json(report: dict) -> str:
-    return json.dumps(report, indent=1) + "\n"

@@ -443,7 +443,6 @@ def _timings_line(report: dict) -> str:
 
 def _diagnose_and_print(model_path: str, data, options, args, data_name: str) -> int:
     """Diagnose, print (text or --json), plot; 3 with --fail-on-fault when a fault was found, else 0."""
-    import json
 
     from ..diagnose import diagnose
     from ..identify import compiled
@@ -455,7 +454,7 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
         LOG.debug("diagnosis stage %s: %.3f s", name, seconds)
     public = _report_dict(report, args.timings)
     if args.json:
-        text = json.dumps(public, indent=1) + "\n"
+        text = _json_text(public)
     else:
         text = to_text(public, model.name, data_name) + (_timings_line(report) if args.timings else "")
     _emit(text, getattr(args, "output", None))
@@ -479,12 +478,6 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     data = read_csv(args.data[0])
     check_samples(options.samples, data.ts, "--samples")
     return _diagnose_and_print(args.model, data, options, args, args.data[0])
-
-
-def _diagnose_one(job: tuple) -> dict:
-    """One file of a batch: fdi.app.fleet.diagnose_file (kept for callers of this name)."""
-    from .fleet import diagnose_file
-    return diagnose_file(*job)
 
 
 def _check_fleet_options(args: argparse.Namespace) -> None:
@@ -541,7 +534,6 @@ def _version() -> str:
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
     """Thresholds from nominal runs; printed, or written into a copy of the model (-o)."""
-    import json
     from pathlib import Path
 
     from ..calibrate import calibrate, format_calibration, with_thresholds
@@ -549,7 +541,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
     compiled(args.model)                                   # the model checked before the runs are read
     c = calibrate(args.model, args.runs, args.margin, args.quantile)
-    text = json.dumps(c.to_dict(), indent=1) + "\n" if args.json else format_calibration(c)
+    text = _json_text(c.to_dict()) if args.json else format_calibration(c)
     if args.output:
         write_atomic(args.output, with_thresholds(Path(args.model).read_text(encoding="utf-8"), c))
         _note(f"wrote {args.output} with the calibrated thresholds", args.output)
@@ -559,7 +551,6 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
     """Each scenario simulated, diagnosed and scored (fdi.app.evaluate); a table or --json."""
-    import json
 
     from .evaluate import format_scores, suite_files, summary
     from ..identify import compiled
@@ -575,8 +566,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     scores = _evaluate_files(args.model, files, options)
     totals = summary(scores)
     if args.json:
-        text = json.dumps({"model": model.name, "summary": totals, "scenarios": [s.to_dict() for s in scores]},
-                          indent=1, default=float) + "\n"
+        text = _json_text({"model": model.name, "summary": totals, "scenarios": [s.to_dict() for s in scores]})
     else:
         text = format_scores(scores, totals)
     _emit(text, args.output)
@@ -677,7 +667,6 @@ def cmd_bench(args: argparse.Namespace) -> int:
         sys.stdout.write(_json_text(bench.simulate_json(row)) if args.json else bench.format_simulate(row))
         return 0
     if args.what == "optim":
-        import json
 
         from optim import ENGINES
 
@@ -692,7 +681,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         with Steps("optimiser runs", "runs") as tick:
             rows = bench.optim_rows(args.problem, args.runs, methods, workers=args.workers, progress=tick)
         summary = bench.summarise_optim(args.problem, args.runs, rows)
-        sys.stdout.write(json.dumps({"benchmark": "optim", **summary}, indent=1) + "\n" if args.json
+        sys.stdout.write(_json_text({"benchmark": "optim", **summary}) if args.json
                          else bench.format_optim(summary))
         return 0
     if args.what == "accuracy":

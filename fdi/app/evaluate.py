@@ -140,7 +140,7 @@ def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements
             entry = {"fault": e.target, "fraction": fraction, "t": at, "true_rul": eol - at, "rul": None,
                      "error": None, "alpha_ok": False}
             k = int(np.searchsorted(meas.t, at, side="right"))
-            if k >= meas.t.size + 1 or at > meas.t[-1]:
+            if at > meas.t[-1]:
                 entry["note"] = "the run ends before this point of life"
                 out.append(entry)
                 continue
@@ -155,15 +155,13 @@ def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements
                 entry["note"] = "nothing is detected yet at this point of life"
             elif not any(f["name"] == e.target and f["type"] == "incipient" for f in part["diagnosis"]["faults"]):
                 entry["note"] = "the fault is not diagnosed incipient at this point"
-            if "note" in entry:
-                out.append(entry)
-                continue
-            _, prognosis = refresh_prognosis(model_path, prefix, part, o)
-            p = next((p for p in prognosis if p["name"] == e.target), None)
-            if p is not None and math.isfinite(p["rul"]):
-                entry["rul"] = p["rul"]
-                entry["error"] = (p["rul"] - entry["true_rul"]) / entry["true_rul"]
-                entry["alpha_ok"] = abs(entry["error"]) <= ALPHA
+            else:
+                _, prognosis = refresh_prognosis(model_path, prefix, part, o)
+                p = next((p for p in prognosis if p["name"] == e.target), None)
+                if p is not None and math.isfinite(p["rul"]):
+                    entry["rul"] = p["rul"]
+                    entry["error"] = (p["rul"] - entry["true_rul"]) / entry["true_rul"]
+                    entry["alpha_ok"] = abs(entry["error"]) <= ALPHA
             out.append(entry)
     return out
 

@@ -1,11 +1,7 @@
 """The diagnosis report as readable text (JSON comes from fdi.diagnose.public)."""
 from __future__ import annotations
 
-from ..api import describe_fault
-
-
-def _vec(v) -> str:
-    return "[" + " ".join(str(x) for x in v) + "]"
+from ..api import _vec, describe_fault
 
 
 def _confidence(margin) -> str:
