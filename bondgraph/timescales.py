@@ -1,0 +1,112 @@
+"""The model's own time scales: eigenvalues of its linearised state equations.
+
+Every window, settle time, minimum period and integration step of bgfdi should follow the
+system it monitors, not a constant in seconds: a DC-DC converter lives in microseconds, a
+building in hours. The state equations of the simulator (:func:`bondgraph.simulation.build_system`)
+are linearised by finite differences at a few operating points (the model's initial state, and
+states drawn around it), in each mode combination asked for; the time constants are 1/|lambda|
+of the non-zero eigenvalues (an oscillation of angular frequency w counts as 1/|lambda| too: its
+period over 2 pi).
+
+>>> from bondgraph.loader import load_model_text
+>>> m = load_model_text('''
+... parameters: {R: {value: 100.0, unit: Ohm}, C1: {value: 1.0e-3, unit: F}}
+... inputs: {u: {column: u, expr: "1.0", unit: V}}
+... elements: {src: {type: MSe, input: u}, res: {type: R, parameter: R}, cap: {type: C, parameter: C1}}
+... junctions: {j1: {type: "1"}, j0: {type: "0"}}
+... sensors: {v: {type: De, junction: j0, unit: V}}
+... bonds: {1: [src, j1], 2: [j1, res], 3: [j1, j0], 4: [j0, cap]}
+... ''')
+>>> s = time_scales(m)
+>>> round(s.fastest, 6), round(s.slowest, 6)
+(0.1, 0.1)
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from itertools import product
+from typing import Mapping
+
+import numpy as np
+
+from .model import Model
+
+MAX_MODE_COMBINATIONS = 16
+POINTS = 7          # operating points per mode: the model's initial state and six drawn around it
+
+
+@dataclass(frozen=True)
+class TimeScales:
+    """``fastest`` and ``slowest`` time constants in s (inf when the model has no dynamics or only
+    integrators); ``eigenvalues`` of every linearisation, in 1/s; ``notes`` say what could not be
+    linearised."""
+    fastest: float
+    slowest: float
+    eigenvalues: tuple[complex, ...] = ()
+    notes: tuple[str, ...] = ()
+
+    @property
+    def known(self) -> bool:
+        """Whether any time constant was found."""
+        return math.isfinite(self.fastest)
+
+
+def mode_combinations(model: Model, limit: int = MAX_MODE_COMBINATIONS) -> list[dict[str, int]]:
+    """Every combination of the model's mode variables (nominal first), at most ``limit``."""
+    names = list(model.modes)
+    nominal = {m: model.modes[m].nominal for m in names}
+    out = [nominal]
+    for values in product((1, 0), repeat=len(names)):
+        combo = dict(zip(names, values))
+        if combo != nominal:
+            out.append(combo)
+        if len(out) >= limit:
+            break
+    return out
+
+
+def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
+                values: Mapping[str, float] | None = None) -> TimeScales:
+    """The fastest and slowest time constants of ``model`` over ``modes`` (default: the nominal
+    mode only), at its nominal parameter values updated by ``values``."""
+    from .errors import CausalityError
+    from .simulation import SimulationError, _initial_state, _jacobian, build_system
+
+    base = {s.name: float(v) for s, v in model.nominal_values().items()}
+    base.update(values or {})
+    eigs: list[complex] = []
+    notes: list[str] = []
+    fastest: list[float] = []
+    slowest: list[float] = []
+    for mode in modes or [{m: model.modes[m].nominal for m in model.modes}]:
+        vals = dict(base, **{k: float(v) for k, v in mode.items()})
+        try:
+            system = build_system(model, vals)
+            p = [vals[n] if n in vals else 0.0 for n in system.param_names]
+            c = system.prepare(p)
+            x0 = _initial_state(system, model.initial, 0.0, vals)
+        except (SimulationError, CausalityError, ValueError, KeyError) as exc:
+            notes.append(f"mode {dict(mode)}: not linearised ({exc})")
+            continue
+        if not len(x0):
+            continue
+        rng = np.random.default_rng(0)
+        for k in range(POINTS):
+            x = x0 if k == 0 else x0 * (1 + 0.5 * rng.standard_normal(len(x0))) + 1e-3 * rng.standard_normal(len(x0))
+            try:
+                jac = _jacobian(system.f, 0.0, tuple(float(v) for v in x), c)
+                lam = np.linalg.eigvals(jac)
+            except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+                continue
+            lam = [complex(v) for v in lam if np.isfinite(v)]
+            eigs += lam
+            mags = [abs(v) for v in lam if abs(v) > 1e-12]
+            if mags:
+                fastest.append(1.0 / max(mags))
+                slowest.append(1.0 / min(mags))
+    if not fastest:
+        return TimeScales(math.inf, math.inf, tuple(eigs), tuple(notes))
+    # the median over operating points: a point on a switching surface (Coulomb friction at rest,
+    # sign(v) differenced across v = 0) gives a spurious near-infinite slope at that point only
+    return TimeScales(float(np.median(fastest)), float(np.median(slowest)), tuple(eigs), tuple(notes))
