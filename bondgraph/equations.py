@@ -23,6 +23,7 @@ from .graph import BondKey, port_table, to_networkx
 from .linear import combine
 from .model import LAW_VARIABLES, Element, Model, t
 from .program import Program, line_diff
+from .rates import NONSMOOTH, ddt
 
 Var = tuple[str, BondKey]          # ('e' | 'f', bond key)
 
@@ -241,10 +242,12 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
         if not r.inputs:
             values = [r.law()]
             for _ in range(k):
-                values.append(sp.diff(values[-1], t))
+                values.append(ddt(values[-1]))
             series[v] = values if program is None else [program.name(x) for x in values]
             continue
-        if r.derivative and r.energy is not None and r.parameters & whole:
+        if r.derivative and r.energy is not None and (r.parameters & whole or _nonsmooth_law(r)):
+            # the rate of the stored quantity kept whole: under a time-varying fault parameter,
+            # or when the storage law is nonsmooth (evaluated on data, differentiated numerically)
             inner = r.energy(series[r.inputs[0]][0])
             series[v] = [sp.Derivative(inner, (t, j + 1)) for j in range(k + 1)]
             continue
@@ -262,6 +265,14 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
         top = k + (1 if r.derivative else 0)
         local = [[sp.Dummy(f"u{i}_{j}") for j in range(top + 1)] for i in range(len(r.inputs))]
         law = r.law(local[0][0], local[0][1]) if r.derivative else r.law(*[u[0] for u in local])
+        if not r.derivative and _nonsmooth_in(law, [u[0] for u in local]):
+            # a nonsmooth law (orifice, Coulomb friction, saturation): its rates are left to be
+            # estimated on data (bondgraph.rates), never differentiated into DiracDelta terms
+            value = _compact(law.xreplace({u[0]: series[i][0] for u, i in zip(local, r.inputs)}))
+            series[v] = [value] + [ddt(value, j) for j in range(1, k + 1)]
+            if program is not None:
+                series[v] = [program.name(expr) for expr in series[v]]
+            continue
         laws = [law]
         for _ in range(k):
             prev = laws[-1]
@@ -276,6 +287,17 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
         if program is not None:
             series[v] = [program.name(expr) for expr in series[v]]
     return {v: series[v][0] for v in order}
+
+
+def _nonsmooth_in(law: sp.Expr, inputs: list[sp.Expr]) -> bool:
+    """Whether a local law applies a nonsmooth function to one of its inputs (or to time)."""
+    return any(f.has(t, *inputs) for f in law.atoms(*NONSMOOTH))
+
+
+def _nonsmooth_law(r: Relation) -> bool:
+    """Whether a storage element's law q(x) (p(x)) is nonsmooth in its input."""
+    u = sp.Dummy("u", real=True)
+    return _nonsmooth_in(r.energy(u), [u])
 
 
 def _causal_order(by_output: Mapping[Var, Relation], roots: list[Var]) -> list[Var]:

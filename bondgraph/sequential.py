@@ -23,6 +23,7 @@ import networkx as nx
 import sympy as sp
 
 from .model import t
+from .rates import ddt
 from .structure import DERIVATIVE, EquationSystem, _match
 
 
@@ -127,7 +128,7 @@ def _compute(system: EquationSystem, mso, r: int, p: dict, exact: set):
 
 
 def _ddt(expr: sp.Expr, whole: bool) -> sp.Expr:
-    return sp.Derivative(expr, t) if whole and not expr.is_number else sp.diff(expr, t)
+    return sp.Derivative(expr, t) if whole and not expr.is_number else ddt(expr)
 
 
 def _block(system, block, m, values, states, whole) -> None:
@@ -195,8 +196,7 @@ def _states_out(expr: sp.Expr, states: list) -> sp.Expr:
         for d in ds:
             order = sum(c for _, c in d.variable_count)
             value = rhs[d.expr]
-            for _ in range(order - 1):
-                value = sp.diff(value, t)
+            value = ddt(value, order - 1)
             rep[d] = value
         expr = expr.xreplace(rep)
     return expr

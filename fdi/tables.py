@@ -16,6 +16,8 @@ import re
 
 import sympy as sp
 
+from bondgraph.equations import is_signal
+
 from .arrs import ARR
 from .signatures import FSM, MCSM
 
@@ -25,8 +27,20 @@ _DOTS = {1: "dot", 2: "ddot", 3: "dddot"}
 
 def _display(expr: sp.Expr, latex: bool) -> sp.Expr:
     """Signals as plain symbols, derivatives as theta1' (text) or a dot accent (LaTeX)."""
-    rep: dict[sp.Expr, sp.Symbol] = {}
+    rep: dict[sp.Expr, sp.Expr] = {}
+    rates = [d for d in expr.atoms(sp.Derivative) if not is_signal(d.expr)]
+    for d in rates:         # the rate of an expression estimated on data (bondgraph.rates): d/dt(...)
+        order = sum(c for _, c in d.variable_count)
+        inner = _display(d.expr, latex)
+        if latex:
+            rep[d] = sp.Derivative(inner, (sp.Symbol("t"), order))
+        else:
+            rep[d] = sp.Function("d/dt" if order == 1 else f"d^{order}/dt^{order}")(inner)
+    expr = expr.xreplace(rep)
+    rep = {}
     for d in expr.atoms(sp.Derivative):
+        if not is_signal(d.expr):
+            continue
         name = d.expr.func.__name__
         order = sum(c for _, c in d.variable_count)
         if latex and order in _DOTS:
@@ -36,7 +50,7 @@ def _display(expr: sp.Expr, latex: bool) -> sp.Expr:
         else:
             rep[d] = sp.Symbol(name + "'" * order)
     expr = expr.xreplace(rep)
-    funcs = {f: sp.Symbol(f.func.__name__) for f in expr.atoms(sp.core.function.AppliedUndef)}
+    funcs = {f: sp.Symbol(f.func.__name__) for f in expr.atoms(sp.core.function.AppliedUndef) if is_signal(f)}
     return expr.xreplace(funcs)
 
 
