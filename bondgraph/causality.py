@@ -187,6 +187,11 @@ class _Assigner:
         resistors = self._resistors()
         self._junction_loops()
         strong = self._strong_bonds()
+        for j in self.model.junctions.values():
+            if j.name not in strong and self.ports[j.name]:
+                what = "effort" if j.base == "0" else "flow"
+                self.problems.append(f"{j.base}-junction {j.name} has no strong bond: every bond takes its {what} "
+                                     f"from it and none gives it (its {what} is undetermined)")
         return Causality(self.purpose, dict(self.effort_to), storage, resistors, strong, tuple(self.problems),
                          detectors=frozenset(self.detectors))
 

@@ -15,6 +15,7 @@ import keyword
 import math
 import re
 from dataclasses import dataclass
+from itertools import product
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -33,6 +34,7 @@ MONITOR_FAULT_KEYS = {"bounds", "failure"}      # ditto, in each fault
 _TOP_KEYS = {"name", "description", "reference", "parameters", "definitions", "inputs", "modes",
              "elements", "junctions", "sensors", "bonds", "faults", "data", "initial"} | MONITOR_KEYS
 _RESERVED = {"t"}
+OFF_SEMANTICS = ("all", "outputs")   # what a switched-off controlled junction holds at zero
 MAX_TIME = 1.0e6             # s: a time beyond 11 days in a model file is a typing error
 
 
@@ -367,7 +369,7 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
     sensors = _sensors(ctx, data, symbols, claim, column_symbols, columns)
     definitions = _definitions(ctx, data, symbols, claim)
     elements = _elements(ctx, data, symbols, claim, inputs, sensors)
-    junctions = _junctions(ctx, data, claim, modes)
+    junctions, mode_exprs = _junctions(ctx, data, claim, modes, symbols)
     bonds = _bonds(ctx, data, elements, junctions)
     _check_ports(ctx, elements, junctions, bonds)
     _check_sensor_junctions(ctx, sensors, junctions)
@@ -386,6 +388,7 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
                for k, v in _mapping(ctx, data.get("initial"), ("initial",)).items()}
     name = data.get("name") or Path(ctx.path).stem
     plain = {k: v for k, v in symbols.items() if isinstance(v, sp.Symbol)}
+    plain.update(mode_exprs)      # a junction's mode written as an expression (1 - s), under its text
     return Model(name=str(name), path=ctx.path, description=_text(data, "description"),
                  reference=_text(data, "reference"), parameters=parameters, definitions=definitions,
                  inputs=inputs, modes=modes, elements=elements, junctions=junctions, sensors=sensors,
@@ -664,29 +667,62 @@ def _storage_laws(ctx, where, kind: str, laws: dict, parameter: str | None) -> d
     return laws
 
 
-def _junctions(ctx, data, claim, modes) -> dict[str, Junction]:
+def _junctions(ctx, data, claim, modes, symbols) -> tuple[dict[str, Junction], dict[str, sp.Expr]]:
     out: dict[str, Junction] = {}
+    exprs: dict[str, sp.Expr] = {}
     for name, spec in _mapping(ctx, data.get("junctions"), ("junctions",), required=True).items():
         where = ("junctions", name)
         _name(ctx, name, where)
         if not isinstance(spec, dict):
             spec = {"type": spec}
-        _spec(ctx, spec, where, {"type", "mode", "description"})
+        _spec(ctx, spec, where, {"type", "mode", "switched_off", "description"})
         kind = str(spec.get("type"))
         if kind not in JUNCTION_KINDS:
             raise ctx.error(where + ("type",), f"unknown junction type '{kind}' (use 0, 1, 0c or 1c)")
         mode = spec.get("mode")
+        off = spec.get("switched_off", "all")
         if kind.endswith("c"):
             if mode is None:
                 raise ctx.error(where, f"controlled junction '{name}' needs mode: <mode variable>")
-            mode = _ref(ctx, mode, where + ("mode",), "mode")
-            if mode not in modes:
-                raise ctx.error(where + ("mode",), f"undefined mode variable '{mode}'; add it under modes")
-        elif mode is not None:
-            raise ctx.error(where + ("mode",), f"junction '{name}' is type {kind}; use {kind}c for a controlled junction")
+            if isinstance(mode, str) and mode.strip() in modes:
+                mode = mode.strip()
+            else:
+                mode = _mode_expression(ctx, mode, where + ("mode",), modes, symbols, exprs)
+            if off not in OFF_SEMANTICS:
+                raise ctx.error(where + ("switched_off",), f"switched_off must be {' or '.join(OFF_SEMANTICS)}, not {_shown(off)} "
+                                                  "(docs/model-format.md, Controlled junctions)")
+        else:
+            if mode is not None:
+                raise ctx.error(where + ("mode",), f"junction '{name}' is type {kind}; use {kind}c for a controlled junction")
+            if "switched_off" in spec:
+                raise ctx.error(where + ("switched_off",), f"junction '{name}' is type {kind}; switched_off: is for "
+                                                           "controlled junctions")
         claim(name, "a junction", where)
-        out[name] = Junction(name, kind, mode, _text(spec, "description"))
-    return out
+        out[name] = Junction(name, kind, mode, _text(spec, "description"), off=str(off) if kind.endswith("c") else "all")
+    return out, exprs
+
+
+def _mode_expression(ctx, text, where, modes, symbols, exprs) -> str:
+    """A junction's mode as an expression of mode variables (a diode that conducts while the
+    switch is open: ``1 - s``); it must be 0 or 1 in every combination of its variables. Returned
+    as its text, under which the expression is filed among the model's symbols."""
+    if not isinstance(text, str) or not text.strip():
+        raise ctx.error(where, f"mode must name a mode variable or be an expression of them such as 1 - s, "
+                               f"not {_shown(text)}")
+    known = {m: symbols[m] for m in modes}
+    expr = _expr(ctx, text, where, known)
+    used = sorted(expr.free_symbols, key=lambda x: x.name)
+    if not used:
+        raise ctx.error(where, f"mode '{text}' uses no mode variable; define one under modes")
+    for values in product((0, 1), repeat=len(used)):
+        v = expr.xreplace(dict(zip(used, map(sp.Integer, values))))
+        if v not in (0, 1):
+            point = ", ".join(f"{s.name}={x}" for s, x in zip(used, values))
+            raise ctx.error(where, f"mode '{text}' is {v} at {point}; a mode must be 0 or 1 in every combination "
+                                   "(use products and 1 - x: s*(1 - d))")
+    key = str(expr)
+    exprs[key] = expr
+    return key
 
 
 def _bonds(ctx, data, elements, junctions) -> tuple[Bond, ...]:

@@ -77,10 +77,19 @@ class Element:
 
 @dataclass(frozen=True)
 class Junction:
+    """A 0 or 1 junction; a controlled one (0c, 1c) switches with ``mode`` (a mode variable, or
+    an expression of them such as ``1 - s``, filed under that text in ``Model.symbols``).
+
+    ``off`` (``switched_off:`` in a model file) says what a controlled junction does while its mode is 0: ``all`` (the physics of a
+    switch, Mosterman & Biswas 1998: a 1c carries no flow on any bond, a 0c no effort) or
+    ``outputs`` (the diagnostic hybrid bond graph as Yu & Wang 2014 write it: only the variables
+    the junction computes are zero, so the side that drives it sees no load and the other side
+    is held still)."""
     name: str
     kind: str
     mode: str | None = None
     description: str = ""
+    off: str = "all"
 
     @property
     def controlled(self) -> bool:

@@ -102,6 +102,28 @@ def _specialise(model: Model, values: Mapping[str, float]) -> tuple[Model, froze
     return replace(model, elements=elements), frozenset(opened)
 
 
+def _configure(model: Model, values: Mapping[str, float]) -> tuple[Model, frozenset[str], tuple]:
+    """The configuration these values imply: open resistors (:func:`_specialise`) and, where the
+    model has controlled junctions that switch as physical switches (``switched_off: all``), the
+    plain bond graph of the current mode (:func:`bondgraph.modes.in_mode`): its switched-off
+    junctions become zero sources, which are opened as a zero resistor is. Returns the model of
+    the configuration, its opened elements and a key for the compiled system."""
+    switched = [j for j in model.junctions.values() if j.controlled and j.off == "all"]
+    mode = ()
+    if switched:
+        from .modes import in_mode
+        names = sorted({s.name for j in switched for s in model.symbols[j.mode].free_symbols})
+        mode = tuple((n, int(round(float(values[n])))) for n in names)
+        graph = in_mode(model, dict(mode))
+        model = graph.model
+        zero_sources = frozenset(e for e in model.elements if "~off" in e)
+    else:
+        zero_sources = frozenset()
+    spec, opened = _specialise(model, values)
+    opened = opened | zero_sources
+    return spec, opened, (opened, mode)
+
+
 def _vanishes(law: sp.Expr) -> bool:
     """Whether a law is identically zero. A value clearly off zero at a sample point (evaluated
     to 50 digits, so that rounding cannot fake one) proves it is not, the common case, decided
@@ -119,7 +141,7 @@ def _vanishes(law: sp.Expr) -> bool:
 def build_system(model: Model, values: Mapping[str, float]) -> System:
     """Derive and compile the state equations of the configuration these parameter values imply."""
     with _collector_paused():
-        return _build(*_specialise(model, values))
+        return _build(*_configure(model, values)[:2])
 
 
 @contextmanager
@@ -404,11 +426,11 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
     x = None
     span = (edges[0], edges[0])
     for a, b in zip(edges[:-1], edges[1:]):
-        spec, opened = _specialise(model, values(0.5 * (a + b)))
-        if opened not in cache:
+        spec, opened, key = _configure(model, values(0.5 * (a + b)))
+        if key not in cache:
             with clock("build"):
-                cache[opened] = _build(spec, opened)
-        new = cache[opened]
+                cache[key] = _build(spec, opened)
+        new = cache[key]
         # the piece's parameters are their limits from inside it: at a switching instant a profile
         # may give the other side's value, or a mean (R4 = inf at the onset of a leak)
         previous, span = span, (a + min(EDGE, 0.25 * (b - a)), b - min(EDGE, 0.25 * (b - a)))
@@ -534,6 +556,9 @@ def _trajectory(model: Model, pieces: list[tuple[System, np.ndarray, np.ndarray,
         observed = system.observe(ts, tuple(ys), tuple(P.T), tuple(dx.T))
         for name, v in zip(system.output_names, observed):
             out_sig.setdefault(name, []).append(np.broadcast_to(np.asarray(v, dtype=float), ts.shape))
+        for name in model.sensors:          # a sensor on a switched-off junction measures zero
+            if name not in system.output_names:
+                out_sig.setdefault(name, []).append(np.zeros(ts.shape))
         for name, v in zip(system.states, ys):
             out_states.setdefault(name, []).append(v)
     n = sum(len(ts) for _, ts, _, _ in pieces)

@@ -9,7 +9,7 @@ variables stay symbols: every output of a controlled junction is multiplied by i
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import sympy as sp
 
@@ -147,6 +147,24 @@ class ResidualSet:
 
 
 def select_arrs(model: Model, causality: str = DERIVATIVE) -> ResidualSet:
+    """The residual set of :func:`_select`, each residual checked in every mode combination of a
+    switched model and rebuilt where the diagnostic hybrid bond graph's single causality is wrong
+    in some mode (:mod:`fdi.modewise`)."""
+    from .modewise import check_modes
+
+    chosen = _select(model, causality)
+    arrs, checks = check_modes(model, list(chosen.arrs))
+    rebuilt = sorted({c.arr for c in checks if not c.holds})
+    if not rebuilt:
+        return chosen
+    notes = chosen.notes + tuple(
+        f"{name} rebuilt mode by mode: the one-causality form is wrong in "
+        + ", ".join(" ".join(f"{k}={v}" for k, v in c.mode.items()) for c in checks if c.arr == name and not c.holds)
+        for name in rebuilt)
+    return replace(chosen, arrs=tuple(arrs), notes=notes)
+
+
+def _select(model: Model, causality: str = DERIVATIVE) -> ResidualSet:
     """A small residual set reaching the model's best structural isolability (in ``causality``,
     derivative by default): the SCAPH AGARRs where they already do (the CyCab keeps eqs. 5, 9,
     13), otherwise completed (or, where SCAPH gives up, replaced) by MSO residuals, chosen

@@ -140,12 +140,39 @@ def corrected_signals(model: Model, raw: Mapping[str, np.ndarray], ts: float, or
     """Each signal (sensor measurement / beta, or beta * input) and its derivatives."""
     betas = betas or {}
     out: dict[str, list[np.ndarray]] = {}
+    breaks = mode_breaks(model, raw)
     for name, order in orders.items():
         x = np.asarray(raw[name], dtype=float)
         beta = betas.get(name)
         if beta is not None:
             x = x / beta if name in model.sensors else x * beta
-        out[name] = derivatives.estimate(x, ts, order, window, edges=edges)
+        out[name] = derivatives.estimate(x, ts, order, window, edges=edges) if not len(breaks) else \
+            _piecewise(x, ts, order, window, breaks)
+    return out
+
+
+def mode_breaks(model: Model, raw: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Sample indices where a commanded mode switches (its column crosses 0.5): a switch makes the
+    derivatives of the signals jump (an inductor's current slope at every PWM edge), which no
+    filter window may straddle."""
+    cols = [m.column for m in model.modes.values() if m.column and m.column in raw]
+    if not cols:
+        return np.zeros(0, dtype=int)
+    on = np.stack([np.asarray(raw[c], dtype=float) >= 0.5 for c in cols])
+    return np.flatnonzero(np.any(on[:, 1:] != on[:, :-1], axis=0)) + 1
+
+
+def _piecewise(x: np.ndarray, ts: float, order: int, window: float, breaks: np.ndarray) -> list[np.ndarray]:
+    """Derivatives estimated on each stretch between mode switches apart (each fitted up to its own
+    ends); a stretch shorter than the filter's window gives NaN, which detection skips."""
+    out = [np.full(x.shape, np.nan) for _ in range(order + 1)]
+    edges = np.r_[0, breaks, x.shape[-1]]
+    need = derivatives.window_samples(window, ts, max(derivatives.DEFAULT_ORDER, order))
+    for a, b in zip(edges[:-1].tolist(), edges[1:].tolist()):
+        if b - a < need:
+            continue
+        for k, d in enumerate(derivatives.estimate(x[..., a:b], ts, order, window)):
+            out[k][..., a:b] = d
     return out
 
 

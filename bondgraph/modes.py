@@ -1,0 +1,96 @@
+"""A hybrid bond graph in one mode: every controlled junction made ordinary or switched off.
+
+The diagnostic hybrid bond graph (DHBG) multiplies each *output* of a controlled junction by its
+mode variable and keeps one causality for every mode. That is right when a switched-off junction's
+outputs are what the physics sets to zero; it is wrong when the rest of the graph must then take
+over a variable the junction imposed: in a boost converter the switch's 1c junction gives the
+switch node its voltage while the switch conducts, and while it is open the voltage comes from
+the diode's branch (the output voltage plus the diode's drop), which one causality cannot say.
+
+:func:`in_mode` gives the plain bond graph of one mode, on which SCAPH is the textbook procedure:
+a controlled junction whose mode is 1 becomes an ordinary junction; one whose mode is 0 imposes
+its constraint on every bond: a 1c junction carries no flow (a zero flow source on each of its
+bonds' other ends: ``Sf = 0``), a 0c junction no effort (``Se = 0``). The junction itself and the
+elements and sensors it alone connects are removed with it; a sensor on it measures zero. A
+junction declared ``switched_off: outputs`` keeps the DHBG's switching (only its outputs are zero) and
+stays controlled.
+
+>>> from bondgraph.loader import load_model
+>>> m = load_model("models/two_tank_valve.yaml")
+>>> closed = in_mode(m, {"v": 0})
+>>> sorted(e for e in closed.model.elements if e not in m.elements), sorted(closed.removed)
+(['Jv~off3', 'Jv~off5'], ['Jv', 'valve'])
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Mapping
+
+import sympy as sp
+
+from .model import Bond, Element, Junction, Model
+
+
+@dataclass(frozen=True)
+class ModeGraph:
+    """The bond graph of one mode. ``removed``: switched-off junctions and the elements they
+    alone connected; ``zero_sensors``: sensors on a switched-off junction (they measure 0)."""
+    mode: Mapping[str, int]
+    model: Model
+    removed: frozenset[str]
+    zero_sensors: frozenset[str]
+
+
+def in_mode(model: Model, mode: Mapping[str, int]) -> ModeGraph:
+    """The plain bond graph of ``model`` with its mode variables at ``mode`` (see module doc)."""
+    values = {model.symbols[k]: sp.Integer(v) for k, v in mode.items()}
+    off: set[str] = set()
+    junctions = dict(model.junctions)
+    for j in model.junctions.values():
+        if not j.controlled or j.off == "outputs":     # the DHBG's own switching: kept as it is
+            continue
+        a = model.symbols[j.mode].xreplace(values)
+        if a == 0:
+            off.add(j.name)
+        elif a == 1:
+            junctions[j.name] = Junction(j.name, j.base, None, j.description)
+        else:
+            raise ValueError(f"mode of junction {j.name} is not 0 or 1 in mode {dict(mode)}")
+    if not off:
+        return ModeGraph(dict(mode), replace(model, junctions=junctions), frozenset(), frozenset())
+    # elements that hang on a switched-off junction alone go with it (a one-port on it, a
+    # two-port whose other side is gone too is left: it is joined to something live)
+    removed = set(off)
+    elements = dict(model.elements)
+    for e in model.elements.values():
+        ends = {b.other(e.name) for b in model.bonds_of(e.name)}
+        if ends and ends <= off:
+            removed.add(e.name)
+            del elements[e.name]
+    bonds: list[Bond] = []
+    next_id = max((b.id for b in model.bonds), default=0) + 1
+    for b in model.bonds:
+        if b.source in removed and b.target in removed:
+            continue
+        if b.source in off or b.target in off:
+            j = model.junctions[b.source if b.source in off else b.target]
+            live = b.other(j.name)
+            name = f"{j.name}~off{b.id}"
+            kind = "Sf" if j.base == "1" else "Se"
+            elements[name] = Element(name, kind, value=sp.Integer(0), description=f"{j.name} switched off")
+            # the zero source keeps the bond's power direction and id (so its number stays its own)
+            bonds.append(Bond(b.id, name, live) if b.source == j.name else Bond(b.id, live, name))
+            continue
+        bonds.append(b)
+    del next_id
+    for name in off:
+        del junctions[name]
+    zero = frozenset(s.name for s in model.sensors.values() if s.junction in off)
+    sensors = {k: s for k, s in model.sensors.items() if k not in zero}
+    symbols = dict(model.symbols)
+    for name, e in elements.items():
+        if name not in model.elements:
+            symbols[f"beta_{name}"] = sp.Symbol(f"beta_{name}", positive=True)
+    spec = replace(model, elements=elements, junctions=junctions, bonds=tuple(bonds), sensors=sensors,
+                   symbols=symbols)
+    return ModeGraph(dict(mode), spec, frozenset(removed), zero)

@@ -1,0 +1,187 @@
+"""ARRs that hold in every mode: each checked against the ARRs of every mode's own bond graph.
+
+The diagnostic hybrid bond graph gives one ARR per residual for all modes, a controlled junction's
+outputs multiplied by its mode variable (Yu & Wang 2014, Sec. II-B). That is exact when a
+switched-off junction's outputs are what the physics sets to zero; it is silently wrong when
+another part of the graph must take over a variable the junction imposed (a boost converter's
+switch node takes its voltage from the diode's branch while the switch is open; the DHBG gives
+it 0 V). So every ARR is checked in every mode combination: in mode m it must be a combination
+of the ARRs of the plain bond graph of that mode (:func:`bondgraph.modes.in_mode`, on which
+SCAPH, or MSO residuals where SCAPH gives up, is the textbook derivation). The check is
+numeric and exact in practice: both sides at random values of every signal, derivative and
+parameter, a least-squares fit of the DHBG form on the mode's ARRs, which must leave nothing.
+
+An ARR that fails in some mode is rebuilt as ``sum_m chi_m(a) r_m``, with ``chi_m`` the
+indicator polynomial of mode m (``a*(1 - b)`` for a = 1, b = 0) and ``r_m`` the ARR it had where
+it holds, the mode's own ARR most like it where it does not. In every mode it reduces to a true
+ARR of that mode; the mode variables stay symbols, so commanded modes switch it sample by sample
+and the MD-FSM of each mode is read off it as before. Where every ARR holds in every mode (the
+CyCab's eqs. 5, 9, 13) nothing changes.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Mapping
+
+import numpy as np
+import sympy as sp
+
+from bondgraph.causality import DIAGNOSIS, assign
+from bondgraph.model import Model
+from bondgraph.modes import in_mode
+
+from .arrs import ARR, binary_modes, derive_arrs, sensor_value
+
+TRIALS = 2            # independent draws of the parameters
+SPARE = 6             # random points beyond the number of the mode's ARRs
+TOLERANCE = 1e-8      # what the fit may leave, relative to the ARR's size
+
+
+@dataclass(frozen=True)
+class ModeCheck:
+    """Whether ARR ``arr`` holds in ``mode`` (``error``: what the fit on the mode's ARRs left,
+    relative), and, where not, the mode's ARR put in its place."""
+    arr: str
+    mode: Mapping[str, int]
+    holds: bool
+    error: float
+    replacement: str | None = None
+
+
+def mode_arrs(model: Model, mode: Mapping[str, int]) -> list[ARR]:
+    """The ARRs of the plain bond graph of ``mode``: SCAPH where it succeeds, else the MSO
+    residual set; a sensor on a switched-off junction measures zero (its ARR: signal / beta)."""
+    from .arrs import _select     # the residual selection, on the mode's plain graph
+
+    graph = in_mode(model, mode)
+    spec = graph.model
+    causality = assign(spec, DIAGNOSIS)
+    arrs: list[ARR] = []
+    if causality.ok:
+        try:
+            arrs = derive_arrs(spec, causality)
+        except (ValueError, KeyError):
+            arrs = []
+    if not arrs and spec.sensors:
+        arrs = list(_select(spec).arrs)
+    arrs += [ARR(f"zero:{s}", s, model.sensors[s].junction, sensor_value(model, s)) for s in sorted(graph.zero_sensors)]
+    return arrs
+
+
+def _indicator(model: Model, mode: Mapping[str, int]) -> sp.Expr:
+    out = sp.Integer(1)
+    for name, v in mode.items():
+        a = model.symbols[name]
+        out *= a if v else 1 - a
+    return out
+
+
+def _atoms(exprs: list[sp.Expr]) -> tuple[list[sp.Expr], list[sp.Symbol]]:
+    """The signals, their derivatives and the rates kept whole (each a free number here), and
+    the parameters."""
+    points: set = set()
+    symbols: set = set()
+    for e in exprs:
+        points |= e.atoms(sp.Derivative)
+        points |= {f for f in e.atoms(sp.core.function.AppliedUndef)}
+        symbols |= {s for s in e.free_symbols if s.name != "t"}
+    return sorted(points, key=sp.srepr), sorted(symbols, key=lambda s: s.name)
+
+
+def _values(exprs: list[sp.Expr], points: list, symbols: list, rng: np.random.Generator, n: int,
+            nominal: Mapping[sp.Symbol, float]) -> np.ndarray:
+    """(len(exprs), n): every expression at n random points (signals ~ N(0, 1); parameters
+    positive, around their nominal values where finite, one draw for all n points)."""
+    params = {}
+    for s in symbols:
+        v = nominal.get(s)
+        scale = abs(v) if v is not None and np.isfinite(v) and v != 0 else 1.0
+        params[s] = sp.Float(scale * float(np.exp(rng.uniform(-0.7, 0.7))))
+    out = np.empty((len(exprs), n))
+    fixed = [e.xreplace(params) for e in exprs]
+    for k in range(n):
+        # rates kept whole hold signals inside: replaced whole first (xreplace matches a node
+        # before its arguments)
+        point = {p: sp.Float(rng.normal()) for p in points}
+        for i, e in enumerate(fixed):
+            v = e.xreplace(point)
+            try:
+                out[i, k] = float(v)
+            except (TypeError, ValueError):
+                out[i, k] = np.nan
+    return out
+
+
+def check_modes(model: Model, arrs: list[ARR], modes: list[Mapping[str, int]] | None = None,
+                seed: int = 0) -> tuple[list[ARR], list[ModeCheck]]:
+    """Every ARR checked in every mode (default: all combinations, at most 16); those that fail
+    somewhere rebuilt as described in the module doc. Returns the ARRs (unchanged ones are the
+    same objects) and one :class:`ModeCheck` per ARR and mode."""
+    from .signatures import all_modes
+
+    if not any(j.controlled and j.off == "all" for j in model.junctions.values()):
+        return list(arrs), []
+    modes = [dict(m) for m in (modes or all_modes(model))][:16]
+    mode_syms = [model.symbols[m] for m in model.modes]
+    nominal = {s: float(v) for s, v in model.nominal_values().items()}
+    rng = np.random.default_rng(seed)
+    checks: list[ModeCheck] = []
+    forms: dict[str, dict[tuple, sp.Expr]] = {a.name: {} for a in arrs}
+    for mode in modes:
+        key = tuple(sorted(mode.items()))
+        subs = {model.symbols[k]: sp.Integer(v) for k, v in mode.items()}
+        own = mode_arrs(model, mode)
+        exprs = [a.expr.xreplace(subs) for a in arrs]
+        basis = [r.expr for r in own]
+        points, symbols = _atoms(exprs + basis)
+        n = len(basis) + SPARE
+        errors = np.zeros(len(arrs))
+        likeness = np.zeros((len(arrs), max(len(basis), 1)))
+        for _ in range(TRIALS):
+            values = _values(exprs + basis, points, symbols, rng, n, nominal)
+            E, B = values[:len(exprs)], values[len(exprs):]
+            for i in range(len(arrs)):
+                e = E[i]
+                if not np.all(np.isfinite(e)):
+                    errors[i] = np.inf
+                    continue
+                size = np.linalg.norm(e)
+                if size == 0:
+                    continue                      # the ARR vanishes in this mode: no information, no error
+                good = [j for j in range(len(basis)) if np.all(np.isfinite(B[j]))]
+                if good:
+                    Bg = B[good].T
+                    c, *_ = np.linalg.lstsq(Bg, e, rcond=None)
+                    left = np.linalg.norm(e - Bg @ c) / size
+                    for j in good:
+                        b = B[j]
+                        nb = np.linalg.norm(b)
+                        if nb > 0:
+                            likeness[i, j] += abs(float(e @ b)) / (size * nb)
+                else:
+                    left = 1.0
+                errors[i] = max(errors[i], left)
+        holds = [bool(errors[i] <= TOLERANCE) for i in range(len(arrs))]
+        # each ARR that fails takes the mode's ARR most like it among those no other residual
+        # stands for (the holding ones first claim theirs): the set keeps its rank in the mode
+        used = {int(np.argmax(likeness[i, :len(own)])) for i in range(len(arrs)) if holds[i] and own}
+        for i, a in enumerate(arrs):
+            choice = None
+            if holds[i] or not own:
+                forms[a.name][key] = exprs[i]
+            else:
+                order = [int(j) for j in np.argsort(-likeness[i, :len(own)])]
+                j = next((j for j in order if j not in used), order[0])
+                used.add(j)
+                choice = own[j].name
+                forms[a.name][key] = own[j].expr
+            checks.append(ModeCheck(a.name, mode, holds[i], float(errors[i]), choice))
+    out = []
+    for a in arrs:
+        if all(c.holds for c in checks if c.arr == a.name):
+            out.append(a)
+            continue
+        combined = sp.Add(*[_indicator(model, dict(k)) * e for k, e in forms[a.name].items()])
+        out.append(replace(a, expr=binary_modes(combined, mode_syms), exact=None,
+                           origin=a.origin + "+modes"))
+    return out, checks
