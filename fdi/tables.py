@@ -109,6 +109,12 @@ def to_text(arrs: list[ARR], fsms: list[FSM], mcsm: MCSM) -> str:
     for a in arrs:
         if a.origin == "SCAPH":
             out.append(f"{a.name}  [sensor {a.sensor} on junction {a.junction}]")
+        elif a.origin == "SCAPH by mode":
+            out.append(f"{a.name}  [sensor {a.sensor} on junction {a.junction}; each mode's own SCAPH ARR, "
+                       "joined by mode indicators]")
+        elif a.origin.endswith("+modes"):
+            out.append(f"{a.name}  [{a.origin[:-6]} residual at {a.junction}; sensors {a.sensor}; rebuilt mode by "
+                       "mode where the one-causality form is wrong]")
         else:
             how = "integrates states: " + ", ".join(str(x) for x, _ in a.states) if a.states else "derivative causality"
             out.append(f"{a.name}  [MSO of {len(a.equations)} equations, residual at {a.junction}; sensors "
