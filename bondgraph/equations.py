@@ -13,7 +13,7 @@ output variables by its mode variable (diagnostic hybrid bond graph).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable, Mapping
 
 import sympy as sp
@@ -113,9 +113,10 @@ def relations(model: Model, causality: Causality, *, known: Mapping[str, sp.Expr
             else:
                 out.append(Relation(var, (), (lambda v=known[node]: v)))
         elif kind == "R":
-            out.append(_resistor(model, model.elements[node], ps[0][0], causality.resistors[node]))
+            out.append(_resistor(model, _modulated(model.elements[node], signals), ps[0][0], causality.resistors[node]))
         elif kind in ("C", "I"):
-            out.append(_storage(model, model.elements[node], ps[0][0], causality.storage[node], states))
+            out.append(_storage(model, _modulated(model.elements[node], signals), ps[0][0], causality.storage[node],
+                                states))
     return out
 
 
@@ -135,6 +136,15 @@ def _junction(model: Model, node: str, kind: str, ps, causality: Causality) -> l
     rels.append(Relation((total, strong), others, balance,
                          coefficients=tuple(a * (-sign[strong] * wi) for wi in weights)))
     return rels
+
+
+def _modulated(e: Element, signals: Mapping[sp.Symbol, sp.Expr]) -> Element:
+    """``e`` with the signals its laws use (a chamber's capacitance of the piston's position, a
+    resistance of a measured temperature) replaced by their values as functions of time: a
+    modulated R, C or I. Its laws then vary in time, and their rates carry d/dt of the signal."""
+    if not signals or not any(law.free_symbols & set(signals) for law in e.laws.values()):
+        return e
+    return replace(e, laws={k: law.xreplace(dict(signals)) for k, law in e.laws.items()})
 
 
 def _modulus(e: Element, signals: Mapping[sp.Symbol, sp.Expr]) -> sp.Expr:
@@ -195,6 +205,11 @@ def _storage(model: Model, e: Element, k: BondKey, form: str, states: Mapping[st
         u = sp.Dummy("u", real=True)
         q = e.laws[law_key].xreplace({LAW_VARIABLES[local]: u})
         slope = sp.diff(q, u)   # dQ/du
+        if q.has(t):            # modulated: q(u, t), its rate dQ/du u' + dQ/dt
+            drift = ddt(q)
+            return Relation(out, (inp,), lambda x, dx: slope.xreplace({u: x}) * dx + drift.xreplace({u: x}),
+                            derivative=True, energy=lambda x: q.xreplace({u: x}),
+                            parameters=frozenset(q.free_symbols - {u, t}))
         return Relation(out, (inp,), lambda x, dx: slope.xreplace({u: x}) * dx, derivative=True,
                         energy=lambda x: q.xreplace({u: x}), parameters=frozenset(q.free_symbols - {u}))
     return Relation(out, (inp,), lambda x, dx: p * dx, derivative=True, energy=lambda x: p * x,

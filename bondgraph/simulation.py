@@ -229,7 +229,7 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     dx_sym = [sp.Symbol(f"_dx{i}") for i in range(n)]
     residual = [program.name(d) for d in derivs]
     outputs = [sensor_vals[s] for s in spec.sensors] + [values_[f] for f in flows]
-    outputs += [_energy(spec, e, var) for e, var in zip(storage, outputs[len(spec.sensors):])]
+    outputs += [_energy(spec, e, var).xreplace(signals) for e, var in zip(storage, outputs[len(spec.sensors):])]
     used = set().union(*(e.free_symbols for _, e in program.lines), *(e.free_symbols for e in outputs))
     leftovers = sorted(s.name[9:] for s in used if s.name.startswith("__signal_"))
     if leftovers:

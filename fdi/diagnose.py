@@ -27,6 +27,7 @@ from .identify import Compiled, Objective, compiled, estimate_mode, nominal, run
 from .isolate import candidate_sets, pruned_sets, relaxed_sets, suspected_mode_changes
 from .prognose import prognose
 from .residuals import evaluate
+from .sensitivity import effective, weak_entries
 from .signatures import fault_signature_matrix, mode_change_signature_matrix, nominal_mode
 
 
@@ -156,6 +157,14 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     clock = time.perf_counter()
     fsm = fault_signature_matrix(model, list(arrs), mode)
     mcsm = mode_change_signature_matrix(model, list(arrs), mode)
+    if o.exoneration:       # a quiet residual exonerates only a fault that could have moved it
+        win = window(meas.t, raw, det.time, samples, w)
+        weak = weak_entries(model, list(residuals), win.raw, meas.ts, w, fsm, det.final_coherence, thresholds,
+                            win.crop, commanded(model, win.raw))
+        if weak:
+            fsm = effective(fsm, weak)
+            report["weakly_detectable"] = {x.fault: sorted(y.residual for y in weak if y.fault == x.fault)
+                                           for x in weak}
     candidates = candidate_sets(fsm, det.final_coherence, o.exoneration, o.max_set)
     pruned = pruned_sets(fsm, det.final_coherence, o.exoneration, o.max_set)
     if pruned:

@@ -1,0 +1,111 @@
+"""Isolation aware of sensitivity: a quiet residual exonerates a fault only if it could have fired.
+
+Exoneration (Sec. IV of the paper) drops every fault whose signature has a 1 where the coherence
+vector has a 0: it assumes that a fault moves every residual it enters past its threshold. A
+residual can be structurally sensitive and numerically deaf: a current-sensor gain fault of a DC
+drive moves the armature's voltage balance by volts and the shaft's torque balance by a tenth of
+its threshold, so the true fault was exonerated and two wrong ones were reported.
+
+So before exonerating, each fault's sensitivity is measured on the data of the decision window:
+the residuals with the fault's parameter moved by a small step, against the residuals at
+nominal values. The residuals that fired fix the size the fault would need (their deviation over
+the step's); at that size a quiet residual it enters would move by the step's effect on it scaled
+alike. Where that is under the residual's threshold, the quiet residual says nothing about the
+fault: its 1 is *weak* there, and the fault is judged on the residuals it can move.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Mapping
+
+import numpy as np
+
+from bondgraph.model import Model
+
+from .residuals import Residual, evaluate
+from .signatures import FSM
+
+STEP = 0.05          # relative change of a fault's parameter (or efficiency factor) for the sensitivity
+# A quiet residual is weak for a fault when the fault would move it by less than MARGIN x its
+# threshold. Strictly any figure under 1 means the silence says nothing; a quarter keeps the
+# paper's exoneration wherever the residual is merely less sensitive (the CyCab's encoder gain
+# beta_theta1 would move ARR1 to 0.41 of its threshold in scenario 2, and the paper exonerates it)
+# and drops it where the residual is deaf (a current-sensor gain in a DC drive: 0.1).
+MARGIN = 0.25
+
+
+@dataclass(frozen=True)
+class Weakness:
+    """Fault ``fault`` would move quiet residual ``residual`` by ``predicted`` (peak, in the
+    residual's unit) at the size the residuals that fired need: under ``threshold`` x MARGIN."""
+    fault: str
+    residual: str
+    predicted: float
+    threshold: float
+
+
+def _perturbed(model: Model, fault: str, nominal: Mapping[str, float]) -> tuple[dict, dict] | None:
+    """(parameter values, efficiency factors) with the fault's targets moved by STEP; None where the
+    fault cannot be perturbed (a mode fault, an infinite or zero nominal value)."""
+    f = model.faults[fault]
+    if f.kind in ("sensor", "source"):
+        return {}, {f.targets[0]: 1.0 - STEP}
+    if f.kind != "parametric":
+        return None
+    values = {}
+    for p in f.targets:
+        v = nominal.get(p)
+        if v is None or not np.isfinite(v) or v == 0:
+            return None
+        values[p] = v * (1.0 + STEP)
+    return values, {}
+
+
+def weak_entries(model: Model, residuals: list[Residual], raw: Mapping[str, np.ndarray], ts: float, window: float,
+                 fsm: FSM, coherence: tuple[int, ...], thresholds: np.ndarray, crop: slice,
+                 values: Mapping[str, object] | None = None) -> list[Weakness]:
+    """The (fault, quiet residual) pairs whose structural 1 the data cannot confirm (module doc).
+    ``raw``: the signals of the decision window, ``crop`` the samples judged; ``values``: mode
+    values (commanded modes)."""
+    c = [int(x) for x in coherence]
+    nominal = {s.name: float(v) for s, v in model.nominal_values().items()}
+    base_values = dict(values or {})
+    r0 = evaluate(model, residuals, raw, ts, window=window, values=base_values)[:, crop]
+    out: list[Weakness] = []
+    for row in fsm.rows:
+        quiet = [j for j, (s, cj) in enumerate(zip(row.nominal, c)) if s and not cj]
+        fired = [j for j, (s, cj) in enumerate(zip(row.nominal, c)) if s and cj]
+        if not quiet or not fired:
+            continue
+        moved = _perturbed(model, row.fault, nominal)
+        if moved is None:
+            continue
+        params, betas = moved
+        r1 = evaluate(model, residuals, raw, ts, window=window, values={**base_values, **params}, betas=betas)[:, crop]
+        effect = np.nanmax(np.abs(r1 - r0), axis=-1)                 # the step's peak effect on each residual
+        observed = np.nanmax(np.abs(r0), axis=-1)
+        scales = [observed[i] / effect[i] for i in fired if effect[i] > 0 and np.isfinite(effect[i])]
+        if not scales:
+            continue
+        k = min(scales)                 # the smallest size that explains one residual that fired
+        for j in quiet:
+            predicted = float(k * effect[j])
+            if np.isfinite(predicted) and predicted < MARGIN * float(thresholds[j]):
+                out.append(Weakness(row.fault, fsm.columns[j], predicted, float(thresholds[j])))
+    return out
+
+
+def effective(fsm: FSM, weak: list[Weakness]) -> FSM:
+    """The FSM with each weak entry set to 0 in its fault's nominal signature."""
+    if not weak:
+        return fsm
+    col = {name: j for j, name in enumerate(fsm.columns)}
+    drop: dict[str, set[int]] = {}
+    for w in weak:
+        drop.setdefault(w.fault, set()).add(col[w.residual])
+    rows = []
+    for r in fsm.rows:
+        if r.fault in drop:
+            r = replace(r, nominal=tuple(0 if j in drop[r.fault] else v for j, v in enumerate(r.nominal)))
+        rows.append(r)
+    return replace(fsm, rows=tuple(rows))
