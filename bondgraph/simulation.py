@@ -66,6 +66,12 @@ class System:
     param_names: list[str]
     storage_names: list[str]
     discontinuous: bool               # sign/abs/heaviside in the equations (Coulomb friction, leakage)
+    full: Callable | None = None      # (t, x, c) -> x' and the torn variables of algebraic loops
+
+    def rates(self, t: float, x: np.ndarray, params: Sequence[float]) -> np.ndarray:
+        """x' and the unknowns of the algebraic loops at one instant (what ``observe`` takes)."""
+        g = self.full or self.f
+        return np.asarray(g(t, tuple(x), self.prepare(params)), dtype=float).reshape(-1)
 
     def derivative(self, t: float, x: np.ndarray, params: Sequence[float]) -> np.ndarray:
         """x' at one instant."""
@@ -197,7 +203,7 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     in the size of the model."""
     causality = assign(spec, SIMULATION)
     bad = [p for p in causality.problems if "dependent storage" not in p]
-    if bad or causality.loops:
+    if bad:
         raise CausalityError(bad + list(causality.loops))
     storage = [e for e in spec.elements.values() if e.kind in ("C", "I")]
     integral = [e for e in storage if causality.storage[e.name] == "integral"]
@@ -211,15 +217,21 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     signals.update({spec.symbols[i]: spec.inputs[i].expr for i in spec.inputs if spec.inputs[i].expr is not None})
     rels = relations(spec, causality, known=_known_values(spec, opened),
                      states={e.name: X[e.name] for e in integral}, signals=signals)
+    rels, torn = _tear(rels) if causality.loops else (rels, [])
     bond = _bonds_of(spec, storage)
     wanted = [("e" if e.kind == "I" else "f", bond[e.name]) for e in integral]
     wanted += [("e", s.name) if s.kind == "De" else ("f", s.name) for s in spec.sensors.values()]
     flows = [("f" if e.kind == "I" else "e", bond[e.name]) for e in storage]
     program = Program()
+    loop_inputs = [i for _, r in torn for i in r.inputs]
     try:
-        values_ = resolve(rels, wanted + flows, program=program)
+        values_ = resolve(rels, wanted + flows + loop_inputs, program=program)
     except ValueError as exc:
         raise SimulationError(str(exc)) from None
+    # each torn variable z of an algebraic loop: its own law once more, z = g(..., z), an unknown
+    # solved with the state derivatives (linear loops; the solver's linear system)
+    z_sym = [z for z, _ in torn]
+    loop_laws = [program.name(r.law(*[values_[i] for i in r.inputs])) for _, r in torn]
     n_st = len(integral)
     sensor_vals = {s.name: values_[w] for s, w in zip(spec.sensors.values(), wanted[n_st:])}
     derivs = [values_[w] for w in wanted[:n_st]] + [sensor_vals[s.name] for s in integrals]
@@ -227,7 +239,7 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     n = len(states)
     x_sym = [sp.Symbol(f"_x{i}") for i in range(n)]
     dx_sym = [sp.Symbol(f"_dx{i}") for i in range(n)]
-    residual = [program.name(d) for d in derivs]
+    residual = [program.name(d) for d in derivs] + loop_laws
     outputs = [sensor_vals[s] for s in spec.sensors] + [values_[f] for f in flows]
     outputs += [_energy(spec, e, var).xreplace(signals) for e, var in zip(storage, outputs[len(spec.sensors):])]
     used = set().union(*(e.free_symbols for _, e in program.lines), *(e.free_symbols for e in outputs))
@@ -235,7 +247,7 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     if leftovers:
         raise SimulationError(f"a modulated element uses signal(s) {leftovers} that are not "
                               "displacements or momenta; measure them as such or use a parameter")
-    params = sorted({s for s in used if not s.name.startswith("__v") and s != t}
+    params = sorted({s for s in used if not s.name.startswith("__v") and s != t and s not in z_sym}
                     | {spec.symbols[k] for k in spec.parameters} | {spec.symbols[m] for m in spec.modes}
                     | {spec.symbols[f"beta_{e.input or e.name}"] for e in spec.sources() if e.name not in opened},
                     key=lambda s: s.name)
@@ -248,23 +260,64 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     lines, _ = substitute(program.lines, mapping)
     outputs = [e.xreplace(mapping) for e in outputs]
     residual = [r.xreplace(mapping) for r in residual]        # names, or atoms such as a parameter
+    unknowns = dx_sym + z_sym
     try:
-        coeff_lines, grad = linear_coefficients(lines, dx_sym)
+        coeff_lines, grad = linear_coefficients(lines, unknowns)
     except ValueError:
+        if torn:
+            raise SimulationError("algebraic loop through " + ", ".join(f"{v[0]}{v[1]}" for v, _ in
+                                  ((r.output, r) for _, r in torn)) + " is nonlinear; bgfdi solves linear loops: "
+                                  "add a storage element (a small capacitance or inertia) to break it") from None
         raise SimulationError("the state equations are not linear in the state derivatives; "
                               "this dependent storage cannot be reduced") from None
-    coefficients = {i: {dx_sym.index(u): c for u, c in grad.get(r, {}).items()} for i, r in enumerate(residual)}
-    at_rest, folded = substitute(lines + coeff_lines, {d: sp.Integer(0) for d in dx_sym})
+    coefficients = {i: {unknowns.index(u): c for u, c in grad.get(r, {}).items()} for i, r in enumerate(residual)}
+    at_rest, folded = substitute(lines + coeff_lines, {d: sp.Integer(0) for d in unknowns})
     residual = [r.xreplace(folded) for r in residual]
     coefficients = {i: {j: c.xreplace(folded) for j, c in row.items()} for i, row in coefficients.items()}
     at_rest = needed_lines(at_rest, residual + [c for row in coefficients.values() for c in row.values()])
-    f, prepare = _solver(at_rest, residual, coefficients, (t_sym, x_sym, p_sym))
+    full, prepare = _solver(at_rest, residual, coefficients, (t_sym, x_sym, p_sym))
+    f = full if not torn else _leading(full, n)
     step = _step_function(f, n, n_st)
-    observe = compile_lines([t_sym, x_sym, p_sym, dx_sym], lines, outputs, "numpy")
+    observe = compile_lines([t_sym, x_sym, p_sym, unknowns], lines, outputs, "numpy")
     discontinuous = any(e.has(sp.sign, sp.Abs, sp.Heaviside) for _, e in at_rest)
     return System(states, ["storage"] * n_st + ["sensor"] * len(integrals), opened, prepare, f, step, observe,
                   list(spec.sensors) + [f"flow_{e.name}" for e in storage], [p.name for p in params],
-                  [e.name for e in storage], discontinuous)
+                  [e.name for e in storage], discontinuous, full)
+
+
+def _leading(full: Callable, n: int) -> Callable:
+    """x' alone from a function that also gives the torn variables of algebraic loops."""
+    def f(t_: float, x: tuple, c: tuple):
+        return list(full(t_, x, c))[:n]
+    return f
+
+
+def _tear(rels: list) -> tuple[list, list]:
+    """Algebraic loops of the relations broken open: in each cycle of the causal dependencies one
+    variable (the output of a linear law where there is one) is computed from an unknown z
+    instead of its law; returns the relations and the torn ones, (z, relation), whose law gives
+    the loop's equation z = law(...). A cycle through a differentiation is no algebraic loop and
+    is left for resolve to report."""
+    import networkx as nx
+    from .equations import Relation
+
+    by_output = {r.output: r for r in rels}
+    torn: list = []
+    for _ in range(len(rels)):
+        g = nx.DiGraph()
+        g.add_edges_from((i, r.output) for r in by_output.values() for i in r.inputs)
+        try:
+            cycle = [u for u, _ in nx.find_cycle(g)]
+        except nx.NetworkXNoCycle:
+            break
+        candidates = [v for v in cycle if v in by_output and not by_output[v].derivative]
+        if not candidates:
+            break
+        v = next((c for c in candidates if by_output[c].coefficients is not None), candidates[0])
+        z = sp.Symbol(f"_z{len(torn)}")
+        torn.append((z, by_output[v]))
+        by_output[v] = Relation(v, (), lambda z=z: z)
+    return list(by_output.values()), torn
 
 
 def _energy(spec: Model, e: Element, var: sp.Expr) -> sp.Expr:
@@ -551,7 +604,7 @@ def _trajectory(model: Model, pieces: list[tuple[System, np.ndarray, np.ndarray,
     for system, ts, ys, span in pieces:
         table = _ParameterTable(values, system.param_names, vectorised, span)
         P = table.rows(ts)
-        dx = np.array([system.derivative(tt, y, p) for tt, y, p in zip(ts, ys.T.tolist(), P.tolist())],
+        dx = np.array([system.rates(tt, y, p) for tt, y, p in zip(ts, ys.T.tolist(), P.tolist())],
                       dtype=float).reshape(len(ts), -1)
         observed = system.observe(ts, tuple(ys), tuple(P.T), tuple(dx.T))
         for name, v in zip(system.output_names, observed):
@@ -747,7 +800,7 @@ def _initial_state(system: System, initial: Mapping[str, float], t0: float, vals
     def gap(z):
         xx = x.copy()
         xx[free] = z
-        dx = system.derivative(t0, xx, p)
+        dx = system.rates(t0, xx, p)
         out = system.outputs(t0, xx, p, dx)
         return (out[idx] - want) / np.maximum(1.0, np.abs(want))
     sol = least_squares(gap, x[free], xtol=1e-14, ftol=1e-14, gtol=1e-14)
@@ -760,7 +813,7 @@ def _initial_state(system: System, initial: Mapping[str, float], t0: float, vals
 def _carry_over(old: System, new: System, x: np.ndarray, t0: float, vals: Mapping[str, float]) -> np.ndarray:
     """Map the state across a configuration change (see module doc)."""
     p = [vals[n] for n in old.param_names]
-    dx = old.derivative(t0, x, p)
+    dx = old.rates(t0, x, p)
     energy = dict(zip(old.storage_names, old.energy(t0, x, p, dx)))
     current = dict(zip(old.states, x))
     return np.array([current.get(n, energy.get(n, 0.0)) for n in new.states], dtype=float)
