@@ -34,6 +34,7 @@ MONITOR_FAULT_KEYS = {"bounds", "failure"}      # ditto, in each fault
 _TOP_KEYS = {"name", "description", "reference", "parameters", "definitions", "inputs", "modes",
              "elements", "junctions", "sensors", "bonds", "faults", "data", "initial"} | MONITOR_KEYS
 _RESERVED = {"t"}
+FAULT_EFFECTS = ("gain", "bias")       # how a sensor or source fault acts: beta x signal, or signal + b
 OFF_SEMANTICS = ("all", "outputs")   # what a switched-off controlled junction holds at zero
 MAX_TIME = 1.0e6             # s: a time beyond 11 days in a model file is a typing error
 
@@ -792,7 +793,7 @@ def _faults(ctx, data, parameters, sensors, elements, modes) -> dict[str, Fault]
     sources = {e.input or e.name: e for e in elements.values() if e.kind in SOURCE_KINDS}
     for name, spec in _mapping(ctx, data.get("faults"), ("faults",)).items():
         where = ("faults", name)
-        spec = _spec(ctx, spec, where, {"kind", "parameters", "sensor", "source", "mode", "value",
+        spec = _spec(ctx, spec, where, {"kind", "parameters", "sensor", "source", "mode", "value", "effect",
                                         "description"} | MONITOR_FAULT_KEYS)
         kind = spec.get("kind")
         if kind not in FAULT_KINDS:
@@ -817,6 +818,12 @@ def _faults(ctx, data, parameters, sensors, elements, modes) -> dict[str, Fault]
                 raise ctx.error(where + (key,), f"fault '{name}' names {key} '{target}', which is not defined "
                                                 f"(known: {', '.join(pool) or 'none'})")
             targets = [target]
+        effect = spec.get("effect", "gain")
+        if kind in ("sensor", "source"):
+            if effect not in FAULT_EFFECTS:
+                raise ctx.error(where + ("effect",), f"effect must be {' or '.join(FAULT_EFFECTS)}, not {_shown(effect)}")
+        elif "effect" in spec:
+            raise ctx.error(where + ("effect",), f"effect is for sensor and source faults, not {kind}")
         value = spec.get("value")
         if kind == "mode":
             value = 0 if value is None else value
@@ -824,5 +831,5 @@ def _faults(ctx, data, parameters, sensors, elements, modes) -> dict[str, Fault]
                 raise ctx.error(where + ("value",), "a fault mode's value is 0 or 1")
         out[name] = Fault(name, kind, tuple(str(x) for x in targets),
                           None if value is None else _number(ctx, value, where + ("value",), "value"),
-                          _text(spec, "description"))
+                          _text(spec, "description"), effect=str(effect) if kind in ("sensor", "source") else "gain")
     return out

@@ -143,7 +143,9 @@ class Bond:
 @dataclass(frozen=True)
 class Fault:
     """A candidate fault. ``targets`` are parameter names (parametric), one sensor or source
-    name (its efficiency factor beta), or one mode variable (mode); ``value`` is the faulty mode of
+    name (its efficiency factor beta, or with ``effect`` "bias" an additive offset b: a sensor
+    reads true + b, a source gives commanded + b; its signature is the efficiency factor's), or
+    one mode variable (mode); ``value`` is the faulty mode of
     a mode fault (0: stuck off, 1: stuck on). How a fault is searched (bounds) and when it is a
     failure are monitor settings: :class:`fdi.config.MonitorConfig`."""
     name: str
@@ -151,6 +153,7 @@ class Fault:
     targets: tuple[str, ...]
     value: float | None = None
     description: str = ""
+    effect: str = "gain"          # sensor/source: "gain" (measured = beta x true) or "bias" (measured = true + b)
 
     @property
     def symbols(self) -> tuple[str, ...]:

@@ -81,6 +81,8 @@ def nominal(model: Model, name: str) -> float:
     """The nominal value of fault ``name``'s decision: 1 for an efficiency factor or a group of
     parameters (a common factor), else its parameter's value (possibly infinite: a healthy leak)."""
     f = model.faults[name]
+    if f.effect == "bias":
+        return 0.0
     if f.kind in ("sensor", "source") or len(f.targets) > 1:
         return 1.0
     return float(model.parameters[f.targets[0]].value)
@@ -96,6 +98,9 @@ def fault_space(model: Model, name: str, span: float | None = None,
     value, given = nominal(model, name), config.bounds(name) if config else None
     if given is not None:
         bounds = given
+    elif f.effect == "bias":
+        raise ModelError("a bias fault needs bounds: [low, high], the offsets to search, in the unit of "
+                         f"{f.kind} '{f.targets[0]}'", file=model.path, where=f"faults.{name}")
     elif f.kind in ("sensor", "source"):
         bounds = DEFAULT_BOUNDS[f.kind]
     elif len(f.targets) > 1:
@@ -179,7 +184,8 @@ class Objective:
         self.fixed = list(fixed)
         self.nominal = parameter_values(model)
         self.nominal.update({m: v[None, :] for m, v in commanded(model, win.raw).items()})
-        fixed_betas = self._fix(span)
+        fixed_betas, fixed_biases = self._fix(span)
+        self.fixed_betas, self.fixed_biases = fixed_betas, fixed_biases
         self.orders = derivative_orders(list(residuals))
         touched = set()
         for f in candidate:
@@ -190,30 +196,34 @@ class Objective:
         self.linear = {f: h for f in candidate if (h := linear_transform(model, residuals, f, self.active))}
         self.enters = {j: {i: bool(set(model.faults[f].symbols) & residuals[i].parameter_names()) for i in self.active}
                        for j, f in enumerate(candidate)}
-        self.base_signals = corrected_signals(model, win.raw, win.ts, self.orders, fixed_betas or None, window_s)
+        self.base_signals = corrected_signals(model, win.raw, win.ts, self.orders, fixed_betas or None, window_s,
+                                              biases=fixed_biases or None)
         self._constant: dict[int, float] = {}
         # the screening fidelity: every stride-th sample, a sixth of the derivative window apart, so that
         # the filtered residuals barely change between the samples left out
         self.stride = max(1, int(round(window_s / win.ts)) // 6)
 
-    def _fix(self, span: float) -> dict[str, np.ndarray]:
+    def _fix(self, span: float) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         """Fold the fixed faults into the base values (parameter profiles) and return their sensor
-        and source profiles (efficiency factors), all (1, window samples)."""
+        and source profiles (efficiency factors, and offsets of bias faults), all (1, window samples)."""
         betas: dict[str, np.ndarray] = {}
+        biases: dict[str, np.ndarray] = {}
         for f in self.fixed:
             space = fault_space(self.model, f["name"], span, self.config)
             real, bits = encoding.encode([space], [f])
             (p,) = encoding.profiles([space], encoding.decode([space], real[None, :], bits[None, :]), self.win.t,
                                      f.get("t0", self.win.t0))
             fault = self.model.faults[f["name"]]
-            if fault.kind in ("sensor", "source"):
+            if fault.effect == "bias":
+                biases[fault.targets[0]] = p
+            elif fault.kind in ("sensor", "source"):
                 betas[fault.targets[0]] = p
             elif len(fault.targets) == 1:
                 self.nominal[fault.targets[0]] = p
             else:
                 for target in fault.targets:
                     self.nominal[target] = self.nominal[target] * p
-        return betas
+        return betas, biases
 
     def constant(self, stride: int = 1) -> float:
         """The weighted cost of the residuals no candidate fault touches (the same for everyone)."""
@@ -346,11 +356,16 @@ class Objective:
         n = ps[0].shape[0] if ps else 1
         values = dict(self.nominal)
         betas: dict[str, np.ndarray] = {}
+        biases: dict[str, np.ndarray] = {}
         invalid = np.zeros(n, dtype=bool)
         for name, p in zip(self.candidate, ps):
             f = self.model.faults[name]
             invalid |= np.isnan(p).any(axis=1)
-            if f.kind in ("sensor", "source"):
+            if f.effect == "bias":
+                bad = ~np.isfinite(p).all(axis=1)
+                invalid |= bad
+                biases[f.targets[0]] = np.where(bad[:, None], 0.0, p)
+            elif f.kind in ("sensor", "source"):
                 bad = ~(np.isfinite(p) & (p > 0)).all(axis=1)    # a profile past its pole, or through zero
                 invalid |= bad
                 betas[f.targets[0]] = np.where(bad[:, None], 1.0, p)
@@ -362,10 +377,12 @@ class Objective:
         if signals is not None:
             return values, signals, invalid
         signals = dict(self.base_signals)
-        if betas:
+        if betas or biases:
+            changed = set(betas) | set(biases)
             signals.update(corrected_signals(self.model, self.win.raw, self.win.ts,
-                                             {k: self.orders[k] for k in betas if k in self.orders}, betas,
-                                             self.window_s, edges="mirror"))
+                                             {k: self.orders[k] for k in changed if k in self.orders},
+                                             {**self.fixed_betas, **betas}, self.window_s, edges="mirror",
+                                             biases={**self.fixed_biases, **biases}))
         return values, signals, invalid
 
     def residual_values(self, residual: Residual, signals: dict, values: dict, n: int, stride: int = 1) -> np.ndarray:

@@ -51,6 +51,8 @@ def incipient(t: np.ndarray, t0, nominal: float, model: int, b) -> np.ndarray:
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         if model == 1:
             p = nominal * np.exp(b[:, :1] * tau)
+        elif model == 2 and nominal == 0:          # 1/P = 1/P0 - b2 tau never leaves P0 = 0 (an offset)
+            p = np.zeros(np.broadcast(tau, b[:, :1]).shape)
         elif model == 2:
             den = (0.0 if np.isinf(nominal) else 1.0 / nominal) - b[:, :1] * tau
             p = np.where(den > 0, 1.0 / np.where(den > 0, den, 1.0), np.inf)

@@ -136,13 +136,20 @@ def derivative_orders(residuals: list[Residual]) -> dict[str, int]:
 
 def corrected_signals(model: Model, raw: Mapping[str, np.ndarray], ts: float, orders: Mapping[str, int],
                       betas: Mapping[str, object] | None = None,
-                      window: float = derivatives.DEFAULT_WINDOW, edges: str = "interp") -> dict[str, list[np.ndarray]]:
-    """Each signal (sensor measurement / beta, or beta * input) and its derivatives."""
+                      window: float = derivatives.DEFAULT_WINDOW, edges: str = "interp",
+                      biases: Mapping[str, object] | None = None) -> dict[str, list[np.ndarray]]:
+    """Each signal (sensor measurement / beta, or beta * input) and its derivatives; ``biases``
+    are additive offsets removed first (a sensor reads true + b: (measured - b) / beta; a source
+    gives commanded + b: beta * (input + b))."""
     betas = betas or {}
+    biases = biases or {}
     out: dict[str, list[np.ndarray]] = {}
     breaks = mode_breaks(model, raw)
     for name, order in orders.items():
         x = np.asarray(raw[name], dtype=float)
+        bias = biases.get(name)
+        if bias is not None:
+            x = x - bias if name in model.sensors else x + bias
         beta = betas.get(name)
         if beta is not None:
             x = x / beta if name in model.sensors else x * beta
@@ -185,9 +192,9 @@ def parameter_values(model: Model, overrides: Mapping[str, object] | None = None
 
 def evaluate(model: Model, residuals: list[Residual], raw: Mapping[str, np.ndarray], ts: float, *,
              values: Mapping[str, object] | None = None, betas: Mapping[str, object] | None = None,
-             window: float = derivatives.DEFAULT_WINDOW) -> np.ndarray:
+             window: float = derivatives.DEFAULT_WINDOW, biases: Mapping[str, object] | None = None) -> np.ndarray:
     """Residuals on data: array of shape (n_residuals, ..., samples)."""
-    sig = corrected_signals(model, raw, ts, derivative_orders(residuals), betas, window)
+    sig = corrected_signals(model, raw, ts, derivative_orders(residuals), betas, window, biases=biases)
     vals = parameter_values(model, values)
     outs = [r(sig, vals, ts, window) for r in residuals]
     shape = np.broadcast_shapes(*[o.shape for o in outs], *[np.shape(v[0]) for v in sig.values()])

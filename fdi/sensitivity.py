@@ -44,12 +44,17 @@ class Weakness:
     threshold: float
 
 
-def _perturbed(model: Model, fault: str, nominal: Mapping[str, float]) -> tuple[dict, dict] | None:
-    """(parameter values, efficiency factors) with the fault's targets moved by STEP; None where the
-    fault cannot be perturbed (a mode fault, an infinite or zero nominal value)."""
+def _perturbed(model: Model, fault: str, nominal: Mapping[str, float],
+               raw: Mapping[str, np.ndarray]) -> tuple[dict, dict, dict] | None:
+    """(parameter values, efficiency factors, offsets) with the fault's targets moved by STEP (an
+    offset by STEP x the signal's RMS); None where the fault cannot be perturbed (a mode fault, an
+    infinite or zero nominal value, a signal that is zero)."""
     f = model.faults[fault]
+    if f.effect == "bias":
+        size = float(np.sqrt(np.mean(np.square(np.asarray(raw[f.targets[0]], dtype=float)))))
+        return ({}, {}, {f.targets[0]: STEP * size}) if size > 0 else None
     if f.kind in ("sensor", "source"):
-        return {}, {f.targets[0]: 1.0 - STEP}
+        return {}, {f.targets[0]: 1.0 - STEP}, {}
     if f.kind != "parametric":
         return None
     values = {}
@@ -58,7 +63,7 @@ def _perturbed(model: Model, fault: str, nominal: Mapping[str, float]) -> tuple[
         if v is None or not np.isfinite(v) or v == 0:
             return None
         values[p] = v * (1.0 + STEP)
-    return values, {}
+    return values, {}, {}
 
 
 def weak_entries(model: Model, residuals: list[Residual], raw: Mapping[str, np.ndarray], ts: float, window: float,
@@ -77,11 +82,12 @@ def weak_entries(model: Model, residuals: list[Residual], raw: Mapping[str, np.n
         fired = [j for j, (s, cj) in enumerate(zip(row.nominal, c)) if s and cj]
         if not quiet or not fired:
             continue
-        moved = _perturbed(model, row.fault, nominal)
+        moved = _perturbed(model, row.fault, nominal, raw)
         if moved is None:
             continue
-        params, betas = moved
-        r1 = evaluate(model, residuals, raw, ts, window=window, values={**base_values, **params}, betas=betas)[:, crop]
+        params, betas, biases = moved
+        r1 = evaluate(model, residuals, raw, ts, window=window, values={**base_values, **params}, betas=betas,
+                      biases=biases)[:, crop]
         effect = np.nanmax(np.abs(r1 - r0), axis=-1)                 # the step's peak effect on each residual
         observed = np.nanmax(np.abs(r0), axis=-1)
         scales = [observed[i] / effect[i] for i in fired if effect[i] > 0 and np.isfinite(effect[i])]

@@ -1,0 +1,79 @@
+"""Sensor faults of the kinds engineers meet: an additive offset (bias) as well as a gain.
+
+tests/data/rc_two_sensors.yaml: an RC circuit with a load, current i and capacitor voltage v
+measured. Reference data from the circuit integrated by scipy here (apart from bgfdi), with a
+designed offset of the voltage sensor (it reads v + 0.3 V from t = 3 s)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from bondgraph.errors import ModelError
+from bondgraph.loader import load_model, load_model_text
+from fdi.arrs import select_arrs
+from fdi.data import Measurements
+from fdi.diagnose import Options, diagnose, public
+from fdi.residuals import compile_residuals, evaluate
+
+from .conftest import ROOT
+
+MODEL = ROOT / "tests" / "data" / "rc_two_sensors.yaml"
+R, C, RL = 100.0, 1.0e-3, 200.0
+
+
+def circuit(T: float, seed: int, bias: tuple[float, float] | None = None, gain: tuple[float, float] | None = None):
+    """C v' = (u - v)/R - v/RL, i = (u - v)/R; the voltage sensor reads v + b or g v from t0."""
+    t = np.arange(0.0, T + 0.0005, 0.001)
+
+    def u(tt):
+        return 5 + 2 * np.sin(3 * tt)
+    sol = solve_ivp(lambda tt, y: [((u(tt) - y[0]) / R - y[0] / RL) / C], (0, T), [0.0], t_eval=t,
+                    rtol=1e-10, atol=1e-12)
+    v = sol.y[0]
+    rng = np.random.default_rng(seed)
+    i = (u(t) - v) / R + rng.normal(0, 1e-5, t.size)
+    measured = v.copy()
+    if bias:
+        measured = np.where(t >= bias[0], v + bias[1], v)
+    if gain:
+        measured = np.where(t >= gain[0], gain[1] * v, measured)
+    return {"t": t, "u": u(t), "i": i, "v": measured + rng.normal(0, 1e-3, t.size)}
+
+
+def thresholds() -> dict[str, float]:
+    m = load_model(MODEL)
+    kernels = compile_residuals(m, list(select_arrs(m).arrs))
+    peaks = np.max([np.max(np.abs(evaluate(m, kernels, circuit(6.0, s), 0.001, window=0.05)[:, 100:-100]), axis=1)
+                    for s in (11, 12)], axis=0)
+    return {f"ARR{k + 1}": 1.5 * float(p) for k, p in enumerate(peaks)}
+
+
+def test_an_offset_of_the_voltage_sensor_is_found_as_an_offset_and_sized():
+    data = circuit(6.0, seed=1, bias=(3.0, 0.3))
+    report = public(diagnose(str(MODEL), Measurements("offset", data["t"], data),
+                             Options(workers=1, seed=0, thresholds=thresholds())))
+    assert 3.0 - 0.03 <= report["detection"]["time"] <= 3.1
+    assert ["bias_v"] in report["candidates"] and ["beta_v"] in report["candidates"]
+    (fault,) = report["diagnosis"]["faults"]
+    assert (fault["name"], fault["type"]) == ("bias_v", "abrupt")
+    assert fault["value"] == pytest.approx(0.3, rel=0.05)
+
+
+def test_a_gain_fault_of_the_same_sensor_is_still_a_gain():
+    data = circuit(6.0, seed=2, gain=(3.0, 0.9))
+    report = public(diagnose(str(MODEL), Measurements("gain", data["t"], data),
+                             Options(workers=1, seed=0, thresholds=thresholds())))
+    (fault,) = report["diagnosis"]["faults"]
+    assert (fault["name"], fault["type"]) == ("beta_v", "abrupt")
+    assert fault["value"] == pytest.approx(0.9, rel=0.05)
+
+
+def test_a_bias_fault_without_bounds_or_with_an_unknown_effect_is_refused():
+    text = MODEL.read_text()
+    with pytest.raises(ModelError, match="effect must be gain or bias"):
+        load_model_text(text.replace("effect: bias", "effect: drift"), "rc.yaml")
+    m = load_model_text(text.replace("effect: bias, bounds: [-2.0, 2.0]", "effect: bias"), "rc.yaml")
+    from fdi.identify import fault_space
+    with pytest.raises(ModelError, match="a bias fault needs bounds"):
+        fault_space(m, "bias_v")
