@@ -369,6 +369,7 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
     inputs = _inputs(ctx, data, symbols, claim, columns)
     sensors = _sensors(ctx, data, symbols, claim, column_symbols, columns)
     definitions = _definitions(ctx, data, symbols, claim)
+    modes = _autonomous(ctx, data, modes, symbols, sensors, inputs)
     elements = _elements(ctx, data, symbols, claim, inputs, sensors)
     junctions, mode_exprs = _junctions(ctx, data, claim, modes, symbols)
     bonds = _bonds(ctx, data, elements, junctions)
@@ -428,7 +429,8 @@ def _modes(ctx, data, symbols, claim) -> dict[str, Mode]:
     for name, spec in _mapping(ctx, data.get("modes"), ("modes",)).items():
         where = ("modes", name)
         _name(ctx, name, where)
-        spec = _spec(ctx, spec if spec is not None else {}, where, {"nominal", "description", "column", "expr"})
+        spec = _spec(ctx, spec if spec is not None else {}, where, {"nominal", "description", "column", "expr",
+                                                                    "positive"})
         nominal = spec.get("nominal", 1)
         if nominal not in (0, 1) or isinstance(nominal, bool):
             raise ctx.error(where + ("nominal",), f"mode '{name}' nominal value must be 0 or 1")
@@ -441,9 +443,31 @@ def _modes(ctx, data, symbols, claim) -> dict[str, Mode]:
             params = {k: v for k, v in symbols.items()}
             params["t"] = t
             expr = _expr(ctx, spec["expr"], where + ("expr",), params)
+        if spec.get("positive") is not None and (column is not None or expr is not None):
+            raise ctx.error(where + ("positive",), "a mode is commanded (column, expr) or autonomous (positive), "
+                                                   "not both")
         claim(name, "a mode variable", where)
         symbols[name] = sp.Symbol(name, real=True)
         out[name] = Mode(name, int(nominal), _text(spec, "description"), column, expr)
+    return out
+
+
+def _autonomous(ctx, data, modes, symbols, sensors, inputs) -> dict[str, Mode]:
+    """Autonomous modes' conditions (``positive:``, an expression of sensor signals and inputs),
+    parsed once the sensors and inputs are known."""
+    out = dict(modes)
+    allowed = {k: symbols[k] for k in list(sensors) + list(inputs)}
+    allowed.update({k: v for k, v in symbols.items() if k not in modes and isinstance(v, sp.Symbol)
+                    and k not in allowed})
+    for name, spec in _mapping(ctx, data.get("modes"), ("modes",)).items():
+        if not isinstance(spec, dict) or spec.get("positive") is None:
+            continue
+        where = ("modes", name, "positive")
+        expr = _expr(ctx, spec["positive"], where, allowed)
+        if not expr.free_symbols & {symbols[k] for k in list(sensors) + list(inputs)}:
+            raise ctx.error(where, f"'{spec['positive']}' uses no sensor or input; an autonomous mode follows the "
+                                   "sign of a signal (a diode's current: positive: iL)")
+        out[name] = Mode(name, modes[name].nominal, modes[name].description, positive=expr)
     return out
 
 

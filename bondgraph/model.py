@@ -53,12 +53,20 @@ class Input:
 class Mode:
     """A mode variable (0 or 1) of controlled junctions. A *commanded* mode follows a data column
     (``column``: the controller's command, sample by sample; ``expr``, a function of t, is the
-    command simulation gives): the physical mode disagreeing with the command is a mode fault."""
+    command simulation gives): the physical mode disagreeing with the command is a mode fault. An
+    *autonomous* mode is 1 while ``positive`` (an expression of sensor signals and inputs: a diode's
+    current) is above zero: the data decide it sample by sample, the simulator from its states."""
     name: str
     nominal: int
     description: str = ""
     column: str | None = None
     expr: sp.Expr | None = None
+    positive: sp.Expr | None = None     # autonomous: 1 while this expression of signals is > 0
+
+    @property
+    def autonomous(self) -> bool:
+        """Whether the mode follows the sign of a signal (a diode's current) rather than a command."""
+        return self.positive is not None
 
 
 @dataclass(frozen=True)

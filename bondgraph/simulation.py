@@ -473,13 +473,25 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
     edges = sorted({float(t_eval[0]), float(t_eval[-1])} | {float(b) for b in breakpoints if t_eval[0] < b < t_eval[-1]})
     cache: dict[frozenset, System] = {}
     max_step = max_step or float(np.min(np.diff(t_eval))) if t_eval.size > 1 else None
-    pieces: list[tuple[System, np.ndarray, np.ndarray, tuple[float, float]]] = []
+    pieces: list[tuple[System, np.ndarray, np.ndarray, tuple[float, float], Callable]] = []
     configs: list[tuple[float, frozenset[str]]] = []
     system: System | None = None
     x = None
     span = (edges[0], edges[0])
-    for a, b in zip(edges[:-1], edges[1:]):
-        spec, opened, key = _configure(model, values(0.5 * (a + b)))
+    auto = _Autonomous(model)
+    queue = [(a, b) for a, b in zip(edges[:-1], edges[1:])]
+    queue.reverse()
+    restarts = 0
+    while queue:
+        a, b = queue.pop()
+        if auto and b > a:
+            inside = t_eval[(t_eval > a) & (t_eval < b)]
+            if inside.size > AUTONOMOUS_CHUNK:         # short chunks: a switch found costs one chunk again
+                cut = float(inside[AUTONOMOUS_CHUNK])
+                queue.append((cut, b))
+                b = cut
+        vals = auto.values(values)
+        spec, opened, key = _configure(model, vals(0.5 * (a + b)))
         if key not in cache:
             with clock("build"):
                 cache[key] = _build(spec, opened)
@@ -491,15 +503,20 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
         # leak with no flow yet): the first step is then one of backward Euler (see _ros2)
         fresh_states = system is not None and bool(set(new.states) - set(system.states))
         if system is None:
-            x = _initial_state(new, initial, a, values(span[0]))
+            x = _initial_state(new, initial, a, vals(span[0]))
+            if auto and auto.settle(new, a, x, vals(span[0])) and restarts < 4:
+                restarts += 1                          # the initial state decides the autonomous modes
+                system, span = None, (edges[0], edges[0])
+                queue.append((a, b))
+                continue
         elif new is not system:
-            x = _carry_over(system, new, x, a, values(previous[1]))
+            x = _carry_over(system, new, x, a, last_values(previous[1]))
         if new is not system:
             configs.append((a, new.open_resistors))
-        system = new
+        system, last_values = new, vals
         mask = (t_eval >= a) & ((t_eval < b) | (b == edges[-1]))
         pts = t_eval[mask]
-        table = _ParameterTable(values, system.param_names, vectorised, span)
+        table = _ParameterTable(vals, system.param_names, vectorised, span)
         how = method if method != "auto" else ("ros2" if system.discontinuous else "LSODA")
         with clock("integrate"):
             if how == "ros2":
@@ -507,12 +524,95 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
             else:
                 sol = _scipy(system, table, how, a, b, x, pts, max_step, tolerances)
         x = sol.end
+        if auto and pts.size > 1:
+            k = auto.first_switch(system, sol.t, sol.y, table)
+            if k is not None:                          # a diode stopped or started conducting at pts[k]
+                sol = _Solution(sol.t[:k + 1], sol.y[:, :k + 1], sol.y[:, k])
+                x = sol.end
+                queue.append((float(sol.t[-1]), b))
+                b = float(sol.t[-1])
+                auto.switch(system, sol.t[-1:], sol.y[:, -1:], table)
         if pts.size:
-            pieces.append((system, sol.t, sol.y, span))
+            keep = sol.t.size if not (auto and queue and sol.t.size and sol.t[-1] == b) else sol.t.size - 1
+            if keep:
+                pieces.append((system, sol.t[:keep], sol.y[:, :keep], span, vals))
         if progress:
             progress(b)
     with clock("outputs"):
-        return _trajectory(model, pieces, values, vectorised, configs)
+        return _trajectory(model, pieces, vectorised, configs)
+
+
+AUTONOMOUS_CHUNK = 64    # output points integrated at a time while a mode follows the state
+
+
+class _Autonomous:
+    """The autonomous modes of a model (a diode conducting while its current is positive) as the
+    simulation decides them: their values now, the parameter function with them in, and where in
+    a stretch of solution a condition changes sign (the stretch is then cut there and the model
+    switched: an event located to one output point)."""
+
+    def __init__(self, model: Model):
+        self.model = model
+        self.modes = {m.name: m for m in model.modes.values() if m.autonomous}
+        self.now = {n: float(m.nominal) for n, m in self.modes.items()}
+        self._conditions = {}
+        for n, m in self.modes.items():
+            syms = sorted(m.positive.free_symbols, key=lambda x: x.name)
+            self._conditions[n] = ([x.name for x in syms], sp.lambdify(syms, m.positive, modules="numpy"))
+
+    def __bool__(self) -> bool:
+        return bool(self.modes)
+
+    def values(self, values: Callable) -> Callable:
+        fixed = dict(self.now)
+
+        def merged(tt):
+            out = dict(values(tt))
+            out.update(fixed)
+            return out
+        return merged
+
+    def _states(self, system: System, ts: np.ndarray, ys: np.ndarray, table: "_ParameterTable") -> dict[str, np.ndarray]:
+        """Each autonomous condition's on/off at the points ``ts`` of a solution."""
+        P = table.rows(ts)
+        dx = np.array([system.rates(tt, y, p) for tt, y, p in zip(ts, ys.T.tolist(), P.tolist())],
+                      dtype=float).reshape(len(ts), -1)
+        observed = system.observe(ts, tuple(ys), tuple(P.T), tuple(dx.T))
+        signals = {name: np.broadcast_to(np.asarray(v, dtype=float), ts.shape)
+                   for name, v in zip(system.output_names, observed)}
+        for name in self.model.sensors:
+            signals.setdefault(name, np.zeros(ts.shape))
+        params = dict(zip(system.param_names, P.T))
+        for name, i in self.model.inputs.items():
+            if i.expr is not None:
+                f = sp.lambdify([t] + [self.model.symbols[p] for p in system.param_names if p in self.model.symbols],
+                                i.expr, modules="numpy")
+                signals[name] = np.broadcast_to(np.asarray(f(ts, *[params[p] for p in system.param_names
+                                                                     if p in self.model.symbols]), dtype=float), ts.shape)
+        out = {}
+        for n, (names, f) in self._conditions.items():
+            args = [signals[x] if x in signals else params.get(x, 0.0) for x in names]
+            out[n] = np.asarray(f(*args), dtype=float) > 0
+        return out
+
+    def first_switch(self, system: System, ts: np.ndarray, ys: np.ndarray, table) -> int | None:
+        """The first point (after the first) where some condition disagrees with its mode now."""
+        states = self._states(system, ts, ys, table)
+        hits = [int(np.argmax(on[1:] != bool(self.now[n]))) + 1 for n, on in states.items()
+                if np.any(on[1:] != bool(self.now[n]))]
+        return min(hits) if hits else None
+
+    def switch(self, system: System, ts: np.ndarray, ys: np.ndarray, table) -> None:
+        """Every autonomous mode set as its condition is at the (one) point given."""
+        for n, on in self._states(system, ts, ys, table).items():
+            self.now[n] = float(on[-1])
+
+    def settle(self, system: System, t0: float, x: np.ndarray, vals: Mapping[str, float]) -> bool:
+        """Set the modes from the initial state; whether any changed (the system is then rebuilt)."""
+        before = dict(self.now)
+        table = _ParameterTable(lambda tt: vals, system.param_names, False)
+        self.switch(system, np.array([t0]), np.asarray(x, dtype=float).reshape(-1, 1), table)
+        return self.now != before
 
 
 class _StageClock:
@@ -590,18 +690,18 @@ def _scipy(system: System, table: _ParameterTable, how: str, a: float, b: float,
         raise SimulationError(f"integration failed between {a:g} s and {b:g} s: {sol.message} "
                               "(try method ros2)")
     end = sol.y[:, -1]
-    if pts.size and sol.t[-1] < b:              # t_eval stopped short of the piece's end
+    if pts.size and b - sol.t[-1] > 1e-12 * max(1.0, abs(b)):     # t_eval stopped short of the piece's end
         end = solve_ivp(rhs, (sol.t[-1], b), end, method=how, max_step=max_step or np.inf,
                         rtol=rtol, atol=atol).y[:, -1]
     return _Solution(sol.t, sol.y, end)
 
 
-def _trajectory(model: Model, pieces: list[tuple[System, np.ndarray, np.ndarray, tuple[float, float]]],
-                values: Callable, vectorised: bool, configs: list) -> Trajectory:
+def _trajectory(model: Model, pieces: list[tuple[System, np.ndarray, np.ndarray, tuple[float, float], Callable]],
+                vectorised: bool, configs: list) -> Trajectory:
     """Outputs at the output points of every piece, computed over all the piece's samples at once."""
     out_sig: dict[str, list] = {}
     out_states: dict[str, list] = {}
-    for system, ts, ys, span in pieces:
+    for system, ts, ys, span, values in pieces:
         table = _ParameterTable(values, system.param_names, vectorised, span)
         P = table.rows(ts)
         dx = np.array([system.rates(tt, y, p) for tt, y, p in zip(ts, ys.T.tolist(), P.tolist())],
@@ -614,7 +714,7 @@ def _trajectory(model: Model, pieces: list[tuple[System, np.ndarray, np.ndarray,
                 out_sig.setdefault(name, []).append(np.zeros(ts.shape))
         for name, v in zip(system.states, ys):
             out_states.setdefault(name, []).append(v)
-    n = sum(len(ts) for _, ts, _, _ in pieces)
+    n = sum(len(ts) for _, ts, _, _, _ in pieces)
     sig = {k: np.concatenate(v) for k, v in out_sig.items()}
     sig = {k: v for k, v in sig.items() if len(v) == n}
     states = {k: np.concatenate(v) for k, v in out_states.items()}
@@ -622,7 +722,7 @@ def _trajectory(model: Model, pieces: list[tuple[System, np.ndarray, np.ndarray,
     for s in model.sensors.values():
         if s.measures in ("displacement", "momentum"):
             sig[s.name] = states.get(s.name, np.zeros(n))
-    t_all = np.concatenate([ts for _, ts, _, _ in pieces]) if pieces else np.zeros(0)
+    t_all = np.concatenate([ts for _, ts, _, _, _ in pieces]) if pieces else np.zeros(0)
     return Trajectory(t_all, sig, states, configs)
 
 

@@ -226,10 +226,27 @@ def signals_from_data(model: Model, data: Measurements) -> dict[str, np.ndarray]
     for m in model.modes.values():
         if m.column:
             out[m.name] = (np.asarray(data.columns[m.column], dtype=float) >= 0.5).astype(float)
+    out.update(autonomous_modes(model, out))
+    return out
+
+
+def autonomous_modes(model: Model, signals: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Each autonomous mode, sample by sample: 1 where its condition (``positive``) is above zero."""
+    out = {}
+    for m in model.modes.values():
+        if m.positive is None:
+            continue
+        syms = sorted(m.positive.free_symbols, key=lambda x: x.name)
+        nominal = {k.name: float(v) for k, v in model.nominal_values().items()}
+        args = [signals[x.name] if x.name in signals else nominal[x.name] for x in syms]
+        value = sp.lambdify(syms, m.positive, modules="numpy")(*args)
+        n = len(next(iter(signals.values()))) if signals else 1
+        out[m.name] = (np.asarray(value, dtype=float) > 0).astype(float) * np.ones(n)
     return out
 
 
 def commanded(model: Model, raw: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """The commanded mode variables' values, sample by sample (0 or 1; a command column is read
-    as 1 from 0.5 up), by mode name: residuals evaluate each sample in its commanded mode."""
-    return {m.name: np.asarray(raw[m.name]) for m in model.modes.values() if m.column and m.name in raw}
+    """The commanded and autonomous mode variables' values, sample by sample (0 or 1; a command
+    column is read as 1 from 0.5 up), by mode name: residuals evaluate each sample in its mode."""
+    return {m.name: np.asarray(raw[m.name]) for m in model.modes.values()
+            if (m.column or m.autonomous) and m.name in raw}

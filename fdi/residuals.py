@@ -159,10 +159,12 @@ def corrected_signals(model: Model, raw: Mapping[str, np.ndarray], ts: float, or
 
 
 def mode_breaks(model: Model, raw: Mapping[str, np.ndarray]) -> np.ndarray:
-    """Sample indices where a commanded mode switches (its column crosses 0.5): a switch makes the
+    """Sample indices where a commanded or autonomous mode switches (its values, or its command column,
+    cross 0.5): a switch makes the
     derivatives of the signals jump (an inductor's current slope at every PWM edge), which no
     filter window may straddle."""
-    cols = [m.column for m in model.modes.values() if m.column and m.column in raw]
+    cols = [m.name if m.name in raw else m.column for m in model.modes.values()
+            if (m.column or m.autonomous) and (m.name in raw or m.column in raw)]
     if not cols:
         return np.zeros(0, dtype=int)
     on = np.stack([np.asarray(raw[c], dtype=float) >= 0.5 for c in cols])

@@ -127,3 +127,42 @@ def test_an_algebraic_loop_is_solved_while_switch_and_diode_both_conduct():
     ref = solve_ivp(rhs, (0.0, t[-1]), [0.0, 0.0], t_eval=t, rtol=1e-10, atol=1e-12, method="LSODA").y
     assert np.max(np.abs(traj.signals["iL"] - ref[0])) < 1e-5 * np.max(np.abs(ref[0]))
     assert np.max(np.abs(traj.signals["vo"] - ref[1])) < 1e-4 * np.max(np.abs(ref[1]))
+
+
+DCM = ROOT / "tests" / "data" / "boost_dcm.yaml"
+
+
+def _pwm_values(m):
+    nominal = {s.name: float(v) for s, v in m.nominal_values().items()}
+
+    def values(tt):
+        out = dict(nominal)
+        out["s"] = np.where((np.asarray(tt) % 5e-5) < 2.5e-5, 1.0, 0.0) if np.ndim(tt) else \
+            float((tt % 5e-5) < 2.5e-5)
+        return out
+    return values
+
+
+def test_a_diode_that_blocks_when_its_current_ends_is_an_autonomous_mode():
+    """Discontinuous conduction (tests/data/boost_dcm.yaml, diode mode c*(1 - s), c: positive: iL):
+    bgfdi's simulator switches the diode off where the current reaches zero, within one sample of
+    the independent simulation's located event; the residuals, with c read off the measured
+    current, vanish in all three phases (switch on, diode on, both off)."""
+    m = load_model(DCM)
+    assert m.modes["c"].autonomous and not m.modes["s"].autonomous
+    t = np.round(np.arange(0.0, 0.003 + 0.5e-6, 1.0e-6), 12)
+    traj = bg_simulate(m, t, values=_pwm_values(m), breakpoints=[k * 2.5e-5 for k in range(1, 120)],
+                       vectorised=True)
+    ref = boost.simulate_dcm(0.003, p={"L": 2.0e-5, "Rload": 100.0})
+    assert np.sum(ref["iL"] == 0.0) > 0.2 * t.size                # it is discontinuous
+    assert np.max(np.abs(traj.signals["iL"] - ref["iL"])) < 0.01 * np.max(ref["iL"])
+    assert np.max(np.abs(traj.signals["vo"] - ref["vo"])) < 0.01 * np.max(ref["vo"])
+    from fdi.data import autonomous_modes
+    raw = dict(ref)
+    raw["s"] = ref["s_cmd"]
+    raw.update(autonomous_modes(m, raw))
+    kernels = compile_residuals(m, list(select_arrs(m).arrs))
+    r = evaluate(m, kernels, raw, 1.0e-6, values={"s": raw["s"], "c": raw["c"]}, window=1.0e-5)[:, 100:-100]
+    ok = np.isfinite(r)
+    assert ok.mean() > 0.4
+    assert np.max(np.abs(r[ok])) < 0.05

@@ -49,3 +49,54 @@ def simulate(T: float, fs: float = 1.0e6, *, changes: dict[str, tuple[float, flo
     iL = out[0] + (rng.normal(0.0, noise, t.size) if noise else 0.0)
     vo = out[1] + (rng.normal(0.0, noise, t.size) if noise else 0.0)
     return {"t": t, "Vin": np.full(t.size, NOMINAL["Vin"]), "s_cmd": s, "iL": iL, "vo": vo}
+
+
+def simulate_dcm(T: float, fs: float = 1.0e6, p: dict | None = None) -> dict[str, np.ndarray]:
+    """The converter in discontinuous conduction: while the switch is open the diode conducts
+    until the inductor current reaches zero (an event located by scipy), then both branches are
+    off, the current stays zero and the capacitor feeds the load alone."""
+    p = dict(NOMINAL, **(p or {}))
+    t = np.round(np.arange(0.0, T + 0.5 / fs, 1.0 / fs), 12)
+    half = 0.5 / F_PWM
+    out = np.zeros((2, t.size))
+    x = np.zeros(2)
+
+    def on(_t, y):
+        return [(p["Vin"] - (p["rL"] + p["Ron"]) * y[0]) / p["L"], -y[1] / (p["Rload"] * p["Co"])]
+
+    def diode(_t, y):
+        return [(p["Vin"] - (p["rL"] + p["Rd"]) * y[0] - y[1]) / p["L"], (y[0] - y[1] / p["Rload"]) / p["Co"]]
+
+    def off(_t, y):
+        return [0.0, -y[1] / (p["Rload"] * p["Co"])]
+
+    def empty(_t, y):
+        return y[0]
+    empty.terminal, empty.direction = True, -1
+    k = 0
+    a = 0.0
+    while a < T - 1e-15:
+        b = min(T, (k + 1) * half)
+        phases = [(on, None)] if k % 2 == 0 else [(diode, empty), (off, None)]
+        start = a
+        for rhs, event in phases:
+            if x[0] <= 0 and rhs is diode:
+                x[0] = 0.0
+                continue
+            sol = solve_ivp(rhs, (start, b), x, method="LSODA", rtol=1e-11, atol=1e-12, dense_output=True,
+                            events=event)
+            end = sol.t[-1]
+            last = end >= T - 1e-15
+            mask = (t >= start - 1e-15) & ((t < end - 1e-15) | last)
+            out[:, mask] = sol.sol(t[mask])
+            x = sol.y[:, -1].copy()
+            if event is not None and sol.status == 1:     # the current reached zero: the diode blocks
+                x[0] = 0.0
+                start = end
+                continue
+            break
+        a = b
+        k += 1
+    out[0] = np.where(out[0] < 0, 0.0, out[0])
+    s = ((t % (2 * half)) < half).astype(float)
+    return {"t": t, "Vin": np.full(t.size, p["Vin"]), "s_cmd": s, "iL": out[0], "vo": out[1]}
