@@ -79,3 +79,14 @@ def write_csv(columns: dict[str, np.ndarray], order: list[str], path: str | Path
         for row in zip(*(columns[c] for c in order)):
             w.writerow([repr(float(x)) for x in row])
     return path
+
+
+def drift(nominal: float, model: int, b: list[float], tau: float) -> float:
+    """An identified drift's value tau seconds after its onset, from eqs. (16) and (17) written out
+    (P = P0 exp(b1 tau); 1/P = 1/P0 - b2 tau), to size a reported incipient fault against the
+    designed one."""
+    if model == 1:
+        return nominal * math.exp(b[0] * tau)
+    if model == 2:
+        return 1.0 / (1.0 / nominal - b[0] * tau)
+    raise ValueError(f"degradation model {model} not written out here")
