@@ -179,9 +179,9 @@ def test_pump_wear_is_typed_incipient_sized_and_its_life_predicted():
     assert life["rul"] == pytest.approx(eol - life["at"], rel=0.05)
 
 
-@pytest.mark.xfail(strict=True, reason="issue 20: (b) sensitivity-unaware isolation: a drifting chamber transducer "
-                   "lights ARR1 and ARR3 and leaves ARR2 (where pc enters as A dpc/dt / k) 10x under its threshold, "
-                   "so beta_pc (signature [1 1 1]) is exonerated and the pump is blamed")
 def test_a_drifting_chamber_transducer_is_found():
+    """A drifting chamber transducer lights ARR1 and ARR3 and leaves ARR2 (where pc enters as
+    A dpc/dt / k) ten times under its threshold: exonerated by signature alone, beta_pc was lost
+    and the pump blamed; isolation aware of sensitivity (fdi.sensitivity) keeps it."""
     fault = Fault("beta_pc", "incipient", T0, rate=-0.05)
     _check_drift(fault, _diagnose(_data("transducer drift", 10, fault)), 1.0)
