@@ -5,15 +5,15 @@ from __future__ import annotations
 
 import math
 
-from ..verify import Check, Verification
+from ..verify import Check, Run, Verification
 
 
 def _number(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
-def _mode(c: Check) -> dict[str, int]:
-    return {k: int(v) for k, v in c.mode}
+def _mode(x: Check | Run) -> dict[str, int]:
+    return {k: int(v) for k, v in x.mode}
 
 
 def to_json(v: Verification) -> dict:
@@ -32,7 +32,8 @@ def to_json(v: Verification) -> dict:
         "checks": [{"arr": c.arr, "mode": _mode(c), "violation": _number(c.violation),
                     "residual": _number(c.residual), "scale": _number(c.scale), "runs": c.runs,
                     "passed": c.passed, "note": c.note or None} for c in v.checks],
-        "cut_runs": [] if s is None else [{"mode": mode, "run": run, "end_s": end} for mode, run, end in s.cuts],
+        "cut_runs": [] if s is None else [{"mode": _mode(r), "run": r.index, "end_s": r.end} for r in s.cuts],
+        "left_out_runs": [] if s is None else [{"mode": _mode(r), "run": r.index, "why": r.why} for r in s.left_out],
         "notes": list(v.notes),
     }
 
@@ -57,7 +58,9 @@ def to_lines(v: Verification) -> list[str]:
         lines.append(f"  {c.arr:<6} {c.mode_text:<{width}} {shown:>10}  {c.runs:>4}  {verdict}")
     if s is not None and s.cuts:
         lines.append("  runs cut where LSODA stalled on a switching surface (sticking friction, an emptied tank): "
-                     + ", ".join(f"{mode} run {run} at {end:.3g} s" for mode, run, end in s.cuts))
+                     + ", ".join(f"{r.mode_text} run {r.index} at {r.end:.3g} s" for r in s.cuts))
+    if s is not None:
+        lines += [f"  {r.mode_text} run {r.index} left out: {r.why}" for r in s.left_out]
     lines += [f"  note: {n}" for n in v.notes]
     passed = len(v.checks) - len(v.failures) - len(v.unverified)
     lines.append(f"  {passed} of {len(v.checks)} ARR-mode checks pass, {len(v.failures)} fail, "
