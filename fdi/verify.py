@@ -267,8 +267,8 @@ def _lsoda(model: Model, grid: np.ndarray, vals: Mapping[str, float], initial: M
 
 
 def _integrate(model: Model, grid: np.ndarray, vals: Mapping[str, float], initial: Mapping[str, float],
-               atol, finest: float) -> tuple[Trajectory, bool]:
-    """One run on ``grid`` by LSODA, and whether it had to be cut: where LSODA stalls at t_s (a
+               atol, finest: float) -> Trajectory:
+    """One run on ``grid`` by LSODA, or a shorter one: where LSODA stalls at t_s (a
     velocity sticking under Coulomb friction, a tank emptying through a square-root law: the
     ODE's right-hand side switches at every step), the run is cut before t_s, at the same
     sampling period if half of it remains, else resampled at a period down to ``finest`` to keep
@@ -276,7 +276,7 @@ def _integrate(model: Model, grid: np.ndarray, vals: Mapping[str, float], initia
     with np.errstate(all="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            return _lsoda(model, grid, vals, initial, atol), False
+            return _lsoda(model, grid, vals, initial, atol)
         except _Stalled as exc:
             stall = exc.at
         ts = float(grid[1] - grid[0])
@@ -289,7 +289,7 @@ def _integrate(model: Model, grid: np.ndarray, vals: Mapping[str, float], initia
             raise SimulationError(f"LSODA stalls at t = {stall:.3g} s, on a switching surface (sticking friction, "
                                   "an emptied tank), too early to keep a run")
         try:
-            return _lsoda(model, cut, vals, initial, atol), True
+            return _lsoda(model, cut, vals, initial, atol)
         except _Stalled as exc:
             raise SimulationError(f"LSODA stalls at t = {exc.at:.3g} s, on a switching surface (sticking friction, "
                                   "an emptied tank), too early to keep a run") from None
@@ -513,7 +513,7 @@ class _Runner:
         self.vals.update({k: float(v) for k, v in mode.items()})
         self.atol: object = 1e-9
 
-    def simulate(self, inputs: Mapping[str, sp.Expr], initial: Mapping[str, float]) -> tuple[Trajectory, bool]:
+    def simulate(self, inputs: Mapping[str, sp.Expr], initial: Mapping[str, float]) -> Trajectory:
         m = replace(self.model, inputs={k: replace(i, expr=inputs[k]) for k, i in self.model.inputs.items()})
         return _integrate(m, self.grid, self.vals, initial, self.atol, self.finest)
 
@@ -523,14 +523,13 @@ class _Runner:
         of the inputs (a run from rest under a weak input may stick at once)."""
         for k in range(tries):
             try:
-                traj, _ = self.simulate(_inputs(self.model, self.rng, self.tau, self.grid), self.model.initial)
+                traj = self.simulate(_inputs(self.model, self.rng, self.tau, self.grid), self.model.initial)
             except SimulationError:
                 if k == tries - 1:
                     raise
                 continue
             return {name: np.asarray(v, dtype=float) for name, v in traj.states.items()}
         raise SimulationError("no scouting run")
-
 
     def judge(self, compiled: Sequence[_Compiled], orders: Mapping[str, int], pool: Mapping[str, np.ndarray],
               runs: int) -> tuple[dict[str, tuple[float, float, int, int]], list[float | str]]:
@@ -551,7 +550,7 @@ class _Runner:
                 initial = {s: float(v[i] * math.exp(0.3 * self.rng.standard_normal())
                                     + 0.5 * np.ptp(v) * self.rng.standard_normal()) for s, v in pool.items()}
             try:
-                traj, _ = self.simulate(inputs, initial)
+                traj = self.simulate(inputs, initial)
                 raw = _raw(traj, self.model, inputs)
                 if not all(np.all(np.isfinite(x)) for x in raw.values()):
                     raise SimulationError("the simulated signals leave the floats (an unstable or singular mode)")
