@@ -33,9 +33,11 @@ def _causality(model: Model, c: Causality) -> dict:
             "strong": dict(c.strong), "detectors": sorted(c.detectors), "bonds": _bonds(model, c)}
 
 
-def analyse(path: str, causality: str = "derivative") -> dict:
+def analyse(path: str, causality: str = "derivative", verify_seed: int | None = None) -> dict:
     """What ``bgfdi check`` reports, as plain data. A model without any residual, or with one
-    undefined in some mode, is a CausalityError as for the text report."""
+    undefined in some mode, is a CausalityError as for the text report. With ``verify_seed``
+    (``--verify``), the residuals are also verified on the simulated model (``verification``,
+    :mod:`fdi.app.verify_report`; null otherwise)."""
     from ..arrs import select_arrs, undefined_in_modes
     from ..signatures import all_modes
 
@@ -57,6 +59,13 @@ def analyse(path: str, causality: str = "derivative") -> dict:
         raise CausalityError(bad)
     with stage("simulation causality (SCAP)"):
         sim = assign(model, SIMULATION)
+    verification = None
+    if verify_seed is not None:
+        from ..verify import verify
+        from .verify_report import to_json
+
+        with stage("verification on the simulated model"):
+            verification = to_json(verify(model, arrs, seed=verify_seed))
     return {
         "model": model.name,
         "file": str(path),
@@ -77,6 +86,7 @@ def analyse(path: str, causality: str = "derivative") -> dict:
         },
         "simulation": _causality(model, sim),
         "monitor": _monitor(config),
+        "verification": verification,
     }
 
 

@@ -219,9 +219,19 @@ def _causality_lines(model: Model, c: Causality) -> list[str]:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    """The model's summary, causality and residuals; with ``--verify``, the residuals checked on
+    the simulated model: exit code 1 when one does not vanish (a finding, one line per ARR and
+    mode on standard error), 0 otherwise."""
     if args.json:
         from .check_report import analyse
-        _emit(_json_text(analyse(args.model, args.causality)), None)
+        report = analyse(args.model, args.causality, args.seed if args.verify else None)
+        _emit(_json_text(report), None)
+        verification = report["verification"]
+        if verification is not None and not verification["ok"]:
+            from .verify_report import failures
+            for line in failures(verification, args.model):
+                LOG.error(line)
+            return 1
         return 0
     from ..config import load
 
@@ -294,7 +304,19 @@ def cmd_check(args: argparse.Namespace) -> int:
     print("  storage: " + (", ".join(f"{k} {v}" for k, v in sim.storage.items()) or "none"))
     for p in list(sim.problems) + list(sim.loops):
         print(f"  note: {p}")
-    return 0
+    if not args.verify:
+        return 0
+    from ..verify import verify
+    from .verify_report import failures, to_json, to_lines
+
+    with stage("verification on the simulated model"):
+        verification = verify(model, arrs, seed=args.seed)
+    print()
+    for line in to_lines(verification):
+        print(line)
+    for line in failures(to_json(verification), args.model):
+        LOG.error(line)
+    return 0 if verification.ok else 1
 
 
 def cmd_graph(args: argparse.Namespace) -> int:
@@ -721,6 +743,11 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--causality", choices=CAUSALITY_CHOICES, default="derivative",
                    help="residuals that differentiate only (default) or may integrate (mixed)")
     c.add_argument("--json", action="store_true", help="print the summary, causality and residuals as JSON")
+    c.add_argument("--verify", action="store_true",
+                   help="also simulate the model in every mode from random states and inputs and check that every "
+                        "residual vanishes on it (exit code 1 when one does not)")
+    c.add_argument("--seed", type=whole(0), default=0,
+                   help="--verify: the seed of its random states and inputs, an integer >= 0 (default 0)")
     c.set_defaults(func=cmd_check)
 
     g = sub.add_parser("graph", help="write Graphviz DOT with causal strokes")
