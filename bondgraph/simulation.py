@@ -451,7 +451,7 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
              breakpoints: Sequence[float] = (), initial: Mapping[str, float] | None = None,
              method: str = "auto", max_step: float | None = None, progress: Callable[[float], None] | None = None,
              vectorised: bool = False, stages: dict[str, float] | None = None,
-             tolerances: tuple[float, float] = (1e-6, 1e-9)) -> Trajectory:
+             tolerances: tuple[float, float] = (1e-6, 1e-9), autonomous: bool = True) -> Trajectory:
     """Simulate on ``t_eval``. ``values(t)`` gives every parameter, efficiency factor and mode
     variable at time t (faults included); ``breakpoints`` are the instants where they jump. With
     ``vectorised``, ``values`` also takes an array of times and gives arrays (or constants): the
@@ -466,7 +466,8 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
     so sensitive to the flows, dp = R4^2 f|f|, that checking it takes far tighter ones).
 
     ``stages``: if given, the CPU seconds of each stage are added to it: ``build`` (state
-    equations), ``integrate``, ``outputs``."""
+    equations), ``integrate``, ``outputs``. ``autonomous``: False holds every autonomous mode at the
+    value ``values`` gives (a diode held conducting: what checking each mode's ARRs needs)."""
     clock = _StageClock(stages)
     initial = dict(initial or {})
     t_eval = np.asarray(t_eval, dtype=float)
@@ -478,7 +479,7 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
     system: System | None = None
     x = None
     span = (edges[0], edges[0])
-    auto = _Autonomous(model)
+    auto = _Autonomous(model if autonomous else None)
     queue = [(a, b) for a, b in zip(edges[:-1], edges[1:])]
     queue.reverse()
     restarts = 0
@@ -551,9 +552,9 @@ class _Autonomous:
     a stretch of solution a condition changes sign (the stretch is then cut there and the model
     switched: an event located to one output point)."""
 
-    def __init__(self, model: Model):
+    def __init__(self, model: Model | None):
         self.model = model
-        self.modes = {m.name: m for m in model.modes.values() if m.autonomous}
+        self.modes = {m.name: m for m in model.modes.values() if m.autonomous} if model is not None else {}
         self.now = {n: float(m.nominal) for n, m in self.modes.items()}
         self._conditions = {}
         for n, m in self.modes.items():
@@ -684,6 +685,8 @@ def _scipy(system: System, table: _ParameterTable, how: str, a: float, b: float,
     def rhs(tt, xx):
         return system.derivative(tt, xx, table.at(tt))
     rtol, atol = tolerances
+    if np.ndim(atol) and np.size(atol) != len(x):      # per-state tolerances of another configuration
+        atol = float(np.min(atol))
     sol = solve_ivp(rhs, (a, b), x, method=how, t_eval=pts if pts.size else None,
                     max_step=max_step or np.inf, rtol=rtol, atol=atol)
     if not sol.success:
@@ -883,9 +886,13 @@ def _initial_state(system: System, initial: Mapping[str, float], t0: float, vals
     """States from the initial values given by state name; values given for other sensor signals
     (a tank pressure, say) are met by solving for the storage states not given explicitly."""
     x = np.array([initial.get(n, 0.0) for n in system.states], dtype=float)
-    targets = {k: v for k, v in initial.items() if k not in system.states and k in system.output_names}
+    targets = {k: v for k, v in initial.items() if k not in system.states and k in system.output_names
+               and k not in system.storage_names}
     free = [i for i, (n, kind) in enumerate(zip(system.states, system.kinds)) if kind == "storage" and n not in initial]
-    unknown = [k for k in initial if k not in system.states and k not in system.output_names]
+    # a storage element that is dependent in this configuration (its state fixed by the others) takes
+    # no initial value of its own: it is skipped, not refused
+    unknown = [k for k in initial if k not in system.states and k not in system.output_names
+               and k not in system.storage_names]
     if unknown:
         raise SimulationError(f"initial value(s) for {', '.join(unknown)}: no state or sensor of that name")
     if not targets:

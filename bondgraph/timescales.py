@@ -91,6 +91,8 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
             continue
         if not len(x0):
             continue
+        fastest_here: list[float] = []
+        slowest_here: list[float] = []
         rng = np.random.default_rng(0)
         for k in range(POINTS):
             x = x0 if k == 0 else x0 * (1 + 0.5 * rng.standard_normal(len(x0))) + 1e-3 * rng.standard_normal(len(x0))
@@ -103,10 +105,15 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
             eigs += lam
             mags = [abs(v) for v in lam if abs(v) > 1e-12]
             if mags:
-                fastest.append(1.0 / max(mags))
-                slowest.append(1.0 / min(mags))
+                fastest_here.append(1.0 / max(mags))
+                slowest_here.append(1.0 / min(mags))
+        # the median over a mode's operating points: a point on a switching surface (Coulomb
+        # friction at rest, sign(v) differenced across v = 0) gives a spurious near-infinite slope
+        # at that point only; then the fastest and slowest over the modes (a converter's LC
+        # resonance lives in one switch position only)
+        if fastest_here:
+            fastest.append(float(np.median(fastest_here)))
+            slowest.append(float(np.median(slowest_here)))
     if not fastest:
         return TimeScales(math.inf, math.inf, tuple(eigs), tuple(notes))
-    # the median over operating points: a point on a switching surface (Coulomb friction at rest,
-    # sign(v) differenced across v = 0) gives a spurious near-infinite slope at that point only
-    return TimeScales(float(np.median(fastest)), float(np.median(slowest)), tuple(eigs), tuple(notes))
+    return TimeScales(min(fastest), max(slowest), tuple(eigs), tuple(notes))

@@ -166,3 +166,13 @@ def test_a_diode_that_blocks_when_its_current_ends_is_an_autonomous_mode():
     ok = np.isfinite(r)
     assert ok.mean() > 0.4
     assert np.max(np.abs(r[ok])) < 0.05
+
+
+def test_verification_passes_the_rebuilt_residuals_and_fails_the_one_causality_form_while_the_diode_conducts():
+    from fdi.verify import verify
+    m = load_model(MODEL)
+    good = verify(m, seed=1)
+    assert good.ok and good.complete
+    bad = verify(m, list(_select(m).arrs), seed=1)
+    assert not bad.ok
+    assert {c.mode_text for c in bad.failures} == {"s=0"}
