@@ -7,15 +7,15 @@ data, :class:`fdi.data.Measurements`), and the fastest time constant ``tau`` of 
 eigenvalues of its linearised state equations in every mode, :mod:`bondgraph.timescales`). The
 rules, each in one function below with its reason:
 
-==========================  =====================================================================
-derivative window W         ``tau / 2`` within [9 ts, 101 ts]; ``25 ts`` when the model has no time constant
-settling time               ``W / 2`` after the data start (the filter's start edge); ``7 tau_d``
-                            when a mode turns more than a radian within W (tau_d: its decay time)
-end edge                    ``W / 2`` before the data end (the filter's end edge)
-shortest period             ``max(2 W, 4 ts)`` for an intermittent fault
-waiting time T_wt           ``W``
-integration step (ROS2)     ``min(ts, tau / 20)`` (:func:`bondgraph.timescales.integration_step`)
-==========================  =====================================================================
+- derivative window W: ``tau / 2`` within [9 ts, 101 ts]; ``25 ts`` when the model has no
+  time constant;
+- settling time: ``W / 2`` after the data start (the filter's start edge), or ``7 tau_d`` when
+  a mode turns more than a radian within W (tau_d: its decay time);
+- end edge: ``W / 2`` before the data end (the filter's end edge);
+- shortest intermittent period: ``max(2 W, 4 ts)``;
+- waiting time T_wt: ``W``;
+- integration step (ROS2): ``min(ts, tau / 20)`` (:func:`bondgraph.timescales.integration_step`:
+  the simulator cannot import fdi, so that one rule lives there).
 
 A value the model file sets (``diagnosis: derivative_window``, ``waiting_time``) is used exactly
 as given: every model bgfdi ships sets both, so these rules decide nothing for them but the
