@@ -41,6 +41,7 @@ from .equations import relations, resolve
 from .program import Line, Program, compile_lines, linear_coefficients, needed_lines, substitute, triangular_order
 from .errors import CausalityError
 from .model import LAW_VARIABLES, Element, Model, t
+from .timescales import model_integration_step
 
 
 class SimulationError(Exception):
@@ -458,7 +459,8 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
     parameters are then tabulated once per piece instead of once per step.
 
     ``method``: a scipy ``solve_ivp`` method (LSODA, Radau, BDF for stiff problems; RK45), ``ros2``
-    (fixed-step L-stable Rosenbrock-W, step <= ``max_step``, default 1 ms), or ``auto``: ros2 when the
+    (fixed-step L-stable Rosenbrock-W, step ``max_step``, by default the sampling time or a twentieth
+    of the model's fastest time constant, the shorter: :func:`bondgraph.timescales.integration_step`), or ``auto``: ros2 when the
     equations are discontinuous (Coulomb friction sign(v), leakage sqrt|dp|: error-controlled
     methods stall at the switching surface when a velocity sticks near zero, and a leak makes the
     problem stiff; a fixed step bounds the chatter to F_c/J * h, far below sensor resolution),
@@ -473,6 +475,7 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
     t_eval = np.asarray(t_eval, dtype=float)
     edges = sorted({float(t_eval[0]), float(t_eval[-1])} | {float(b) for b in breakpoints if t_eval[0] < b < t_eval[-1]})
     cache: dict[frozenset, System] = {}
+    ros2_step = max_step      # the caller's step, else the model's (bondgraph.timescales.integration_step)
     max_step = max_step or float(np.min(np.diff(t_eval))) if t_eval.size > 1 else None
     pieces: list[tuple[System, np.ndarray, np.ndarray, tuple[float, float], Callable]] = []
     configs: list[tuple[float, frozenset[str]]] = []
@@ -521,7 +524,8 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
         how = method if method != "auto" else ("ros2" if system.discontinuous else "LSODA")
         with clock("integrate"):
             if how == "ros2":
-                sol = _ros2(system, table, a, b, x, pts, min(max_step or 1e-3, 1e-3), implicit_start=fresh_states)
+                ros2_step = ros2_step or model_integration_step(model, max_step or np.inf)
+                sol = _ros2(system, table, a, b, x, pts, ros2_step, implicit_start=fresh_states)
             else:
                 sol = _scipy(system, table, how, a, b, x, pts, max_step, tolerances)
         x = sol.end

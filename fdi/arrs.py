@@ -291,17 +291,112 @@ def undefined_in_modes(model: Model, arrs: list[ARR], modes: list[dict[str, int]
 
 
 def arr_unit(model: Model, arr: ARR) -> str:
-    """The unit of a residual: the junction law it comes from sums flows at a 0-junction and
-    efforts at a 1-junction, and effort x flow is power (W). The common variable's unit comes from
-    the sensor on that junction (divided by s when it measures a displacement or a momentum). An
-    MSO residual written at a C or I element is its storage law in derivative causality (f = C de/dt,
-    e = I df/dt): the variable its junction sums too. ``?`` when no sensor there says it.
+    """The unit of a residual: the unit of the variables its equation sums. A junction law sums
+    flows at a 0-junction and efforts at a 1-junction; a storage element's law in derivative
+    causality sums flows at a C (f = C de/dt) and efforts at an I (e = I df/dt), whatever junction
+    it sits on; a sensor's equation, the variable it measures. Each summed term, as the residual
+    is written, is read for its dimension: the units of the parameters, inputs and sensors it
+    multiplies (a time derivative divides by s, efficiency factors and mode variables have none,
+    a state X(t) integrated by a mixed-causality residual has its rate's unit times s), and the
+    terms must agree (a number added alone is taken to carry their unit). Where no term can be
+    read (a unit the file does not give), the junction's sensor says it: its common variable,
+    and the summed variable read off an element on the junction or from effort x flow = power.
+    ``?`` only when neither says anything.
 
     >>> from bondgraph.loader import load_model
     >>> m = load_model("models/two_tank_valve.yaml")
     >>> arr_unit(m, select_arrs(m).arrs[0])
     'm^3/s'
     """
+    from bondgraph.units import format_dimension
+
+    summed = _residual_dimension(model, arr)
+    if summed is not None:
+        return format_dimension(summed)
+    return _junction_unit(model, arr)
+
+
+def _residual_dimension(model: Model, arr: ARR) -> dict[str, float] | None:
+    """The dimension of the terms ``arr.expr`` sums; None when no term can be read or they disagree."""
+    from bondgraph.units import dimension
+
+    units: dict[str, str] = {p.name: p.unit for p in model.parameters.values()}
+    units.update({i.name: i.unit for i in model.inputs.values()})
+    units.update({s.name: s.unit for s in model.sensors.values()})
+    dimensionless = set(model.modes)           # and every beta_<name>: the names are reserved for them
+    states = {X: rhs for X, rhs in arr.states}
+    seen: set = set()
+    second = {"s": 1.0}
+
+    def unit(name: str) -> dict[str, float] | None:
+        if name in dimensionless or name.startswith("beta_"):
+            return {}
+        text = units.get(name)
+        if text is None:
+            return None
+        try:
+            return dimension(text)
+        except ValueError:
+            return None
+
+    def dim(e: sp.Expr) -> dict[str, float] | None:
+        if e.is_number:
+            return {}
+        if e == t:
+            return dict(second)
+        if isinstance(e, sp.Symbol):
+            return unit(e.name)
+        if e in states:
+            if e in seen:
+                return None
+            seen.add(e)
+            rate = dim(states[e])
+            return None if rate is None else _times(rate, second, 1)
+        if isinstance(e, sp.Derivative):
+            inner = dim(e.expr)
+            order = sum(int(c) for v, c in e.variable_count if v == t)
+            return None if inner is None else _times(inner, second, -order)
+        if isinstance(e, sp.Add):
+            return _agree([dim(a) for a in e.args if not a.is_number])
+        if isinstance(e, sp.Mul):
+            out: dict[str, float] = {}
+            for a in e.args:
+                d = dim(a)
+                if d is None:
+                    return None
+                out = _times(out, d, 1)
+            return out
+        if isinstance(e, sp.Pow):
+            if not e.exp.is_number:
+                return {}
+            d = dim(e.base)
+            return None if d is None else _times({}, d, float(e.exp))
+        if isinstance(e, (sp.Abs, sp.Min, sp.Max)):
+            return _agree([dim(a) for a in e.args])
+        if isinstance(e, sp.core.function.AppliedUndef):          # a measured signal y(t)
+            return unit(type(e).__name__)
+        return {}                                   # sign, heaviside, exp, sin, atan2, ...: a pure number
+
+    return dim(arr.expr)
+
+
+def _times(a: dict[str, float], b: dict[str, float], power: float) -> dict[str, float]:
+    out = dict(a)
+    for k, v in b.items():
+        out[k] = out.get(k, 0.0) + power * v
+    return {k: v for k, v in out.items() if abs(v) > 1e-12}
+
+
+def _agree(dims: list[dict[str, float] | None]) -> dict[str, float] | None:
+    """The common dimension of summed terms (those that can be read); None if none can or two differ."""
+    known = [d for d in dims if d is not None]
+    if not known or any(set(d) != set(known[0]) or any(abs(d[k] - known[0][k]) > 1e-9 for k in d) for d in known):
+        return None
+    return known[0]
+
+
+def _junction_unit(model: Model, arr: ARR) -> str:
+    """The unit the junction of ``arr`` sums, from the sensor on it (see :func:`arr_unit`)."""
     from bondgraph.units import combine, dimension, format_dimension
 
     name = arr.junction

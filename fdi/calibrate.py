@@ -3,15 +3,23 @@
 A residual's threshold must stay above what noise, filter and model error make of it when
 nothing is wrong, and as low as that allows so that faults are seen early. From nominal runs:
 
-- ``peak`` (default): the largest |r| of each residual over all the runs (after the settling
-  second), times a margin (1.5: the peak of a longer or noisier run exceeds the one seen);
+- ``peak`` (default): the largest |r| of each residual over all the runs, times a margin (1.5:
+  the peak of a longer or noisier run exceeds the one seen);
 - ``quantile``: the q-quantile of |r| over all samples, times the margin (for long records with
   rare spikes; a quantile below 1 accepts that fraction of samples above the threshold).
 
+Only the samples detection looks at count: half a derivative window after each run's start and
+before its end are left out (:func:`fdi.detect.trusted`, :mod:`fdi.scales`), where the
+Savitzky-Golay filter is evaluated off its centre and its noise is several times the interior's
+(measured: peaks taken at the last sample made thresholds 1.3 to 2.7 times too loose).
+
 With two runs or more the false-alarm rate is estimated by leaving each run out: thresholds from
-the others, and whether the left-out run crosses one. Each residual's unit is given
-(:func:`fdi.arrs.arr_unit`): it depends on the junction it sums at (m^3/s for one residual of a
-hydraulic model, Pa or N*m for the next).
+the others, and whether the left-out run crosses one. That is an estimate of the chance that a new
+fault-free run, as long as these, raises an alarm with the thresholds of all of them; with n runs
+it can only be a multiple of 1/n, and it is pessimistic (the thresholds used come from one run
+fewer). Each left-out run's worst residual is reported with its ratio to the others' threshold.
+Each residual's unit is given (:func:`fdi.arrs.arr_unit`): it depends on the variable it sums
+(m^3/s for one residual of a hydraulic model, Pa or N*m for the next).
 """
 from __future__ import annotations
 
@@ -20,10 +28,11 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from . import scales
 from .arrs import arr_unit
 from .data import Measurements, commanded, read_csv, signals_from_data
 from .identify import compiled
-from .detect import settling
+from .detect import settling, trusted
 from .residuals import evaluate
 
 DEFAULT_MARGIN = 1.5
@@ -35,12 +44,14 @@ class Calibration:
     model: str
     names: list[str]
     units: list[str]
-    peaks: list[list[float]]            # per run, per residual: max |r| after settling
+    peaks: list[list[float]]            # per run, per residual: max |r| between the filter's edges
     thresholds: list[float]
     rule: str
     margin: float
     false_alarms: list[bool] | None     # per run left out: did it cross a threshold of the others?
     runs: list[str]
+    worst: list[tuple[str, float]] | None = None   # per run left out: its residual nearest (or furthest
+                                                    # past) the others' threshold, and |r| / that threshold
 
     @property
     def false_alarm_rate(self) -> float | None:
@@ -50,15 +61,16 @@ class Calibration:
         return {**asdict(self), "false_alarm_rate": self.false_alarm_rate}
 
 
-def nominal_residuals(model_path: str, data: str | Measurements, settle: float = 1.0) -> np.ndarray:
-    """|r| of every residual on one run, the settling time left out: (residuals, samples)."""
+def nominal_residuals(model_path: str, data: str | Measurements, settle: float | None = None) -> np.ndarray:
+    """|r| of every residual on one run, on the samples detection looks at (the derivative
+    filter's edges left out, at least ``settle`` s at the start): (residuals, samples)."""
     c = compiled(model_path)
     model = c.model
     meas = data if isinstance(data, Measurements) else read_csv(data)
+    sc = scales.for_model(model, c.config, meas.ts)
     raw = signals_from_data(model, meas)
-    r = evaluate(model, list(c.residuals), raw, meas.ts, window=c.config.derivative_window,
-                 values=commanded(model, raw))
-    keep = meas.t >= meas.t[0] + settling(settle, c.config.derivative_window)
+    r = evaluate(model, list(c.residuals), raw, meas.ts, window=sc.window, values=commanded(model, raw))
+    keep = trusted(meas.t, settling(settle, sc.settle), sc.end_edge)
     return np.abs(np.asarray(r))[:, keep]
 
 
@@ -69,23 +81,25 @@ def _threshold(samples: list[np.ndarray], quantile: float | None, margin: float)
 
 
 def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quantile: float | None = None,
-              settle: float = 1.0) -> Calibration:
+              settle: float | None = None) -> Calibration:
     """Thresholds from nominal ``runs`` (paths or Measurements); see the module doc."""
     c = compiled(model_path)
     model, arrs = c.model, c.arrs
+    names = [a.name for a in arrs]
     samples = [nominal_residuals(model_path, run, settle) for run in runs]
     thresholds = _threshold(samples, quantile, margin)
-    false_alarms = None
+    false_alarms = worst = None
     if len(samples) > 1:
-        false_alarms = []
+        false_alarms, worst = [], []
         for i, left in enumerate(samples):
             others = _threshold(samples[:i] + samples[i + 1:], quantile, margin)
+            ratio = left.max(axis=1) / others
             false_alarms.append(bool((left > others[:, None]).any()))
-    names = [a.name for a in arrs]
+            worst.append((names[int(np.argmax(ratio))], float(ratio.max())))
     return Calibration(model.name, names, [arr_unit(model, a) for a in arrs],
                        [[float(x) for x in s.max(axis=1)] for s in samples], [float(x) for x in thresholds],
                        "peak" if quantile is None else f"quantile {quantile:g}", margin, false_alarms,
-                       [getattr(r, "path", str(r)) for r in runs])
+                       [getattr(r, "path", str(r)) for r in runs], worst)
 
 
 def format_calibration(c: Calibration) -> str:
@@ -97,8 +111,15 @@ def format_calibration(c: Calibration) -> str:
     if c.false_alarms is None:
         lines.append("false alarms: give two runs or more to estimate them (each is left out in turn)")
     else:
-        lines.append(f"false alarms, each run left out in turn: {sum(c.false_alarms)} of {len(c.false_alarms)} "
-                     f"({100 * c.false_alarm_rate:.0f} %)")
+        n = len(c.false_alarms)
+        lines.append(f"false alarms, each run left out in turn: {sum(c.false_alarms)} of {n} "
+                     f"({100 * c.false_alarm_rate:.0f} %): how often a fault-free run alarms with thresholds "
+                     f"calibrated without it,")
+        lines.append(f"  an estimate of the chance that a new fault-free run as long as these alarms (in steps of "
+                     f"1/{n}; pessimistic: one run fewer)")
+        for run, alarmed, (name, ratio) in zip(c.runs, c.false_alarms, c.worst or ()):
+            lines.append(f"  {run}: {name} reaches {ratio:.2f} x the others' threshold"
+                         + (" (an alarm)" if alarmed else ""))
     lines.append("thresholds: {" + ", ".join(f"{n}: {t:.4g}" for n, t in zip(c.names, c.thresholds)) + "}")
     return "\n".join(lines) + "\n"
 

@@ -41,9 +41,10 @@ from bondgraph.model import Model
 
 MAX_TIME = 1.0e6             # s: a derivative window or waiting time beyond 11 days is a typing error
 MAX_SAMPLES = 10_000_000     # samples in an identification window
-DEFAULT_WAITING_TIME = 0.0   # s
 DEFAULT_SAMPLES = 1000       # the paper's identification window (Section IV)
-DEFAULT_DERIVATIVE_WINDOW = 0.25   # s: the Savitzky-Golay window of the residuals' derivatives
+# The derivative window and the waiting time have no default in seconds: when the file gives none
+# (None here), fdi.scales derives them from the data's sampling time and the model's time constants
+# once the data are known (fdi.scales.resolve).
 
 
 @dataclass(frozen=True)
@@ -58,11 +59,14 @@ class FaultSettings:
 class MonitorConfig:
     """The settings of a monitor of one model: thresholds by residual name (ARR1, ARR2, ...), the
     waiting time T_wt (s) after the first detection before isolation decides, the identification
-    window in samples, the derivative window (s), and :class:`FaultSettings` by fault name."""
+    window in samples, the derivative window (s), and :class:`FaultSettings` by fault name.
+    ``waiting_time`` and ``derivative_window`` are None when the file leaves them to the data and
+    the model (:func:`fdi.scales.resolve` fills them in: one window, a window of half the fastest
+    time constant and at least 9 samples)."""
     thresholds: Mapping[str, float] = field(default_factory=dict)
-    waiting_time: float = DEFAULT_WAITING_TIME
+    waiting_time: float | None = None
     samples: int = DEFAULT_SAMPLES
-    derivative_window: float = DEFAULT_DERIVATIVE_WINDOW
+    derivative_window: float | None = None
     faults: Mapping[str, FaultSettings] = field(default_factory=dict)
 
     def bounds(self, fault: str) -> tuple[float, float] | None:
@@ -85,10 +89,13 @@ class MonitorConfig:
 def read_config(doc: Document, model: Model) -> MonitorConfig:
     """The monitor settings of a read model file; a ModelError (file, key, line) on a bad value."""
     diag = doc.spec(doc.data.get("diagnosis") or {}, ("diagnosis",), {"waiting_time", "samples", "derivative_window"})
-    window = doc.number(diag.get("derivative_window", DEFAULT_DERIVATIVE_WINDOW), ("diagnosis", "derivative_window"),
-                        "derivative_window (a time in s)", above=0, maximum=MAX_TIME)
-    waiting = doc.number(diag.get("waiting_time", DEFAULT_WAITING_TIME), ("diagnosis", "waiting_time"),
-                         "waiting_time (a time in s)", minimum=0, maximum=MAX_TIME)
+    window = waiting = None                 # not given: from the data and the model (fdi.scales)
+    if diag.get("derivative_window") is not None:
+        window = doc.number(diag["derivative_window"], ("diagnosis", "derivative_window"),
+                            "derivative_window (a time in s)", above=0, maximum=MAX_TIME)
+    if diag.get("waiting_time") is not None:
+        waiting = doc.number(diag["waiting_time"], ("diagnosis", "waiting_time"), "waiting_time (a time in s)",
+                             minimum=0, maximum=MAX_TIME)
     samples = int(doc.number(diag.get("samples", DEFAULT_SAMPLES), ("diagnosis", "samples"), "samples",
                              integer=True, minimum=2, maximum=MAX_SAMPLES))
     return MonitorConfig(thresholds=_thresholds(doc, model), waiting_time=waiting, samples=samples,

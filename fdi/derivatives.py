@@ -4,9 +4,11 @@ Savitzky-Golay filtering (a local least-squares polynomial fit in a sliding wind
 with its analytic derivatives) is the default: it is linear, exact for polynomials up to its
 order, and handles the quantisation steps of encoders far better than finite differences, whose
 noise grows as 1/ts^k. The window length sets the trade-off between noise and lag; it is given in
-seconds and rounded to an odd number of samples. All orders come from one fit, so the signal and
-its derivatives stay consistent; arrays of any leading shape (population x samples) are handled
-along the last axis.
+seconds and rounded to an odd number of samples. No window is a constant in seconds: it is the
+model file's, or the one :func:`fdi.scales.derivative_window` derives from the sampling time and
+the model's fastest time constant; with neither (``window=None``), 25 samples. All orders come
+from one fit, so the signal and its derivatives stay consistent; arrays of any leading shape
+(population x samples) are handled along the last axis.
 
 The filter is centred (it looks half a window ahead): no lag, but a sample's derivative is known
 half a window after it. The coefficients depend only on the window, the polynomial order and the
@@ -22,18 +24,22 @@ from math import factorial
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-DEFAULT_WINDOW = 0.25   # s
+DEFAULT_WINDOW = None   # no window in s: None is fdi.scales' window of a model with no known time constant
 DEFAULT_ORDER = 3
 BLOCK = 65536           # samples per block: the product over sliding windows copies n x the block
 
 
-def window_samples(window: float, ts: float, polyorder: int) -> int:
-    """An odd number of samples covering ``window`` seconds, enough for ``polyorder``."""
+def window_samples(window: float | None, ts: float, polyorder: int) -> int:
+    """An odd number of samples covering ``window`` seconds (None: :func:`fdi.scales.derivative_window`
+    of a model with no known time constant), enough for ``polyorder``."""
+    if window is None:
+        from .scales import derivative_window
+        window = derivative_window(ts, float("inf"))
     n = max(int(round(window / ts)), polyorder + 2)
     return n if n % 2 == 1 else n + 1
 
 
-def estimate(x: np.ndarray, ts: float, orders: int, window: float = DEFAULT_WINDOW,
+def estimate(x: np.ndarray, ts: float, orders: int, window: float | None = DEFAULT_WINDOW,
              polyorder: int = DEFAULT_ORDER, edges: str = "interp") -> list[np.ndarray]:
     """[x, dx/dt, ..., d^orders x/dt^orders] estimated along the last axis of ``x``.
 

@@ -5,7 +5,8 @@ A residual is inconsistent at a sample where |r| exceeds its threshold. The cohe
 [tD, t], since a fault that lit a residual stays a candidate even when the residual later dips
 (an intermittent fault does). The decision waits Twt (eq. 29): Out = In(tD + Twt), so that a
 slowly growing incipient fault can light its residuals before candidates are formed. The first
-``settle`` seconds are ignored (start-up transient, derivative-filter edge).
+``settle`` seconds and the last ``edge`` seconds are ignored: there the derivative filter is not
+centred (half a derivative window at each end by default, :mod:`fdi.scales`).
 """
 from __future__ import annotations
 
@@ -29,22 +30,32 @@ def inconsistency(residuals: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
     return np.abs(residuals) > np.asarray(thresholds, dtype=float)[:, None]
 
 
-def settling(settle: float, window_s: float) -> float:
-    """The seconds after the data start that detection ignores: ``settle``, and at least half the
-    derivative window, where the Savitzky-Golay filter has no past samples (measured on a thermal
-    model with a 31 s window: nominal residuals of 1085 W at the first sample for thresholds near
-    600 W, under them from the eighth; a 1 s settle raised an alarm at t = 1 s).
+def settling(settle: float | None, floor: float) -> float:
+    """The seconds after the data start that detection ignores: the data's own settling time
+    ``floor`` (:func:`fdi.scales.settle`: at least half the derivative window, where the
+    Savitzky-Golay filter has no past samples), or ``settle`` when one is given and longer.
 
-    >>> settling(1.0, 0.25), settling(1.0, 31.0)
-    (1.0, 15.5)
+    >>> settling(None, 0.125), settling(1.0, 0.125), settling(1.0, 15.5)
+    (0.125, 1.0, 15.5)
     """
-    return max(settle, window_s / 2)
+    return floor if settle is None else max(settle, floor)
+
+
+def trusted(t: np.ndarray, settle: float, edge: float = 0.0) -> np.ndarray:
+    """The samples detection looks at: from ``settle`` s after the data start to ``edge`` s before
+    its end (the derivative filter's off-centre ends); the last sample at least.
+
+    >>> trusted(np.arange(10.0), 2.0, 3.0).nonzero()[0].tolist()
+    [2, 3, 4, 5, 6]
+    """
+    return (t >= t[0] + settle) & (t <= t[-1] - edge)
 
 
 def detect(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, waiting_time: float,
-           settle: float = 1.0) -> Detection | None:
-    """The first threshold crossing after ``settle`` s and the coherence vector Twt later; None if none."""
-    bad = inconsistency(residuals, thresholds) & (t >= t[0] + settle)[None, :]
+           settle: float = 0.0, edge: float = 0.0) -> Detection | None:
+    """The first threshold crossing at least ``settle`` s after the data start and ``edge`` s before
+    its end, and the coherence vector Twt later; None if none."""
+    bad = inconsistency(residuals, thresholds) & trusted(t, settle, edge)[None, :]
     any_bad = bad.any(axis=0)
     if not any_bad.any():
         return None
@@ -56,9 +67,10 @@ def detect(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, waiting
     return Detection(td, first, float(t[min(j, t.size) - 1]), final, i)
 
 
-def coherence_over_time(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, settle: float = 1.0) -> np.ndarray:
+def coherence_over_time(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, settle: float = 0.0,
+                        edge: float = 0.0) -> np.ndarray:
     """The latched coherence vector at every sample (n_residuals, samples)."""
-    bad = inconsistency(residuals, thresholds) & (t >= t[0] + settle)[None, :]
+    bad = inconsistency(residuals, thresholds) & trusted(t, settle, edge)[None, :]
     return np.maximum.accumulate(bad, axis=1).astype(int)
 
 

@@ -21,7 +21,8 @@ from optim import DEFAULT_ENGINE, ENGINES
 from .errors import UsageError
 from .data import DataError, Measurements, commanded, read_csv, signals_from_data
 from .derivatives import DEFAULT_ORDER, window_samples
-from .detect import detect, inconsistency, settling, thresholds_for
+from . import scales
+from .detect import detect, inconsistency, settling, thresholds_for, trusted
 from .config import MonitorConfig
 from .identify import Compiled, Objective, compiled, estimate_mode, nominal, run_estimators, window
 from .isolate import candidate_sets, pruned_sets, relaxed_sets, suspected_mode_changes
@@ -45,7 +46,7 @@ class Options:
     workers: int = 1
     failures: Mapping[str, float] = field(default_factory=dict)
     weights: str = "thresholds"
-    settle: float = 1.0
+    settle: float | None = None            # s ignored after the data start (None: half the derivative window)
     mode: Mapping[str, int] | None = None
     settings: MonitorConfig | None = None   # the monitor settings to use instead of the model file's
 
@@ -74,23 +75,35 @@ MIN_POP = 4                # DE's mutation takes three other members of the popu
 MAX_POP = 100_000          # a population is held in memory: 100 000 members is far past the paper's 100
 MAX_GENERATIONS = 1_000_000
 MIN_SAMPLES = 2            # N samples from t_D: fewer leave nothing to fit
-MIN_WINDOW_S = 0.5         # s: identify.fault_space searches intermittent periods from 0.5 s to N * t_s
+MIN_WINDOW_S = 0.5         # s: the CyCab's shortest period (scales.min_period of its 0.25 s window), for callers without a model
 
 
-def min_samples(ts: float) -> int:
-    """The fewest identification samples N for data sampled every ``ts`` s: N * ts must reach
-    MIN_WINDOW_S, or the period's search interval would be empty."""
-    n = max(MIN_SAMPLES, math.ceil(MIN_WINDOW_S / ts))
-    while n * ts < MIN_WINDOW_S:
+def min_samples(ts: float, min_period: float = MIN_WINDOW_S) -> int:
+    """The fewest identification samples N for data sampled every ``ts`` s: N * ts must reach the
+    shortest intermittent period searched (:func:`fdi.scales.min_period`), or the period's search
+    interval would be empty."""
+    n = max(MIN_SAMPLES, math.ceil(min_period / ts))
+    while n * ts < min_period:
         n += 1
     return n
 
 
-def check_samples(samples: int | None, ts: float, option: str = "Options.samples") -> None:
-    """``samples`` (None: the model's) spans at least MIN_WINDOW_S of data sampled every ``ts`` s."""
-    if samples is not None and samples < min_samples(ts):
-        raise UsageError(f"{option}: must be at least {min_samples(ts)} for data sampled every {ts:g} s "
-                         f"(N * t_s >= {MIN_WINDOW_S:g} s, the shortest intermittent period identified), got {samples}")
+def check_samples(samples: int | None, ts: float, option: str = "Options.samples",
+                  min_period: float = MIN_WINDOW_S) -> None:
+    """``samples`` (None: the model's) spans at least ``min_period`` of data sampled every ``ts`` s."""
+    if samples is not None and samples < min_samples(ts, min_period):
+        raise UsageError(f"{option}: must be at least {min_samples(ts, min_period)} for data sampled every {ts:g} s "
+                         f"(N * t_s >= {min_period:g} s, the shortest intermittent period identified), got {samples}")
+
+
+def scales_for(path: str, o: "Options", ts: float) -> tuple["Options", "scales.Scales"]:
+    """``o`` with the monitor settings the model file leaves to the data filled in (its derivative
+    window and waiting time, :func:`fdi.scales.resolve`), and the time scales of the diagnosis."""
+    c = compiled_for(path, o.settings)
+    config = scales.resolve(c.config, c.model, ts)
+    if config is not c.config:
+        o = replace(o, settings=config)
+    return o, scales.for_model(c.model, config, ts)
 
 
 def _whole(name: str, value, low: int, high: int | None = None) -> None:
@@ -119,11 +132,13 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     timings: dict[str, float] = {}
     clock = time.perf_counter()
     path = str(model_path)
+    compiled_for(path, o.settings)                  # the model checked before the data are read
+    meas = data if isinstance(data, Measurements) else read_csv(data)
+    o, sc = scales_for(path, o, meas.ts)            # the file's times, else the data's and the model's
     c = compiled_for(path, o.settings)
     model, config, arrs, residuals = c.model, c.config, c.arrs, c.residuals
     w = config.derivative_window
-    meas = data if isinstance(data, Measurements) else read_csv(data)
-    check_samples(o.samples, meas.ts)
+    check_samples(o.samples, meas.ts, min_period=sc.min_period)
     raw = signals_from_data(model, meas)
     need = window_samples(w, meas.ts, DEFAULT_ORDER) + 1
     if meas.t.size < need:
@@ -135,13 +150,13 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     except ValueError as exc:
         raise ModelError(str(exc), file=model.path, where="thresholds") from None
     wait = config.waiting_time if o.waiting_time is None else o.waiting_time
-    samples = o.samples or config.samples
+    samples = o.samples or max(config.samples, sc.min_samples())     # N ts covers the shortest period
     timings["load"] = time.perf_counter() - clock
     clock = time.perf_counter()
     r = evaluate(model, list(residuals), raw, meas.ts, window=w, values=commanded(model, raw))
     timings["residuals"] = time.perf_counter() - clock
-    settle = settling(o.settle, w)
-    det = detect(r, meas.t, thresholds, wait, settle)
+    settle = settling(o.settle, sc.settle)
+    det = detect(r, meas.t, thresholds, wait, settle, sc.end_edge)
     mode = dict(o.mode or nominal_mode(model))
     report: dict = {"detection": None, "mode": mode, "candidates": [], "estimators": [],
                     "diagnosis": {"faults": []}, "prognosis": [],
@@ -204,7 +219,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     if not candidates:
         return report
     try:
-        check_window(meas, det.time, samples)
+        check_window(meas, det.time, samples, sc.min_period)
     except DataError as exc:                  # detected at the end of the data: reported, not identified
         report["note"] = str(exc).split(": ", 1)[-1]
         return report
@@ -240,7 +255,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     now = win.t0 + (win.crop.stop - win.crop.start) * win.ts
     clock = time.perf_counter()
     report["episodes"] = []
-    lit = latched(r, meas.t, thresholds, det.index, settle)
+    lit = latched(r, meas.t, thresholds, det.index, settle, sc.end_edge)
     j = int(np.searchsorted(meas.t, det.decision_time, side="right")) - 1
     while (change := next_change(lit, j)) is not None:
         k, j = change, decision_index(meas.t, change, wait)
@@ -286,9 +301,10 @@ def mode_fault_name(model, variable: str, value: int) -> str:
     return (exact or on)[0].name if on else variable
 
 
-def latched(r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, start: int, settle: float) -> np.ndarray:
+def latched(r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, start: int, settle: float,
+            edge: float = 0.0) -> np.ndarray:
     """The coherence vector latched from sample ``start`` (the detection) on, at every sample."""
-    bad = inconsistency(r, thresholds) & (t >= t[0] + settle)[None, :]
+    bad = inconsistency(r, thresholds) & trusted(t, settle, edge)[None, :]
     bad[:, :start] = False
     return np.maximum.accumulate(bad, axis=1)
 
@@ -425,7 +441,7 @@ def refresh_prognosis(path: str, meas: Measurements, report: dict, options: Opti
     the refit at that time: a degradation seen longer is known better (the monitor refreshes it as
     data arrive; ``bgfdi evaluate`` asks for it at 50 % and 90 % of a fault's life). Returns the
     faults and the prognosis; unchanged when there is no incipient fault with a failure value."""
-    o = options or Options()
+    o, sc = scales_for(path, options or Options(), meas.ts)
     faults = list(report["diagnosis"]["faults"])
     c = compiled_for(path, o.settings)
     model, config, arrs = c.model, c.config, c.arrs
@@ -437,7 +453,7 @@ def refresh_prognosis(path: str, meas: Measurements, report: dict, options: Opti
     names = [a.name for a in arrs]
     thresholds = thresholds_for(config.thresholds, names, o.thresholds)
     weights = 1.0 / thresholds if o.weights == "thresholds" else np.ones(len(names))
-    samples = o.samples or config.samples
+    samples = o.samples or max(config.samples, sc.min_samples())
     raw = signals_from_data(model, meas)
     start, span = since_detection(meas.t, report["detection"]["time"], float(meas.t[-1]), samples, MAX_REFIT)
     t0 = min(f["t0"] for f in growing)
@@ -452,14 +468,14 @@ def refresh_prognosis(path: str, meas: Measurements, report: dict, options: Opti
     return refit, prognosis
 
 
-def check_window(meas: Measurements, t0: float, samples: int) -> None:
+def check_window(meas: Measurements, t0: float, samples: int, min_period: float = MIN_WINDOW_S) -> None:
     """The identification window (N samples from t_D, as identify.window cuts it) spans at least
-    MIN_WINDOW_S: data that end just after the detection leave no period to search."""
+    the shortest period searched: data that end just after the detection leave no period to search."""
     i0 = int(np.searchsorted(meas.t, t0 - 1e-9))
     span = min(samples, meas.t.size - i0) * meas.ts
-    if span < MIN_WINDOW_S:
+    if span < min_period:
         raise DataError(f"{meas.path}: the data end {span:g} s after the detection at t_D = {t0:g} s; identification "
-                        f"needs at least {MIN_WINDOW_S:g} s after t_D: record longer")
+                        f"needs at least {min_period:g} s after t_D: record longer")
 
 
 def parameters(faults: list[dict]) -> int:

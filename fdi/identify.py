@@ -36,7 +36,7 @@ from bondgraph.model import Model
 from optim import ENGINES, bde
 from optim.core import fitness
 
-from . import encoding
+from . import encoding, scales
 from .config import MonitorConfig, load as load_monitor
 from .arrs import ARR, select_arrs
 from .encoding import FaultSpace
@@ -89,11 +89,13 @@ def nominal(model: Model, name: str) -> float:
 
 
 def fault_space(model: Model, name: str, span: float | None = None,
-                config: MonitorConfig | None = None) -> FaultSpace:
+                config: MonitorConfig | None = None, min_period: float | None = None) -> FaultSpace:
     """The search space of a candidate fault: the bounds the monitor settings give, else a factor
     of 100 around a parameter's nominal value (0.05-1.5 for an efficiency factor, 0.1-10 for a
     group's common factor). ``span`` (s), the data window, caps the intermittent period: a period
-    longer than the window is indistinguishable from an abrupt fault."""
+    longer than the window is indistinguishable from an abrupt fault; ``min_period`` (s) is the
+    shortest (:func:`fdi.scales.min_period`: two derivative windows; without it, the default of
+    :data:`fdi.encoding.DEFAULT_PERIOD`)."""
     f = model.faults[name]
     value, given = nominal(model, name), config.bounds(name) if config else None
     if given is not None:
@@ -110,7 +112,8 @@ def fault_space(model: Model, name: str, span: float | None = None,
                          file=model.path, where=f"faults.{name}")
     else:
         bounds = (value / 100.0, value * 100.0) if value > 0 else (value * 100.0, value / 100.0)
-    period = (0.5, span) if span else encoding.DEFAULT_PERIOD
+    low = encoding.DEFAULT_PERIOD[0] if min_period is None else min_period
+    period = (min(low, span), span) if span else (low, max(encoding.DEFAULT_PERIOD[1], 2 * low))
     return FaultSpace.make(name, value, tuple(bounds), period=period)
 
 
@@ -177,7 +180,8 @@ class Objective:
         self.model, self.residuals, self.win, self.candidate = model, residuals, win, candidate
         span = (win.crop.stop - win.crop.start) * win.ts
         self.config = config
-        self.spaces = [fault_space(model, f, span, config) for f in candidate]
+        self.min_period = scales.min_period(window_s, win.ts)
+        self.spaces = [fault_space(model, f, span, config, self.min_period) for f in candidate]
         self.weights = weights
         self.window_s = window_s
         self.onset_bounds = onset
@@ -209,7 +213,7 @@ class Objective:
         betas: dict[str, np.ndarray] = {}
         biases: dict[str, np.ndarray] = {}
         for f in self.fixed:
-            space = fault_space(self.model, f["name"], span, self.config)
+            space = fault_space(self.model, f["name"], span, self.config, self.min_period)
             real, bits = encoding.encode([space], [f])
             (p,) = encoding.profiles([space], encoding.decode([space], real[None, :], bits[None, :]), self.win.t,
                                      f.get("t0", self.win.t0))

@@ -22,7 +22,8 @@ waiting time and the identification window, plus the lag.
 
 Residuals are causal up to a lag: the Savitzky–Golay derivative at time t needs the samples up to
 t + W/2 (W the derivative window), so a residual sample is final, and used for detection, half a
-window after it was measured (0.125 s on the CyCab). They are computed on the new samples only,
+window after it was measured (0.125 s on the CyCab). A model file that gives no window leaves it
+to the data (:mod:`fdi.scales`): the ``start`` event then comes with the first two samples. They are computed on the new samples only,
 with a margin of one window on each side, and equal those of the whole file.
 """
 from __future__ import annotations
@@ -33,9 +34,12 @@ from typing import Callable
 
 import numpy as np
 
+from bondgraph.timescales import model_time_scales
+
+from . import scales
 from .data import DataError, Measurements, checked, commanded, signals_from_data
 from .detect import inconsistency, settling, thresholds_for
-from .diagnose import Options, compiled_for, diagnose, public, refresh_prognosis
+from .diagnose import Options, compiled_for, diagnose, public, refresh_prognosis, scales_for
 from .residuals import evaluate
 
 Emit = Callable[[dict], None]
@@ -71,8 +75,21 @@ class Monitor:
         self.thresholds = thresholds_for(self.config.thresholds, self.names, self.options.thresholds)
         self.wait = self.config.waiting_time if self.options.waiting_time is None else self.options.waiting_time
         self.samples = self.options.samples or self.config.samples
+        self.window = None
+        if self.config.derivative_window is not None and self.wait is not None:
+            self._start()               # else once two samples tell the sampling time (fdi.scales)
+
+    def _start(self, ts: float | None = None) -> None:
+        """The derivative window, its lag and the waiting time, and the ``start`` event. Times the
+        model file leaves out come from the sampling time ``ts`` and the model (fdi.scales)."""
+        if ts is not None:
+            self.options, sc = scales_for(self.model_path, self.options, ts)
+            self.config = compiled_for(self.model_path, self.options.settings).config
+            self.wait = self.config.waiting_time if self.options.waiting_time is None else self.options.waiting_time
+            self.samples = self.options.samples or max(self.config.samples, sc.min_samples())
         self.window = self.config.derivative_window
         self.lag = self.window / 2
+        self.settle = settling(self.options.settle, scales.settle(self.window, model_time_scales(self.model).eigenvalues))
         self.emit({"event": "start", "model": self.model.name, "residuals": self.names,
                    "thresholds": dict(zip(self.names, map(float, self.thresholds))), "lag_s": self.lag,
                    "waiting_time_s": self.wait})
@@ -91,6 +108,8 @@ class Monitor:
             return
         t = self.buffer[:self.n, self.ti]
         ts = float(t[1] - t[0])
+        if self.window is None:
+            self._start(ts)
         margin = int(math.ceil(self.window / ts)) + 1
         final = self.n - int(math.ceil(self.lag / ts)) - 1          # residuals final up to here (exclusive)
         if final <= self.done or self.n <= 2 * margin:
@@ -149,7 +168,7 @@ class Monitor:
     # ------------------------------------------------------------------ detection
     def _detect(self, t: np.ndarray, start: int, stop: int) -> None:
         r = self.residuals
-        bad = inconsistency(r, self.thresholds) & (t[start:stop] >= t[0] + settling(self.options.settle, self.window))[None, :]
+        bad = inconsistency(r, self.thresholds) & (t[start:stop] >= t[0] + self.settle)[None, :]
         known_at = float(t[self.n - 1])
         for k in range(bad.shape[1]):
             if self.lit is None:
@@ -229,6 +248,8 @@ class Monitor:
         if self.n < 2:
             raise DataError(f"{self.source}: the stream ended before two samples arrived")
         meas = self.measurements()
+        if self.window is None:             # a stream of two samples: the start event still comes first
+            self._start(meas.ts)
         report = diagnose(self.model_path, meas, self.options, memo=self.memo)
         out = public(report)
         self._report_decisions(out, float(meas.t[-1]))

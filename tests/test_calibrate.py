@@ -3,6 +3,7 @@ reference runs: no alarm on the nominal one, every reference fault still detecte
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from bondgraph.loader import load_model
 from fdi.config import load_text
@@ -45,3 +46,93 @@ def test_thresholds_written_into_the_model_text():
     assert before == after                                         # every other line, comments included, kept
     _, config = load_text(out, "calibrated.yaml")
     assert [config.thresholds[n] for n in c.names] == [float(f"{t:.4g}") for t in c.thresholds]
+
+
+RC = """
+name: rc
+parameters:
+  R:  {value: 100.0, unit: Ohm}
+  C1: {value: 1.0e-3, unit: F}
+data: {columns: [t, u, v]}
+inputs:
+  u: {column: u, expr: "1.0", unit: V}
+elements:
+  src: {type: MSe, input: u}
+  res: {type: R, parameter: R}
+  cap: {type: C, parameter: C1}
+junctions:
+  j1: {type: "1"}
+  j0: {type: "0"}
+sensors:
+  v: {type: De, junction: j0, column: v, unit: V}
+bonds:
+  1: [src, j1]
+  2: [j1, res]
+  3: [j1, j0]
+  4: [j0, cap]
+diagnosis: {derivative_window: 0.05}
+"""
+
+
+def _rc_run(seed: int, spikes: bool) -> Measurements:
+    """u = 1 + sin(10 t) and the exact v of 0.1 v' = u - v from v(0) = 0 (closed form), 1 kHz, 2 s,
+    1 mV of noise; with ``spikes``, the first and last samples 20 mV off: a residual clean inside
+    and large only where the filter is evaluated off its centre."""
+    t = np.arange(2001) / 1000.0
+    w, tau = 10.0, 0.1
+    steady = 1.0 + (np.sin(w * t) - w * tau * np.cos(w * t)) / (1 + (w * tau) ** 2)
+    v = steady + (0.0 - (1.0 - w * tau / (1 + (w * tau) ** 2))) * np.exp(-t / tau)
+    v = v + 1e-3 * np.random.default_rng(seed).standard_normal(t.size)
+    if spikes:
+        v[0] += 0.02
+        v[-1] -= 0.02
+    return Measurements(f"run{seed}", t, {"t": t, "u": 1.0 + np.sin(w * t), "v": v})
+
+
+def _residual_by_hand(m: Measurements) -> np.ndarray:
+    """|(u - v)/R - C dv/dt| with scipy's Savitzky-Golay filter (cubic, 51 samples, its interp edges;
+    every signal smoothed by it, as bgfdi does)."""
+    from scipy.signal import savgol_filter
+    u = savgol_filter(m.columns["u"], 51, 3, mode="interp")
+    v = savgol_filter(m.columns["v"], 51, 3, mode="interp")
+    dv = savgol_filter(m.columns["v"], 51, 3, deriv=1, delta=0.001, mode="interp")
+    return np.abs((u - v) / 100.0 - 1e-3 * dv)
+
+
+def test_thresholds_come_from_the_interior_not_the_filter_edges(tmp_path):
+    """The residual (computed here by hand with scipy) is clean inside and several times larger in
+    the first and last half windows (25 ms): the threshold is 1.5 x the interior's peak."""
+    model = tmp_path / "rc.yaml"
+    model.write_text(RC, encoding="utf-8")
+    runs = [_rc_run(seed, spikes=True) for seed in (1, 2)]
+    c = calibrate(str(model), runs)
+    assert c.units == ["A"]
+    for run, peak in zip(runs, c.peaks):
+        r = _residual_by_hand(run)
+        t = run.t
+        inner = r[(t > 0.025 + 5e-4) & (t < t[-1] - 0.025 - 5e-4)].max()     # a sample short at each end
+        outer = r[(t > 0.025 - 5e-4) & (t < t[-1] - 0.025 + 5e-4)].max()     # a sample beyond
+        assert inner * (1 - 1e-6) <= peak[0] <= outer * (1 + 1e-6)
+        assert r.max() > 5 * outer                    # the edges: what the thresholds were taken from
+    assert c.thresholds[0] == pytest.approx(1.5 * max(p[0] for p in c.peaks))
+
+
+def test_the_leave_one_out_figure_is_explained():
+    """With three runs each is checked against the thresholds of the other two: its worst residual's
+    ratio to them is its peak over 1.5 x the others' largest peak, and the text says what the rate
+    estimates."""
+    runs = [_rc_run(seed, spikes=False) for seed in (1, 2, 3)]
+    from fdi.calibrate import format_calibration
+    import tempfile, pathlib
+    with tempfile.TemporaryDirectory() as d:
+        model = pathlib.Path(d) / "rc.yaml"
+        model.write_text(RC, encoding="utf-8")
+        c = calibrate(str(model), runs)
+    peaks = [p[0] for p in c.peaks]
+    for i, (name, ratio) in enumerate(c.worst):
+        others = max(p for j, p in enumerate(peaks) if j != i)
+        assert name == "ARR1" and ratio == pytest.approx(peaks[i] / (1.5 * others))
+        assert c.false_alarms[i] == (ratio > 1)
+    text = format_calibration(c)
+    assert "chance that a new fault-free run as long as these alarms" in text
+    assert "in steps of 1/3" in text and text.count("x the others' threshold") == 3

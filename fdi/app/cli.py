@@ -489,7 +489,7 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..data import read_csv
-    from ..diagnose import check_samples
+    from ..diagnose import check_samples, scales_for
     from ..identify import compiled
 
     _check_fleet_options(args)
@@ -498,7 +498,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if len(args.data) > 1 or (args.jobs or 1) > 1 or args.scheduler:
         return _diagnose_batch(args, options)
     data = read_csv(args.data[0])
-    check_samples(options.samples, data.ts, "--samples")
+    check_samples(options.samples, data.ts, "--samples", scales_for(args.model, options, data.ts)[1].min_period)
     return _diagnose_and_print(args.model, data, options, args, args.data[0])
 
 

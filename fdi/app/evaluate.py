@@ -34,6 +34,7 @@ from ..data import DataError, Measurements
 from ..diagnose import Options, diagnose, public, refresh_prognosis
 from ..identify import compiled, nominal
 from ..prognose import end_of_life
+from ..scales import for_model
 from .scenario import FaultEvent, load_scenario, run
 
 ALPHA = 0.2
@@ -118,7 +119,7 @@ def evaluate_scenario(model_path: str, scenario_path: str | Path, options: Optio
     mode_names = {f.name: f.targets[0] for f in model.faults.values() if f.kind == "mode"}
     mode_names.update({f.targets[0]: f.name for f in model.faults.values() if f.kind == "mode"})
     s = score(Path(scenario_path).stem, list(scenario.faults), report, mode_names,
-              early=config.derivative_window / 2 + 1.0 / scenario.fs)
+              early=for_model(model, config, 1.0 / scenario.fs).window / 2 + 1.0 / scenario.fs)
     s.rul = rul_checkpoints(model_path, model, config, scenario, meas, report, o)
     return s
 

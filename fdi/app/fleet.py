@@ -68,12 +68,14 @@ def _user_errors() -> tuple:
     return ModelError, CausalityError, DataError, UsageError
 
 
-def read_file(path: str, options):
-    """The measurements of one file, checked against ``options.samples`` (DataError, UsageError)."""
+def read_file(path: str, options, model_path: str | None = None):
+    """The measurements of one file, checked against ``options.samples`` (DataError, UsageError):
+    N samples span the model's shortest intermittent period (fdi.scales.min_period)."""
     from ..data import read_csv
-    from ..diagnose import check_samples
+    from ..diagnose import check_samples, scales_for
     data = read_csv(path)
-    check_samples(options.samples, data.ts, "--samples")
+    if model_path is not None:
+        check_samples(options.samples, data.ts, "--samples", scales_for(model_path, options, data.ts)[1].min_period)
     return data
 
 
@@ -95,7 +97,7 @@ def diagnose_file(model_path: str, path: str, options, timings: bool = False) ->
     """One file of a fleet, read and diagnosed in this process (a local worker process, which keeps
     the derived model between files)."""
     try:
-        data = read_file(path, options)
+        data = read_file(path, options, model_path)
     except _user_errors() as exc:
         return {"file": path, "error": str(exc)}
     return diagnose_data(model_path, path, data, options, timings)
@@ -175,7 +177,7 @@ def _on_dask(client, model_path: str, files: list[str], options, timings: bool, 
     done = 0
     for i, path in enumerate(files):
         try:
-            data = read_file(path, options)
+            data = read_file(path, options, model_path)
         except _user_errors() as exc:
             out[i] = {"file": path, "error": str(exc)}
             done += 1

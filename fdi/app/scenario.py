@@ -35,6 +35,7 @@ import yaml
 
 from bondgraph.model import Model
 from bondgraph.simulation import SimulationError, simulate
+from bondgraph.timescales import model_integration_step
 
 from .. import profiles
 from ..errors import UsageError
@@ -43,8 +44,7 @@ TYPES = ("abrupt", "intermittent", "incipient", "mode")
 METHODS = ("auto", "ros2", "LSODA", "Radau", "BDF", "RK45")
 MAX_BYTES = 1 << 20           # a scenario file is a few lines; more is a mistake (or an attack)
 MAX_SAMPLES = 10_000_000      # T * fs: 10 million samples, about 0.5 GB of columns
-ROS2_STEP = 1e-3              # the fixed step of ROS2 (bondgraph.simulation), at most 1 ms
-MAX_STEPS = 10_000_000        # T * max(fs, 1/ROS2_STEP) for ros2 and auto: about 3 min of integration
+MAX_STEPS = 10_000_000        # T / step of ROS2 for ros2 and auto: about 3 min of integration at the CyCab's speed
 MAX_SWITCHES = 10_000         # switching instants of intermittent faults (each starts a new piece)
 
 
@@ -75,6 +75,7 @@ class Scenario:
     faults: tuple[FaultEvent, ...]
     noise: dict
     resolution: dict
+    step: float | None = None          # s, ROS2's step for this model and fs (None: the sampling time)
 
 
 def _short_repr() -> reprlib.Repr:
@@ -219,7 +220,7 @@ def parse_scenario(data, model: Model, path: str = "<scenario>") -> Scenario:
                             f"of {MAX_SWITCHES:,}; lengthen their period")
     noise = _column_values(path, "noise", data, model)
     resolution = _column_values(path, "resolution", data, model)
-    return Scenario(path, seed, T, fs, initial, tuple(faults), noise, resolution)
+    return Scenario(path, seed, T, fs, initial, tuple(faults), noise, resolution, model_integration_step(model, 1.0 / fs))
 
 
 def _target(path: str, where: str, f: dict, model: Model) -> str:
@@ -371,13 +372,17 @@ def check_method(method: str) -> str:
 
 def check_steps(scenario: Scenario, method: str) -> None:
     """Refuse a run the fixed-step integrator would take hours over: ROS2 (chosen by ``auto`` for
-    discontinuous models) steps at most 1 ms, so it takes T * max(fs, 1000) steps."""
+    discontinuous models) steps once a sample or 20 times per fastest time constant of the model,
+    whichever is shorter (``scenario.step``, :func:`bondgraph.timescales.integration_step`), so it
+    takes T / step steps."""
     if method not in ("auto", "ros2"):
         return
-    steps = scenario.T * max(scenario.fs, 1 / ROS2_STEP)
+    step = scenario.step or 1.0 / scenario.fs
+    steps = scenario.T / step
     if steps > MAX_STEPS:
-        raise ScenarioError(f"{scenario.path}: T = {scenario.T:g} s takes {steps:.3g} steps of ROS2 (1 ms each), more "
-                            f"than the limit of {MAX_STEPS:,}; shorten T (at most {MAX_STEPS * ROS2_STEP:g} s), or "
+        raise ScenarioError(f"{scenario.path}: T = {scenario.T:g} s takes {steps:.3g} steps of ROS2 ({step:.3g} s "
+                            f"each: the sampling time or a twentieth of the model's fastest time constant), more "
+                            f"than the limit of {MAX_STEPS:,}; shorten T (at most {MAX_STEPS * step:.3g} s), or "
                             "for a smooth model choose --method LSODA")
 
 
