@@ -76,8 +76,6 @@ def test_the_residuals_are_the_supply_chamber_and_piston_balances():
     assert sp.simplify(exact - (supply + chamber(Cc_t))) == 0
 
 
-@pytest.mark.xfail(strict=True, reason="issue 20 (found here): fdi.arrs.arr_unit names an MSO residual written at a "
-                   "C on a 1-junction by the effort the junction sums (N); it is the C's law f = C de/dt, a flow (m/s)")
 def test_the_residuals_units():
     model, _ = load(MODEL)
     arrs = {a.name: a for a in select_arrs(model).arrs}

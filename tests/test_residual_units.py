@@ -42,6 +42,6 @@ def test_an_integrated_state_carries_its_rate_times_seconds():
     position integrated from a momentum (m), never '?'."""
     tanks = load_model(ROOT / "models" / "three_tank.yaml")
     arrs = select_arrs(tanks, "mixed").arrs
-    assert any(a.states for a in arrs) and {arr_unit(tanks, a) for a in arrs} == {"Pa"}
+    assert any(a.states for a in arrs) and {arr_unit(tanks, a) for a in arrs} <= {"Pa", "m^3/s"}
     masses = load_model(ROOT / "models" / "two_mass_positions.yaml")
     assert {arr_unit(masses, a) for a in select_arrs(masses, "mixed").arrs} <= {"m/s", "m", "N"}

@@ -1,0 +1,69 @@
+"""Stuck sensors: a measurement frozen at one value (a seized potentiometer, a dead transmitter
+holding its last reading, a saturated ADC).
+
+A stuck sensor carries no information about the system any more, so no profile of a gain or an
+offset fits it; what shows it is the data themselves: from some instant on the signal stays
+within its noise band while it moved before. A candidate fault ``effect: stuck`` of that sensor
+is confirmed when its signal is flat from about the detection on (within six noise standard
+deviations, two quantisation steps, or, where the model declares neither, a millionth of its
+earlier range) and moved by more than three such bands before; its onset is the first sample of
+the flat stretch and its value the level it holds.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from bondgraph.model import Model
+
+NOISE_BAND = 6.0        # standard deviations of the sensor's noise a frozen signal stays within
+STEPS_BAND = 2.0        # quantisation steps likewise
+MOVED = 3.0             # bands the signal must have moved before it froze
+
+
+@dataclass(frozen=True)
+class Stuck:
+    """Sensor fault ``fault`` confirmed: its signal holds ``value`` from ``onset`` (s)."""
+    fault: str
+    sensor: str
+    onset: float
+    value: float
+
+
+def band(model: Model, sensor: str, before: np.ndarray) -> float:
+    """How far a frozen reading of ``sensor`` may wander: its declared noise and resolution, else
+    a millionth of what it spanned before."""
+    s = model.sensors[sensor]
+    noise = max(s.noise.values(), default=0.0)
+    step = max(s.resolution.values(), default=0.0)
+    out = max(NOISE_BAND * noise, STEPS_BAND * step)
+    if out == 0.0 and before.size:
+        out = 1e-6 * float(np.ptp(before))
+    return out
+
+
+def stuck_from(model: Model, fault: str, t: np.ndarray, signal: np.ndarray, t_d: float,
+               end: float) -> Stuck | None:
+    """The stuck-sensor fault ``fault`` confirmed on the samples up to ``end`` (the decision), or
+    None: the signal must be flat from about ``t_d`` (it may have frozen up to a derivative window
+    before the residuals crossed their thresholds: the stretch is followed back as far as it stays
+    flat) and have moved before."""
+    sensor = model.faults[fault].targets[0]
+    signal = np.asarray(signal, dtype=float)
+    i_d = int(np.searchsorted(t, t_d))
+    i_end = int(np.searchsorted(t, end, side="right"))
+    if i_end - i_d < 3 or i_d < 3:
+        return None
+    tail = signal[i_d:i_end]
+    width = band(model, sensor, signal[:i_d])
+    if width <= 0 or np.ptp(tail) > width:
+        return None
+    lo, hi = float(tail.min()), float(tail.max())
+    k = i_d
+    while k > 0 and max(hi, signal[k - 1]) - min(lo, signal[k - 1]) <= width:
+        k -= 1
+        lo, hi = min(lo, signal[k]), max(hi, signal[k])
+    if k == 0 or np.ptp(signal[:k]) <= MOVED * width:
+        return None
+    return Stuck(fault, sensor, float(t[k]), float(np.median(signal[k:i_end])))
