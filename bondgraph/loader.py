@@ -34,7 +34,7 @@ MONITOR_FAULT_KEYS = {"bounds", "failure"}      # ditto, in each fault
 _TOP_KEYS = {"name", "description", "reference", "parameters", "definitions", "inputs", "modes",
              "elements", "junctions", "sensors", "bonds", "faults", "data", "initial"} | MONITOR_KEYS
 _RESERVED = {"t"}
-FAULT_EFFECTS = ("gain", "bias")       # how a sensor or source fault acts: beta x signal, or signal + b
+FAULT_EFFECTS = ("gain", "bias", "stuck")   # how a sensor or source fault acts: beta x signal, signal + b, frozen
 OFF_SEMANTICS = ("all", "outputs")   # what a switched-off controlled junction holds at zero
 MAX_TIME = 1.0e6             # s: a time beyond 11 days in a model file is a typing error
 
@@ -845,7 +845,10 @@ def _faults(ctx, data, parameters, sensors, elements, modes) -> dict[str, Fault]
         effect = spec.get("effect", "gain")
         if kind in ("sensor", "source"):
             if effect not in FAULT_EFFECTS:
-                raise ctx.error(where + ("effect",), f"effect must be {' or '.join(FAULT_EFFECTS)}, not {_shown(effect)}")
+                raise ctx.error(where + ("effect",), f"effect must be {', '.join(FAULT_EFFECTS)}, not {_shown(effect)}")
+            if effect == "stuck" and kind != "sensor":
+                raise ctx.error(where + ("effect",), "a stuck fault is a sensor's (a frozen reading); "
+                                                     "for a source use gain or bias")
         elif "effect" in spec:
             raise ctx.error(where + ("effect",), f"effect is for sensor and source faults, not {kind}")
         value = spec.get("value")

@@ -161,7 +161,7 @@ class Fault:
     targets: tuple[str, ...]
     value: float | None = None
     description: str = ""
-    effect: str = "gain"          # sensor/source: "gain" (measured = beta x true) or "bias" (measured = true + b)
+    effect: str = "gain"          # sensor/source: "gain" (beta x true), "bias" (true + b), "stuck" (a frozen reading)
 
     @property
     def symbols(self) -> tuple[str, ...]:

@@ -181,4 +181,6 @@ def describe_fault(f: dict) -> str:
     if f["type"] == "incipient":
         b = ", ".join(f"{x:.5g}" for x in f["b"])
         return f"{f['name']}: incipient, model {f['model']} (eq. {15 + f['model']}, eta {_vec(f['eta'])}), b = [{b}]"
+    if f["type"] == "stuck":
+        return f"{f['name']}: stuck at {f['value']:.5g} from {f['t0']:.4g} s"
     return f"{f['name']}: fault mode ({f['name']} = {f.get('value', 0)})"

@@ -29,6 +29,7 @@ from .isolate import candidate_sets, pruned_sets, relaxed_sets, suspected_mode_c
 from .prognose import prognose
 from .residuals import evaluate
 from .sensitivity import effective, weak_entries
+from .stuck import stuck_from
 from .signatures import fault_signature_matrix, mode_change_signature_matrix, nominal_mode
 
 
@@ -216,6 +217,21 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
         if candidates:
             report["candidates"] = [list(c) for c in candidates]
             report["exoneration_relaxed"] = True
+    if any(model.faults[f].effect == "stuck" for c in candidates for f in c):
+        # a frozen sensor: confirmed by its signal, not fitted (fdi.stuck); a stuck fault that the
+        # data do not show leaves the candidates
+        end = float(det.decision_time)
+        for c in candidates:
+            if len(c) == 1 and model.faults[c[0]].effect == "stuck":
+                sensor = model.faults[c[0]].targets[0]
+                found = stuck_from(model, c[0], meas.t, raw[sensor], det.time, end, w)
+                if found is not None:
+                    report["diagnosis"]["faults"] = [{"name": c[0], "type": "stuck", "value": found.value,
+                                                      "t0": found.onset}]
+                    report["winner"] = [c[0]]
+                    return report
+        candidates = [c for c in candidates if not any(model.faults[f].effect == "stuck" for f in c)]
+        report["candidates"] = [list(c) for c in candidates]
     if not candidates:
         return report
     try:

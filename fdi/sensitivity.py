@@ -50,6 +50,8 @@ def _perturbed(model: Model, fault: str, nominal: Mapping[str, float],
     offset by STEP x the signal's RMS); None where the fault cannot be perturbed (a mode fault, an
     infinite or zero nominal value, a signal that is zero)."""
     f = model.faults[fault]
+    if f.effect == "stuck":               # no size to scale: the data show it or not (fdi.stuck)
+        return None
     if f.effect == "bias":
         size = float(np.sqrt(np.mean(np.square(np.asarray(raw[f.targets[0]], dtype=float)))))
         return ({}, {}, {f.targets[0]: STEP * size}) if size > 0 else None

@@ -4,10 +4,10 @@ holding its last reading, a saturated ADC).
 A stuck sensor carries no information about the system any more, so no profile of a gain or an
 offset fits it; what shows it is the data themselves: from some instant on the signal stays
 within its noise band while it moved before. A candidate fault ``effect: stuck`` of that sensor
-is confirmed when its signal is flat from about the detection on (within six noise standard
-deviations, two quantisation steps, or, where the model declares neither, a millionth of its
-earlier range) and moved by more than three such bands before; its onset is the first sample of
-the flat stretch and its value the level it holds.
+is confirmed when its signal stays about one level from about the detection on (within six noise
+standard deviations of its median, or two quantisation steps, or, where the model declares
+neither, a millionth of its earlier range) and had left that level by more than three such bands
+before; its onset is the first sample of the flat stretch and its value the level it holds.
 """
 from __future__ import annotations
 
@@ -44,26 +44,25 @@ def band(model: Model, sensor: str, before: np.ndarray) -> float:
 
 
 def stuck_from(model: Model, fault: str, t: np.ndarray, signal: np.ndarray, t_d: float,
-               end: float) -> Stuck | None:
+               end: float, margin: float = 0.0) -> Stuck | None:
     """The stuck-sensor fault ``fault`` confirmed on the samples up to ``end`` (the decision), or
-    None: the signal must be flat from about ``t_d`` (it may have frozen up to a derivative window
-    before the residuals crossed their thresholds: the stretch is followed back as far as it stays
-    flat) and have moved before."""
+    None: the signal must be flat from ``t_d + margin`` (the residuals may cross their thresholds
+    up to a derivative window, ``margin``, before the reading froze) and have moved before; the
+    flat stretch is followed back as far as it stays flat."""
     sensor = model.faults[fault].targets[0]
     signal = np.asarray(signal, dtype=float)
-    i_d = int(np.searchsorted(t, t_d))
+    i_d = int(np.searchsorted(t, t_d + margin))
     i_end = int(np.searchsorted(t, end, side="right"))
     if i_end - i_d < 3 or i_d < 3:
         return None
     tail = signal[i_d:i_end]
     width = band(model, sensor, signal[:i_d])
-    if width <= 0 or np.ptp(tail) > width:
+    level = float(np.median(tail))
+    if width <= 0 or np.max(np.abs(tail - level)) > width:
         return None
-    lo, hi = float(tail.min()), float(tail.max())
     k = i_d
-    while k > 0 and max(hi, signal[k - 1]) - min(lo, signal[k - 1]) <= width:
+    while k > 0 and abs(signal[k - 1] - level) <= width:
         k -= 1
-        lo, hi = min(lo, signal[k]), max(hi, signal[k])
-    if k == 0 or np.ptp(signal[:k]) <= MOVED * width:
+    if k == 0 or np.max(np.abs(signal[:k] - level)) <= MOVED * width:
         return None
     return Stuck(fault, sensor, float(t[k]), float(np.median(signal[k:i_end])))

@@ -22,8 +22,11 @@ MODEL = ROOT / "tests" / "data" / "rc_two_sensors.yaml"
 R, C, RL = 100.0, 1.0e-3, 200.0
 
 
-def circuit(T: float, seed: int, bias: tuple[float, float] | None = None, gain: tuple[float, float] | None = None):
-    """C v' = (u - v)/R - v/RL, i = (u - v)/R; the voltage sensor reads v + b or g v from t0."""
+def circuit(T: float, seed: int, bias: tuple[float, float] | None = None, gain: tuple[float, float] | None = None,
+            stuck: float | None = None):
+    """C v' = (u - v)/R - v/RL, i = (u - v)/R; the voltage sensor reads v + b or g v from t0, or
+    holds its reading at ``stuck`` s (its noise with it: a frozen transmitter's output still picks
+    up the line's noise)."""
     t = np.arange(0.0, T + 0.0005, 0.001)
 
     def u(tt):
@@ -38,6 +41,8 @@ def circuit(T: float, seed: int, bias: tuple[float, float] | None = None, gain: 
         measured = np.where(t >= bias[0], v + bias[1], v)
     if gain:
         measured = np.where(t >= gain[0], gain[1] * v, measured)
+    if stuck is not None:
+        measured = np.where(t >= stuck, v[np.searchsorted(t, stuck)], measured)
     return {"t": t, "u": u(t), "i": i, "v": measured + rng.normal(0, 1e-3, t.size)}
 
 
@@ -71,9 +76,29 @@ def test_a_gain_fault_of_the_same_sensor_is_still_a_gain():
 
 def test_a_bias_fault_without_bounds_or_with_an_unknown_effect_is_refused():
     text = MODEL.read_text()
-    with pytest.raises(ModelError, match="effect must be gain or bias"):
+    with pytest.raises(ModelError, match="effect must be gain, bias, stuck"):
         load_model_text(text.replace("effect: bias", "effect: drift"), "rc.yaml")
     m = load_model_text(text.replace("effect: bias, bounds: [-2.0, 2.0]", "effect: bias"), "rc.yaml")
     from fdi.identify import fault_space
     with pytest.raises(ModelError, match="a bias fault needs bounds"):
         fault_space(m, "bias_v")
+
+
+def test_a_frozen_voltage_sensor_is_found_stuck_at_its_last_reading():
+    data = circuit(6.0, seed=3, stuck=3.0)
+    report = public(diagnose(str(MODEL), Measurements("frozen", data["t"], data),
+                             Options(workers=1, seed=0, thresholds=thresholds())))
+    (fault,) = report["diagnosis"]["faults"]
+    assert (fault["name"], fault["type"]) == ("stuck_v", "stuck")
+    level = circuit(6.0, seed=3)["v"]                 # the same noise: the level is the reading at 3 s
+    assert abs(fault["t0"] - 3.0) <= 0.01
+    assert fault["value"] == pytest.approx(float(np.median(data["v"][3000:])), abs=2e-3)
+    assert abs(fault["value"] - level[3000]) < 6e-3
+
+
+def test_a_stuck_fault_the_data_do_not_show_is_no_candidate_for_identification():
+    data = circuit(6.0, seed=1, bias=(3.0, 0.3))          # an offset: the signal still moves
+    report = public(diagnose(str(MODEL), Measurements("offset", data["t"], data),
+                             Options(workers=1, seed=0, thresholds=thresholds())))
+    assert not any("stuck_v" in c for c in report["candidates"])
+    assert [f["name"] for f in report["diagnosis"]["faults"]] == ["bias_v"]
