@@ -12,8 +12,10 @@ A scenario (JSON or YAML) has the shape of the CyCab reference scenarios::
 mappings (by data column) override the model's measurement model. A target is a fault of the
 model: a parametric fault on one parameter takes ``value`` as the parameter's faulty value; on a
 group (R5 = kf5, Fu5) ``value`` multiplies every parameter of the group (incipient profiles then
-start from 1). A sensor fault multiplies the measurement by beta(t); a source fault multiplies the
-source; a mode fault sets the mode variable to the fault's value (default 0) from t0.
+start from 1). A sensor fault multiplies the measurement by beta(t) (an offset fault, ``effect:
+bias``, adds b(t) to it; a stuck one, type abrupt, holds the reading it had at t0); a source fault
+multiplies the source (or adds b(t) to its command); a mode fault sets the mode variable to the
+fault's value (default 0) from t0.
 
 Every key and number is checked where it enters, and the run's size is bounded (MAX_BYTES,
 MAX_SAMPLES, MAX_STEPS, MAX_SWITCHES; docs/simulation.md) so that no file can hang the simulator
@@ -253,7 +255,10 @@ def _event(path: str, i: int, f, model: Model, T: float, fs: float) -> FaultEven
         raise ScenarioError(f"{path}: {where}: t0 = {t0:g} s is outside the run (0 to T = {T:g} s)")
     value = period = model_no = None
     b: tuple[float, ...] = ()
-    if kind in ("abrupt", "intermittent"):
+    if fault.effect == "stuck" and kind != "abrupt":
+        raise ScenarioError(f"{path}: {where}: target '{target}' is a stuck sensor: use type abrupt (it freezes "
+                            "at t0, holding the reading it had)")
+    if kind in ("abrupt", "intermittent") and not (fault.effect == "stuck" and "value" not in f):
         if "value" not in f:
             raise ScenarioError(f"{path}: {where}: missing value (the faulty value of {target})")
         value = _num(path, f"{where}.value", f["value"], "the faulty value")
@@ -319,6 +324,14 @@ def time_functions(model: Model, scenario: Scenario):
     beta_sensors: dict[str, Callable] = {}
     for e in scenario.faults:
         fault = model.faults[e.target]
+        if fault.effect == "bias":               # an offset added to the measurement, or to the command
+            offset = fault_profile(e, 0.0)
+            name = f"bias_{fault.targets[0]}" if fault.kind == "source" else f"~bias_{fault.targets[0]}"
+            (param_fns if fault.kind == "source" else beta_sensors)[name] = offset
+            continue
+        if fault.effect == "stuck":              # the reading frozen from t0 (applied to the measurement)
+            beta_sensors[f"~stuck_{fault.targets[0]}"] = (lambda t0: (lambda t: np.full(np.shape(t), t0)))(e.t0)
+            continue
         if fault.kind == "parametric" and len(fault.targets) == 1:
             param_fns[fault.targets[0]] = fault_profile(e, nominal[fault.targets[0]])
         elif fault.kind == "parametric":
@@ -422,6 +435,7 @@ def _run(model: Model, scenario: Scenario, progress, method: str,
     n = int(round(scenario.T * scenario.fs))
     t = np.arange(n + 1) / scenario.fs
     values, beta_sensors = time_functions(model, scenario)
+    model = _with_offsets(model, [model.faults[e.target] for e in scenario.faults])
     initial = dict(model.initial)
     initial.update(scenario.initial)
     switches = [float(t[k + 1]) for m in model.modes.values() if m.column and m.expr is not None
@@ -442,6 +456,12 @@ def _run(model: Model, scenario: Scenario, progress, method: str,
             cols[m.column] = command_function(model, m.name)(traj.t)
     for s in model.sensors.values():
         measured = traj.signals[s.name] * (beta_sensors[s.name](traj.t) if s.name in beta_sensors else 1.0)
+        if f"~bias_{s.name}" in beta_sensors:
+            measured = measured + beta_sensors[f"~bias_{s.name}"](traj.t)
+        if f"~stuck_{s.name}" in beta_sensors:
+            t0 = float(beta_sensors[f"~stuck_{s.name}"](traj.t[:1])[0])
+            k = min(int(np.searchsorted(traj.t, t0)), traj.t.size - 1)
+            measured = np.where(traj.t >= t0, measured[k], measured)
         mapping = s.column_values(None)
         if mapping is None:
             raise ScenarioError(f"{model.path}: sensors.{s.name}: it reads several columns; add columns: "
@@ -458,6 +478,26 @@ def _run(model: Model, scenario: Scenario, progress, method: str,
             cols[col] = x
     order = [c for c in model.columns if c in cols] or list(cols)
     return {c: cols[c] for c in order + [c for c in cols if c not in order]}
+
+
+def _with_offsets(model: Model, faults: list) -> Model:
+    """The model with an offset symbol ``bias_<source>`` added to each source a bias fault acts on
+    (its input's expression, or its value), for the simulator to read from ``values(t)``."""
+    from dataclasses import replace as _replace
+    sources = {f.targets[0] for f in faults if f.kind == "source" and f.effect == "bias"}
+    if not sources:
+        return model
+    symbols = dict(model.symbols)
+    inputs = dict(model.inputs)
+    elements = dict(model.elements)
+    for name in sources:
+        b = sp.Symbol(f"bias_{name}", real=True)
+        symbols[b.name] = b
+        if name in inputs and inputs[name].expr is not None:
+            inputs[name] = _replace(inputs[name], expr=inputs[name].expr + b)
+        elif name in elements and elements[name].value is not None:
+            elements[name] = _replace(elements[name], value=elements[name].value + b)
+    return _replace(model, symbols=symbols, inputs=inputs, elements=elements)
 
 
 def csv_chunks(columns: dict[str, np.ndarray], rows: int = 10_000) -> Iterator[str]:
