@@ -19,6 +19,7 @@ from dataclasses import dataclass, replace
 from typing import Mapping
 
 import numpy as np
+import sympy as sp
 
 from bondgraph.model import Model
 
@@ -117,3 +118,65 @@ def effective(fsm: FSM, weak: list[Weakness]) -> FSM:
             r = replace(r, nominal=tuple(0 if j in drop[r.fault] else v for j, v in enumerate(r.nominal)))
         rows.append(r)
     return replace(fsm, rows=tuple(rows))
+
+
+@dataclass(frozen=True)
+class NominalSensitivity:
+    """How a fault that just crosses its most sensitive residual's threshold moves the others, on a
+    simulated nominal run: ``reach[residual]`` as a fraction of that residual's threshold (1 for
+    the residual that sets the size). Below MARGIN a structural 1 is a weak one."""
+    fault: str
+    reach: Mapping[str, float]
+
+    def weak(self) -> list[str]:
+        return [r for r, x in self.reach.items() if x < MARGIN]
+
+
+def nominal_sensitivities(model: Model, residuals: list[Residual], thresholds: Mapping[str, float],
+                          window: float | None = None) -> list[NominalSensitivity]:
+    """Every candidate fault's reach in each residual it enters structurally, on a nominal run of
+    bgfdi's simulator (the model's own input expressions, from its initial state, over twenty of its
+    slowest time constants at most two thousand fastest ones, sampled at the data's sampling time or
+    a tenth of the fastest time constant): the fault is moved by STEP, the residuals' peak change
+    scaled to the size at which the first of them reaches its threshold. Raises ValueError when the
+    model cannot be simulated as it is (an input without an expression, no time constant)."""
+    from bondgraph.simulation import simulate
+    from bondgraph.timescales import model_time_scales
+
+    scales = model_time_scales(model)
+    if not scales.known:
+        raise ValueError("no time constant to set the run")
+    if any(i.expr is None for i in model.inputs.values()):
+        raise ValueError("an input has no expr to simulate")
+    ts = model.sampling_time or scales.fastest / 10
+    span = min(20 * scales.slowest, 2000 * scales.fastest) if np.isfinite(scales.slowest) else 2000 * scales.fastest
+    t = np.arange(int(span / ts) + 1) * ts
+    nominal = {s.name: float(v) for s, v in model.nominal_values().items()}
+    missing = [r.name for r in residuals if r.name not in thresholds]
+    if missing:
+        raise ValueError(f"no threshold for {', '.join(missing)} in the model (bgfdi calibrate gives them)")
+    traj = simulate(model, t, values=lambda tt: nominal)
+    raw = {s: np.asarray(traj.signals[s], dtype=float) for s in model.sensors}
+    for name, i in model.inputs.items():
+        fn = sp.lambdify([sp.Symbol("t", real=True)], i.expr.xreplace({model.symbols[k]: v for k, v in nominal.items()
+                                                                      if k in model.symbols}), modules="numpy")
+        raw[name] = np.asarray(fn(t), dtype=float) * np.ones_like(t)
+    w = window or max(5 * ts, scales.fastest / 2)
+    edge = max(1, int(np.ceil(w / ts)))
+    crop = slice(edge, t.size - edge)
+    r0 = evaluate(model, residuals, raw, ts, window=w)[:, crop]
+    out = []
+    names = [r.name for r in residuals]
+    for fault in model.faults:
+        moved = _perturbed(model, fault, nominal, raw)
+        if moved is None:
+            continue
+        params, betas, biases = moved
+        r1 = evaluate(model, residuals, raw, ts, window=w, values=params, betas=betas, biases=biases)[:, crop]
+        effect = np.nanmax(np.abs(r1 - r0), axis=-1)
+        enters = [j for j, r in enumerate(residuals) if effect[j] > 0 and np.isfinite(effect[j])]
+        if not enters:
+            continue
+        size = min(thresholds[names[j]] / effect[j] for j in enters)
+        out.append(NominalSensitivity(fault, {names[j]: float(size * effect[j] / thresholds[names[j]]) for j in enters}))
+    return out

@@ -365,9 +365,10 @@ def _tables_format(args: argparse.Namespace) -> str:
 def cmd_isolability(args: argparse.Namespace) -> int:
     from .isolability_report import analyse, to_json, to_text
 
-    model = load_model(args.model)
+    from ..config import load as load_config
+    model, config = load_config(args.model)
     modes = [parse_mode(args.mode, model)] if args.mode else None
-    result = analyse(model, args.causality, modes, args.max_sensors)
+    result = analyse(model, args.causality, modes, args.max_sensors, config)
     _emit(to_json(result) if args.json else to_text(result), args.output)
     return 0
 

@@ -33,10 +33,13 @@ class Analysis:
     mso_seconds: float
     seconds: float
     notes: tuple[str, ...]
+    sensitivities: tuple = ()           # fdi.sensitivity.NominalSensitivity, on a nominal simulation
 
 
 def analyse(model: Model, causality: str = DERIVATIVE, modes: list[dict] | None = None,
-            max_sensors: int = 3) -> Analysis:
+            max_sensors: int = 3, config=None) -> Analysis:
+    """The isolability analysis; with the model's monitor settings (``config``: its thresholds),
+    also each fault's weak residuals on a nominal simulation (:func:`fdi.sensitivity.nominal_sensitivities`)."""
     start = time.perf_counter()
     chosen = select_arrs(model, causality)
     diag = assign(model, DIAGNOSIS)
@@ -53,8 +56,19 @@ def analyse(model: Model, causality: str = DERIVATIVE, modes: list[dict] | None 
         out.append(ModeAnalysis(dict(mode), best, iso))
     nominal = structural_system(model, diag, mode=out[0].mode if model.modes else None)
     placement = sensor_placement(model, nominal, causality, max_sensors) if max_sensors else None
+    notes = list(chosen.notes)
+    sensitivities: tuple = ()
+    if config is not None and chosen.arrs:
+        from ..residuals import compile_residuals
+        from ..sensitivity import nominal_sensitivities
+        try:
+            kernels = compile_residuals(model, list(chosen.arrs))
+            sensitivities = tuple(nominal_sensitivities(model, kernels, dict(config.thresholds),
+                                                        config.derivative_window))
+        except Exception as exc:                   # noqa: BLE001  the analysis stands without it; say why
+            notes.append(f"weak detectability not assessed: {str(exc).splitlines()[0]}")
     return Analysis(model.name, causality, chosen.arrs, tuple(out), placement, chosen.msos, chosen.mso_seconds,
-                    time.perf_counter() - start, chosen.notes)
+                    time.perf_counter() - start, tuple(notes), sensitivities)
 
 
 def _classes(iso: Isolability) -> str:
@@ -76,6 +90,13 @@ def to_text(a: Analysis) -> str:
             lines.append(f"  best, {c} causality:".ljust(34) + _classes(iso))
         reach = "reaches" if m.chosen.covers(m.best[a.causality]) else "falls short of"
         lines.append("  chosen residuals:".ljust(34) + _classes(m.chosen) + f"   ({reach} the best in {a.causality} causality)")
+    weak = [(x.fault, x.weak(), x.reach) for x in a.sensitivities if x.weak()]
+    if weak:
+        lines += ["", "weakly detectable (a fault that just crosses its most sensitive residual's threshold moves "
+                  "these by less than a quarter of theirs, on a nominal simulation: their silence does not "
+                  "exonerate it)"]
+        for fault, residuals, reach in weak:
+            lines.append(f"  {fault}: " + ", ".join(f"{r} ({reach[r]:.2g} of its threshold)" for r in residuals))
     p = a.placement
     if p is not None:
         lines += ["", f"sensor placement ({a.causality} causality, first mode): smallest sets of added sensors that make "
@@ -111,6 +132,7 @@ def to_dict(a: Analysis) -> dict:
                                       for c in s] for s in p.sets],
             "classes": [list(c) for c in p.target.classes()]},
         "mso_sets": a.mso_count, "notes": list(a.notes),
+        "weakly_detectable": {x.fault: {r: x.reach[r] for r in x.weak()} for x in a.sensitivities if x.weak()},
     }
 
 
