@@ -76,7 +76,8 @@ def nominal_residuals(model_path: str, data: str | Measurements, settle: float |
 
 def _threshold(samples: list[np.ndarray], quantile: float | None, margin: float) -> np.ndarray:
     joined = np.concatenate(samples, axis=1)
-    level = joined.max(axis=1) if quantile is None else np.quantile(joined, quantile, axis=1)
+    # NaN: samples with no residual (within half a derivative window of a commanded switch)
+    level = np.nanmax(joined, axis=1) if quantile is None else np.nanquantile(joined, quantile, axis=1)
     return margin * level
 
 
@@ -93,11 +94,11 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
         false_alarms, worst = [], []
         for i, left in enumerate(samples):
             others = _threshold(samples[:i] + samples[i + 1:], quantile, margin)
-            ratio = left.max(axis=1) / others
+            ratio = np.nanmax(left, axis=1) / others
             false_alarms.append(bool((left > others[:, None]).any()))
             worst.append((names[int(np.argmax(ratio))], float(ratio.max())))
     return Calibration(model.name, names, [arr_unit(model, a) for a in arrs],
-                       [[float(x) for x in s.max(axis=1)] for s in samples], [float(x) for x in thresholds],
+                       [[float(x) for x in np.nanmax(s, axis=1)] for s in samples], [float(x) for x in thresholds],
                        "peak" if quantile is None else f"quantile {quantile:g}", margin, false_alarms,
                        [getattr(r, "path", str(r)) for r in runs], worst)
 

@@ -40,6 +40,7 @@ from bondgraph.loader import Document, model_from_document, read_document, read_
 from bondgraph.model import Model
 
 MAX_TIME = 1.0e6             # s: a derivative window or waiting time beyond 11 days is a typing error
+EXONERATIONS = ("sensitivity", "structural")   # how a quiet residual exonerates a fault
 MAX_SAMPLES = 10_000_000     # samples in an identification window
 DEFAULT_SAMPLES = 1000       # the paper's identification window (Section IV)
 # The derivative window and the waiting time have no default in seconds: when the file gives none
@@ -68,6 +69,7 @@ class MonitorConfig:
     samples: int = DEFAULT_SAMPLES
     derivative_window: float | None = None
     faults: Mapping[str, FaultSettings] = field(default_factory=dict)
+    exoneration: str = "sensitivity"        # or "structural": the paper's (every structural 1 exonerates)
 
     def bounds(self, fault: str) -> tuple[float, float] | None:
         """The search bounds of ``fault`` given in the file, or None."""
@@ -88,7 +90,12 @@ class MonitorConfig:
 
 def read_config(doc: Document, model: Model) -> MonitorConfig:
     """The monitor settings of a read model file; a ModelError (file, key, line) on a bad value."""
-    diag = doc.spec(doc.data.get("diagnosis") or {}, ("diagnosis",), {"waiting_time", "samples", "derivative_window"})
+    diag = doc.spec(doc.data.get("diagnosis") or {}, ("diagnosis",),
+                    {"waiting_time", "samples", "derivative_window", "exoneration"})
+    exoneration = diag.get("exoneration", "sensitivity")
+    if exoneration not in EXONERATIONS:
+        raise doc.error(("diagnosis", "exoneration"), f"exoneration must be {' or '.join(EXONERATIONS)}, not "
+                                                      f"{exoneration!r} (docs/diagnosis.md)")
     window = waiting = None                 # not given: from the data and the model (fdi.scales)
     if diag.get("derivative_window") is not None:
         window = doc.number(diag["derivative_window"], ("diagnosis", "derivative_window"),
@@ -99,7 +106,7 @@ def read_config(doc: Document, model: Model) -> MonitorConfig:
     samples = int(doc.number(diag.get("samples", DEFAULT_SAMPLES), ("diagnosis", "samples"), "samples",
                              integer=True, minimum=2, maximum=MAX_SAMPLES))
     return MonitorConfig(thresholds=_thresholds(doc, model), waiting_time=waiting, samples=samples,
-                         derivative_window=window, faults=_fault_settings(doc, model))
+                         derivative_window=window, faults=_fault_settings(doc, model), exoneration=str(exoneration))
 
 
 def _thresholds(doc: Document, model: Model) -> dict[str, float]:

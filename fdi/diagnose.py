@@ -173,7 +173,7 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     clock = time.perf_counter()
     fsm = fault_signature_matrix(model, list(arrs), mode)
     mcsm = mode_change_signature_matrix(model, list(arrs), mode)
-    if o.exoneration:       # a quiet residual exonerates only a fault that could have moved it
+    if o.exoneration and config.exoneration == "sensitivity":   # a quiet residual exonerates only a fault that could have moved it
         win = window(meas.t, raw, det.time, samples, w)
         weak = weak_entries(model, list(residuals), win.raw, meas.ts, w, fsm, det.final_coherence, thresholds,
                             win.crop, commanded(model, win.raw))

@@ -202,6 +202,12 @@ class Objective:
                        for j, f in enumerate(candidate)}
         self.base_signals = corrected_signals(model, win.raw, win.ts, self.orders, fixed_betas or None, window_s,
                                               biases=fixed_biases or None)
+        # samples the data leave without a residual (within half a derivative window of a commanded or
+        # autonomous switch: fdi.residuals.mode_breaks): they count for nobody
+        self.gaps = np.zeros(win.t.size, dtype=bool)
+        for series in self.base_signals.values():
+            for x in series:
+                self.gaps |= np.isnan(np.asarray(x, dtype=float)).reshape(-1, win.t.size).any(axis=0)
         self._constant: dict[int, float] = {}
         # the screening fidelity: every stride-th sample, a sixth of the derivative window apart, so that
         # the filtered residuals barely change between the samples left out
@@ -234,8 +240,8 @@ class Objective:
         if stride not in self._constant:
             c = self.crop(stride)
             self._constant[stride] = float(sum(
-                self.weights[i] * np.abs(np.asarray(self.residuals[i](self.base_signals, self.nominal, self.win.ts,
-                                                                      self.window_s))[..., c]).sum()
+                self.weights[i] * np.nansum(np.abs(np.asarray(self.residuals[i](self.base_signals, self.nominal,
+                                                                                self.win.ts, self.window_s))[..., c]))
                 for i in range(len(self.residuals)) if i not in self.active))
         return self._constant[stride]
 
@@ -403,6 +409,8 @@ class Objective:
             vals = values if n <= step else {k: v[rows] if np.ndim(v) == 2 and np.shape(v)[0] == n else v
                                              for k, v in values.items()}
             out[rows] = residual(part, vals, self.win.ts, self.window_s, crop)
+        if self.gaps.any():
+            out[:, self.gaps[crop]] = 0.0
         return out
 
     def structure(self, bits: np.ndarray):

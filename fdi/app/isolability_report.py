@@ -93,8 +93,7 @@ def to_text(a: Analysis) -> str:
     weak = [(x.fault, x.weak(), x.reach) for x in a.sensitivities if x.weak()]
     if weak:
         lines += ["", "weakly detectable (a fault that just crosses its most sensitive residual's threshold moves "
-                  "these by less than a quarter of theirs, on a nominal simulation: their silence does not "
-                  "exonerate it)"]
+                  "these by less than theirs, on a nominal simulation: their silence does not exonerate it)"]
         for fault, residuals, reach in weak:
             lines.append(f"  {fault}: " + ", ".join(f"{r} ({reach[r]:.2g} of its threshold)" for r in residuals))
     p = a.placement

@@ -14,9 +14,11 @@ F_PWM = 20_000.0
 
 
 def simulate(T: float, fs: float = 1.0e6, *, changes: dict[str, tuple[float, float]] | None = None,
-             noise: float = 0.0, seed: int = 0, x0: tuple[float, float] = (0.0, 0.0)) -> dict[str, np.ndarray]:
+             noise: float = 0.0, seed: int = 0, x0: tuple[float, float] = (0.0, 0.0),
+             gains: dict[str, tuple[float, float]] | None = None) -> dict[str, np.ndarray]:
     """Columns t, Vin, s_cmd, iL, vo sampled at ``fs``; ``changes``: parameter -> (t0, new value),
-    an abrupt fault; ``noise``: standard deviation added to iL and vo."""
+    an abrupt fault; ``gains``: sensor (iL, vo) -> (t0, gain), a sensor's gain fault; ``noise``:
+    standard deviation added to iL and vo."""
     changes = changes or {}
     t = np.round(np.arange(0.0, T + 0.5 / fs, 1.0 / fs), 12)
     half = 0.5 / F_PWM
@@ -45,6 +47,9 @@ def simulate(T: float, fs: float = 1.0e6, *, changes: dict[str, tuple[float, flo
         out[:, mask] = sol.y
         x = solve_ivp(rhs, (a, b), x, method="LSODA", rtol=1e-11, atol=1e-12).y[:, -1]
     s = ((t % (2 * half)) < half).astype(float)
+    for k, name in enumerate(("iL", "vo")):
+        if gains and name in gains:
+            out[k] = np.where(t >= gains[name][0], gains[name][1] * out[k], out[k])
     rng = np.random.default_rng(seed)
     iL = out[0] + (rng.normal(0.0, noise, t.size) if noise else 0.0)
     vo = out[1] + (rng.normal(0.0, noise, t.size) if noise else 0.0)
