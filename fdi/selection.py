@@ -10,16 +10,22 @@ by listing residuals. Candidates are MSO sets:
   inside the part of the model blind to the other fault of the pair. A chain of n measured
   tanks has redundancy n and about 3^n MSO sets; the few near a missed pair are what it needs.
 
-Each candidate is described by structure alone, from a computation plan
-(:func:`bondgraph.sequential.plan`, no sympy): the faults it reacts to, the highest derivative of
-a measured signal it needs, how many differentiations, how many equations. The greedy choice
-takes the candidate that adds most (new detections, then new pairs told apart), ties to the
-lowest derivative order, then fewest differentiations (a measured speed before a differentiated
-position), then the smallest set; only candidates equal in all of these are realised together,
-and the smallest expression wins. Nothing else is realised with sympy
-(:func:`bondgraph.sequential.realize`); a candidate that fails is dropped, one whose expression
-turns out to react to other faults than its equations say goes back to the ranking. A time budget bounds the search
-and the residual set's notes say when it cut it.
+Each candidate is described by structure alone (:func:`describe`, no sympy): the faults it
+reacts to, the highest time derivative of a measured signal its residual needs, how many
+differentiations, how many equations. The greedy choice looks at the candidates that add
+something and whose derivative order is at most :data:`ORDER_WINDOW` above the lowest of them (a
+residual that needs nine derivatives to cover many faults at once waits while second-order ones
+cover them a few at a time). Of those it takes the one that adds most (new detections, then new
+pairs told apart), ties to the lowest derivative order, then the fewest differentiations (a
+measured speed before a differentiated position), then the smallest set. Only candidates equal
+in all of these are realised together, and the smallest expression wins; nothing else is
+realised with sympy (:func:`bondgraph.sequential.realize`). A candidate that fails is dropped;
+one whose expression reacts to other faults than its equations say is ranked again.
+
+Afterwards a residual the others make redundant is dropped (highest derivative order first), and
+one is replaced by at most two of lower derivative order when they keep the same detectability
+and isolability (an algebraic relation instead of a third derivative). A time budget bounds the
+search; the residual set's notes say when it cut it.
 """
 from __future__ import annotations
 
@@ -39,6 +45,7 @@ from .arrs import ARR, ResidualSet, binary_modes, derive_arrs, storage_fault_par
 from .isolability import Shortfall, StructuralBest
 from .signatures import nominal_mode
 
+ORDER_WINDOW = 1              # candidates more derivatives above the lowest that still adds something wait
 BUDGET = 30.0                 # s of computing for the whole selection (SCAPH included); notes say when it cuts
 ENUMERATE_REDUNDANCY = 4      # up to this redundancy every MSO set is a candidate
 TARGETS_PER_ROUND = 2         # missed (fault, other fault) targets searched before each choice
@@ -200,7 +207,7 @@ def select(model: Model, causality: str = DERIVATIVE, budget: float = BUDGET) ->
     problems = tuple(diag.problems) + tuple(diag.loops)
     search = _Search(model, structural_system(model, diag), causality, deadline)
     picks = [_Pick(a, search.faults_of(a)) for a in scaph]
-    search.seen.update(sp.srepr(a.expr) for a in scaph)
+    search.seen.update(a.expr for a in scaph)
     if diag.ok and not search.shortfall(picks):
         return ResidualSet(tuple(scaph), causality, True, problems)
     search.candidates()
@@ -243,7 +250,7 @@ class _Search:
         self.realised: dict[frozenset, _Pick] = {}
         self.failed: set[frozenset] = set()
         self.searched: set[tuple] = set()
-        self.seen: set[str] = set()           # the SCAPH AGARRs' expressions: an MSO set giving one is no candidate
+        self.seen: set = set()           # the SCAPH AGARRs' expressions: an MSO set giving one is no candidate
         self.notes: list[str] = []
         self.mso_seconds = 0.0
         self.enumerated = False
@@ -351,6 +358,8 @@ class _Search:
                 if searching and any(x not in self.searched for x in self.targets(short)):
                     continue
                 return picks
+            low = min(c.order for _, c in scored)
+            scored = [(g, c) for g, c in scored if c.order <= low + ORDER_WINDOW]
             top = max(g for g, _ in scored)
             group = [c for g, c in scored if g == top]
             first = min(c.quality()[:3] for c in group)
@@ -359,9 +368,9 @@ class _Search:
             viable = [p for p in (self.realise(c) for c in tied) if p is not None]
             if any(p.faults != p.candidate.faults for p in viable if p.candidate in fresh):
                 continue        # an expression reacts to other faults than its equations say: rank again
-            present = {sp.srepr(p.arr.expr) for p in picks}
+            present = {p.arr.expr for p in picks}
             for p in viable:
-                if sp.srepr(p.arr.expr) in present:        # the same relation from another set
+                if p.arr.expr in present:        # the same relation from another set
                     self.failed.add(p.candidate.equations)
             viable = [p for p in viable if p.candidate.equations not in self.failed]
             if not viable:
@@ -413,7 +422,7 @@ def _realise(model: Model, system: EquationSystem, c: Candidate, causality: str,
     if r is None:
         return None
     expr = binary_modes(r.expr, modes)
-    if expr == 0 or sp.srepr(expr) in seen:
+    if expr == 0 or expr in seen:
         return None
     eqs = system.equations
     sensors = [eqs[i].name for i in sorted(c.equations) if eqs[i].name in model.sensors]
