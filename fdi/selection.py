@@ -223,10 +223,13 @@ def select(model: Model, causality: str = DERIVATIVE, budget: float = BUDGET) ->
             a = ARR(f"ARR{k}", a.sensor, a.junction, a.expr, a.origin, a.equations, a.causality, a.states, a.exact)
         out.append(a)
     notes = list(search.notes)
-    if search.stopped:
-        notes.append(f"residual search stopped at its time budget ({budget:g} s); the residuals may not reach "
+    short = search.shortfall(picks)
+    if search.stopped and short:
+        notes.append(f"residual search stopped at its time budget ({budget:g} s); the residuals do not reach "
                      f"the best structural isolability")
-    elif search.shortfall(picks):
+    elif search.stopped:
+        notes.append(f"the time budget ({budget:g} s) cut the search for residuals of lower derivative order")
+    elif short:
         notes.append("the computable residuals do not reach the best structural isolability "
                      "(a law given in one form only, or an algebraic loop sympy cannot solve)")
     return ResidualSet(tuple(out), causality, diag.ok, problems, len(search.pool), len(search.described),
