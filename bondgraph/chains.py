@@ -1,4 +1,6 @@
-"""Generated chain models for benchmarks: a drivetrain of n stages, as model YAML text.
+"""Generated chain models for benchmarks, as model YAML text: a drivetrain of n stages
+(:func:`chain_yaml`, symbolic derivation) and n measured tanks in series (:func:`tank_chain_yaml`,
+residual selection).
 
 Stage i is a 1-junction with an inertia I_i and a friction R_i (viscous + Coulomb), coupled to
 the next stage by a transformer. A torque source drives stage 1; one Df sensor measures the speed
