@@ -478,3 +478,355 @@ def mso_search(system: EquationSystem, eqs: Iterable[int] | None = None, *, limi
         sub(singles, set(singles))
     sets = sorted(found, key=lambda s: (len(s), sorted(s)))
     return MSOSearch(sets, state["complete"], time.perf_counter() - start)
+
+
+# ------------------------------------------------------------------ integer structure (large models)
+#
+# The algorithms above hash sympy symbols at every step; the ones below work on the same structure
+# with equations and variables as integers and a matching that discards the alternating tree of a
+# failed search for good (Hungarian-tree pruning: no later augmenting path can pass through it), so a
+# model of a thousand equations takes milliseconds per over-determined part. They give the same sets
+# as :func:`overdetermined` and :func:`causal_overdetermined` (tests/test_selection.py compares them on
+# every shipped model).
+
+@dataclass(frozen=True)
+class Structure:
+    """The incidence of an :class:`EquationSystem` with variables numbered: ``rows[e]`` the
+    variables of equation e, ``cols[v]`` the equations of variable v, ``differential[e]`` the
+    (x, dx) pair of a differential constraint dx = d/dt x."""
+    rows: tuple[frozenset, ...]
+    cols: tuple[tuple[int, ...], ...]
+    differential: Mapping[int, tuple[int, int]]
+    variables: tuple[sp.Symbol, ...]
+    solvable: tuple[frozenset, ...] = ()     # the variables each equation gives explicitly (``solutions``)
+
+
+def structure_of(system: EquationSystem) -> Structure:
+    """Number the variables of ``system`` (in the order of first appearance)."""
+    index: dict = {}
+    rows = []
+    for eq in system.equations:
+        for v in sorted(eq.variables, key=str):
+            index.setdefault(v, len(index))
+        rows.append(frozenset(index[v] for v in eq.variables))
+    cols: list[list[int]] = [[] for _ in index]
+    for e, row in enumerate(rows):
+        for v in row:
+            cols[v].append(e)
+    diff = {e: (index[eq.differential[0]], index[eq.differential[1]])
+            for e, eq in enumerate(system.equations) if eq.differential}
+    solvable = tuple(frozenset(index[v] for v in eq.solutions if v in index) for eq in system.equations)
+    return Structure(tuple(rows), tuple(tuple(c) for c in cols), diff, tuple(index), solvable)
+
+
+def max_matching(st: Structure, eqs: Iterable[int], hidden: frozenset | set = frozenset()) -> dict[int, int]:
+    """A maximum matching equation -> variable of ``eqs``, variables in ``hidden`` left out
+    (known ones). Greedy start, then one augmenting-path search per free equation."""
+    eqs = list(eqs)
+    match_eq: dict[int, int] = {}
+    match_var: dict[int, int] = {}
+    for e in eqs:
+        for v in st.rows[e]:
+            if v not in match_var and v not in hidden:
+                match_eq[e], match_var[v] = v, e
+                break
+    dead: set = set(hidden)
+    for root in eqs:
+        if root in match_eq:
+            continue
+        parent: dict[int, int] = {}
+        stack = [root]
+        found = None
+        while stack and found is None:
+            e = stack.pop()
+            for v in st.rows[e]:
+                if v in dead or v in parent:
+                    continue
+                parent[v] = e
+                e2 = match_var.get(v)
+                if e2 is None:
+                    found = v
+                    break
+                stack.append(e2)
+        if found is None:
+            dead.update(parent)                 # the failed search's tree: never on an augmenting path
+            continue
+        v = found
+        while v is not None:
+            e = parent[v]
+            prev = match_eq.get(e)
+            match_eq[e], match_var[v] = v, e
+            v = prev
+    return match_eq
+
+
+def plus(st: Structure, eqs: Iterable[int], hidden: frozenset | set = frozenset()) -> frozenset[int]:
+    """M+ of ``eqs`` (variables in ``hidden`` known): the equations reachable from an unmatched
+    equation by alternating paths. As :func:`overdetermined`."""
+    eqs = list(eqs)
+    m = max_matching(st, eqs, hidden)
+    match_var = {v: e for e, v in m.items()}
+    seen = {e for e in eqs if e not in m}
+    stack = list(seen)
+    while stack:
+        for v in st.rows[stack.pop()]:
+            e2 = match_var.get(v)
+            if e2 is not None and e2 not in seen:
+                seen.add(e2)
+                stack.append(e2)
+    return frozenset(seen)
+
+
+def minus_variables(st: Structure, eqs: Iterable[int], hidden: frozenset | set = frozenset(),
+                    drop: Mapping[int, int] | None = None) -> set[int]:
+    """The variables of the under-determined part M- of ``eqs`` (those reachable from a variable
+    some maximum matching leaves free). ``hidden`` variables are known; ``drop[e]`` is a variable
+    equation e does not contain here (a derivative the integral interpretation may not use)."""
+    eqs = list(eqs)
+    hide = set(hidden)
+    if drop:
+        rows = {e: st.rows[e] - {drop[e]} if e in drop else st.rows[e] for e in eqs}
+        view = Structure(tuple(rows.get(e, frozenset()) for e in range(len(st.rows))), (), {}, ())
+    else:
+        view = st
+    m = max_matching(view, eqs, hide)
+    var_eqs: dict[int, list[int]] = {}
+    for e in eqs:
+        for v in view.rows[e]:
+            if v not in hide:
+                var_eqs.setdefault(v, []).append(e)
+    matched = set(m.values())
+    seen = {v for v in var_eqs if v not in matched}
+    stack = list(seen)
+    while stack:
+        for e in var_eqs[stack.pop()]:
+            v2 = m.get(e)
+            if v2 is not None and v2 not in seen:
+                seen.add(v2)
+                stack.append(v2)
+    return seen
+
+
+def causal_plus(st: Structure, eqs: Iterable[int] | None = None, causality: str = MIXED) -> frozenset[int]:
+    """M+ under a causal interpretation of the differential constraints, as
+    :func:`causal_overdetermined` (Frisk et al. 2012), on the numbered structure."""
+    eqs = sorted(range(len(st.rows)) if eqs is None else eqs)
+    if causality == MIXED:
+        return plus(st, eqs)
+    diff = {e: st.differential[e] for e in eqs if e in st.differential}
+    if causality == DERIVATIVE:
+        known: set = set()
+        while True:
+            active = [e for e in eqs if not (e in diff and diff[e][0] not in known)]
+            present = set().union(*(st.rows[e] for e in active)) - known if active else set()
+            new = present - minus_variables(st, active, known)
+            if not new:
+                break
+            known |= new
+        return plus(st, [e for e in eqs if st.rows[e] <= known])
+    if causality == INTEGRAL:
+        current = list(eqs)
+        while True:
+            current = sorted(plus(st, current))
+            under = minus_variables(st, current, drop={e: diff[e][1] for e in current if e in diff})
+            if not under:
+                return frozenset(current)
+            current = [e for e in current if not (st.rows[e] & under)]
+    raise ValueError(f"causality must be one of {', '.join(CAUSALITIES)}")
+
+
+def redundancy_of(st: Structure, eqs: Iterable[int] | None = None) -> int:
+    """Structural redundancy |M+| - |var(M+)| of ``eqs`` (all equations by default), as
+    :func:`redundancy`: the MSO sets are polynomially many in the equations for a bounded
+    redundancy, exponentially many as it grows (a chain of n measured tanks has redundancy n)."""
+    p = plus(st, range(len(st.rows)) if eqs is None else eqs)
+    return len(p) - len(set().union(*(st.rows[e] for e in p))) if p else 0
+
+
+def mso_enumerate(st: Structure, eqs: Iterable[int] | None = None, *, keep: int | None = None,
+                  limit: int = 5000, deadline: float | None = None) -> MSOSearch:
+    """The MSO sets of ``eqs`` (of the whole structure by default), by the algorithm of
+    :func:`mso_search` (Krysander, Aslund & Nyberg, with lumping) on the numbered structure; with
+    ``keep``, only those that contain equation ``keep`` (its class is never removed, and a branch
+    whose over-determined part loses it is cut). Stops after ``limit`` sets or at ``deadline``
+    (a ``time.perf_counter()`` value), and says so."""
+    start = time.perf_counter()
+    found: set[frozenset] = set()
+    state = {"complete": True}
+
+    def variables(s: frozenset) -> set:
+        return set().union(*(st.rows[e] for e in s)) if s else set()
+
+    def lump(S: list[frozenset], R: set[frozenset]) -> tuple[list[frozenset], set[frozenset]]:
+        union = frozenset().union(*S)
+        out, out_r, done = [], set(), set()
+        for E in S:
+            if E in done:
+                continue
+            rest = plus(st, union - E)
+            group = [E] + [F for F in S if F is not E and F not in done and F.isdisjoint(rest)]
+            done.update(group)
+            merged = frozenset().union(*group)
+            out.append(merged)
+            if all(F in R for F in group):
+                out_r.add(merged)
+        return out, out_r
+
+    def sub(S: list[frozenset], R: set[frozenset]) -> None:
+        if len(found) >= limit or (deadline is not None and time.perf_counter() > deadline):
+            state["complete"] = False
+            return
+        S, R = lump(S, R)
+        union = frozenset().union(*S)
+        if len(union) - len(variables(union)) == 1:
+            found.add(union)
+            return
+        todo = [E for E in S if E in R]
+        while todo:
+            E = todo.pop()
+            R = R - {E}
+            rest = plus(st, union - E)
+            if keep is not None and keep not in rest:
+                continue
+            S2 = [F for F in S if F is not E and F <= rest]
+            if not S2:
+                continue
+            sub(S2, {F for F in R if F in S2})
+
+    base = plus(st, range(len(st.rows)) if eqs is None else eqs)
+    if base and len(base) - len(variables(base)) >= 1 and (keep is None or keep in base):
+        singles = [frozenset([e]) for e in sorted(base)]
+        sub(singles, {E for E in singles if keep not in E})
+    sets = sorted(found, key=lambda s: (len(s), sorted(s)))
+    return MSOSearch(sets, state["complete"], time.perf_counter() - start)
+
+
+def msos_around(st: Structure, seed: int, within: Iterable[int], causality: str = DERIVATIVE, *,
+                accept=None, further: int = 1, limit: int = 200, deadline: float | None = None) -> MSOSearch:
+    """MSO sets of ``within`` that contain equation ``seed``, looked for close to it: the
+    equations sharing a variable with it, then with those, layer by layer, until the
+    over-determined part of the layers (in ``causality``) holds ``seed`` and some of its MSO sets
+    pass ``accept`` (a residual computable in that causality, say); then ``further`` more layers
+    for alternatives. A residual that tells two faults of a long chain apart lives near them: this
+    costs a few small searches where listing every MSO set of the chain would never end."""
+    start = time.perf_counter()
+    within = set(within)
+    if seed not in within:
+        return MSOSearch([], True, 0.0)
+    ball = {seed}
+    frontier_vars = set(st.rows[seed])
+    seen_vars: set = set()
+    found: dict[frozenset, None] = {}
+    complete, extra = True, None
+    while True:
+        if deadline is not None and time.perf_counter() > deadline:
+            complete = False
+            break
+        seen_vars |= frontier_vars
+        grown = {e for v in frontier_vars for e in st.cols[v] if e in within} - ball
+        if not grown:
+            break
+        ball |= grown
+        frontier_vars = set().union(*(st.rows[e] for e in grown)) - seen_vars
+        part = causal_plus(st, ball, causality)
+        if seed not in part:
+            continue
+        search = mso_enumerate(st, part, keep=seed, limit=limit, deadline=deadline)
+        complete = complete and search.complete
+        for s in search.sets:
+            if accept is None or accept(s):
+                found.setdefault(s, None)
+        if found:
+            extra = further if extra is None else extra - 1
+            if extra <= 0:
+                break
+        if not search.complete:
+            break
+    sets = sorted(found, key=lambda s: (len(s), sorted(s)))
+    return MSOSearch(sets, complete, time.perf_counter() - start)
+
+
+def _allowed(st: Structure) -> Structure:
+    """The edges a derivative-causality plan may match: an equation's explicit solutions, a
+    differential constraint's derivative."""
+    return Structure(tuple(frozenset([st.differential[e][1]]) if e in st.differential else st.solvable[e]
+                           for e in range(len(st.rows))), (), {}, ())
+
+
+def residual_choices(st: Structure, mso: Iterable[int]) -> frozenset[int]:
+    """The equations of ``mso`` whose rest can be matched in derivative causality (each
+    equation to a variable it gives explicitly): those some maximum such matching leaves free.
+    Only these can be the residual equation of a derivative plan; empty when none can."""
+    mso = sorted(mso)
+    variables = set().union(*(st.rows[e] for e in mso)) if mso else set()
+    allowed = _allowed(st)
+    if len(max_matching(allowed, mso)) < len(variables):
+        return frozenset()
+    return plus(allowed, mso)
+
+
+def derivative_plan(st: Structure, eqs: Iterable[int]) -> tuple[dict[int, int], list[list[int]]] | None:
+    """The computation order of the just-determined set ``eqs`` in derivative causality, as
+    :func:`bondgraph.sequential.plan` decides it, on the numbered structure: a matching that
+    solves each equation for a variable it gives explicitly (a differential constraint only for
+    its derivative), and the blocks (strongly connected, in computation order); None when no such
+    matching exists or a block of several equations holds a differential constraint. In this
+    causality the verdict does not depend on the matching found: the blocks of a square structure
+    are the same for every complete matching."""
+    eqs = sorted(eqs)
+    variables = set().union(*(st.rows[e] for e in eqs)) if eqs else set()
+    if len(variables) != len(eqs):
+        return None
+    m = max_matching(_allowed(st), eqs)
+    if len(m) != len(eqs):
+        return None
+    blocks = _strong_blocks(st, eqs, m)
+    if any(len(b) > 1 and any(e in st.differential for e in b) for b in blocks):
+        return None
+    return m, blocks
+
+
+def _strong_blocks(st: Structure, eqs: list[int], m: Mapping[int, int]) -> list[list[int]]:
+    """Strongly connected blocks of ``eqs`` under the matching ``m`` (an equation depends on the
+    equations computing its other variables), in computation order (Tarjan, iterative)."""
+    owner = {m[e]: e for e in eqs}
+    succ = {e: [owner[v] for v in st.rows[e] if v in owner and owner[v] != e] for e in eqs}  # e needs these
+    index: dict[int, int] = {}
+    low: dict[int, int] = {}
+    on_stack: set = set()
+    stack: list[int] = []
+    out: list[list[int]] = []
+    counter = 0
+    for root in eqs:
+        if root in index:
+            continue
+        work = [(root, 0)]
+        while work:
+            node, i = work.pop()
+            if i == 0:
+                index[node] = low[node] = counter
+                counter += 1
+                stack.append(node)
+                on_stack.add(node)
+            nxt = succ[node]
+            if i < len(nxt):
+                work.append((node, i + 1))
+                w = nxt[i]
+                if w not in index:
+                    work.append((w, 0))
+                elif w in on_stack:
+                    low[node] = min(low[node], index[w])
+                continue
+            if low[node] == index[node]:
+                block = []
+                while True:
+                    w = stack.pop()
+                    on_stack.discard(w)
+                    block.append(w)
+                    if w == node:
+                        break
+                out.append(sorted(block))
+            if work:
+                parent = work[-1][0]
+                low[parent] = min(low[parent], low[node])
+    return out            # Tarjan emits a block after every block it needs: computation order

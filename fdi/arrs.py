@@ -16,8 +16,7 @@ import sympy as sp
 from bondgraph.causality import DIAGNOSIS, Causality, assign, require
 from bondgraph.equations import is_signal, relations, resolve, signal
 from bondgraph.model import Model, t
-from bondgraph.sequential import realize
-from bondgraph.structure import DERIVATIVE, EquationSystem, equations, mso_search
+from bondgraph.structure import DERIVATIVE, EquationSystem, equations
 
 
 @dataclass(frozen=True)
@@ -139,20 +138,20 @@ class ResidualSet:
     causality: str
     scaph_ok: bool
     scaph_problems: tuple[str, ...]
-    candidates: int = 0                 # MSO residuals computable in this causality
-    msos: int = 0
+    candidates: int = 0                 # MSO sets whose residual is computable in this causality
+    msos: int = 0                       # MSO sets examined (all of them where mso_complete)
     mso_complete: bool = True
     mso_seconds: float = 0.0
     notes: tuple[str, ...] = field(default_factory=tuple)
 
 
-def select_arrs(model: Model, causality: str = DERIVATIVE) -> ResidualSet:
+def select_arrs(model: Model, causality: str = DERIVATIVE, *, budget: float | None = None) -> ResidualSet:
     """The residual set of :func:`_select`, each residual checked in every mode combination of a
     switched model and rebuilt where the diagnostic hybrid bond graph's single causality is wrong
     in some mode (:mod:`fdi.modewise`)."""
     from .modewise import check_modes
 
-    chosen = _select(model, causality)
+    chosen = _select(model, causality, budget=budget)
     arrs, checks = check_modes(model, list(chosen.arrs))
     rebuilt = sorted({c.arr for c in checks if not c.holds})
     if not rebuilt:
@@ -164,89 +163,17 @@ def select_arrs(model: Model, causality: str = DERIVATIVE) -> ResidualSet:
     return replace(chosen, arrs=tuple(arrs), notes=notes)
 
 
-def _select(model: Model, causality: str = DERIVATIVE) -> ResidualSet:
+def _select(model: Model, causality: str = DERIVATIVE, *, budget: float | None = None) -> ResidualSet:
     """A small residual set reaching the model's best structural isolability (in ``causality``,
     derivative by default): the SCAPH AGARRs where they already do (the CyCab keeps eqs. 5, 9,
-    13), otherwise completed (or, where SCAPH gives up, replaced) by MSO residuals, chosen
-    greedily by the detectability and isolability they add, fewest differentiations first."""
-    from .isolability import signature_isolability, structural_isolability
-    from .signatures import fault_signature_matrix, nominal_mode
+    13), otherwise completed (or, where SCAPH gives up, replaced) by MSO residuals chosen on the
+    structure first and realised with sympy only once chosen (:mod:`fdi.selection`): the most
+    detections and pairs told apart, then the lowest derivative order, fewest differentiations,
+    fewest equations. ``budget`` bounds the search in seconds (default
+    :data:`fdi.selection.BUDGET`); the notes say when it cut it."""
+    from .selection import BUDGET, select
 
-    diag = assign(model, DIAGNOSIS)
-    scaph = derive_arrs(model, diag) if diag.ok else []
-    problems = tuple(diag.problems) + tuple(diag.loops)
-    faults = [f for f, v in model.faults.items() if v.kind != "mode"]
-    system = structural_system(model, diag)
-    mode = nominal_mode(model)
-    best = structural_isolability(model, system, causality, faults)
-
-    def iso(arrs: list[ARR]):
-        if not arrs:
-            return signature_isolability(faults, {f: () for f in faults})
-        fsm = fault_signature_matrix(model, arrs, mode)
-        return signature_isolability(faults, {r.fault: r.structural for r in fsm.rows})
-
-    if diag.ok and iso(scaph).covers(best):
-        return ResidualSet(tuple(scaph), causality, True, problems)
-    search = mso_search(system)
-    exact = storage_fault_parameters(model)
-    pool: list[ARR] = []
-    seen = {sp.srepr(a.expr) for a in scaph}
-    modes = [model.symbols[m] for m in model.modes]
-    for mso in search.sets:
-        try:
-            r = realize(system, mso, causality, exact)
-        except ValueError:
-            continue
-        if r is None:
-            continue
-        expr = binary_modes(r.expr, modes)
-        if expr == 0 or sp.srepr(expr) in seen:
-            continue
-        seen.add(sp.srepr(expr))
-        eqs = system.equations
-        node = eqs[r.residual_equation].node
-        sensors = [eqs[i].name for i in sorted(mso) if eqs[i].name in model.sensors]
-        pool.append(ARR("", ", ".join(sensors) or None, node, expr, "MSO",
-                        tuple(sorted(eqs[i].name for i in mso)), r.causality,
-                        tuple(r.states), None if r.exact is None else binary_modes(r.exact, modes)))
-    computable = len(pool)
-    chosen = list(scaph)
-    current = iso(chosen)
-    while not current.covers(best):
-        scored = []
-        for i, cand in enumerate(pool):
-            trial = iso(chosen + [cand])
-            gain = (sum(trial.detectable) - sum(current.detectable), trial.pairs() - current.pairs())
-            if gain > (0, 0):
-                scored.append((gain, -len(cand.states), -sp.count_ops(cand.expr), -i, cand, trial))
-        if not scored:
-            break
-        scored.sort(key=lambda x: x[:4], reverse=True)
-        _, _, _, _, cand, trial = scored[0]
-        chosen.append(cand)
-        pool.remove(cand)
-        current = trial
-    # drop MSO residuals the others make redundant (last added first)
-    for cand in [a for a in reversed(chosen) if a.origin == "MSO"]:
-        rest = [a for a in chosen if a is not cand]
-        if rest and iso(rest).covers(current):
-            chosen = rest
-    k = len(scaph)
-    out = []
-    for a in chosen:
-        if a.origin == "MSO":
-            k += 1
-            a = ARR(f"ARR{k}", a.sensor, a.junction, a.expr, a.origin, a.equations, a.causality, a.states, a.exact)
-        out.append(a)
-    notes = []
-    if not current.covers(best):
-        notes.append("the computable residuals do not reach the best structural isolability "
-                     "(a law given in one form only, or an algebraic loop sympy cannot solve)")
-    if not search.complete:
-        notes.append(f"MSO search stopped after {len(search.sets)} sets")
-    return ResidualSet(tuple(out), causality, diag.ok, problems, computable,
-                       len(search.sets), search.complete, search.seconds, tuple(notes))
+    return select(model, causality, BUDGET if budget is None else budget)
 
 
 def binary_modes(expr: sp.Expr, modes: list[sp.Symbol]) -> sp.Expr:

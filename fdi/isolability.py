@@ -24,7 +24,7 @@ import networkx as nx
 import sympy as sp
 
 from bondgraph.model import Model, t
-from bondgraph.structure import DERIVATIVE, Equation, EquationSystem, bond_variables, causal_overdetermined
+from bondgraph.structure import DERIVATIVE, Equation, EquationSystem, bond_variables, causal_plus, structure_of
 
 
 @dataclass(frozen=True)
@@ -71,28 +71,88 @@ class Isolability:
 
 def fault_equations(model: Model, system: EquationSystem, faults: Sequence[str] | None = None) -> dict[str, frozenset]:
     """The equations each candidate fault acts on (by its symbols)."""
-    out = {}
-    for name in faults or list(model.faults):
-        syms = {model.symbols[s] for s in model.faults[name].symbols if s in model.symbols}
-        out[name] = frozenset(i for i, e in enumerate(system.equations) if e.expr.free_symbols & syms)
-    return out
+    names = list(faults or model.faults)
+    by_symbol: dict[sp.Symbol, list[str]] = {}
+    for name in names:
+        for s in model.faults[name].symbols:
+            if s in model.symbols:
+                by_symbol.setdefault(model.symbols[s], []).append(name)
+    out: dict[str, set] = {name: set() for name in names}
+    for i, e in enumerate(system.equations):
+        for s in e.expr.free_symbols:
+            for name in by_symbol.get(s, ()):
+                out[name].add(i)
+    return {name: frozenset(v) for name, v in out.items()}
+
+
+class StructuralBest:
+    """The best detectability and isolability, asked fault by fault and pair by pair (see the
+    module doc). Each over-determined part (the model without fault j's equations) is computed
+    once, when first needed, on the numbered structure. Residual selection asks only about the
+    pairs its residuals do not yet tell apart: a chain of hundreds of faults costs a few parts."""
+
+    def __init__(self, model: Model, system: EquationSystem, causality: str = DERIVATIVE,
+                 faults: Sequence[str] | None = None):
+        self.system = system
+        self.causality = causality
+        self.structure = structure_of(system)
+        self.fault_equations = fault_equations(model, system, faults)
+        self.faults = tuple(self.fault_equations)
+        self._parts: dict[str | None, frozenset] = {}
+
+    def part(self, without: str | None = None) -> frozenset[int]:
+        """The over-determined part (in this causality) of the model without ``without``'s
+        equations (None: the whole model): where a residual blind to that fault can come from."""
+        if without not in self._parts:
+            drop = self.fault_equations[without] if without is not None else frozenset()
+            keep = [i for i in range(len(self.system.equations)) if i not in drop]
+            self._parts[without] = causal_plus(self.structure, keep, self.causality)
+        return self._parts[without]
+
+    def detectable(self, fault: str) -> bool:
+        return bool(self.fault_equations[fault] & self.part(None))
+
+    def isolable(self, fault: str, other: str) -> bool:
+        """Some residual reacts to ``fault`` and not to ``other``."""
+        return fault != other and bool(self.fault_equations[fault] & self.part(other))
+
+    def isolability(self) -> Isolability:
+        names = self.faults
+        return Isolability(names, tuple(self.detectable(f) for f in names),
+                           tuple(tuple(self.isolable(fi, fj) for fj in names) for fi in names))
+
+    def shortfall(self, signatures: Mapping[str, frozenset]) -> "Shortfall":
+        """What the best reaches and a residual set does not; ``signatures[f]`` is the set of
+        residuals reacting to fault f (two faults are told apart when their sets differ)."""
+        undetected = tuple(f for f in self.faults if not signatures[f] and self.detectable(f))
+        groups: dict[frozenset, list[str]] = {}
+        for f in self.faults:
+            groups.setdefault(frozenset(signatures[f]), []).append(f)
+        pairs = []
+        for members in groups.values():
+            for x, fa in enumerate(members):
+                for fb in members[x + 1:]:
+                    if self.isolable(fa, fb) or self.isolable(fb, fa):
+                        pairs.append((fa, fb))
+        order = {f: i for i, f in enumerate(self.faults)}
+        return Shortfall(undetected, tuple(sorted(pairs, key=lambda p: (order[p[0]], order[p[1]]))))
+
+
+@dataclass(frozen=True)
+class Shortfall:
+    """Faults the best residual set detects and a given one does not, and pairs the best tells
+    apart (in at least one direction) and the given one does not."""
+    undetected: tuple[str, ...]
+    pairs: tuple[tuple[str, str], ...]
+
+    def __bool__(self) -> bool:
+        return bool(self.undetected or self.pairs)
 
 
 def structural_isolability(model: Model, system: EquationSystem, causality: str = DERIVATIVE,
                            faults: Sequence[str] | None = None) -> Isolability:
     """The best detectability and isolability any residual set can reach (see the module doc)."""
-    fe = fault_equations(model, system, faults)
-    names = tuple(fe)
-    everything = range(len(system.equations))
-    plus = causal_overdetermined(system, everything, causality)
-    detectable = tuple(bool(fe[f] & plus) for f in names)
-    rows = [[False] * len(names) for _ in names]
-    for j, fj in enumerate(names):
-        keep = [i for i in everything if i not in fe[fj]]
-        part = causal_overdetermined(system, keep, causality)
-        for i, fi in enumerate(names):
-            rows[i][j] = i != j and bool(fe[fi] & part)
-    return Isolability(names, detectable, tuple(tuple(r) for r in rows))
+    return StructuralBest(model, system, causality, faults).isolability()
 
 
 def signature_isolability(faults: Sequence[str], signatures: Mapping[str, Sequence[int]]) -> Isolability:

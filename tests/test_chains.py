@@ -72,3 +72,27 @@ def test_chain_state_equation_is_the_hand_derived_one():
                 inertia += values[f"J{i}"] * ratio ** 2 / values["J1"]
             ratio *= values.get(f"n{i}", 1.0)
         assert system.derivative(tt, np.array([x]), p)[0] == pytest.approx(drive / inertia, rel=1e-12)
+
+
+def test_tank_chain_state_equations_are_the_mass_balances():
+    """Tanks in series (tank_chain_yaml): tank i's volume q_i changes by the flow in minus the
+    flow out, dq_i/dt = Q_(i-1) - Q_i, with p_i = q_i/CT_i, Q_i = (p_i - p_(i+1))/Rv_i, the
+    outlet Q_n = p_n/Rv_n and the pump Q_0 = 1e-5 (1 + 0.3 sin(0.01 t)) m^3/s."""
+    from bondgraph.chains import tank_chain_yaml
+    from bondgraph.simulation import build_system
+
+    n = 6
+    model = load_model_text(tank_chain_yaml(n), "tank_chain_6")
+    assert len(model.sensors) == n and len(model.faults) == 3 * n + 1
+    values = {s.name: v for s, v in model.nominal_values().items()}
+    system = build_system(model, values)
+    assert system.states == [f"tank{i}" for i in range(1, n + 1)]
+    p_args = [values[k] for k in system.param_names]
+    rng = np.random.default_rng(5)
+    for tt in (0.0, 37.0, 410.0):
+        q = rng.uniform(0.5e-3, 5e-3, n)
+        p = q / np.array([values[f"CT{i}"] for i in range(1, n + 1)])
+        flows = [1e-5 * (1 + 0.3 * np.sin(0.01 * tt))]
+        flows += [(p[i] - p[i + 1]) / values[f"Rv{i + 1}"] for i in range(n - 1)] + [p[-1] / values[f"Rv{n}"]]
+        expected = [flows[i] - flows[i + 1] for i in range(n)]
+        assert system.derivative(tt, q, p_args) == pytest.approx(expected, rel=1e-9, abs=1e-20)

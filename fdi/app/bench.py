@@ -1,12 +1,14 @@
 """Benchmarks printed as tables: ``bgfdi bench derive`` (symbolic derivation time: ARRs and
-state equations), ``bgfdi bench simulate`` (the CyCab scenario 2 by stage), ``optim``, ``diagnose``."""
+state equations; ``bgfdi tables`` on chains of measured tanks, where residual selection must
+scale), ``bgfdi bench simulate`` (the CyCab scenario 2 by stage), ``optim``, ``diagnose``."""
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 
 from bondgraph.causality import DIAGNOSIS, assign
-from bondgraph.chains import chain_yaml
+from bondgraph.chains import chain_yaml, tank_chain_yaml
 from bondgraph.loader import load_model, load_model_text
 from bondgraph.simulation import build_system
 
@@ -14,6 +16,7 @@ from ..arrs import derive_arrs
 from ..signatures import all_modes, fault_signature_matrix, mode_change_signature_matrix
 
 CHAIN_SIZES = (10, 20, 50, 100, 200)
+TANK_SIZES = (10, 30, 100)      # tanks in series, a pressure sensor and a fault on every one
 
 
 def _best_of(fn, repeat: int = 3) -> float:
@@ -28,10 +31,11 @@ def _best_of(fn, repeat: int = 3) -> float:
     return best
 
 
-def derive_rows(models: list[Path], sizes=CHAIN_SIZES, echo=None) -> list[dict]:
+def derive_rows(models: list[Path], sizes=CHAIN_SIZES, echo=None, tanks=TANK_SIZES) -> list[dict]:
     """Time causality + AGARRs (+ signature matrices for shipped models), best of three cold runs
     (sympy's cache cleared before each, so nothing derived earlier is reused); chains also their
-    state equations (:func:`chain_row`, ``echo`` told each stage as it is measured)."""
+    state equations (:func:`chain_row`, ``echo`` told each stage as it is measured); tank chains
+    ``bgfdi tables`` (:func:`tank_row`)."""
     rows = []
     for path in models:
         model = load_model(path)
@@ -57,7 +61,40 @@ def derive_rows(models: list[Path], sizes=CHAIN_SIZES, echo=None) -> list[dict]:
                        equations=len(system.equations), select_seconds=_best_of(lambda: select_arrs(model), 1))
     for size in sizes:
         rows.append(chain_row(size, echo))
+    for n in tanks:
+        rows.append(tank_row(n, echo))
     return rows
+
+
+def tables_job(model) -> str:
+    """What ``bgfdi tables`` does after loading: residual selection, the signature matrices of
+    every mode and the mode change matrix, the text tables."""
+    from ..arrs import select_arrs
+    from ..tables import render
+
+    arrs = list(select_arrs(model).arrs)
+    modes = all_modes(model)
+    return render("text", arrs, [fault_signature_matrix(model, arrs, m) for m in modes],
+                  mode_change_signature_matrix(model, arrs))
+
+
+def tank_row(n: int, echo=None) -> dict:
+    """``bgfdi tables`` (loading included) on a chain of ``n`` tanks with a pressure sensor and a
+    sensor fault on each (:func:`bondgraph.chains.tank_chain_yaml`): SCAPH gives the n tank
+    balances, and the first and last sensor faults need one more residual each, found near them
+    (about 3^n MSO sets in all). One cold run (sympy's cache cleared first)."""
+    text = tank_chain_yaml(n)
+
+    def job():
+        model = load_model_text(text, f"tank_chain_{n}")
+        return model, tables_job(model)
+    model, _ = job()
+    from ..arrs import select_arrs
+    row = {"case": f"tanks N={n}", "tanks": n, "elements": len(model.elements) + len(model.junctions),
+           "faults": len(model.faults), "arrs": len(select_arrs(model).arrs), "seconds": _best_of(job, 1)}
+    if echo:
+        echo(f"tank chain N={n}: tables {row['seconds']:.3f} s")
+    return row
 
 
 def chain_row(size: int, echo=None) -> dict:
@@ -84,6 +121,8 @@ def format_derive(rows: list[dict]) -> str:
     chains = [r for r in rows if r["case"].startswith("chain")]
     base = chains[0] if chains else None
     for r in rows:
+        if r["case"].startswith("tanks"):
+            continue
         ratio = ""
         if base and r in chains:
             ratio = f"{r['seconds'] / base['seconds']:.1f}x"
@@ -99,20 +138,38 @@ def format_derive(rows: list[dict]) -> str:
         growth = (b["seconds"] / a["seconds"]) / (b["elements"] / a["elements"])
         out.append(f"chain growth: time x{b['seconds'] / a['seconds']:.1f} for elements x"
                    f"{b['elements'] / a['elements']:.1f} (1.0 per unit = linear; measured {growth:.2f})")
+    tanks = [r for r in rows if r["case"].startswith("tanks")]
+    if tanks:
+        out += ["", "bgfdi tables on tanks in series, a pressure sensor and a sensor fault on every tank "
+                "(load, residual selection, signature matrices, text; one cold run)",
+                f"{'case':<32}{'elements':>9}{'faults':>8}{'ARRs':>6}{'time [s]':>11}{'s/tank':>10}"]
+        for r in tanks:
+            out.append(f"{r['case']:<32}{r['elements']:>9}{r['faults']:>8}{r['arrs']:>6}{r['seconds']:>11.3f}"
+                       f"{r['seconds'] / r['tanks']:>10.4f}")
+    if len(tanks) >= 2:
+        a, b = tanks[0], tanks[-1]
+        exponent = math.log(b["seconds"] / a["seconds"]) / math.log(b["tanks"] / a["tanks"])
+        out.append(f"tank growth: time x{b['seconds'] / a['seconds']:.1f} for tanks x{b['tanks'] / a['tanks']:.1f}: "
+                   f"time ~ n^{exponent:.2f} (1 = linear)")
     return "\n".join(out) + "\n"
 
 
 def derive_json(rows: list[dict]) -> dict:
     """``bench derive --json``: every case with the same keys (null where not measured), seconds
-    best of three cold runs; the MSO search of the largest shipped model apart."""
-    cases, mso = [], None
+    best of three cold runs; the MSO search of the largest shipped model apart; ``bgfdi tables``
+    on each tank chain (one cold run) in ``tank_chains``."""
+    cases, mso, tanks = [], None, []
     for r in rows:
+        if r["case"].startswith("tanks"):
+            tanks.append({"tanks": r["tanks"], "elements": r["elements"], "faults": r["faults"], "arrs": r["arrs"],
+                          "tables_s": r["seconds"]})
+            continue
         cases.append({"case": r["case"], "chain": r["case"].startswith("chain"), "elements": r["elements"],
                       "arrs": r["arrs"], "arrs_s": r["seconds"], "state_equations_s": r.get("state_seconds")})
         if "mso_seconds" in r:
             mso = {"case": r["case"], "equations": r["equations"], "msos": r["msos"], "search_s": r["mso_seconds"],
                    "selection_s": r["select_seconds"]}
-    return {"benchmark": "derive", "cases": cases, "mso": mso}
+    return {"benchmark": "derive", "cases": cases, "mso": mso, "tank_chains": tanks}
 
 
 # ---------------------------------------------------------------- simulation
