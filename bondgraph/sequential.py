@@ -83,8 +83,24 @@ def realize(system: EquationSystem, mso: Iterable[int], causality: str = DERIVAT
     sensor equation as the residual); None if no equation of the set leaves a computable rest.
     ``exact``: parameters whose storage laws are differentiated as a whole (see the class doc)."""
     mso = sorted(mso)
+    best = residual_plan(system, mso, causality)
+    if best is None:
+        return None
+    r, p = best
+    exact = set(exact)
+    expr, states = _compute(system, mso, r, p, set())
+    ex = None
+    if exact and _touches(system, mso, exact):
+        ex, _ = _compute(system, mso, r, p, exact)
+    return SequentialResidual(expr, frozenset(mso), r, causality, tuple(states), p["differentiations"], ex)
+
+
+def residual_plan(system: EquationSystem, mso: Iterable[int], causality: str = DERIVATIVE) -> tuple[int, dict] | None:
+    """The residual equation of ``mso`` and the plan of the rest (:func:`plan`): fewest
+    differentiations first, then a junction balance, then a law, then a differential constraint;
+    None if no equation leaves a computable rest."""
     best = None
-    for r in mso:
+    for r in sorted(mso):
         p = plan(system, [e for e in mso if e != r], causality)
         if p is None:
             continue
@@ -92,15 +108,7 @@ def realize(system: EquationSystem, mso: Iterable[int], causality: str = DERIVAT
         rank = (p["differentiations"], 0 if eq.name.endswith(".balance") else 1 if not eq.differential else 2, r)
         if best is None or rank < best[0]:
             best = (rank, r, p)
-    if best is None:
-        return None
-    _, r, p = best
-    exact = set(exact)
-    expr, states = _compute(system, mso, r, p, set())
-    ex = None
-    if exact and _touches(system, mso, exact):
-        ex, _ = _compute(system, mso, r, p, exact)
-    return SequentialResidual(expr, frozenset(mso), r, causality, tuple(states), p["differentiations"], ex)
+    return None if best is None else best[1:]
 
 
 def _touches(system: EquationSystem, eqs, params: set) -> bool:

@@ -429,55 +429,9 @@ def mso_search(system: EquationSystem, eqs: Iterable[int] | None = None, *, limi
                time_limit: float = 30.0) -> MSOSearch:
     """Krysander, Aslund & Nyberg's algorithm with lumping: remove one equivalence class of
     equations at a time from a proper over-determined set, keep the over-determined part; a set of
-    redundancy one is an MSO. Stops after ``limit`` sets or ``time_limit`` seconds (reported)."""
-    inc = system.incidence()
-    start = time.perf_counter()
-    found: set[frozenset] = set()
-    state = {"complete": True}
-
-    def variables(s: frozenset) -> set:
-        return set().union(*(inc[e] for e in s)) if s else set()
-
-    def lump(S: list[frozenset], R: set[frozenset]) -> tuple[list[frozenset], set[frozenset]]:
-        union = frozenset().union(*S)
-        out, out_r, done = [], set(), set()
-        for E in S:
-            if E in done:
-                continue
-            plus = overdetermined(inc, union - E)
-            group = [E] + [F for F in S if F is not E and F not in done and F.isdisjoint(plus)]
-            done.update(group)
-            merged = frozenset().union(*group)
-            out.append(merged)
-            if all(F in R for F in group):
-                out_r.add(merged)
-        return out, out_r
-
-    def sub(S: list[frozenset], R: set[frozenset]) -> None:
-        if len(found) >= limit or time.perf_counter() - start > time_limit:
-            state["complete"] = False
-            return
-        S, R = lump(S, R)
-        union = frozenset().union(*S)
-        if len(union) - len(variables(union)) == 1:
-            found.add(union)
-            return
-        todo = [E for E in S if E in R]
-        while todo:
-            E = todo.pop()
-            R = R - {E}
-            plus = overdetermined(inc, union - E)
-            S2 = [F for F in S if F is not E and F <= plus]
-            if not S2:
-                continue
-            sub(S2, {F for F in R if F in S2})
-
-    base = overdetermined(inc, eqs)
-    if base and len(base) - len(variables(base)) >= 1:
-        singles = [frozenset([e]) for e in sorted(base)]
-        sub(singles, set(singles))
-    sets = sorted(found, key=lambda s: (len(s), sorted(s)))
-    return MSOSearch(sets, state["complete"], time.perf_counter() - start)
+    redundancy one is an MSO. Stops after ``limit`` sets or ``time_limit`` seconds (reported).
+    Runs on the numbered structure (:func:`mso_enumerate`)."""
+    return mso_enumerate(structure_of(system), eqs, limit=limit, deadline=time.perf_counter() + time_limit)
 
 
 # ------------------------------------------------------------------ integer structure (large models)

@@ -37,7 +37,7 @@ import sympy as sp
 
 from bondgraph.causality import DIAGNOSIS, assign
 from bondgraph.model import Model
-from bondgraph.sequential import plan, realize
+from bondgraph.sequential import realize, residual_plan
 from bondgraph.structure import (DERIVATIVE, EquationSystem, Structure, derivative_plan, mso_enumerate, msos_around,
                                  redundancy_of, residual_choices)
 
@@ -94,18 +94,10 @@ def describe(system: EquationSystem, eqs: Iterable[int], causality: str,
                 diffs = sum(1 for e in eqs - {r} if e in st.differential)
                 return Candidate(eqs, faults, r, _order(st, r, m, blocks), diffs)
         return None
-    best = None
-    for r in sorted(eqs):
-        p = plan(system, [e for e in eqs if e != r], causality)
-        if p is None:
-            continue
-        eq = system.equations[r]
-        rank = (p["differentiations"], 0 if eq.name.endswith(".balance") else 1 if not eq.differential else 2, r)
-        if best is None or rank < best[0]:
-            best = (rank, r, p)
+    best = residual_plan(system, eqs, causality)
     if best is None:
         return None
-    _, r, p = best
+    r, p = best
     return Candidate(eqs, faults, r, derivative_order(system, r, p), p["differentiations"])
 
 

@@ -74,15 +74,8 @@ def test_the_residuals_vanish_on_the_independent_simulation_and_a_capacitor_faul
 def test_bgfdi_simulates_each_switch_position_as_the_independent_simulator():
     m = load_model(MODEL)
     t = np.round(np.arange(0.0, 0.002 + 0.5e-6, 1.0e-6), 12)
-    nominal = {s.name: float(v) for s, v in m.nominal_values().items()}
-
-    def values(tt):
-        out = dict(nominal)
-        out["s"] = np.where((np.asarray(tt) % 5e-5) < 2.5e-5, 1.0, 0.0) if np.ndim(tt) else \
-            float((tt % 5e-5) < 2.5e-5)
-        return out
     edges = [k * 2.5e-5 for k in range(1, 80)]
-    traj = bg_simulate(m, t, values=values, breakpoints=edges, vectorised=True)
+    traj = bg_simulate(m, t, values=_pwm_values(m), breakpoints=edges, vectorised=True)
     ref = boost.simulate(0.002)
     assert np.max(np.abs(traj.signals["vo"] - ref["vo"])) < 0.02 * np.max(ref["vo"])
     assert np.max(np.abs(traj.signals["iL"] - ref["iL"])) < 0.02 * np.max(np.abs(ref["iL"]))
@@ -133,6 +126,8 @@ DCM = ROOT / "tests" / "data" / "boost_dcm.yaml"
 
 
 def _pwm_values(m):
+    """The parameters at nominal and the switch following the 20 kHz PWM of the independent
+    simulator (on in the first half of each 50 us period)."""
     nominal = {s.name: float(v) for s, v in m.nominal_values().items()}
 
     def values(tt):
