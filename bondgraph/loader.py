@@ -463,7 +463,11 @@ def _autonomous(ctx, data, modes, symbols, sensors, inputs) -> dict[str, Mode]:
         if not isinstance(spec, dict) or spec.get("positive") is None:
             continue
         where = ("modes", name, "positive")
-        expr = _expr(ctx, spec["positive"], where, allowed)
+        text = spec["positive"]
+        if isinstance(text, str) and any(c in text for c in "<>="):
+            raise ctx.error(where, f"'{text}': give the expression that is above zero while the mode is 1, without "
+                                   "a comparison (positive: iL for a diode conducting while iL > 0; iL - 0.05 to offset it)")
+        expr = _expr(ctx, text, where, allowed)
         if not expr.free_symbols & {symbols[k] for k in list(sensors) + list(inputs)}:
             raise ctx.error(where, f"'{spec['positive']}' uses no sensor or input; an autonomous mode follows the "
                                    "sign of a signal (a diode's current: positive: iL)")
