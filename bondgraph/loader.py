@@ -816,6 +816,11 @@ def _check_sensor_junctions(ctx, sensors, junctions) -> None:
                                    f"of a {want}-junction; '{s.junction}' is a {base}-junction")
 
 
+def inputs_of(sources: Mapping[str, Element]) -> set[str]:
+    """The source names a fault may give that are input signals (not fixed values)."""
+    return {name for name, e in sources.items() if e.input}
+
+
 def _faults(ctx, data, parameters, sensors, elements, modes) -> dict[str, Fault]:
     out: dict[str, Fault] = {}
     sources = {e.input or e.name: e for e in elements.values() if e.kind in SOURCE_KINDS}
@@ -850,6 +855,9 @@ def _faults(ctx, data, parameters, sensors, elements, modes) -> dict[str, Fault]
         if kind in ("sensor", "source"):
             if effect not in FAULT_EFFECTS:
                 raise ctx.error(where + ("effect",), f"effect must be {', '.join(FAULT_EFFECTS)}, not {_shown(effect)}")
+            if effect == "bias" and kind == "source" and targets[0] not in inputs_of(sources):
+                raise ctx.error(where + ("effect",), f"an offset acts on a source's input signal; source "
+                                                     f"'{targets[0]}' has a fixed value: give it an input, or use gain")
             if effect == "stuck" and kind != "sensor":
                 raise ctx.error(where + ("effect",), "a stuck fault is a sensor's (a frozen reading); "
                                                      "for a source use gain or bias")

@@ -68,7 +68,6 @@ def in_mode(model: Model, mode: Mapping[str, int]) -> ModeGraph:
             removed.add(e.name)
             del elements[e.name]
     bonds: list[Bond] = []
-    next_id = max((b.id for b in model.bonds), default=0) + 1
     for b in model.bonds:
         if b.source in removed and b.target in removed:
             continue
@@ -82,7 +81,6 @@ def in_mode(model: Model, mode: Mapping[str, int]) -> ModeGraph:
             bonds.append(Bond(b.id, name, live) if b.source == j.name else Bond(b.id, live, name))
             continue
         bonds.append(b)
-    del next_id
     for name in off:
         del junctions[name]
     zero = frozenset(s.name for s in model.sensors.values() if s.junction in off)

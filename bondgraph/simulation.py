@@ -38,6 +38,7 @@ import sympy as sp
 
 from .causality import SIMULATION, assign
 from .equations import relations, resolve
+from .linear import Linear
 from .program import Line, Program, compile_lines, linear_coefficients, needed_lines, substitute, triangular_order
 from .errors import CausalityError
 from .model import LAW_VARIABLES, Element, Model, t
@@ -122,8 +123,8 @@ def _configure(model: Model, values: Mapping[str, float]) -> tuple[Model, frozen
         names = sorted({s.name for j in switched for s in model.symbols[j.mode].free_symbols})
         mode = tuple((n, int(round(float(values[n])))) for n in names)
         graph = in_mode(model, dict(mode))
+        zero_sources = frozenset(e for e in graph.model.elements if e not in model.elements)
         model = graph.model
-        zero_sources = frozenset(e for e in model.elements if "~off" in e)
     else:
         zero_sources = frozenset()
     spec, opened = _specialise(model, values)
@@ -231,8 +232,14 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
         raise SimulationError(str(exc)) from None
     # each torn variable z of an algebraic loop: its own law once more, z = g(..., z), an unknown
     # solved with the state derivatives (linear loops; the solver's linear system)
-    z_sym = [z for z, _ in torn]
+    z_fun = [z for z, _ in torn]
+    z_sym = [sp.Symbol(f"_z{k}") for k in range(len(torn))]
     loop_laws = [program.name(r.law(*[values_[i] for i in r.inputs])) for _, r in torn]
+    if z_fun and any(line.has(sp.Derivative) and any(line.has(sp.Derivative(z, t)) for z in z_fun)
+                     for _, line in program.lines if not isinstance(line, Linear)):
+        raise SimulationError("a storage element in derivative causality needs the rate of a variable of an "
+                              "algebraic loop; bgfdi solves loops for values only: add a small storage element "
+                              "to break the loop")
     n_st = len(integral)
     sensor_vals = {s.name: values_[w] for s, w in zip(spec.sensors.values(), wanted[n_st:])}
     derivs = [values_[w] for w in wanted[:n_st]] + [sensor_vals[s.name] for s in integrals]
@@ -257,7 +264,8 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     # one pass over the lines: d/dt of a state first (xreplace matches a node before its arguments),
     # then states, parameters and time as plain symbols of the generated code
     mapping = {sp.Derivative(X[s], t): d for s, d in zip(states, dx_sym)}
-    mapping |= {X[s]: x for s, x in zip(states, x_sym)} | dict(zip(params, p_sym)) | {t: t_sym}
+    mapping |= {X[s]: x for s, x in zip(states, x_sym)} | dict(zip(z_fun, z_sym)) | dict(zip(params, p_sym))
+    mapping |= {t: t_sym}
     lines, _ = substitute(program.lines, mapping)
     outputs = [e.xreplace(mapping) for e in outputs]
     residual = [r.xreplace(mapping) for r in residual]        # names, or atoms such as a parameter
@@ -315,7 +323,7 @@ def _tear(rels: list) -> tuple[list, list]:
         if not candidates:
             break
         v = next((c for c in candidates if by_output[c].coefficients is not None), candidates[0])
-        z = sp.Symbol(f"_z{len(torn)}")
+        z = sp.Function(f"_z{len(torn)}", real=True)(t)      # of time: a rate asked of it shows
         torn.append((z, by_output[v]))
         by_output[v] = Relation(v, (), lambda z=z: z)
     return list(by_output.values()), torn
@@ -508,7 +516,7 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
         fresh_states = system is not None and bool(set(new.states) - set(system.states))
         if system is None:
             x = _initial_state(new, initial, a, vals(span[0]))
-            if auto and auto.settle(new, a, x, vals(span[0])) and restarts < 4:
+            if auto and restarts < 4 and auto.settle(new, a, x, vals(span[0])):
                 restarts += 1                          # the initial state decides the autonomous modes
                 system, span = None, (edges[0], edges[0])
                 queue.append((a, b))
@@ -564,6 +572,13 @@ class _Autonomous:
         for n, m in self.modes.items():
             syms = sorted(m.positive.free_symbols, key=lambda x: x.name)
             self._conditions[n] = ([x.name for x in syms], sp.lambdify(syms, m.positive, modules="numpy"))
+        self._inputs = {}                      # each input's expression, a function of t and the parameters
+        if model is not None:
+            for name, i in model.inputs.items():
+                if i.expr is not None:
+                    params = sorted(i.expr.free_symbols - {t}, key=lambda x: x.name)
+                    self._inputs[name] = ([p.name for p in params],
+                                          sp.lambdify([t] + params, i.expr, modules="numpy"))
 
     def __bool__(self) -> bool:
         return bool(self.modes)
@@ -585,15 +600,15 @@ class _Autonomous:
         observed = system.observe(ts, tuple(ys), tuple(P.T), tuple(dx.T))
         signals = {name: np.broadcast_to(np.asarray(v, dtype=float), ts.shape)
                    for name, v in zip(system.output_names, observed)}
+        for s in self.model.sensors.values():      # a displacement or momentum sensor reads its state
+            if s.measures in ("displacement", "momentum") and s.name in system.states:
+                signals[s.name] = np.asarray(ys[system.states.index(s.name)], dtype=float)
         for name in self.model.sensors:
             signals.setdefault(name, np.zeros(ts.shape))
         params = dict(zip(system.param_names, P.T))
-        for name, i in self.model.inputs.items():
-            if i.expr is not None:
-                f = sp.lambdify([t] + [self.model.symbols[p] for p in system.param_names if p in self.model.symbols],
-                                i.expr, modules="numpy")
-                signals[name] = np.broadcast_to(np.asarray(f(ts, *[params[p] for p in system.param_names
-                                                                     if p in self.model.symbols]), dtype=float), ts.shape)
+        for name, (names, f) in self._inputs.items():
+            args = [params[p] if p in params else 0.0 for p in names]
+            signals[name] = np.broadcast_to(np.asarray(f(ts, *args), dtype=float), ts.shape)
         out = {}
         for n, (names, f) in self._conditions.items():
             args = [signals[x] if x in signals else params.get(x, 0.0) for x in names]

@@ -30,7 +30,7 @@ import numpy as np
 
 from . import scales
 from .arrs import arr_unit
-from .data import Measurements, commanded, read_csv, signals_from_data
+from .data import DataError, Measurements, commanded, read_csv, signals_from_data
 from .identify import compiled
 from .detect import settling, trusted
 from .residuals import evaluate
@@ -89,6 +89,11 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
     names = [a.name for a in arrs]
     samples = [nominal_residuals(model_path, run, settle) for run in runs]
     thresholds = _threshold(samples, quantile, margin)
+    blank = [n for n, v in zip(names, thresholds) if not np.isfinite(v)]
+    if blank:
+        raise DataError(f"{model_path}: {', '.join(blank)} have no sample to calibrate on: every stretch between "
+                        f"two mode switches is shorter than the derivative window ({c.config.derivative_window:g} s); "
+                        "shorten diagnosis.derivative_window or sample faster")
     false_alarms = worst = None
     if len(samples) > 1:
         false_alarms, worst = [], []

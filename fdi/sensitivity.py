@@ -93,7 +93,8 @@ def weak_entries(model: Model, residuals: list[Residual], raw: Mapping[str, np.n
                       biases=biases)[:, crop]
         effect = np.nanmax(np.abs(r1 - r0), axis=-1)                 # the step's peak effect on each residual
         observed = np.nanmax(np.abs(r0), axis=-1)
-        scales = [observed[i] / effect[i] for i in fired if effect[i] > 0 and np.isfinite(effect[i])]
+        scales = [observed[i] / effect[i] for i in fired
+                  if effect[i] > 0 and np.isfinite(effect[i]) and np.isfinite(observed[i])]
         if not scales:
             continue
         k = min(scales)                 # the smallest size that explains one residual that fired
@@ -148,6 +149,9 @@ def nominal_sensitivities(model: Model, residuals: list[Residual], thresholds: M
         raise ValueError("no time constant to set the run")
     if any(i.expr is None for i in model.inputs.values()):
         raise ValueError("an input has no expr to simulate")
+    if any(m.column or m.autonomous for m in model.modes.values()):
+        raise ValueError("its modes switch (commanded or autonomous): a nominal run at fixed modes would not "
+                         "say how its residuals see a fault; the decision window's data do (report: weakly_detectable)")
     ts = model.sampling_time or scales.fastest / 10
     span = min(20 * scales.slowest, 2000 * scales.fastest) if np.isfinite(scales.slowest) else 2000 * scales.fastest
     t = np.arange(int(span / ts) + 1) * ts

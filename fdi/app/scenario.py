@@ -435,12 +435,12 @@ def _run(model: Model, scenario: Scenario, progress, method: str,
     n = int(round(scenario.T * scenario.fs))
     t = np.arange(n + 1) / scenario.fs
     values, beta_sensors = time_functions(model, scenario)
-    model = _with_offsets(model, [model.faults[e.target] for e in scenario.faults])
-    initial = dict(model.initial)
+    driven = _with_offsets(model, [model.faults[e.target] for e in scenario.faults])   # the simulator's only:
+    initial = dict(model.initial)                                                        # the logged command has no offset
     initial.update(scenario.initial)
     switches = [float(t[k + 1]) for m in model.modes.values() if m.column and m.expr is not None
                 for k in np.flatnonzero(np.diff(command_function(model, m.name)(t)))]
-    traj = simulate(model, t, values=values, breakpoints=sorted(set(breakpoints(scenario)) | set(switches)), initial=initial,
+    traj = simulate(driven, t, values=values, breakpoints=sorted(set(breakpoints(scenario)) | set(switches)), initial=initial,
                     progress=progress, method=method, vectorised=True, stages=stages)
     rng = np.random.default_rng(scenario.seed)
     cols: dict[str, np.ndarray] = {"t": traj.t}
