@@ -162,6 +162,10 @@ def diagnose(model_path: str | Path, data: str | Path | Measurements, options: O
     report: dict = {"detection": None, "mode": mode, "candidates": [], "estimators": [],
                     "diagnosis": {"faults": []}, "prognosis": [],
                     "_residuals": r, "_t": meas.t, "_thresholds": thresholds, "_names": names, "_timings": timings}
+    blind = [n for n, row in zip(names, r.reshape(len(names), -1)) if not np.isfinite(row).any()]
+    if blind:            # fast switching leaves no whole derivative window between two switches
+        report["note"] = (f"{', '.join(blind)} had no sample: every stretch between two mode switches is shorter "
+                          f"than the derivative window ({w:g} s); shorten diagnosis.derivative_window or sample faster")
     if det is None:
         return report
     report["detection"] = {"time": det.time, "coherence": list(det.coherence), "decision_time": det.decision_time,

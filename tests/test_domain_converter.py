@@ -48,3 +48,14 @@ def test_each_designed_fault_is_found_typed_and_sized(thresholds, fault, true, d
     (found,) = report["diagnosis"]["faults"]
     assert (found["name"], found["type"]) == (fault, "abrupt")
     assert found["value"] == pytest.approx(true, rel=0.05)
+
+
+def test_switching_faster_than_the_derivative_window_is_said_not_silent():
+    """A 20 kHz PWM leaves 25 us between switches; with a 40 us window no residual has a sample,
+    and the report says so and what to change, instead of 'nothing detected' alone."""
+    from fdi.config import load
+    _, config = load(MODEL)
+    report = public(diagnose(MODEL, run(5), Options(workers=1, seed=0, thresholds={"ARR1": 1.5, "ARR2": 1.4},
+                                                    settings=config.replace(derivative_window=4e-5))))
+    assert report["detection"] is None
+    assert "no sample" in report["note"] and "derivative_window" in report["note"]

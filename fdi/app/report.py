@@ -16,6 +16,8 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
     det = report.get("detection")
     if det is None:
         out.append("detection: no residual crossed its threshold: nothing detected")
+        if report.get("note"):
+            out.append(f"note: {report['note']}")
         return "\n".join(out) + "\n"
     out.append(f"detection: t_D = {det['time']:.2f} s, coherence {_vec(det['coherence'])}; "
                f"at t_D + T_wt = {det['decision_time']:.2f} s: {_vec(det['final_coherence'])}")
