@@ -201,12 +201,20 @@ def _signal_functions(model: Model) -> dict:
         out[s.name] = ([x.name for x in syms], sp.lambdify(syms, s.signal, modules="numpy"))
     nominal = {k: v for k, v in model.nominal_values().items()}
     for i in model.inputs.values():
-        if not i.column:
+        if i.expr is not None:
             out[i.name] = (["t"], sp.lambdify([sp.Symbol("t", real=True)], i.expr.xreplace(nominal), modules="numpy"))
     if len(_SIGNALS) > 16:
         _SIGNALS.clear()
     _SIGNALS[id(model)] = (model, out)
     return out
+
+
+def input_values(model: Model, name: str, t: np.ndarray) -> np.ndarray:
+    """Input ``name``'s expression at the model's nominal values, at the times ``t`` (what a
+    simulation drives it with and logs)."""
+    t = np.asarray(t, dtype=float)
+    _, fn = _signal_functions(model)[name]
+    return np.asarray(fn(t), dtype=float) * np.ones_like(t)
 
 
 def signals_from_data(model: Model, data: Measurements) -> dict[str, np.ndarray]:
@@ -218,11 +226,7 @@ def signals_from_data(model: Model, data: Measurements) -> dict[str, np.ndarray]
         names, fn = functions[s.name]
         out[s.name] = np.asarray(fn(*[data.columns[x] for x in names]), dtype=float) * np.ones_like(data.t)
     for i in model.inputs.values():
-        if i.column:
-            out[i.name] = data.columns[i.column]
-        else:
-            names, fn = functions[i.name]
-            out[i.name] = np.asarray(fn(data.t), dtype=float) * np.ones_like(data.t)
+        out[i.name] = data.columns[i.column] if i.column else input_values(model, i.name, data.t)
     for m in model.modes.values():
         if m.column:
             out[m.name] = (np.asarray(data.columns[m.column], dtype=float) >= 0.5).astype(float)

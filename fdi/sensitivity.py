@@ -19,10 +19,10 @@ from dataclasses import dataclass, replace
 from typing import Mapping
 
 import numpy as np
-import sympy as sp
 
 from bondgraph.model import Model
 
+from .data import input_values
 from .residuals import Residual, evaluate
 from .signatures import FSM
 
@@ -161,10 +161,7 @@ def nominal_sensitivities(model: Model, residuals: list[Residual], thresholds: M
         raise ValueError(f"no threshold for {', '.join(missing)} in the model (bgfdi calibrate gives them)")
     traj = simulate(model, t, values=lambda tt: nominal)
     raw = {s: np.asarray(traj.signals[s], dtype=float) for s in model.sensors}
-    for name, i in model.inputs.items():
-        fn = sp.lambdify([sp.Symbol("t", real=True)], i.expr.xreplace({model.symbols[k]: v for k, v in nominal.items()
-                                                                      if k in model.symbols}), modules="numpy")
-        raw[name] = np.asarray(fn(t), dtype=float) * np.ones_like(t)
+    raw.update({name: input_values(model, name, t) for name in model.inputs})
     w = window or max(5 * ts, scales.fastest / 2)
     edge = max(1, int(np.ceil(w / ts)))
     crop = slice(edge, t.size - edge)

@@ -40,6 +40,7 @@ from bondgraph.simulation import SimulationError, simulate
 from bondgraph.timescales import model_integration_step
 
 from .. import profiles
+from ..data import input_values
 from ..errors import UsageError
 
 TYPES = ("abrupt", "intermittent", "incipient", "mode")
@@ -317,11 +318,12 @@ def breakpoints(scenario: Scenario) -> list[float]:
 
 
 def time_functions(model: Model, scenario: Scenario):
-    """values(t) for the simulator (vectorised: t may be an array), and each sensor's beta(t) for
-    the measurement."""
+    """values(t) for the simulator (vectorised: t may be an array), each sensor's beta(t) for the
+    measurement (its offset b(t) under ``~bias_<sensor>``), and the onset of each stuck sensor."""
     nominal = {s.name: v for s, v in model.nominal_values().items()}
     param_fns: dict[str, Callable] = {}
     beta_sensors: dict[str, Callable] = {}
+    stuck: dict[str, float] = {}
     for e in scenario.faults:
         fault = model.faults[e.target]
         if fault.effect == "bias":               # an offset added to the measurement, or to the command
@@ -330,7 +332,7 @@ def time_functions(model: Model, scenario: Scenario):
             (param_fns if fault.kind == "source" else beta_sensors)[name] = offset
             continue
         if fault.effect == "stuck":              # the reading frozen from t0 (applied to the measurement)
-            beta_sensors[f"~stuck_{fault.targets[0]}"] = (lambda t0: (lambda t: np.full(np.shape(t), t0)))(e.t0)
+            stuck[fault.targets[0]] = e.t0
             continue
         if fault.kind == "parametric" and len(fault.targets) == 1:
             param_fns[fault.targets[0]] = fault_profile(e, nominal[fault.targets[0]])
@@ -364,7 +366,7 @@ def time_functions(model: Model, scenario: Scenario):
             for k, fn in param_fns.items():
                 v[k] = np.asarray(fn(arr), dtype=float) if np.ndim(t) else float(fn(arr)[0])
         return v
-    return values, beta_sensors
+    return values, beta_sensors, stuck
 
 
 def command_function(model: Model, mode: str) -> Callable[[np.ndarray], np.ndarray]:
@@ -434,7 +436,7 @@ def _run(model: Model, scenario: Scenario, progress, method: str,
          stages: dict[str, float] | None) -> dict[str, np.ndarray]:
     n = int(round(scenario.T * scenario.fs))
     t = np.arange(n + 1) / scenario.fs
-    values, beta_sensors = time_functions(model, scenario)
+    values, beta_sensors, stuck = time_functions(model, scenario)
     driven = _with_offsets(model, [model.faults[e.target] for e in scenario.faults])   # the simulator's only:
     initial = dict(model.initial)                                                        # the logged command has no offset
     initial.update(scenario.initial)
@@ -446,8 +448,7 @@ def _run(model: Model, scenario: Scenario, progress, method: str,
     cols: dict[str, np.ndarray] = {"t": traj.t}
     nominal = {s: v for s, v in model.nominal_values().items()}
     for name, inp in model.inputs.items():
-        fn = sp.lambdify([sp.Symbol("t", real=True)], inp.expr.xreplace(nominal), modules="numpy")
-        cols[inp.column or name] = np.asarray(fn(traj.t), dtype=float) * np.ones_like(traj.t)
+        cols[inp.column or name] = input_values(model, name, traj.t)
     for m in model.modes.values():                 # the command, as the controller logged it
         if m.column:
             if m.expr is None:
@@ -458,10 +459,9 @@ def _run(model: Model, scenario: Scenario, progress, method: str,
         measured = traj.signals[s.name] * (beta_sensors[s.name](traj.t) if s.name in beta_sensors else 1.0)
         if f"~bias_{s.name}" in beta_sensors:
             measured = measured + beta_sensors[f"~bias_{s.name}"](traj.t)
-        if f"~stuck_{s.name}" in beta_sensors:
-            t0 = float(beta_sensors[f"~stuck_{s.name}"](traj.t[:1])[0])
-            k = min(int(np.searchsorted(traj.t, t0)), traj.t.size - 1)
-            measured = np.where(traj.t >= t0, measured[k], measured)
+        if s.name in stuck:
+            k = min(int(np.searchsorted(traj.t, stuck[s.name])), traj.t.size - 1)
+            measured = np.where(traj.t >= stuck[s.name], measured[k], measured)
         mapping = s.column_values(None)
         if mapping is None:
             raise ScenarioError(f"{model.path}: sensors.{s.name}: it reads several columns; add columns: "
