@@ -31,7 +31,7 @@ import numpy as np
 from . import scales
 from .arrs import arr_unit
 from .data import DataError, Measurements, commanded, read_csv, signals_from_data
-from .identify import compiled
+from .monitor import compiled
 from .detect import settling, trusted
 from .residuals import evaluate
 

@@ -18,11 +18,17 @@ import numpy as np
 
 @dataclass(frozen=True)
 class Detection:
+    """The first threshold crossing t_D (sample ``index``), the coherence vector there, and the
+    coherence vector at the decision time t_D + T_wt (clipped to the data)."""
     time: float                         # tD
     coherence: tuple[int, ...]          # at tD
     decision_time: float                # tD + Twt (clipped to the data)
     final_coherence: tuple[int, ...]    # at tD + Twt
     index: int                          # sample index of tD
+
+    def to_dict(self) -> dict:
+        return {"time": self.time, "coherence": list(self.coherence), "decision_time": self.decision_time,
+                "final_coherence": list(self.final_coherence)}
 
 
 def inconsistency(residuals: np.ndarray, thresholds: np.ndarray) -> np.ndarray:

@@ -54,29 +54,30 @@ def plot_signals(columns: dict[str, np.ndarray], path: str | Path, units: dict[s
     plt.close(fig)
 
 
-def plot_diagnosis(report: dict, folder: str | Path, model) -> list[Path]:
+def plot_diagnosis(d, folder: str | Path, model) -> list[Path]:
     """The figures of :func:`diagnosis_figures` written as PNG files into ``folder``; returns them."""
     plt = _plt()
     out_dir = Path(folder)
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
-    for name, fig in diagnosis_figures(report, model).items():
+    for name, fig in diagnosis_figures(d, model).items():
         written.append(out_dir / f"{name}.png")
         fig.savefig(written[-1], dpi=110)
         plt.close(fig)
     return written
 
 
-def diagnosis_figures(report: dict, model) -> dict:
-    """Residuals with thresholds and t_D (Figs. 4, 7, 11, 13), fitness evolution of every estimator
+def diagnosis_figures(d, model) -> dict:
+    """A :class:`fdi.results.Diagnosis` drawn: residuals with thresholds and t_D (Figs. 4, 7, 11, 13), fitness evolution of every estimator
     (Figs. 9, 12), identified fault profiles, and the RUL prediction, as matplotlib Figures by name
     (the caller shows, saves or closes them)."""
-    from .identify import nominal as nominal_value
+    from .objective import nominal as nominal_value
     from .profiles import profile
 
     plt = _plt()
     figures = {}
-    t, r, thr, names = report["_t"], report["_residuals"], report["_thresholds"], report["_names"]
+    report = d.to_dict()
+    t, r, thr, names = d.t, d.residuals, d.thresholds, list(d.names)
     det = report.get("detection")
     units = _residual_units(model, names)
     fig, axes = plt.subplots(len(names), 1, figsize=(9, 2.2 * len(names)), sharex=True)
@@ -125,7 +126,7 @@ def diagnosis_figures(report: dict, model) -> dict:
             ax.legend(fontsize=7, loc="best")
         fig.tight_layout()
         figures["profiles"] = fig
-    for prog in report.get("prognosis", []):
+    for prog in report["prognosis"]:
         f = next(x for x in faults if x["name"] == prog["name"])
         t0 = f.get("t0", det["time"])
         end = prog["eol"] if prog["eol"] and np.isfinite(prog["eol"]) else t0 + 60
@@ -173,7 +174,7 @@ def _mode_figure(plt, report: dict):
     rows = report["mode_costs"]
     labels = [" ".join(f"{k}={v}" for k, v in r["mode"].items()) for r in rows]
     costs = [r["cost"] for r in rows]
-    estimate = report.get("mode_estimate", {})
+    estimate = report.get("mode_estimate") or {}
     fig, ax = plt.subplots(figsize=(7, 0.5 * len(rows) + 1.6))
     colors = ["C3" if all(estimate.get(k) == v for k, v in r["mode"].items()) else "C0" for r in rows]
     ax.barh(range(len(rows)), costs, color=colors)
@@ -193,10 +194,10 @@ def _residual_units(model, names: list[str]) -> dict[str, str]:
     from bondgraph.errors import ModelError
 
     from .arrs import arr_unit
-    from .identify import compiled
+    from .monitor import monitor_of
     try:
-        arrs = compiled(model.path).arrs
-    except (ModelError, OSError):              # a model not from a file: no units, still a plot
+        arrs = monitor_of(model).arrs
+    except (ModelError, OSError):              # a model that cannot be derived: no units, still a plot
         return {}
     return {a.name: arr_unit(model, a) for a in arrs if a.name in names}
 

@@ -151,7 +151,8 @@ def test_coarse_cost_agrees_with_the_full_cost_on_scenario2():
     # at the designed truth (where the residuals are noise: measured 4 %) and at a wrong structure it
     # stays within 5 % of eq. (24), and ranks them alike
     from fdi.data import read_csv, signals_from_data
-    from fdi.identify import Objective, compiled, window
+    from fdi.objective import Objective, window
+    from fdi.monitor import compiled
     c = compiled(str(CYCAB))
     model, residuals, config = c.model, c.residuals, c.config
     meas = read_csv(DATA / "scenario2.csv")

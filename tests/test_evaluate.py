@@ -8,7 +8,7 @@ from fdi.app.resources import scenarios_dir
 from fdi.app.scenario import FaultEvent, load_scenario, run
 from fdi.data import Measurements
 from fdi.diagnose import Options, diagnose, public
-from fdi.identify import compiled
+from fdi.monitor import compiled
 
 from .conftest import CYCAB
 

@@ -10,7 +10,7 @@ import pytest
 from fdi.app.cli import main
 from fdi.data import read_csv, signals_from_data
 from fdi.diagnose import Options
-from fdi.identify import compiled
+from fdi.monitor import compiled
 from fdi.monitor import Monitor
 from fdi.residuals import evaluate
 

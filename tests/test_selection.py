@@ -7,7 +7,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from fdi.diagnose import effective_samples, information, parameters, select_winner
+from fdi.decide import effective_samples, information, parameters, select_winner
 from fdi.isolate import candidate_sets, pruned_sets
 from fdi.signatures import fault_signature_matrix, nominal_mode
 

@@ -79,7 +79,7 @@ def test_a_bias_fault_without_bounds_or_with_an_unknown_effect_is_refused():
     with pytest.raises(ModelError, match="effect must be gain, bias, stuck"):
         load_model_text(text.replace("effect: bias", "effect: drift"), "rc.yaml")
     m = load_model_text(text.replace("effect: bias, bounds: [-2.0, 2.0]", "effect: bias"), "rc.yaml")
-    from fdi.identify import fault_space
+    from fdi.objective import fault_space
     with pytest.raises(ModelError, match="a bias fault needs bounds"):
         fault_space(m, "bias_v")
 

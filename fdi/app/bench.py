@@ -297,12 +297,12 @@ def diagnose_rows(data_path: Path, workers: int = 1) -> dict:
     from .resources import shipped_model
 
     t0 = time.perf_counter()
-    report = diagnose(shipped_model("cycab_steering"), data_path, Options(pop=100, generations=150, workers=workers))
+    d = diagnose(shipped_model("cycab_steering"), data_path, Options(pop=100, generations=150, workers=workers))
     total = time.perf_counter() - t0
-    est = report["estimators"]
-    return {"stages": report["_timings"], "total_s": total, "estimators": len(est), "workers": workers,
-            "objective_s": sum(e["objective_s"] for e in est), "estimator_s": sum(e["wall_s"] for e in est),
-            "evaluations": sum(e["evaluations"] for e in est)}
+    est = d.estimates
+    return {"stages": dict(d.timings), "total_s": total, "estimators": len(est), "workers": workers,
+            "objective_s": sum(e.objective_s for e in est), "estimator_s": sum(e.wall_s for e in est),
+            "evaluations": sum(e.evaluations for e in est)}
 
 
 def format_diagnose(row: dict) -> str:
@@ -332,7 +332,8 @@ def benchmark_problem(name: str, seed: int):
     from .resources import reference_data, shipped_model
     from .synthetic import Problem
     from ..data import read_csv, signals_from_data
-    from ..identify import Objective, compiled, window
+    from ..objective import Objective, window
+    from ..monitor import compiled
     if name != "scenario2":
         raise ValueError(f"unknown problem '{name}' (synthetic, synthetic-all, a synthetic case, or scenario2)")
     path = str(shipped_model("cycab_steering"))

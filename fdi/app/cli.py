@@ -22,7 +22,7 @@ from bondgraph.model import Model
 
 from ..errors import UsageError
 from ..data import DataError
-from ..diagnose import MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
+from ..options import MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
 from .output import check_output, is_stdout, write_atomic
 from .progress import LOG, NORMAL, QUIET, VERBOSE, Progress, Steps, configure, stage
 
@@ -435,10 +435,10 @@ def _options(args: argparse.Namespace, model: Model):
     from optim import ENGINES
 
     from ..diagnose import Options
-    from ..identify import compiled
+    from ..monitor import monitor_of
     if args.engine not in ENGINES:
         raise UsageError(f"--engine: unknown engine '{args.engine}' (use {', '.join(ENGINES)})")
-    names = [a.name for a in compiled(model.path).arrs]
+    names = list(monitor_of(model).names)
     thresholds = _named(args.threshold, "--threshold", names, f"residual of {model.name}")
     failures = _named(args.failure, "--failure", list(model.faults), f"fault of {model.name}")
     options = Options(thresholds=thresholds, waiting_time=args.wait, exoneration=not args.no_exoneration,
@@ -448,50 +448,39 @@ def _options(args: argparse.Namespace, model: Model):
     return options
 
 
-def _report_dict(report: dict, timings: bool) -> dict:
-    """The public report; wall-clock times only with ``--timings`` (the estimators' wall_s and
-    objective_s, and ``timings`` by stage), so that two runs of one diagnosis are byte-identical."""
-    from ..diagnose import deterministic, public
-    out = public(report)
-    if timings:
-        out["timings"] = public(dict(report.get("_timings", {})))
-        return out
-    return deterministic(out)
-
-
-def _timings_line(report: dict) -> str:
-    stages = report.get("_timings", {})
+def _timings_line(d) -> str:
+    stages = d.timings
     return "timings: " + ", ".join(f"{k} {v:.2f} s" for k, v in stages.items()) + "\n"
 
 
 def _diagnose_and_print(model_path: str, data, options, args, data_name: str) -> int:
     """Diagnose, print (text or --json), plot; 3 with --fail-on-fault when a fault was found, else 0."""
 
-    from ..diagnose import diagnose
-    from ..identify import compiled
+    from ..monitor import compiled
     from .report import to_text
-    model = compiled(str(model_path)).model
+    monitor = compiled(str(model_path))
+    model = monitor.model
     with Steps("estimators") as tick:
-        report = diagnose(model_path, data, options, progress=tick)
-    for name, seconds in report.get("_timings", {}).items():
+        d = monitor.diagnose(data, options, progress=tick)
+    for name, seconds in d.timings.items():
         LOG.debug("diagnosis stage %s: %.3f s", name, seconds)
-    public = _report_dict(report, args.timings)
+    public = d.to_dict(args.timings)      # wall-clock times only with --timings: two runs are byte-identical
     if args.json:
         text = _json_text(public)
     else:
-        text = to_text(public, model.name, data_name) + (_timings_line(report) if args.timings else "")
+        text = to_text(public, model.name, data_name) + (_timings_line(d) if args.timings else "")
     _emit(text, getattr(args, "output", None))
     if getattr(args, "plot", None):
         from ..plots import plot_diagnosis
-        for p in plot_diagnosis(report, args.plot, model):
+        for p in plot_diagnosis(d, args.plot, model):
             LOG.info(f"plot: {p}")
     return 3 if getattr(args, "fail_on_fault", False) and public["diagnosis"]["faults"] else 0
 
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..data import read_csv
-    from ..diagnose import check_samples, scales_for
-    from ..identify import compiled
+    from ..diagnose import check_samples, min_period
+    from ..monitor import compiled
 
     _check_fleet_options(args)
     model = compiled(args.model).model
@@ -499,7 +488,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if len(args.data) > 1 or (args.jobs or 1) > 1 or args.scheduler:
         return _diagnose_batch(args, options)
     data = read_csv(args.data[0])
-    check_samples(options.samples, data.ts, "--samples", scales_for(args.model, options, data.ts)[1].min_period)
+    check_samples(options.samples, data.ts, "--samples", min_period(args.model, options, data.ts))
     return _diagnose_and_print(args.model, data, options, args, args.data[0])
 
 
@@ -560,7 +549,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from ..calibrate import calibrate, format_calibration, with_thresholds
-    from ..identify import compiled
+    from ..monitor import compiled
 
     compiled(args.model)                                   # the model checked before the runs are read
     c = calibrate(args.model, args.runs, args.margin, args.quantile)
@@ -576,7 +565,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     """Each scenario simulated, diagnosed and scored (fdi.app.evaluate); a table or --json."""
 
     from .evaluate import format_scores, suite_files, summary
-    from ..identify import compiled
+    from ..monitor import compiled
     from .scenario import load_scenario
 
     model = compiled(args.model).model
@@ -620,9 +609,8 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     import json
 
     from ..data import blocks, open_text
-    from ..diagnose import deterministic
-    from ..identify import compiled
-    from ..monitor import Monitor
+    from ..monitor import compiled
+    from ..results import deterministic
 
     model = compiled(args.model).model
     options = _options(args, model)
@@ -639,7 +627,8 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     source = "standard input" if args.data == "-" else args.data
     fh = sys.stdin if args.data == "-" else open_text(args.data)
     try:
-        monitor = Monitor(args.model, emit, options, source, refresh=args.refresh, history=args.history)
+        monitor = compiled(args.model).stream(emit, options, source=source, refresh=args.refresh,
+                                              history=args.history)
         for header, block in blocks(fh, source, args.block, cut=LOG.warning):   # a stream cut mid-row
             monitor.feed(header, block)
         monitor.close()
@@ -655,7 +644,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     """Simulate CyCab scenario 2 with bgfdi's own simulator, diagnose it, print the report."""
     from ..data import Measurements
     from ..diagnose import check_samples
-    from ..identify import compiled
+    from ..monitor import compiled
     from .resources import scenarios_dir, shipped_model
     from .scenario import load_scenario, run
 

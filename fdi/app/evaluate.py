@@ -15,7 +15,7 @@ prognostic performance", IJPHM 2010: relative accuracy and alpha-lambda accuracy
 - **RUL at 50 % and 90 % of life**: for an incipient fault with a failure value, its true end of
   life from the design; at the times when 50 % and 90 % of the life from its onset have passed,
   the data up to then are diagnosed and the incipient fit refreshed on them
-  (``fdi.diagnose.refresh_prognosis``); the relative error of the RUL there, and alpha-lambda
+  (``fdi.pipeline.refresh_prognosis``); the relative error of the RUL there, and alpha-lambda
   accuracy: the prediction within alpha = 20 % of the true RUL (lambda measured from the onset).
 
 The truth is the scenario's design; the data are bgfdi's own simulation of it, with the
@@ -31,8 +31,10 @@ import numpy as np
 
 from ..errors import UsageError
 from ..data import DataError, Measurements
-from ..diagnose import Options, diagnose, public, refresh_prognosis
-from ..identify import compiled, nominal
+from ..diagnose import Options, diagnose
+from ..pipeline import refresh_prognosis
+from ..monitor import compiled
+from ..objective import nominal
 from ..prognose import end_of_life
 from ..scales import for_model
 from .scenario import FaultEvent, load_scenario, run
@@ -115,7 +117,7 @@ def evaluate_scenario(model_path: str, scenario_path: str | Path, options: Optio
     scenario = load_scenario(scenario_path, model)
     cols = run(model, scenario)
     meas = Measurements(str(scenario_path), cols["t"], cols)
-    report = public(diagnose(model_path, meas, o))
+    report = diagnose(c, meas, o).to_dict()
     mode_names = {f.name: f.targets[0] for f in model.faults.values() if f.kind == "mode"}
     mode_names.update({f.targets[0]: f.name for f in model.faults.values() if f.kind == "mode"})
     s = score(Path(scenario_path).stem, list(scenario.faults), report, mode_names,
@@ -147,7 +149,8 @@ def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements
                 continue
             prefix = Measurements(meas.path, meas.t[:k], {c: v[:k] for c, v in meas.columns.items()})
             try:
-                part = public(diagnose(model_path, prefix, o))
+                d = diagnose(model_path, prefix, o)
+                part = d.to_dict()
             except (DataError, UsageError) as exc:    # a prefix too short to decide is scored as a miss
                 entry["note"] = f"no diagnosis at this point ({type(exc).__name__})"
                 out.append(entry)
@@ -157,11 +160,11 @@ def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements
             elif not any(f["name"] == e.target and f["type"] == "incipient" for f in part["diagnosis"]["faults"]):
                 entry["note"] = "the fault is not diagnosed incipient at this point"
             else:
-                _, prognosis = refresh_prognosis(model_path, prefix, part, o)
-                p = next((p for p in prognosis if p["name"] == e.target), None)
-                if p is not None and math.isfinite(p["rul"]):
-                    entry["rul"] = p["rul"]
-                    entry["error"] = (p["rul"] - entry["true_rul"]) / entry["true_rul"]
+                _, prognosis = refresh_prognosis(compiled(model_path), prefix, d, o)
+                p = next((p for p in prognosis if p.name == e.target), None)
+                if p is not None and math.isfinite(p.rul):
+                    entry["rul"] = p.rul
+                    entry["error"] = (p.rul - entry["true_rul"]) / entry["true_rul"]
                     entry["alpha_ok"] = abs(entry["error"]) <= ALPHA
             out.append(entry)
     return out

@@ -68,65 +68,39 @@ def _user_errors() -> tuple:
     return ModelError, CausalityError, DataError, UsageError
 
 
-def read_file(path: str, options, model_path: str | None = None):
+def read_file(path: str, options, monitor=None):
     """The measurements of one file, checked against ``options.samples`` (DataError, UsageError):
     N samples span the model's shortest intermittent period (fdi.scales.min_period)."""
     from ..data import read_csv
-    from ..diagnose import check_samples, scales_for
+    from ..diagnose import check_samples, min_period
     data = read_csv(path)
-    if model_path is not None:
-        check_samples(options.samples, data.ts, "--samples", scales_for(model_path, options, data.ts)[1].min_period)
+    if monitor is not None:
+        check_samples(options.samples, data.ts, "--samples", min_period(monitor, options, data.ts))
     return data
 
 
-def diagnose_data(model_path: str, path: str, data, options, timings: bool = False) -> dict:
+def diagnose_data(monitor, path: str, data, options, timings: bool = False) -> dict:
     """One file's measurements diagnosed (in a worker): its report as one JSON-ready object with
     the file first, or the one-line error."""
-    from ..diagnose import deterministic, diagnose, public
     try:
-        report = diagnose(model_path, data, replace(options, workers=1))
+        d = monitor.diagnose(data, replace(options, workers=1))
     except _user_errors() as exc:
         return {"file": path, "error": str(exc)}
-    out = public(report)
-    if timings:
-        out["timings"] = public(dict(report.get("_timings", {})))
-    return {"file": path, **(out if timings else deterministic(out))}
+    return {"file": path, **d.to_dict(timings)}
 
 
-def diagnose_file(model_path: str, path: str, options, timings: bool = False) -> dict:
-    """One file of a fleet, read and diagnosed in this process (a local worker process, which keeps
-    the derived model between files)."""
+def diagnose_file(monitor, path: str, options, timings: bool = False) -> dict:
+    """One file of a fleet, read and diagnosed in this process (a local worker process, which
+    derives the model once: :mod:`fdi.monitor`)."""
     try:
-        data = read_file(path, options, model_path)
+        data = read_file(path, options, monitor)
     except _user_errors() as exc:
         return {"file": path, "error": str(exc)}
-    return diagnose_data(model_path, path, data, options, timings)
+    return diagnose_data(monitor, path, data, options, timings)
 
 
 def _job(job: tuple) -> dict:
     return diagnose_file(*job)
-
-
-def model_copy(text: str, stem: str) -> str:
-    """The model's YAML written once per machine into the temporary folder (``bgfdi-model-HASH/
-    STEM.yaml``: the file keeps its name, which a model without ``name:`` is named after); its path."""
-    import hashlib
-    import tempfile
-    digest = hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
-    folder = Path(tempfile.gettempdir()) / f"bgfdi-model-{digest}"
-    path = folder / f"{stem}.yaml"
-    if not path.exists():
-        folder.mkdir(exist_ok=True)
-        tmp = folder / f".{stem}.{os.getpid()}.tmp"
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(path)
-    return str(path)
-
-
-def _remote_job(model_text: str, stem: str, path: str, data, options, timings: bool) -> dict:
-    """One file on a dask worker: the model from its text (the worker needs no copy of the files),
-    the measurements as read by the client."""
-    return diagnose_data(model_copy(model_text, stem), path, data, options, timings)
 
 
 # ------------------------------------------------------------------ many files
@@ -141,9 +115,9 @@ def diagnose_many(model, files: Iterable[str | Path], options=None, *, client=No
     ``client``: a ``dask.distributed.Client``, whose workers run the files; without one, ``jobs``
     local processes (1: in this process). ``timings`` adds wall-clock times to each report (they
     then differ between runs). ``progress(done, total)`` is called as files finish."""
-    from ..api import model_file
     from ..config import MonitorConfig
-    from ..diagnose import Options
+    from ..monitor import monitor_of
+    from ..options import Options
 
     if isinstance(options, MonitorConfig):
         options = Options(settings=options)
@@ -151,40 +125,35 @@ def diagnose_many(model, files: Iterable[str | Path], options=None, *, client=No
     options.check()
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise UsageError(f"jobs: must be an integer >= 1, got {jobs!r}")
-    path = model_file(model)
+    monitor = monitor_of(model)
     files = [str(f) for f in files]
     if not files:
         return []
     if client is not None:
-        return _on_dask(client, path, files, options, timings, progress)
-    return map_in_order(_job, [(path, f, options, timings) for f in files], jobs, progress)
+        return _on_dask(client, monitor, files, options, timings, progress)
+    return map_in_order(_job, [(monitor, f, options, timings) for f in files], jobs, progress)
 
 
-def _on_dask(client, model_path: str, files: list[str], options, timings: bool, progress) -> list[dict]:
-    """The files on a dask cluster. The client reads the model and each file (errors as for local
-    processes: the same reader on the same path) and sends them; the workers diagnose."""
+def _on_dask(client, monitor, files: list[str], options, timings: bool, progress) -> list[dict]:
+    """The files on a dask cluster. The client reads each file (errors as for local processes: the
+    same reader on the same path) and sends it; the monitor (its model and settings: a worker derives
+    it once) is scattered to every worker; the workers diagnose."""
     from distributed import as_completed
 
-    from bondgraph.errors import ModelError
-    try:
-        text = Path(model_path).read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ModelError(f"cannot read ({exc.strerror or exc})", file=model_path) from None
-    stem = Path(model_path).stem
-    model_ref = client.scatter(text, broadcast=True, hash=False)
+    model_ref = client.scatter(monitor, broadcast=True, hash=False)
     out: list[dict | None] = [None] * len(files)
     pending = {}
     done = 0
     for i, path in enumerate(files):
         try:
-            data = read_file(path, options, model_path)
+            data = read_file(path, options, monitor)
         except _user_errors() as exc:
             out[i] = {"file": path, "error": str(exc)}
             done += 1
             if progress:
                 progress(done, len(files))
             continue
-        pending[client.submit(_remote_job, model_ref, stem, path, data, options, timings, pure=False)] = i
+        pending[client.submit(diagnose_data, model_ref, path, data, options, timings, pure=False)] = i
     try:
         for future in as_completed(list(pending)):
             out[pending[future]] = future.result()

@@ -1,7 +1,12 @@
-"""The diagnosis report as readable text (JSON comes from fdi.diagnose.public)."""
+"""The diagnosis report as readable text (the JSON report is ``Diagnosis.to_dict``)."""
 from __future__ import annotations
 
-from ..api import _vec, describe_fault
+from ..results import Fault, _vec
+
+
+def describe_fault(f: dict) -> str:
+    """One fault of a report in words."""
+    return Fault.from_dict(f).describe()
 
 
 def _confidence(margin) -> str:
@@ -21,10 +26,10 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
         return "\n".join(out) + "\n"
     out.append(f"detection: t_D = {det['time']:.2f} s, coherence {_vec(det['coherence'])}; "
                f"at t_D + T_wt = {det['decision_time']:.2f} s: {_vec(det['final_coherence'])}")
-    mode = report.get("mode", {})
+    mode = report.get("mode") or {}
     if report.get("suspected_mode_changes"):
         out.append(f"suspected mode change(s) from the MCSM: {', '.join(report['suspected_mode_changes'])}; "
-                   f"fault-mode estimator: {' '.join(f'{k}={v}' for k, v in report.get('mode_estimate', {}).items())}")
+                   f"fault-mode estimator: {' '.join(f'{k}={v}' for k, v in report.get('mode_estimate') or {}.items())}")
     out.append("mode: " + (" ".join(f"{k}={v}" for k, v in mode.items()) or "(none)"))
     cands = report.get("candidates") or []
     out.append("candidate sets: " + ("; ".join("{" + ", ".join(c) + "}" for c in cands) if cands else "none"))
@@ -43,15 +48,15 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
             out.append(f" {mark} {{{', '.join(e['candidate'])}}}: fitness {e['fitness']:.4g}; {_confidence(e['margin'])}")
         out.append("  (* the winner: the smallest information criterion, 2 N_eff ln(cost) + ln(N_eff) per identified "
                    "parameter)")
-    for a in report.get("alternatives", []):
+    for a in report.get("alternatives") or []:
         out.append(f"  nearly as good: {{{', '.join(a['candidate'])}}} (criterion +{a['criterion']:.2f}, cost "
                    f"{a['cost']:.4g}): " + "; ".join(describe_fault(f) for f in a["faults"]))
-    for e in report.get("episodes", []):
+    for e in report.get("episodes") or []:
         out.append(f"at {e['time']:.2f} s the coherence vector became {list(e['coherence'])}; decided again at "
                    f"{e['decision_time']:.2f} s over {len(e['candidates'])} candidate set(s): "
                    f"{{{', '.join(e['winner'])}}}")
     faults = report["diagnosis"]["faults"]
-    for f in report.get("insignificant", []):
+    for f in report.get("insignificant") or []:
         out.append(f"  left out: {describe_fault(f)} (its parameters do not pay on the data since the detection: "
                    f"criterion {f['criterion_without']:+.2f} without it)")
     if report.get("note"):
@@ -59,7 +64,7 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
     out.append("diagnosis:" + ("" if faults else " no fault explains the coherence vector"))
     for f in faults:
         out.append(f"  {describe_fault(f)}")
-    for p in report.get("prognosis", []):
+    for p in report.get("prognosis") or []:
         band = ""
         if p.get("rul_low") is not None and p.get("rul_high") is not None and p["rul_high"] != p["rul_low"]:
             band = f" (95 % band from the fit: {p['rul_low']:.2f} to {p['rul_high']:.2f} s)"

@@ -1,4 +1,4 @@
-"""Fault identification: one estimator per candidate set, the fault-mode estimator, in parallel.
+"""The identification objective (eq. 24) of one candidate set on one data window.
 
 An estimator's decision vector is the paper's (``fdi.encoding``: per fault zeta, eta, magnitudes,
 period, coefficients). Its cost is eq. (24)'s sum of |G_l| over the N samples from tD, with each
@@ -20,12 +20,7 @@ number of worker processes.
 """
 from __future__ import annotations
 
-import itertools
-import json
-import os
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import Mapping
 
 import numpy as np
@@ -33,48 +28,16 @@ import sympy as sp
 
 from bondgraph.errors import ModelError
 from bondgraph.model import Model
-from optim import ENGINES, bde
-from optim.core import fitness
 
 from . import encoding, scales
-from .config import MonitorConfig, load as load_monitor
-from .arrs import ARR, select_arrs
-from .encoding import FaultSpace
+from .config import MonitorConfig
 from .data import commanded
-from .residuals import Residual, compile_residuals, corrected_signals, derivative_orders, parameter_values
+from .encoding import FaultSpace
+from .residuals import Residual, corrected_signals, derivative_orders, parameter_values
 
 ROWS = 256             # individuals per objective block (bounds memory on wide screening calls)
 BLOCK = 32768          # samples x individuals per block of the objective (about 128 kB per temporary)
 DEFAULT_BOUNDS = {"sensor": (0.05, 1.5), "source": (0.05, 1.5), "group": (0.1, 10.0)}
-
-
-@dataclass(frozen=True)
-class Compiled:
-    """A model file ready to monitor: its bond graph, its monitor settings, the AGARRs the
-    residual selection keeps and their compiled residual kernels."""
-    model: Model
-    config: MonitorConfig
-    arrs: tuple[ARR, ...]
-    residuals: tuple[Residual, ...]
-
-
-def compiled(path: str) -> Compiled:
-    """A model file derived once per process and file version: the cache is keyed by the file's
-    path, size and modification time, so a model edited between two diagnoses (in a notebook) is
-    derived again, never served stale."""
-    try:
-        st = os.stat(path)
-        version = (st.st_size, st.st_mtime_ns)
-    except OSError:
-        version = None                             # the loader reports the file as missing
-    return _compiled(str(path), version)
-
-
-@lru_cache(maxsize=8)
-def _compiled(path: str, version) -> Compiled:
-    model, config = load_monitor(path)
-    arrs = tuple(select_arrs(model).arrs)
-    return Compiled(model, config, arrs, tuple(compile_residuals(model, list(arrs))))
 
 
 def nominal(model: Model, name: str) -> float:
@@ -439,208 +402,3 @@ class Objective:
             if self.spaces[j].name in self.linear and d.kind[0] < 2:
                 mask[encoding.N_REAL * j] = False
         return np.append(mask, True)
-
-
-@dataclass
-class EstimatorResult:
-    candidate: tuple[str, ...]
-    cost: float
-    fitness: float
-    history: list[float]               # best fitness per generation
-    margin: float | None
-    faults: list[dict]
-    evaluations: int
-    wall_s: float
-    objective_s: float = 0.0
-
-
-def _run_estimator(job: tuple) -> EstimatorResult:
-    path, t, raw, t0, samples, candidate, weights, settings, seed, known, fixed, onset = job
-    c = compiled(path)
-    config = settings.get("config") or c.config        # the caller's monitor settings, else the file's
-    model, residuals, w = c.model, c.residuals, config.derivative_window
-    win = window(t, raw, t0, samples, w)
-    obj = Objective(model, residuals, win, tuple(candidate), np.asarray(weights), w, fixed=fixed, onset=onset,
-                    config=config)
-    engine = ENGINES[settings["engine"]]
-    init = [obj.encode(faults) for faults in known]
-    r = engine(obj, obj.bounds(), encoding.N_BITS * len(obj.spaces), pop=settings["pop"],
-               generations=settings["generations"], seed=seed, onehot=encoding.onehot_groups(obj.spaces),
-               structure=obj.structure, family=obj.family, free=obj.free, init=init, coarse=obj.coarse)
-    margin = r.extra.get("margin")
-    real = obj.complete(r.real, r.bits)
-    faults = encoding.describe(obj.spaces, real[:-1], r.bits)
-    end = win.t0 + (win.crop.stop - win.crop.start) * win.ts
-    for i, f in enumerate(faults):
-        f["t0"] = float(real[-1])
-        if f["type"] == "incipient":
-            f["b_band"] = coefficient_band(obj, real, r.bits, r.cost, i)
-        elif f["type"] == "intermittent" and f["t0"] + f["period"] / 2 >= end:
-            # no switch inside the window: on the data seen, an abrupt fault (the same profile)
-            faults[i] = {"name": f["name"], "type": "abrupt", "value": f["value"], "t0": f["t0"]}
-    return EstimatorResult(tuple(candidate), r.cost, float(fitness(r.cost)), [float(fitness(c)) for c in r.history],
-                           None if margin is None or not np.isfinite(margin) else float(margin),
-                           faults, r.evaluations, r.wall_s, r.objective_s)
-
-
-CHI2_95 = 3.841458820694124      # 95 % quantile of chi-square with one degree of freedom
-
-
-def coefficient_band(obj: Objective, real: np.ndarray, bits: np.ndarray, cost: float, index: int) -> list[list[float]]:
-    """95 % likelihood-ratio interval of each degradation coefficient of fault ``index``, the
-    others held at the fit (a conditional interval, from the final fit alone: no re-identification).
-
-    With Laplace-distributed weighted residuals of common scale (the L1 cost of eq. 24 is then their
-    negative log-likelihood), profiling the scale out gives 2 ln L ratio = 2 N_eff ln(C / C*), so
-    the interval is {b : C(b) <= C* exp(chi2_1(0.95) / (2 N_eff))}. N_eff counts independent samples:
-    residual samples divided by the derivative window in samples (the filter correlates neighbours)."""
-    win = obj.win
-    n = (win.crop.stop - win.crop.start) * len(obj.residuals)
-    n_eff = max(1.0, n / max(1, int(round(obj.window_s / win.ts))))
-    limit = cost * np.exp(CHI2_95 / (2 * n_eff))
-    model = encoding.describe(obj.spaces, real[:-1], bits)[index]["model"]
-    bounds = obj.bounds()
-    out = []
-    for slot in encoding.COEFF_SLOTS[model]:
-        j = encoding.N_REAL * index + slot
-        ends = []
-        for side in (0, 1):
-            span = bounds[j, side] - real[j]
-            ends.append(_crossing(obj, real, bits, j, span, limit))
-        rows = np.tile(real, (2, 1))
-        rows[:, j] = ends
-        b = [encoding.describe(obj.spaces, row[:-1], bits)[index]["b"][encoding.COEFF_SLOTS[model].index(slot)]
-             for row in rows]
-        out.append([min(b), max(b)])
-    return out
-
-
-def _crossing(obj: Objective, real: np.ndarray, bits: np.ndarray, j: int, span: float, limit: float) -> float:
-    """Where the cost along real j (towards real[j] + span) first exceeds ``limit``: a geometric
-    grid then a linear one between the last point inside and the first outside (two calls)."""
-    steps = span * np.concatenate([[0.0], np.logspace(-5, 0, 31)])
-    for _ in range(2):
-        rows = np.tile(real, (steps.size, 1))
-        rows[:, j] += steps
-        c = obj(rows, np.tile(bits, (steps.size, 1)))
-        outside = np.flatnonzero(~(c <= limit))
-        if outside.size == 0:
-            return float(real[j] + steps[-1])
-        k = int(outside[0])
-        if k == 0:
-            return float(real[j])
-        steps = np.linspace(steps[k - 1], steps[k], 17)
-    return float(real[j] + steps[0])
-
-
-def run_estimators(path: str, t: np.ndarray, raw: Mapping[str, np.ndarray], t0: float, samples: int,
-                   candidates: list[tuple[str, ...]], weights: np.ndarray, settings: dict, seed: int,
-                   workers: int = 1, progress=None, fixed: list[list[dict]] | None = None,
-                   onsets: list[tuple[float, float] | None] | None = None,
-                   known: list[list[dict]] | None = None, memo: dict | None = None) -> list[EstimatorResult]:
-    """One estimator per candidate set (seed + 1000 * index each), in ``workers`` processes, smaller
-    sets first: a set starts from the fits of the sets it contains, its other faults as no-ops
-    (the engine searches around them; results do not depend on ``workers``).
-
-    Per candidate set, optionally: ``fixed`` faults held at an earlier fit (each with its onset),
-    the ``onsets`` interval its own onset is searched in, and ``known`` fits to start from.
-    ``memo``: results of earlier calls on a stream that has since grown (the monitor), reused when
-    the job and its data window are the same."""
-    fixed = fixed or [[] for _ in candidates]
-    onsets = onsets or [None for _ in candidates]
-    known = known or [[] for _ in candidates]
-    done: dict[int, EstimatorResult] = {}
-    pool = ProcessPoolExecutor(min(workers, len(candidates))) if workers > 1 and len(candidates) > 1 else None
-    try:
-        for size in sorted({len(c) for c in candidates}):
-            wave = [i for i, c in enumerate(candidates) if len(c) == size]
-            jobs = [(path, t, dict(raw), t0, samples, candidates[i], weights, settings, seed + 1000 * i,
-                     known[i] + [r.faults for j, r in done.items()
-                                 if set(r.candidate) < set(candidates[i]) and fixed[j] == fixed[i]],
-                     fixed[i], onsets[i]) for i in wave]
-            keys = [_job_key(job) for job in jobs] if memo is not None else [None] * len(jobs)
-            todo = [job for job, key in zip(jobs, keys) if key is None or key not in memo]
-            fresh = iter(pool.map(_run_estimator, todo) if pool and len(todo) > 1 else map(_run_estimator, todo))
-            results = [memo[key] if key is not None and key in memo else next(fresh) for key in keys]
-            for i, r, key in zip(wave, results, keys):
-                done[i] = r
-                if key is not None:
-                    memo[key] = r
-                if progress:
-                    progress(len(done), len(candidates))
-    finally:
-        if pool:
-            pool.shutdown()
-    return [done[i] for i in range(len(candidates))]
-
-
-def _job_key(job: tuple) -> str:
-    """What an estimator's result depends on: its settings and the samples of its window."""
-    path, t, raw, t0, samples, candidate, weights, settings, seed, known, fixed, onset = job
-    i0 = int(np.searchsorted(t, t0 - 1e-9))
-    margin = int(np.ceil((settings.get("config") or compiled(path).config).derivative_window / float(t[1] - t[0])))
-    end = min(t.size, i0 + samples + margin)     # the window's last sample, as window() cuts it
-    return json.dumps([path, t0, samples, end, list(candidate), list(map(float, weights)), settings, seed, known,
-                       fixed, onset], default=_plain, sort_keys=True)
-
-
-def _plain(x):
-    """JSON for a job key: numbers as floats, the monitor settings (a frozen dataclass) by repr."""
-    return repr(x) if isinstance(x, MonitorConfig) else float(x)
-
-
-MODE_TABLE = 4     # suspected mode variables up to which every combination's cost is reported (16 rows)
-
-
-@dataclass(frozen=True)
-class ModeEstimate:
-    """The fault-mode estimator's answer: every mode variable's estimated value, its cost, and
-    (for at most MODE_TABLE suspected variables) the cost of every combination of them, the
-    evidence behind the estimate (plotted as the paper's Fig. 8)."""
-    mode: dict[str, int]
-    cost: float
-    table: list[dict]
-
-
-def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, weights: np.ndarray,
-                  seed: int, window_s: float, variables: list[str] | None = None) -> ModeEstimate:
-    """The fault-mode estimator: BDE over the suspected mode variables (Sec. III-C: the MCSM names
-    them; the others keep their current values), same cost as eq. (24)."""
-    names = list(variables or model.modes)
-    nominal = parameter_values(model)
-    nominal.update(commanded(model, win.raw))        # commanded modes follow their command sample by sample
-    signals = corrected_signals(model, win.raw, win.ts, derivative_orders(list(residuals)), None, window_s)
-    c = win.crop
-    # the mode each variable should be in: the command at the window's start, or the nominal mode
-    current = {m: int(np.asarray(nominal[m]).reshape(-1)[c.start]) if np.ndim(nominal[m]) else int(model.modes[m].nominal)
-               for m in model.modes}
-
-    def cost(real: np.ndarray, bits: np.ndarray) -> np.ndarray:
-        values = dict(nominal)
-        for j, n in enumerate(names):
-            values[n] = bits[:, j:j + 1].astype(float)
-        total = np.zeros(bits.shape[0])
-        for i, r in enumerate(residuals):
-            out = np.broadcast_to(np.asarray(r(signals, values, win.ts, window_s), dtype=float),
-                                  (bits.shape[0], win.t.size))
-            total += weights[i] * np.abs(out[:, c]).sum(axis=1)
-        return total
-    r = bde.minimize(cost, len(names), pop=max(8, 4 * len(names)), generations=20, seed=seed)
-    # a mode variable the data cannot see (a2 once a burnt driver has stopped the motor) is put back:
-    # one fault mode at a time, as the paper assumes, unless the data need more (cost within 1 %)
-    best = r.bits.copy()
-    best_cost = float(r.cost)
-    for j in range(len(names)):
-        if best[j] != bool(current[names[j]]):
-            trial = best.copy()
-            trial[j] = bool(current[names[j]])
-            trial_cost = float(cost(np.zeros((1, 0)), trial[None, :])[0])
-            if trial_cost <= 1.01 * best_cost:
-                best, best_cost = trial, min(best_cost, trial_cost)
-    current.update({n: int(b) for n, b in zip(names, best)})
-    table = []
-    if len(names) <= MODE_TABLE:
-        combos = np.array(list(itertools.product((0, 1), repeat=len(names))), dtype=bool)
-        table = [{"mode": {n: int(v) for n, v in zip(names, row)}, "cost": float(c)}
-                 for row, c in zip(combos, cost(np.zeros((len(combos), 0)), combos))]
-    return ModeEstimate(current, best_cost, table)

@@ -1,0 +1,86 @@
+"""Later decisions (episodes): after the first diagnosis, the latched coherence vector may gain a
+residual (a second fault, or a first one seen better); each change is decided again T_wt later
+on the data since the detection, and the diagnosis follows the last decision.
+
+    >>> import numpy as np
+    >>> lit = np.array([[0, 1, 1, 1, 1], [0, 0, 0, 1, 1]], dtype=bool)   # ARR2 joins at sample 3
+    >>> next_change(lit, 1), next_change(lit, 3)
+    (3, None)
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .data import Measurements
+from .decide import effective_samples, select_winner
+from .detect import inconsistency, trusted
+from .isolate import candidate_sets
+from .results import Detection, Episode
+
+if TYPE_CHECKING:
+    from .estimators import Estimators
+    from .options import Options
+
+MAX_GROWTH = 6      # a re-decision fits at most this many times the identification window
+
+
+def latched(r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, start: int, settle: float,
+            edge: float = 0.0) -> np.ndarray:
+    """The coherence vector latched from sample ``start`` (the detection) on, at every sample."""
+    bad = inconsistency(r, thresholds) & trusted(t, settle, edge)[None, :]
+    bad[:, :start] = False
+    return np.maximum.accumulate(bad, axis=1)
+
+
+def next_change(lit: np.ndarray, j: int) -> int | None:
+    """The first sample after ``j`` where the latched coherence gains a residual, or None."""
+    later = np.flatnonzero((lit[:, j + 1:] != lit[:, j:j + 1]).any(axis=0))
+    return int(j + 1 + later[0]) if later.size else None
+
+
+def decision_index(t: np.ndarray, k: int, wait: float) -> int:
+    """The sample of the decision for a change at sample ``k``: the waiting time later, or the last."""
+    return max(k, min(t.size - 1, int(np.searchsorted(t, t[k] + wait, side="right")) - 1))
+
+
+def since_detection(t: np.ndarray, t_d: float, end: float, samples: int, cap: int) -> tuple[float, int]:
+    """(start, samples) of the window from the detection t_D to ``end`` (at least ``samples`` long,
+    at most ``cap`` identification windows, keeping the latest data when capped)."""
+    i0 = int(np.searchsorted(t, t_d - 1e-9))
+    i1 = int(np.searchsorted(t, end, side="right"))
+    span = min(max(samples, i1 - i0), cap * samples, t.size - i0)
+    return float(t[max(i0, min(i1, t.size) - span)]), span
+
+
+def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, weights: np.ndarray, o: "Options",
+             fsm, known: list[dict], t_change: float, t_decision: float, coherence: tuple[int, ...],
+             samples: int, episode: int) -> Episode:
+    """A later decision: the coherence vector gained a residual at ``t_change`` after the diagnosis
+    ``known`` was made. Candidate sets come from the new coherence vector; every set is fitted on
+    the data since the first onset (t_D to the new decision, at most MAX_GROWTH windows), so their
+    costs compare. A set that contains the known faults is fitted twice: keeping them at their fit,
+    each with its own onset, while the others are searched with an onset at the change (a second
+    fault), and afresh with one onset (a slow fault seen late); a set no larger than the known one
+    is fitted afresh (the first decision may have been wrong); all start from the known fit.
+    Larger sets that drop a known fault are not tried. The winner is chosen as at the first
+    decision."""
+    w = est.monitor.config.derivative_window
+    names = {f["name"] for f in known}
+    plan = []
+    for s in candidate_sets(fsm, coherence, o.exoneration, o.max_set):
+        if names < set(s):
+            plan.append((tuple(x for x in s if x not in names), known, (t_change, t_change + w)))
+        if names < set(s) or len(s) <= len(names):
+            plan.append((tuple(s), [], None))
+    start, span = since_detection(meas.t, det.time, t_decision, samples, MAX_GROWTH)
+    results = est.run(meas.t, raw, start, span, [p[0] for p in plan], weights, o.seed + 7919 * episode, None,
+                      [p[1] for p in plan], [p[2] for p in plan], [[known] for _ in plan])
+    full = [replace(e, candidate=tuple(f["name"] for f in p[1]) + e.candidate, faults=tuple(p[1]) + tuple(e.faults))
+            for e, p in zip(results, plan)]
+    n_eff = effective_samples(span, len(est.monitor.residuals), meas.ts, w)
+    best = select_winner(full, n_eff)
+    return Episode(t_change, t_decision, tuple(coherence), tuple(known), tuple(full), tuple(best.candidate),
+                   tuple(best.faults))

@@ -1,0 +1,362 @@
+"""The health-monitoring pipeline of Yu & Wang (2014), Sec. III, as named steps over typed values.
+
+    prepare -> residuals -> detect -> isolate -> estimate modes -> confirm stuck sensors
+            -> estimate (one estimator per candidate set) -> select -> re-decide -> significance
+            -> prognose
+
+:func:`run` is what ``Monitor.diagnose`` does; each step is a function of the compiled
+:class:`fdi.monitor.Monitor`, the :class:`Prepared` data and the values of the steps before, and
+returns a typed value of :mod:`fdi.results`. The result is a :class:`fdi.results.Diagnosis`.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Callable
+
+import numpy as np
+
+from bondgraph.errors import ModelError
+
+from .data import DataError, Measurements, commanded, read_csv, signals_from_data
+from .decide import alternatives, effective_samples, information, select_winner, significant
+from .derivatives import DEFAULT_ORDER, window_samples
+from .detect import Detection, detect, settling, thresholds_for
+from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide, since_detection
+from .estimators import Estimators, Search, refit_early_onsets
+from .isolate import candidate_sets, pruned_sets, relaxed_sets, suspected_mode_changes
+from .mode_estimation import estimate_mode
+from .objective import nominal, window
+from .options import MIN_WINDOW_S, Options, check_samples
+from .prognose import prognose
+from .residuals import evaluate
+from .results import Alternative, Diagnosis, Estimate, Isolation, ModeFault, Prognosis, faults_of
+from .sensitivity import effective, weak_entries
+from .signatures import nominal_mode
+from .stuck import stuck_from
+
+if TYPE_CHECKING:
+    from .monitor import Monitor
+    from .scales import Scales
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """A diagnosis' inputs, checked and resolved: the monitor with the times the file left to the
+    data, the time scales, the measurements and their signals, thresholds, waiting time, the
+    identification window N, the settling time and the estimators' residual weights."""
+    monitor: "Monitor"
+    scales: "Scales"
+    meas: Measurements
+    raw: dict
+    thresholds: np.ndarray
+    wait: float
+    samples: int
+    settle: float
+    weights: np.ndarray
+    options: Options
+
+    @property
+    def window_s(self) -> float:
+        return self.monitor.config.derivative_window
+
+
+class Clock:
+    """Wall-clock seconds by stage (``--timings``)."""
+
+    def __init__(self) -> None:
+        self.times: dict[str, float] = {}
+        self._start = time.perf_counter()
+
+    def lap(self, stage: str) -> None:
+        now = time.perf_counter()
+        self.times[stage] = now - self._start
+        self._start = now
+
+    def restart(self) -> None:
+        self._start = time.perf_counter()
+
+
+def run(monitor: "Monitor", data, options: Options | None = None, progress: Callable | None = None,
+        memo: dict | None = None) -> Diagnosis:
+    """Detect, isolate, identify and prognose ``data`` (a CSV path or Measurements)."""
+    o = options or Options()
+    o.check()
+    clock = Clock()
+    monitor = monitor.with_config(o.settings)
+    meas = data if isinstance(data, Measurements) else read_csv(data)
+    p = prepare(monitor, meas, o)
+    clock.lap("load")
+    r = evaluate(p.monitor.model, list(p.monitor.residuals), p.raw, meas.ts, window=p.window_s,
+                 values=commanded(p.monitor.model, p.raw))
+    clock.lap("residuals")
+    det = detect(r, meas.t, p.thresholds, p.wait, p.settle, p.scales.end_edge)
+    base = Diagnosis(p.monitor.model.name, dict(o.mode or nominal_mode(p.monitor.model)), note=blind(p, r),
+                     t=meas.t, residuals=r, thresholds=p.thresholds, names=p.monitor.names, timings=clock.times,
+                     bond_graph=p.monitor.model)
+    if det is None:
+        return base
+    return decide(p, replace(base, detection=det, mode=mode_at(p, det)), r, clock, progress, memo)
+
+
+def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
+    """The monitor resolved for the data's sampling time, the data checked against the window
+    the derivatives need, the thresholds (the file's, overridden by name), T_wt and N."""
+    monitor, sc = monitor.scaled(meas.ts)
+    model, config = monitor.model, monitor.config
+    w = config.derivative_window
+    check_samples(o.samples, meas.ts, min_period=sc.min_period)
+    raw = signals_from_data(model, meas)
+    need = window_samples(w, meas.ts, DEFAULT_ORDER) + 1
+    if meas.t.size < need:
+        raise DataError(f"{meas.path}: {meas.t.size} samples are too few: the derivative window of {model.name} "
+                        f"({w:g} s) needs at least {need}")
+    try:
+        thresholds = thresholds_for(config.thresholds, list(monitor.names), o.thresholds)
+    except ValueError as exc:
+        raise ModelError(str(exc), file=model.path, where="thresholds") from None
+    wait = config.waiting_time if o.waiting_time is None else o.waiting_time
+    samples = o.samples or max(config.samples, sc.min_samples())     # N ts covers the shortest period
+    weights = 1.0 / thresholds if o.weights == "thresholds" else np.ones(len(monitor.names))
+    return Prepared(monitor, sc, meas, raw, thresholds, wait, samples, settling(o.settle, sc.settle), weights, o)
+
+
+def blind(p: Prepared, r: np.ndarray) -> str | None:
+    """What to change when a residual has no sample: fast switching leaves no whole derivative
+    window between two switches."""
+    names = p.monitor.names
+    empty = [n for n, row in zip(names, r.reshape(len(names), -1)) if not np.isfinite(row).any()]
+    if not empty:
+        return None
+    return (f"{', '.join(empty)} had no sample: every stretch between two mode switches is shorter than the "
+            f"derivative window ({p.window_s:g} s); shorten diagnosis.derivative_window or sample faster")
+
+
+def mode_at(p: Prepared, det: Detection) -> dict[str, int]:
+    """The mode at t_D: the options' mode variables, the commanded ones as commanded then, the
+    others nominal."""
+    model, o = p.monitor.model, p.options
+    mode = dict(o.mode or nominal_mode(model))
+    for name, values in commanded(model, p.raw).items():
+        if not o.mode or name not in o.mode:
+            mode[name] = int(values[det.index])
+    return mode
+
+
+def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, memo) -> Diagnosis:
+    """From a detection to the diagnosis: isolation, the fault mode, stuck sensors, then the
+    estimators and everything after them."""
+    clock.restart()
+    fsm, iso = isolate(p, d.detection, d.mode)
+    clock.lap("isolation")
+    d = replace(d, isolation=iso)
+    if iso.suspected:
+        mf = estimate_modes(p, d.detection, d.mode, iso.suspected)
+        clock.lap("mode estimation")
+        d = replace(d, mode_fault=mf)
+        if mf.faults and not iso.candidates:
+            return replace(d, mode=dict(mf.mode), faults=mf.faults)
+    if not iso.candidates and p.options.exoneration:
+        relaxed = relaxed_sets(fsm, d.detection.final_coherence, p.options.max_set)
+        if relaxed:
+            d = replace(d, isolation=replace(iso, candidates=tuple(map(tuple, relaxed)), relaxed=True))
+    d = stuck_sensors(p, d)
+    if d.winner is not None or not d.candidates:
+        return d
+    try:
+        check_window(p.meas, d.detection.time, p.samples, p.scales.min_period)
+    except DataError as exc:                  # detected at the end of the data: reported, not identified
+        return replace(d, note=str(exc).split(": ", 1)[-1])
+    search = Search(p.options.engine, p.options.pop, p.options.generations)
+    with Estimators(p.monitor, search, p.options.workers, memo) as est:
+        return identify(p, d, fsm, r, est, clock, progress)
+
+
+def isolate(p: Prepared, det: Detection, mode: dict[str, int]):
+    """The MD-FSM in the mode at t_D (its weak entries removed when the data show a quiet residual
+    could not have moved), the candidate sets of the final coherence vector, the sets too large to
+    identify, and the MCSM's suspected mode changes."""
+    o, m = p.options, p.monitor
+    fsm = m.fsm(mode)
+    weak = None
+    if o.exoneration and m.config.exoneration == "sensitivity":   # a quiet residual exonerates only a fault that could have moved it
+        win = window(p.meas.t, p.raw, det.time, p.samples, p.window_s)
+        entries = weak_entries(m.model, list(m.residuals), win.raw, p.meas.ts, p.window_s, fsm, det.final_coherence,
+                               p.thresholds, win.crop, commanded(m.model, win.raw))
+        if entries:
+            fsm = effective(fsm, entries)
+            weak = {x.fault: tuple(sorted(y.residual for y in entries if y.fault == x.fault)) for x in entries}
+    candidates = candidate_sets(fsm, det.final_coherence, o.exoneration, o.max_set)
+    pruned = pruned_sets(fsm, det.final_coherence, o.exoneration, o.max_set)
+    suspects = suspected_mode_changes(m.mcsm(mode), det.final_coherence)
+    return fsm, Isolation(tuple(map(tuple, candidates)), tuple(suspects), int(pruned or 0),
+                          o.max_set, False, weak)
+
+
+def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects) -> ModeFault:
+    """The fault-mode estimator over the suspected mode variables (Sec. III-C), and the mode faults
+    its estimate implies (none when it agrees with the mode at t_D)."""
+    model = p.monitor.model
+    win = window(p.meas.t, p.raw, det.time, p.samples, p.window_s)
+    by_fault = {f.name: f.targets[0] for f in model.faults.values() if f.kind == "mode"}
+    variables = sorted({by_fault.get(s, s) for s in suspects})
+    e = estimate_mode(model, p.monitor.residuals, win, p.weights, p.options.seed, p.window_s, variables)
+    changed = [v for v in e.mode if e.mode[v] != mode[v]]
+    faults = tuple(faults_of({"name": mode_fault_name(model, v, e.mode[v]), "type": "mode", "value": e.mode[v]}
+                             for v in changed))
+    return ModeFault(dict(e.mode), e.cost, tuple(e.table or ()), faults)
+
+
+def mode_fault_name(model, variable: str, value: int) -> str:
+    """The model's mode fault that puts ``variable`` at ``value`` (a valve stuck closed, or one stuck
+    open), else the first fault on the variable, else the variable itself."""
+    on = [f for f in model.faults.values() if f.kind == "mode" and f.targets[0] == variable]
+    exact = [f for f in on if (0 if f.value is None else int(f.value)) == int(value)]
+    return (exact or on)[0].name if on else variable
+
+
+def stuck_sensors(p: Prepared, d: Diagnosis) -> Diagnosis:
+    """A frozen sensor is confirmed by its signal, not fitted (:mod:`fdi.stuck`): the first single
+    stuck candidate the data show wins; stuck faults the data do not show leave the candidates."""
+    model = p.monitor.model
+    if not any(model.faults[f].effect == "stuck" for c in d.candidates for f in c):
+        return d
+    for c in d.candidates:
+        if len(c) == 1 and model.faults[c[0]].effect == "stuck":
+            sensor = model.faults[c[0]].targets[0]
+            found = stuck_from(model, c[0], p.meas.t, p.raw[sensor], d.detection.time,
+                               float(d.detection.decision_time), p.window_s)
+            if found is not None:
+                return replace(d, faults=faults_of([{"name": c[0], "type": "stuck", "value": found.value,
+                                                     "t0": found.onset}]), winner=(c[0],))
+    kept = tuple(c for c in d.candidates if not any(model.faults[f].effect == "stuck" for f in c))
+    return replace(d, isolation=replace(d.isolation, candidates=kept))
+
+
+def check_window(meas: Measurements, t0: float, samples: int, min_period: float = MIN_WINDOW_S) -> None:
+    """The identification window (N samples from t_D, as identify.window cuts it) spans at least
+    the shortest period searched: data that end just after the detection leave no period to search."""
+    i0 = int(np.searchsorted(meas.t, t0 - 1e-9))
+    span = min(samples, meas.t.size - i0) * meas.ts
+    if span < min_period:
+        raise DataError(f"{meas.path}: the data end {span:g} s after the detection at t_D = {t0:g} s; identification "
+                        f"needs at least {min_period:g} s after t_D: record longer")
+
+
+def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clock: Clock, progress) -> Diagnosis:
+    """One estimator per candidate set, the winner (or the fault mode), the later decisions, the
+    significance check and the prognosis."""
+    det, o, t = d.detection, p.options, p.meas.t
+    clock.restart()
+    results = est.run(t, p.raw, det.time, p.samples, list(d.candidates), p.weights, o.seed, progress)
+    # a drift may have started long before it crossed a threshold: its onset is searched back to the
+    # start of the data (after the settling time)
+    lookback = max(p.wait, det.time - float(t[0]) - p.settle)
+    results = refit_early_onsets(est, t, p.raw, det.time, p.samples, list(d.candidates), results, p.weights,
+                                 o.seed, lookback)
+    clock.lap("identification")
+    d = replace(d, estimates=tuple(results))
+    n_eff = effective_samples(p.samples, len(p.monitor.residuals), p.meas.ts, p.window_s)
+    best = select_winner(results, n_eff)
+    mf = d.mode_fault if d.mode_fault is not None and d.mode_fault.faults else None
+    mode_faults = [f.to_dict() for f in mf.faults] if mf else []
+    if mf is not None and information(mf.cost, mode_faults, n_eff) <= information(best.cost, list(best.faults), n_eff):
+        # the fault mode explains the data better than any component fault once parameters are
+        # charged (Sec. III-C's order, with the comparison the paper leaves implicit: a valve stuck
+        # closed also looks like a clogged one, and a pair of component faults can over-fit the window)
+        return replace(d, mode=dict(mf.mode), faults=mf.faults,
+                       alternatives=alternatives(results, mf.cost, mode_faults, n_eff))
+    extra = [Alternative(tuple(f["name"] for f in mode_faults), tuple(mode_faults), mf.cost, 0.0)] if mf else []
+    d = replace(d, alternatives=alternatives(results, best.cost, list(best.faults), n_eff, extra, skip=best),
+                faults=faults_of(best.faults), winner=tuple(best.candidate))
+    d, now = later_decisions(p, d, fsm, r, est, clock)
+    return prognoses(p, significance(p, d, now), now, clock)
+
+
+def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators,
+                    clock: Clock) -> tuple[Diagnosis, float]:
+    """Every later change of the latched coherence vector decided again T_wt after it
+    (:func:`fdi.episodes.redecide`); the diagnosis follows the last. Returns it and the time of
+    the data the final fit saw."""
+    det, t = d.detection, p.meas.t
+    i0 = int(np.searchsorted(t, det.time - 1e-9))
+    now = float(t[i0]) + min(p.samples, t.size - i0) * float(t[1] - t[0])   # the first window's end
+    clock.restart()
+    lit = latched(r, t, p.thresholds, det.index, p.settle, p.scales.end_edge)
+    j = int(np.searchsorted(t, det.decision_time, side="right")) - 1
+    episodes = []
+    faults = [f.to_dict() for f in d.faults]
+    winner = d.winner
+    while (change := next_change(lit, j)) is not None:
+        k, j = change, decision_index(t, change, p.wait)
+        coherence = tuple(int(x) for x in lit[:, j])
+        e = redecide(est, p.meas, p.raw, det, p.weights, p.options, fsm, faults, float(t[k]), float(t[j]),
+                     coherence, p.samples, len(episodes) + 1)
+        episodes.append(e)
+        faults, winner = list(e.faults), e.winner
+        now = float(t[j])
+    if episodes:
+        clock.lap("re-diagnosis")
+    return replace(d, episodes=tuple(episodes), faults=faults_of(faults), winner=winner,
+                   window=(float(det.time), float(now))), now
+
+
+def significance(p: Prepared, d: Diagnosis, now: float) -> Diagnosis:
+    """The final faults that earn their parameters on the data since t_D (:func:`fdi.decide.significant`)."""
+    start, span = since_detection(p.meas.t, d.detection.time, now, p.samples, MAX_GROWTH)
+    kept, dropped = significant(p.monitor, p.meas, p.raw, start, span, [f.to_dict() for f in d.faults], p.weights)
+    return replace(d, faults=faults_of(kept), insignificant=dropped) if dropped else d
+
+
+def prognoses(p: Prepared, d: Diagnosis, now: float, clock: Clock) -> Diagnosis:
+    """The end of life and RUL at ``now`` of every incipient fault with a failure value."""
+    incipient = [f for f in d.faults if f.type == "incipient"]
+    if not incipient:
+        return d
+    clock.restart()
+    t, o, model = p.meas.t, p.options, p.monitor.model
+    t0 = float(t[int(np.searchsorted(t, d.detection.time - 1e-9))])
+    out = []
+    for f in incipient:
+        failure = o.failures.get(f.name, p.monitor.config.failure(f.name))
+        if failure is not None:
+            out.append(Prognosis.from_dict(prognose(f.to_dict(), nominal(model, f.name), failure,
+                                                    t0 if f.t0 is None else f.t0, now)))
+    clock.lap("prognosis")
+    return replace(d, prognosis=tuple(out))
+
+
+MAX_REFIT = 20      # a prognosis refit uses at most this many identification windows of data
+
+
+def refresh_prognosis(monitor: "Monitor", meas: Measurements, d: Diagnosis, options: Options | None = None,
+                      memo: dict | None = None) -> tuple[tuple[dict, ...], tuple[Prognosis, ...]]:
+    """The diagnosis' incipient faults refitted on the data since the detection up to the last
+    sample (at most MAX_REFIT windows), the other faults held at their fit, and the prognosis from
+    the refit at that time: a degradation seen longer is known better (the streaming monitor
+    refreshes it as data arrive; ``bgfdi evaluate`` asks for it at 50 % and 90 % of a fault's
+    life). Returns the faults and the prognosis; unchanged when there is no incipient fault with a
+    failure value."""
+    o = options or Options()
+    p = prepare(monitor.with_config(o.settings), meas, o)
+    faults = [f.to_dict() for f in d.faults]
+    failures = {f["name"]: o.failures.get(f["name"], p.monitor.config.failure(f["name"])) for f in faults}
+    growing = [f for f in faults if f["type"] == "incipient" and failures.get(f["name"]) is not None]
+    if not growing or d.detection is None:
+        return tuple(faults), d.prognosis
+    others = [f for f in faults if f not in growing]
+    start, span = since_detection(meas.t, d.detection.time, float(meas.t[-1]), p.samples, MAX_REFIT)
+    t0 = min(f["t0"] for f in growing)
+    w = p.window_s
+    search = Search(o.engine, o.pop, o.generations)
+    with Estimators(p.monitor, search, 1, memo) as est:
+        (result,) = est.run(meas.t, p.raw, start, span, [tuple(f["name"] for f in growing)], p.weights,
+                            o.seed + 104729, None, [others], [(t0 - w, t0 + w)], [[growing]])
+    now = float(meas.t[-1])
+    prognosis = tuple(Prognosis.from_dict(prognose(f, nominal(p.monitor.model, f["name"]), failures[f["name"]],
+                                                   f["t0"], now))
+                      for f in result.faults if f["type"] == "incipient")
+    return tuple(others) + tuple(result.faults), prognosis
+
+
+__all__ = ["run", "prepare", "Prepared", "refresh_prognosis", "check_window", "mode_fault_name", "Estimate"]

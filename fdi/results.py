@@ -1,0 +1,333 @@
+"""What a diagnosis finds, stage by stage, as small frozen values.
+
+:class:`Detection` (t_D and the coherence vectors), :class:`Isolation` (candidate sets, the sets
+too large to identify, the relaxed sets, suspected mode changes), :class:`ModeFault` (the
+fault-mode estimator's answer), :class:`Estimate` (one estimator's fit of one candidate set),
+:class:`Fault` (one identified fault: type, values, onset, degradation model and its band),
+:class:`Prognosis`, :class:`Episode` (a later decision) and :class:`Diagnosis`, which holds them
+with the residuals it was decided on. ``Diagnosis.to_dict()`` is the JSON report ``bgfdi
+diagnose --json`` prints: every key of :data:`REPORT_KEYS` always present, in that order, null
+where the diagnosis did not reach it (docs/report.schema.json).
+
+    >>> f = Fault(name="R4", type="abrupt", value=2.4e9, t0=31.88)
+    >>> f.to_dict()
+    {'name': 'R4', 'type': 'abrupt', 'value': 2400000000.0, 't0': 31.88}
+    >>> Fault.from_dict(f.to_dict()) == f
+    True
+    >>> f.describe()
+    'R4: abrupt, value 2.4e+09'
+"""
+from __future__ import annotations
+
+import html
+import json
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import numpy as np
+
+from .detect import Detection
+
+# The top-level keys of a report, in the order the JSON gives them (docs/report.schema.json).
+REPORT_KEYS = ("detection", "mode", "candidates", "estimators", "diagnosis", "prognosis", "note",
+               "weakly_detectable", "pruned", "suspected_mode_changes", "mode_estimate", "mode_costs",
+               "mode_fault_cost", "exoneration_relaxed", "alternatives", "winner", "episodes", "window",
+               "insignificant")
+FAULT_TYPES = ("abrupt", "intermittent", "incipient", "stuck", "mode")
+
+
+def plain(x: Any) -> Any:
+    """JSON-ready: numpy numbers as Python ones, non-finite floats as None, tuples as lists."""
+    if isinstance(x, Mapping):
+        return {k: plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [plain(v) for v in x]
+    if isinstance(x, (np.floating, float)):
+        return None if not np.isfinite(x) else float(x)
+    if isinstance(x, np.integer):
+        return int(x)
+    return x
+
+
+def _vec(v) -> str:
+    return "[" + " ".join(str(x) for x in v) + "]"
+
+
+@dataclass(frozen=True)
+class Fault:
+    """One identified fault. ``type`` abrupt or stuck: ``value``; intermittent: ``value`` and
+    ``period`` (s); incipient: degradation ``model`` k (the paper's eq. 15 + k), its ``eta`` bits,
+    coefficients ``b`` and their 95 % bands ``b_band``; mode: ``value`` the mode the variable is
+    stuck in. ``t0``: the onset (s)."""
+    name: str
+    type: str
+    value: float | None = None
+    period: float | None = None
+    model: int | None = None
+    eta: tuple[int, ...] | None = None
+    b: tuple[float, ...] | None = None
+    t0: float | None = None
+    b_band: tuple[tuple[float, float], ...] | None = None
+
+    @classmethod
+    def from_dict(cls, d: Mapping) -> "Fault":
+        band = d.get("b_band")
+        return cls(str(d["name"]), str(d["type"]), d.get("value"), d.get("period"), d.get("model"),
+                   None if d.get("eta") is None else tuple(d["eta"]), None if d.get("b") is None else tuple(d["b"]),
+                   d.get("t0"), None if band is None else tuple(tuple(x) for x in band))
+
+    def to_dict(self) -> dict:
+        """The report's entry: name, type, the type's values, t0, then the band."""
+        out: dict = {"name": self.name, "type": self.type}
+        for key in ("value", "period", "model", "eta", "b", "t0", "b_band"):
+            v = getattr(self, key)
+            if v is not None:
+                out[key] = [list(x) for x in v] if key == "b_band" else list(v) if isinstance(v, tuple) else v
+        return out
+
+    def describe(self) -> str:
+        """The fault in words, as the text report and the notebook table show it."""
+        if self.type == "abrupt":
+            return f"{self.name}: abrupt, value {self.value:.5g}"
+        if self.type == "intermittent":
+            return f"{self.name}: intermittent, value {self.value:.5g}, period {self.period:.4g} s"
+        if self.type == "incipient":
+            b = ", ".join(f"{x:.5g}" for x in self.b)
+            return f"{self.name}: incipient, model {self.model} (eq. {15 + self.model}, eta {_vec(self.eta)}), b = [{b}]"
+        if self.type == "stuck":
+            return f"{self.name}: stuck at {self.value:.5g} from {self.t0:.4g} s"
+        return f"{self.name}: fault mode ({self.name} = {self.value if self.value is not None else 0})"
+
+
+def faults_of(entries) -> tuple[Fault, ...]:
+    return tuple(f if isinstance(f, Fault) else Fault.from_dict(f) for f in entries)
+
+
+def fault_dicts(faults) -> list[dict]:
+    return [f.to_dict() if isinstance(f, Fault) else dict(f) for f in faults]
+
+
+@dataclass(frozen=True)
+class Isolation:
+    """The candidate sets the FSM leaves for the final coherence vector (``relaxed``: found only
+    once exoneration was dropped), the sets larger than ``max_set`` that are counted but not
+    identified (``pruned``: how many), the faults a quiet residual cannot exonerate (``weak``: fault ->
+    residuals) and the mode changes the MCSM suspects."""
+    candidates: tuple[tuple[str, ...], ...]
+    suspected: tuple[str, ...] = ()
+    pruned: int = 0                      # candidate sets of max_set + 1 faults, counted, not identified
+    max_set: int = 3
+    relaxed: bool = False
+    weak: Mapping[str, tuple[str, ...]] | None = None
+
+
+@dataclass(frozen=True)
+class ModeFault:
+    """The fault-mode estimator's answer: the estimated ``mode``, its cost, the cost of every
+    combination of the suspected variables (``table``), and the mode faults it implies."""
+    mode: Mapping[str, int]
+    cost: float
+    table: tuple[Mapping, ...]
+    faults: tuple[Fault, ...]
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """One estimator's answer for one candidate set: its best cost (eq. 24, weighted) and fitness
+    1/(cost + eps), the best fitness per generation, the engine's margin, the faults, and its work."""
+    candidate: tuple[str, ...]
+    cost: float
+    fitness: float
+    history: tuple[float, ...]
+    margin: float | None
+    faults: tuple[dict, ...]
+    evaluations: int
+    wall_s: float
+    objective_s: float = 0.0
+
+    def to_dict(self, history: bool = True) -> dict:
+        out: dict = {"candidate": list(self.candidate), "fitness": self.fitness}
+        if history:
+            out["history"] = list(self.history)
+        out.update({"margin": self.margin, "cost": self.cost, "faults": [dict(f) for f in self.faults],
+                    "evaluations": self.evaluations, "wall_s": self.wall_s, "objective_s": self.objective_s})
+        return out
+
+
+@dataclass(frozen=True)
+class Alternative:
+    """An explanation the data hardly separate from the winner (information criterion within 2)."""
+    candidate: tuple[str, ...]
+    faults: tuple[dict, ...]
+    cost: float
+    criterion: float
+
+    def to_dict(self) -> dict:
+        return {"candidate": list(self.candidate), "faults": [dict(f) for f in self.faults], "cost": self.cost,
+                "criterion": self.criterion}
+
+
+@dataclass(frozen=True)
+class Dropped:
+    """A fault of the final fit that does not earn its parameters: the criterion's change without it."""
+    fault: dict
+    criterion_without: float
+
+    def to_dict(self) -> dict:
+        return {**self.fault, "criterion_without": self.criterion_without}
+
+
+@dataclass(frozen=True)
+class Prognosis:
+    """The end of life of an incipient fault (when it reaches ``failure``), its RUL at ``at`` and
+    the RUL band from the coefficients' 95 % intervals."""
+    name: str
+    failure: float
+    eol: float
+    rul: float
+    at: float
+    rul_low: float
+    rul_high: float
+
+    @classmethod
+    def from_dict(cls, d: Mapping) -> "Prognosis":
+        return cls(d["name"], d["failure"], d["eol"], d["rul"], d["at"], d["rul_low"], d["rul_high"])
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "failure": self.failure, "eol": self.eol, "rul": self.rul, "at": self.at,
+                "rul_low": self.rul_low, "rul_high": self.rul_high}
+
+
+@dataclass(frozen=True)
+class Episode:
+    """A later decision: the coherence vector gained a residual at ``time``, decided at
+    ``decision_time`` from the diagnosis ``previous``."""
+    time: float
+    decision_time: float
+    coherence: tuple[int, ...]
+    previous: tuple[dict, ...]
+    estimates: tuple[Estimate, ...]
+    winner: tuple[str, ...]
+    faults: tuple[dict, ...]
+
+    def to_dict(self) -> dict:
+        return {"time": self.time, "decision_time": self.decision_time, "coherence": list(self.coherence),
+                "previous": [dict(f) for f in self.previous],
+                "candidates": [list(e.candidate) for e in self.estimates],
+                "estimators": [e.to_dict(history=False) for e in self.estimates],
+                "winner": list(self.winner), "faults": [dict(f) for f in self.faults]}
+
+
+@dataclass(frozen=True, eq=False)
+class Diagnosis:
+    """A diagnosis: its stages as typed values, and the residuals it was decided on (``t``,
+    ``residuals`` (residuals x samples), ``thresholds``, ``names``: for plots). ``to_dict()`` is
+    the JSON report (every key of :data:`REPORT_KEYS`, null where absent); ``summary()`` says it
+    in a few lines."""
+    model: str                                   # the model's name
+    mode: Mapping[str, int]
+    detection: Detection | None = None
+    isolation: Isolation | None = None
+    mode_fault: ModeFault | None = None
+    estimates: tuple[Estimate, ...] = ()
+    faults: tuple[Fault, ...] = ()
+    winner: tuple[str, ...] | None = None
+    alternatives: tuple[Alternative, ...] | None = None
+    episodes: tuple[Episode, ...] | None = None
+    window: tuple[float, float] | None = None
+    insignificant: tuple[Dropped, ...] | None = None
+    prognosis: tuple[Prognosis, ...] = ()
+    note: str | None = None
+    t: np.ndarray = field(default=None, repr=False)
+    residuals: np.ndarray = field(default=None, repr=False)
+    thresholds: np.ndarray = field(default=None, repr=False)
+    names: tuple[str, ...] = ()
+    timings: Mapping[str, float] = field(default_factory=dict, repr=False)
+    bond_graph: Any = field(default=None, repr=False)     # the Model diagnosed (for plots)
+
+    @property
+    def candidates(self) -> list[tuple[str, ...]]:
+        return [] if self.isolation is None else list(self.isolation.candidates)
+
+    def to_dict(self, timings: bool = False) -> dict:
+        """The report (JSON-ready); wall-clock entries only with ``timings``, so that two runs of
+        one diagnosis give identical reports."""
+        iso, mf = self.isolation, self.mode_fault
+        report = {
+            "detection": None if self.detection is None else self.detection.to_dict(),
+            "mode": dict(self.mode),
+            "candidates": [list(c) for c in self.candidates],
+            "estimators": [e.to_dict() for e in self.estimates],
+            "diagnosis": {"faults": [f.to_dict() for f in self.faults]},
+            "prognosis": [p.to_dict() for p in self.prognosis],
+            "note": self.note,
+            "weakly_detectable": None if iso is None or not iso.weak else {k: list(v) for k, v in iso.weak.items()},
+            "pruned": None if iso is None or not iso.pruned else {"max_set": iso.max_set, "sets": iso.pruned},
+            "suspected_mode_changes": None if iso is None else list(iso.suspected),
+            "mode_estimate": None if mf is None else dict(mf.mode),
+            "mode_costs": None if mf is None or not mf.table else [dict(r) for r in mf.table],
+            "mode_fault_cost": None if mf is None or not mf.faults else mf.cost,
+            "exoneration_relaxed": None if iso is None or not iso.relaxed else True,
+            "alternatives": None if self.alternatives is None else [a.to_dict() for a in self.alternatives],
+            "winner": None if self.winner is None else list(self.winner),
+            "episodes": None if self.episodes is None else [e.to_dict() for e in self.episodes],
+            "window": None if self.window is None else list(self.window),
+            "insignificant": None if self.insignificant is None else [d.to_dict() for d in self.insignificant],
+        }
+        out = plain(report)
+        if timings:
+            out["timings"] = plain(dict(self.timings))
+            return out
+        return deterministic(out)
+
+    def to_json(self, indent: int | None = 1) -> str:
+        """``bgfdi diagnose --json``, character for character."""
+        return json.dumps(self.to_dict(), indent=indent, default=float) + "\n"
+
+    def plot(self) -> dict:
+        """matplotlib Figures by name: residuals with thresholds, estimator fitness, fault profiles,
+        RUL (needs the plot extra)."""
+        from .plots import diagnosis_figures
+        return diagnosis_figures(self, self.bond_graph)
+
+    def summary(self) -> str:
+        """The diagnosis in a few lines: detection, faults, RULs."""
+        d = self.detection
+        lines = [f"{self.model}: " + ("nothing detected" if d is None else
+                                       f"detected at t_D = {d.time:.4g} s, coherence {_vec(d.coherence)}; "
+                                       f"at {d.decision_time:.4g} s: {_vec(d.final_coherence)}")]
+        lines += [f"  {f.describe()}" + (f" from {f.t0:.4g} s" if f.t0 is not None and f.type != "stuck" else "")
+                  for f in self.faults]
+        if d is not None and not self.faults:
+            lines.append("  no fault identified" + (f" ({self.note})" if self.note else ""))
+        lines += [f"  RUL of {p.name}: {p.rul:.4g} s at {p.at:.4g} s (band {p.rul_low:.4g} to {p.rul_high:.4g} s)"
+                  for p in self.prognosis if math.isfinite(p.rul)]
+        return "\n".join(lines)
+
+    def _repr_html_(self) -> str:
+        d = self.detection
+        rows = [("detection", "none" if d is None else
+                 f"t<sub>D</sub> = {d.time:.2f} s, coherence {list(d.coherence)}; at {d.decision_time:.2f} s: "
+                 f"{list(d.final_coherence)}")]
+        rows += [(f.name, f.describe().split(": ", 1)[1]) for f in self.faults] or [("diagnosis", "no fault")]
+        rows += [(f"RUL of {p.name}", f"{p.rul:.2f} s at {p.at:.2f} s (EOL {p.eol:.2f} s)")
+                 for p in self.prognosis if math.isfinite(p.rul)]
+        body = "".join(f"<tr><th style='text-align:left'>{html.escape(str(k))}</th><td style='text-align:left'>"
+                       f"{html.escape(str(v)) if '<sub>' not in str(v) else v}</td></tr>" for k, v in rows)
+        return f"<table><caption>bgfdi diagnosis</caption>{body}</table>"
+
+    def __repr__(self) -> str:
+        found = ", ".join(f"{f.name} {f.type}" for f in self.faults) or "no fault"
+        when = "nothing detected" if self.detection is None else f"t_D = {self.detection.time:.4g} s"
+        return f"<Diagnosis of {self.model}: {when}; {found}>"
+
+
+def deterministic(x):
+    """A report (or any part of it) without wall-clock entries, so that two runs of one diagnosis
+    compare equal (``--timings`` keeps them)."""
+    if isinstance(x, dict):
+        return {k: deterministic(v) for k, v in x.items() if k not in ("wall_s", "objective_s", "timings")}
+    if isinstance(x, list):
+        return [deterministic(v) for v in x]
+    return x

@@ -1,0 +1,262 @@
+"""The monitor: residuals, detection and decisions on a stream of samples, as events.
+
+``bgfdi monitor model.yaml DATA`` (DATA a CSV file, or ``-`` for a CSV stream on standard input)
+feeds the samples to a :class:`Stream` (``Monitor.stream``) block by block and prints one JSON object per line for
+each event, in stream time:
+
+- ``start``: the residuals, their thresholds, and the lag of the derivative estimate;
+- ``detection``: the first threshold crossing t_D and the coherence vector there;
+- ``coherence``: every later change of the latched coherence vector;
+- ``decision``: at t_D + T_wt (once the N identification samples have arrived), and again T_wt
+  after each later change of the coherence vector: candidate sets, the identified faults, the
+  fault-mode estimate, and the prognosis (RUL and its band) of incipient faults;
+- ``prognosis``: every ``refresh`` seconds after a decision with a growing fault, its fit
+  refreshed on the data so far (:func:`fdi.pipeline.refresh_prognosis`) and the RUL re-issued;
+- ``summary``: at the end of the stream, the report ``bgfdi diagnose --json`` gives for the same
+  samples (the same engine: the final decisions are recomputed on all the data, reusing every
+  identification whose data window has not changed).
+
+Each event carries ``t`` (the stream time it refers to) and ``known_at`` (the time of the last
+sample received when it was emitted): the difference is the latency of the method, chiefly the
+waiting time and the identification window, plus the lag.
+
+Residuals are causal up to a lag: the Savitzky–Golay derivative at time t needs the samples up to
+t + W/2 (W the derivative window), so a residual sample is final, and used for detection, half a
+window after it was measured (0.125 s on the CyCab). A model file that gives no window leaves it
+to the data (:mod:`fdi.scales`): the ``start`` event then comes with the first two samples. They are computed on the new samples only,
+with a margin of one window on each side, and equal those of the whole file.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from bondgraph.timescales import model_time_scales
+
+from . import scales
+from .data import DataError, Measurements, checked, commanded, signals_from_data
+from .detect import inconsistency, settling, thresholds_for
+from .monitor import Monitor
+from .options import Options
+from .pipeline import refresh_prognosis
+from .residuals import evaluate
+from .results import Diagnosis, plain
+
+Emit = Callable[[dict], None]
+
+
+@dataclass
+class Stream:
+    """A stream's state: its samples, its final residuals, and where detection and decisions stand.
+    ``feed`` takes blocks of rows; ``close`` ends the stream and returns the diagnosis of every
+    sample received (the ``summary`` event)."""
+    monitor: Monitor
+    emit: Emit
+    options: Options | None = None
+    source: str = "<stream>"
+    header: list[str] = field(default_factory=list)
+    n: int = 0                          # samples received
+    done: int = 0                       # samples whose residuals are final
+    residuals: np.ndarray | None = None   # the last block of final residuals (residuals x samples)
+    history: float = 3600.0             # s of samples kept before a detection (bounded memory)
+    t_detect: float | None = None
+    lit: np.ndarray | None = None       # latched coherence
+    pending: list[float] = field(default_factory=list)       # decision times not yet reached
+    decided: int = 0                    # decisions emitted
+    memo: dict = field(default_factory=dict)
+    refresh: float = 5.0                # s between prognosis refreshes
+    latest: Diagnosis | None = None     # the last decision
+    next_refresh: float = math.inf
+
+    def __post_init__(self) -> None:
+        self.options = self.options or Options()
+        self.options.check()
+        self.monitor = self.monitor.with_config(self.options.settings)
+        c = self.monitor
+        self.model, self.config, self.arrs, self.compiled = c.model, c.config, c.arrs, c.residuals
+        self.names = [a.name for a in self.arrs]
+        self.thresholds = thresholds_for(self.config.thresholds, self.names, self.options.thresholds)
+        self.wait = self.config.waiting_time if self.options.waiting_time is None else self.options.waiting_time
+        self.samples = self.options.samples or self.config.samples
+        self.window = None
+        if self.config.derivative_window is not None and self.wait is not None:
+            self._start()               # else once two samples tell the sampling time (fdi.scales)
+
+    def _start(self, ts: float | None = None) -> None:
+        """The derivative window, its lag and the waiting time, and the ``start`` event. Times the
+        model file leaves out come from the sampling time ``ts`` and the model (fdi.scales)."""
+        if ts is not None:
+            self.monitor, sc = self.monitor.scaled(ts)
+            self.config = self.monitor.config
+            self.wait = self.config.waiting_time if self.options.waiting_time is None else self.options.waiting_time
+            self.samples = self.options.samples or max(self.config.samples, sc.min_samples())
+        self.window = self.config.derivative_window
+        self.lag = self.window / 2
+        self.settle = settling(self.options.settle, scales.settle(self.window, model_time_scales(self.model).eigenvalues))
+        self.emit({"event": "start", "model": self.model.name, "residuals": self.names,
+                   "thresholds": dict(zip(self.names, map(float, self.thresholds))), "lag_s": self.lag,
+                   "waiting_time_s": self.wait})
+
+    # ------------------------------------------------------------------ data in
+    def feed(self, header: list[str], block: np.ndarray) -> None:
+        """A block of rows (columns of ``header``, one of them ``t``)."""
+        if not self.header:
+            self.header = list(header)
+            self.buffer = np.empty((1024, len(header)))
+            self.ti = self.header.index("t")
+        if block.size == 0:
+            return
+        self._append(block)
+        if self.n < 3:
+            return
+        t = self.buffer[:self.n, self.ti]
+        ts = float(t[1] - t[0])
+        if self.window is None:
+            self._start(ts)
+        margin = int(math.ceil(self.window / ts)) + 1
+        final = self.n - int(math.ceil(self.lag / ts)) - 1          # residuals final up to here (exclusive)
+        if final <= self.done or self.n <= 2 * margin:
+            return
+        a = max(0, self.done - 2 * margin)
+        segment = Measurements(self.source, t[a:], {h: self.buffer[a:self.n, i] for i, h in enumerate(self.header)})
+        raw = signals_from_data(self.model, segment)
+        r = evaluate(self.model, list(self.compiled), raw, ts, window=self.window,
+                     values=commanded(self.model, raw))
+        self.residuals = np.asarray(r)[:, self.done - a:final - a]
+        start, self.done = self.done, final
+        self._detect(t, start, final)
+        self._decide()
+        self._refresh()
+        self._forget(ts, margin)
+
+    def _forget(self, ts: float, margin: int) -> None:
+        """Before a detection, rows older than ``history`` seconds are dropped, so a stream watched
+        for days holds at most that much (an hour of 8 columns at 100 Hz: 23 MB). The rows are
+        shifted once as many have aged out as are kept (amortised: each row is copied once); the
+        margin the next residual block needs stays. A stream no longer than ``history`` keeps
+        every sample, and its summary is ``bgfdi diagnose`` on the whole file."""
+        keep = max(int(math.ceil(self.history / ts)), 4 * margin)
+        if self.t_detect is not None or self.n < 2 * keep:
+            return
+        drop = min(self.n - keep, self.done - 2 * margin)
+        if drop <= 0:
+            return
+        self.buffer[:self.n - drop] = self.buffer[drop:self.n].copy()
+        self.n -= drop
+        self.done -= drop
+
+    def _append(self, block: np.ndarray) -> None:
+        """Rows into the buffer (grown by doubling), each block checked as read_csv checks a file:
+        finite values, time increasing with the first step, uniform within 1e-3 of it."""
+        bad = np.flatnonzero(~np.isfinite(block).all(axis=1))
+        if bad.size:
+            raise DataError(f"{self.source}: a row with NaN or missing values at sample {self.n + bad[0] + 1}")
+        while self.n + block.shape[0] > self.buffer.shape[0]:
+            self.buffer = np.concatenate([self.buffer, np.empty_like(self.buffer)])
+        self.buffer[self.n:self.n + block.shape[0]] = block
+        self.n += block.shape[0]
+        t = self.buffer[max(0, self.n - block.shape[0] - 1):self.n, self.ti]
+        if self.n >= 2:
+            ts = self.buffer[1, self.ti] - self.buffer[0, self.ti]
+            dt = np.diff(t)
+            if ts <= 0 or np.any(np.abs(dt - ts) > 1e-3 * ts + 1e-9 * abs(t[-1])):
+                k = int(np.argmax(np.abs(dt - ts) > 1e-3 * ts)) if dt.size else 0
+                raise DataError(f"{self.source}: time must increase by a constant step ({ts:g} s at first); "
+                                f"step {dt[k] if dt.size else ts:g} s at t = {t[min(k + 1, t.size - 1)]:g} s")
+
+    def measurements(self) -> Measurements:
+        """Every sample received, checked as a file is."""
+        return checked(self.source, self.header, self.buffer[:self.n])
+
+    # ------------------------------------------------------------------ detection
+    def _detect(self, t: np.ndarray, start: int, stop: int) -> None:
+        r = self.residuals
+        bad = inconsistency(r, self.thresholds) & (t[start:stop] >= t[0] + self.settle)[None, :]
+        known_at = float(t[self.n - 1])
+        for k in range(bad.shape[1]):
+            if self.lit is None:
+                if not bad[:, k].any():
+                    continue
+                self.lit = bad[:, k].copy()
+                self.t_detect = float(t[start + k])
+                self.emit({"event": "detection", "t": self.t_detect, "coherence": self.lit.astype(int).tolist(),
+                           "known_at": known_at})
+                self.pending.append(self.t_detect + self.wait)
+                continue
+            grown = bad[:, k] & ~self.lit
+            if grown.any():
+                self.lit |= bad[:, k]
+                tc = float(t[start + k])
+                self.emit({"event": "coherence", "t": tc, "coherence": self.lit.astype(int).tolist(),
+                           "known_at": known_at})
+                if self.decided or tc > self.pending[0]:
+                    self.pending.append(tc + self.wait)
+
+    # ------------------------------------------------------------------ decisions
+    def _decide(self) -> None:
+        """Run the diagnosis on the samples so far once a decision time has passed and the data it
+        needs (N samples from t_D, the filter's margin) have arrived."""
+        if not self.pending or self.t_detect is None:
+            return
+        t = self.buffer[:self.n, self.ti]
+        t_now, margin = float(t[self.done - 1]), self.window + 2 * (t[1] - t[0])
+        t_last = float(t[-1])
+        ready = self.t_detect + self.samples * (t[1] - t[0]) + margin     # the first window and its margin
+        due = [d for d in self.pending if d <= t_now and d + margin <= t_last]
+        if not due or t_last < ready:
+            return
+        self.pending = [d for d in self.pending if d not in due]
+        d = self.monitor.diagnose(self.measurements(), self.options, memo=self.memo)
+        self._report_decisions(d.to_dict(), float(t[-1]))
+        self.latest = d
+        self.next_refresh = float(t[-1]) + self.refresh
+
+    def _refresh(self) -> None:
+        """Every ``refresh`` seconds after a decision with a growing fault, its fit refreshed on the
+        data so far and the prognosis re-issued (a ``prognosis`` event)."""
+        if self.latest is None or not self.latest.prognosis or self.pending:
+            return
+        t_last = float(self.buffer[self.n - 1, self.ti])
+        if t_last < self.next_refresh:
+            return
+        self.next_refresh = t_last + self.refresh
+        faults, prognosis = refresh_prognosis(self.monitor, self.measurements(), self.latest, self.options, self.memo)
+        self.emit({"event": "prognosis", "t": t_last, "faults": [f for f in faults if f["type"] == "incipient"],
+                   "prognosis": plain([p.to_dict() for p in prognosis]), "known_at": t_last})
+
+    def _report_decisions(self, report: dict, known_at: float) -> None:
+        decisions = []
+        if report["detection"] is not None:
+            first = {"t": report["detection"]["decision_time"], "coherence": report["detection"]["final_coherence"],
+                     "candidates": report["candidates"], "faults": report["diagnosis"]["faults"]
+                     if not report["episodes"] else report["episodes"][0]["previous"]}
+            decisions.append(first)
+        for e in report["episodes"] or []:
+            decisions.append({"t": e["decision_time"], "coherence": e["coherence"], "candidates": e["candidates"],
+                              "faults": e["faults"]})
+        for d in decisions[self.decided:]:
+            event = {"event": "decision", **d, "known_at": known_at}
+            if d is decisions[-1]:
+                event["faults"] = report["diagnosis"]["faults"]
+                event["mode"] = report["mode"]
+                event["prognosis"] = report["prognosis"]
+            elif d["faults"] is None:
+                event.pop("faults")
+            self.emit(event)
+        self.decided = max(self.decided, len(decisions))
+
+    def close(self) -> Diagnosis:
+        """The end of the stream: the summary, the diagnosis of every sample received."""
+        if self.n < 2:
+            raise DataError(f"{self.source}: the stream ended before two samples arrived")
+        meas = self.measurements()
+        if self.window is None:             # a stream of two samples: the start event still comes first
+            self._start(meas.ts)
+        d = self.monitor.diagnose(meas, self.options, memo=self.memo)
+        out = d.to_dict()
+        self._report_decisions(out, float(meas.t[-1]))
+        self.emit({"event": "summary", **out})
+        return d
