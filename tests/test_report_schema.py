@@ -1,0 +1,48 @@
+"""The report's JSON Schema (docs/report.schema.json) holds every report, is not vacuous, and its
+key order is the one every front door prints. Validated by jsonschema, the reference validator
+of the JSON Schema specification, not by bgfdi's own code."""
+from __future__ import annotations
+
+import copy
+import json
+
+import jsonschema
+import pytest
+
+from fdi.api import diagnose
+from fdi.results import REPORT_KEYS
+
+from .conftest import ROOT
+from .test_golden import EXPECTED, laid_out
+
+SCHEMA = json.loads((ROOT / "docs" / "report.schema.json").read_text(encoding="utf-8"))
+VALIDATOR = jsonschema.Draft202012Validator(SCHEMA)
+
+
+def test_the_schema_is_a_valid_json_schema():
+    jsonschema.Draft202012Validator.check_schema(SCHEMA)
+
+
+@pytest.mark.parametrize("case", sorted(EXPECTED))
+def test_every_recorded_report_is_valid(case):
+    for door, text in EXPECTED[case].items():
+        if door in ("cli", "demo", "fleet"):
+            VALIDATOR.validate(json.loads(laid_out(text, door)))
+
+
+def test_a_report_with_timings_is_valid_and_keeps_the_key_order():
+    report = diagnose(ROOT / "models" / "cycab_steering.yaml", ROOT / "models/data/cycab/scenario3.csv").to_dict(
+        timings=True)
+    VALIDATOR.validate(report)
+    assert [k for k in report if k != "timings"] == list(REPORT_KEYS) == SCHEMA["required"]
+
+
+def test_a_report_missing_a_key_or_with_an_unknown_fault_type_is_refused():
+    good = json.loads(laid_out(EXPECTED["cycab_scenario2"]["cli"], "cli"))
+    missing = {k: v for k, v in good.items() if k != "window"}
+    wrong = copy.deepcopy(good)
+    wrong["diagnosis"]["faults"][0]["type"] = "sudden"
+    lacking = copy.deepcopy(good)
+    del lacking["diagnosis"]["faults"][1]["b"]           # an incipient fault without coefficients
+    for bad in (missing, wrong, lacking):
+        assert not VALIDATOR.is_valid(bad)
