@@ -52,15 +52,11 @@ from __future__ import annotations
 import itertools
 from dataclasses import dataclass
 from numbers import Integral
-from typing import Callable, Hashable
+from typing import Hashable
 
 import numpy as np
 
 from .core import Counter, Engine, Options, Posed, Result, Solver
-
-Structure = Callable[[np.ndarray], Hashable]
-Free = Callable[[np.ndarray], np.ndarray]
-
 
 @dataclass
 class Branch:
@@ -342,7 +338,8 @@ class AHDE(Solver):
         if self.rung < o.protect:
             survivors += self.champions(pool, survivors)
         self.survivors = survivors
-        self.rung_generations, self.rung_spare, self.rung = 2 * self.rung_generations, self.rung_spare / 2, self.rung + 1
+        self.rung_generations, self.rung_spare = 2 * self.rung_generations, self.rung_spare / 2
+        self.rung += 1
 
     def converged(self) -> bool:
         """The race is over with two finalists left, or a stop (budget, target)."""

@@ -45,8 +45,11 @@ from .core import Engine, Result, Solver, Stopping
 @dataclass(frozen=True)
 class JointOptions(Stopping):
     """The joint search's share of the budget and how many structures it screens."""
-    polish: int = 3                         # the best structures seen that are screened besides the best's neighbours (0: joint search only)
-    phase: float = 0.5                      # share of the budget for the joint search (scenario-1 data: right structure 5/8 seeds at 0.7, 7/8 at 0.35, 16/16 at 0.5)
+    polish: int = 3
+    """The best structures seen that are screened besides the best's neighbours (0: the joint search alone)."""
+    phase: float = 0.5
+    """Share of the budget for the joint search (simulated scenario-1 data, R4 & beta_theta1: the right
+    structure in 5/8 seeds with 0.7, 7/8 with 0.35, 16/16 with 0.5)."""
 
 
 class AHDEJoint(Solver):

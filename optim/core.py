@@ -162,7 +162,8 @@ def _close(name: str, valid: Sequence[str]) -> str:
     return f" (did you mean {near[0]!r}?)" if near else ""
 
 
-def configure(engine: str, cls: type[Options], options: Options | None = None, overrides: dict | None = None) -> Options:
+def configure(engine: str, cls: type[Options], options: Options | None = None,
+              overrides: dict | None = None) -> Options:
     """``options`` (or ``cls``'s defaults) with ``overrides`` applied. An option ``cls`` does not
     have is refused (TypeError) in one line naming it, the nearest valid name and the valid ones."""
     overrides = overrides or {}
