@@ -50,17 +50,13 @@ about a sixth of it (``bgfdi bench diagnose``).
 from __future__ import annotations
 
 import itertools
-import time
 from dataclasses import dataclass
-from typing import Callable, Hashable, Sequence
+from numbers import Integral
+from typing import Hashable
 
 import numpy as np
 
-from .core import Counter, Result, check_bounds
-
-Structure = Callable[[np.ndarray], Hashable]
-Free = Callable[[np.ndarray], np.ndarray]
-
+from .core import Counter, Engine, Options, Posed, Result, Solver
 
 @dataclass
 class Branch:
@@ -83,35 +79,78 @@ class Branch:
         return spread <= tol * max(abs(self.best), 1e-300) or self.stale >= patience
 
 
-class AHDE:
-    """Structure racing with per-structure DE; ``solve()`` runs the phases and returns a Result."""
+@dataclass(frozen=True)
+class AHDEOptions(Options):
+    """The racing AHDE's knobs. ``pop`` and ``generations`` set the budget only, pop * (generations
+    + 1) evaluations (the paper's identification settings: population 100, 150 iterations); the
+    race sizes its own populations (``per_dim``)."""
+    pop: int = 100
+    generations: int = 150
+    target: float | None = None
+    """Stop once the best cost is at most this."""
+    tol: float = 1e-4
+    """A structure has converged when its population's cost spread is within ``tol`` of its best;
+    an improvement smaller than ``tol`` (relative) counts as none."""
+    patience: int = 15
+    """...or after this many generations without improvement."""
+    eta: int = 3
+    """Successive halving keeps the best 1/eta of the structures after each rung (the best third)."""
+    first_rung: int = 2
+    """Generations of the first rung; each rung after doubles them."""
+    screen: int = 3000
+    """Evaluations of the Latin-hypercube screen shared by the structures (at most a third of the
+    budget left)."""
+    screen_each: int = 50
+    """At most this many screen points per structure (a singleton's six structures need not take
+    a pair's 3000; measured on scenario 2 with the coarse fidelity: identification in 1.4 s)."""
+    spare: float = 0.5
+    """Structures within this share of the leader's cost survive a rung as well (halved each rung);
+    starting points within it of the best seed the race."""
+    restarts: int = 3
+    """Rounds of redrawing the converged finalists around their best points."""
+    finest: float = 0.01
+    """The smallest restart radius, as a share of each range: the leader alone at 1 % after 10 %
+    stops improving (scenario 1: R4 4 % off in 2 of 20 seeds without the 1 % round)."""
+    revivals: int = 2
+    """Times a structure left behind may come back with the winner's reals (measured: "R4 abrupt +
+    beta_theta1 intermittent" went from cost 1548 to 205 once the winner's period was carried over)."""
+    per_dim: int = 2
+    """A structure with d free reals races a DE population of per_dim * d + 4."""
+    max_structures: int = 256
+    """More structures than this: the race starts from a random sample and grows from the leader's
+    neighbours."""
+    protect: int = 3
+    """During the first ``protect`` rungs each ``family``'s best structure stays while within
+    ``spare`` of the leader (CyCab scenario 1: beta_theta1's intermittent fault found in 3 of 8 seeds
+    without, 6 of 8 with)."""
 
-    def __init__(self, objective, bounds, n_bits: int = 0, *, pop: int = 100, generations: int = 150,
-                 seed: int | None = 0, onehot: Sequence[Sequence[int]] = (), structure: Structure | None = None,
-                 free: Free | None = None, tol: float = 1e-4, patience: int = 15, eta: int = 3,
-                 first_rung: int = 2, screen: int = 3000, screen_each: int = 50, spare: float = 0.5, restarts: int = 3,
-                 finest: float = 0.01, revivals: int = 2, per_dim: int = 2, max_structures: int = 256,
-                 init: Sequence[tuple[np.ndarray, np.ndarray]] = (),
-                 coarse=None, family: Structure | None = None, protect: int = 3, target: float | None = None,
-                 callback=None) -> None:
-        self.bounds = check_bounds(bounds)
-        self.n_bits = n_bits
-        self.onehot = [tuple(g) for g in onehot]
-        self.describe = structure or (lambda b: tuple(int(v) for v in b))
-        self.family = family
-        self.protect = protect
-        self.free = free or (lambda b: np.ones(self.bounds.shape[0], dtype=bool))
-        self.rng = np.random.default_rng(seed)
-        self.budget = pop * (generations + 1)
-        self.tol, self.patience, self.eta, self.first_rung, self.screen = tol, patience, eta, first_rung, screen
-        self.screen_each = screen_each
-        self.spare, self.restarts, self.finest, self.per_dim = spare, restarts, finest, per_dim
-        self.revivals = revivals
-        self.max_structures, self.target, self.callback = max_structures, target, callback
-        self.init = [(np.asarray(r, dtype=float), np.asarray(b, dtype=bool)) for r, b in init]
-        self.objective = objective
-        self.counter = Counter(coarse or objective)        # the screen and race run on ``coarse`` when given
-        self.history: list[float] = []
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        for name, low in (("patience", 1), ("eta", 2), ("first_rung", 1), ("screen", 0), ("screen_each", 1),
+                          ("restarts", 0), ("revivals", 0), ("per_dim", 1), ("max_structures", 1), ("protect", 0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, Integral) or value < low:
+                raise ValueError(f"AHDEOptions.{name} must be a whole number >= {low}, not {value!r}")
+        for name in ("tol", "spare", "finest"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"AHDEOptions.{name} must be > 0, not {getattr(self, name)!r}")
+
+
+class AHDE(Solver):
+    """Structure racing with per-structure DE. Phases: ``init_population`` screens the structures,
+    each ``step`` is one rung of the race, ``converged`` once two finalists remain, ``polish``
+    refines, revives and settles them, ``result`` names the winner and the margin."""
+
+    def __init__(self, problem: Posed, options: AHDEOptions) -> None:
+        super().__init__(problem, options)
+        self.onehot = [tuple(g) for g in problem.onehot]
+        self.describe = problem.structure
+        self.family = problem.family
+        self.free = problem.free or (lambda b: np.ones(self.bounds.shape[0], dtype=bool))
+        self.budget = options.pop * (options.generations + 1)
+        self.init = list(problem.init)
+        self.objective = problem.cost
+        self.counter = Counter(problem.coarse or problem.cost)   # the screen and race run on ``coarse`` when given
         self.branches: dict[Hashable, Branch] = {}
         self.final: list[Branch] = []                      # the finalists, once the race is over
         self.stop = "converged"
@@ -122,13 +161,13 @@ class AHDE:
         grouped = {i for g in self.onehot for i in g}
         loose = [i for i in range(self.n_bits) if i not in grouped]
         count = int(np.prod([len(g) for g in self.onehot])) * 2 ** len(loose) if self.n_bits else 1
-        exhaustive = count <= 16 * self.max_structures
+        exhaustive = count <= 16 * self.options.max_structures
         if exhaustive:
             choices = itertools.product(*self.onehot, *[(None, i) for i in loose])
         else:
             choices = (tuple(self.rng.choice(g) for g in self.onehot) +
                        tuple(i if self.rng.random() < 0.5 else None for i in loose)
-                       for _ in range(16 * self.max_structures))
+                       for _ in range(16 * self.options.max_structures))
         out = []
         for pick in choices:
             bits = np.zeros(self.n_bits, dtype=bool)
@@ -170,7 +209,8 @@ class AHDE:
         if not picked:
             return []
         lo, hi = self.bounds[:, 0], self.bounds[:, 1]
-        share = min(screen // len(picked), self.screen_each, (self.budget - self.counter.evaluations) // 3 // len(picked))
+        share = min(screen // len(picked), self.options.screen_each,
+                    (self.budget - self.counter.evaluations) // 3 // len(picked))
         samples = []
         for key, (bits, free) in picked.items():
             size = max(self.size(free.size), share)
@@ -197,7 +237,7 @@ class AHDE:
 
     def size(self, d: int) -> int:
         """The DE population of a structure with d free reals."""
-        return self.per_dim * d + 4 if d else 1
+        return self.options.per_dim * d + 4 if d else 1
 
     # ------------------------------------------------------------------ evaluation and DE
     def evaluate(self, xs: list[np.ndarray], branches: list[Branch]) -> list[np.ndarray]:
@@ -234,7 +274,8 @@ class AHDE:
         """``generations`` DE generations of every branch, all evaluated together; with
         ``until_converged`` a branch stops early once converged. Stops at the budget."""
         for _ in range(generations):
-            live = [b for b in branches if b.free.size and not (until_converged and b.converged(self.tol, self.patience))]
+            live = [b for b in branches
+                    if b.free.size and not (until_converged and b.converged(self.options.tol, self.options.patience))]
             if not live:
                 return
             if self.counter.evaluations + sum(b.x.shape[0] for b in live) > self.budget:
@@ -247,48 +288,62 @@ class AHDE:
                 better = c < b.f
                 b.x[better], b.f[better] = trial[better], c[better]
                 b.F[better], b.CR[better] = F[better], CR[better]
-                b.stale = 0 if b.best < before * (1 - self.tol) else b.stale + 1
+                b.stale = 0 if b.best < before * (1 - self.options.tol) else b.stale + 1
                 self.record()
-            if self.target is not None and self.history[-1] <= self.target:
+            if self.options.target is not None and self.history[-1] <= self.options.target:
                 self.stop = "target"
                 return
 
     def record(self) -> None:
         self.history.append(min(b.best for b in (self.final or self.branches.values())))
-        if self.callback:
-            self.callback(len(self.history) - 1, self.history[-1])
+        if self.options.callback:
+            self.options.callback(len(self.history) - 1, self.history[-1])
 
     # ------------------------------------------------------------------ phases
     def ranked(self) -> list[Branch]:
         return sorted(self.branches.values(), key=lambda b: b.best)
 
-    def race(self) -> list[Branch]:
-        """Successive halving down to two finalists; returns them, best first."""
+    def init_population(self) -> None:
+        """The structures to race, each screened and given its DE population: every valid pattern
+        (or a sample), or, given starting points, their structures and those one decision away
+        from the best of them."""
+        o = self.options
         if self.init:
             seeds = [b for _, b in self.init]
-            self.spawn(seeds + [n for b in self.leading_seeds() for n in self.neighbours(b)], self.max_structures,
-                       self.screen // 4)
-            complete = False
+            self.spawn(seeds + [n for b in self.leading_seeds() for n in self.neighbours(b)], o.max_structures,
+                       o.screen // 4)
+            self.complete = False
         else:
             patterns, exhaustive = self.patterns()
-            self.spawn(patterns, self.max_structures, self.screen)
-            complete = exhaustive and len(self.branches) < self.max_structures
-        survivors = self.ranked()
-        generations, spare, rung = self.first_rung, self.spare, 0
-        while len(survivors) > 2 and self.stop == "converged":
-            self.advance(survivors, generations)
-            pool = list(survivors)
-            if not complete:                                # a partial start: let the leader's neighbours in
-                pool += self.spawn(self.neighbours(self.ranked()[0].bits))
-            pool.sort(key=lambda b: b.best)
-            self.migrate(pool)
-            pool.sort(key=lambda b: b.best)
-            close = sum(b.best <= pool[0].best * (1 + spare) for b in pool)
-            survivors = pool[:max(2, int(np.ceil(len(pool) / self.eta)), min(close, len(pool) - 1))]
-            if rung < self.protect:
-                survivors += self.champions(pool, survivors)
-            generations, spare, rung = 2 * generations, spare / 2, rung + 1
-        return survivors[:2]
+            self.spawn(patterns, o.max_structures, o.screen)
+            self.complete = exhaustive and len(self.branches) < o.max_structures
+        self.survivors = self.ranked()
+        self.rung_generations, self.rung_spare, self.rung = o.first_rung, o.spare, 0
+
+    def step(self) -> None:
+        """One rung of successive halving: the survivors advance, the leader's neighbours join a
+        partial start, migrants cross, and the best third (and those close to the leader, and each
+        family's best for the first ``protect`` rungs) go on with twice the generations."""
+        o = self.options
+        survivors = self.survivors
+        self.advance(survivors, self.rung_generations)
+        pool = list(survivors)
+        if not self.complete:                               # a partial start: let the leader's neighbours in
+            pool += self.spawn(self.neighbours(self.ranked()[0].bits))
+        pool.sort(key=lambda b: b.best)
+        self.migrate(pool)
+        pool.sort(key=lambda b: b.best)
+        close = sum(b.best <= pool[0].best * (1 + self.rung_spare) for b in pool)
+        survivors = pool[:max(2, int(np.ceil(len(pool) / o.eta)), min(close, len(pool) - 1))]
+        if self.rung < o.protect:
+            survivors += self.champions(pool, survivors)
+        self.survivors = survivors
+        self.rung_generations, self.rung_spare = 2 * self.rung_generations, self.rung_spare / 2
+        self.rung += 1
+
+    def converged(self) -> bool:
+        """The race is over with two finalists left, or a stop (budget, target)."""
+        return len(self.survivors) <= 2 or self.stop != "converged"
 
     def champions(self, pool: list[Branch], survivors: list[Branch]) -> list[Branch]:
         """The best branch of each ``family`` that has none among the survivors. Two generations
@@ -301,7 +356,7 @@ class AHDE:
         out = []
         for b in pool:                                     # best first
             fam = self.family(b.bits)
-            if fam not in kept and b.best <= pool[0].best * (1 + self.spare):
+            if fam not in kept and b.best <= pool[0].best * (1 + self.options.spare):
                 kept.add(fam)
                 out.append(b)
         return out
@@ -314,7 +369,7 @@ class AHDE:
         bits = np.vstack([b for _, b in self.init])
         cost = self.counter(np.clip(real, self.bounds[:, 0], self.bounds[:, 1]), bits)
         best = float(np.min(cost))
-        return [b for b, c in zip(bits, cost) if c <= best * (1 + self.spare) or not np.isfinite(best)]
+        return [b for b, c in zip(bits, cost) if c <= best * (1 + self.options.spare) or not np.isfinite(best)]
 
     def migrate(self, branches: list[Branch]) -> None:
         """Each branch gets a migrant: its best point with the reals it shares with the leader taken
@@ -366,14 +421,14 @@ class AHDE:
             b.f, b.stale = c, 0
         self.record()
 
-    def polish(self, branches: list[Branch]) -> None:
+    def settle(self, branches: list[Branch]) -> None:
         """Run ``branches`` to convergence, then restart them around their best points (``restart``)
         until a round improves none; each such round shrinks the radius tenfold, down to
         ``finest``, and is spent on the leader alone (the runner-up only sets the margin)."""
         if self.stop == "converged":
             self.advance(branches, self.budget, until_converged=True)
         scale, running = 0.1, branches
-        for _ in range(self.restarts):
+        for _ in range(self.options.restarts):
             before = [b.best for b in running]
             for b in running:
                 if self.stop == "converged" and b.free.size and self.counter.evaluations + b.x.shape[0] <= self.budget:
@@ -381,10 +436,10 @@ class AHDE:
             if self.stop != "converged":
                 break
             self.advance(running, self.budget, until_converged=True)
-            if all(b.best >= c * (1 - self.tol) for b, c in zip(running, before)):
+            if all(b.best >= c * (1 - self.options.tol) for b, c in zip(running, before)):
                 scale /= 10
                 running = [min(branches, key=lambda b: b.best)]
-                if scale < self.finest:
+                if scale < self.options.finest:
                     break
 
     def revive(self, finalists: list[Branch]) -> Branch | None:
@@ -408,7 +463,7 @@ class AHDE:
         migrants = [self.migrant(b, win) for b in shells]
         costs = [c[0] for c in self.evaluate(migrants, shells)]
         j = int(np.argmin(costs))
-        if not costs[j] < win.best * (1 - self.tol):
+        if not costs[j] < win.best * (1 - self.options.tol):
             return None
         b = shells[j]
         if any(b is f for f in finalists):
@@ -425,39 +480,30 @@ class AHDE:
         finalists.append(b)
         return b
 
-    def solve(self) -> Result:
-        t0 = time.perf_counter()
-        finalists = self.race()
+    def polish(self) -> None:
+        """The two finalists on the objective itself, settled, and a structure left behind revived
+        while one comes back."""
+        finalists = self.finalists = self.survivors[:2]
         self.refine(finalists)
         self.migrate(sorted(finalists, key=lambda b: b.best))
-        self.polish(finalists)
-        for _ in range(self.revivals):
+        self.settle(finalists)
+        for _ in range(self.options.revivals):
             if self.stop != "converged":
                 break
             back = self.revive(finalists)
             if back is None:
                 break
-            self.polish([back])
+            self.settle([back])
+
+    def result(self) -> Result:
+        finalists = self.finalists
         finalists.sort(key=lambda b: b.best)
         win = finalists[0]
         i = int(np.argmin(win.f))
         margin = finalists[1].best / max(win.best, 1e-300) if len(finalists) > 1 else float("inf")
         extra = {"margin": margin, "structures": [(b.key, b.best) for b in finalists],
                  "raced": len(self.branches)}
-        return Result(win.x[i].copy(), win.bits.copy(), win.best, self.history, self.counter.evaluations,
-                      len(self.history) - 1, time.perf_counter() - t0, self.counter.seconds, self.stop, extra)
+        return self.make_result(win.x[i].copy(), win.bits.copy(), win.best, extra)
 
 
-OPTIONS = ("tol", "patience", "eta", "first_rung", "screen", "screen_each", "spare", "restarts", "finest", "revivals",
-           "per_dim", "max_structures", "init", "coarse", "family", "protect")
-
-
-def minimize(objective, bounds, n_bits: int = 0, *, pop: int = 100, generations: int = 150, seed: int | None = 0,
-             target: float | None = None, onehot: Sequence[Sequence[int]] = (), structure: Structure | None = None,
-             free: Free | None = None, callback=None, **options) -> Result:
-    """Minimise ``objective(real, bits)`` by structure racing (see the module doc); at most
-    ``pop * (generations + 1)`` evaluations. Options of other engines (``stagnation``, a GA's
-    ``pc``) are ignored, as they ignore these."""
-    return AHDE(objective, bounds, n_bits, pop=pop, generations=generations, seed=seed, onehot=onehot,
-                structure=structure, free=free, target=target, callback=callback,
-                **{k: v for k, v in options.items() if k in OPTIONS}).solve()
+ENGINE = Engine("AHDE", AHDE, AHDEOptions)

@@ -15,12 +15,12 @@ and fixes it.
 """
 from __future__ import annotations
 
-import time
+from dataclasses import dataclass
 
 import numpy as np
 
-from .core import (Counter, Result, binomial_crossover, check_bounds, distinct_indices, end_generation,
-                   greedy_replace, init_population, repair_midpoint)
+from .core import (Engine, Result, Solver, Stopping, binomial_crossover, distinct_indices, greedy_replace, init_population,
+                   repair_midpoint)
 
 
 def adaptive_rates(rng: np.random.Generator, im: float, size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -47,35 +47,43 @@ def binary_mutation(rng: np.random.Generator, bits: np.ndarray, best: int) -> np
     return bits[best] | (fb & (bits[r[:, 0]] ^ bits[r[:, 1]]))
 
 
-def minimize(objective, bounds, n_bits: int = 0, *, pop: int = 150, generations: int = 300, seed: int | None = 0,
-             target: float | None = None, stagnation: int | None = None, bit_flip: float = 0.0,
-             callback=None, **_ignored) -> Result:
-    """Run the paper's AHDE; ``bit_flip`` > 0 adds a bit-flip mutation (not in the paper)."""
-    t0 = time.perf_counter()
-    rng = np.random.default_rng(seed)
-    bounds = check_bounds(bounds)
-    cost_fn = Counter(objective)
-    real, bits = init_population(rng, bounds, n_bits, pop)
-    cost = cost_fn(real, bits)
-    history = [float(cost.min())]
-    im = 1.0
-    stop = "budget"
-    for g in range(1, generations + 1):
+@dataclass(frozen=True)
+class PaperOptions(Stopping):
+    """The paper's AHDE has no tuning knob of its own: F and CR follow the adaptive law."""
+    bit_flip: float = 0.0                   # probability of flipping each trial bit after eq. (23); not in the paper
+
+
+class AHDEPaper(Solver):
+    """The paper's AHDE, one generation per ``step``."""
+
+    def init_population(self) -> None:
+        self.real, self.bits = init_population(self.rng, self.bounds, self.n_bits, self.options.pop)
+        self.cost = self.counter(self.real, self.bits)
+        self.history.append(float(self.cost.min()))
+        self.im = 1.0                                      # IM = 1 in the first generation
+
+    def step(self) -> None:
+        rng, o = self.rng, self.options
+        self.generation += 1
+        real, bits, cost = self.real, self.bits, self.cost
         best = int(np.argmin(cost))
-        cr_r, cr_b, f_r = adaptive_rates(rng, im, pop)
-        trial_real = repair_midpoint(binomial_crossover(rng, real, real_mutation(rng, real, best, f_r), cr_r), real, bounds)
+        cr_r, cr_b, f_r = adaptive_rates(rng, self.im, o.pop)
+        trial_real = repair_midpoint(binomial_crossover(rng, real, real_mutation(rng, real, best, f_r), cr_r), real,
+                                     self.bounds)
         trial_bits = bits
-        if n_bits:
+        if self.n_bits:
             trial_bits = binomial_crossover(rng, bits, binary_mutation(rng, bits, best), cr_b).astype(bool)
-            if bit_flip > 0:
-                trial_bits = trial_bits ^ (rng.random(trial_bits.shape) < bit_flip)
-        trial_cost = cost_fn(trial_real, trial_bits)
-        (real, bits), cost = greedy_replace((real, bits), (trial_real, trial_bits), cost, trial_cost)   # eq. (22)
-        reason = end_generation(history, cost.min(), g, callback, target, stagnation)
-        im = improvement_measure(history[-2], history[-1])
-        if reason:
-            stop = reason
-            break
-    best = int(np.argmin(cost))
-    return Result(real[best].copy(), bits[best].copy(), float(cost[best]), history, cost_fn.evaluations,
-                  len(history) - 1, time.perf_counter() - t0, cost_fn.seconds, stop)
+            if o.bit_flip > 0:
+                trial_bits = trial_bits ^ (rng.random(trial_bits.shape) < o.bit_flip)
+        trial_cost = self.counter(trial_real, trial_bits)
+        (self.real, self.bits), self.cost = greedy_replace((real, bits), (trial_real, trial_bits), cost,
+                                                           trial_cost)   # eq. (22)
+        self.end_generation(self.cost.min())
+        self.im = improvement_measure(self.history[-2], self.history[-1])
+
+    def result(self) -> Result:
+        best = int(np.argmin(self.cost))
+        return self.make_result(self.real[best].copy(), self.bits[best].copy(), self.cost[best])
+
+
+ENGINE = Engine("AHDE-paper", AHDEPaper, PaperOptions)

@@ -9,15 +9,27 @@ population agrees early.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from . import ahde_paper
-from .core import Result
+from .ahde_paper import AHDEPaper, PaperOptions
+from .core import Engine, Posed, Result
 
 
-def minimize(objective, n_bits: int, *, pop: int = 20, generations: int = 30, seed: int | None = 0,
-             target: float | None = None, stagnation: int | None = 10, bit_flip: float = 0.02,
-             callback=None) -> Result:
-    """Minimise ``objective(real (pop, 0), bits (pop, B))`` over B bits."""
-    return ahde_paper.minimize(objective, np.zeros((0, 2)), n_bits, pop=pop, generations=generations, seed=seed,
-                               target=target, stagnation=stagnation, bit_flip=bit_flip, callback=callback)
+@dataclass(frozen=True)
+class BDEOptions(PaperOptions):
+    """A mode vector's small search: 20 individuals, 30 generations, stop after 10 without gain."""
+    pop: int = 20
+    generations: int = 30
+    stagnation: int | None = 10
+    bit_flip: float = 0.02                  # keeps the search alive when the population agrees early
+
+
+ENGINE = Engine("BDE", AHDEPaper, BDEOptions)
+
+
+def minimize(objective, n_bits: int, options: BDEOptions | None = None, **overrides) -> Result:
+    """Minimise ``objective(real (pop, 0), bits (pop, B))`` over B bits; ``overrides`` are fields
+    of ``BDEOptions``."""
+    return ENGINE.minimize(Posed(objective, np.zeros((0, 2)), n_bits), options, **overrides)

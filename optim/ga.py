@@ -13,11 +13,11 @@ individuals fitter than before the mutation, is measured; an operator whose succ
 """
 from __future__ import annotations
 
-import time
+from dataclasses import dataclass
 
 import numpy as np
 
-from .core import EPS, Counter, Result, check_bounds, end_generation
+from .core import EPS, Engine, Result, Solver, Stopping
 
 
 def decode(genes: np.ndarray, bounds: np.ndarray, bits_per_real: int) -> np.ndarray:
@@ -45,65 +45,76 @@ def one_point_crossover(rng: np.random.Generator, a: np.ndarray, b: np.ndarray, 
     return np.where(mask, b, a), np.where(mask, a, b), cross
 
 
-def _run(objective, bounds, n_bits, *, pop, generations, seed, pc, pm, bits_per_real, adaptive, aim,
-         target, stagnation, callback) -> Result:
-    t0 = time.perf_counter()
-    rng = np.random.default_rng(seed)
-    bounds = check_bounds(bounds)
-    counter = Counter(objective)
-    nr = bounds.shape[0]
-    length = nr * bits_per_real + n_bits
-    split = lambda g: (decode(g, bounds, bits_per_real), g[:, nr * bits_per_real:].astype(bool))
-    genes = rng.random((pop, length)) < 0.5
-    cost = counter(*split(genes))
-    history = [float(cost.min())]
-    stop = "budget"
-    for gen in range(1, generations + 1):
+@dataclass(frozen=True)
+class GAOptions(Stopping):
+    """The paper's GA (Sec. IV-D): its rates are Table VI's."""
+    pc: float = 0.55                        # one-point crossover probability (Table VI: 0.55)
+    pm: float = 0.08                        # bitwise mutation probability (Table VI: 0.08)
+    bits_per_real: int = 5                  # the paper's chromosomes: 5 bits per real, 32 levels
+
+
+@dataclass(frozen=True)
+class AGAOptions(GAOptions):
+    """AGA: pc and pm start at the GA's and adapt."""
+    aim: float = 0.2                        # an operator whose success share exceeds this has its rate raised by 10 %
+
+
+class GA(Solver):
+    """Elitist roulette GA, one generation per ``step``; ``adapt`` is AGA's."""
+
+    def init_population(self) -> None:
+        o = self.options
+        self.pc, self.pm = o.pc, o.pm
+        self.length = self.bounds.shape[0] * o.bits_per_real + self.n_bits
+        self.genes = self.rng.random((o.pop, self.length)) < 0.5
+        self.cost = self.counter(*self.split(self.genes))
+        self.history.append(float(self.cost.min()))
+
+    def split(self, genes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Genes -> (reals decoded, the problem's own bits)."""
+        b = self.options.bits_per_real
+        return decode(genes, self.bounds, b), genes[:, self.bounds.shape[0] * b:].astype(bool)
+
+    def step(self) -> None:
+        rng, pop, cost = self.rng, self.options.pop, self.cost
+        self.generation += 1
         elite = int(np.argmin(cost))
         pairs = (pop + 1) // 2
         pa, pb = roulette(rng, cost, pairs), roulette(rng, cost, pairs)
-        c1, c2, crossed = one_point_crossover(rng, genes[pa], genes[pb], pc)
+        c1, c2, crossed = one_point_crossover(rng, self.genes[pa], self.genes[pb], self.pc)
         children = np.vstack([c1, c2])[: pop - 1]
-        flips = rng.random(children.shape) < pm
+        flips = rng.random(children.shape) < self.pm
         children = children ^ flips
-        child_cost = counter(*split(children))
-        genes = np.vstack([genes[elite:elite + 1], children])
+        child_cost = self.counter(*self.split(children))
+        self.genes = np.vstack([self.genes[elite:elite + 1], children])
         parent_mean = np.concatenate([(cost[pa] + cost[pb]) / 2] * 2)[: pop - 1]
-        cost = np.concatenate([cost[elite:elite + 1], child_cost])
-        if adaptive:
-            crossed2 = np.concatenate([crossed, crossed])[: pop - 1]
-            mutated = flips.any(axis=1)
-            if crossed2.any():
-                ok = np.mean(child_cost[crossed2] < parent_mean[crossed2])
-                pc = float(np.clip(pc * (1.1 if ok > aim else 0.9), 0.05, 0.95))
-            if mutated.any():
-                # success of mutation, judged without extra evaluations: mutated children that
-                # beat their parents' mean fitness
-                ok = np.mean(child_cost[mutated] < parent_mean[mutated])
-                pm = float(np.clip(pm * (1.1 if ok > aim else 0.9), 0.001, 0.3))
-        reason = end_generation(history, cost.min(), gen, callback, target, stagnation)
-        if reason:
-            stop = reason
-            break
-    best = int(np.argmin(cost))
-    real, bits = split(genes[best:best + 1])
-    return Result(real[0], bits[0], float(cost[best]), history, counter.evaluations, len(history) - 1,
-                  time.perf_counter() - t0, counter.seconds, stop, {"pc": pc, "pm": pm})
+        self.cost = np.concatenate([cost[elite:elite + 1], child_cost])
+        self.adapt(child_cost, parent_mean, np.concatenate([crossed, crossed])[: pop - 1], flips.any(axis=1))
+        self.end_generation(self.cost.min())
+
+    def adapt(self, child_cost: np.ndarray, parent_mean: np.ndarray, crossed: np.ndarray, mutated: np.ndarray) -> None:
+        """The plain GA keeps its rates."""
+
+    def result(self) -> Result:
+        best = int(np.argmin(self.cost))
+        real, bits = self.split(self.genes[best:best + 1])
+        return self.make_result(real[0], bits[0], self.cost[best], {"pc": self.pc, "pm": self.pm})
 
 
-def minimize(objective, bounds, n_bits: int = 0, *, pop: int = 150, generations: int = 300, seed: int | None = 0,
-             pc: float = 0.55, pm: float = 0.08, bits_per_real: int = 5, target=None, stagnation=None,
-             callback=None, **_ignored) -> Result:
-    """The paper's GA."""
-    return _run(objective, bounds, n_bits, pop=pop, generations=generations, seed=seed, pc=pc, pm=pm,
-                bits_per_real=bits_per_real, adaptive=False, aim=0.2, target=target, stagnation=stagnation,
-                callback=callback)
+class AGA(GA):
+    """The GA with pc and pm adapted from each operator's success."""
+
+    def adapt(self, child_cost: np.ndarray, parent_mean: np.ndarray, crossed: np.ndarray, mutated: np.ndarray) -> None:
+        aim = self.options.aim
+        if crossed.any():
+            ok = np.mean(child_cost[crossed] < parent_mean[crossed])
+            self.pc = float(np.clip(self.pc * (1.1 if ok > aim else 0.9), 0.05, 0.95))
+        if mutated.any():
+            # success of mutation, judged without extra evaluations: mutated children that
+            # beat their parents' mean fitness
+            ok = np.mean(child_cost[mutated] < parent_mean[mutated])
+            self.pm = float(np.clip(self.pm * (1.1 if ok > aim else 0.9), 0.001, 0.3))
 
 
-def minimize_adaptive(objective, bounds, n_bits: int = 0, *, pop: int = 150, generations: int = 300,
-                      seed: int | None = 0, pc: float = 0.55, pm: float = 0.08, bits_per_real: int = 5,
-                      aim: float = 0.2, target=None, stagnation=None, callback=None, **_ignored) -> Result:
-    """AGA: the GA with pc and pm adapted from each operator's success."""
-    return _run(objective, bounds, n_bits, pop=pop, generations=generations, seed=seed, pc=pc, pm=pm,
-                bits_per_real=bits_per_real, adaptive=True, aim=aim, target=target, stagnation=stagnation,
-                callback=callback)
+ENGINE = Engine("GA", GA, GAOptions)
+ADAPTIVE = Engine("AGA", AGA, AGAOptions)

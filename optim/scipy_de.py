@@ -6,38 +6,43 @@ evolution only. scipy sizes its population as popsize * D: popsize is chosen to 
 """
 from __future__ import annotations
 
-import time
+from dataclasses import dataclass
 
 import numpy as np
 
-from .core import Counter, Result, check_bounds
+from .core import Engine, Options, Result, Solver
 
 
-def minimize(objective, bounds, n_bits: int = 0, *, pop: int = 150, generations: int = 300, seed: int | None = 0,
-             callback=None, **_ignored) -> Result:
-    from scipy.optimize import differential_evolution     # here: importing scipy.optimize takes 0.4 s
+@dataclass(frozen=True)
+class ScipyDEOptions(Options):
+    """scipy's own settings are fixed (no polish, tol 0, deferred updating, random init): a reference
+    on the same budget, not a tuned engine."""
 
-    t0 = time.perf_counter()
-    bounds = check_bounds(bounds)
-    nr = bounds.shape[0]
-    counter = Counter(objective)
-    d = nr + n_bits
-    full = [tuple(b) for b in bounds] + [(0.0, 1.0)] * n_bits
-    history: list[float] = []
 
-    def f(x: np.ndarray) -> np.ndarray:
-        x = np.atleast_2d(x.T) if x.ndim == 2 else x[None, :]
-        c = counter(x[:, :nr], np.rint(x[:, nr:]).astype(bool))
-        return c
+class ScipyDE(Solver):
+    """scipy's loop runs the generations, so ``solve`` calls it."""
 
-    def track(intermediate_result):
-        history.append(float(intermediate_result.fun))
-        if callback:
-            callback(len(history), history[-1])
+    def solve(self) -> Result:
+        from scipy.optimize import differential_evolution     # here: importing scipy.optimize takes 0.4 s
 
-    res = differential_evolution(f, full, popsize=max(1, int(round(pop / d))), maxiter=generations, seed=seed,
-                                 polish=False, tol=0, atol=0, vectorized=True, updating="deferred",
-                                 integrality=[False] * nr + [True] * n_bits, callback=track, init="random")
-    x = np.asarray(res.x)
-    return Result(x[:nr], np.rint(x[nr:]).astype(bool), float(res.fun), history, counter.evaluations,
-                  len(history), time.perf_counter() - t0, counter.seconds, "budget")
+        o, nr, nb = self.options, self.bounds.shape[0], self.n_bits
+        d = nr + nb
+        full = [tuple(b) for b in self.bounds] + [(0.0, 1.0)] * nb
+
+        def f(x: np.ndarray) -> np.ndarray:
+            x = np.atleast_2d(x.T) if x.ndim == 2 else x[None, :]
+            return self.counter(x[:, :nr], np.rint(x[:, nr:]).astype(bool))
+
+        def track(intermediate_result) -> None:
+            self.history.append(float(intermediate_result.fun))
+            if o.callback:
+                o.callback(len(self.history), self.history[-1])
+
+        res = differential_evolution(f, full, popsize=max(1, int(round(o.pop / d))), maxiter=o.generations,
+                                     seed=o.seed, polish=False, tol=0, atol=0, vectorized=True, updating="deferred",
+                                     integrality=[False] * nr + [True] * nb, callback=track, init="random")
+        x = np.asarray(res.x)
+        return self.make_result(x[:nr], np.rint(x[nr:]).astype(bool), res.fun, generations=len(self.history))
+
+
+ENGINE = Engine("scipy-DE", ScipyDE, ScipyDEOptions)

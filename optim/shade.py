@@ -12,12 +12,12 @@ keys, so they are always valid and every option stays reachable (no bias, no fre
 """
 from __future__ import annotations
 
-import time
+from dataclasses import dataclass
 from typing import Callable, Sequence
 
 import numpy as np
 
-from .core import Counter, Result, binomial_crossover, check_bounds, end_generation, repair_midpoint
+from .core import Engine, Result, Solver, Stopping, binomial_crossover, end_generation, repair_midpoint
 
 TERMINAL = -1.0
 
@@ -115,20 +115,28 @@ def run(cost: Callable[[np.ndarray], np.ndarray], bounds: np.ndarray, rng: np.ra
     return x, f, stop
 
 
-def minimize(objective, bounds, n_bits: int = 0, *, pop: int = 150, generations: int = 300, seed: int | None = 0,
-             target: float | None = None, stagnation: int | None = None, onehot: Sequence[Sequence[int]] = (),
-             callback=None, **_ignored) -> Result:
-    """L-SHADE over the reals and the bit keys, budget pop * (generations + 1) evaluations."""
-    t0 = time.perf_counter()
-    rng = np.random.default_rng(seed)
-    bounds = check_bounds(bounds)
-    nr = bounds.shape[0]
-    full = np.vstack([bounds, np.tile([0.0, 1.0], (n_bits, 1))]) if n_bits else bounds
-    counter = Counter(objective)
-    cost = lambda z: counter(z[:, :nr], keys_to_bits(z[:, nr:], onehot))
-    history: list[float] = []
-    x, f, stop = run(cost, full, rng, pop=pop, max_evals=pop * (generations + 1), history=history,
-                     target=target, stagnation=stagnation, callback=callback)
-    best = int(np.argmin(f))
-    return Result(x[best, :nr].copy(), keys_to_bits(x[best:best + 1, nr:], onehot)[0], float(f[best]), history,
-                  counter.evaluations, len(history) - 1, time.perf_counter() - t0, counter.seconds, stop)
+@dataclass(frozen=True)
+class SHADEOptions(Stopping):
+    """L-SHADE's constants are Tanabe & Fukunaga's (CEC 2014)."""
+    pop_min: int = 4                        # the population shrinks linearly to this at the end of the budget
+    memory: int = 6                         # H, the success-history memory cells of F and CR
+    p_best: float = 0.11                    # current-to-pbest/1 draws its pbest from this best share
+    archive_rate: float = 2.6               # the archive of replaced parents holds this many times the population
+
+
+class SHADE(Solver):
+    """L-SHADE over the reals and the bit keys, budget pop * (generations + 1) evaluations. Its
+    generations run in ``run`` (shared with AHDE-joint's refinements), so ``solve`` calls it."""
+
+    def solve(self) -> Result:
+        o, nr, onehot = self.options, self.bounds.shape[0], self.problem.onehot
+        full = np.vstack([self.bounds, np.tile([0.0, 1.0], (self.n_bits, 1))]) if self.n_bits else self.bounds
+        cost = lambda z: self.counter(z[:, :nr], keys_to_bits(z[:, nr:], onehot))
+        x, f, self.stop = run(cost, full, self.rng, pop=o.pop, max_evals=o.pop * (o.generations + 1), pop_min=o.pop_min,
+                              memory=o.memory, p_best=o.p_best, archive_rate=o.archive_rate, history=self.history,
+                              target=o.target, stagnation=o.stagnation, callback=o.callback)
+        best = int(np.argmin(f))
+        return self.make_result(x[best, :nr].copy(), keys_to_bits(x[best:best + 1, nr:], onehot)[0], f[best])
+
+
+ENGINE = Engine("SHADE", SHADE, SHADEOptions)

@@ -1,13 +1,17 @@
 """Engine operators against their equations (Yu & Wang 2014, eqs. 20-28) and engine behaviour."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
+import optim
 from fdi import encoding
 from fdi.app import synthetic
 from fdi.encoding import FaultSpace
 from optim import ENGINES, ahde_paper, bde, core, ga, shade
+from optim.ahde import AHDE, AHDEOptions, Branch
 
 
 def rng(seed=0):
@@ -113,9 +117,12 @@ def _sphere(real, bits):
     return ((real - 0.3) ** 2).sum(axis=1) + (bits != np.array([1, 0, 1])).sum(axis=1)
 
 
+SPHERE = optim.pose(_sphere, bounds=[[-1, 1]] * 3, n_bits=3)
+
+
 @pytest.mark.parametrize("name", sorted(ENGINES))
 def test_every_engine_solves_a_mixed_sphere(name):
-    r = ENGINES[name](_sphere, [[-1, 1]] * 3, 3, pop=40, generations=80, seed=3)
+    r = optim.minimize(SPHERE, engine=name, pop=40, generations=80, seed=3)
     assert r.bits.tolist() == [True, False, True]
     assert r.cost < 1e-2
     assert len(r.history) >= 2
@@ -128,8 +135,8 @@ def test_every_engine_solves_a_mixed_sphere(name):
 
 @pytest.mark.parametrize("name", ["AHDE", "AHDE-paper", "SHADE"])
 def test_seeded_runs_are_reproducible(name):
-    a = ENGINES[name](_sphere, [[-1, 1]] * 3, 3, pop=20, generations=20, seed=11)
-    b = ENGINES[name](_sphere, [[-1, 1]] * 3, 3, pop=20, generations=20, seed=11)
+    a = optim.minimize(SPHERE, engine=name, pop=20, generations=20, seed=11)
+    b = ENGINES[name](_sphere, [[-1, 1]] * 3, 3, pop=20, generations=20, seed=11)      # the call before issue 21
     assert a.cost == b.cost and np.array_equal(a.real, b.real)
 
 
@@ -140,16 +147,16 @@ def test_bde_finds_a_mode_vector():
 
 
 def test_stop_on_target_and_stagnation():
-    r = ENGINES["AHDE-paper"](_sphere, [[-1, 1]] * 3, 3, pop=30, generations=500, seed=0, target=1e-3)
+    r = optim.minimize(SPHERE, engine="AHDE-paper", pop=30, generations=500, seed=0, target=1e-3)
     assert r.stop == "target" and r.generations < 500
-    flat = ENGINES["AHDE-paper"](lambda real, bits: np.ones(real.shape[0]), [[0, 1]], 0, pop=10, generations=100,
-                                 stagnation=5, seed=0)
+    flat = optim.minimize(optim.pose(lambda real, bits: np.ones(real.shape[0]), bounds=[[0, 1]]), engine="AHDE-paper",
+                          pop=10, generations=100, stagnation=5, seed=0)
     assert flat.stop == "stagnation" and flat.generations == 5
 
 
 def test_default_engine_identifies_fault_types_on_the_synthetic_problem():
     p = synthetic.problem("abrupt+intermittent", 0)
-    r = ENGINES["AHDE"](p.cost, p.bounds(), p.n_bits, seed=0, onehot=p.onehot, structure=p.structure)
+    r = optim.minimize(optim.pose(p.cost, bounds=p.bounds(), n_bits=p.n_bits, onehot=p.onehot, structure=p.structure))
     assert synthetic.recovered(p.spaces, p.truth, r.real, r.bits, p.t, p.t0)
     assert r.extra["margin"] > 1.0
     assert r.evaluations <= 150 * 301
@@ -168,7 +175,7 @@ def test_racing_on_a_coarse_objective_reports_the_fine_one():
         calls["coarse"] += real.shape[0]
         return _sphere(real, bits) + 100.0
 
-    r = ENGINES["AHDE"](fine, [[-1, 1]] * 3, 3, pop=40, generations=80, seed=3, coarse=coarse)
+    r = optim.minimize(optim.pose(fine, bounds=[[-1, 1]] * 3, n_bits=3, coarse=coarse), pop=40, generations=80, seed=3)
     assert r.bits.tolist() == [True, False, True]
     assert r.cost == pytest.approx(float(_sphere(r.real[None, :], r.bits[None, :])[0])) and r.cost < 1e-2
     assert r.history[-1] == r.cost
@@ -176,15 +183,13 @@ def test_racing_on_a_coarse_objective_reports_the_fine_one():
 
 
 def _branch(key, bits, free, x, f):
-    from optim.ahde import Branch
     n = len(f)
     return Branch(key, np.asarray(bits, dtype=bool), np.asarray(free), np.asarray(x, dtype=float),
                   np.asarray(f, dtype=float), np.ones(n), np.ones(n))
 
 
 def test_each_family_keeps_its_best_structure_through_the_first_rungs():
-    from optim.ahde import AHDE
-    e = AHDE(_sphere, [[-1, 1]] * 3, 3, family=lambda b: int(b[0]))
+    e = AHDE(optim.pose(_sphere, bounds=[[-1, 1]] * 3, n_bits=3, family=lambda b: int(b[0])), AHDEOptions())
     pool = [_branch("a", [0, 0, 0], [0], [[0, 0, 0]], [1.0]), _branch("b", [0, 1, 0], [0], [[0, 0, 0]], [1.1]),
             _branch("c", [1, 0, 0], [1], [[0, 0, 0]], [1.3]), _branch("d", [1, 1, 0], [1], [[0, 0, 0]], [1.4]),
             _branch("far", [0, 0, 1], [0], [[0, 0, 0]], [9.0])]
@@ -199,15 +204,14 @@ def test_a_structure_left_behind_comes_back_with_the_winners_reals():
     # structure A (bit 0) and B (bit 1) share real 1: A's optimum is x1 = 0.7 at cost 1, B's the same x1 at
     # cost 0.1. B left the race with x1 = -0.5 (cost 5); the winner A has found x1 = 0.7: B must come back
     # as a finalist at cost 0.1, from a point with A's x1 and its own x2
-    from optim.ahde import AHDE
-
     def cost(real, bits):
         b = np.asarray(bits, dtype=bool)
         a_cost = 1.0 + (real[:, 1] - 0.7) ** 2
         b_cost = 0.1 + (real[:, 1] - 0.7) ** 2 + (real[:, 2] - 0.2) ** 2
         return np.where(b[:, 1], b_cost, a_cost)
 
-    e = AHDE(cost, [[-1, 1]] * 3, 2, onehot=[(0, 1)], free=lambda b: np.array([False, True, bool(b[1])]))
+    e = AHDE(optim.pose(cost, bounds=[[-1, 1]] * 3, n_bits=2, onehot=[(0, 1)],
+                        free=lambda b: np.array([False, True, bool(b[1])])), AHDEOptions())
     e.counter.objective = e.objective
     win = _branch(("A",), [1, 0], [1], [[0, 0.7, 0], [0, 0.6, 0]], [1.0, 1.01])
     left = _branch(("B",), [0, 1], [1, 2], [[0, -0.5, 0.2]], [5.0])
@@ -241,3 +245,99 @@ def test_eq18_is_searched_through_its_growth_rate():
     slow = real.copy()
     slow[4] = lo
     assert encoding.describe([space], slow, bits)[0]["b"][0] < -3.7
+
+
+# ---------------------------------------------------------------- the front door (issue 21)
+
+@pytest.mark.parametrize("name", sorted(ENGINES))
+def test_an_unknown_option_is_refused_naming_it_and_the_valid_ones(name):
+    with pytest.raises(TypeError) as e:
+        optim.minimize(SPHERE, engine=name, patiense=5)
+    msg = str(e.value)
+    assert "\n" not in msg and "'patiense'" in msg and name in msg and "pop, generations, seed" in msg
+
+
+def test_a_misspelt_option_names_the_one_meant():
+    with pytest.raises(TypeError, match=r"unknown option 'patiense' \(did you mean 'patience'\?\)"):
+        optim.minimize(SPHERE, engine="AHDE", patiense=5)
+    with pytest.raises(TypeError, match="'pc'"):                 # a GA's option is not the AHDE's
+        optim.minimize(SPHERE, engine="AHDE", pc=0.5)
+    with pytest.raises(ValueError, match="unknown engine 'ADHE'.*AHDE"):
+        optim.minimize(SPHERE, engine="ADHE")
+    with pytest.raises(TypeError, match="options must be AHDEOptions, not GAOptions"):
+        optim.minimize(SPHERE, engine="AHDE", options=optim.GAOptions())
+    with pytest.raises(ValueError, match=r"AHDEOptions\.pop must be a whole number >= 1, not 0"):
+        optim.minimize(SPHERE, pop=0)
+    with pytest.raises(ValueError, match=r"AHDEOptions\.eta must be a whole number >= 2"):
+        optim.AHDEOptions(eta=1)
+
+
+def test_options_are_frozen_and_overrides_replace_single_fields():
+    o = optim.AHDEOptions(patience=7)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        o.patience = 8
+    assert core.configure("AHDE", optim.AHDEOptions, o, {"seed": 4}) == dataclasses.replace(o, seed=4)
+
+
+def test_option_defaults_are_the_papers():
+    # Yu & Wang 2014, Sec. IV-B: "Population size = 100, Maximum iterations = 150" for the diagnosis' AHDE;
+    # Sec. IV-D (Table VI): population 150, 300 iterations, pc = 0.55, pm = 0.08 for every method, and the GA's
+    # chromosomes "consisting of 5 bits each"
+    a = optim.AHDEOptions()
+    assert (a.pop, a.generations) == (100, 150)
+    for cls in (optim.PaperOptions, optim.JointOptions, optim.GAOptions, optim.AGAOptions, optim.SHADEOptions,
+                optim.ScipyDEOptions):
+        assert (cls().pop, cls().generations) == (150, 300)
+    g = optim.GAOptions()
+    assert (g.pc, g.pm, g.bits_per_real) == (0.55, 0.08, 5)
+    assert (optim.AGAOptions().pc, optim.AGAOptions().pm) == (0.55, 0.08)
+    assert optim.PaperOptions().bit_flip == 0.0                # eq. (23) alone: the paper has no bit flip
+    s = optim.SHADEOptions()                                    # Tanabe & Fukunaga 2014, L-SHADE's constants
+    assert (s.memory, s.p_best, s.archive_rate, s.pop_min) == (6, 0.11, 2.6, 4)
+
+
+class TwoStructures:
+    """A problem on the protocol with a designed optimum: one fault of two types (one-hot bits 0, 1);
+    type A reads real 0 and costs 1 + (x0 - 0.25)^2 at best 1; type B reads real 1 and costs
+    (x1 + 0.6)^2 + |x1 + 0.6|, 0 at x1 = -0.6. Bit 2 is loose and costs 0.5 when set."""
+    n_bits = 3
+    onehot = [(0, 1)]
+
+    def __call__(self, real, bits):
+        a = 1.0 + (real[:, 0] - 0.25) ** 2
+        d = real[:, 1] + 0.6
+        return np.where(bits[:, 1], d ** 2 + np.abs(d), a) + 0.5 * bits[:, 2]
+
+    def bounds(self):
+        return np.array([[-1.0, 1.0], [-1.0, 1.0]])
+
+    def structure(self, bits):
+        return ("B" if bits[1] else "A", bool(bits[2]))
+
+    def free(self, bits):
+        return np.array([not bits[1], bool(bits[1])])
+
+
+def test_minimize_reads_the_hooks_of_a_problem_and_finds_its_designed_optimum():
+    p = optim.pose(TwoStructures())
+    assert p.n_bits == 3 and p.onehot == ((0, 1),) and p.structure(np.array([0, 1, 1], bool)) == ("B", True)
+    assert p.family is None and p.coarse is None and p.init == ()
+    r = optim.minimize(TwoStructures(), seed=2)
+    assert r.bits.tolist() == [False, True, False]
+    assert r.real[1] == pytest.approx(-0.6, abs=1e-4) and r.cost < 1e-4
+    assert r.extra["structures"][0] == (("B", False), r.cost)
+    assert r.extra["raced"] == 4                               # 2 types x the loose bit: every structure raced
+    for name in ("AHDE-joint", "SHADE"):                       # the engines that read the one-hot groups
+        assert optim.minimize(TwoStructures(), engine=name, pop=30, generations=60, seed=2).bits.tolist() == \
+            [False, True, False]
+
+
+def test_pose_refuses_a_hook_it_does_not_know_and_inconsistent_bits():
+    with pytest.raises(TypeError, match="unknown hook 'onehots' \\(did you mean 'onehot'\\?\\)"):
+        optim.pose(TwoStructures(), onehots=[(0, 1)])
+    with pytest.raises(ValueError, match="onehot names bit 3, outside the problem's n_bits = 3"):
+        optim.pose(TwoStructures(), onehot=[(2, 3)])
+    with pytest.raises(ValueError, match="init: a starting point has 2 reals and 2 bits"):
+        optim.pose(TwoStructures(), init=[(np.zeros(2), np.zeros(2, bool))])
+    with pytest.raises(TypeError, match="no bounds"):
+        optim.pose(lambda real, bits: real[:, 0])

@@ -39,6 +39,11 @@ class Problem:
     description: str = ""
     objective: object = None          # an fdi.identify.Objective (onset fixed at t0) when the problem is on data
 
+    def __call__(self, real: np.ndarray, bits: np.ndarray) -> np.ndarray:
+        """The cost: a problem of ``optim`` (``optim.core.Problem``), its hooks ``n_bits``,
+        ``onehot``, ``structure``, ``family`` and ``free`` below."""
+        return self.cost(real, bits)
+
     def _with_onset(self, real: np.ndarray) -> np.ndarray:
         real = np.atleast_2d(real)
         return np.hstack([real, np.full((real.shape[0], 1), self.t0)])
