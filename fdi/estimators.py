@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Callable, Mapping
 
 import numpy as np
 
-from optim import ENGINES
+import optim
 from optim.core import fitness
 
 from . import encoding
@@ -58,11 +58,10 @@ def fit(monitor: "Monitor", job: Job) -> Estimate:
     win = job.win
     obj = Objective(monitor.model, monitor.residuals, win, job.candidate, np.asarray(job.weights), w,
                     fixed=list(job.fixed), onset=job.onset, config=config)
-    engine = ENGINES[job.search.engine]
-    init = [obj.encode(list(faults)) for faults in job.known]
-    r = engine(obj, obj.bounds(), encoding.N_BITS * len(obj.spaces), pop=job.search.pop,
-               generations=job.search.generations, seed=job.seed, onehot=encoding.onehot_groups(obj.spaces),
-               structure=obj.structure, family=obj.family, free=obj.free, init=init, coarse=obj.coarse)
+    problem = optim.pose(obj, n_bits=encoding.N_BITS * len(obj.spaces), onehot=encoding.onehot_groups(obj.spaces),
+                         init=[obj.encode(list(faults)) for faults in job.known])
+    r = optim.minimize(problem, engine=job.search.engine, pop=job.search.pop, generations=job.search.generations,
+                       seed=job.seed)
     margin = r.extra.get("margin")
     real = obj.complete(r.real, r.bits)
     faults = encoding.describe(obj.spaces, real[:-1], r.bits)

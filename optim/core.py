@@ -372,11 +372,3 @@ class Engine:
         """Run on ``problem`` (posed as by ``pose``) with ``options`` (this engine's class, or its
         defaults) and ``overrides`` of single fields."""
         return self.solver(pose(problem), configure(self.name, self.options, options, overrides)).solve()
-
-    def __call__(self, objective: Cost, bounds, n_bits: int = 0, **keywords) -> Result:
-        """The call before issue 21, ``engine(cost, bounds, n_bits, pop=..., onehot=..., ...)``: the
-        hooks of ``Problem`` and the options as keywords, unknown ones refused. Kept while
-        ``fdi.identify`` moves to ``optim.minimize``."""
-        hooks = {k: keywords.pop(k) for k in list(keywords) if k in HOOKS}
-        posed = Posed(objective, bounds, n_bits, **{k: v for k, v in hooks.items() if v is not None})
-        return self.minimize(posed, **keywords)

@@ -136,7 +136,7 @@ def test_every_engine_solves_a_mixed_sphere(name):
 @pytest.mark.parametrize("name", ["AHDE", "AHDE-paper", "SHADE"])
 def test_seeded_runs_are_reproducible(name):
     a = optim.minimize(SPHERE, engine=name, pop=20, generations=20, seed=11)
-    b = ENGINES[name](_sphere, [[-1, 1]] * 3, 3, pop=20, generations=20, seed=11)      # the call before issue 21
+    b = optim.minimize(SPHERE, engine=name, options=ENGINES[name].options(pop=20, generations=20, seed=11))
     assert a.cost == b.cost and np.array_equal(a.real, b.real)
 
 
