@@ -30,7 +30,9 @@ from bondgraph.causality import DIAGNOSIS, assign
 from bondgraph.model import Model
 from bondgraph.modes import in_mode
 
-from .arrs import ARR, binary_modes, derive_arrs, sensor_value
+from .scaph import ARR, binary_modes, derive_arrs, sensor_value
+from .selection import select
+from .signatures import all_modes
 
 TRIALS = 2            # independent draws of the parameters
 SPARE = 6             # random points beyond the number of the mode's ARRs
@@ -51,8 +53,6 @@ class ModeCheck:
 def mode_arrs(model: Model, mode: Mapping[str, int]) -> list[ARR]:
     """The ARRs of the plain bond graph of ``mode``: SCAPH where it succeeds, else the MSO
     residual set; a sensor on a switched-off junction measures zero (its ARR: signal / beta)."""
-    from .arrs import _select     # the residual selection, on the mode's plain graph
-
     graph = in_mode(model, mode)
     spec = graph.model
     causality = assign(spec, DIAGNOSIS)
@@ -63,7 +63,7 @@ def mode_arrs(model: Model, mode: Mapping[str, int]) -> list[ARR]:
         except (ValueError, KeyError):
             arrs = []
     if not arrs and spec.sensors:
-        arrs = list(_select(spec).arrs)
+        arrs = list(select(spec).arrs)      # the residual selection, on the mode's plain graph
     arrs += [ARR(f"zero:{s}", s, model.sensors[s].junction, sensor_value(model, s)) for s in sorted(graph.zero_sensors)]
     return arrs
 
@@ -136,8 +136,6 @@ def check_modes(model: Model, arrs: list[ARR], modes: list[Mapping[str, int]] | 
     """Every ARR checked in every mode (default: all combinations, at most 16); those that fail
     somewhere rebuilt as described in the module doc. Returns the ARRs (unchanged ones are the
     same objects) and one :class:`ModeCheck` per ARR and mode."""
-    from .signatures import all_modes
-
     if not any(j.controlled and j.off == "all" for j in model.junctions.values()):
         return list(arrs), []
     modes = [dict(m) for m in (modes or all_modes(model))][:16]
