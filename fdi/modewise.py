@@ -17,6 +17,20 @@ it holds, the mode's own ARR most like it where it does not. In every mode it re
 ARR of that mode; the mode variables stay symbols, so commanded modes switch it sample by sample
 and the MD-FSM of each mode is read off it as before. Where every ARR holds in every mode (the
 CyCab's eqs. 5, 9, 13) nothing changes.
+
+The boost converter: with the switch open (s = 0) the diode's branch sets the switch node's
+voltage, which the diagnostic bond graph's one causality holds at 0 V; both residuals are wrong
+there, right in the other mode, and rebuilt from each mode's own SCAPH ARR of their sensor,
+joined by the mode indicators.
+
+>>> from bondgraph.loader import load_model
+>>> from fdi.selection import select
+>>> m = load_model("models/boost_converter.yaml")
+>>> arrs, checks = check_modes(m, list(select(m).arrs))
+>>> sorted((c.arr, dict(c.mode)["s"], c.holds) for c in checks)
+[('ARR1', 0, False), ('ARR1', 1, True), ('ARR2', 0, False), ('ARR2', 1, True)]
+>>> [a.origin for a in arrs]
+['SCAPH by mode', 'SCAPH by mode']
 """
 from __future__ import annotations
 

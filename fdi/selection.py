@@ -26,6 +26,22 @@ Afterwards a residual the others make redundant is dropped (highest derivative o
 one is replaced by at most two of lower derivative order when they keep the same detectability
 and isolability (an algebraic relation instead of a third derivative). A time budget bounds the
 search; the residual set's notes say when it cut it.
+
+The three tanks: SCAPH stops at derivative loops, and two MSO residuals reach the model's best
+structural isolability (:mod:`fdi.isolability`):
+
+>>> from bondgraph.loader import load_model
+>>> from fdi.isolability import signature_isolability, structural_isolability
+>>> from fdi.scaph import structural_system
+>>> from fdi.signatures import fault_signature_matrix
+>>> m = load_model("models/three_tank.yaml")
+>>> chosen = select(m)
+>>> chosen.scaph_ok, [(a.name, a.origin, a.sensor) for a in chosen.arrs]
+(False, [('ARR1', 'MSO', 'p1, q2'), ('ARR2', 'MSO', 'p1, q2')])
+>>> fsm = fault_signature_matrix(m, list(chosen.arrs))
+>>> reached = signature_isolability([r.fault for r in fsm.rows], {r.fault: r.structural for r in fsm.rows})
+>>> reached.covers(structural_isolability(m, structural_system(m)))
+True
 """
 from __future__ import annotations
 

@@ -5,6 +5,20 @@ given mode: mode variables substituted first). Its nominal signature has a 1 onl
 AGARR still depends on the fault once every *other* parameter, efficiency factor and mode takes
 its nominal value: beta_dp enters ARR2 only through sqrt(|dp/beta_dp|)/R4, which vanishes while
 R4 = inf, so beta_dp is structurally in ARR2 but not numerically (Yu & Wang 2014, Table I).
+
+The CyCab's Tables I and II (mode a1 = a2 = 1):
+
+>>> from bondgraph.loader import load_model
+>>> from fdi.scaph import derive_arrs
+>>> m = load_model("models/cycab_steering.yaml")
+>>> arrs = derive_arrs(m)
+>>> fsm = fault_signature_matrix(m, arrs)
+>>> fsm.row("R4").structural, fsm.row("beta_theta2").structural
+((0, 1, 0), (0, 1, 1))
+>>> fsm.row("beta_dp").structural, fsm.row("beta_dp").nominal
+((1, 1, 1), (1, 0, 1))
+>>> [(r.mode_change, r.signature) for r in mode_change_signature_matrix(m, arrs).rows]
+[('a1', (1, 0, 0)), ('a2', (1, 1, 0))]
 """
 from __future__ import annotations
 
