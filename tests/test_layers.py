@@ -6,6 +6,7 @@ from the import statements of every module, so a new edge fails here."""
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import networkx as nx
@@ -101,6 +102,7 @@ def _imported_modules(path: Path, package: str, known: set[str]) -> set[str]:
     return out - {""}
 
 
+@functools.cache
 def import_graph() -> nx.DiGraph:
     """Module -> module it imports, over the three packages: every ``import`` and ``from ...
     import`` statement, at module level or in a function."""
