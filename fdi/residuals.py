@@ -145,9 +145,19 @@ def _compile(model: Model, expr: sp.Expr, name: str, sensor: str | None) -> Resi
     signal_syms = [sp.Symbol(f"{s}__d{k}", real=True) for s, k in used]
     others = sorted((s for s in numeric.free_symbols if s not in set(signal_syms) and s not in set(composite_syms)),
                     key=lambda s: s.name)
-    # dummify: a parameter may be named like a numpy function (exp, sign) without shadowing it
-    func = sp.lambdify(signal_syms + composite_syms + others, numeric, modules="numpy", cse=True, dummify=True)
+    func = _kernel(signal_syms + composite_syms + others, numeric)
     return Residual(name, sensor, func, tuple(used), tuple(s.name for s in others), expr, composites)
+
+
+def _kernel(args: list[sp.Symbol], expr: sp.Expr):
+    """``expr`` lambdified over ``args``, each renamed ``_a0``, ``_a1``, ... (zero-padded to one width) first: a parameter
+    may be named like a numpy function (exp, sign) without shadowing it, and the printed code (the
+    order of every product and sum, hence the last bits of every residual) depends on the
+    arguments' positions only. sympy's own ``dummify`` names arguments by a process-wide counter
+    that sorts as text: a model derived a second time in one process gave residuals 6e-14 apart."""
+    width = len(str(max(len(args) - 1, 0)))
+    names = [sp.Symbol(f"_a{i:0{width}d}", real=True) for i in range(len(args))]
+    return sp.lambdify(names, expr.xreplace(dict(zip(args, names))), modules="numpy", cse=True)
 
 
 def compile_residuals(model: Model, arrs: list[ARR]) -> list[Residual]:
