@@ -1,4 +1,13 @@
-"""The one error type for bad model input: it always says where (file, key, line) and what to change."""
+"""The one error type for bad model input: it always says where (file, key, line) and what to change.
+
+>>> str(ModelError("must be more than 0, got -1", file="m.yaml", where="parameters.R.value", line=3))
+'m.yaml:3: parameters.R.value: must be more than 0, got -1'
+>>> from bondgraph.loader import load_model_text
+>>> load_model_text("elements: {r: {type: R, parameter: R}}\\n", "m.yaml")
+Traceback (most recent call last):
+...
+bondgraph.errors.ModelError: m.yaml:1: elements.r.parameter: undefined parameter 'R'; add it under parameters
+"""
 from __future__ import annotations
 
 

@@ -10,6 +10,19 @@ Limits that keep a hostile file from exhausting time or memory (docs/model-forma
 :data:`MAX_LENGTH` characters, a syntax tree at most :data:`MAX_DEPTH` levels deep, finite number
 literals, and numeric exponents of magnitude at most :data:`MAX_EXPONENT` (``9**9**9`` would
 otherwise be evaluated exactly by sympy, a number with 370 million digits).
+
+>>> import sympy as sp
+>>> R, f = sp.symbols("R f")
+>>> parse_expression("R*f*abs(f)", {"R": R, "f": f})         # a quadratic valve law
+R*f*Abs(f)
+>>> parse_expression("f.real", {"f": f})
+Traceback (most recent call last):
+...
+bondgraph.expressions.ExpressionError: 'f.real' is not allowed in an expression ('f.real')
+>>> parse_expression("9**9**9", {})
+Traceback (most recent call last):
+...
+bondgraph.expressions.ExpressionError: exponent 387420489 too large in '9**9**9' (numeric exponents must be within +-100)
 """
 from __future__ import annotations
 

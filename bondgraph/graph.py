@@ -2,6 +2,18 @@
 
 Power bonds keep their integer id as edge key; a sensor is joined to its junction by a signal
 bond whose key is the sensor's name (it carries no power).
+
+The three-tank system: 7 elements, 5 junctions and 2 sensors; 11 power bonds and 2 signal bonds.
+The first tank's 0-junction takes the pump's flow in (bond 1, sign +1) and gives to the tank,
+the first valve's 1-junction and the pressure sensor p1:
+
+>>> from bondgraph.loader import load_model
+>>> m = load_model("models/three_tank.yaml")
+>>> g = to_networkx(m)
+>>> g.number_of_nodes(), sum(not s for *_, s in g.edges(data="signal")), sum(s for *_, s in g.edges(data="signal"))
+(14, 11, 2)
+>>> ports(g, "J1")
+[(1, 'pump', 1), (2, 'tank1', -1), (3, 'V1', -1), ('p1', 'p1', -1)]
 """
 from __future__ import annotations
 

@@ -14,6 +14,17 @@ and printing are done once each (``cache``).
 A :class:`Linear` answers the few questions the program functions ask of a line (``free_symbols``,
 ``xreplace``, ``has``, ``atoms``, ``is_Atom``); :meth:`Linear.as_expr` gives the sympy
 expression it stands for (for sympy's ``cse``, and for tests).
+
+A 0-junction's balance ``f1 - f2 - f3``, the ``f2`` term given twice: merged, and a sum that
+leaves one term of coefficient 1 reduces to its atom:
+
+>>> import sympy as sp
+>>> f1, f2, f3 = sp.symbols("f1 f2 f3")
+>>> line = combine([(ONE, f1), (-ONE / 2, f2), (-ONE / 2, f2), (MINUS_ONE, f3)])
+>>> line.as_expr() == f1 - f2 - f3
+True
+>>> combine([(ONE, f1), (ONE, f2), (MINUS_ONE, f2)])
+f1
 """
 from __future__ import annotations
 

@@ -8,6 +8,18 @@ Conventions (Karnopp, Margolis & Rosenberg; also 20-sim):
 - C: e = q/C, I: f = p/I (or a law in q, p); in derivative causality f = C*de/dt, e = I*df/dt;
 - controlled junctions (0c, 1c) carry a mode variable a in {0, 1}; in the diagnostic hybrid bond
   graph every output variable of a controlled junction is multiplied by a.
+
+The CyCab's steering (Yu & Wang 2014): three sensors, so three AGARRs; at nominal values every
+efficiency factor is 1, the mode variables take their nominal value and the leakage resistance
+R4 is infinite (a healthy cylinder leaks nothing):
+
+>>> from bondgraph.loader import load_model
+>>> m = load_model("models/cycab_steering.yaml")
+>>> list(m.sensors), m.arr_names()
+(['theta1', 'dp', 'theta2'], ['ARR1', 'ARR2', 'ARR3'])
+>>> nominal = m.nominal_values()
+>>> nominal[m.beta_symbol("theta1")], nominal[m.symbols["a1"]], nominal[m.symbols["R4"]]
+(1.0, 1, inf)
 """
 from __future__ import annotations
 

@@ -20,6 +20,14 @@ it can only be a multiple of 1/n, and it is pessimistic (the thresholds used com
 fewer). Each left-out run's worst residual is reported with its ratio to the others' threshold.
 Each residual's unit is given (:func:`fdi.arrs.arr_unit`): it depends on the variable it sums
 (m^3/s for one residual of a hydraulic model, Pa or N*m for the next).
+
+``bgfdi calibrate -o`` writes the thresholds into a copy of the model file, the rest untouched:
+
+>>> c = Calibration("rc", ["ARR1"], ["A"], [[0.002]], [0.003], "peak", 1.5, None, ["nominal.csv"])
+>>> print(with_thresholds("name: rc   # an RC node\\nthresholds:\\n  ARR1: 1.0\\nparameters: {}\\n", c), end="")
+name: rc   # an RC node
+thresholds: {ARR1: 0.003}   # bgfdi calibrate: peak of |r| x 1.5 over 1 nominal run(s)
+parameters: {}
 """
 from __future__ import annotations
 

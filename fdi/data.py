@@ -3,6 +3,28 @@
 A measurement file has a header row ``t,<columns>`` and one row per sample on a uniform time
 axis, SI units. Problems (missing column, NaN rows, non-uniform or decreasing time, a file made
 for another model) raise :class:`DataError` with one line that names the file and the fix.
+
+A voltage logged in millivolts (the sensor's ``expr`` converts it) and a current source given as
+an expression of time: the model's signals in SI units, sample by sample.
+
+>>> from bondgraph.loader import load_model_text
+>>> m = load_model_text('''
+... parameters: {C1: {value: 1.0e-3, unit: F}, R: {value: 100.0, unit: Ohm}}
+... data: {columns: [t, v_mV]}
+... inputs: {i_in: {unit: A, expr: "0.01*t"}}
+... elements: {src: {type: MSf, input: i_in}, cap: {type: C, parameter: C1}, res: {type: R, parameter: R}}
+... junctions: {j: {type: "0"}}
+... sensors: {v: {type: De, junction: j, unit: V, expr: v_mV / 1000}}
+... bonds: {1: [src, j], 2: [j, cap], 3: [j, res]}
+... ''')
+>>> run = checked("run.csv", ["t", "v_mV"], np.array([[0.0, 2000.0], [0.5, 2500.0], [1.0, 3000.0]]))
+>>> signals = signals_from_data(m, run)
+>>> run.ts, signals["v"].tolist(), signals["i_in"].tolist()
+(0.5, [2.0, 2.5, 3.0], [0.0, 0.005, 0.01])
+>>> checked("run.csv", ["t", "v_mV"], np.array([[0.0, 1.0], [0.1, 1.0], [0.3, 1.0]]))
+Traceback (most recent call last):
+...
+fdi.data.DataError: run.csv: non-uniform time axis (step 0.1 s at line 3, mean 0.15 s); resample to a constant sampling time
 """
 from __future__ import annotations
 

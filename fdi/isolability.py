@@ -13,6 +13,26 @@ Sensor placement (Krysander & Frisk, IEEE TSMC-A 38(6), 2008) is answered by sea
 smallest sets of added fault-free sensors, De on a 0-junction, Df on a 1-junction, or the effort
 or flow of a bond to a one-port element, that make every fault detectable and isolable (or, where
 no set can, as isolable as all candidates together make it).
+
+From signatures (the CyCab's R4, R5, beta_theta2 columns of Table I): beta_theta2 is isolable
+from R4 (it lights ARR3, R4 does not), not the other way round; one direction tells them apart.
+Two faults with one signature are a class no residual splits.
+
+>>> iso = signature_isolability(["R4", "R5", "beta_theta2"], {"R4": (0, 1, 0), "R5": (0, 0, 1), "beta_theta2": (0, 1, 1)})
+>>> iso.isolable[2][0], iso.isolable[0][2], iso.full()
+(True, False, True)
+>>> signature_isolability(["a", "b"], {"a": (1, 0), "b": (1, 0)}).classes()
+[('a', 'b')]
+
+For a model, by structure: the three tanks (Frisk et al. 2012) with a pressure sensor on the
+first tank and a flow sensor through the second valve cannot tell valve 1 from tank 1, nor
+valve 2, the outlet valve and tank 3 apart, whatever residuals are built.
+
+>>> from bondgraph.loader import load_model
+>>> from fdi.scaph import structural_system
+>>> m = load_model("models/three_tank.yaml")
+>>> structural_isolability(m, structural_system(m)).classes()
+[('fV1', 'fT1'), ('fV2', 'fV3', 'fT3'), ('fT2',)]
 """
 from __future__ import annotations
 

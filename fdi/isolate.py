@@ -7,6 +7,18 @@ nominal values, beta_dp in ARR2 while R4 = inf, cannot light its residual). With
 (``exoneration=False``) sets whose union merely covers the coherence vector are admitted too (a
 fault may leave a residual it is structurally in below its threshold); they are ranked later by
 fitness. Mode changes whose MCSM signature equals the coherence vector are suspected.
+
+The paper's delta sets on the CyCab:
+
+>>> from bondgraph.loader import load_model
+>>> from fdi.scaph import derive_arrs
+>>> from fdi.signatures import fault_signature_matrix, mode_change_signature_matrix
+>>> m = load_model("models/cycab_steering.yaml")
+>>> arrs = derive_arrs(m)
+>>> candidate_sets(fault_signature_matrix(m, arrs), (0, 1, 1))
+[('beta_theta2',), ('R4', 'R5'), ('R4', 'beta_theta2'), ('R5', 'beta_theta2'), ('R4', 'R5', 'beta_theta2')]
+>>> suspected_mode_changes(mode_change_signature_matrix(m, arrs), (1, 1, 0))
+['a2']
 """
 from __future__ import annotations
 

@@ -17,6 +17,20 @@ it holds, the mode's own ARR most like it where it does not. In every mode it re
 ARR of that mode; the mode variables stay symbols, so commanded modes switch it sample by sample
 and the MD-FSM of each mode is read off it as before. Where every ARR holds in every mode (the
 CyCab's eqs. 5, 9, 13) nothing changes.
+
+The boost converter: with the switch open (s = 0) the diode's branch sets the switch node's
+voltage, which the diagnostic bond graph's one causality holds at 0 V; both residuals are wrong
+there, right in the other mode, and rebuilt from each mode's own SCAPH ARR of their sensor,
+joined by the mode indicators.
+
+>>> from bondgraph.loader import load_model
+>>> from fdi.selection import select
+>>> m = load_model("models/boost_converter.yaml")
+>>> arrs, checks = check_modes(m, list(select(m).arrs))
+>>> sorted((c.arr, dict(c.mode)["s"], c.holds) for c in checks)
+[('ARR1', 0, False), ('ARR1', 1, True), ('ARR2', 0, False), ('ARR2', 1, True)]
+>>> [a.origin for a in arrs]
+['SCAPH by mode', 'SCAPH by mode']
 """
 from __future__ import annotations
 
@@ -30,7 +44,9 @@ from bondgraph.causality import DIAGNOSIS, assign
 from bondgraph.model import Model
 from bondgraph.modes import in_mode
 
-from .arrs import ARR, binary_modes, derive_arrs, sensor_value
+from .scaph import ARR, binary_modes, derive_arrs, sensor_value
+from .selection import select
+from .signatures import all_modes
 
 TRIALS = 2            # independent draws of the parameters
 SPARE = 6             # random points beyond the number of the mode's ARRs
@@ -51,8 +67,6 @@ class ModeCheck:
 def mode_arrs(model: Model, mode: Mapping[str, int]) -> list[ARR]:
     """The ARRs of the plain bond graph of ``mode``: SCAPH where it succeeds, else the MSO
     residual set; a sensor on a switched-off junction measures zero (its ARR: signal / beta)."""
-    from .arrs import _select     # the residual selection, on the mode's plain graph
-
     graph = in_mode(model, mode)
     spec = graph.model
     causality = assign(spec, DIAGNOSIS)
@@ -63,7 +77,7 @@ def mode_arrs(model: Model, mode: Mapping[str, int]) -> list[ARR]:
         except (ValueError, KeyError):
             arrs = []
     if not arrs and spec.sensors:
-        arrs = list(_select(spec).arrs)
+        arrs = list(select(spec).arrs)      # the residual selection, on the mode's plain graph
     arrs += [ARR(f"zero:{s}", s, model.sensors[s].junction, sensor_value(model, s)) for s in sorted(graph.zero_sensors)]
     return arrs
 
@@ -136,8 +150,6 @@ def check_modes(model: Model, arrs: list[ARR], modes: list[Mapping[str, int]] | 
     """Every ARR checked in every mode (default: all combinations, at most 16); those that fail
     somewhere rebuilt as described in the module doc. Returns the ARRs (unchanged ones are the
     same objects) and one :class:`ModeCheck` per ARR and mode."""
-    from .signatures import all_modes
-
     if not any(j.controlled and j.off == "all" for j in model.junctions.values()):
         return list(arrs), []
     modes = [dict(m) for m in (modes or all_modes(model))][:16]

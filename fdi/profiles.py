@@ -12,6 +12,18 @@ leakage resistance): the formulas are written so that infinity is handled exactl
   (17) dP/dt = b2 P^2             -> 1/P = 1/P0 - b2 tau  (infinite P0 allowed; past the pole: inf)
   (18) d2P/dt2 = b3 dP/dt + P + b4 -> closed form, roots (b3 +- sqrt(b3^2 + 4))/2
   (19) d2P/dt2 = b5 (dP/dt)^2 + b6 P + b7 -> classical RK4 on a 0.1 s grid, Hermite-interpolated
+
+From t0 = 1 s: an abrupt fault to 4 (nominal 10); an efficiency factor decaying as (17) with
+b2 = -0.5, 1/P = 1 + 0.5 (t - t0), so 2/3 at t = 2 s and 1/2 at t = 3 s; an intermittent fault
+of period 1 s, faulty during the first half of each period (the mean at the switching instants):
+
+>>> t = np.array([0.0, 1.0, 2.0, 3.0])
+>>> abrupt(t, 1.0, 10.0, 4.0).tolist()
+[[10.0, 4.0, 4.0, 4.0]]
+>>> incipient(t, 1.0, 1.0, 2, [[-0.5]]).round(4).tolist()
+[[1.0, 1.0, 0.6667, 0.5]]
+>>> intermittent(np.array([0.5, 1.0, 1.25, 1.75]), 1.0, 1.0, 3.0, 1.0).tolist()
+[[1.0, 2.0, 3.0, 1.0]]
 """
 from __future__ import annotations
 

@@ -7,6 +7,20 @@ tau = (1/P0 - 1/Pf)/b2 (the paper's (1/R4(0) - 1/R4F)/b2 of Sec. III-D); (18) an
 integrated forward (the profile functions of fdi.profiles) until the failure value is crossed or
 a horizon passes (EOL = inf: no failure predicted). The failure value is reached from above when
 it is below the nominal value (an efficiency factor that decays) and from below otherwise.
+
+The CyCab's encoder fault of scenario 2 (README): beta_theta2 from 1 at tf = 32 s as (17) with
+b2 = -0.03, 1/P = 1 + 0.03 (t - tf), fails at 0.5 when 0.03 (t - tf) = 1, at 32 + 100/3 s; a
+an exponential decay (16), P = exp(-0.1 tau), reaches 0.5 after ln 2 / 0.1 s:
+
+>>> round(end_of_life(2, [-0.03], 1.0, 0.5, tf=32.0, now=37.0), 4)
+65.3333
+>>> p = prognose({"name": "beta_theta2", "model": 2, "b": [-0.03]}, 1.0, 0.5, tf=32.0, now=37.0)
+>>> round(p["rul"], 4), p["rul"] == p["rul_low"] == p["rul_high"]      # no band given: the RUL itself
+(28.3333, True)
+>>> round(end_of_life(1, [-0.1], 1.0, 0.5, tf=0.0, now=0.0), 4), round(10 * float(np.log(2)), 4)
+(6.9315, 6.9315)
+>>> end_of_life(2, [0.03], 1.0, 0.5, tf=32.0, now=37.0)             # drifting away from failure
+inf
 """
 from __future__ import annotations
 
@@ -53,7 +67,8 @@ def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float)
     ``fdi.identify.coefficient_band``); without a band, the band is the RUL itself."""
     eol = end_of_life(fault["model"], fault["b"], nominal, failure, tf, now)
     ruls = [eol - now]
-    for corner in itertools.product(*fault.get("b_band", [])):
+    band = fault.get("b_band") or []
+    for corner in itertools.product(*band) if band else ():      # product() of nothing is one empty corner
         ruls.append(end_of_life(fault["model"], list(corner), nominal, failure, tf, now) - now)
     finite = [r for r in ruls if np.isfinite(r)]
     return {"name": fault["name"], "failure": failure, "eol": eol, "rul": eol - now, "at": now,

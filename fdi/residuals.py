@@ -6,6 +6,35 @@ differentiated numerically (:mod:`fdi.derivatives`). Correcting before different
 makes a time-varying beta(t) (intermittent, incipient) exact: d/dt(theta1/beta) includes the
 beta'(t) terms, and the jumps of an intermittent sensor fault cancel when the profile is right.
 Every argument may be a scalar or an array broadcastable to (population, samples).
+
+A current source feeding C || R, its voltage measured: the residual is Kirchhoff's current law
+``i_in - C dv/dt - v/R``. On data that obey it, v = 2 + sin(2 pi t) V and i_in = C dv/dt + v/R,
+it stays at zero (to the derivative filter's error, away from its ends); on data from a resistor
+of half the value, it is the current the model misses, v/R.
+
+>>> import numpy as np
+>>> from bondgraph.loader import load_model_text
+>>> from fdi.scaph import derive_arrs
+>>> m = load_model_text('''
+... parameters: {C1: {value: 1.0e-3, unit: F}, R: {value: 100.0, unit: Ohm}}
+... inputs: {i_in: {unit: A, column: i_in}}
+... elements: {src: {type: MSf, input: i_in}, cap: {type: C, parameter: C1}, res: {type: R, parameter: R}}
+... junctions: {j: {type: "0"}}
+... sensors: {v: {type: De, junction: j, unit: V}}
+... bonds: {1: [src, j], 2: [j, cap], 3: [j, res]}
+... ''')
+>>> kcl = compile_residual(m, derive_arrs(m)[0])
+>>> kcl.signals                               # what it reads: i_in, v and dv/dt
+(('i_in', 0), ('v', 0), ('v', 1))
+>>> t = np.arange(0.0, 1.0, 0.001)
+>>> v, dv = 2 + np.sin(2 * np.pi * t), 2 * np.pi * np.cos(2 * np.pi * t)
+>>> inner = slice(50, -50)                    # half a derivative window from each end
+>>> r = evaluate(m, [kcl], {"v": v, "i_in": 1e-3 * dv + v / 100}, 0.001, window=0.05)[0]
+>>> bool(np.abs(r[inner]).max() < 1e-6)
+True
+>>> r = evaluate(m, [kcl], {"v": v, "i_in": 1e-3 * dv + v / 50}, 0.001, window=0.05)[0]
+>>> bool(np.allclose(r[inner], v[inner] / 100, rtol=1e-4))
+True
 """
 from __future__ import annotations
 
@@ -19,7 +48,7 @@ from bondgraph.equations import is_signal
 from bondgraph.model import Model, t
 
 from . import derivatives
-from .arrs import ARR
+from .scaph import ARR
 
 
 @dataclass(frozen=True)

@@ -26,11 +26,27 @@ Afterwards a residual the others make redundant is dropped (highest derivative o
 one is replaced by at most two of lower derivative order when they keep the same detectability
 and isolability (an algebraic relation instead of a third derivative). A time budget bounds the
 search; the residual set's notes say when it cut it.
+
+The three tanks: SCAPH stops at derivative loops, and two MSO residuals reach the model's best
+structural isolability (:mod:`fdi.isolability`):
+
+>>> from bondgraph.loader import load_model
+>>> from fdi.isolability import signature_isolability, structural_isolability
+>>> from fdi.scaph import structural_system
+>>> from fdi.signatures import fault_signature_matrix
+>>> m = load_model("models/three_tank.yaml")
+>>> chosen = select(m)
+>>> chosen.scaph_ok, [(a.name, a.origin, a.sensor) for a in chosen.arrs]
+(False, [('ARR1', 'MSO', 'p1, q2'), ('ARR2', 'MSO', 'p1, q2')])
+>>> fsm = fault_signature_matrix(m, list(chosen.arrs))
+>>> reached = signature_isolability([r.fault for r in fsm.rows], {r.fault: r.structural for r in fsm.rows})
+>>> reached.covers(structural_isolability(m, structural_system(m)))
+True
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Iterable, Mapping
 
 import sympy as sp
@@ -41,8 +57,8 @@ from bondgraph.sequential import realize, residual_plan
 from bondgraph.structure import (DERIVATIVE, EquationSystem, Structure, derivative_plan, mso_enumerate, msos_around,
                                  redundancy_of, residual_choices)
 
-from .arrs import ARR, ResidualSet, binary_modes, derive_arrs, storage_fault_parameters, structural_system
 from .isolability import Shortfall, StructuralBest
+from .scaph import ARR, binary_modes, derive_arrs, storage_fault_parameters, structural_system
 from .signatures import nominal_mode
 
 ORDER_WINDOW = 1              # candidates more derivatives above the lowest that still adds something wait
@@ -53,6 +69,22 @@ PLAN_TRIES = 24               # residual equations tried for a plan before an MS
 SEEDS_PER_TARGET = 3          # equations of a fault tried as the seed of a local search
 BALL_LIMIT = 60               # MSO sets listed around one seed
 TIES_REALISED = 4             # structurally equal best candidates realised to compare their expressions' size
+
+
+@dataclass(frozen=True)
+class ResidualSet:
+    """The residuals bgfdi diagnoses with, and why: the SCAPH AGARRs where they reach the model's
+    best structural isolability, completed by MSO residuals where they do not."""
+    arrs: tuple[ARR, ...]
+    causality: str
+    scaph_ok: bool
+    scaph_problems: tuple[str, ...]
+    candidates: int = 0                 # MSO sets whose residual is computable in this causality
+    msos: int = 0                       # MSO sets examined (all of them where mso_complete)
+    mso_complete: bool = True
+    mso_seconds: float = 0.0
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
 
 
 @dataclass(frozen=True)

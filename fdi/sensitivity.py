@@ -12,6 +12,22 @@ nominal values. The residuals that fired fix the size the fault would need (thei
 the step's); at that size a quiet residual it enters would move by the step's effect on it scaled
 alike. Where that is under the residual's threshold, the quiet residual says nothing about the
 fault: its 1 is *weak* there, and the fault is judged on the residuals it can move.
+
+On the CyCab, a gain fault of the steering-wheel encoder beta_theta1 enters ARR1 and ARR2; if it
+would move ARR1 to 0.41 of its threshold only, a quiet ARR1 no longer exonerates it, and it
+becomes a candidate for the coherence vector [0 1 0], alone and with R4:
+
+>>> from bondgraph.loader import load_model
+>>> from fdi.isolate import candidate_sets
+>>> from fdi.scaph import derive_arrs
+>>> from fdi.signatures import fault_signature_matrix
+>>> m = load_model("models/cycab_steering.yaml")
+>>> fsm = fault_signature_matrix(m, derive_arrs(m))
+>>> weak = [Weakness("beta_theta1", "ARR1", predicted=0.41, threshold=1.0)]
+>>> fsm.row("beta_theta1").nominal, effective(fsm, weak).row("beta_theta1").nominal
+((1, 1, 0), (0, 1, 0))
+>>> candidate_sets(fsm, (0, 1, 0)), candidate_sets(effective(fsm, weak), (0, 1, 0))
+([('R4',)], [('R4',), ('beta_theta1',), ('R4', 'beta_theta1')])
 """
 from __future__ import annotations
 

@@ -5,9 +5,24 @@ given mode: mode variables substituted first). Its nominal signature has a 1 onl
 AGARR still depends on the fault once every *other* parameter, efficiency factor and mode takes
 its nominal value: beta_dp enters ARR2 only through sqrt(|dp/beta_dp|)/R4, which vanishes while
 R4 = inf, so beta_dp is structurally in ARR2 but not numerically (Yu & Wang 2014, Table I).
+
+The CyCab's Tables I and II (mode a1 = a2 = 1):
+
+>>> from bondgraph.loader import load_model
+>>> from fdi.scaph import derive_arrs
+>>> m = load_model("models/cycab_steering.yaml")
+>>> arrs = derive_arrs(m)
+>>> fsm = fault_signature_matrix(m, arrs)
+>>> fsm.row("R4").structural, fsm.row("beta_theta2").structural
+((0, 1, 0), (0, 1, 1))
+>>> fsm.row("beta_dp").structural, fsm.row("beta_dp").nominal
+((1, 1, 1), (1, 0, 1))
+>>> [(r.mode_change, r.signature) for r in mode_change_signature_matrix(m, arrs).rows]
+[('a1', (1, 0, 0)), ('a2', (1, 1, 0))]
 """
 from __future__ import annotations
 
+import html
 from dataclasses import dataclass
 from itertools import product
 from typing import Mapping
@@ -16,7 +31,7 @@ import sympy as sp
 
 from bondgraph.model import Model
 
-from .arrs import ARR
+from .scaph import ARR
 
 
 @dataclass(frozen=True)
@@ -40,7 +55,6 @@ class FSM:
         return next(r for r in self.rows if r.fault == fault)
 
     def _repr_html_(self) -> str:
-        from .tables import fsm_html
         return fsm_html(self)
 
 
@@ -60,7 +74,6 @@ class MCSM:
     rows: tuple[ModeChangeRow, ...]
 
     def _repr_html_(self) -> str:
-        from .tables import mcsm_html
         return mcsm_html(self)
 
 
@@ -122,3 +135,29 @@ def mode_change_signature_matrix(model: Model, arrs: list[ARR], mode: Mapping[st
         unique = sum(1 for _, _, s in sigs if s == sig) == 1
         rows.append(ModeChangeRow(name, var, sig, int(any(sig)), int(any(sig) and unique)))
     return MCSM(mode, tuple(a.name for a in arrs), tuple(rows))
+
+
+def _mode_label(mode: dict) -> str:
+    return " ".join(f"{k}={v}" for k, v in mode.items()) or "(no modes)"
+
+
+def _html_table(caption: str, header: list[str], rows: list[list[str]]) -> str:
+    esc = lambda x: html.escape(str(x))
+    head = "".join(f"<th>{esc(h)}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in r) + "</tr>" for r in rows)
+    return f"<table><caption>{esc(caption)}</caption><tr>{head}</tr>{body}</table>"
+
+
+def fsm_html(fsm: FSM) -> str:
+    """An MD-FSM as an HTML table (a notebook's view): the structural signature, the nominal one
+    in brackets where it differs (a term that vanishes at the nominal values), Db."""
+    rows = [[r.fault] + [str(s) if s == n else f"{s} [{n}]" for s, n in zip(r.structural, r.nominal)] + [r.Db]
+            for r in fsm.rows]
+    return _html_table(f"MD-FSM at mode {_mode_label(dict(fsm.mode))}", ["fault", *fsm.columns, "Db"], rows)
+
+
+def mcsm_html(mcsm: MCSM) -> str:
+    """The MCSM as an HTML table: each mode change's signature, Db and Ib."""
+    rows = [[r.mode_change, *r.signature, r.Db, r.Ib] for r in mcsm.rows]
+    return _html_table(f"MCSM from mode {_mode_label(dict(mcsm.mode))}", ["mode change", *mcsm.columns, "Db", "Ib"],
+                       rows)

@@ -8,6 +8,25 @@ is confirmed when its signal stays about one level from about the detection on (
 standard deviations of its median, or two quantisation steps, or, where the model declares
 neither, a millionth of its earlier range) and had left that level by more than three such bands
 before; its onset is the first sample of the flat stretch and its value the level it holds.
+
+A voltage sensor (noise 0.01 V, so a band of 0.06 V) that rose 1 V/s and froze at 5 V at t = 5 s,
+the residuals alarming at 6 s:
+
+>>> import numpy as np
+>>> from bondgraph.loader import load_model_text
+>>> m = load_model_text('''
+... parameters: {C1: {value: 1.0e-3, unit: F}, R: {value: 100.0, unit: Ohm}}
+... elements: {cap: {type: C, parameter: C1}, res: {type: R, parameter: R}}
+... junctions: {j: {type: "0"}}
+... sensors: {v: {type: De, junction: j, unit: V, noise: 0.01}}
+... bonds: {1: [j, cap], 2: [j, res]}
+... faults: {v_stuck: {kind: sensor, sensor: v, effect: stuck}}
+... ''')
+>>> t = np.arange(0.0, 10.0, 0.1)
+>>> stuck_from(m, "v_stuck", t, np.minimum(t, 5.0), t_d=6.0, end=10.0)
+Stuck(fault='v_stuck', sensor='v', onset=5.0, value=5.0)
+>>> stuck_from(m, "v_stuck", t, t, t_d=6.0, end=10.0) is None       # still moving: not stuck
+True
 """
 from __future__ import annotations
 

@@ -5,72 +5,47 @@ The JSON shape is fixed because other tools read it:
 "structural", "nominal", "Db"}]}], "mcsm": {"columns", "rows": [{"mode_change", "signature", "Db",
 "Ib"}]}}``; ``expr`` is ``str(expr)``, which ``sympy.parsing.sympy_parser.parse_expr`` reads back
 with signals as functions of t.
+
+A current source feeding a capacitor and a resistor in parallel, its voltage measured: the AGARR
+is Kirchhoff's current law, each measurement divided by its efficiency factor and the source
+multiplied by its own.
+
+>>> from bondgraph.loader import load_model_text
+>>> from fdi.scaph import derive_arrs
+>>> m = load_model_text('''
+... parameters: {C1: {value: 1.0e-3, unit: F}, R: {value: 100.0, unit: Ohm}}
+... inputs: {i_in: {unit: A, column: i_in}}
+... elements: {src: {type: MSf, input: i_in}, cap: {type: C, parameter: C1}, res: {type: R, parameter: R}}
+... junctions: {j: {type: "0"}}
+... sensors: {v: {type: De, junction: j, unit: V}}
+... bonds: {1: [src, j], 2: [j, cap], 3: [j, res]}
+... ''')
+>>> arr_text(derive_arrs(m)[0])
+"-C1*v'/beta_v + beta_i_in*i_in - v/(R*beta_v)"
 """
 from __future__ import annotations
 
 import csv
-import html
 import io
 import json
-import re
 
 import sympy as sp
 
-from bondgraph.equations import is_signal
-
-from .arrs import ARR
-from .signatures import FSM, MCSM
+from .notation import display as _display, expr_latex, expr_text, latex_names as _names
+from .scaph import ARR
+from .signatures import FSM, MCSM, _mode_label
 
 FORMATS = ("text", "markdown", "latex", "json", "csv")
-_DOTS = {1: "dot", 2: "ddot", 3: "dddot"}
-
-
-def _display(expr: sp.Expr, latex: bool) -> sp.Expr:
-    """Signals as plain symbols, derivatives as theta1' (text) or a dot accent (LaTeX)."""
-    rep: dict[sp.Expr, sp.Expr] = {}
-    rates = [d for d in expr.atoms(sp.Derivative) if not is_signal(d.expr)]
-    for d in rates:         # the rate of an expression estimated on data (bondgraph.rates): d/dt(...)
-        order = sum(c for _, c in d.variable_count)
-        inner = _display(d.expr, latex)
-        if latex:
-            rep[d] = sp.Derivative(inner, (sp.Symbol("t"), order))
-        else:
-            rep[d] = sp.Function("d/dt" if order == 1 else f"d^{order}/dt^{order}")(inner)
-    expr = expr.xreplace(rep)
-    rep = {}
-    for d in expr.atoms(sp.Derivative):
-        if not is_signal(d.expr):
-            continue
-        name = d.expr.func.__name__
-        order = sum(c for _, c in d.variable_count)
-        if latex and order in _DOTS:
-            m = re.match(r"^([A-Za-z]+?)(\d*)$", name)
-            base, sub = (m.group(1), m.group(2)) if m else (name, "")
-            rep[d] = sp.Symbol(f"{base}{_DOTS[order]}" + (f"_{sub}" if sub else ""))
-        else:
-            rep[d] = sp.Symbol(name + "'" * order)
-    expr = expr.xreplace(rep)
-    funcs = {f: sp.Symbol(f.func.__name__) for f in expr.atoms(sp.core.function.AppliedUndef) if is_signal(f)}
-    return expr.xreplace(funcs)
 
 
 def arr_text(arr: ARR) -> str:
-    return str(_display(arr.expr, latex=False))
-
-
-def _names(expr: sp.Expr) -> dict[sp.Symbol, str]:
-    """LaTeX names: an efficiency factor beta_theta1 as \\beta_{\\theta_{1}} (sympy would write
-    \\beta_{theta1}, the word), beta_u_in as \\beta_{u_{in}}."""
-    out = {}
-    for s in expr.free_symbols:
-        if isinstance(s, sp.Symbol) and s.name.startswith("beta_") and len(s.name) > 5:
-            out[s] = r"\beta_{" + sp.latex(sp.Symbol(s.name[5:])) + "}"
-    return out
+    """The ARR's expression as one line of text (:func:`fdi.notation.expr_text`)."""
+    return expr_text(arr.expr)
 
 
 def arr_latex(arr: ARR) -> str:
-    e = _display(arr.expr, latex=True)
-    return sp.latex(e, symbol_names=_names(e))
+    """The ARR's expression in LaTeX (:func:`fdi.notation.expr_latex`)."""
+    return expr_latex(arr.expr)
 
 
 LINE = 110      # characters of LaTeX per line of a broken ARR (a page holds about this much math)
@@ -92,10 +67,6 @@ def arr_latex_lines(arr: ARR) -> list[str]:
             current += piece
     lines.append(current)
     return lines
-
-
-def _mode_label(mode: dict) -> str:
-    return " ".join(f"{k}={v}" for k, v in mode.items()) or "(no modes)"
 
 
 def _grid(header: list[str], rows: list[list[str]]) -> str:
@@ -151,28 +122,6 @@ def to_markdown(arrs: list[ARR], fsms: list[FSM], mcsm: MCSM) -> str:
     for r in mcsm.rows:
         out.append(f"| {r.mode_change} | " + " | ".join(map(str, r.signature)) + f" | {r.Db} | {r.Ib} |")
     return "\n".join(out) + "\n"
-
-
-def _html_table(caption: str, header: list[str], rows: list[list[str]]) -> str:
-    esc = lambda x: html.escape(str(x))
-    head = "".join(f"<th>{esc(h)}</th>" for h in header)
-    body = "".join("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in r) + "</tr>" for r in rows)
-    return f"<table><caption>{esc(caption)}</caption><tr>{head}</tr>{body}</table>"
-
-
-def fsm_html(fsm: FSM) -> str:
-    """An MD-FSM as an HTML table (a notebook's view): the structural signature, the nominal one
-    in brackets where it differs (a term that vanishes at the nominal values), Db."""
-    rows = [[r.fault] + [str(s) if s == n else f"{s} [{n}]" for s, n in zip(r.structural, r.nominal)] + [r.Db]
-            for r in fsm.rows]
-    return _html_table(f"MD-FSM at mode {_mode_label(dict(fsm.mode))}", ["fault", *fsm.columns, "Db"], rows)
-
-
-def mcsm_html(mcsm: MCSM) -> str:
-    """The MCSM as an HTML table: each mode change's signature, Db and Ib."""
-    rows = [[r.mode_change, *r.signature, r.Db, r.Ib] for r in mcsm.rows]
-    return _html_table(f"MCSM from mode {_mode_label(dict(mcsm.mode))}", ["mode change", *mcsm.columns, "Db", "Ib"],
-                       rows)
 
 
 def _latex_escape(s: str) -> str:

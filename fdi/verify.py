@@ -41,6 +41,34 @@ scale, median 0.7, 90 % above 4e-2, smallest 4.3e-4 (the back-EMF K w of dc_moto
 5e-4 share of its voltage balance); only the CyCab's leak term, zero on the healthy model
 (R4 = inf), can be dropped unnoticed, rightly. An ARR none of whose terms move in a mode (a part locked or at rest) is
 not verified there, and says so; so is a mode the simulator refuses.
+
+An RC node (tau = RC = 0.1 s): its AGARR, Kirchhoff's current law, vanishes on the simulated
+model; the same relation with the resistor's law slipped (2R for R) fails by a third of its
+terms' size, v/(2R) of i_in = C dv/dt + v/R at equilibrium; and a residual's terms are those of
+its sum, a product with one sum distributed:
+
+>>> import dataclasses
+>>> from bondgraph.loader import load_model_text
+>>> from fdi.scaph import derive_arrs
+>>> m = load_model_text('''
+... parameters: {C1: {value: 1.0e-3, unit: F}, R: {value: 100.0, unit: Ohm}}
+... inputs: {i_in: {unit: A, expr: "0.01"}}
+... elements: {src: {type: MSf, input: i_in}, cap: {type: C, parameter: C1}, res: {type: R, parameter: R}}
+... junctions: {j: {type: "0"}}
+... sensors: {v: {type: De, junction: j, unit: V}}
+... bonds: {1: [src, j], 2: [j, cap], 3: [j, res]}
+... ''')
+>>> kcl = derive_arrs(m)[0]
+>>> result = verify(m, [kcl], runs=1)
+>>> result.ok, result.complete, result.checks[0].violation < THRESHOLD, round(result.settings.tau, 6)
+(True, True, True, 0.1)
+>>> slipped = dataclasses.replace(kcl, expr=kcl.expr.subs(m.symbols["R"], 2 * m.symbols["R"]))
+>>> check = verify(m, [slipped], runs=1).checks[0]
+>>> check.passed, round(check.violation, 1)
+(False, 0.3)
+>>> a2, k4, x, y = sp.symbols("a2 k4 x y")
+>>> sorted(terms(-a2 * k4 * (x + y) + x * y), key=str)
+[-a2*k4*x, -a2*k4*y, x*y]
 """
 from __future__ import annotations
 
@@ -58,7 +86,7 @@ from bondgraph.simulation import SimulationError, Trajectory, simulate
 from bondgraph.timescales import mode_combinations, time_scales
 
 from . import derivatives
-from .arrs import ARR
+from .scaph import ARR
 from .residuals import Residual, compile_residual, parameter_values
 
 THRESHOLD = 1e-4         # relative violation above which an ARR fails

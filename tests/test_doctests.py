@@ -1,6 +1,6 @@
 """The docstring examples run as written (from the repository root, where the models are): every
-module of the three packages whose docstrings hold an example is collected, so a new example is
-tested without being listed."""
+module of the three packages (and each package itself) whose docstrings hold an example is
+collected, so a new example is tested without being listed."""
 from __future__ import annotations
 
 import doctest
@@ -17,10 +17,10 @@ def _modules_with_examples() -> list[str]:
     out = []
     for package in ("bondgraph", "fdi", "optim"):
         pkg = importlib.import_module(package)
-        for info in pkgutil.walk_packages(pkg.__path__, package + "."):
-            spec = importlib.util.find_spec(info.name)
+        for name in [package] + [info.name for info in pkgutil.walk_packages(pkg.__path__, package + ".")]:
+            spec = importlib.util.find_spec(name)
             if spec and spec.origin and spec.origin.endswith(".py") and ">>>" in open(spec.origin, encoding="utf-8").read():
-                out.append(info.name)
+                out.append(name)
     return sorted(out)
 
 
@@ -28,7 +28,7 @@ MODULES = _modules_with_examples()
 
 
 def test_the_known_examples_are_collected():
-    assert {"bondgraph.units", "bondgraph.loader", "fdi.arrs", "fdi.api", "fdi.config"} <= set(MODULES)
+    assert {"bondgraph", "bondgraph.units", "bondgraph.loader", "fdi.arrs", "fdi.api", "fdi.config"} <= set(MODULES)
 
 
 @pytest.mark.parametrize("name", MODULES)
