@@ -7,7 +7,7 @@ not earn their parameters.
     120.0
     >>> one = [{"name": "R4", "type": "abrupt", "value": 2.4e9, "t0": 31.9}]
     >>> two = one + [{"name": "R5", "type": "abrupt", "value": 1.0, "t0": 31.9}]
-    >>> information(100.0, two, n_eff) - information(100.0, one, n_eff) == math.log(n_eff)   # a parameter's price
+    >>> round(information(100.0, two, n_eff) - information(100.0, one, n_eff), 9) == round(math.log(n_eff), 9)  # a parameter
     True
 """
 from __future__ import annotations

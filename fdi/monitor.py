@@ -127,6 +127,14 @@ class Monitor:
     def names(self) -> tuple[str, ...]:
         return tuple(a.name for a in self.arrs)
 
+    @property
+    def units(self) -> tuple[str, ...]:
+        """Each residual's unit, from its causality (:func:`fdi.arrs.arr_unit`; "?" where unknown)."""
+        if "units" not in self._matrices:
+            from .arrs import arr_unit
+            self._matrices["units"] = tuple(arr_unit(self.model, a) for a in self.arrs)
+        return self._matrices["units"]
+
     def with_config(self, config: MonitorConfig | None) -> "Monitor":
         """This monitor with other settings (the derivation is shared)."""
         if config is None or config == self.config:
@@ -155,6 +163,11 @@ class Monitor:
         from . import scales
         config = scales.resolve(self.config, self.model, ts)
         return self.with_config(config), scales.for_model(self.model, config, ts)
+
+    def min_period(self, options: "Options", ts: float) -> float:
+        """The shortest intermittent period identified on data sampled every ``ts`` s with ``options``
+        (its monitor settings, if any)."""
+        return self.with_config(options.settings).scaled(ts)[1].min_period
 
     def diagnose(self, data, options: "Options | None" = None, progress: Callable | None = None,
                  memo: dict | None = None) -> "Diagnosis":

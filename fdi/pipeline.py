@@ -92,7 +92,8 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
     clock.lap("residuals")
     det = detect(r, meas.t, p.thresholds, p.wait, p.settle, p.scales.end_edge)
     base = Diagnosis(p.monitor.model.name, dict(o.mode or nominal_mode(p.monitor.model)), note=blind(p, r),
-                     t=meas.t, residuals=r, thresholds=p.thresholds, names=p.monitor.names, timings=clock.times,
+                     t=meas.t, residuals=r, thresholds=p.thresholds, names=p.monitor.names, units=p.monitor.units,
+                     timings=clock.times,
                      bond_graph=p.monitor.model)
     if det is None:
         return base

@@ -79,7 +79,7 @@ def diagnosis_figures(d, model) -> dict:
     report = d.to_dict()
     t, r, thr, names = d.t, d.residuals, d.thresholds, list(d.names)
     det = report.get("detection")
-    units = _residual_units(model, names)
+    units = dict(zip(names, d.units))
     fig, axes = plt.subplots(len(names), 1, figsize=(9, 2.2 * len(names)), sharex=True)
     for k, (ax, name, ri, ti) in enumerate(zip(np.atleast_1d(axes), names, r, thr)):
         ax.plot(t, ri, lw=0.7, label="residual")
@@ -187,19 +187,6 @@ def _mode_figure(plt, report: dict):
     ax.set_title("fault-mode estimate", fontsize=9)
     fig.tight_layout()
     return fig
-
-
-def _residual_units(model, names: list[str]) -> dict[str, str]:
-    """Each residual's unit (fdi.arrs.arr_unit), by name."""
-    from bondgraph.errors import ModelError
-
-    from .arrs import arr_unit
-    from .monitor import monitor_of
-    try:
-        arrs = monitor_of(model).arrs
-    except (ModelError, OSError):              # a model that cannot be derived: no units, still a plot
-        return {}
-    return {a.name: arr_unit(model, a) for a in arrs if a.name in names}
 
 
 def plot_rul_cone(scores, path: str | Path, alpha: float = 0.2) -> Path:

@@ -243,6 +243,7 @@ class Diagnosis:
     residuals: np.ndarray = field(default=None, repr=False)
     thresholds: np.ndarray = field(default=None, repr=False)
     names: tuple[str, ...] = ()
+    units: tuple[str, ...] = ()                  # each residual's unit (fdi.arrs.arr_unit)
     timings: Mapping[str, float] = field(default_factory=dict, repr=False)
     bond_graph: Any = field(default=None, repr=False)     # the Model diagnosed (for plots)
 

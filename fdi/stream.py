@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -39,11 +39,13 @@ from bondgraph.timescales import model_time_scales
 from . import scales
 from .data import DataError, Measurements, checked, commanded, signals_from_data
 from .detect import inconsistency, settling, thresholds_for
-from .monitor import Monitor
 from .options import Options
 from .pipeline import refresh_prognosis
 from .residuals import evaluate
 from .results import Diagnosis, plain
+
+if TYPE_CHECKING:
+    from .monitor import Monitor
 
 Emit = Callable[[dict], None]
 
@@ -53,7 +55,7 @@ class Stream:
     """A stream's state: its samples, its final residuals, and where detection and decisions stand.
     ``feed`` takes blocks of rows; ``close`` ends the stream and returns the diagnosis of every
     sample received (the ``summary`` event)."""
-    monitor: Monitor
+    monitor: "Monitor"
     emit: Emit
     options: Options | None = None
     source: str = "<stream>"

@@ -14,7 +14,8 @@ import pytest
 
 from fdi.app.cli import main
 from fdi.errors import UsageError
-from fdi.diagnose import Options, diagnose, min_samples
+from fdi.api import Options, diagnose
+from fdi.options import min_samples
 from fdi.app.output import write_atomic
 from fdi.app.scenario import MAX_SAMPLES, MAX_STEPS, ScenarioError, check_method, check_steps, parse_scenario
 

@@ -8,7 +8,7 @@ import pytest
 from bondgraph.errors import ModelError
 from bondgraph.loader import load_model, load_model_text
 from fdi.data import Measurements
-from fdi.diagnose import Options, diagnose, public
+from fdi.api import Options, diagnose
 from fdi.app.resources import scenarios_dir
 from fdi.app.scenario import load_scenario, run
 
@@ -20,7 +20,7 @@ MODEL = MODELS / "two_tank_commanded.yaml"
 def _diagnose(name: str) -> dict:
     model = load_model(MODEL)
     cols = run(model, load_scenario(scenarios_dir() / "suite_two_tank_commanded" / f"{name}.json", model))
-    return cols, public(diagnose(str(MODEL), Measurements(name, cols["t"], cols), Options(workers=2, seed=0)))
+    return cols, diagnose(str(MODEL), Measurements(name, cols["t"], cols), Options(workers=2, seed=0)).to_dict()
 
 
 def test_the_command_is_simulated_and_logged():

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from fdi.app.cli import main
-from fdi.diagnose import Options, diagnose, public
+from fdi.api import Options, diagnose
 from fdi.prognose import end_of_life
 
 from .conftest import CYCAB, DATA
@@ -18,7 +18,7 @@ REPORTS: dict = {}
 def report(name: str, workers: int = 2) -> dict:
     key = (name, workers)
     if key not in REPORTS:
-        REPORTS[key] = public(diagnose(CYCAB, DATA / f"{name}.csv", Options(workers=workers, seed=0)))
+        REPORTS[key] = diagnose(CYCAB, DATA / f"{name}.csv", Options(workers=workers, seed=0)).to_dict()
     return REPORTS[key]
 
 

@@ -11,7 +11,7 @@ import pytest
 
 from fdi.calibrate import calibrate
 from fdi.data import Measurements
-from fdi.diagnose import Options, diagnose, public
+from fdi.api import Options, diagnose
 
 from .conftest import ROOT
 from .independent import boost
@@ -32,7 +32,7 @@ def thresholds() -> dict[str, float]:
 
 
 def test_no_alarm_on_a_held_out_nominal_run(thresholds):
-    report = public(diagnose(MODEL, run(3), Options(workers=1, seed=0, thresholds=thresholds)))
+    report = diagnose(MODEL, run(3), Options(workers=1, seed=0, thresholds=thresholds)).to_dict()
     assert report["detection"] is None
 
 
@@ -43,7 +43,7 @@ def test_no_alarm_on_a_held_out_nominal_run(thresholds):
     ("beta_iL", 0.9, {"gains": {"iL": (T0, 0.9)}}),          # the current-sense gain 10 % low
 ])
 def test_each_designed_fault_is_found_typed_and_sized(thresholds, fault, true, data):
-    report = public(diagnose(MODEL, run(4, **data), Options(workers=1, seed=0, thresholds=thresholds)))
+    report = diagnose(MODEL, run(4, **data), Options(workers=1, seed=0, thresholds=thresholds)).to_dict()
     assert T0 - 1e-5 <= report["detection"]["time"] <= T0 + 2e-4
     (found,) = report["diagnosis"]["faults"]
     assert (found["name"], found["type"]) == (fault, "abrupt")
@@ -55,7 +55,7 @@ def test_switching_faster_than_the_derivative_window_is_said_not_silent():
     and the report says so and what to change, instead of 'nothing detected' alone."""
     from fdi.config import load
     _, config = load(MODEL)
-    report = public(diagnose(MODEL, run(5), Options(workers=1, seed=0, thresholds={"ARR1": 1.5, "ARR2": 1.4},
-                                                    settings=config.replace(derivative_window=4e-5))))
+    report = diagnose(MODEL, run(5), Options(workers=1, seed=0, thresholds={"ARR1": 1.5, "ARR2": 1.4},
+                                                    settings=config.replace(derivative_window=4e-5))).to_dict()
     assert report["detection"] is None
     assert "no sample" in report["note"] and "derivative_window" in report["note"]

@@ -20,7 +20,7 @@ from fdi.arrs import select_arrs
 from fdi.calibrate import calibrate, nominal_residuals
 from fdi.config import load
 from fdi.data import Measurements
-from fdi.diagnose import Options, diagnose, public
+from fdi.api import Options, diagnose
 
 from .conftest import MODELS
 from .independent import drive
@@ -89,7 +89,7 @@ def test_thresholds_from_two_nominal_runs_raise_no_alarm_on_a_third():
     held_out = nominal_residuals(str(MODEL), runs[2])
     assert (held_out.max(axis=1) < np.asarray(cal.thresholds)).all()
     thresholds = dict(zip(cal.names, cal.thresholds))
-    report = public(diagnose(str(MODEL), runs[2], Options(workers=1, thresholds=thresholds)))
+    report = diagnose(str(MODEL), runs[2], Options(workers=1, thresholds=thresholds)).to_dict()
     assert report["detection"] is None
 
 
@@ -104,7 +104,7 @@ ABRUPT = [Fault("Ra", "abrupt", T0, 1.3),          # winding 30 % up
 @pytest.mark.parametrize("fault", ABRUPT, ids=lambda f: f.target)
 def test_an_abrupt_fault_is_detected_isolated_and_sized(fault):
     model, config = load(MODEL)
-    report = public(diagnose(str(MODEL), _data(fault.target, 10, fault), Options(workers=1, seed=0, max_set=1)))
+    report = diagnose(str(MODEL), _data(fault.target, 10, fault), Options(workers=1, seed=0, max_set=1)).to_dict()
     window, half_window = config.derivative_window, config.derivative_window / 2
     # centred filters see a fault early; a term differentiated whole (d/dt(Cc pc)) is filtered twice
     assert T0 - window - 1e-3 <= report["detection"]["time"] <= T0 + 0.06
@@ -121,7 +121,7 @@ DRIFTS = [Fault("Ra", "incipient", T0, rate=0.2),        # Ra = exp(0.2 (t - 1.3
 @pytest.mark.parametrize("fault", DRIFTS, ids=lambda f: f.target)
 def test_a_drift_is_typed_incipient_sized_and_its_life_predicted(fault):
     _, config = load(MODEL)
-    report = public(diagnose(str(MODEL), _data(f"{fault.target} drift", 10, fault), Options(workers=1, seed=0, max_set=1)))
+    report = diagnose(str(MODEL), _data(f"{fault.target} drift", 10, fault), Options(workers=1, seed=0, max_set=1)).to_dict()
     assert T0 <= report["detection"]["time"] <= T0 + 0.05
     (found,) = report["diagnosis"]["faults"]
     assert (found["name"], found["type"]) == (fault.target, "incipient")

@@ -20,7 +20,7 @@ from fdi.arrs import arr_unit, select_arrs
 from fdi.calibrate import calibrate, nominal_residuals
 from fdi.config import load
 from fdi.data import Measurements
-from fdi.diagnose import Options, diagnose, public
+from fdi.api import Options, diagnose
 
 from .conftest import MODELS
 from .independent import hydraulic
@@ -36,7 +36,7 @@ def _data(name: str, seed: int, *faults: Fault) -> Measurements:
 
 
 def _diagnose(data: Measurements, max_set: int = 1) -> dict:
-    return public(diagnose(str(MODEL), data, Options(workers=1, seed=0, max_set=max_set)))
+    return diagnose(str(MODEL), data, Options(workers=1, seed=0, max_set=max_set)).to_dict()
 
 
 def test_the_model_file_describes_the_simulated_actuator():
@@ -128,7 +128,7 @@ def test_thresholds_from_two_nominal_runs_raise_no_alarm_on_a_third():
     held_out = nominal_residuals(str(MODEL), runs[2])
     assert (held_out.max(axis=1) < np.asarray(cal.thresholds)).all()
     thresholds = dict(zip(cal.names, cal.thresholds))
-    report = public(diagnose(str(MODEL), runs[2], Options(workers=1, thresholds=thresholds)))
+    report = diagnose(str(MODEL), runs[2], Options(workers=1, thresholds=thresholds)).to_dict()
     assert report["detection"] is None
 
 

@@ -17,7 +17,7 @@ from bondgraph.loader import load_model
 from fdi.arrs import select_arrs
 from fdi.calibrate import calibrate
 from fdi.data import Measurements
-from fdi.diagnose import Options, diagnose, public
+from fdi.api import Options, diagnose
 
 from .conftest import ROOT
 from .independent import chamber
@@ -48,7 +48,7 @@ def test_the_chamber_balance_carries_the_rate_of_its_volume():
 
 
 def test_no_alarm_on_a_held_out_nominal_run(thresholds):
-    assert public(diagnose(MODEL, run(3), Options(workers=1, seed=0, thresholds=thresholds)))["detection"] is None
+    assert diagnose(MODEL, run(3), Options(workers=1, seed=0, thresholds=thresholds)).to_dict()["detection"] is None
 
 
 @pytest.mark.parametrize("fault, true, data", [
@@ -56,7 +56,7 @@ def test_no_alarm_on_a_held_out_nominal_run(thresholds):
     ("beta_p", 0.9, {"p_gain": (6.0, 0.9)}),                   # the pressure transducer reads 10 % low
 ])
 def test_abrupt_faults_are_found_and_sized(thresholds, fault, true, data):
-    report = public(diagnose(MODEL, run(4, **data), Options(workers=1, seed=0, thresholds=thresholds, max_set=1)))
+    report = diagnose(MODEL, run(4, **data), Options(workers=1, seed=0, thresholds=thresholds, max_set=1)).to_dict()
     assert 6.0 - 0.05 <= report["detection"]["time"] <= 6.2
     (found,) = report["diagnosis"]["faults"]
     assert (found["name"], found["type"]) == (fault, "abrupt")
@@ -65,8 +65,8 @@ def test_abrupt_faults_are_found_and_sized(thresholds, fault, true, data):
 
 def test_the_pumps_wear_is_incipient_and_its_rul_is_predicted(thresholds):
     rate, onset, failure = -0.05, 4.0, 0.7
-    report = public(diagnose(MODEL, run(4, pump_rate=(onset, rate)),
-                             Options(workers=1, seed=0, thresholds=thresholds, max_set=1)))
+    report = diagnose(MODEL, run(4, pump_rate=(onset, rate)),
+                             Options(workers=1, seed=0, thresholds=thresholds, max_set=1)).to_dict()
     (found,) = report["diagnosis"]["faults"]
     assert (found["name"], found["type"], found["model"]) == ("beta_Q", "incipient", 1)
     assert found["b"][0] == pytest.approx(rate, rel=0.05)

@@ -7,7 +7,7 @@ from fdi.app.evaluate import evaluate_scenario, score, summary
 from fdi.app.resources import scenarios_dir
 from fdi.app.scenario import FaultEvent, load_scenario, run
 from fdi.data import Measurements
-from fdi.diagnose import Options, diagnose, public
+from fdi.api import Options, diagnose
 from fdi.monitor import compiled
 
 from .conftest import CYCAB
@@ -62,7 +62,7 @@ def test_a_slow_eq18_drift_alone_is_isolated_and_typed():
     c = compiled(str(CYCAB))
     scenario = load_scenario(path, c.model)
     cols = run(c.model, scenario)
-    report = public(diagnose(str(CYCAB), Measurements(str(path), cols["t"], cols), Options()))
+    report = diagnose(str(CYCAB), Measurements(str(path), cols["t"], cols), Options()).to_dict()
     s = score("i18", list(scenario.faults), report, {}, early=0.13)
     assert s.found == ["beta_theta2"] and s.isolated and s.typed and not s.false_alarm
     assert s.errors["beta_theta2"] < 0.05

@@ -15,7 +15,7 @@ import pytest
 
 from fdi.app import fleet
 from fdi.app.cli import main
-from fdi.diagnose import Options
+from fdi.options import Options
 
 from .conftest import CYCAB, DATA
 

@@ -46,3 +46,12 @@ def test_importing_a_package_is_cheap(package):
     out = _python(f"import sys, {package}; print(sorted(m for m in ('sympy', 'numpy', 'scipy') if m in sys.modules))")
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"
+
+
+def test_every_name_fdi_exports_resolves_to_its_module():
+    import importlib
+
+    import fdi
+    for name, module in fdi.EXPORTS.items():
+        assert getattr(fdi, name) is getattr(importlib.import_module(module), name)
+    assert set(fdi.EXPORTS) <= set(dir(fdi))

@@ -15,10 +15,25 @@ import pytest
 from .conftest import ROOT
 
 
+def _runtime_nodes(tree: ast.AST):
+    """Every node, except those under ``if TYPE_CHECKING:`` (imports for type checkers only, never
+    run: they make no import cycle and no dependency)."""
+    stack = [tree]
+    while stack:
+        node = stack.pop()
+        yield node
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and ast.unparse(child.test) in ("TYPE_CHECKING", "typing.TYPE_CHECKING"):
+                stack.extend(child.orelse)
+                continue
+            stack.append(child)
+
+
 def _imports(path: Path, package: str) -> set[str]:
-    """Absolute names of the modules ``path`` imports (relative imports resolved against ``package``)."""
+    """Absolute names of the modules ``path`` imports at run time (relative imports resolved
+    against ``package``; those under ``if TYPE_CHECKING:`` left out)."""
     out = set()
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in _runtime_nodes(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.Import):
             out |= {a.name for a in node.names}
         elif isinstance(node, ast.ImportFrom):
@@ -89,7 +104,7 @@ def _imported_modules(path: Path, package: str, known: set[str]) -> set[str]:
         return name
 
     out = set()
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in _runtime_nodes(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.Import):
             out |= {longest(a.name) for a in node.names}
         elif isinstance(node, ast.ImportFrom):
@@ -105,7 +120,7 @@ def _imported_modules(path: Path, package: str, known: set[str]) -> set[str]:
 @functools.cache
 def import_graph() -> nx.DiGraph:
     """Module -> module it imports, over the three packages: every ``import`` and ``from ...
-    import`` statement, at module level or in a function."""
+    import`` statement, at module level or in a function (not those for type checkers only)."""
     paths = {_module_name(p): (p, pkg) for folder in PACKAGES for p, pkg in _modules(folder)}
     graph = nx.DiGraph()
     graph.add_nodes_from(paths)

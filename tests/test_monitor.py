@@ -9,9 +9,8 @@ import pytest
 
 from fdi.app.cli import main
 from fdi.data import read_csv, signals_from_data
-from fdi.diagnose import Options
+from fdi.options import Options
 from fdi.monitor import compiled
-from fdi.monitor import Monitor
 from fdi.residuals import evaluate
 
 from .conftest import CYCAB, DATA
@@ -27,7 +26,7 @@ def test_streamed_residuals_equal_those_of_the_whole_file():
     # the Savitzky-Golay filter is local: computed on each block with a margin of one window, the
     # residuals equal the whole file's wherever the window is complete (all but the last lag)
     m, header, table = _table("scenario2")
-    mon = Monitor(str(CYCAB), lambda e: None, Options(workers=1))
+    mon = compiled(CYCAB).stream(lambda e: None, Options(workers=1))
     pieces, done = [], 0
     for a in range(0, 2000, 37):                     # 20 s in uneven blocks, before the detection
         mon.feed(header, table[a:a + 37])
@@ -45,7 +44,7 @@ def test_streamed_residuals_equal_those_of_the_whole_file():
 def test_events_of_scenario1_in_stream_time():
     _, header, table = _table("scenario1")
     events: list[dict] = []
-    mon = Monitor(str(CYCAB), events.append, Options(workers=1))
+    mon = compiled(CYCAB).stream(events.append, Options(workers=1))
     for a in range(0, table.shape[0], 100):
         mon.feed(header, table[a:a + 100])
     mon.close()
@@ -82,7 +81,7 @@ def test_a_long_stream_keeps_a_bounded_history_and_still_detects():
     at the time the whole file gives (scenario 2's R4 leak and encoder drift from 32 s)."""
     m, header, table = _table("scenario2")
     events: list[dict] = []
-    mon = Monitor(str(CYCAB), events.append, Options(workers=1), history=5.0)
+    mon = compiled(CYCAB).stream(events.append, Options(workers=1), history=5.0)
     sizes = []
     for a in range(0, 3300, 50):                     # up to 33 s, the detection at 31.98 s
         mon.feed(header, table[a:a + 50])
@@ -96,7 +95,7 @@ def test_a_long_stream_keeps_a_bounded_history_and_still_detects():
 
 def _events_of_whole(header, table):
     events: list[dict] = []
-    mon = Monitor(str(CYCAB), events.append, Options(workers=1))
+    mon = compiled(CYCAB).stream(events.append, Options(workers=1))
     mon.feed(header, table)
     return events
 

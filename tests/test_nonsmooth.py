@@ -17,7 +17,7 @@ from bondgraph.rates import ddt
 from fdi.arrs import select_arrs
 from fdi.config import load
 from fdi.data import Measurements
-from fdi.diagnose import Options, diagnose, public
+from fdi.api import Options, diagnose
 from fdi.residuals import compile_residuals, evaluate
 
 from .conftest import ROOT
@@ -118,7 +118,7 @@ def test_a_clogged_orifice_is_detected_and_sized():
     # 17 726 against 5 390 for the abrupt fit it finds at seeds 1 to 3), and the pair {Kv, Rl}
     # wins: a search miss of the engine (issue 22), not of the residual this file checks
     options = Options(workers=1, seed=1, thresholds={"ARR1": 2.0 * peak})
-    report = public(diagnose(str(MODEL), Measurements("clog", faulty["t"], faulty), options))
+    report = diagnose(str(MODEL), Measurements("clog", faulty["t"], faulty), options).to_dict()
     # the rate of the orifice term is filtered twice (pc', then the term): a jump is seen up to
     # one derivative window (0.05 s) early
     assert 2.0 - 0.05 <= report["detection"]["time"] <= 2.2

@@ -13,7 +13,7 @@ import pytest
 
 from bondgraph.loader import load_model
 from fdi.data import Measurements
-from fdi.diagnose import Options, diagnose, public
+from fdi.api import Options, diagnose
 from fdi.app.resources import scenarios_dir
 from fdi.app.scenario import load_scenario, run
 
@@ -27,7 +27,7 @@ def report(name: str) -> dict:
         model = load_model(CYCAB)
         columns = run(model, load_scenario(scenarios_dir() / f"cycab_{name}.json", model))
         meas = Measurements(name, columns["t"], {k: v for k, v in columns.items()})
-        REPORTS[name] = public(diagnose(CYCAB, meas, Options(workers=2, seed=0)))
+        REPORTS[name] = diagnose(CYCAB, meas, Options(workers=2, seed=0)).to_dict()
     return REPORTS[name]
 
 

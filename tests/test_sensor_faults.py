@@ -13,7 +13,7 @@ from bondgraph.errors import ModelError
 from bondgraph.loader import load_model, load_model_text
 from fdi.arrs import select_arrs
 from fdi.data import Measurements
-from fdi.diagnose import Options, diagnose, public
+from fdi.api import Options, diagnose
 from fdi.residuals import compile_residuals, evaluate
 
 from .conftest import ROOT
@@ -56,8 +56,8 @@ def thresholds() -> dict[str, float]:
 
 def test_an_offset_of_the_voltage_sensor_is_found_as_an_offset_and_sized():
     data = circuit(6.0, seed=1, bias=(3.0, 0.3))
-    report = public(diagnose(str(MODEL), Measurements("offset", data["t"], data),
-                             Options(workers=1, seed=0, thresholds=thresholds())))
+    report = diagnose(str(MODEL), Measurements("offset", data["t"], data),
+                             Options(workers=1, seed=0, thresholds=thresholds())).to_dict()
     assert 3.0 - 0.03 <= report["detection"]["time"] <= 3.1
     assert ["bias_v"] in report["candidates"] and ["beta_v"] in report["candidates"]
     (fault,) = report["diagnosis"]["faults"]
@@ -67,8 +67,8 @@ def test_an_offset_of_the_voltage_sensor_is_found_as_an_offset_and_sized():
 
 def test_a_gain_fault_of_the_same_sensor_is_still_a_gain():
     data = circuit(6.0, seed=2, gain=(3.0, 0.9))
-    report = public(diagnose(str(MODEL), Measurements("gain", data["t"], data),
-                             Options(workers=1, seed=0, thresholds=thresholds())))
+    report = diagnose(str(MODEL), Measurements("gain", data["t"], data),
+                             Options(workers=1, seed=0, thresholds=thresholds())).to_dict()
     (fault,) = report["diagnosis"]["faults"]
     assert (fault["name"], fault["type"]) == ("beta_v", "abrupt")
     assert fault["value"] == pytest.approx(0.9, rel=0.05)
@@ -86,8 +86,8 @@ def test_a_bias_fault_without_bounds_or_with_an_unknown_effect_is_refused():
 
 def test_a_frozen_voltage_sensor_is_found_stuck_at_its_last_reading():
     data = circuit(6.0, seed=3, stuck=3.0)
-    report = public(diagnose(str(MODEL), Measurements("frozen", data["t"], data),
-                             Options(workers=1, seed=0, thresholds=thresholds())))
+    report = diagnose(str(MODEL), Measurements("frozen", data["t"], data),
+                             Options(workers=1, seed=0, thresholds=thresholds())).to_dict()
     (fault,) = report["diagnosis"]["faults"]
     assert (fault["name"], fault["type"]) == ("stuck_v", "stuck")
     level = circuit(6.0, seed=3)["v"]                 # the same noise: the level is the reading at 3 s
@@ -98,7 +98,7 @@ def test_a_frozen_voltage_sensor_is_found_stuck_at_its_last_reading():
 
 def test_a_stuck_fault_the_data_do_not_show_is_no_candidate_for_identification():
     data = circuit(6.0, seed=1, bias=(3.0, 0.3))          # an offset: the signal still moves
-    report = public(diagnose(str(MODEL), Measurements("offset", data["t"], data),
-                             Options(workers=1, seed=0, thresholds=thresholds())))
+    report = diagnose(str(MODEL), Measurements("offset", data["t"], data),
+                             Options(workers=1, seed=0, thresholds=thresholds())).to_dict()
     assert not any("stuck_v" in c for c in report["candidates"])
     assert [f["name"] for f in report["diagnosis"]["faults"]] == ["bias_v"]

@@ -10,7 +10,7 @@ import pytest
 
 from bondgraph.loader import load_model
 from fdi.arrs import select_arrs
-from fdi.diagnose import Options, diagnose, public
+from fdi.api import Options, diagnose
 from fdi.app.scenario import parse_scenario, run, to_csv
 
 from .conftest import MODELS
@@ -37,7 +37,7 @@ def test_halved_tank_capacitance_is_identified_within_5_percent(tmp_path):
         {"target": "A2", "type": "abrupt", "t0": 300, "value": truth}]}, model, "halved"))
     data = tmp_path / "halved.csv"
     data.write_text(to_csv(cols))
-    report = public(diagnose(path, data, Options(pop=40, generations=60)))
+    report = diagnose(path, data, Options(pop=40, generations=60)).to_dict()
     (fault,) = report["diagnosis"]["faults"]
     assert fault["name"] == "A2" and fault["type"] == "abrupt"
     assert fault["value"] == pytest.approx(truth, rel=0.05)

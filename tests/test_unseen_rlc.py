@@ -10,7 +10,7 @@ import sympy as sp
 from fdi.arrs import arr_unit, select_arrs
 from fdi.config import load
 from fdi.data import Measurements
-from fdi.diagnose import Options, diagnose, public
+from fdi.api import Options, diagnose
 from fdi.app.scenario import parse_scenario, run
 
 from .conftest import ROOT
@@ -39,7 +39,7 @@ def test_an_intermittent_load_is_found_typed_and_sized():
     design = {"seed": 5, "T": 20, "fs": 1000,
               "faults": [{"target": "R2", "type": "intermittent", "t0": 10, "value": 5.0, "period": 1.7}]}
     cols = run(model, parse_scenario(design, model, "load"))
-    report = public(diagnose(str(MODEL), Measurements("load", cols["t"], cols), Options(workers=1, seed=0)))
+    report = diagnose(str(MODEL), Measurements("load", cols["t"], cols), Options(workers=1, seed=0)).to_dict()
     assert 10.0 - 0.025 <= report["detection"]["time"] <= 10.1      # half the 0.05 s window early at most
     (fault,) = report["diagnosis"]["faults"]
     assert (fault["name"], fault["type"]) == ("R2", "intermittent")

@@ -9,7 +9,7 @@ import sympy as sp
 from fdi.arrs import arr_unit, select_arrs
 from fdi.config import load
 from fdi.data import Measurements
-from fdi.diagnose import Options, diagnose, public
+from fdi.api import Options, diagnose
 from fdi.app.scenario import parse_scenario, run
 
 from .conftest import ROOT
@@ -20,7 +20,7 @@ MODEL = ROOT / "tests" / "data" / "two_rooms.yaml"
 def _run(scenario: dict, name: str) -> dict:
     model, _ = load(MODEL)
     cols = run(model, parse_scenario(scenario, model, name))
-    return public(diagnose(str(MODEL), Measurements(name, cols["t"], cols), Options(workers=1, seed=0)))
+    return diagnose(str(MODEL), Measurements(name, cols["t"], cols), Options(workers=1, seed=0)).to_dict()
 
 
 def test_the_residuals_are_the_heat_balances_in_watts():

@@ -292,7 +292,8 @@ def format_optim(summary: dict) -> str:
 def diagnose_rows(data_path: Path, workers: int = 1) -> dict:
     """Stage times of one diagnosis of scenario 2 at the paper's settings (population 100,
     150 generations, five estimators), and the share of identification spent in the objective."""
-    from ..diagnose import Options, diagnose
+    from ..api import diagnose
+    from ..options import Options
     from .resources import shipped_model
 
     t0 = time.perf_counter()

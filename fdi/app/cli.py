@@ -434,7 +434,7 @@ def _options(args: argparse.Namespace, model: Model):
     checked against the model here, every value was checked while parsing."""
     from optim import ENGINES
 
-    from ..diagnose import Options
+    from ..options import Options
     from ..monitor import monitor_of
     if args.engine not in ENGINES:
         raise UsageError(f"--engine: unknown engine '{args.engine}' (use {', '.join(ENGINES)})")
@@ -479,7 +479,7 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..data import read_csv
-    from ..diagnose import check_samples, min_period
+    from ..options import check_samples
     from ..monitor import compiled
 
     _check_fleet_options(args)
@@ -488,7 +488,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if len(args.data) > 1 or (args.jobs or 1) > 1 or args.scheduler:
         return _diagnose_batch(args, options)
     data = read_csv(args.data[0])
-    check_samples(options.samples, data.ts, "--samples", min_period(args.model, options, data.ts))
+    check_samples(options.samples, data.ts, "--samples", compiled(args.model).min_period(options, data.ts))
     return _diagnose_and_print(args.model, data, options, args, args.data[0])
 
 
@@ -643,7 +643,7 @@ def cmd_monitor(args: argparse.Namespace) -> int:
 def cmd_demo(args: argparse.Namespace) -> int:
     """Simulate CyCab scenario 2 with bgfdi's own simulator, diagnose it, print the report."""
     from ..data import Measurements
-    from ..diagnose import check_samples
+    from ..options import check_samples
     from ..monitor import compiled
     from .resources import scenarios_dir, shipped_model
     from .scenario import load_scenario, run
@@ -697,7 +697,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
                          else bench.format_optim(summary))
         return 0
     if args.what == "accuracy":
-        from ..diagnose import Options
+        from ..options import Options
         from .evaluate import format_scores, suite_files, summary
         from .resources import scenarios_dir, shipped_model
         suites = []

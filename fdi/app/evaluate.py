@@ -31,7 +31,8 @@ import numpy as np
 
 from ..errors import UsageError
 from ..data import DataError, Measurements
-from ..diagnose import Options, diagnose
+from ..api import diagnose
+from ..options import Options
 from ..pipeline import refresh_prognosis
 from ..monitor import compiled
 from ..objective import nominal

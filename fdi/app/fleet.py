@@ -72,10 +72,10 @@ def read_file(path: str, options, monitor=None):
     """The measurements of one file, checked against ``options.samples`` (DataError, UsageError):
     N samples span the model's shortest intermittent period (fdi.scales.min_period)."""
     from ..data import read_csv
-    from ..diagnose import check_samples, min_period
+    from ..options import check_samples
     data = read_csv(path)
     if monitor is not None:
-        check_samples(options.samples, data.ts, "--samples", min_period(monitor, options, data.ts))
+        check_samples(options.samples, data.ts, "--samples", monitor.min_period(options, data.ts))
     return data
 
 
@@ -110,7 +110,7 @@ def diagnose_many(model, files: Iterable[str | Path], options=None, *, client=No
     """Diagnose every file with one model; the reports in the order of ``files``.
 
     ``model``: a path, a loaded Model or YAML text (as for :func:`fdi.api.diagnose`); ``options``
-    an :class:`fdi.diagnose.Options` (checked first; its ``workers`` is set to 1 per file), or a
+    an :class:`fdi.options.Options` (checked first; its ``workers`` is set to 1 per file), or a
     :class:`fdi.config.MonitorConfig` to use instead of the model file's monitor settings.
     ``client``: a ``dask.distributed.Client``, whose workers run the files; without one, ``jobs``
     local processes (1: in this process). ``timings`` adds wall-clock times to each report (they

@@ -29,7 +29,7 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
     mode = report.get("mode") or {}
     if report.get("suspected_mode_changes"):
         out.append(f"suspected mode change(s) from the MCSM: {', '.join(report['suspected_mode_changes'])}; "
-                   f"fault-mode estimator: {' '.join(f'{k}={v}' for k, v in report.get('mode_estimate') or {}.items())}")
+                   f"fault-mode estimator: {' '.join(f'{k}={v}' for k, v in (report.get('mode_estimate') or {}).items())}")
     out.append("mode: " + (" ".join(f"{k}={v}" for k, v in mode.items()) or "(none)"))
     cands = report.get("candidates") or []
     out.append("candidate sets: " + ("; ".join("{" + ", ".join(c) + "}" for c in cands) if cands else "none"))

@@ -60,7 +60,7 @@ def api_model(case: Case, data: str) -> str:
 
 def fleet(case: Case, data: str) -> str:
     from fdi.app.fleet import diagnose_many
-    from fdi.diagnose import Options
+    from fdi.options import Options
     (report,) = diagnose_many(model_path(case), [data], Options(**_options(case)))
     report["file"] = Path(report["file"]).name            # the data's folder is a temporary one
     return json.dumps(report, indent=1, default=float) + "\n"
