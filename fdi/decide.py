@@ -69,7 +69,8 @@ def alternatives(results: list[Estimate], cost: float, faults: list[dict], n_eff
 
 
 def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float, span: int,
-                faults: list[dict], weights: np.ndarray) -> tuple[list[dict], tuple[Dropped, ...]]:
+                faults: list[dict], weights: np.ndarray,
+                modes: dict[str, float] | None = None) -> tuple[list[dict], tuple[Dropped, ...]]:
     """The faults of a final diagnosis that earn their parameters on the ``span`` samples from
     ``start``, and those that do not. Each fault is held at its fit and removed in turn; while the
     information criterion is no worse without one, the least useful goes (a first decision's fault
@@ -81,7 +82,7 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
     n_eff = effective_samples(span, len(residuals), meas.ts, w)
 
     def cost(fs: list[dict]) -> float:
-        return Objective(model, residuals, win, (), weights, w, fixed=fs, config=monitor.config).constant()
+        return Objective(model, residuals, win, (), weights, w, fixed=fs, config=monitor.config, modes=modes).constant()
     kept, dropped = [f for f in faults if f["type"] != "mode"], []
     modes = [f for f in faults if f["type"] == "mode"]
     while len(kept) > 1:

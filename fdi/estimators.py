@@ -48,6 +48,7 @@ class Job:
     known: tuple = ()
     fixed: tuple = ()
     onset: tuple[float, float] | None = None
+    modes: tuple[tuple[str, float], ...] = ()      # mode variables the caller knows (Options.mode)
 
 
 def fit(monitor: "Monitor", job: Job) -> Estimate:
@@ -57,7 +58,7 @@ def fit(monitor: "Monitor", job: Job) -> Estimate:
     config, w = monitor.config, monitor.config.derivative_window
     win = job.win
     obj = Objective(monitor.model, monitor.residuals, win, job.candidate, np.asarray(job.weights), w,
-                    fixed=list(job.fixed), onset=job.onset, config=config)
+                    fixed=list(job.fixed), onset=job.onset, config=config, modes=dict(job.modes))
     problem = optim.pose(obj, n_bits=encoding.N_BITS * len(obj.spaces), onehot=encoding.onehot_groups(obj.spaces),
                          init=[obj.encode(list(faults)) for faults in job.known])
     r = optim.minimize(problem, engine=job.search.engine, pop=job.search.pop, generations=job.search.generations,
@@ -141,8 +142,10 @@ class Estimators:
     """The estimators of one diagnosis: the monitor, the search, and with ``workers`` > 1 one
     process pool, opened when first needed and closed with the diagnosis (``with`` block)."""
 
-    def __init__(self, monitor: "Monitor", search: Search, workers: int = 1, memo: dict | None = None) -> None:
+    def __init__(self, monitor: "Monitor", search: Search, workers: int = 1, memo: dict | None = None,
+                 modes: dict[str, float] | None = None) -> None:
         self.monitor, self.search, self.workers, self.memo = monitor, search, workers, memo
+        self.modes = tuple(sorted((modes or {}).items()))
         self._pool: ProcessPoolExecutor | None = None
 
     def __enter__(self) -> "Estimators":
@@ -182,7 +185,7 @@ class Estimators:
             jobs = [Job(win, tuple(candidates[i]), np.asarray(weights), self.search, seed + 1000 * i,
                         tuple(known[i]) + tuple(list(r.faults) for j, r in done.items()
                                                 if set(r.candidate) < set(candidates[i]) and fixed[j] == fixed[i]),
-                        tuple(fixed[i]), onsets[i]) for i in wave]
+                        tuple(fixed[i]), onsets[i], self.modes) for i in wave]
             keys = [self._key(job, t, t0, samples) for job in jobs] if self.memo is not None else [None] * len(jobs)
             todo = [job for job, key in zip(jobs, keys) if key is None or key not in self.memo]
             fresh = iter(self._map(todo))
@@ -203,7 +206,7 @@ class Estimators:
         end = min(t.size, i0 + samples + margin)
         return json.dumps([self.monitor.key, repr(self.monitor.config), t0, samples, end, list(job.candidate),
                            list(map(float, job.weights)), repr(job.search), job.seed, job.known, job.fixed,
-                           job.onset], default=float, sort_keys=True)
+                           job.onset, job.modes], default=float, sort_keys=True)
 
 
 REFIT_REACH = 2.5   # a refit with an earlier onset lowered a biased drift's cost 4-fold (581 -> 133, best 308)

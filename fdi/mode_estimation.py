@@ -31,12 +31,14 @@ class ModeEstimate:
 
 
 def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, weights: np.ndarray,
-                  seed: int, window_s: float, variables: list[str] | None = None) -> ModeEstimate:
+                  seed: int, window_s: float, variables: list[str] | None = None,
+                  modes: dict[str, float] | None = None) -> ModeEstimate:
     """The fault-mode estimator: BDE over the suspected mode variables (Sec. III-C: the MCSM names
     them; the others keep their current values), same cost as eq. (24)."""
     names = list(variables or model.modes)
     nominal = parameter_values(model)
     nominal.update(commanded(model, win.raw))        # commanded modes follow their command sample by sample
+    nominal.update(modes or {})                      # the mode variables the caller knows
     signals = corrected_signals(model, win.raw, win.ts, derivative_orders(list(residuals)), None, window_s)
     c = win.crop
     # the mode each variable should be in: the command at the window's start, or the nominal mode

@@ -135,7 +135,8 @@ class Objective:
 
     def __init__(self, model: Model, residuals: tuple[Residual, ...], win: Window, candidate: tuple[str, ...],
                  weights: np.ndarray, window_s: float, fixed: list[dict] = (),
-                 onset: tuple[float, float] | None = None, config: MonitorConfig | None = None) -> None:
+                 onset: tuple[float, float] | None = None, config: MonitorConfig | None = None,
+                 modes: Mapping[str, float] | None = None) -> None:
         """``config``: the monitor settings (the faults' search bounds); ``fixed``: faults already identified (report entries with ``t0``), held at their fit
         with their own onset while ``candidate`` is searched (a second fault after a first decision);
         ``onset``: where the candidate's onset is searched (default: the window's first
@@ -151,6 +152,7 @@ class Objective:
         self.fixed = list(fixed)
         self.nominal = parameter_values(model)
         self.nominal.update({m: v[None, :] for m, v in commanded(model, win.raw).items()})
+        self.nominal.update(modes or {})          # mode variables the caller knows (Options.mode)
         fixed_betas, fixed_biases = self._fix(span)
         self.fixed_betas, self.fixed_biases = fixed_betas, fixed_biases
         self.orders = derivative_orders(list(residuals))

@@ -3,6 +3,7 @@ checked before any work: a misspelt or out-of-range option is one line, not a wo
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 from typing import Mapping
 
@@ -17,6 +18,9 @@ MIN_POP = 4                # DE's mutation takes three other members of the popu
 MAX_POP = 100_000          # a population is held in memory: 100 000 members is far past the paper's 100
 MAX_GENERATIONS = 1_000_000
 MIN_SAMPLES = 2            # N samples from t_D: fewer leave nothing to fit
+# Estimator processes by default, for the CLI and the library alike: two where the machine has them
+# (the results do not depend on it: each estimator is seeded by its index)
+DEFAULT_WORKERS = max(1, min(2, os.cpu_count() or 1))
 MIN_WINDOW_S = 0.5         # s: the CyCab's shortest period (scales.min_period of its 0.25 s window), for callers without a model
 
 
@@ -35,7 +39,7 @@ class Options:
     generations: int = 150
     samples: int | None = None
     seed: int = 0
-    workers: int = 1
+    workers: int = DEFAULT_WORKERS
     failures: Mapping[str, float] = field(default_factory=dict)
     weights: str = "thresholds"
     settle: float | None = None

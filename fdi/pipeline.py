@@ -57,6 +57,15 @@ class Prepared:
     options: Options
 
     @property
+    def modes(self) -> dict[str, float]:
+        """The mode variables the options fix (``Options.mode``): residuals and estimators use them."""
+        return {k: float(v) for k, v in (self.options.mode or {}).items()}
+
+    def values(self, raw: dict) -> dict:
+        """Mode values for the residuals of ``raw``: commanded modes as commanded, the options' fixed."""
+        return {**commanded(self.monitor.model, raw), **self.modes}
+
+    @property
     def window_s(self) -> float:
         return self.monitor.config.derivative_window
 
@@ -87,8 +96,7 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
     meas = data if isinstance(data, Measurements) else read_csv(data)
     p = prepare(monitor, meas, o)
     clock.lap("load")
-    r = evaluate(p.monitor.model, list(p.monitor.residuals), p.raw, meas.ts, window=p.window_s,
-                 values=commanded(p.monitor.model, p.raw))
+    r = evaluate(p.monitor.model, list(p.monitor.residuals), p.raw, meas.ts, window=p.window_s, values=p.values(p.raw))
     clock.lap("residuals")
     det = detect(r, meas.t, p.thresholds, p.wait, p.settle, p.scales.end_edge)
     base = Diagnosis(p.monitor.model.name, dict(o.mode or nominal_mode(p.monitor.model)), note=blind(p, r),
@@ -169,7 +177,7 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
     except DataError as exc:                  # detected at the end of the data: reported, not identified
         return replace(d, note=str(exc).split(": ", 1)[-1])
     search = Search(p.options.engine, p.options.pop, p.options.generations)
-    with Estimators(p.monitor, search, p.options.workers, memo) as est:
+    with Estimators(p.monitor, search, p.options.workers, memo, p.modes) as est:
         return identify(p, d, fsm, r, est, clock, progress)
 
 
@@ -183,7 +191,7 @@ def isolate(p: Prepared, det: Detection, mode: dict[str, int]):
     if o.exoneration and m.config.exoneration == "sensitivity":   # a quiet residual exonerates only a fault that could have moved it
         win = window(p.meas.t, p.raw, det.time, p.samples, p.window_s)
         entries = weak_entries(m.model, list(m.residuals), win.raw, p.meas.ts, p.window_s, fsm, det.final_coherence,
-                               p.thresholds, win.crop, commanded(m.model, win.raw))
+                               p.thresholds, win.crop, p.values(win.raw))
         if entries:
             fsm = effective(fsm, entries)
             weak = {x.fault: tuple(sorted(y.residual for y in entries if y.fault == x.fault)) for x in entries}
@@ -201,7 +209,7 @@ def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects) 
     win = window(p.meas.t, p.raw, det.time, p.samples, p.window_s)
     by_fault = {f.name: f.targets[0] for f in model.faults.values() if f.kind == "mode"}
     variables = sorted({by_fault.get(s, s) for s in suspects})
-    e = estimate_mode(model, p.monitor.residuals, win, p.weights, p.options.seed, p.window_s, variables)
+    e = estimate_mode(model, p.monitor.residuals, win, p.weights, p.options.seed, p.window_s, variables, p.modes)
     changed = [v for v in e.mode if e.mode[v] != mode[v]]
     faults = tuple(faults_of({"name": mode_fault_name(model, v, e.mode[v]), "type": "mode", "value": e.mode[v]}
                              for v in changed))
@@ -305,7 +313,8 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
 def significance(p: Prepared, d: Diagnosis, now: float) -> Diagnosis:
     """The final faults that earn their parameters on the data since t_D (:func:`fdi.decide.significant`)."""
     start, span = since_detection(p.meas.t, d.detection.time, now, p.samples, MAX_GROWTH)
-    kept, dropped = significant(p.monitor, p.meas, p.raw, start, span, [f.to_dict() for f in d.faults], p.weights)
+    kept, dropped = significant(p.monitor, p.meas, p.raw, start, span, [f.to_dict() for f in d.faults], p.weights,
+                                p.modes)
     return replace(d, faults=faults_of(kept), insignificant=dropped) if dropped else d
 
 
@@ -350,7 +359,7 @@ def refresh_prognosis(monitor: "Monitor", meas: Measurements, d: Diagnosis, opti
     t0 = min(f["t0"] for f in growing)
     w = p.window_s
     search = Search(o.engine, o.pop, o.generations)
-    with Estimators(p.monitor, search, 1, memo) as est:
+    with Estimators(p.monitor, search, 1, memo, p.modes) as est:
         (result,) = est.run(meas.t, p.raw, start, span, [tuple(f["name"] for f in growing)], p.weights,
                             o.seed + 104729, None, [others], [(t0 - w, t0 + w)], [[growing]])
     now = float(meas.t[-1])

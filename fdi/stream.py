@@ -126,7 +126,7 @@ class Stream:
         segment = Measurements(self.source, t[a:], {h: self.buffer[a:self.n, i] for i, h in enumerate(self.header)})
         raw = signals_from_data(self.model, segment)
         r = evaluate(self.model, list(self.compiled), raw, ts, window=self.window,
-                     values=commanded(self.model, raw))
+                     values={**commanded(self.model, raw), **{k: float(v) for k, v in (self.options.mode or {}).items()}})
         self.residuals = np.asarray(r)[:, self.done - a:final - a]
         start, self.done = self.done, final
         self._detect(t, start, final)

@@ -168,3 +168,15 @@ def test_coarse_cost_agrees_with_the_full_cost_on_scenario2():
     fine, coarse = obj(real, bits), obj.coarse(real, bits)
     assert coarse == pytest.approx(fine, rel=0.05)
     assert fine[0] < fine[1] and coarse[0] < coarse[1]
+
+
+def test_a_mode_the_options_fix_reaches_the_residuals_and_the_report():
+    """Options.mode says which mode the system is in: the residuals are computed in it (with the
+    motor driver said to be off, a2 = 0, the nominal run's motor torque is unexplained and the
+    torque balance ARR1 fires), and the fault-mode estimator, fitting the same residuals, finds the
+    driver on: a mode fault against the mode claimed. By default the run is nominal."""
+    data = DATA / "nominal.csv"
+    assert diagnose(str(CYCAB), data, Options(workers=1)).detection is None
+    d = diagnose(str(CYCAB), data, Options(workers=1, mode={"a1": 1, "a2": 0}, max_set=1, pop=12, generations=4))
+    assert d.detection is not None and d.detection.coherence[0] == 1
+    assert [f.name for f in d.faults] == ["a2"] and d.mode_fault.mode["a2"] == 1

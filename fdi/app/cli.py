@@ -22,7 +22,7 @@ from bondgraph.model import Model
 
 from ..errors import UsageError
 from ..data import DataError
-from ..options import MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
+from ..options import DEFAULT_WORKERS, MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
 from .output import check_output, is_stdout, write_atomic
 from .progress import LOG, NORMAL, QUIET, VERBOSE, Progress, Steps, configure, stage
 
@@ -793,8 +793,9 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--samples", type=whole(MIN_SAMPLES),
                        help=f"N samples from t_D for identification, >= {MIN_SAMPLES} (default: the model's)")
         p.add_argument("--seed", type=whole(0), default=0, help="random seed, an integer >= 0")
-        p.add_argument("--workers", type=whole(1, MAX_WORKERS), default=2,
-                       help=f"estimator processes, 1 to {MAX_WORKERS} (results do not depend on it)")
+        p.add_argument("--workers", type=whole(1, MAX_WORKERS), default=DEFAULT_WORKERS,
+                       help=f"estimator processes, 1 to {MAX_WORKERS} (default {DEFAULT_WORKERS}: up to 2, one per "
+                            "core; results do not depend on it)")
         p.add_argument("--failure", action="append", type=pair(), metavar="FAULT=VALUE", help="failure value for prognosis")
         p.add_argument("--json", action="store_true", help="print the report as JSON")
         p.add_argument("--timings", action="store_true",
