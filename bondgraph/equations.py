@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Callable, Mapping
 import sympy as sp
 
 from .graph import BondKey, port_table, to_networkx
-from .laws import (Equation, bond_variables, junction_equations, resistor_equation, solve_for, source_equation,
+from .laws import (Equation, bond_variables, coefficient, junction_equations, model_laws, resistor_equation, solve_for, source_equation,
                    storage_equations, substitution, two_port_equations)
 from .linear import combine
 from .model import Element, Model, t
@@ -144,8 +144,8 @@ def causal_forms(model: Model, causality: Causality, signals: Mapping[sp.Symbol,
     the forms then say only what is computed from what (:func:`bondgraph.causality.dependency_graph`)."""
     g = to_networkx(model)
     table = port_table(g)
-    sub = substitution(signals)
     recv = causality.effort_to
+    solve = known is not None      # without values, only which variable is computed from which
     out: list[CausalForm] = []
     for node, kind in g.nodes(data="kind"):
         ps = table[node]
@@ -156,7 +156,11 @@ def causal_forms(model: Model, causality: Causality, signals: Mapping[sp.Symbol,
             common, total = (0, 1) if kind[0] == "0" else (1, 0)
             outputs = [bond_variables(k)[common] for k, _, _ in ps if k != strong]
             outputs.append(bond_variables(strong)[total])
-            out += _solved(node, junction_equations(model, node, ps, strong, sub), outputs, ps)
+            j = model.junctions[node]
+            used = model.symbols[j.mode].free_symbols if j.controlled else ()
+            eqs = _laws(model, ("junction", node, strong), used, signals,
+                        lambda sub: junction_equations(model, node, ps, strong, sub))
+            out += _solved(node, eqs, outputs, ps, solve)
         elif kind in ("TF", "MTF", "GY", "MGY"):
             (b1, _, s1), (b2, _, _) = ps
             if s1 < 0:                      # b1: the bond bringing power in
@@ -164,14 +168,21 @@ def causal_forms(model: Model, causality: Causality, signals: Mapping[sp.Symbol,
             gets1 = recv.get(b1) == node    # effort in at b1: flow out there
             gets2 = gets1 if kind in ("GY", "MGY") else not gets1
             outputs = [bond_variables(b)[1 if gets else 0] for b, gets in ((b1, gets1), (b2, gets2))]
-            out += _solved(node, two_port_equations(model.elements[node], ps, sub), outputs, ps)
+            el = model.elements[node]
+            eqs = _laws(model, ("two-port", node), el.modulus.free_symbols, signals,
+                        lambda sub: two_port_equations(el, ps, sub))
+            out += _solved(node, eqs, outputs, ps, solve)
         elif kind == "R":
             k = ps[0][0]
-            eq = resistor_equation(model, model.elements[node], k, sub)
+            el = model.elements[node]
+            eq = _laws(model, ("R", node), _law_symbols(el), signals, lambda sub: resistor_equation(model, el, k, sub))
             resistance = causality.resistors.get(node) == "resistance"
-            out += _solved(node, [eq], [bond_variables(k)[0 if resistance else 1]], ps)
+            out += _solved(node, [eq], [bond_variables(k)[0 if resistance else 1]], ps, solve)
         elif kind in ("C", "I"):
-            out.append(_storage(model, model.elements[node], ps[0][0], causality.storage.get(node), sub))
+            el = model.elements[node]
+            x, (law, _rate) = _laws(model, ("storage", node), _law_symbols(el), signals,
+                                    lambda sub: storage_equations(model, el, ps[0][0], sub))
+            out.append(_storage(el, ps[0][0], causality.storage.get(node), x, law))
         elif kind in ("De", "Df", "Se", "Sf", "MSe", "MSf"):
             (k, _, _), = ps
             var = ("e", k) if recv.get(k) != node else ("f", k)
@@ -190,10 +201,11 @@ def causal_forms(model: Model, causality: Causality, signals: Mapping[sp.Symbol,
     return out
 
 
-def _solved(node: str, eqs: list[Equation], outputs: list[sp.Symbol], ps) -> list[CausalForm]:
+def _solved(node: str, eqs: list[Equation], outputs: list[sp.Symbol], ps, solve: bool = True) -> list[CausalForm]:
     """Each equation of a node solved for the one output it holds, outputs of the node's other
     equations substituted (a controlled junction's further outputs equal its first); in the
-    order of the equations, inputs in the order of the node's bonds (effort, then flow)."""
+    order of the equations, inputs in the order of the node's bonds (effort, then flow).
+    Without ``solve``, only the outputs and inputs (``expr`` None)."""
     variables = {}
     for k, _, _ in ps:
         e, f = bond_variables(k)
@@ -210,7 +222,7 @@ def _solved(node: str, eqs: list[Equation], outputs: list[sp.Symbol], ps) -> lis
             if i in gives or len(unknown) != 1:
                 continue
             v = unknown[0]
-            expr = solve_for(eq, v)
+            expr = solve_for(eq, v) if solve else None
             inner = [w for w in eq.variables if w in done]
             if expr is not None and inner:
                 expr = expr.xreplace({w: done[w][0] for w in inner}) if all(done[w][0] is not None for w in inner) \
@@ -230,11 +242,22 @@ def _solved(node: str, eqs: list[Equation], outputs: list[sp.Symbol], ps) -> lis
     return out
 
 
-def _storage(model: Model, e: Element, k: BondKey, form: str | None, sub) -> CausalForm:
+def _laws(model: Model, key: tuple, used, signals: Mapping[sp.Symbol, sp.Expr] | None, build) -> object:
+    """A node's laws with the signals its expressions use substituted; built once per model
+    (:func:`bondgraph.laws.model_laws`) when it uses none."""
+    if signals and any(s in signals for s in used):
+        return build(substitution(signals))
+    return model_laws(model, key, lambda: build(substitution()))
+
+
+def _law_symbols(e: Element) -> set:
+    return set().union(*(law.free_symbols for law in e.laws.values()))
+
+
+def _storage(e: Element, k: BondKey, form: str | None, x: sp.Symbol, law: Equation) -> CausalForm:
     """A storage element's form. Integral causality: its effort (C) or flow (I) from its energy
-    variable, a state. Derivative: its energy variable from its effort (C) or flow (I), whose
+    variable x, a state. Derivative: its energy variable from its effort (C) or flow (I), whose
     time derivative is the flow (C) or effort (I) it gives (the differential constraint)."""
-    x, (law, _rate) = storage_equations(model, e, k, sub)
     ek, fk = bond_variables(k)
     given, taken = (ek, fk) if e.kind == "C" else (fk, ek)
     var = {ek: ("e", k), fk: ("f", k)}
@@ -255,7 +278,10 @@ def _relation(form: CausalForm, states: Mapping[str, sp.Expr]) -> Relation:
     if form.kind == "derivative":
         return _rate_relation(form)
     expr, symbols = form.expr, form.symbols
-    coefficients = tuple(sp.diff(expr, s) for s in symbols) if form.linear and symbols else None
+    coefficients = tuple(coefficient(expr, s) for s in symbols) if form.linear and symbols else None
+    if expr in symbols:         # an input passed on as it is (a junction's common variable)
+        i = symbols.index(expr)
+        return Relation(form.output, form.inputs, lambda *xs: xs[i], coefficients=coefficients)
     return Relation(form.output, form.inputs, lambda *xs: expr.xreplace(dict(zip(symbols, xs))),
                     coefficients=coefficients)
 
@@ -265,7 +291,7 @@ def _rate_relation(form: CausalForm) -> Relation:
     function of its input x, as ``dQ/dx x'`` (plus ``dQ/dt`` where the law is modulated: Q(x, t))."""
     u = sp.Dummy("u", real=True)
     q = form.expr.xreplace({form.symbols[0]: u})
-    slope = sp.diff(q, u)   # dQ/du
+    slope = coefficient(q, u)   # dQ/du
     coefficients = (slope,) if form.linear else None
     if q.has(t):            # modulated: q(u, t), its rate dQ/du u' + dQ/dt
         drift = ddt(q)

@@ -31,6 +31,9 @@ derivative causality differentiates the solution for its energy variable (kept w
 """
 from __future__ import annotations
 
+import functools
+import operator
+import weakref
 from dataclasses import dataclass, field
 from typing import Callable, Iterable, Mapping, Sequence
 
@@ -72,11 +75,29 @@ def bond_variables(bond) -> tuple[sp.Symbol, sp.Symbol]:
     return sp.Symbol(f"e[{bond}]", real=True), sp.Symbol(f"f[{bond}]", real=True)
 
 
+def coefficient(expr: sp.Expr, var: sp.Symbol) -> sp.Expr:
+    """d expr / d var. A sum whose terms hold ``var`` as a plain factor (every law of this module
+    that is linear) is read term by term, as ``sympy.diff`` would build it, at a fraction of its
+    cost (a junction of n bonds is solved for each of them); anything else goes to ``sympy.diff``."""
+    out = []
+    for term in sp.Add.make_args(expr):
+        if term == var:
+            out.append(sp.Integer(1))
+        elif term.is_Mul and var in term.args:
+            others = [f for f in term.args if f != var]
+            if len(others) != len(term.args) - 1 or any(f.has(var) for f in others):
+                return sp.diff(expr, var)
+            out.append(functools.reduce(operator.mul, others, sp.Integer(1)))
+        elif term.has(var):
+            return sp.diff(expr, var)
+    return sp.Add.fromiter(out)
+
+
 def solve_linear(expr: sp.Expr, var: sp.Symbol) -> sp.Expr | None:
     """var from expr = 0 when expr is linear in var with a coefficient free of unknowns."""
     if not expr.has(var):
         return None
-    coeff = sp.diff(expr, var)
+    coeff = coefficient(expr, var)
     if coeff.has(var) or coeff == 0:
         return None
     rest = expr.xreplace({var: sp.Integer(0)})
@@ -88,19 +109,54 @@ def solve_for(eq: Equation, var: sp.Symbol) -> sp.Expr | None:
     return eq.solutions.get(var)
 
 
+class _Solutions(Mapping):
+    """An equation's explicit solutions: those given, and those of the ``linear`` variables,
+    each solved (:func:`solve_linear`) only when asked for. A causal form needs one solution per
+    equation, the dependency graph none: solving every law for every variable up front cost
+    most of the derivation of a long chain."""
+    __slots__ = ("_expr", "_given", "_linear", "_solved", "_keys")
+
+    def __init__(self, expr: sp.Expr, given: dict, linear: Sequence) -> None:
+        self._expr, self._given = expr, given
+        self._linear = [v for v in dict.fromkeys(linear) if v not in given]
+        self._solved: dict = {}
+        self._keys: tuple | None = None
+
+    def _solve(self, v) -> sp.Expr | None:
+        if v not in self._solved:
+            self._solved[v] = solve_linear(self._expr, v)
+        return self._solved[v]
+
+    def __getitem__(self, v) -> sp.Expr:
+        if v in self._given:
+            return self._given[v]
+        if v in self._linear and self._solve(v) is not None:
+            return self._solved[v]
+        raise KeyError(v)
+
+    def __contains__(self, v) -> bool:
+        return v in self._given or (v in self._linear and self._solve(v) is not None)
+
+    def __iter__(self):
+        if self._keys is None:
+            self._keys = tuple(self._given) + tuple(v for v in self._linear if self._solve(v) is not None)
+        return iter(self._keys)
+
+    def __len__(self) -> int:
+        return sum(1 for _ in self)
+
+    def __repr__(self) -> str:
+        return repr(dict(self))
+
+
 def equation(name: str, node: str, expr: sp.Expr, variables: Iterable, solutions=None, linear: Sequence = (),
              differential=None, is_linear: bool = False) -> Equation:
     """An :class:`Equation`, solved linearly for each variable of ``linear`` it gives no solution
     for; variables ``expr`` no longer holds (a mode at 0 removes some) are left out."""
-    sol = dict(solutions or {})
-    for v in linear:
-        if v not in sol:
-            s = solve_linear(expr, v)
-            if s is not None:
-                sol[v] = s
     present = expr.free_symbols
     variables = frozenset(v for v in variables if v in present)
-    sol = {v: x for v, x in sol.items() if v in variables}
+    given = {v: x for v, x in (solutions or {}).items() if v in variables}
+    sol = _Solutions(expr, given, [v for v in linear if v in variables]) if linear else given
     return Equation(name, node, expr, variables, sol, differential, bool(linear) or is_linear)
 
 
@@ -221,6 +277,23 @@ def two_port_equations(el: Element, ports: Sequence[Port], sub: Sub = _same) -> 
                 equation(f"{el.name}.f", el.name, f2 - m * f1, {f1, f2}, linear=[f1, f2])]
     return [equation(f"{el.name}.e{b1}", el.name, e1 - m * f2, {e1, f2}, linear=[e1, f2]),
             equation(f"{el.name}.e{b2}", el.name, e2 - m * f1, {e2, f1}, linear=[e2, f1])]
+
+
+_LAWS: dict[int, dict] = {}
+
+
+def model_laws(model: Model, key: tuple, build: Callable[[], object]) -> object:
+    """``build()`` once per model and ``key`` (a node and what its laws depend on): the
+    dependency graph of a causality assignment, the relations derived from it and the
+    simulator's configurations read the same laws; sympy's own cache holds too few expressions
+    to keep a long chain's. Models are frozen; the entry goes with the model."""
+    table = _LAWS.get(id(model))
+    if table is None:
+        table = _LAWS[id(model)] = {}
+        weakref.finalize(model, _LAWS.pop, id(model), None)
+    if key not in table:
+        table[key] = build()
+    return table[key]
 
 
 def substitution(signals: Mapping[sp.Symbol, sp.Expr] | None = None,
