@@ -29,6 +29,7 @@ import networkx as nx
 
 from .errors import CausalityError
 from .graph import BondKey, port_table, to_networkx
+from .laws import bond_variables, resistor_equation
 from .model import SOURCE_KINDS, Model
 
 DIAGNOSIS = "diagnosis"
@@ -218,17 +219,18 @@ class _Assigner:
     def _resistors(self) -> dict[str, str]:
         out: dict[str, str] = {}
         rs = [e for e in self.model.elements.values() if e.kind == "R"]
+        forms = {e.name: resistor_forms(self.model, e) for e in rs}
         # those with one law form first: their causality is not a free choice
-        rs.sort(key=lambda e: 0 if e.parameter is None and len(e.laws) == 1 else 1)
+        rs.sort(key=lambda e: 0 if len(forms[e.name]) == 1 else 1)
         for e in rs:
             key, other = self._bond_of(e.name)
             if key not in self.effort_to:
-                form = "resistance" if (e.parameter is not None or "effort" in e.laws) else "conductance"
+                form = "resistance" if "resistance" in forms[e.name] else "conductance"
                 self.set(key, other if form == "resistance" else e.name, f"resistor {e.name}")
                 self.propagate()
             # resistance causality: the R receives flow and gives effort (e = law(f))
             form = "resistance" if self.effort_to[key] != e.name else "conductance"
-            if e.parameter is None and ("effort" if form == "resistance" else "flow") not in e.laws:
+            if form not in forms[e.name]:
                 give = "effort: <law in f>" if form == "resistance" else "flow: <law in e>"
                 self.problems.append(f"resistor {e.name} needs {form} causality here; add {give} to its laws")
             out[e.name] = form
@@ -247,6 +249,14 @@ class _Assigner:
                 if k in self.effort_to and ((self.effort_to[k] == j.name) == (j.base == "0")):
                     out[j.name] = k
         return out
+
+
+def resistor_forms(model: Model, element) -> frozenset[str]:
+    """The causal forms a resistor's law gives in closed form: ``resistance`` (e from f) and/or
+    ``conductance`` (f from e), read off its equation's explicit solutions (:mod:`bondgraph.laws`)."""
+    effort, flow = bond_variables(element.name)
+    solutions = resistor_equation(model, element, element.name).solutions
+    return frozenset(form for form, v in (("resistance", effort), ("conductance", flow)) if v in solutions)
 
 
 def assign(model: Model, purpose: str = DIAGNOSIS) -> Causality:
@@ -269,47 +279,27 @@ def require(causality: Causality) -> Causality:
 
 def dependency_graph(model: Model, causality: Causality) -> nx.DiGraph:
     """Which bond variable is computed from which: nodes ('e'|'f', bond); edge attribute
-    ``kind`` is 'algebraic' or 'derivative' (through a storage element in derivative causality)."""
-    g = to_networkx(model)
-    table = port_table(g)
+    ``kind`` is 'algebraic' or 'derivative' (through a storage element in derivative causality).
+    Read off the laws solved for their causal outputs (:func:`bondgraph.equations.causal_forms`).
+
+    >>> from bondgraph.loader import load_model_text
+    >>> m = load_model_text('''
+    ... parameters: {R: {value: 2.0, unit: Ohm}}
+    ... inputs: {u: {column: u, unit: V}}
+    ... elements: {src: {type: MSe, input: u}, res: {type: R, parameter: R}}
+    ... junctions: {j: {type: "1"}}
+    ... sensors: {i: {type: Df, junction: j, unit: A}}
+    ... bonds: {1: [src, j], 2: [j, res]}
+    ... ''')
+    >>> sorted(f"{a}{i} -> {b}{o}" for (a, i), (b, o) in dependency_graph(m, assign(m)).edges)
+    ['e1 -> ei', 'e2 -> ei', 'f2 -> e2', 'fi -> f1', 'fi -> f2']
+    """
+    from .equations import causal_forms
     dep = nx.DiGraph()
-    for node, kind in g.nodes(data="kind"):
-        ps = table[node]
-        recv = {k: causality.effort_to.get(k) == node for k, _, _ in ps}
-        if kind in ("0", "1", "0c", "1c"):
-            s = causality.strong.get(node)
-            if s is None:
-                continue
-            common, total = ("e", "f") if kind[0] == "0" else ("f", "e")
-            for k, _, _ in ps:
-                if k != s:
-                    dep.add_edge((common, s), (common, k), kind="algebraic")
-                    dep.add_edge((total, k), (total, s), kind="algebraic")
-        elif kind in ("TF", "MTF", "GY", "MGY"):
-            (k1, _, _), (k2, _, _) = ps
-            for a, b in ((k1, k2), (k2, k1)):
-                if kind in ("TF", "MTF"):
-                    if recv[a]:
-                        dep.add_edge(("e", a), ("e", b), kind="algebraic")
-                    else:
-                        dep.add_edge(("f", a), ("f", b), kind="algebraic")
-                else:
-                    if recv[a]:
-                        dep.add_edge(("e", a), ("f", b), kind="algebraic")
-                    else:
-                        dep.add_edge(("f", a), ("e", b), kind="algebraic")
-        elif kind == "R":
-            (k, _, _), = ps
-            # resistance causality: the R receives flow and gives effort, e = law(f)
-            if causality.resistors.get(node) == "resistance":
-                a, b = ("f", k), ("e", k)
-            else:
-                a, b = ("e", k), ("f", k)
-            dep.add_edge(a, b, kind="algebraic")
-        elif kind in ("C", "I") and causality.storage.get(node) == "derivative":
-            (k, _, _), = ps
-            a, b = (("e", k), ("f", k)) if kind == "C" else (("f", k), ("e", k))
-            dep.add_edge(a, b, kind="derivative")
+    for form in causal_forms(model, causality):
+        kind = "derivative" if form.kind == "derivative" else "algebraic"
+        for i in form.inputs:
+            dep.add_edge(i, form.output, kind=kind)
     return dep
 
 

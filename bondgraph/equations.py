@@ -13,17 +13,21 @@ output variables by its mode variable (diagnostic hybrid bond graph).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
-from typing import Callable, Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Callable, Mapping
 
 import sympy as sp
 
-from .causality import Causality
 from .graph import BondKey, port_table, to_networkx
+from .laws import (Equation, bond_variables, coefficient, junction_equations, model_laws, resistor_equation, solve_for, source_equation,
+                   storage_equations, substitution, two_port_equations)
 from .linear import combine
-from .model import LAW_VARIABLES, Element, Model, t
+from .model import Element, Model, t
 from .program import Program, line_diff
 from .rates import NONSMOOTH, ddt
+
+if TYPE_CHECKING:
+    from .causality import Causality
 
 Var = tuple[str, BondKey]          # ('e' | 'f', bond key)
 
@@ -89,133 +93,214 @@ def is_signal(expr: sp.Expr) -> bool:
 
 def relations(model: Model, causality: Causality, *, known: Mapping[str, sp.Expr],
               states: Mapping[str, sp.Expr], signals: Mapping[sp.Symbol, sp.Expr]) -> list[Relation]:
-    """One relation per computed bond variable.
+    """One relation per computed bond variable: each law of :mod:`bondgraph.laws` solved for the
+    output the causal strokes give it (:func:`causal_forms`).
 
     ``known`` gives each source's and sensor's output (by node name); ``states`` the energy
     variable (q or p) of each storage element in integral causality; ``signals`` replaces the
     signal symbols that modulated elements use (e.g. theta2 in F1(theta2)).
+
+    >>> from bondgraph.loader import load_model_text
+    >>> from bondgraph.causality import assign
+    >>> m = load_model_text('''
+    ... parameters: {R: {value: 2.0, unit: Ohm}}
+    ... inputs: {u: {column: u, unit: V}}
+    ... elements: {src: {type: MSe, input: u}, res: {type: R, parameter: R}}
+    ... junctions: {j: {type: "1"}}
+    ... sensors: {i: {type: Df, junction: j, unit: A}}
+    ... bonds: {1: [src, j], 2: [j, res]}
+    ... ''')
+    >>> rels = relations(m, assign(m), known={"src": signal("u"), "i": signal("i")}, states={}, signals={})
+    >>> resolve(rels, [("e", "i")])[("e", "i")]      # the junction's balance: the ARR u - R i
+    -R*i(t) + u(t)
     """
+    return [_relation(form, states) for form in causal_forms(model, causality, signals, known)]
+
+
+@dataclass(frozen=True)
+class CausalForm:
+    """A law solved for the output its causal stroke gives: ``output = expr`` in the bond
+    variables ``symbols`` of ``inputs`` (``expr`` None where the law gives the output in no
+    closed form: a problem the causality reports). ``kind``: ``law``, ``source``, ``sensor``,
+    ``detector`` (a signal bond that carries no power), ``state`` (a storage element in integral
+    causality, ``expr`` in its energy variable ``symbols[0]``) or ``derivative`` (in derivative
+    causality, ``expr`` its energy variable as a function of its input)."""
+    node: str
+    output: Var
+    inputs: tuple[Var, ...]
+    symbols: tuple[sp.Symbol, ...]
+    expr: sp.Expr | None
+    kind: str = "law"
+    linear: bool = False
+
+
+def causal_forms(model: Model, causality: Causality, signals: Mapping[sp.Symbol, sp.Expr] | None = None,
+                 known: Mapping[str, sp.Expr] | None = None) -> list[CausalForm]:
+    """Every computed bond variable as the law that gives it, solved for it (node by node, in
+    the graph's order): a junction's laws written against its strong bond, each solved for the
+    weak bond's common variable and the strong bond's total; a two-port's, a resistor's, a
+    storage element's and a source's for the variable its stroke makes it give. Without
+    ``known`` (each source's and sensor's value) the sources' and sensors' ``expr`` is None:
+    the forms then say only what is computed from what (:func:`bondgraph.causality.dependency_graph`)."""
     g = to_networkx(model)
     table = port_table(g)
-    out: list[Relation] = []
     recv = causality.effort_to
+    solve = known is not None      # without values, only which variable is computed from which
+    out: list[CausalForm] = []
     for node, kind in g.nodes(data="kind"):
         ps = table[node]
         if kind in ("0", "1", "0c", "1c"):
-            out.extend(_junction(model, node, kind, ps, causality))
+            strong = causality.strong.get(node)
+            if strong is None:
+                continue
+            common, total = (0, 1) if kind[0] == "0" else (1, 0)
+            outputs = [bond_variables(k)[common] for k, _, _ in ps if k != strong]
+            outputs.append(bond_variables(strong)[total])
+            j = model.junctions[node]
+            used = model.symbols[j.mode].free_symbols if j.controlled else ()
+            eqs = _laws(model, ("junction", node, strong), used, signals,
+                        lambda sub: junction_equations(model, node, ps, strong, sub))
+            out += _solved(node, eqs, outputs, ps, solve)
         elif kind in ("TF", "MTF", "GY", "MGY"):
-            out.extend(_two_port(model.elements[node], ps, recv, signals))
+            (b1, _, s1), (b2, _, _) = ps
+            if s1 < 0:                      # b1: the bond bringing power in
+                b1, b2 = b2, b1
+            gets1 = recv.get(b1) == node    # effort in at b1: flow out there
+            gets2 = gets1 if kind in ("GY", "MGY") else not gets1
+            outputs = [bond_variables(b)[1 if gets else 0] for b, gets in ((b1, gets1), (b2, gets2))]
+            el = model.elements[node]
+            eqs = _laws(model, ("two-port", node), el.modulus.free_symbols, signals,
+                        lambda sub: two_port_equations(el, ps, sub))
+            out += _solved(node, eqs, outputs, ps, solve)
+        elif kind == "R":
+            k = ps[0][0]
+            el = model.elements[node]
+            eq = _laws(model, ("R", node), _law_symbols(el), signals, lambda sub: resistor_equation(model, el, k, sub))
+            resistance = causality.resistors.get(node) == "resistance"
+            out += _solved(node, [eq], [bond_variables(k)[0 if resistance else 1]], ps, solve)
+        elif kind in ("C", "I"):
+            el = model.elements[node]
+            x, (law, _rate) = _laws(model, ("storage", node), _law_symbols(el), signals,
+                                    lambda sub: storage_equations(model, el, ps[0][0], sub))
+            out.append(_storage(el, ps[0][0], causality.storage.get(node), x, law))
         elif kind in ("De", "Df", "Se", "Sf", "MSe", "MSf"):
             (k, _, _), = ps
-            var = ("e", k) if recv[k] != node else ("f", k)
-            if node in causality.detectors:          # a detector's signal bond carries no power
-                out.append(Relation(var, (), lambda: sp.Integer(0)))
+            var = ("e", k) if recv.get(k) != node else ("f", k)
+            if kind in ("De", "Df"):
+                # the diagnostic bond graph's sensor: an inverted one imposes its measurement,
+                # a detector's signal bond carries no power
+                detector = node in causality.detectors
+                value = None if known is None else sp.Integer(0) if detector else known[node]
+                out.append(CausalForm(node, var, (), (), value, "detector" if detector else "sensor"))
             else:
-                out.append(Relation(var, (), (lambda v=known[node]: v)))
-        elif kind == "R":
-            out.append(_resistor(model, _modulated(model.elements[node], signals), ps[0][0], causality.resistors[node]))
-        elif kind in ("C", "I"):
-            out.append(_storage(model, _modulated(model.elements[node], signals), ps[0][0], causality.storage[node],
-                                states))
+                value = None
+                if known is not None:
+                    eq = source_equation(node, kind, k, known[node])
+                    value = solve_for(eq, next(iter(eq.variables)))
+                out.append(CausalForm(node, var, (), (), value, "source"))
     return out
 
 
-def _junction(model: Model, node: str, kind: str, ps, causality: Causality) -> list[Relation]:
-    strong = causality.strong[node]
-    junction = model.junctions[node]
-    a = model.symbols[junction.mode] if junction.controlled else sp.Integer(1)
-    common, total = ("e", "f") if kind[0] == "0" else ("f", "e")
-    sign = {k: s for k, _, s in ps}
-    rels = [Relation((common, k), ((common, strong),), (lambda x, a=a: a * x), coefficients=(a,))
-            for k, _, _ in ps if k != strong]
-    others = tuple((total, k) for k, _, _ in ps if k != strong)
-    weights = [sign[k] for _, k in others]
-
-    def balance(*xs, a=a, s=sign[strong], w=weights):
-        return a * (-s) * sp.Add(*[wi * xi for wi, xi in zip(w, xs)])
-    rels.append(Relation((total, strong), others, balance,
-                         coefficients=tuple(a * (-sign[strong] * wi) for wi in weights)))
-    return rels
-
-
-def _modulated(e: Element, signals: Mapping[sp.Symbol, sp.Expr]) -> Element:
-    """``e`` with the signals its laws use (a chamber's capacitance of the piston's position, a
-    resistance of a measured temperature) replaced by their values as functions of time: a
-    modulated R, C or I. Its laws then vary in time, and their rates carry d/dt of the signal."""
-    if not signals or not any(law.free_symbols & set(signals) for law in e.laws.values()):
-        return e
-    return replace(e, laws={k: law.xreplace(dict(signals)) for k, law in e.laws.items()})
-
-
-def _modulus(e: Element, signals: Mapping[sp.Symbol, sp.Expr]) -> sp.Expr:
-    m = e.modulus
-    if signals and m.free_symbols & set(signals):
-        m = m.xreplace(dict(signals))
-    return m
-
-
-def _two_port(e: Element, ps, recv, signals) -> list[Relation]:
-    m = _modulus(e, signals)
-    (b1, _, s1), (b2, _, s2) = ps
-    if s1 < 0:                      # b1 must be the bond bringing power in
-        b1, b2 = b2, b1
-    times, over = (m,), (1 / m,)
-    if e.kind in ("TF", "MTF"):     # e1 = m e2, f2 = m f1
-        if recv[b1] == e.name:
-            return [Relation(("e", b2), (("e", b1),), lambda x: x / m, coefficients=over),
-                    Relation(("f", b1), (("f", b2),), lambda x: x / m, coefficients=over)]
-        return [Relation(("e", b1), (("e", b2),), lambda x: m * x, coefficients=times),
-                Relation(("f", b2), (("f", b1),), lambda x: m * x, coefficients=times)]
-    if recv[b1] == e.name:          # GY, effort in on both ports: f2 = e1/r, f1 = e2/r
-        return [Relation(("f", b2), (("e", b1),), lambda x: x / m, coefficients=over),
-                Relation(("f", b1), (("e", b2),), lambda x: x / m, coefficients=over)]
-    return [Relation(("e", b1), (("f", b2),), lambda x: m * x, coefficients=times),
-            Relation(("e", b2), (("f", b1),), lambda x: m * x, coefficients=times)]
+def _solved(node: str, eqs: list[Equation], outputs: list[sp.Symbol], ps, solve: bool = True) -> list[CausalForm]:
+    """Each equation of a node solved for the one output it holds, outputs of the node's other
+    equations substituted (a controlled junction's further outputs equal its first); in the
+    order of the equations, inputs in the order of the node's bonds (effort, then flow).
+    Without ``solve``, only the outputs and inputs (``expr`` None)."""
+    variables = {}
+    for k, _, _ in ps:
+        e, f = bond_variables(k)
+        variables[e], variables[f] = ("e", k), ("f", k)
+    order = {v: i for i, v in enumerate(variables)}
+    wanted = set(outputs)
+    done: dict[sp.Symbol, tuple[sp.Expr | None, frozenset, bool]] = {}
+    gives: dict[int, sp.Symbol] = {}
+    progress = True
+    while progress:
+        progress = False
+        for i, eq in enumerate(eqs):
+            unknown = [v for v in eq.variables if v in wanted and v not in done]
+            if i in gives or len(unknown) != 1:
+                continue
+            v = unknown[0]
+            expr = solve_for(eq, v) if solve else None
+            inner = [w for w in eq.variables if w in done]
+            if expr is not None and inner:
+                expr = expr.xreplace({w: done[w][0] for w in inner}) if all(done[w][0] is not None for w in inner) \
+                    else None
+            inputs = frozenset(eq.variables - wanted).union(*(done[w][1] for w in inner))
+            linear = eq.linear and all(done[w][2] for w in inner)
+            done[v], gives[i] = (expr, inputs, linear), v
+            progress = True
+    out = []
+    for i, eq in enumerate(eqs):
+        if i not in gives:
+            continue
+        v = gives[i]
+        expr, inputs, linear = done[v]
+        symbols = tuple(sorted(inputs, key=order.__getitem__))
+        out.append(CausalForm(node, variables[v], tuple(variables[s] for s in symbols), symbols, expr, linear=linear))
+    return out
 
 
-def _resistor(model: Model, e: Element, k: BondKey, form: str) -> Relation:
-    if form == "resistance":
-        if "effort" in e.laws:
-            law = e.laws["effort"]
-            return Relation(("e", k), (("f", k),), lambda x: law.xreplace({LAW_VARIABLES["f"]: x}))
-        r = model.symbols[e.parameter]
-        return Relation(("e", k), (("f", k),), lambda x: r * x, coefficients=(r,))
-    if "flow" in e.laws:
-        law = e.laws["flow"]
-        return Relation(("f", k), (("e", k),), lambda x: law.xreplace({LAW_VARIABLES["e"]: x}))
-    r = model.symbols[e.parameter]
-    return Relation(("f", k), (("e", k),), lambda x: x / r, coefficients=(1 / r,))
+def _laws(model: Model, key: tuple, used, signals: Mapping[sp.Symbol, sp.Expr] | None, build) -> object:
+    """A node's laws with the signals its expressions use substituted; built once per model
+    (:func:`bondgraph.laws.model_laws`) when it uses none."""
+    if signals and any(s in signals for s in used):
+        return build(substitution(signals))
+    return model_laws(model, key, lambda: build(substitution()))
 
 
-def _storage(model: Model, e: Element, k: BondKey, form: str, states: Mapping[str, sp.Expr]) -> Relation:
-    p = model.symbols[e.parameter] if e.parameter else None
+def _law_symbols(e: Element) -> set:
+    return set().union(*(law.free_symbols for law in e.laws.values()))
+
+
+def _storage(e: Element, k: BondKey, form: str | None, x: sp.Symbol, law: Equation) -> CausalForm:
+    """A storage element's form. Integral causality: its effort (C) or flow (I) from its energy
+    variable x, a state. Derivative: its energy variable from its effort (C) or flow (I), whose
+    time derivative is the flow (C) or effort (I) it gives (the differential constraint)."""
+    ek, fk = bond_variables(k)
+    given, taken = (ek, fk) if e.kind == "C" else (fk, ek)
+    var = {ek: ("e", k), fk: ("f", k)}
     if form == "integral":
-        x = states[e.name]
-        var = ("e", k) if e.kind == "C" else ("f", k)
-        law_key, energy = ("effort", "q") if e.kind == "C" else ("flow", "p")
-        if law_key in e.laws:
-            expr = e.laws[law_key].xreplace({LAW_VARIABLES[energy]: x})
-        else:
-            expr = x / p
-        return Relation(var, (), lambda v=expr: v)
-    # derivative causality: C gets e, gives f = d/dt q(e); I gets f, gives e = d/dt p(f)
-    inp, out, law_key, local = (("e", k), ("f", k), "displacement", "e") if e.kind == "C" else \
-        (("f", k), ("e", k), "momentum", "f")
-    if law_key in e.laws:
-        u = sp.Dummy("u", real=True)
-        q = e.laws[law_key].xreplace({LAW_VARIABLES[local]: u})
-        slope = sp.diff(q, u)   # dQ/du
-        if q.has(t):            # modulated: q(u, t), its rate dQ/du u' + dQ/dt
-            drift = ddt(q)
-            return Relation(out, (inp,), lambda x, dx: slope.xreplace({u: x}) * dx + drift.xreplace({u: x}),
-                            derivative=True, energy=lambda x: q.xreplace({u: x}),
-                            parameters=frozenset(q.free_symbols - {u, t}))
-        return Relation(out, (inp,), lambda x, dx: slope.xreplace({u: x}) * dx, derivative=True,
-                        energy=lambda x: q.xreplace({u: x}), parameters=frozenset(q.free_symbols - {u}))
-    return Relation(out, (inp,), lambda x, dx: p * dx, derivative=True, energy=lambda x: p * x,
-                    parameters=frozenset({p}), coefficients=(p,))
+        return CausalForm(e.name, var[given], (), (x,), solve_for(law, given), "state")
+    return CausalForm(e.name, var[taken], (var[given],), (given,), solve_for(law, x), "derivative", law.linear)
 
 
+def _relation(form: CausalForm, states: Mapping[str, sp.Expr]) -> Relation:
+    """The relation of a causal form: its law a function of the inputs' values."""
+    if form.kind in ("source", "sensor", "detector"):
+        return Relation(form.output, (), lambda v=form.expr: v)
+    if form.kind == "state":
+        value = form.expr.xreplace({form.symbols[0]: states[form.node]})
+        return Relation(form.output, (), lambda v=value: v)
+    if form.expr is None:
+        raise ValueError(f"{form.node} gives {form.output[0]}{form.output[1]} in no closed form (see its causality)")
+    if form.kind == "derivative":
+        return _rate_relation(form)
+    expr, symbols = form.expr, form.symbols
+    coefficients = tuple(coefficient(expr, s) for s in symbols) if form.linear and symbols else None
+    if expr in symbols:         # an input passed on as it is (a junction's common variable)
+        i = symbols.index(expr)
+        return Relation(form.output, form.inputs, lambda *xs: xs[i], coefficients=coefficients)
+    return Relation(form.output, form.inputs, lambda *xs: expr.xreplace(dict(zip(symbols, xs))),
+                    coefficients=coefficients)
+
+
+def _rate_relation(form: CausalForm) -> Relation:
+    """A storage element in derivative causality: ``out = d/dt Q(x)``, Q its energy variable as a
+    function of its input x, as ``dQ/dx x'`` (plus ``dQ/dt`` where the law is modulated: Q(x, t))."""
+    u = sp.Dummy("u", real=True)
+    q = form.expr.xreplace({form.symbols[0]: u})
+    slope = coefficient(q, u)   # dQ/du
+    coefficients = (slope,) if form.linear else None
+    if q.has(t):            # modulated: q(u, t), its rate dQ/du u' + dQ/dt
+        drift = ddt(q)
+        return Relation(form.output, form.inputs, lambda x, dx: slope.xreplace({u: x}) * dx + drift.xreplace({u: x}),
+                        derivative=True, energy=lambda x: q.xreplace({u: x}),
+                        parameters=frozenset(q.free_symbols - {u, t}), coefficients=coefficients)
+    return Relation(form.output, form.inputs, lambda x, dx: slope.xreplace({u: x}) * dx, derivative=True,
+                    energy=lambda x: q.xreplace({u: x}), parameters=frozenset(q.free_symbols - {u}),
+                    coefficients=coefficients)
 def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozenset = frozenset(),
             program: Program | None = None) -> dict[Var, sp.Expr]:
     """Evaluate relations in causal order; only the ancestors of ``wanted`` if given.

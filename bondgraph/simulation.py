@@ -41,7 +41,8 @@ from .equations import relations, resolve
 from .linear import Linear
 from .program import Line, Program, compile_lines, linear_coefficients, needed_lines, substitute, triangular_order
 from .errors import CausalityError
-from .model import LAW_VARIABLES, Element, Model, t
+from .laws import bond_variables, resistor_equation, solve_for, storage_equations
+from .model import Element, Model, t
 from .timescales import model_integration_step
 
 
@@ -92,16 +93,15 @@ class System:
 
 
 def _specialise(model: Model, values: Mapping[str, float]) -> tuple[Model, frozenset[str]]:
-    """Resistors whose flow law vanishes at these values become open circuits (Sf: 0)."""
+    """Resistors whose flow law (their law solved for f, :func:`bondgraph.laws.resistor_equation`)
+    vanishes at these values become open circuits (Sf: 0)."""
     subs = {model.symbols[k]: (sp.oo if np.isinf(v) else sp.Float(v)) for k, v in values.items() if k in model.symbols}
     opened = set()
     elements = dict(model.elements)
     for e in model.elements.values():
         if e.kind != "R":
             continue
-        law = e.laws.get("flow")
-        if law is None and e.parameter is not None:
-            law = LAW_VARIABLES["e"] / model.symbols[e.parameter]
+        law = solve_for(resistor_equation(model, e, e.name), bond_variables(e.name)[1])
         if law is not None and _vanishes(law.xreplace(subs)):
             opened.add(e.name)
             elements[e.name] = Element(e.name, "Sf", value=sp.Integer(0), description=f"{e.name} open (infinite)")
@@ -330,13 +330,13 @@ def _tear(rels: list) -> tuple[list, list]:
 
 
 def _energy(spec: Model, e: Element, var: sp.Expr) -> sp.Expr:
-    """The energy variable of a storage element (p of an I, q of a C) from its flow or effort."""
-    if e.parameter:
-        return spec.symbols[e.parameter] * var
-    law = e.laws.get("momentum" if e.kind == "I" else "displacement")
-    if law is None:
-        return sp.nan
-    return law.xreplace({LAW_VARIABLES["f" if e.kind == "I" else "e"]: var})
+    """The energy variable of a storage element (p of an I, q of a C) from its flow or effort:
+    its law solved for it (:func:`bondgraph.laws.storage_equations`); nan where the law has no
+    inverse."""
+    x, (law, _rate) = storage_equations(spec, e, e.name)
+    effort, flow = bond_variables(e.name)
+    energy = solve_for(law, x)
+    return sp.nan if energy is None else energy.xreplace({flow if e.kind == "I" else effort: var})
 
 
 def _solver(lines: list[Line], residual: list[sp.Expr], coefficients: dict[int, dict[int, sp.Expr]],

@@ -46,30 +46,14 @@ from typing import Iterable, Mapping
 import sympy as sp
 
 from .graph import ports, to_networkx
-from .model import LAW_VARIABLES, SOURCE_KINDS, Model, t
+from .laws import (Equation, bond_variables, equation, junction_equations, resistor_equation,
+                   source_equation, storage_equations, substitution, two_port_equations)
+from .model import SOURCE_KINDS, Model, t
 
 MIXED = "mixed"
 DERIVATIVE = "derivative"
 INTEGRAL = "integral"
 CAUSALITIES = (DERIVATIVE, MIXED, INTEGRAL)
-
-
-@dataclass(frozen=True)
-class Equation:
-    """``expr = 0``. ``solutions`` gives the variables it may be solved for, explicitly.
-    A differential constraint (``differential = (x, dx)``: dx = d/dt x) has ``expr`` dx - x'
-    only symbolically; the derivation treats it by differentiation (or integration)."""
-    name: str
-    node: str
-    expr: sp.Expr
-    variables: frozenset
-    solutions: Mapping[sp.Symbol, sp.Expr] = field(default_factory=dict)
-    differential: tuple[sp.Symbol, sp.Symbol] | None = None
-
-    @property
-    def symbols(self) -> frozenset:
-        """Parameters, efficiency factors and mode variables in the equation (no unknowns)."""
-        return frozenset(s for s in self.expr.free_symbols if s not in self.variables and s != t)
 
 
 @dataclass(frozen=True)
@@ -84,38 +68,11 @@ class EquationSystem:
         return [e.variables for e in self.equations]
 
 
-def bond_variables(bond) -> tuple[sp.Symbol, sp.Symbol]:
-    return sp.Symbol(f"e[{bond}]", real=True), sp.Symbol(f"f[{bond}]", real=True)
-
-
-def _solve_linear(expr: sp.Expr, var: sp.Symbol) -> sp.Expr | None:
-    """var from expr = 0 when expr is linear in var with a coefficient free of unknowns."""
-    if not expr.has(var):
-        return None
-    coeff = sp.diff(expr, var)
-    if coeff.has(var) or coeff == 0:
-        return None
-    rest = expr.xreplace({var: sp.Integer(0)})
-    return -rest / coeff
-
-
-def _eq(name, node, expr, variables, solutions=None, linear=(), differential=None) -> Equation:
-    sol = dict(solutions or {})
-    for v in linear:
-        if v not in sol:
-            s = _solve_linear(expr, v)
-            if s is not None:
-                sol[v] = s
-    present = expr.free_symbols
-    variables = frozenset(v for v in variables if v in present)     # a mode at 0 removes some
-    sol = {v: x for v, x in sol.items() if v in variables}
-    return Equation(name, node, expr, variables, sol, differential)
-
-
 def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
               sensors: Mapping[str, sp.Expr] | None = None, signals: Mapping[sp.Symbol, sp.Expr] | None = None,
               strong: Mapping[str, object] | None = None, mode: Mapping[str, int] | None = None) -> EquationSystem:
-    """The model's equations, causality-free.
+    """The model's equations, causality-free: the laws of :mod:`bondgraph.laws`, node by node,
+    and one equation per sensor.
 
     ``sources`` gives each source element's output (default ``beta * input``), ``sensors`` the
     value each sensor measures (default the signal itself, ``y(t)``), ``signals`` replaces signal
@@ -123,7 +80,6 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
     DHBG causality; default its first bond), ``mode`` substitutes mode values (equations left
     without unknowns and identically zero are dropped)."""
     g = to_networkx(model)
-    signals = dict(signals or {})
     sources = sources or {}
     sensors = sensors or {}
     eqs: list[Equation] = []
@@ -131,33 +87,27 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
     for b in model.bonds:
         variables += list(bond_variables(b.id))
     modes = {model.symbols[k]: sp.Integer(v) for k, v in (mode or {}).items()}
-
-    def sub(x: sp.Expr) -> sp.Expr:
-        x = x.xreplace(signals) if signals else x
-        return x.xreplace(modes) if modes else x
+    sub = substitution(signals, modes)
 
     for node, kind in g.nodes(data="kind"):
         ps = [p for p in ports(g, node) if not isinstance(p[0], str)]
         if kind in ("0", "1", "0c", "1c"):
-            eqs += _junction_equations(model, node, kind, ps, strong, sub)
+            eqs += junction_equations(model, node, ps, _reference_bond(g, model.junctions[node], strong), sub)
         elif kind in SOURCE_KINDS:
-            (k, _, _), = ps
-            e, f = bond_variables(k)
-            x = e if kind in ("Se", "MSe") else f
             el = model.elements[node]
             value = sources.get(node)
             if value is None:
                 base = sp.Function(el.input, real=True)(t) if el.input else el.value
                 value = model.symbols[f"beta_{el.input or el.name}"] * base
-            eqs.append(_eq(node, node, x - sub(value), {x}, linear=[x]))
+            eqs.append(source_equation(node, kind, ps[0][0], value, sub))
         elif kind == "R":
-            eqs.append(_resistor(model, model.elements[node], ps[0][0], sub))
+            eqs.append(resistor_equation(model, model.elements[node], ps[0][0], sub))
         elif kind in ("C", "I"):
-            new_vars, new_eqs = _storage(model, model.elements[node], ps[0][0], sub)
-            variables += new_vars
+            x, new_eqs = storage_equations(model, model.elements[node], ps[0][0], sub)
+            variables.append(x)
             eqs += new_eqs
         elif kind in ("TF", "MTF", "GY", "MGY"):
-            eqs += _two_port(model.elements[node], ps, sub)
+            eqs += two_port_equations(model.elements[node], ps, sub)
     for s in model.sensors.values():
         j = model.junctions[s.junction]
         ref = _reference_bond(g, j, strong)
@@ -167,11 +117,11 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
         if s.measures in ("displacement", "momentum"):
             x = sp.Symbol(f"x[{s.name}]", real=True)
             variables.append(x)
-            eqs.append(_eq(s.name, s.name, x - value, {x}, linear=[x]))
-            eqs.append(_eq(f"{s.name}.d/dt", s.name, common - sp.Derivative(x, t), {x, common},
-                           solutions={}, differential=(x, common)))
+            eqs.append(equation(s.name, s.name, x - value, {x}, linear=[x]))
+            eqs.append(equation(f"{s.name}.d/dt", s.name, common - sp.Derivative(x, t), {x, common},
+                                solutions={}, differential=(x, common)))
         else:
-            eqs.append(_eq(s.name, s.name, common - value, {common}, linear=[common]))
+            eqs.append(equation(s.name, s.name, common - value, {common}, linear=[common]))
     if modes:
         eqs = [e for e in eqs if e.variables or e.expr != 0]
     used = set().union(*(e.variables for e in eqs)) if eqs else set()
@@ -179,110 +129,13 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
 
 
 def _reference_bond(g, junction, strong) -> int:
+    """The bond a junction's law is written against: a controlled junction's strong bond (its
+    DHBG causality, where given), otherwise its first bond."""
     ps = [p for p in ports(g, junction.name) if not isinstance(p[0], str)]
     if junction.controlled and strong and strong.get(junction.name) is not None \
-            and not isinstance(strong[junction.name], str):
+            and not isinstance(strong[junction.name], str) and strong[junction.name] in {k for k, _, _ in ps}:
         return strong[junction.name]
     return ps[0][0]
-
-
-def _junction_equations(model, node, kind, ps, strong, sub) -> list[Equation]:
-    junction = model.junctions[node]
-    common_i, total_i = (0, 1) if kind[0] == "0" else (1, 0)
-    var = {k: bond_variables(k) for k, _, _ in ps}
-    sign = {k: s for k, _, s in ps}
-    out: list[Equation] = []
-    if junction.controlled:
-        s = strong.get(node) if strong else None
-        if s is None or isinstance(s, str) or s not in var:
-            s = ps[0][0]
-        a = sub(model.symbols[junction.mode])
-        outputs = [k for k in var if k != s]
-        c = "e" if common_i == 0 else "f"
-        for n, k in enumerate(outputs):
-            x, xs = var[k][common_i], var[s][common_i]
-            if n == 0:      # the output times the mode: never solved for the strong side (division by a)
-                out.append(_eq(f"{node}.{c}{k}", node, x - a * xs, {x, xs}, solutions={x: a * xs}))
-            else:           # outputs equal one another in every mode
-                x0 = var[outputs[0]][common_i]
-                out.append(_eq(f"{node}.{c}{k}", node, x - x0, {x, x0}, linear=[x, x0]))
-        ys = var[s][total_i]
-        others = [sign[k] * var[k][total_i] for k in var if k != s]
-        value = a * (-sign[s]) * sp.Add(*others)
-        expr = ys - value
-        vs = {ys} | {var[k][total_i] for k in var if k != s}     # a mode at 0 leaves ys alone (_eq)
-        out.append(_eq(f"{node}.balance", node, expr, vs, solutions={ys: value}))
-        return out
-    first = ps[0][0]
-    for k, _, _ in ps[1:]:
-        x, x0 = var[k][common_i], var[first][common_i]
-        out.append(_eq(f"{node}.{'e' if common_i == 0 else 'f'}{k}", node, x - x0, {x, x0}, linear=[x, x0]))
-    ys = [var[k][total_i] for k, _, _ in ps]
-    expr = sp.Add(*[sign[k] * var[k][total_i] for k, _, _ in ps])
-    out.append(_eq(f"{node}.balance", node, expr, set(ys), linear=ys))
-    return out
-
-
-def _law(law: sp.Expr, local: str, value: sp.Expr, sub) -> sp.Expr:
-    return sub(law.xreplace({LAW_VARIABLES[local]: value}))
-
-
-def _resistor(model, el, k, sub) -> Equation:
-    e, f = bond_variables(k)
-    sol: dict = {}
-    if el.parameter is not None:
-        r = model.symbols[el.parameter]
-        sol = {e: sub(r * f), f: sub(e / r)}
-        expr = e - sub(r * f)
-    else:
-        if "effort" in el.laws:
-            sol[e] = _law(el.laws["effort"], "f", f, sub)
-        if "flow" in el.laws:
-            sol[f] = _law(el.laws["flow"], "e", e, sub)
-        expr = (e - sol[e]) if e in sol else (f - sol[f])
-    return _eq(el.name, el.name, expr, {e, f}, solutions=sol)
-
-
-def _storage(model, el, k, sub) -> tuple[list[sp.Symbol], list[Equation]]:
-    """C: e = phi(q), f = dq/dt; I: f = phi(p), e = dp/dt. The law is solved for the energy
-    variable too where the model gives the inverse (``displacement``/``momentum``) or a parameter."""
-    e, f = bond_variables(k)
-    if el.kind == "C":
-        x = sp.Symbol(f"q[{el.name}]", real=True)
-        out_var, rate, law_key, inv_key, energy, local = e, f, "effort", "displacement", "q", "e"
-    else:
-        x = sp.Symbol(f"p[{el.name}]", real=True)
-        out_var, rate, law_key, inv_key, energy, local = f, e, "flow", "momentum", "p", "f"
-    sol: dict = {}
-    if law_key in el.laws:
-        sol[out_var] = _law(el.laws[law_key], energy, x, sub)
-    elif el.parameter is not None:
-        sol[out_var] = sub(x / model.symbols[el.parameter])
-    if inv_key in el.laws:
-        sol[x] = _law(el.laws[inv_key], local, out_var, sub)
-    elif el.parameter is not None and law_key not in el.laws:
-        sol[x] = sub(model.symbols[el.parameter] * out_var)
-    if out_var in sol:
-        expr = out_var - sol[out_var]
-    else:
-        expr = x - sol[x]
-    law = _eq(el.name, el.name, expr, {x, out_var}, solutions=sol)
-    diff = _eq(f"{el.name}.d/dt", el.name, rate - sp.Derivative(x, t), {x, rate}, differential=(x, rate))
-    return [x], [law, diff]
-
-
-def _two_port(el, ps, sub) -> list[Equation]:
-    (b1, _, s1), (b2, _, s2) = ps
-    if s1 < 0:
-        b1, b2 = b2, b1
-    m = sub(el.modulus)
-    e1, f1 = bond_variables(b1)
-    e2, f2 = bond_variables(b2)
-    if el.kind in ("TF", "MTF"):     # e1 = m e2, f2 = m f1
-        return [_eq(f"{el.name}.e", el.name, e1 - m * e2, {e1, e2}, linear=[e1, e2]),
-                _eq(f"{el.name}.f", el.name, f2 - m * f1, {f1, f2}, linear=[f1, f2])]
-    return [_eq(f"{el.name}.e{b1}", el.name, e1 - m * f2, {e1, f2}, linear=[e1, f2]),     # GY: e1 = r f2
-            _eq(f"{el.name}.e{b2}", el.name, e2 - m * f1, {e2, f1}, linear=[e2, f1])]
 
 
 # ------------------------------------------------------------------ structural algorithms
