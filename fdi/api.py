@@ -72,7 +72,9 @@ def diagnose(model: Monitor | Model | str | Path, data: Any, config: MonitorConf
     if isinstance(config, MonitorConfig):
         config = Options(settings=config)
     o = replace(config or Options(), **options) if options else (config or Options())
-    return monitor_of(model).diagnose(measurements(data), o)
+    o.check()                                       # the options, then the model, then the data
+    monitor = monitor_of(model)
+    return monitor.diagnose(measurements(data), o)
 
 
 __all__ = ["diagnose", "measurements", "Diagnosis", "Options"]

@@ -68,21 +68,33 @@ def plot_diagnosis(d, folder: str | Path, model) -> list[Path]:
 
 
 def diagnosis_figures(d, model) -> dict:
-    """A :class:`fdi.results.Diagnosis` drawn: residuals with thresholds and t_D (Figs. 4, 7, 11, 13), fitness evolution of every estimator
-    (Figs. 9, 12), identified fault profiles, and the RUL prediction, as matplotlib Figures by name
-    (the caller shows, saves or closes them)."""
-    from .objective import nominal as nominal_value
-    from .profiles import profile
-
+    """A :class:`fdi.results.Diagnosis` drawn: residuals with thresholds and t_D (Figs. 4, 7, 11,
+    13), fitness evolution of every estimator (Figs. 9, 12), the fault-mode estimate (Fig. 8),
+    identified fault profiles, and the RUL prediction, as matplotlib Figures by name (the caller
+    shows, saves or closes them)."""
     plt = _plt()
-    figures = {}
     report = d.to_dict()
-    t, r, thr, names = d.t, d.residuals, d.thresholds, list(d.names)
-    det = report.get("detection")
+    figures = {"residuals": _residual_figure(plt, d, report.get("detection"))}
+    if report.get("estimators"):
+        figures["fitness"] = _fitness_figure(plt, report["estimators"])
+    if report.get("mode_costs"):
+        figures["mode_estimate"] = _mode_figure(plt, report)
+    faults = [f for f in report["diagnosis"]["faults"] if f["type"] != "mode"]
+    if faults and report.get("detection"):
+        figures["profiles"] = _profile_figure(plt, report, faults, d.t, model)
+    for prog in report["prognosis"]:
+        f = next(x for x in faults if x["name"] == prog["name"])
+        figures[f"rul_{prog['name']}"] = _rul_figure(plt, prog, f, f.get("t0", report["detection"]["time"]), model)
+    return figures
+
+
+def _residual_figure(plt, d, det: dict | None):
+    """Each residual in its unit with its thresholds, the detection and the decision times."""
+    names = list(d.names)
     units = dict(zip(names, d.units))
     fig, axes = plt.subplots(len(names), 1, figsize=(9, 2.2 * len(names)), sharex=True)
-    for k, (ax, name, ri, ti) in enumerate(zip(np.atleast_1d(axes), names, r, thr)):
-        ax.plot(t, ri, lw=0.7, label="residual")
+    for k, (ax, name, ri, ti) in enumerate(zip(np.atleast_1d(axes), names, d.residuals, d.thresholds)):
+        ax.plot(d.t, ri, lw=0.7, label="residual")
         ax.axhline(ti, color="k", ls="--", lw=0.8, label="threshold")
         ax.axhline(-ti, color="k", ls="--", lw=0.8)
         if det:
@@ -93,61 +105,71 @@ def diagnosis_figures(d, model) -> dict:
             ax.legend(fontsize=7, loc="upper left", ncol=4)
     np.atleast_1d(axes)[-1].set_xlabel("t [s]")
     fig.tight_layout()
-    figures["residuals"] = fig
-    if report.get("estimators"):
-        fig, ax = plt.subplots(figsize=(7, 4))
-        for e in report["estimators"]:
-            ax.plot(e["history"], label="{" + ", ".join(e["candidate"]) + "}")
-        ax.set_xlabel("generation")
-        ax.set_ylabel("best fitness")
-        ax.legend(fontsize=8)
-        fig.tight_layout()
-        figures["fitness"] = fig
-    if report.get("mode_costs"):
-        figures["mode_estimate"] = _mode_figure(plt, report)
-    faults = [f for f in report["diagnosis"]["faults"] if f["type"] != "mode"]
-    if faults and det:
-        fig, axes = plt.subplots(len(faults), 1, figsize=(8, 2.4 * len(faults)))
-        start, end = _data_window(report, t)
-        for ax, f in zip(np.atleast_1d(axes), faults):
-            t0 = f.get("t0", det["time"])
-            tt = np.linspace(min(t0, start) - 2, end + 2, 1400)
-            nominal = nominal_value(model, f["name"])
-            p = np.asarray(profile(f["type"], tt, t0, nominal, value=f.get("value"), period=f.get("period"),
-                                   model=f.get("model"), b=[f.get("b", [0])])).reshape(-1)
-            ax.plot(tt, np.where(np.isfinite(p), p, np.nan), lw=1.0, label="identified profile")
-            ax.axvspan(start, end, color="0.9", label="data window")
-            ax.axvline(t0, color="C1", ls="--", lw=0.8, label=f"onset {t0:.2f} s")
-            if not np.isfinite(nominal):
-                ax.text(0.01, 0.9, "nominal value: infinite (a healthy part)", transform=ax.transAxes, fontsize=8)
-            ax.set_title(f"{f['name']}: identified {f['type']} profile", fontsize=9)
-            ax.set_ylabel(f"{f['name']} [{fault_unit(model, f['name'])}]")
-            ax.set_xlabel("t [s]")
-            ax.legend(fontsize=7, loc="best")
-        fig.tight_layout()
-        figures["profiles"] = fig
-    for prog in report["prognosis"]:
-        f = next(x for x in faults if x["name"] == prog["name"])
+    return fig
+
+
+def _fitness_figure(plt, estimators: list[dict]):
+    """The best fitness of every estimator per generation."""
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for e in estimators:
+        ax.plot(e["history"], label="{" + ", ".join(e["candidate"]) + "}")
+    ax.set_xlabel("generation")
+    ax.set_ylabel("best fitness")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def _profile_figure(plt, report: dict, faults: list[dict], t: np.ndarray, model):
+    """Each identified fault's profile in its unit over the data window, with its onset."""
+    from .objective import nominal as nominal_value
+    from .profiles import profile
+
+    det = report["detection"]
+    fig, axes = plt.subplots(len(faults), 1, figsize=(8, 2.4 * len(faults)))
+    start, end = _data_window(report, t)
+    for ax, f in zip(np.atleast_1d(axes), faults):
         t0 = f.get("t0", det["time"])
-        end = prog["eol"] if prog["eol"] and np.isfinite(prog["eol"]) else t0 + 60
-        tt = np.linspace(t0, end + 5, 2000)
-        p = np.asarray(profile("incipient", tt, t0, nominal_value(model, f["name"]), model=f["model"],
-                               b=[f["b"]])).reshape(-1)
-        fig, ax = plt.subplots(figsize=(7, 3.5))
-        ax.plot(tt, p, label=f"identified {prog['name']}")
-        ax.axhline(prog["failure"], color="r", ls="--", label="failure value")
-        ax.axvline(prog["at"], color="k", ls=":", label=f"now ({prog['at']:.1f} s)")
-        ax.axvline(end, color="r", lw=0.8, label=f"EOL {end:.1f} s, RUL {prog['rul']:.1f} s")
-        low, high = prog.get("rul_low"), prog.get("rul_high")
-        if low is not None and high is not None and np.isfinite(low) and np.isfinite(high) and high > low:
-            ax.axvspan(prog["at"] + low, prog["at"] + high, color="r", alpha=0.12,
-                       label=f"RUL band {low:.1f}-{high:.1f} s (95 % coefficient intervals)")
-        ax.legend(fontsize=7)
-        ax.set_ylabel(f"{prog['name']} [{fault_unit(model, prog['name'])}]")
+        tt = np.linspace(min(t0, start) - 2, end + 2, 1400)
+        nominal = nominal_value(model, f["name"])
+        p = np.asarray(profile(f["type"], tt, t0, nominal, value=f.get("value"), period=f.get("period"),
+                               model=f.get("model"), b=[f.get("b", [0])])).reshape(-1)
+        ax.plot(tt, np.where(np.isfinite(p), p, np.nan), lw=1.0, label="identified profile")
+        ax.axvspan(start, end, color="0.9", label="data window")
+        ax.axvline(t0, color="C1", ls="--", lw=0.8, label=f"onset {t0:.2f} s")
+        if not np.isfinite(nominal):
+            ax.text(0.01, 0.9, "nominal value: infinite (a healthy part)", transform=ax.transAxes, fontsize=8)
+        ax.set_title(f"{f['name']}: identified {f['type']} profile", fontsize=9)
+        ax.set_ylabel(f"{f['name']} [{fault_unit(model, f['name'])}]")
         ax.set_xlabel("t [s]")
-        fig.tight_layout()
-        figures[f"rul_{prog['name']}"] = fig
-    return figures
+        ax.legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    return fig
+
+
+def _rul_figure(plt, prog: dict, f: dict, t0: float, model):
+    """An incipient fault's identified degradation to its failure value: EOL, RUL and its band."""
+    from .objective import nominal as nominal_value
+    from .profiles import profile
+
+    end = prog["eol"] if prog["eol"] and np.isfinite(prog["eol"]) else t0 + 60
+    tt = np.linspace(t0, end + 5, 2000)
+    p = np.asarray(profile("incipient", tt, t0, nominal_value(model, f["name"]), model=f["model"],
+                           b=[f["b"]])).reshape(-1)
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    ax.plot(tt, p, label=f"identified {prog['name']}")
+    ax.axhline(prog["failure"], color="r", ls="--", label="failure value")
+    ax.axvline(prog["at"], color="k", ls=":", label=f"now ({prog['at']:.1f} s)")
+    ax.axvline(end, color="r", lw=0.8, label=f"EOL {end:.1f} s, RUL {prog['rul']:.1f} s")
+    low, high = prog.get("rul_low"), prog.get("rul_high")
+    if low is not None and high is not None and np.isfinite(low) and np.isfinite(high) and high > low:
+        ax.axvspan(prog["at"] + low, prog["at"] + high, color="r", alpha=0.12,
+                   label=f"RUL band {low:.1f}-{high:.1f} s (95 % coefficient intervals)")
+    ax.legend(fontsize=7)
+    ax.set_ylabel(f"{prog['name']} [{fault_unit(model, prog['name'])}]")
+    ax.set_xlabel("t [s]")
+    fig.tight_layout()
+    return fig
 
 
 def fault_unit(model, name: str) -> str:

@@ -292,6 +292,14 @@ class Diagnosis:
         from .plots import diagnosis_figures
         return diagnosis_figures(self, self.bond_graph)
 
+    def rows(self) -> list[dict]:
+        """One row per fault (one row with ``fault`` None when there is none): :func:`fault_rows`."""
+        return fault_rows([self])
+
+    def to_frame(self):
+        """:meth:`rows` as a pandas DataFrame (the pandas extra)."""
+        return to_frame([self])
+
     def summary(self) -> str:
         """The diagnosis in a few lines: detection, faults, RULs."""
         d = self.detection
@@ -322,6 +330,48 @@ class Diagnosis:
         found = ", ".join(f"{f.name} {f.type}" for f in self.faults) or "no fault"
         when = "nothing detected" if self.detection is None else f"t_D = {self.detection.time:.4g} s"
         return f"<Diagnosis of {self.model}: {when}; {found}>"
+
+
+ROW_KEYS = ("file", "detection_time", "fault", "type", "value", "period", "model", "b", "t0", "rul", "rul_low",
+            "rul_high")
+
+
+def fault_rows(reports) -> list[dict]:
+    """One row per fault of each report (a :class:`Diagnosis`, or a report dict as a fleet returns
+    it, with its ``file``), every row with the keys of :data:`ROW_KEYS` (None where absent): a
+    report without a fault gives one row with ``fault`` None, so every file of a fleet shows.
+
+    >>> fault_rows([{"file": "a.csv", "detection": None, "diagnosis": {"faults": []}, "prognosis": []}])
+    [{'file': 'a.csv', 'detection_time': None, 'fault': None, 'type': None, 'value': None, 'period': None, 'model': None, 'b': None, 't0': None, 'rul': None, 'rul_low': None, 'rul_high': None}]
+    """
+    out = []
+    for r in reports:
+        report = r.to_dict() if isinstance(r, Diagnosis) else r
+        det = report.get("detection")
+        life = {p["name"]: p for p in report.get("prognosis") or []}
+        base = {"file": report.get("file"), "detection_time": None if det is None else det["time"]}
+        faults = (report.get("diagnosis") or {}).get("faults") or [None]
+        for f in faults:
+            row = dict.fromkeys(ROW_KEYS)
+            row.update(base)
+            if f is not None:
+                p = life.get(f["name"], {})
+                row.update({"fault": f["name"], "type": f["type"], "value": f.get("value"), "period": f.get("period"),
+                            "model": f.get("model"), "b": f.get("b"), "t0": f.get("t0"), "rul": p.get("rul"),
+                            "rul_low": p.get("rul_low"), "rul_high": p.get("rul_high")})
+            out.append(row)
+    return out
+
+
+def to_frame(reports):
+    """:func:`fault_rows` as a pandas DataFrame (``pip install 'bgfdi[pandas]'``); without pandas,
+    :func:`fault_rows` gives the same rows as dicts."""
+    try:
+        import pandas as pd
+    except ImportError:
+        raise ImportError("to_frame needs pandas: pip install 'bgfdi[pandas]' (fault_rows gives the same rows "
+                          "as plain dicts)") from None
+    return pd.DataFrame(fault_rows(reports), columns=list(ROW_KEYS))
 
 
 def deterministic(x):

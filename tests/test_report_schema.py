@@ -46,3 +46,17 @@ def test_a_report_missing_a_key_or_with_an_unknown_fault_type_is_refused():
     del lacking["diagnosis"]["faults"][1]["b"]           # an incipient fault without coefficients
     for bad in (missing, wrong, lacking):
         assert not VALIDATOR.is_valid(bad)
+
+
+def test_fault_rows_have_one_shape_for_a_fleet():
+    """One row per fault, the same keys on every row; a file without a fault still has its row.
+    Scenario 2 of the paper: R4 abrupt and beta_theta2 incipient with its RUL (Table III)."""
+    from fdi.results import ROW_KEYS, fault_rows
+    reports = [{"file": case, **json.loads(laid_out(EXPECTED[case]["cli"], "cli"))}
+               for case in ("cycab_nominal", "cycab_scenario2")]
+    rows = fault_rows(reports)
+    assert all(tuple(r) == ROW_KEYS for r in rows)
+    assert [(r["file"], r["fault"], r["type"]) for r in rows] == [
+        ("cycab_nominal", None, None), ("cycab_scenario2", "R4", "abrupt"),
+        ("cycab_scenario2", "beta_theta2", "incipient")]
+    assert rows[1]["rul"] is None and rows[2]["rul"] > 0 and rows[2]["model"] in (1, 2, 3, 4)

@@ -223,23 +223,41 @@ def cmd_check(args: argparse.Namespace) -> int:
     the simulated model: exit code 1 when one does not vanish (a finding, one line per ARR and
     mode on standard error), 0 otherwise."""
     if args.json:
-        from .check_report import analyse
-        report = analyse(args.model, args.causality, args.seed if args.verify else None)
-        _emit(_json_text(report), None)
-        verification = report["verification"]
-        if verification is not None and not verification["ok"]:
-            from .verify_report import failures
-            for line in failures(verification, args.model):
-                LOG.error(line)
-            return 1
-        return 0
+        return _check_json(args)
     from ..config import load
 
     with stage("load"):
         model, _ = load(args.model)              # the bond graph and the monitor settings both checked
+    _print_summary(model, args.model)
+    arrs = _print_diagnostic_causality(model, args)
+    sim = assign(model, SIMULATION)
+    print()
+    print("causality for simulation (SCAP, integral causality preferred)")
+    print("  storage: " + (", ".join(f"{k} {v}" for k, v in sim.storage.items()) or "none"))
+    for p in list(sim.problems) + list(sim.loops):
+        print(f"  note: {p}")
+    return _print_verification(model, arrs, args) if args.verify else 0
+
+
+def _check_json(args: argparse.Namespace) -> int:
+    """``check --json``: the analysis as one object; 1 when a verified residual does not vanish."""
+    from .check_report import analyse
+    report = analyse(args.model, args.causality, args.seed if args.verify else None)
+    _emit(_json_text(report), None)
+    verification = report["verification"]
+    if verification is not None and not verification["ok"]:
+        from .verify_report import failures
+        for line in failures(verification, args.model):
+            LOG.error(line)
+        return 1
+    return 0
+
+
+def _print_summary(model: Model, path: str) -> None:
+    """The model's elements, junctions, bonds, sensors, modes and faults, one line each."""
     kinds = Counter(e.kind for e in model.elements.values())
     jkinds = Counter(j.kind for j in model.junctions.values())
-    print(f"model {model.name} ({args.model})")
+    print(f"model {model.name} ({path})")
     if model.reference:
         print(f"  reference: {model.reference}")
     print(f"  elements   {len(model.elements)}: " + ", ".join(f"{k} {v}" for k, v in sorted(kinds.items())))
@@ -253,13 +271,18 @@ def cmd_check(args: argparse.Namespace) -> int:
           + f" -> {2 ** len(model.modes)} mode(s)")
     print(f"  faults     {len(model.faults)}: " + ", ".join(
         f"{f.name} ({f.kind}: {', '.join(f.targets)})" for f in model.faults.values()))
+
+
+def _print_diagnostic_causality(model: Model, args: argparse.Namespace) -> list:
+    """SCAPH's assignment, the residuals chosen (SCAPH's, or MSO residuals where it falls short),
+    checked defined in every mode; returns the residuals."""
+    from ..arrs import select_arrs, undefined_in_modes
+    from ..signatures import all_modes
+
     with stage("diagnostic causality (SCAPH)"):
         diag = assign(model, DIAGNOSIS)
     print()
     print("causality for diagnosis (SCAPH: sources fixed, sensors inverted, storage in derivative causality)")
-    from ..arrs import select_arrs, undefined_in_modes
-    from ..signatures import all_modes
-
     with stage(f"residual selection ({args.causality} causality)"):
         chosen = select_arrs(model, args.causality)
     if not diag.ok:
@@ -276,6 +299,17 @@ def cmd_check(args: argparse.Namespace) -> int:
     bad = undefined_in_modes(model, arrs, all_modes(model))
     if bad:
         raise CausalityError(bad)
+    _print_assignment(model, diag)
+    print()
+    print(f"residuals ({args.causality} causality): " + ", ".join(
+        f"{a.name} ({'SCAPH, ' + str(a.sensor) if a.origin == 'SCAPH' else 'MSO at ' + a.junction})" for a in arrs))
+    for note in chosen.notes:
+        print(f"  note: {note}")
+    return arrs
+
+
+def _print_assignment(model: Model, diag: Causality) -> None:
+    """One assignment valid in every mode, storage causalities, strong bonds, detectors, strokes."""
     n_modes = len(diag.modes_checked)
     print(f"  one assignment, valid in all {n_modes} mode(s)"
           + (f" ({', '.join(model.modes)} in {{0, 1}}; checked: every residual is defined in each): controlled "
@@ -293,19 +327,10 @@ def cmd_check(args: argparse.Namespace) -> int:
     print("  bond  from -> to  causal stroke:")
     for line in _causality_lines(model, diag):
         print(line)
-    print()
-    print(f"residuals ({args.causality} causality): " + ", ".join(
-        f"{a.name} ({'SCAPH, ' + str(a.sensor) if a.origin == 'SCAPH' else 'MSO at ' + a.junction})" for a in arrs))
-    for note in chosen.notes:
-        print(f"  note: {note}")
-    sim = assign(model, SIMULATION)
-    print()
-    print("causality for simulation (SCAP, integral causality preferred)")
-    print("  storage: " + (", ".join(f"{k} {v}" for k, v in sim.storage.items()) or "none"))
-    for p in list(sim.problems) + list(sim.loops):
-        print(f"  note: {p}")
-    if not args.verify:
-        return 0
+
+
+def _print_verification(model: Model, arrs: list, args: argparse.Namespace) -> int:
+    """``--verify``: every residual on the model's own simulation; 1 when one does not vanish."""
     from ..verify import verify
     from .verify_report import failures, to_json, to_lines
 
