@@ -282,15 +282,8 @@ def dependency_graph(model: Model, causality: Causality) -> nx.DiGraph:
     ``kind`` is 'algebraic' or 'derivative' (through a storage element in derivative causality).
     Read off the laws solved for their causal outputs (:func:`bondgraph.equations.causal_forms`).
 
-    >>> from bondgraph.loader import load_model_text
-    >>> m = load_model_text('''
-    ... parameters: {R: {value: 2.0, unit: Ohm}}
-    ... inputs: {u: {column: u, unit: V}}
-    ... elements: {src: {type: MSe, input: u}, res: {type: R, parameter: R}}
-    ... junctions: {j: {type: "1"}}
-    ... sensors: {i: {type: Df, junction: j, unit: A}}
-    ... bonds: {1: [src, j], 2: [j, res]}
-    ... ''')
+    >>> from bondgraph.examples import source_resistor
+    >>> m = source_resistor()
     >>> sorted(f"{a}{i} -> {b}{o}" for (a, i), (b, o) in dependency_graph(m, assign(m)).edges)
     ['e1 -> ei', 'e2 -> ei', 'f2 -> e2', 'fi -> f1', 'fi -> f2']
     """

@@ -100,16 +100,9 @@ def relations(model: Model, causality: Causality, *, known: Mapping[str, sp.Expr
     variable (q or p) of each storage element in integral causality; ``signals`` replaces the
     signal symbols that modulated elements use (e.g. theta2 in F1(theta2)).
 
-    >>> from bondgraph.loader import load_model_text
+    >>> from bondgraph.examples import source_resistor
     >>> from bondgraph.causality import assign
-    >>> m = load_model_text('''
-    ... parameters: {R: {value: 2.0, unit: Ohm}}
-    ... inputs: {u: {column: u, unit: V}}
-    ... elements: {src: {type: MSe, input: u}, res: {type: R, parameter: R}}
-    ... junctions: {j: {type: "1"}}
-    ... sensors: {i: {type: Df, junction: j, unit: A}}
-    ... bonds: {1: [src, j], 2: [j, res]}
-    ... ''')
+    >>> m = source_resistor()
     >>> rels = relations(m, assign(m), known={"src": signal("u"), "i": signal("i")}, states={}, signals={})
     >>> resolve(rels, [("e", "i")])[("e", "i")]      # the junction's balance: the ARR u - R i
     -R*i(t) + u(t)

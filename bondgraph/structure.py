@@ -22,15 +22,8 @@ explicitly (``solutions``): a friction law ``e = b f + c sign(f)`` gives e from 
 e, and a controlled junction gives its outputs times its mode variable, never the reverse (the
 diagnostic hybrid bond graph: one causality for controlled junctions, valid in every mode).
 
->>> from bondgraph.loader import load_model_text
->>> m = load_model_text('''
-... parameters: {R: {value: 2.0, unit: Ohm}}
-... inputs: {u: {column: u, unit: V}}
-... elements: {src: {type: MSe, input: u}, res: {type: R, parameter: R}}
-... junctions: {j: {type: "1"}}
-... sensors: {i: {type: Df, junction: j, unit: A}}
-... bonds: {1: [src, j], 2: [j, res]}
-... ''')
+>>> from bondgraph.examples import source_resistor
+>>> m = source_resistor()
 >>> system = equations(m)
 >>> len(system.equations), len(system.variables), redundancy(system)
 (5, 4, 1)

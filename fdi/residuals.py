@@ -13,16 +13,9 @@ it stays at zero (to the derivative filter's error, away from its ends); on data
 of half the value, it is the current the model misses, v/R.
 
 >>> import numpy as np
->>> from bondgraph.loader import load_model_text
+>>> from bondgraph.examples import rc_parallel
 >>> from fdi.scaph import derive_arrs
->>> m = load_model_text('''
-... parameters: {C1: {value: 1.0e-3, unit: F}, R: {value: 100.0, unit: Ohm}}
-... inputs: {i_in: {unit: A, column: i_in}}
-... elements: {src: {type: MSf, input: i_in}, cap: {type: C, parameter: C1}, res: {type: R, parameter: R}}
-... junctions: {j: {type: "0"}}
-... sensors: {v: {type: De, junction: j, unit: V}}
-... bonds: {1: [src, j], 2: [j, cap], 3: [j, res]}
-... ''')
+>>> m = rc_parallel()
 >>> kcl = compile_residual(m, derive_arrs(m)[0])
 >>> kcl.signals                               # what it reads: i_in, v and dv/dt
 (('i_in', 0), ('v', 0), ('v', 1))

@@ -10,16 +10,9 @@ A current source feeding a capacitor and a resistor in parallel, its voltage mea
 is Kirchhoff's current law, each measurement divided by its efficiency factor and the source
 multiplied by its own.
 
->>> from bondgraph.loader import load_model_text
+>>> from bondgraph.examples import rc_parallel
 >>> from fdi.scaph import derive_arrs
->>> m = load_model_text('''
-... parameters: {C1: {value: 1.0e-3, unit: F}, R: {value: 100.0, unit: Ohm}}
-... inputs: {i_in: {unit: A, column: i_in}}
-... elements: {src: {type: MSf, input: i_in}, cap: {type: C, parameter: C1}, res: {type: R, parameter: R}}
-... junctions: {j: {type: "0"}}
-... sensors: {v: {type: De, junction: j, unit: V}}
-... bonds: {1: [src, j], 2: [j, cap], 3: [j, res]}
-... ''')
+>>> m = rc_parallel()
 >>> arr_text(derive_arrs(m)[0])
 "-C1*v'/beta_v + beta_i_in*i_in - v/(R*beta_v)"
 """
