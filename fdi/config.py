@@ -51,7 +51,7 @@ DEFAULT_SAMPLES = 1000       # the paper's identification window (Section IV)
 @dataclass(frozen=True)
 class FaultSettings:
     """How one candidate fault is identified: search ``bounds`` [low, high] (None: the defaults of
-    :func:`fdi.identify.fault_space`) and the ``failure`` value its prognosis runs to (None: none)."""
+    :func:`fdi.objective.fault_space`) and the ``failure`` value its prognosis runs to (None: none)."""
     bounds: tuple[float, float] | None = None
     failure: float | None = None
 

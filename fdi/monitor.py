@@ -81,6 +81,9 @@ def _source(model: Model | str | Path) -> tuple[Model, MonitorConfig]:
         if path is not None and path.is_file():
             return model, _file(str(path)).config
         return model, MonitorConfig()
+    if not isinstance(model, (str, Path)):
+        raise TypeError(f"a model is a path to a YAML file, YAML text, a bondgraph Model or an fdi Monitor, "
+                        f"not {type(model).__name__}")
     text = str(model)
     if "\n" in text:                                # YAML text; one line is a path
         return load_text(text)

@@ -64,7 +64,7 @@ def end_of_life(model_no: int, b: list[float], nominal: float, failure: float, t
 def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float) -> dict:
     """EOL, RUL at ``now`` = tf + N ts, and the RUL band: the RULs at the corners of the
     coefficients' 95 % likelihood-ratio intervals (``b_band``, from the final fit: see
-    ``fdi.identify.coefficient_band``); without a band, the band is the RUL itself."""
+    ``fdi.estimators.coefficient_band``); without a band, the band is the RUL itself."""
     eol = end_of_life(fault["model"], fault["b"], nominal, failure, tf, now)
     ruls = [eol - now]
     band = fault.get("b_band") or []

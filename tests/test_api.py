@@ -127,3 +127,8 @@ def test_a_model_changed_in_memory_is_what_gets_diagnosed():
     assert diagnose(model, data, workers=1).detection is None
     d = diagnose(heavy, data, workers=1)
     assert d.detection is not None and d.detection.coherence[0] == 1
+
+
+def test_a_model_of_another_kind_is_refused_in_one_line():
+    with pytest.raises(TypeError, match="a model is a path to a YAML file, YAML text, a bondgraph Model"):
+        diagnose(42, DATA / "nominal.csv")

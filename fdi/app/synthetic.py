@@ -37,7 +37,7 @@ class Problem:
     t0: float
     cost: Callable[[np.ndarray, np.ndarray], np.ndarray]
     description: str = ""
-    objective: object = None          # an fdi.identify.Objective (onset fixed at t0) when the problem is on data
+    objective: object = None          # an fdi.objective.Objective (onset fixed at t0) when the problem is on data
 
     def __call__(self, real: np.ndarray, bits: np.ndarray) -> np.ndarray:
         """The cost: a problem of ``optim`` (``optim.core.Problem``), its hooks ``n_bits``,
