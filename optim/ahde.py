@@ -56,7 +56,7 @@ from typing import Hashable
 
 import numpy as np
 
-from .core import Counter, Engine, Options, Posed, Result, Solver
+from .core import Counter, Engine, Options, Posed, Result, GenerationalSolver
 
 @dataclass
 class Branch:
@@ -136,7 +136,7 @@ class AHDEOptions(Options):
                 raise ValueError(f"AHDEOptions.{name} must be > 0, not {getattr(self, name)!r}")
 
 
-class AHDE(Solver):
+class AHDE(GenerationalSolver):
     """Structure racing with per-structure DE. Phases: ``init_population`` screens the structures,
     each ``step`` is one rung of the race, ``converged`` once two finalists remain, ``polish``
     refines, revives and settles them, ``result`` names the winner and the margin."""

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .core import (Engine, Result, Solver, Stopping, binomial_crossover, distinct_indices, greedy_replace, init_population,
+from .core import (Engine, Result, GenerationalSolver, Stopping, binomial_crossover, distinct_indices, greedy_replace, init_population,
                    repair_midpoint)
 
 
@@ -53,7 +53,7 @@ class PaperOptions(Stopping):
     bit_flip: float = 0.0                   # probability of flipping each trial bit after eq. (23); not in the paper
 
 
-class AHDEPaper(Solver):
+class AHDEPaper(GenerationalSolver):
     """The paper's AHDE, one generation per ``step``."""
 
     def init_population(self) -> None:

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import difflib
 import time
+from abc import ABC, abstractmethod
 from dataclasses import dataclass, field, fields, replace
 from numbers import Integral
 from typing import Callable, Hashable, Protocol, Sequence
@@ -305,12 +306,11 @@ def end_generation(history: list[float], best: float, generation: int, callback,
 
 
 
-class Solver:
+class Solver(ABC):
     """One run of an engine on a posed problem: its state (random generator, evaluation counter,
-    history, stop reason) and its phases, as scipy's ``DifferentialEvolutionSolver`` has them.
-    ``solve`` runs ``init_population``, then ``step`` (one generation) until ``converged``, then
-    ``polish``, and returns ``result``. An engine whose loop lives elsewhere (scipy's) overrides
-    ``solve`` itself."""
+    history, stop reason), as scipy's ``DifferentialEvolutionSolver`` holds it; ``solve`` runs it.
+    Engines that go generation by generation derive from :class:`GenerationalSolver`; an engine
+    whose loop lives elsewhere (scipy's, L-SHADE's) implements ``solve`` itself."""
 
     def __init__(self, problem: Posed, options: Options) -> None:
         self.problem, self.options = problem, options
@@ -323,29 +323,13 @@ class Solver:
         self.stop: str | None = None               # why the run stopped, once it has
         self.started = time.perf_counter()
 
+    @abstractmethod
     def solve(self) -> Result:
-        self.init_population()
-        while not self.converged():
-            self.step()
-        self.polish()
-        return self.result()
-
-    def init_population(self) -> None:
-        raise NotImplementedError
-
-    def step(self) -> None:
-        """One generation."""
-        raise NotImplementedError
+        """Run to the end; the best point found."""
 
     def converged(self) -> bool:
         """Stopped by a rule (``stop`` set) or at the last generation of the budget."""
         return self.stop is not None or self.generation >= self.options.generations
-
-    def polish(self) -> None:
-        """After the generations: nothing unless the engine refines its best."""
-
-    def result(self) -> Result:
-        raise NotImplementedError
 
     def end_generation(self, best: float) -> None:
         """Record the generation's best cost, tell the callback, and stop on the engine's rules
@@ -359,6 +343,33 @@ class Solver:
         return Result(real, bits, float(cost), self.history, self.counter.evaluations,
                       len(self.history) - 1 if generations is None else generations,
                       time.perf_counter() - self.started, self.counter.seconds, self.stop or "budget", extra or {})
+
+
+class GenerationalSolver(Solver):
+    """A solver by phases: ``init_population``, then ``step`` (one generation) until ``converged``,
+    then ``polish``, and ``result``."""
+
+    def solve(self) -> Result:
+        self.init_population()
+        while not self.converged():
+            self.step()
+        self.polish()
+        return self.result()
+
+    @abstractmethod
+    def init_population(self) -> None:
+        """The first population, evaluated."""
+
+    @abstractmethod
+    def step(self) -> None:
+        """One generation."""
+
+    def polish(self) -> None:
+        """After the generations: nothing unless the engine refines its best."""
+
+    @abstractmethod
+    def result(self) -> Result:
+        """The best point found, with the run's history and counts."""
 
 
 @dataclass(frozen=True)

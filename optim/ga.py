@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .core import EPS, Engine, Result, Solver, Stopping
+from .core import EPS, Engine, Result, GenerationalSolver, Stopping
 
 
 def decode(genes: np.ndarray, bounds: np.ndarray, bits_per_real: int) -> np.ndarray:
@@ -59,7 +59,7 @@ class AGAOptions(GAOptions):
     aim: float = 0.2                        # an operator whose success share exceeds this has its rate raised by 10 %
 
 
-class GA(Solver):
+class GA(GenerationalSolver):
     """Elitist roulette GA, one generation per ``step``; ``adapt`` is AGA's."""
 
     def init_population(self) -> None:
