@@ -84,7 +84,7 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
     def cost(fs: list[dict]) -> float:
         return Objective(model, residuals, win, (), weights, w, fixed=fs, config=monitor.config, modes=modes).constant()
     kept, dropped = [f for f in faults if f["type"] != "mode"], []
-    modes = [f for f in faults if f["type"] == "mode"]
+    mode_faults = [f for f in faults if f["type"] == "mode"]
     while len(kept) > 1:
         current = information(cost(kept), kept, n_eff)
         trials = [(information(cost([g for g in kept if g is not f]), [g for g in kept if g is not f], n_eff), f)
@@ -94,4 +94,4 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
             break
         kept = [g for g in kept if g is not f]
         dropped.append(Dropped(f, best - current))
-    return modes + kept, tuple(dropped)
+    return mode_faults + kept, tuple(dropped)

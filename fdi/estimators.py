@@ -159,7 +159,8 @@ class Estimators:
     def _map(self, jobs: list[Job]) -> list[Estimate]:
         if self.workers > 1 and len(jobs) > 1:
             if self._pool is None:
-                self._pool = ProcessPoolExecutor(self.workers, initializer=_install, initargs=(self.monitor,))
+                self._pool = ProcessPoolExecutor(min(self.workers, len(jobs)), initializer=_install,
+                                                 initargs=(self.monitor,))
             return list(self._pool.map(_fit_in_worker, jobs))
         return [fit(self.monitor, job) for job in jobs]
 

@@ -42,8 +42,8 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
     signals = corrected_signals(model, win.raw, win.ts, derivative_orders(list(residuals)), None, window_s)
     c = win.crop
     # the mode each variable should be in: the command at the window's start, or the nominal mode
-    current = {m: int(np.asarray(nominal[m]).reshape(-1)[c.start]) if np.ndim(nominal[m]) else int(model.modes[m].nominal)
-               for m in model.modes}
+    current = {m: int(np.asarray(nominal[m]).reshape(-1)[c.start]) if np.ndim(nominal[m]) else int(nominal[m])
+               for m in model.modes}                # a mode the caller fixed (Options.mode) is that mode
 
     def cost(real: np.ndarray, bits: np.ndarray) -> np.ndarray:
         values = dict(nominal)

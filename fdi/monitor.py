@@ -52,8 +52,9 @@ def _remember(cache: OrderedDict, key, value) -> None:
 
 
 def model_key(model: Model) -> str:
-    """The identity of a model's physics: a digest of its content, so a model changed in memory is
-    derived again and an unchanged one never twice in a process."""
+    """The identity of a model's physics: a digest of its pickled content, so a model changed in
+    memory is derived again, never served a stale derivation (pickling is not canonical: two loads
+    of one file may digest apart and derive twice; a monitor keeps its key)."""
     return hashlib.sha256(pickle.dumps(model, protocol=4)).hexdigest()
 
 
@@ -79,7 +80,7 @@ def _source(model: Model | str | Path) -> tuple[Model, MonitorConfig]:
     if isinstance(model, Model):
         path = Path(model.path) if model.path else None
         if path is not None and path.is_file():
-            return model, _file(str(path)).config
+            return model, _file(model.path).config
         return model, MonitorConfig()
     if not isinstance(model, (str, Path)):
         raise TypeError(f"a model is a path to a YAML file, YAML text, a bondgraph Model or an fdi Monitor, "
@@ -96,7 +97,7 @@ def _file(path: str) -> "Monitor":
     a model edited between two diagnoses is derived again, never served stale."""
     try:
         st = os.stat(path)
-        version = (path, st.st_size, st.st_mtime_ns)
+        version = (os.path.realpath(path), st.st_size, st.st_mtime_ns)
     except OSError:
         version = None                              # the loader reports the file as missing
     if version is not None and version in _files:

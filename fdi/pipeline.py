@@ -30,7 +30,7 @@ from .objective import nominal, window
 from .options import MIN_WINDOW_S, Options, check_samples
 from .prognose import prognose
 from .residuals import evaluate
-from .results import Alternative, Diagnosis, Estimate, Isolation, ModeFault, Prognosis, faults_of
+from .results import Alternative, Diagnosis, Isolation, ModeFault, Prognosis, faults_of
 from .sensitivity import effective, weak_entries
 from .signatures import nominal_mode
 from .stuck import stuck_from
@@ -243,7 +243,7 @@ def stuck_sensors(p: Prepared, d: Diagnosis) -> Diagnosis:
 
 
 def check_window(meas: Measurements, t0: float, samples: int, min_period: float = MIN_WINDOW_S) -> None:
-    """The identification window (N samples from t_D, as identify.window cuts it) spans at least
+    """The identification window (N samples from t_D, as fdi.objective.window cuts it) spans at least
     the shortest period searched: data that end just after the detection leave no period to search."""
     i0 = int(np.searchsorted(meas.t, t0 - 1e-9))
     span = min(samples, meas.t.size - i0) * meas.ts
@@ -369,4 +369,4 @@ def refresh_prognosis(monitor: "Monitor", meas: Measurements, d: Diagnosis, opti
     return tuple(others) + tuple(result.faults), prognosis
 
 
-__all__ = ["run", "prepare", "Prepared", "refresh_prognosis", "check_window", "mode_fault_name", "Estimate"]
+__all__ = ["run", "prepare", "Prepared", "refresh_prognosis", "check_window", "mode_fault_name"]

@@ -153,6 +153,7 @@ def _rul_figure(plt, prog: dict, f: dict, t0: float, model):
     from .profiles import profile
 
     end = prog["eol"] if prog["eol"] and np.isfinite(prog["eol"]) else t0 + 60
+    rul = prog["rul"] if prog["rul"] is not None else float("inf")    # null in JSON: no end of life predicted
     tt = np.linspace(t0, end + 5, 2000)
     p = np.asarray(profile("incipient", tt, t0, nominal_value(model, f["name"]), model=f["model"],
                            b=[f["b"]])).reshape(-1)
@@ -160,7 +161,7 @@ def _rul_figure(plt, prog: dict, f: dict, t0: float, model):
     ax.plot(tt, p, label=f"identified {prog['name']}")
     ax.axhline(prog["failure"], color="r", ls="--", label="failure value")
     ax.axvline(prog["at"], color="k", ls=":", label=f"now ({prog['at']:.1f} s)")
-    ax.axvline(end, color="r", lw=0.8, label=f"EOL {end:.1f} s, RUL {prog['rul']:.1f} s")
+    ax.axvline(end, color="r", lw=0.8, label=f"EOL {end:.1f} s, RUL {rul:.1f} s")
     low, high = prog.get("rul_low"), prog.get("rul_high")
     if low is not None and high is not None and np.isfinite(low) and np.isfinite(high) and high > low:
         ax.axvspan(prog["at"] + low, prog["at"] + high, color="r", alpha=0.12,

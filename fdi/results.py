@@ -104,10 +104,6 @@ def faults_of(entries) -> tuple[Fault, ...]:
     return tuple(f if isinstance(f, Fault) else Fault.from_dict(f) for f in entries)
 
 
-def fault_dicts(faults) -> list[dict]:
-    return [f.to_dict() if isinstance(f, Fault) else dict(f) for f in faults]
-
-
 @dataclass(frozen=True)
 class Isolation:
     """The candidate sets the FSM leaves for the final coherence vector (``relaxed``: found only

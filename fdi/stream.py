@@ -29,7 +29,7 @@ with a margin of one window on each side, and equal those of the whole file.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
@@ -213,7 +213,7 @@ class Stream:
         self.pending = [d for d in self.pending if d not in due]
         d = self.monitor.diagnose(self.measurements(), self.options, memo=self.memo)
         self._report_decisions(d.to_dict(), float(t[-1]))
-        self.latest = d
+        self.latest = replace(d, t=None, residuals=None)     # the decision, not the stream's residuals
         self.next_refresh = float(t[-1]) + self.refresh
 
     def _refresh(self) -> None:

@@ -132,3 +132,20 @@ def test_a_model_changed_in_memory_is_what_gets_diagnosed():
 def test_a_model_of_another_kind_is_refused_in_one_line():
     with pytest.raises(TypeError, match="a model is a path to a YAML file, YAML text, a bondgraph Model"):
         diagnose(42, DATA / "nominal.csv")
+
+
+@pytest.mark.skipif(importlib.util.find_spec("matplotlib") is None, reason="the plot extra is not installed")
+def test_a_prognosis_without_an_end_of_life_is_plotted():
+    """A drift that never reaches its failure value has no EOL (inf, null in JSON): its RUL plot
+    says so instead of failing."""
+    from dataclasses import replace
+
+    import matplotlib.pyplot as plt
+
+    from fdi.results import Prognosis
+    d = diagnose(str(CYCAB), DATA / "scenario2.csv", workers=1)
+    never = Prognosis("beta_theta2", 0.5, float("inf"), float("inf"), 41.98, float("inf"), float("inf"))
+    figures = replace(d, prognosis=(never,)).plot()
+    assert any("RUL inf s" in label for label in figures["rul_beta_theta2"].axes[0].get_legend_handles_labels()[1])
+    for fig in figures.values():
+        plt.close(fig)
