@@ -70,6 +70,8 @@ class MonitorConfig:
     derivative_window: float | None = None
     faults: Mapping[str, FaultSettings] = field(default_factory=dict)
     exoneration: str = "sensitivity"        # or "structural": the paper's (every structural 1 exonerates)
+    persistence: float | None = None        # threshold-seconds a residual's excursion lasts before it is
+                                            # latched (fdi.detect); None: a quarter derivative window
 
     def bounds(self, fault: str) -> tuple[float, float] | None:
         """The search bounds of ``fault`` given in the file, or None."""
@@ -91,7 +93,7 @@ class MonitorConfig:
 def read_config(doc: Document, model: Model) -> MonitorConfig:
     """The monitor settings of a read model file; a ModelError (file, key, line) on a bad value."""
     diag = doc.spec(doc.data.get("diagnosis") or {}, ("diagnosis",),
-                    {"waiting_time", "samples", "derivative_window", "exoneration"})
+                    {"waiting_time", "samples", "derivative_window", "exoneration", "persistence"})
     exoneration = diag.get("exoneration", "sensitivity")
     if exoneration not in EXONERATIONS:
         raise doc.error(("diagnosis", "exoneration"), f"exoneration must be {' or '.join(EXONERATIONS)}, not "
@@ -103,10 +105,16 @@ def read_config(doc: Document, model: Model) -> MonitorConfig:
     if diag.get("waiting_time") is not None:
         waiting = doc.number(diag["waiting_time"], ("diagnosis", "waiting_time"), "waiting_time (a time in s)",
                              minimum=0, maximum=MAX_TIME)
+    persistence = None
+    if diag.get("persistence") is not None:
+        persistence = doc.number(diag["persistence"], ("diagnosis", "persistence"),
+                                 "persistence (threshold-seconds: how long a residual at twice its threshold "
+                                 "takes to be confirmed; 0 = the first crossing)", minimum=0, maximum=MAX_TIME)
     samples = int(doc.number(diag.get("samples", DEFAULT_SAMPLES), ("diagnosis", "samples"), "samples",
                              integer=True, minimum=2, maximum=MAX_SAMPLES))
     return MonitorConfig(thresholds=_thresholds(doc, model), waiting_time=waiting, samples=samples,
-                         derivative_window=window, faults=_fault_settings(doc, model), exoneration=str(exoneration))
+                         derivative_window=window, faults=_fault_settings(doc, model), exoneration=str(exoneration),
+                         persistence=persistence)
 
 
 def _thresholds(doc: Document, model: Model) -> dict[str, float]:

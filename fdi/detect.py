@@ -7,6 +7,18 @@ A residual is inconsistent at a sample where |r| exceeds its threshold. The cohe
 slowly growing incipient fault can light its residuals before candidates are formed. The first
 ``settle`` seconds and the last ``edge`` seconds are ignored: there the derivative filter is not
 centred (half a derivative window at each end by default, :mod:`fdi.scales`).
+
+**Persistence.** A residual joins the coherence vector only when its excursions above the
+threshold carry enough evidence: the time it spends above the threshold, each sample weighted by
+how far above (|r|/eps), summed over the last ``span`` seconds, must reach ``persistence``
+(threshold-seconds: the time a residual just above its threshold takes; at twice it, half that).
+It is a debounce counter of the kind engine monitors use, weighted like a CUSUM. A brief excursion
+(a filter transient, a spike as a leak opens: 0.12 threshold-seconds measured on the CyCab, whose
+persistence is 0.25) is not latched; a fault's residual is, and one the excitation modulates
+(above for a moment in each cycle) adds its crossings up within the span. ``persistence`` = 0 is
+the paper's rule (the first sample above the threshold). The detection time t_D is the first
+crossing inside the span that confirmed the alarm, so the identification window still starts
+with the fault; the decision waits T_wt from the alarm, when the monitor knows.
 """
 from __future__ import annotations
 
@@ -18,17 +30,36 @@ import numpy as np
 
 @dataclass(frozen=True)
 class Detection:
-    """The first threshold crossing t_D (sample ``index``), the coherence vector there, and the
-    coherence vector at the decision time t_D + T_wt (clipped to the data)."""
+    """The start t_D (sample ``index``) of the first excursion that persisted, the residuals
+    confirmed at its ``alarm`` (the coherence vector at detection), and the coherence vector at the
+    decision time alarm + T_wt (clipped to the data). Without persistence alarm = t_D."""
     time: float                         # tD
-    coherence: tuple[int, ...]          # at tD
-    decision_time: float                # tD + Twt (clipped to the data)
-    final_coherence: tuple[int, ...]    # at tD + Twt
+    coherence: tuple[int, ...]          # at the alarm
+    decision_time: float                # alarm + Twt (clipped to the data)
+    final_coherence: tuple[int, ...]    # at the decision time
     index: int                          # sample index of tD
+    alarm: float | None = None          # when the persistence rule confirmed the excursion (None: t_D)
+
+    @property
+    def alarm_time(self) -> float:
+        return self.time if self.alarm is None else self.alarm
 
     def to_dict(self) -> dict:
-        return {"time": self.time, "coherence": list(self.coherence), "decision_time": self.decision_time,
-                "final_coherence": list(self.final_coherence)}
+        return {"time": self.time, "alarm": self.alarm_time, "coherence": list(self.coherence),
+                "decision_time": self.decision_time, "final_coherence": list(self.final_coherence)}
+
+
+@dataclass(frozen=True)
+class Alarms:
+    """Per residual: the sample of its first alarm (-1: none) and its first crossing inside the
+    span that confirmed the alarm."""
+    at: np.ndarray
+    start: np.ndarray
+
+    def latched(self, samples: int) -> np.ndarray:
+        """Boolean (n_residuals, samples): residual i confirmed at or before sample k."""
+        k = np.arange(samples)[None, :]
+        return (self.at[:, None] >= 0) & (k >= self.at[:, None])
 
 
 def inconsistency(residuals: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
@@ -57,27 +88,84 @@ def trusted(t: np.ndarray, settle: float, edge: float = 0.0) -> np.ndarray:
     return (t >= t[0] + settle) & (t <= t[-1] - edge)
 
 
+
+def excess(residuals: np.ndarray, thresholds: np.ndarray, ts: float, keep: np.ndarray | None = None) -> np.ndarray:
+    """Each sample's evidence in threshold-seconds: t_s |r|/eps above the threshold, else 0 (and 0
+    where a residual has no value or the sample is not looked at, ``keep`` False)."""
+    with np.errstate(invalid="ignore"):
+        z = np.abs(residuals) / np.asarray(thresholds, dtype=float)[:, None]
+    ok = np.isfinite(z) & (z > 1.0)
+    z = z * ts
+    if keep is not None:
+        ok &= keep[None, :]
+    return np.where(ok, z, 0.0)
+
+
+def moving_sum(x: np.ndarray, n: int, head: np.ndarray | None = None) -> np.ndarray:
+    """The sum of each row of ``x`` over its last ``n`` samples (``head``: the samples before the
+    block, at least n - 1 columns when given).
+
+    >>> moving_sum(np.array([[1.0, 2.0, 3.0, 4.0]]), 2).tolist()
+    [[1.0, 3.0, 5.0, 7.0]]
+    """
+    k = x.shape[1]
+    full = x if head is None else np.concatenate([head, x], axis=1)
+    c = np.concatenate([np.zeros((x.shape[0], 1)), np.cumsum(full, axis=1)], axis=1)
+    end = np.arange(full.shape[1] - k, full.shape[1]) + 1
+    return c[:, end] - c[:, np.maximum(end - n, 0)]
+
+
+def evidence_samples(span: float, ts: float) -> int:
+    """Samples of the evidence span (at least one)."""
+    return max(1, int(round(span / ts)))
+
+
+def alarms(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, settle: float = 0.0, edge: float = 0.0,
+           persistence: float = 0.0, span: float = 0.0) -> Alarms:
+    """Each residual's first confirmed alarm (see the module doc) on the samples detection looks
+    at, and the first crossing of the span that confirmed it.
+
+    >>> t = np.arange(10) * 0.1
+    >>> r = np.array([[0, 3, 0, 0, 0, 0, 2, 2, 2, 0.0]])     # a spike, then an excursion that lasts
+    >>> a = alarms(r, t, np.array([1.0]), persistence=0.5, span=0.4)
+    >>> int(a.at[0]), int(a.start[0])
+    (8, 6)
+    >>> int(alarms(r, t, np.array([1.0])).at[0])          # persistence 0: the paper's first crossing
+    1
+    """
+    ts = float(t[1] - t[0]) if t.size > 1 else 1.0
+    z = excess(residuals, thresholds, ts, trusted(t, settle, edge))
+    n = evidence_samples(span, ts)
+    fired = (moving_sum(z, n) > persistence) & (z > 0) if persistence > 0 else z > 0
+    any_ = fired.any(axis=1)
+    at = np.where(any_, np.argmax(fired, axis=1), -1)
+    start = np.full(at.shape, -1)
+    for i in np.flatnonzero(any_):
+        lo = max(0, at[i] - n + 1)
+        start[i] = lo + int(np.argmax(z[i, lo:at[i] + 1] > 0))
+    return Alarms(at.astype(int), start.astype(int))
+
+
 def detect(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, waiting_time: float,
-           settle: float = 0.0, edge: float = 0.0) -> Detection | None:
-    """The first threshold crossing at least ``settle`` s after the data start and ``edge`` s before
-    its end, and the coherence vector Twt later; None if none."""
-    bad = inconsistency(residuals, thresholds) & trusted(t, settle, edge)[None, :]
-    any_bad = bad.any(axis=0)
-    if not any_bad.any():
+           settle: float = 0.0, edge: float = 0.0, persistence: float = 0.0, span: float = 0.0) -> Detection | None:
+    """The first confirmed excursion at least ``settle`` s after the data start and ``edge`` s
+    before its end, and the coherence vector T_wt after its alarm; None if none."""
+    a = alarms(residuals, t, thresholds, settle, edge, persistence, span)
+    if not (a.at >= 0).any():
         return None
-    i = int(np.argmax(any_bad))
-    td = float(t[i])
-    j = int(np.searchsorted(t, td + waiting_time, side="right"))
-    first = tuple(int(x) for x in bad[:, i])
-    final = tuple(int(x) for x in bad[:, i:max(j, i + 1)].any(axis=1))
-    return Detection(td, first, float(t[min(j, t.size) - 1]), final, i)
+    k = int(a.at[a.at >= 0].min())
+    i = int(a.start[a.at == k].min())
+    j = int(np.searchsorted(t, float(t[k]) + waiting_time, side="right"))
+    decided = min(max(j, k + 1), t.size) - 1
+    first = tuple(int(0 <= x <= k) for x in a.at)
+    final = tuple(int(0 <= x <= decided) for x in a.at)
+    return Detection(float(t[i]), first, float(t[decided]), final, i, None if k == i else float(t[k]))
 
 
 def coherence_over_time(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, settle: float = 0.0,
-                        edge: float = 0.0) -> np.ndarray:
+                        edge: float = 0.0, persistence: float = 0.0, span: float = 0.0) -> np.ndarray:
     """The latched coherence vector at every sample (n_residuals, samples)."""
-    bad = inconsistency(residuals, thresholds) & trusted(t, settle, edge)[None, :]
-    return np.maximum.accumulate(bad, axis=1).astype(int)
+    return alarms(residuals, t, thresholds, settle, edge, persistence, span).latched(t.size).astype(int)
 
 
 def thresholds_for(model_thresholds: Mapping[str, float], names: list[str], overrides: Mapping[str, float] | None = None) -> np.ndarray:

@@ -16,7 +16,7 @@ import numpy as np
 
 from .data import Measurements
 from .decide import effective_samples, select_winner
-from .detect import inconsistency, trusted
+from .detect import alarms
 from .isolate import candidate_sets
 from .results import Detection, Episode
 
@@ -27,12 +27,13 @@ if TYPE_CHECKING:
 MAX_GROWTH = 6      # a re-decision fits at most this many times the identification window
 
 
-def latched(r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, start: int, settle: float,
-            edge: float = 0.0) -> np.ndarray:
-    """The coherence vector latched from sample ``start`` (the detection) on, at every sample."""
-    bad = inconsistency(r, thresholds) & trusted(t, settle, edge)[None, :]
-    bad[:, :start] = False
-    return np.maximum.accumulate(bad, axis=1)
+def latched(r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, settle: float, edge: float = 0.0,
+            persistence: float = 0.0, span: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """The coherence vector latched at every sample (a residual joins at its confirmed alarm,
+    :func:`fdi.detect.alarms`), and for each residual the sample where the excursion that raised
+    it began (-1: none)."""
+    a = alarms(r, t, thresholds, settle, edge, persistence, span)
+    return a.latched(t.size), a.start
 
 
 def next_change(lit: np.ndarray, j: int) -> int | None:

@@ -43,6 +43,7 @@ class Options:
     failures: Mapping[str, float] = field(default_factory=dict)
     weights: str = "thresholds"
     settle: float | None = None
+    persistence: float | None = None   # threshold-seconds before a residual is latched (None: the model's)
     mode: Mapping[str, int] | None = None
     settings: MonitorConfig | None = None   # the monitor settings to use instead of the model file's
 
@@ -61,6 +62,8 @@ class Options:
             _whole("samples", self.samples, MIN_SAMPLES)
         if self.waiting_time is not None:
             _real("waiting_time", self.waiting_time, 0.0)
+        if self.persistence is not None:
+            _real("persistence", self.persistence, 0.0)
         for name, value in self.thresholds.items():
             _real(f"thresholds[{name}]", value, 0.0, strict=True)
         for name, value in self.failures.items():

@@ -69,6 +69,18 @@ class Prepared:
     def window_s(self) -> float:
         return self.monitor.config.derivative_window
 
+    @property
+    def persistence(self) -> float:
+        """Threshold-seconds of excess before a residual is latched (:mod:`fdi.detect`)."""
+        o = self.options.persistence
+        return self.scales.persistence if o is None else float(o)
+
+    @property
+    def span(self) -> float:
+        """Seconds over which a residual's evidence is summed (:func:`fdi.scales.evidence_span`)."""
+        from .scales import evidence_span
+        return evidence_span(self.window_s, self.wait)
+
 
 class Clock:
     """Wall-clock seconds by stage (``--timings``)."""
@@ -98,7 +110,7 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
     clock.lap("load")
     r = evaluate(p.monitor.model, list(p.monitor.residuals), p.raw, meas.ts, window=p.window_s, values=p.values(p.raw))
     clock.lap("residuals")
-    det = detect(r, meas.t, p.thresholds, p.wait, p.settle, p.scales.end_edge)
+    det = detect(r, meas.t, p.thresholds, p.wait, p.settle, p.scales.end_edge, p.persistence, p.span)
     base = Diagnosis(p.monitor.model.name, dict(o.mode or nominal_mode(p.monitor.model)), note=blind(p, r),
                      t=meas.t, residuals=r, thresholds=p.thresholds, names=p.monitor.names, units=p.monitor.units,
                      timings=clock.times,
@@ -291,7 +303,7 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
     i0 = int(np.searchsorted(t, det.time - 1e-9))
     now = float(t[i0]) + min(p.samples, t.size - i0) * float(t[1] - t[0])   # the first window's end
     clock.restart()
-    lit = latched(r, t, p.thresholds, det.index, p.settle, p.scales.end_edge)
+    lit, began = latched(r, t, p.thresholds, p.settle, p.scales.end_edge, p.persistence, p.span)
     j = int(np.searchsorted(t, det.decision_time, side="right")) - 1
     episodes = []
     faults = [f.to_dict() for f in d.faults]
@@ -299,7 +311,9 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
     while (change := next_change(lit, j)) is not None:
         k, j = change, decision_index(t, change, p.wait)
         coherence = tuple(int(x) for x in lit[:, j])
-        e = redecide(est, p.meas, p.raw, det, p.weights, p.options, fsm, faults, float(t[k]), float(t[j]),
+        joined = (lit[:, k] & ~lit[:, k - 1]).nonzero()[0]
+        onset = int(min(began[joined])) if joined.size else k        # where the new excursion began
+        e = redecide(est, p.meas, p.raw, det, p.weights, p.options, fsm, faults, float(t[onset]), float(t[j]),
                      coherence, p.samples, len(episodes) + 1)
         episodes.append(e)
         faults, winner = list(e.faults), e.winner

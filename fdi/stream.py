@@ -5,9 +5,10 @@ feeds the samples to a :class:`Stream` (``Monitor.stream``) block by block and p
 each event, in stream time:
 
 - ``start``: the residuals, their thresholds, and the lag of the derivative estimate;
-- ``detection``: the first threshold crossing t_D and the coherence vector there;
-- ``coherence``: every later change of the latched coherence vector;
-- ``decision``: at t_D + T_wt (once the N identification samples have arrived), and again T_wt
+- ``detection``: the first excursion confirmed by the persistence rule (:mod:`fdi.detect`): its
+  start t_D, its ``alarm`` and the coherence vector there;
+- ``coherence``: every later change of the latched coherence vector (at the new residual's alarm);
+- ``decision``: at the alarm + T_wt (once the N identification samples have arrived), and again T_wt
   after each later change of the coherence vector: candidate sets, the identified faults, the
   fault-mode estimate, and the prognosis (RUL and its band) of incipient faults;
 - ``prognosis``: every ``refresh`` seconds after a decision with a growing fault, its fit
@@ -38,7 +39,7 @@ from bondgraph.timescales import model_time_scales
 
 from . import scales
 from .data import DataError, Measurements, checked, commanded, signals_from_data
-from .detect import inconsistency, settling, thresholds_for
+from .detect import evidence_samples, excess, moving_sum, settling, thresholds_for
 from .options import Options
 from .pipeline import refresh_prognosis
 from .residuals import evaluate
@@ -66,6 +67,8 @@ class Stream:
     history: float = 3600.0             # s of samples kept before a detection (bounded memory)
     t_detect: float | None = None
     lit: np.ndarray | None = None       # latched coherence
+    recent: np.ndarray | None = None    # each residual's excess over the last evidence span (fdi.detect)
+    recent_t: np.ndarray | None = None  # and its times
     pending: list[float] = field(default_factory=list)       # decision times not yet reached
     decided: int = 0                    # decisions emitted
     memo: dict = field(default_factory=dict)
@@ -97,6 +100,10 @@ class Stream:
             self.samples = self.options.samples or max(self.config.samples, sc.min_samples())
         self.window = self.config.derivative_window
         self.lag = self.window / 2
+        o = self.options.persistence
+        self.persistence = (self.config.persistence if self.config.persistence is not None
+                            else scales.persistence(self.window)) if o is None else float(o)
+        self.span = scales.evidence_span(self.window, self.wait)
         self.settle = settling(self.options.settle, scales.settle(self.window, model_time_scales(self.model).eigenvalues))
         self.emit({"event": "start", "model": self.model.name, "residuals": self.names,
                    "thresholds": dict(zip(self.names, map(float, self.thresholds))), "lag_s": self.lag,
@@ -175,27 +182,38 @@ class Stream:
 
     # ------------------------------------------------------------------ detection
     def _detect(self, t: np.ndarray, start: int, stop: int) -> None:
-        r = self.residuals
-        bad = inconsistency(r, self.thresholds) & (t[start:stop] >= t[0] + self.settle)[None, :]
+        """The block's final residuals through the persistence rule (:mod:`fdi.detect`), with the
+        excess of the last evidence span carried from the blocks before: the same alarms as on the
+        whole file."""
+        ts = float(t[1] - t[0])
+        n = evidence_samples(self.span, ts)
+        z = excess(self.residuals, self.thresholds, ts, t[start:stop] >= t[0] + self.settle)
+        if self.recent is None:
+            self.recent, self.recent_t = np.zeros((z.shape[0], n - 1)), np.full(n - 1, -np.inf)
+        head, head_t = self.recent, self.recent_t
+        fired = (moving_sum(z, n, head) > self.persistence) & (z > 0) if self.persistence > 0 else z > 0
+        zs, ts_all = np.concatenate([head, z], axis=1), np.concatenate([head_t, t[start:stop]])
+        self.recent, self.recent_t = zs[:, zs.shape[1] - (n - 1):], ts_all[ts_all.size - (n - 1):]
         known_at = float(t[self.n - 1])
-        for k in range(bad.shape[1]):
-            if self.lit is None:
-                if not bad[:, k].any():
-                    continue
-                self.lit = bad[:, k].copy()
-                self.t_detect = float(t[start + k])
-                self.emit({"event": "detection", "t": self.t_detect, "coherence": self.lit.astype(int).tolist(),
-                           "known_at": known_at})
-                self.pending.append(self.t_detect + self.wait)
+        for k in np.flatnonzero(fired.any(axis=0)):
+            now = fired[:, k] & (self.lit is None or ~self.lit)
+            if not now.any():
                 continue
-            grown = bad[:, k] & ~self.lit
-            if grown.any():
-                self.lit |= bad[:, k]
-                tc = float(t[start + k])
-                self.emit({"event": "coherence", "t": tc, "coherence": self.lit.astype(int).tolist(),
-                           "known_at": known_at})
-                if self.decided or tc > self.pending[0]:
-                    self.pending.append(tc + self.wait)
+            alarm = float(t[start + k])
+            lo = head.shape[1] + k - n + 1                    # the span that confirmed it, in zs
+            began = min(float(ts_all[lo + int(np.argmax(zs[i, lo:lo + n] > 0))]) for i in np.flatnonzero(now))
+            if self.lit is None:
+                self.lit = now.copy()
+                self.t_detect = began
+                self.emit({"event": "detection", "t": self.t_detect, "alarm": alarm,
+                           "coherence": self.lit.astype(int).tolist(), "known_at": known_at})
+                self.pending.append(alarm + self.wait)
+                continue
+            self.lit |= now
+            self.emit({"event": "coherence", "t": alarm, "began": began,
+                       "coherence": self.lit.astype(int).tolist(), "known_at": known_at})
+            if self.decided or alarm > self.pending[0]:
+                self.pending.append(alarm + self.wait)
 
     # ------------------------------------------------------------------ decisions
     def _decide(self) -> None:

@@ -99,7 +99,7 @@ def test_monitor_settings_given_in_a_notebook_replace_the_files():
     quiet = config.replace(thresholds={"ARR1": 1e9, "ARR2": 1e9, "ARR3": 1e9})
     assert diagnose(str(CYCAB), data, quiet, workers=1).detection is None
     d = diagnose(str(CYCAB), data, config.replace(waiting_time=2.0), workers=1)
-    assert abs(d.detection.decision_time - d.detection.time - 2.0) <= 0.011     # 2 s, to a sample
+    assert abs(d.detection.decision_time - d.detection.alarm_time - 2.0) <= 0.011     # 2 s after the alarm, to a sample
     assert load(CYCAB)[1].waiting_time == 5.0
 
 

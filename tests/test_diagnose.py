@@ -178,5 +178,5 @@ def test_a_mode_the_options_fix_reaches_the_residuals_and_the_report():
     data = DATA / "nominal.csv"
     assert diagnose(str(CYCAB), data, Options(workers=1)).detection is None
     d = diagnose(str(CYCAB), data, Options(workers=1, mode={"a1": 1, "a2": 0}, max_set=1, pop=12, generations=4))
-    assert d.detection is not None and d.detection.coherence[0] == 1
+    assert d.detection is not None and d.detection.final_coherence[0] == 1
     assert [f.name for f in d.faults] == ["a2"] and d.mode_fault.mode["a2"] == 1

@@ -1,6 +1,8 @@
 """Exoneration relaxed when nothing matches (fdi.isolate.relaxed_sets): a fault that fires one
 residual past a tight threshold and leaves another it enters under a looser one. Designed truth:
-the two-tank model's pump at 30 % of its flow from 250 s (models/scenarios/suite_two_tank_valve)."""
+the two-tank model's pump at 20 % of its flow from 250 s (models/scenarios/suite_two_tank_valve; at 30 %
+ARR1 only touched its threshold, 1.014 times it for 6 samples in 350 s, which detection's persistence
+rightly does not latch)."""
 from __future__ import annotations
 
 from bondgraph.loader import load_model
@@ -40,4 +42,4 @@ def test_a_weak_pump_is_found_although_the_total_balance_stays_quiet():
     assert report["exoneration_relaxed"] is None
     (fault,) = report["diagnosis"]["faults"]
     assert fault["name"] == "beta_Qin" and fault["type"] == "abrupt"
-    assert abs(fault["value"] - 0.3) <= 0.05 * 0.3                 # the designed 30 % within 5 %
+    assert abs(fault["value"] - 0.2) <= 0.05 * 0.2                 # the designed 20 % within 5 %

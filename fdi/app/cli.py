@@ -466,7 +466,8 @@ def _options(args: argparse.Namespace, model: Model):
     names = list(monitor_of(model).names)
     thresholds = _named(args.threshold, "--threshold", names, f"residual of {model.name}")
     failures = _named(args.failure, "--failure", list(model.faults), f"fault of {model.name}")
-    options = Options(thresholds=thresholds, waiting_time=args.wait, exoneration=not args.no_exoneration,
+    options = Options(thresholds=thresholds, waiting_time=args.wait, persistence=args.persistence,
+                      exoneration=not args.no_exoneration,
                       engine=args.engine, pop=args.pop, generations=args.generations, samples=args.samples,
                       seed=args.seed, workers=args.workers, failures=failures, max_set=args.max_set)
     options.check()
@@ -807,6 +808,10 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--threshold", action="append", type=pair(0, strict=True), metavar="ARRk=VALUE",
                        help="override a threshold (VALUE > 0)")
         p.add_argument("--wait", type=real(0, high=MAX_WAIT), help="waiting time T_wt in s, >= 0 (default: the model's)")
+        p.add_argument("--persistence", type=real(0, high=MAX_WAIT),
+                       help="threshold-seconds a residual's excursion must carry before it joins the coherence "
+                            "vector (CUSUM of |r|/threshold - 1; 0: the first crossing, the paper's rule; "
+                            "default: the model's, else a quarter of the derivative window)")
         p.add_argument("--no-exoneration", action="store_true", help="also admit sets whose union covers the coherence vector")
         p.add_argument("--max-set", type=whole(1, 6), default=3,
                        help="largest candidate set identified, 1 to 6 (default 3); larger ones are counted in the report")

@@ -24,8 +24,10 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
         if report.get("note"):
             out.append(f"note: {report['note']}")
         return "\n".join(out) + "\n"
-    out.append(f"detection: t_D = {det['time']:.2f} s, coherence {_vec(det['coherence'])}; "
-               f"at t_D + T_wt = {det['decision_time']:.2f} s: {_vec(det['final_coherence'])}")
+    alarm = det.get("alarm", det["time"])
+    confirmed = "" if alarm is None or alarm == det["time"] else f" (confirmed at {alarm:.2f} s)"
+    out.append(f"detection: t_D = {det['time']:.2f} s{confirmed}, coherence {_vec(det['coherence'])}; "
+               f"at the decision {det['decision_time']:.2f} s: {_vec(det['final_coherence'])}")
     mode = report.get("mode") or {}
     if report.get("suspected_mode_changes"):
         out.append(f"suspected mode change(s) from the MCSM: {', '.join(report['suspected_mode_changes'])}; "
