@@ -145,3 +145,14 @@ def test_one_seed_one_run():
 def test_a_fault_the_rig_lacks_is_refused():
     with pytest.raises(pc.PlantError, match="no fault 'C1'"):
         pc.simulate(1.0, 100.0, [Event("C1", "abrupt", 0.5, value=1.0)])
+
+
+def test_the_plant_is_written_apart_from_bgfdi():
+    # no bond graph, no bgfdi simulator or profile code, no model file: only numpy, scipy, the stdlib
+    import ast
+    tree = ast.parse(open(pc.__file__, encoding="utf-8").read())
+    imported = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+    imported |= {(n.module or "").split(".")[0] if n.level == 0 else "." for n in ast.walk(tree)
+                 if isinstance(n, ast.ImportFrom)}
+    assert imported <= {"__future__", "math", "dataclasses", "typing", "numpy", "scipy"}
+    assert ".yaml" not in open(pc.__file__, encoding="utf-8").read()
