@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from fdi.app.evaluate import evaluate_scenario, score, summary
+from fdi.app.evaluate import evaluate_scenario, format_scores, score, summary
 from fdi.app.resources import scenarios_dir
 from fdi.app.scenario import FaultEvent, load_scenario, run
 from fdi.data import Measurements
@@ -43,7 +43,53 @@ def test_scores_of_designed_reports():
     assert totals["false_alarms"] == 2 and totals["isolation_accuracy"] == pytest.approx(3 / 4)
 
 
+def test_sub_threshold_designs_are_right_only_when_nothing_is_reported():
+    small = [FaultEvent("R4", "abrupt", 30.0, value=5e8)]
+    quiet = score("quiet", small, _report(None, []), {}, expect_nothing=True)
+    assert quiet.expect_nothing and not quiet.false_alarm and quiet.isolated and quiet.typed
+    loud = score("loud", small, _report(31.0, [{"name": "R4", "type": "abrupt", "value": 5e8}]), {},
+                 expect_nothing=True)
+    assert loud.false_alarm and not loud.isolated                  # even the designed fault is one too many
+    totals = summary([quiet, loud])
+    assert totals["faulty"] == 0 and totals["subthreshold"] == 2 and totals["subthreshold_quiet"] == 1
+    assert totals["subthreshold_reported"] == ["loud"] and not totals["goals"]["nothing_below_thresholds"]
+    assert totals["missed"] == 0 and totals["false_alarms"] == 1
+    assert totals["goals"]["isolated_and_typed"] is None          # no detectable fault to judge it on
+
+
+def _checkpoint(fraction, true_rul, rul, low, high, note=None):
+    out = {"fault": "beta_theta2", "fraction": fraction, "t": 0.0, "true_rul": true_rul, "rul": rul,
+           "error": None if rul is None else (rul - true_rul) / true_rul, "alpha_ok": False,
+           "rul_low": low, "rul_high": high, "covered": rul is not None and low <= true_rul <= high}
+    if note:
+        out["note"] = note
+    return out
+
+
+def test_the_summary_counts_band_coverage_and_reads_off_the_goals():
+    drift = score("drift", [DRIFT], _report(31.0, [{"name": "beta_theta2", "type": "incipient", "model": 2,
+                                                     "b": [-0.03]}]), {})
+    drift.rul = [_checkpoint(0.5, 10.0, 10.5, 9.0, 11.0), _checkpoint(0.9, 2.0, 2.1, 2.05, 2.3),
+                 _checkpoint(0.9, 2.0, None, None, None, note="the run ends before this point of life")]
+    long_run = score("long", [], _report(None, []), {})
+    long_run.duration = 300.0
+    short = score("short", [], _report(5.0, []), {})
+    short.duration = 60.0
+    totals = summary([drift, long_run, short])
+    # two checkpoints inside the run, the true RUL in the band at the first only (2.0 < 2.05)
+    assert totals["rul_checkpoints"] == 2 and totals["rul_band_coverage"] == pytest.approx(0.5)
+    assert totals["rul_within_12_5pct_at_90"] == pytest.approx(1.0)          # +5 % at 90 % of life
+    assert totals["longest_nominal"] == {"name": "long", "duration_s": 300.0, "false_alarm": False}
+    assert totals["nominal_false_alarms"] == 1
+    goals = totals["goals"]
+    assert goals["isolated_and_typed"] and goals["no_false_alarm_on_longest_nominal"]
+    assert not goals["rul_band_coverage"] and goals["rul_within_12_5pct_at_90"]
+    text = format_scores([drift, long_run, short], totals)
+    assert "inside the 95 % band: 50 % of 2 checkpoints (2 with a prediction" in text and "(out of band)" in text
+
+
 def test_one_scenario_end_to_end_with_its_rul_checkpoints():
+    # the data from the independent reference plant (the design's "plant": "cycab")
     s = evaluate_scenario(str(CYCAB), scenarios_dir() / "suite_cycab_steering" / "theta2_incipient17.json")
     assert s.isolated and s.typed and not s.false_alarm and 0 < s.delay < 5
     assert s.errors["beta_theta2"] < 0.05
@@ -51,6 +97,7 @@ def test_one_scenario_end_to_end_with_its_rul_checkpoints():
     assert [round(r["t"], 2) for r in s.rul] == [36.67, 50.0]
     for r in s.rul:
         assert r["rul"] is not None and abs(r["error"]) < 0.125 and r["alpha_ok"]
+        assert r["rul_low"] <= r["rul"] <= r["rul_high"]
 
 
 

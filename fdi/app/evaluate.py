@@ -16,15 +16,21 @@ prognostic performance", IJPHM 2010: relative accuracy and alpha-lambda accuracy
   life from the design; at the times when 50 % and 90 % of the life from its onset have passed,
   the data up to then are diagnosed and the incipient fit refreshed on them
   (``fdi.pipeline.refresh_prognosis``); the relative error of the RUL there, and alpha-lambda
-  accuracy: the prediction within alpha = 20 % of the true RUL (lambda measured from the onset).
+  accuracy: the prediction within alpha = 20 % of the true RUL (lambda measured from the onset);
+  and the **RUL band's coverage**: whether the true RUL lies inside the prognosis' 95 % band
+  (``Prognosis.rul_low``-``rul_high``); a checkpoint without a prediction is not covered;
+- **sub-threshold designs** (``"expect": "nothing"``): faults too small to cross the thresholds;
+  right when nothing is detected, a false alarm otherwise.
 
-The truth is the scenario's design; the data are bgfdi's own simulation of it, with the
-scenario's noise seed.
+The truth is the scenario's design. The data are the reference plant's run of it when the design
+names one (``"plant": "cycab"``: fdi/app/plant_cycab.py, a simulator written apart from bgfdi, so
+the suite does not grade bgfdi against itself; the true end of life then comes from that plant's
+own fault profile), else bgfdi's own simulation; with the scenario's noise seed.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -38,10 +44,13 @@ from ..monitor import compiled
 from ..objective import nominal
 from ..prognose import end_of_life
 from ..scales import for_model
-from .scenario import FaultEvent, load_scenario, run
+from .scenario import FaultEvent, Scenario, load_scenario, simulate_scenario
 
 ALPHA = 0.2
 LIFE_POINTS = (0.5, 0.9)
+RUL_TOLERANCE = 0.125          # the RUL's relative error allowed at 90 % of life (the suite's goal)
+COVERAGE_GOAL = 0.9            # the fraction of checkpoints whose true RUL the 95 % band should hold
+VALUE_TOLERANCE = 0.05         # identified values within 5 %
 
 
 @dataclass
@@ -57,6 +66,9 @@ class Score:
     typed: bool
     errors: dict[str, float] = field(default_factory=dict)
     rul: list[dict] = field(default_factory=list)
+    expect_nothing: bool = False          # a sub-threshold design: right when nothing is reported
+    diagnosed: list[dict] = field(default_factory=list)   # the faults found: name, type, model and fitted values
+    duration: float | None = None         # s, the run's length
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -86,16 +98,21 @@ def identification_errors(events: list[FaultEvent], faults: list[dict]) -> dict[
     return out
 
 
-def score(name: str, events: list[FaultEvent], report: dict, mode_names: dict[str, str], early: float = 0.0) -> Score:
+def score(name: str, events: list[FaultEvent], report: dict, mode_names: dict[str, str], early: float = 0.0,
+          expect_nothing: bool = False) -> Score:
     """A diagnosis report against the scenario's fault events. ``early``: how long before a fault's
     onset a detection still counts as its detection (the centred derivative filter lets a residual
-    cross up to half a window before the fault starts)."""
+    cross up to half a window before the fault starts). ``expect_nothing``: the faults are designed
+    below the thresholds, so any detection is a false alarm and a silent report is right."""
     truth = sorted({e.target for e in events})
     faults = report["diagnosis"]["faults"]
     found = sorted({f["name"] for f in faults})
     det = report["detection"]
     onset = min((e.t0 for e in events), default=None)
     t_d = det["time"] if det else None
+    if expect_nothing:
+        quiet = t_d is None and not found
+        return Score(name, truth, found, t_d, None, not quiet, quiet, quiet, {}, expect_nothing=True)
     false_alarm = t_d is not None and (onset is None or t_d < onset - early)
     delay = t_d - onset if t_d is not None and onset is not None and not false_alarm else None
     by_name = {f["name"]: f for f in faults}
@@ -116,15 +133,32 @@ def evaluate_scenario(model_path: str, scenario_path: str | Path, options: Optio
     c = compiled(model_path)
     model, config = c.model, c.config
     scenario = load_scenario(scenario_path, model)
-    cols = run(model, scenario)
+    designed = {e.target: e.failure for e in scenario.faults if e.failure is not None}
+    if designed:                       # the design's failure values, where the options give none
+        o = replace(o, failures={**designed, **o.failures})
+    cols = simulate_scenario(model, scenario)
     meas = Measurements(str(scenario_path), cols["t"], cols)
     report = diagnose(c, meas, o).to_dict()
     mode_names = {f.name: f.targets[0] for f in model.faults.values() if f.kind == "mode"}
     mode_names.update({f.targets[0]: f.name for f in model.faults.values() if f.kind == "mode"})
     s = score(Path(scenario_path).stem, list(scenario.faults), report, mode_names,
-              early=for_model(model, config, 1.0 / scenario.fs).window / 2 + 1.0 / scenario.fs)
-    s.rul = rul_checkpoints(model_path, model, config, scenario, meas, report, o)
+              early=for_model(model, config, 1.0 / scenario.fs).window / 2 + 1.0 / scenario.fs,
+              expect_nothing=scenario.expect == "nothing")
+    s.duration = scenario.T
+    s.diagnosed = [{k: f[k] for k in ("name", "type", "model", "t0", "value", "period", "b") if f.get(k) is not None}
+                   for f in report["diagnosis"]["faults"]]
+    if not s.expect_nothing:
+        s.rul = rul_checkpoints(model_path, model, config, scenario, meas, report, o)
     return s
+
+
+def true_end_of_life(model, scenario: Scenario, e: FaultEvent, failure: float) -> float:
+    """The design's end of life: from the reference plant's own profile when it simulated the run,
+    else from bgfdi's degradation models."""
+    if scenario.plant == "cycab":
+        from . import plant_cycab
+        return plant_cycab.end_of_life(e, failure)
+    return end_of_life(e.model, list(e.b), nominal(model, e.target), failure, e.t0, e.t0)
 
 
 def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements, report: dict,
@@ -136,13 +170,13 @@ def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements
         failure = e.failure if e.failure is not None else config.failure(e.target)
         if e.type != "incipient" or failure is None:
             continue
-        eol = end_of_life(e.model, list(e.b), nominal(model, e.target), failure, e.t0, e.t0)
+        eol = true_end_of_life(model, scenario, e, failure)
         if not math.isfinite(eol):
             continue
         for fraction in LIFE_POINTS:
             at = e.t0 + fraction * (eol - e.t0)
             entry = {"fault": e.target, "fraction": fraction, "t": at, "true_rul": eol - at, "rul": None,
-                     "error": None, "alpha_ok": False}
+                     "error": None, "alpha_ok": False, "rul_low": None, "rul_high": None, "covered": False}
             k = int(np.searchsorted(meas.t, at, side="right"))
             if at > meas.t[-1]:
                 entry["note"] = "the run ends before this point of life"
@@ -167,19 +201,33 @@ def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements
                     entry["rul"] = p.rul
                     entry["error"] = (p.rul - entry["true_rul"]) / entry["true_rul"]
                     entry["alpha_ok"] = abs(entry["error"]) <= ALPHA
+                    low, high = sorted((p.rul_low, p.rul_high))
+                    entry["rul_low"], entry["rul_high"] = low, high
+                    entry["covered"] = bool(low <= entry["true_rul"] <= high)
             out.append(entry)
     return out
 
 
+def _fraction(flags: list[bool]) -> float | None:
+    return float(np.mean(flags)) if flags else None
+
+
 def summary(scores: list[Score]) -> dict:
-    """Totals over a suite."""
-    faulty = [s for s in scores if s.truth]
+    """Totals over a suite; ``goals`` reads the suite's targets off one run (every detectable
+    faulty scenario isolated and typed, values within 5 %, RUL within 12.5 % at 90 % of life, the
+    RUL band's coverage at least 90 %, no false alarm on the longest nominal run, nothing reported
+    for the sub-threshold designs)."""
+    faulty = [s for s in scores if s.truth and not s.expect_nothing]
     nominal = [s for s in scores if not s.truth]
+    quiet_designs = [s for s in scores if s.expect_nothing]
     delays = [s.delay for s in faulty if s.delay is not None]
     errors = [e for s in faulty for e in s.errors.values()]
     ruls = [r for s in scores for r in s.rul]
     at = {f: [r for r in ruls if r["fraction"] == f] for f in LIFE_POINTS}
-    return {
+    inside = [r for r in ruls if "run ends" not in r.get("note", "")]      # checkpoints the run reaches
+    late = [r for r in at[0.9] if "run ends" not in r.get("note", "")]
+    longest = max(nominal, key=lambda s: s.duration or 0.0, default=None)
+    totals = {
         "scenarios": len(scores), "faulty": len(faulty), "nominal": len(nominal),
         "false_alarms": sum(s.false_alarm for s in scores),
         "missed": sum(s.detection is None for s in faulty),
@@ -187,16 +235,47 @@ def summary(scores: list[Score]) -> dict:
         "isolation_accuracy": float(np.mean([s.isolated for s in faulty])) if faulty else None,
         "type_accuracy": float(np.mean([s.typed for s in faulty])) if faulty else None,
         "identification_error_median": float(np.median(errors)) if errors else None,
-        "identification_within_5pct": float(np.mean([e <= 0.05 for e in errors])) if errors else None,
+        "identification_within_5pct": float(np.mean([e <= VALUE_TOLERANCE for e in errors])) if errors else None,
         **{f"rul_error_{int(f * 100)}": (float(np.median([abs(r["error"]) for r in at[f] if r["error"] is not None]))
                                          if any(r["error"] is not None for r in at[f]) else None) for f in LIFE_POINTS},
         **{f"alpha_lambda_{int(f * 100)}": (float(np.mean([r["alpha_ok"] for r in at[f]])) if at[f] else None)
            for f in LIFE_POINTS},
+        "isolated_and_typed": _fraction([s.isolated and s.typed for s in faulty]),
+        "wrong": [s.name for s in faulty if not (s.isolated and s.typed)],
+        "values_off": [s.name for s in faulty if any(e > VALUE_TOLERANCE for e in s.errors.values())],
+        "rul_checkpoints": len(inside),
+        "rul_predicted": sum(r["rul"] is not None for r in inside),
+        "rul_band_coverage": _fraction([bool(r.get("covered")) for r in inside]),
+        "rul_within_12_5pct_at_90": _fraction([r["error"] is not None and abs(r["error"]) <= RUL_TOLERANCE
+                                               for r in late]),
+        "nominal_false_alarms": sum(s.false_alarm for s in nominal),
+        "longest_nominal": None if longest is None else {"name": longest.name, "duration_s": longest.duration,
+                                                         "false_alarm": longest.false_alarm},
+        "subthreshold": len(quiet_designs),
+        "subthreshold_quiet": sum(not s.false_alarm for s in quiet_designs),
+        "subthreshold_reported": [s.name for s in quiet_designs if s.false_alarm],
     }
+    totals["goals"] = {                   # None: the suite has nothing to judge it on
+        "isolated_and_typed": all(s.isolated and s.typed for s in faulty) if faulty else None,
+        "values_within_5pct": not totals["values_off"] if faulty else None,
+        "rul_within_12_5pct_at_90": (None if totals["rul_within_12_5pct_at_90"] is None
+                                     else totals["rul_within_12_5pct_at_90"] == 1.0),
+        "rul_band_coverage": (None if totals["rul_band_coverage"] is None
+                              else totals["rul_band_coverage"] >= COVERAGE_GOAL),
+        "no_false_alarm_on_longest_nominal": None if longest is None else not longest.false_alarm,
+        "nothing_below_thresholds": not totals["subthreshold_reported"] if quiet_designs else None,
+    }
+    return totals
 
 
 def _pct(x) -> str:
     return "-" if x is None else f"{100 * x:.0f} %"
+
+
+def _band(r: dict) -> str:
+    if r["error"] is None:
+        return "-"
+    return f"{100 * r['error']:+.1f} %{'' if r.get('covered') else ' (out of band)'}"
 
 
 def format_scores(scores: list[Score], totals: dict) -> str:
@@ -204,15 +283,22 @@ def format_scores(scores: list[Score], totals: dict) -> str:
     lines = [f"{'scenario':<32}{'truth':<28}{'found':<28}{'delay [s]':>10}  {'isolated':<9}{'typed':<6}"
              f"{'max id. error':>14}  RUL error at 50 % / 90 % of life"]
     for s in scores:
-        delay = "false alarm" if s.false_alarm else ("-" if s.delay is None else f"{s.delay:.2f}")
+        if s.expect_nothing:
+            delay = "false alarm" if s.false_alarm else "quiet"
+            truth = f"({', '.join(s.truth)} below)"
+        else:
+            delay = "false alarm" if s.false_alarm else ("-" if s.delay is None else f"{s.delay:.2f}")
+            truth = ', '.join(s.truth) or 'none'
         err = max(s.errors.values()) if s.errors else None
-        rul = " / ".join("-" if r["error"] is None else f"{100 * r['error']:+.1f} %" for r in s.rul) or "-"
-        lines.append(f"{s.name:<32}{', '.join(s.truth) or 'none':<28}{', '.join(s.found) or 'none':<28}{delay:>10}  "
+        rul = " / ".join(_band(r) for r in s.rul) or "-"
+        lines.append(f"{s.name:<32}{truth:<28}{', '.join(s.found) or 'none':<28}{delay:>10}  "
                      f"{'yes' if s.isolated or not s.truth else 'no':<9}{'yes' if s.typed else 'no':<6}"
                      f"{_pct(err):>14}  {rul}")
     t = totals
+    longest = t.get("longest_nominal")
     lines += ["",
-              f"{t['scenarios']} scenarios ({t['faulty']} with faults, {t['nominal']} nominal): "
+              f"{t['scenarios']} scenarios ({t['faulty']} with faults, {t['nominal']} nominal, "
+              f"{t.get('subthreshold', 0)} below the thresholds): "
               f"{t['false_alarms']} false alarm(s), {t['missed']} missed; mean detection delay "
               f"{'-' if t['mean_delay_s'] is None else format(t['mean_delay_s'], '.2f')} s",
               f"isolation accuracy {_pct(t['isolation_accuracy'])}, type and model accuracy {_pct(t['type_accuracy'])}, "
@@ -220,7 +306,19 @@ def format_scores(scores: list[Score], totals: dict) -> str:
               f"(median error {_pct(t['identification_error_median'])})",
               f"RUL: median |error| {_pct(t['rul_error_50'])} at 50 % of life, {_pct(t['rul_error_90'])} at 90 %; "
               f"alpha-lambda accuracy (alpha {ALPHA:g}) {_pct(t['alpha_lambda_50'])} at 50 %, "
-              f"{_pct(t['alpha_lambda_90'])} at 90 %"]
+              f"{_pct(t['alpha_lambda_90'])} at 90 %",
+              f"RUL within {100 * RUL_TOLERANCE:g} % at 90 % of life: {_pct(t.get('rul_within_12_5pct_at_90'))}; "
+              f"true RUL inside the 95 % band: {_pct(t.get('rul_band_coverage'))} of {t.get('rul_checkpoints', 0)} "
+              f"checkpoints ({t.get('rul_predicted', 0)} with a prediction; goal {_pct(COVERAGE_GOAL)})",
+              f"below the thresholds: {t.get('subthreshold_quiet', 0)} of {t.get('subthreshold', 0)} quiet; "
+              + ("no nominal run" if not longest else
+                 f"longest nominal run {longest['name']} ({longest['duration_s']:g} s): "
+                 + ("false alarm" if longest["false_alarm"] else "quiet"))]
+    if t.get("wrong"):
+        lines.append(f"not isolated and typed: {', '.join(t['wrong'])}")
+    if t.get("goals"):
+        lines.append("goals: " + ", ".join(f"{k} {'n/a' if v is None else 'yes' if v else 'NO'}"
+                                           for k, v in t["goals"].items()))
     return "\n".join(lines) + "\n"
 
 

@@ -17,6 +17,11 @@ bias``, adds b(t) to it; a stuck one, type abrupt, holds the reading it had at t
 multiplies the source (or adds b(t) to its command); a mode fault sets the mode variable to the
 fault's value (default 0) from t0.
 
+``"plant": "cycab"`` names a reference plant written apart from bgfdi (fdi/app/plant_cycab.py):
+``simulate_scenario`` (used by ``bgfdi evaluate``) runs the scenario on it instead of bgfdi's
+simulator; ``run`` (``bgfdi simulate``) is always bgfdi's simulator. ``"expect": "nothing"`` says
+that the design's faults are too small to be seen: a correct diagnosis reports nothing.
+
 Every key and number is checked where it enters, and the run's size is bounded (MAX_BYTES,
 MAX_SAMPLES, MAX_STEPS, MAX_SWITCHES; docs/simulation.md) so that no file can hang the simulator
 or exhaust memory. Problems are :class:`ScenarioError`, a UsageError: one line, exit code 2.
@@ -49,6 +54,8 @@ MAX_BYTES = 1 << 20           # a scenario file is a few lines; more is a mistak
 MAX_SAMPLES = 10_000_000      # T * fs: 10 million samples, about 0.5 GB of columns
 MAX_STEPS = 10_000_000        # T / step of ROS2 for ros2 and auto: about 3 min of integration at the CyCab's speed
 MAX_SWITCHES = 10_000         # switching instants of intermittent faults (each starts a new piece)
+PLANTS = ("cycab",)           # reference plants written apart from bgfdi (fdi/app/plant_<name>.py)
+EXPECTS = ("nothing",)        # what a design may expect besides its faults
 
 
 class ScenarioError(UsageError, ValueError):
@@ -79,6 +86,8 @@ class Scenario:
     noise: dict
     resolution: dict
     step: float | None = None          # s, ROS2's step for this model and fs (None: the sampling time)
+    plant: str | None = None           # a reference plant that simulates the run instead (PLANTS), None: bgfdi's simulator
+    expect: str | None = None          # "nothing": the faults are too small to be seen; a report of any fault is wrong
 
 
 def _short_repr() -> reprlib.Repr:
@@ -200,7 +209,7 @@ def parse_scenario(data, model: Model, path: str = "<scenario>") -> Scenario:
     if not isinstance(data, dict):
         raise ScenarioError(f"{path}: the scenario must be a mapping with T, fs and faults, got {_show(data)}")
     _mapping(path, "the scenario", data)
-    known = {"seed", "T", "fs", "faults", "noise", "resolution"}
+    known = {"seed", "T", "fs", "faults", "noise", "resolution", "plant", "expect"}
     initial = {}
     for key, value in data.items():
         if key.endswith("_0") and key not in known:
@@ -210,7 +219,8 @@ def parse_scenario(data, model: Model, path: str = "<scenario>") -> Scenario:
                                     f"(sensors: {', '.join(model.sensors)})")
             initial[name] = _num(path, key, value, "an initial value")
         elif key not in known:
-            raise ScenarioError(f"{path}: unknown key '{key}' (use seed, T, fs, faults, noise, resolution, <name>_0)")
+            raise ScenarioError(f"{path}: unknown key '{key}' (use seed, T, fs, faults, noise, resolution, plant, expect, "
+                                "<name>_0)")
     T, fs = _run_length(path, data)
     seed = _seed(path, data.get("seed", 0))
     raw = data.get("faults") or []
@@ -223,7 +233,13 @@ def parse_scenario(data, model: Model, path: str = "<scenario>") -> Scenario:
                             f"of {MAX_SWITCHES:,}; lengthen their period")
     noise = _column_values(path, "noise", data, model)
     resolution = _column_values(path, "resolution", data, model)
-    return Scenario(path, seed, T, fs, initial, tuple(faults), noise, resolution, model_integration_step(model, 1.0 / fs))
+    plant, expect = data.get("plant"), data.get("expect")
+    if plant is not None and plant not in PLANTS:
+        raise ScenarioError(f"{path}: plant: unknown plant {_show(plant)} (use {', '.join(PLANTS)}, or leave it out for bgfdi's simulator)")
+    if expect is not None and expect not in EXPECTS:
+        raise ScenarioError(f"{path}: expect: {_show(expect)} is not understood (use {', '.join(EXPECTS)}, or leave it out)")
+    return Scenario(path, seed, T, fs, initial, tuple(faults), noise, resolution, model_integration_step(model, 1.0 / fs),
+                    plant, expect)
 
 
 def _target(path: str, where: str, f: dict, model: Model) -> str:
@@ -420,6 +436,20 @@ def run(model: Model, scenario: Scenario, *, progress=None, method: str = "auto"
                 raise
             raise ScenarioError(f"{scenario.path}: the simulation failed ({type(exc).__name__}: "
                                 f"{str(exc).splitlines()[0] if str(exc) else 'no message'}); check the fault values") from None
+    _check_finite(scenario, cols)
+    return cols
+
+
+def simulate_scenario(model: Model, scenario: Scenario, **kwargs) -> dict[str, np.ndarray]:
+    """The scenario's data from the plant it names (``"plant": "cycab"``: the independent reference
+    plant of fdi/app/plant_cycab.py, which reads no model), else from bgfdi's simulator (``run``)."""
+    if scenario.plant is None:
+        return run(model, scenario, **kwargs)
+    from . import plant_cycab
+    try:
+        cols = plant_cycab.run_scenario(scenario)
+    except plant_cycab.PlantError as exc:
+        raise ScenarioError(f"{scenario.path}: plant {scenario.plant}: {exc}") from None
     _check_finite(scenario, cols)
     return cols
 
