@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .data import Measurements
+from .mode_estimation import mode_values
 from .objective import Objective, window
 from .results import Alternative, Dropped, Estimate
 
@@ -81,10 +82,12 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
     win = window(meas.t, raw, start, span, w)
     n_eff = effective_samples(span, len(residuals), meas.ts, w)
 
-    def cost(fs: list[dict]) -> float:
-        return Objective(model, residuals, win, (), weights, w, fixed=fs, config=monitor.config, modes=modes).constant()
     kept, dropped = [f for f in faults if f["type"] != "mode"], []
     mode_faults = [f for f in faults if f["type"] == "mode"]
+    switched = mode_values(model, win, mode_faults, modes) if mode_faults else modes    # held, never dropped
+
+    def cost(fs: list[dict]) -> float:
+        return Objective(model, residuals, win, (), weights, w, fixed=fs, config=monitor.config, modes=switched).constant()
     while len(kept) > 1:
         current = information(cost(kept), kept, n_eff)
         trials = [(information(cost([g for g in kept if g is not f]), [g for g in kept if g is not f], n_eff), f)

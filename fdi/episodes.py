@@ -18,6 +18,8 @@ from .data import Measurements
 from .decide import effective_samples, select_winner
 from .detect import alarms
 from .isolate import candidate_sets
+from .mode_estimation import mode_change_fits
+from .objective import window
 from .results import Detection, Episode
 
 if TYPE_CHECKING:
@@ -58,7 +60,8 @@ def since_detection(t: np.ndarray, t_d: float, end: float, samples: int, cap: in
 
 def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, weights: np.ndarray, o: "Options",
              fsm, known: list[dict], t_change: float, t_decision: float, coherence: tuple[int, ...],
-             samples: int, episode: int) -> Episode:
+             samples: int, episode: int, mode_changes: list[tuple[str, int]] = (),
+             modes: dict[str, float] | None = None) -> Episode:
     """A later decision: the coherence vector gained a residual at ``t_change`` after the diagnosis
     ``known`` was made. Candidate sets come from the new coherence vector; every set is fitted on
     the data since the first onset (t_D to the new decision, at most MAX_GROWTH windows), so their
@@ -66,8 +69,10 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
     each with its own onset, while the others are searched with an onset at the change (a second
     fault), and afresh with one onset (a slow fault seen late); a set no larger than the known one
     is fitted afresh (the first decision may have been wrong); all start from the known fit.
-    Larger sets that drop a known fault are not tried. The winner is chosen as at the first
-    decision."""
+    Larger sets that drop a known fault are not tried. Beside them, each mode change of
+    ``mode_changes`` (fault name, value) that could explain the new residuals, with the known
+    faults held (:func:`fdi.mode_estimation.mode_change_fits`: no parameter, its onset near the
+    change): a burnt driver after a leak. The winner is chosen as at the first decision."""
     w = est.monitor.config.derivative_window
     names = {f["name"] for f in known}
     plan = []
@@ -81,6 +86,9 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
                       [p[1] for p in plan], [p[2] for p in plan], [[known] for _ in plan])
     full = [replace(e, candidate=tuple(f["name"] for f in p[1]) + e.candidate, faults=tuple(p[1]) + tuple(e.faults))
             for e, p in zip(results, plan)]
+    if mode_changes:
+        win = window(meas.t, raw, start, span, w)
+        full += mode_change_fits(est.monitor, win, weights, known, list(mode_changes), t_change, modes)
     n_eff = effective_samples(span, len(est.monitor.residuals), meas.ts, w)
     best = select_winner(full, n_eff)
     return Episode(t_change, t_decision, tuple(coherence), tuple(known), tuple(full), tuple(best.candidate),

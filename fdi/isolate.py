@@ -63,6 +63,38 @@ def pruned_sets(fsm: FSM, coherence: tuple[int, ...], exoneration: bool = True, 
     return sum(len(s) == max_size + 1 for s in candidate_sets(fsm, coherence, exoneration, max_size + 1))
 
 
-def suspected_mode_changes(mcsm: MCSM, coherence: tuple[int, ...]) -> list[str]:
+def suspected_mode_changes(mcsm: MCSM, coherence: tuple[int, ...], covering: bool = False) -> list[str]:
+    """The mode changes whose MCSM signature is the coherence vector (Sec. III-C); with
+    ``covering``, also those whose signature contains it (a residual the change enters but which
+    stayed quiet exonerates nothing when exoneration asks whether it could have moved: the
+    fault-mode estimator's cost decides).
+
+    >>> from fdi.signatures import MCSM, ModeChangeRow
+    >>> m = MCSM({"v": 1}, ("ARR1", "ARR2"), (ModeChangeRow("v_open", "v", (1, 1), 1, 1),))
+    >>> suspected_mode_changes(m, (0, 1)), suspected_mode_changes(m, (0, 1), covering=True)
+    ([], ['v_open'])
+    """
     c = tuple(int(x) for x in coherence)
-    return [r.mode_change for r in mcsm.rows if r.signature == c and any(c)]
+    if not any(c):
+        return []
+    exact = [r.mode_change for r in mcsm.rows if r.signature == c]
+    if not covering:
+        return exact
+    return exact + [r.mode_change for r in mcsm.rows if r.signature != c and all(s >= x for s, x in zip(r.signature, c))]
+
+
+def new_mode_changes(mcsm: MCSM, before: tuple[int, ...], after: tuple[int, ...], covering: bool = False) -> list[str]:
+    """The mode changes that explain residuals a later decision gained (``before`` -> ``after``):
+    their signature meets the new residuals and lies within ``after`` (with ``covering``, it need
+    only meet them).
+
+    >>> from fdi.signatures import MCSM, ModeChangeRow
+    >>> m = MCSM({"a1": 1, "a2": 1}, ("ARR1", "ARR2", "ARR3"),
+    ...          (ModeChangeRow("a1", "a1", (1, 0, 0), 1, 1), ModeChangeRow("a2", "a2", (1, 1, 0), 1, 1)))
+    >>> new_mode_changes(m, (0, 1, 0), (1, 1, 0)), new_mode_changes(m, (0, 1, 1), (0, 1, 1))
+    (['a1', 'a2'], [])
+    """
+    new = [int(a and not b) for a, b in zip(after, before)]
+    return [r.mode_change for r in mcsm.rows
+            if any(s and n for s, n in zip(r.signature, new))
+            and (covering or all(a >= s for s, a in zip(r.signature, after)))]

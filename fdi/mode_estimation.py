@@ -74,3 +74,48 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
         table = [{"mode": {n: int(v) for n, v in zip(names, row)}, "cost": float(c)}
                  for row, c in zip(combos, cost(np.zeros((len(combos), 0)), combos))]
     return ModeEstimate(current, best_cost, table)
+
+
+def mode_values(model: Model, win: Window, mode_faults: list[dict], modes: dict[str, float] | None = None) -> dict:
+    """Mode variables over the window with mode faults switched in: each variable keeps its value
+    (commanded sample by sample, fixed by the caller, or nominal) before its fault's ``t0`` and the
+    fault's value from it, (1, window samples) arrays for the residuals (:class:`fdi.objective.Objective`)."""
+    out: dict = {}
+    commands = commanded(model, win.raw)
+    for f in mode_faults:
+        var = model.faults[f["name"]].targets[0] if f["name"] in model.faults else f["name"]
+        base = out.get(var, commands.get(var, (modes or {}).get(var, model.modes[var].nominal)))
+        base = np.broadcast_to(np.asarray(base, dtype=float).reshape(-1), win.t.shape)
+        out[var] = np.where(win.t >= f.get("t0", -np.inf), float(f["value"]), base)[None, :]
+    return {**(modes or {}), **out}
+
+
+def mode_change_fits(monitor, win: Window, weights: np.ndarray, known: list[dict], changes: list[tuple[str, int]],
+                     t_change: float, modes: dict[str, float] | None = None) -> list:
+    """A mode change as a later decision's explanation (the paper's fault-mode estimator, at any
+    event): the ``known`` faults held at their fit and each mode fault of ``changes`` (name,
+    value) switched in at the onset, searched over t_change +- half a derivative window on a grid
+    of samples, that explains the data best. Returns one :class:`fdi.results.Estimate` per change
+    (no parameter is identified: its cost is what the information criterion charges nothing for)."""
+    from .objective import Objective
+    from .results import Estimate
+    from optim.core import fitness
+    model, w = monitor.model, monitor.config.derivative_window
+    components = [f for f in known if f["type"] != "mode"]
+    known_modes = [f for f in known if f["type"] == "mode"]
+    steps = max(1, int(round(w / 2 / win.ts)))
+    grid = t_change + win.ts * np.arange(-steps, steps + 1, max(1, steps // 12))
+    out = []
+    for name, value in changes:
+        best = (np.inf, t_change)
+        for onset in grid:
+            f = {"name": name, "type": "mode", "value": int(value), "t0": float(onset)}
+            values = mode_values(model, win, known_modes + [f], modes)
+            c = Objective(model, monitor.residuals, win, (), weights, w, fixed=components, config=monitor.config,
+                          modes=values).constant()
+            if c < best[0]:
+                best = (c, float(onset))
+        fault = {"name": name, "type": "mode", "value": int(value), "t0": best[1]}
+        out.append(Estimate(tuple(g["name"] for g in known) + (name,), float(best[0]), float(fitness(best[0])), (), None,
+                            tuple(known) + (fault,), grid.size, 0.0, 0.0))
+    return out

@@ -24,7 +24,7 @@ from .derivatives import DEFAULT_ORDER, window_samples
 from .detect import Detection, detect, settling, thresholds_for
 from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide, since_detection
 from .estimators import Estimators, Search, refit_early_onsets
-from .isolate import candidate_sets, pruned_sets, relaxed_sets, suspected_mode_changes
+from .isolate import candidate_sets, new_mode_changes, pruned_sets, relaxed_sets, suspected_mode_changes
 from .mode_estimation import estimate_mode
 from .objective import nominal, window
 from .options import MIN_WINDOW_S, Options, check_samples
@@ -209,7 +209,10 @@ def isolate(p: Prepared, det: Detection, mode: dict[str, int]):
             weak = {x.fault: tuple(sorted(y.residual for y in entries if y.fault == x.fault)) for x in entries}
     candidates = candidate_sets(fsm, det.final_coherence, o.exoneration, o.max_set)
     pruned = pruned_sets(fsm, det.final_coherence, o.exoneration, o.max_set)
-    suspects = suspected_mode_changes(m.mcsm(mode), det.final_coherence)
+    # with exoneration by sensitivity, a mode change whose signature contains the coherence vector is
+    # suspected too: a residual it enters may stay quiet (the estimator's cost decides)
+    covering = not o.exoneration or m.config.exoneration == "sensitivity"
+    suspects = suspected_mode_changes(m.mcsm(mode), det.final_coherence, covering)
     return fsm, Isolation(tuple(map(tuple, candidates)), tuple(suspects), int(pruned or 0),
                           o.max_set, False, weak)
 
@@ -308,20 +311,45 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
     episodes = []
     faults = [f.to_dict() for f in d.faults]
     winner = d.winner
+    mcsm = p.monitor.mcsm(d.mode)
+    covering = p.monitor.config.exoneration == "sensitivity"
     while (change := next_change(lit, j)) is not None:
         k, j = change, decision_index(t, change, p.wait)
         coherence = tuple(int(x) for x in lit[:, j])
+        before = tuple(int(x) for x in lit[:, k - 1])
         joined = (lit[:, k] & ~lit[:, k - 1]).nonzero()[0]
         onset = int(min(began[joined])) if joined.size else k        # where the new excursion began
+        changes = mode_changes_at(p, new_mode_changes(mcsm, before, coherence, covering), onset, faults)
         e = redecide(est, p.meas, p.raw, det, p.weights, p.options, fsm, faults, float(t[onset]), float(t[j]),
-                     coherence, p.samples, len(episodes) + 1)
+                     coherence, p.samples, len(episodes) + 1, changes, p.modes)
         episodes.append(e)
         faults, winner = list(e.faults), e.winner
         now = float(t[j])
     if episodes:
         clock.lap("re-diagnosis")
-    return replace(d, episodes=tuple(episodes), faults=faults_of(faults), winner=winner,
+    model = p.monitor.model
+    switched = {model.faults[f["name"]].targets[0]: int(f["value"]) for f in faults
+                if f["type"] == "mode" and f["name"] in model.faults}
+    return replace(d, episodes=tuple(episodes), faults=faults_of(faults), winner=winner, mode={**d.mode, **switched},
                    window=(float(det.time), float(now))), now
+
+
+def mode_changes_at(p: Prepared, suspects: list[str], k: int, known: list[dict]) -> list[tuple[str, int]]:
+    """The mode faults (name, value) a later decision tries for the suspected mode changes: each
+    variable to the other value than it has at sample ``k`` (as commanded, fixed, or nominal), one at
+    a time as the paper assumes; none on a variable a known fault already switched."""
+    model = p.monitor.model
+    taken = {model.faults[f["name"]].targets[0] for f in known if f["type"] == "mode" and f["name"] in model.faults}
+    now = {**{m: int(model.modes[m].nominal) for m in model.modes}, **p.modes,
+           **{m: int(v[k]) for m, v in commanded(model, p.raw).items()}}
+    out = []
+    for s in suspects:
+        var = model.faults[s].targets[0] if s in model.faults else s
+        if var in taken:
+            continue
+        value = 1 - int(now[var])
+        out.append((mode_fault_name(model, var, value), value))
+    return list(dict.fromkeys(out))
 
 
 def significance(p: Prepared, d: Diagnosis, now: float) -> Diagnosis:

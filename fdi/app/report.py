@@ -30,8 +30,11 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
                f"at the decision {det['decision_time']:.2f} s: {_vec(det['final_coherence'])}")
     mode = report.get("mode") or {}
     if report.get("suspected_mode_changes"):
+        cost = report.get("mode_fault_cost")
+        fitness = "" if cost is None else f" (a mode fault: fitness {1.0 / (cost + 1e-12):.4g}, no parameter)"
         out.append(f"suspected mode change(s) from the MCSM: {', '.join(report['suspected_mode_changes'])}; "
-                   f"fault-mode estimator: {' '.join(f'{k}={v}' for k, v in (report.get('mode_estimate') or {}).items())}")
+                   f"fault-mode estimator: {' '.join(f'{k}={v}' for k, v in (report.get('mode_estimate') or {}).items())}"
+                   f"{fitness}")
     out.append("mode: " + (" ".join(f"{k}={v}" for k, v in mode.items()) or "(none)"))
     cands = report.get("candidates") or []
     out.append("candidate sets: " + ("; ".join("{" + ", ".join(c) + "}" for c in cands) if cands else "none"))
