@@ -212,9 +212,24 @@ def isolate(p: Prepared, det: Detection, mode: dict[str, int]):
     # with exoneration by sensitivity, a mode change whose signature contains the coherence vector is
     # suspected too: a residual it enters may stay quiet (the estimator's cost decides)
     covering = not o.exoneration or m.config.exoneration == "sensitivity"
-    suspects = suspected_mode_changes(m.mcsm(mode), det.final_coherence, covering)
+    suspects = [s for s in suspected_mode_changes(m.mcsm(mode), det.final_coherence, covering)
+                if not switching(p, det, s)]
     return fsm, Isolation(tuple(map(tuple, candidates)), tuple(suspects), int(pruned or 0),
                           o.max_set, False, weak)
+
+
+def switching(p: Prepared, det: Detection, suspect: str) -> bool:
+    """Whether a suspected mode change's variable is commanded to switch within the identification
+    window (a PWM switch): one value over the window explains nothing there, so the fault-mode
+    estimator leaves it out."""
+    model = p.monitor.model
+    var = model.faults[suspect].targets[0] if suspect in model.faults else suspect
+    cmd = commanded(model, p.raw).get(var)
+    if cmd is None or (p.options.mode and var in p.options.mode):
+        return False
+    i0 = int(np.searchsorted(p.meas.t, det.time - 1e-9))
+    seen = np.asarray(cmd).reshape(-1)[i0:i0 + p.samples]
+    return seen.size > 0 and bool(np.any(seen != seen[0]))
 
 
 def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects) -> ModeFault:
