@@ -12,11 +12,12 @@ not earn their parameters.
 """
 from __future__ import annotations
 
-import math
+import math  # noqa: F401  (the doctest)
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .criterion import effective_samples, information, parameters
 from .data import Measurements
 from .mode_estimation import mode_values
 from .objective import Objective, window
@@ -24,28 +25,6 @@ from .results import Alternative, Dropped, Estimate
 
 if TYPE_CHECKING:
     from .monitor import Monitor
-
-
-def parameters(faults: list[dict]) -> int:
-    """The identified parameters of an explanation: a value per abrupt fault, value and period per
-    intermittent one, its coefficients per incipient one, none for a mode fault; plus the onset."""
-    k = {"abrupt": 1, "intermittent": 2, "mode": 0}
-    n = sum(k[f["type"]] if f["type"] in k else len(f.get("b", ())) for f in faults)
-    return n + (1 if any(f["type"] != "mode" for f in faults) else 0)
-
-
-def effective_samples(samples: int, residuals: int, ts: float, window_s: float) -> float:
-    """Independent residual samples in an identification window: the filter correlates the samples
-    within one derivative window, so N residual samples carry about N / (window in samples)."""
-    return max(1.0, samples * residuals / max(1.0, round(window_s / ts)))
-
-
-def information(cost: float, faults: list[dict], n_eff: float) -> float:
-    """Schwarz's criterion (BIC) of an explanation on the weighted L1 cost of eq. (24): with
-    Laplace-distributed residuals of common scale profiled out, -2 ln L = 2 N_eff ln C + const, and
-    each identified parameter is charged ln N_eff. Smaller is better; a difference below 2 is not
-    a preference (Kass & Raftery 1995)."""
-    return 2.0 * n_eff * math.log(max(cost, 1e-300)) + parameters(faults) * math.log(n_eff)
 
 
 def select_winner(results: list[Estimate], n_eff: float) -> Estimate:

@@ -29,7 +29,7 @@ import sympy as sp
 from bondgraph.errors import ModelError
 from bondgraph.model import Model
 
-from . import encoding, scales
+from . import criterion, encoding, scales
 from .config import MonitorConfig
 from .data import commanded
 from .encoding import FaultSpace
@@ -380,6 +380,18 @@ class Objective:
 
     def structure(self, bits: np.ndarray):
         return encoding.structure(self.spaces, bits)
+
+    def penalized(self, cost: float, bits: np.ndarray) -> float:
+        """The cost Schwarz's criterion charges the structure of ``bits`` (the engine's ``penalized``
+        hook; :func:`fdi.criterion.penalized`, the criterion the diagnosis chooses candidate sets
+        with): the engine chooses among one set's structures as the diagnosis chooses among sets.
+        On cost alone a two-parameter intermittent fault that fits 0.06 % better beat the abrupt
+        truth (a torsional shaft's load brake, 0.05 -> 0.15 N m s at 20 s)."""
+        faults = [{"type": kind, "b": [0.0] * len(encoding.COEFF_SLOTS[model]) if model else []}
+                  for kind, model in encoding.structure(self.spaces, bits)]
+        n_eff = criterion.effective_samples(self.win.crop.stop - self.win.crop.start, len(self.residuals),
+                                            self.win.ts, self.window_s)
+        return criterion.penalized(cost, criterion.parameters(faults), n_eff)
 
     def family(self, bits: np.ndarray):
         return encoding.family(self.spaces, bits)

@@ -54,7 +54,11 @@ class Problem(Protocol):
     - ``coarse(real, bits)`` (None: the cost itself): a cheaper cost that ranks like the cost
       (the diagnosis: every k-th sample), on which the AHDE screens and races;
     - ``init`` (()): starting points, ``(real (D,), bits (B,))`` pairs (the fits of smaller
-      candidate sets).
+      candidate sets);
+    - ``penalized(cost, bits)`` (None: the cost): the cost an information criterion charges the
+      structure of ``bits`` for its parameters, on which the AHDE chooses among its finalists (the
+      diagnosis: Schwarz's criterion as an equivalent cost, so that a structure with more
+      parameters wins only when its better fit pays for them).
     """
 
     def __call__(self, real: np.ndarray, bits: np.ndarray) -> np.ndarray: ...
@@ -80,6 +84,7 @@ class Posed:
     free: Callable[[np.ndarray], np.ndarray] | None = None
     coarse: Cost | None = None
     init: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+    penalized: Callable[[float, np.ndarray], float] | None = None
 
     def __post_init__(self) -> None:
         put = lambda name, value: object.__setattr__(self, name, value)
