@@ -62,14 +62,17 @@ def end_of_life(model_no: int, b: list[float], nominal: float, failure: float, t
 
 
 def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float) -> dict:
-    """EOL, RUL at ``now`` = tf + N ts, and the RUL band: the RULs at the corners of the
-    coefficients' 95 % likelihood-ratio intervals (``b_band``, from the final fit: see
-    ``fdi.estimators.coefficient_band``); without a band, the band is the RUL itself."""
+    """EOL, RUL at ``now`` = tf + N ts, and the RUL band: the RULs at the corners of the 95 %
+    profile-likelihood intervals of the coefficients and the onset (``b_band``, ``t0_band``, from
+    the final fit: see ``fdi.estimators.coefficient_band``; the RUL is monotone in each, so the
+    corners bound it over the box); without a band, the band is the RUL itself."""
     eol = end_of_life(fault["model"], fault["b"], nominal, failure, tf, now)
     ruls = [eol - now]
     band = fault.get("b_band") or []
+    onsets = list(fault.get("t0_band") or []) or [tf]
     for corner in itertools.product(*band) if band else ():      # product() of nothing is one empty corner
-        ruls.append(end_of_life(fault["model"], list(corner), nominal, failure, tf, now) - now)
+        for start in onsets:
+            ruls.append(end_of_life(fault["model"], list(corner), nominal, failure, start, now) - now)
     finite = [r for r in ruls if np.isfinite(r)]
     return {"name": fault["name"], "failure": failure, "eol": eol, "rul": eol - now, "at": now,
             "rul_low": min(finite) if finite else float("inf"), "rul_high": max(finite) if finite else float("inf")}
