@@ -53,3 +53,130 @@ def test_the_api_reads_no_planted_file_and_follows_no_planted_link(tmp_path, mon
     assert victim.read_text(encoding="utf-8") == "precious\n"
     assert planted.read_text(encoding="utf-8") == LOUD
     assert sorted(p.name for p in shared.iterdir()) == before     # nothing written there
+
+
+# ------------------------------------------------------------------ 2. never lose or damage a file
+
+def _cli(argv: list[str], capsys) -> tuple[int, str]:
+    from fdi.app.cli import main
+    code = main([str(a) for a in argv])
+    return code, capsys.readouterr().err
+
+
+def _one_line(err: str, *words: str) -> None:
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+
+
+@pytest.mark.parametrize("how", ["same", "dot", "link", "hardlink"])
+def test_an_output_that_is_an_input_is_refused_and_the_input_kept(tmp_path, capsys, how):
+    """``simulate M sc.json -o sc.json`` (also as ./sc.json, a link to it, a hard link): exit 2,
+    one line, the scenario byte for byte as it was."""
+    scenario = tmp_path / "sc.json"
+    text = '{"T": 1, "fs": 100}\n'
+    scenario.write_text(text, encoding="utf-8")
+    out = {"same": scenario, "dot": tmp_path / "." / "sc.json", "link": tmp_path / "l.json",
+           "hardlink": tmp_path / "h.json"}[how]
+    if how == "link":
+        out.symlink_to(scenario)
+    if how == "hardlink":
+        os.link(scenario, out)
+    code, err = _cli(["simulate", MODELS / "cycab_steering.yaml", scenario, "-o", out], capsys)
+    assert code == 2
+    _one_line(err, "-o:", "is the input", "name another file")
+    assert scenario.read_text(encoding="utf-8") == text
+
+
+@pytest.mark.parametrize("argv", [
+    ["diagnose", "{model}", "{data}", "-o", "{data}"],
+    ["calibrate", "{model}", "{data}", "-o", "{model}"],
+    ["monitor", "{model}", "{data}", "-o", "{data}"],
+    ["tables", "{model}", "-o", "{model}"],
+    ["evaluate", "{model}", "{suite}", "-o", "{suite}/s.json"],
+    ["evaluate", "{model}", "{suite}", "--plot", "{suite}/s.json"],
+])
+def test_no_command_writes_over_what_it_reads(tmp_path, capsys, argv):
+    model = tmp_path / "m.yaml"
+    model.write_text(TANK, encoding="utf-8")
+    data = tmp_path / "d.csv"
+    data.write_text("t,Qin,p1,p2\n0,1e-4,0,0\n0.1,1e-4,0,0\n", encoding="utf-8")
+    suite = tmp_path / "suite"
+    suite.mkdir()
+    (suite / "s.json").write_text('{"T": 1, "fs": 10}\n', encoding="utf-8")
+    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    args = [a.format(model=model, data=data, suite=suite) for a in argv]
+    if "--plot" in args:
+        pytest.importorskip("matplotlib")
+    code, err = _cli(args, capsys)
+    assert code == 2
+    _one_line(err, "is the input")
+    assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
+
+
+@pytest.mark.skipif(not hasattr(os, "lchown") or os.geteuid() != 0, reason="needs a link owned by another user")
+def test_a_link_planted_by_another_user_in_a_sticky_folder_is_not_followed(tmp_path, capsys):
+    """A world-writable sticky folder (as /tmp) with out.csv -> victim, the link owned by uid 4242:
+    -o out.csv is refused before the work and write_atomic refuses it too; the victim is intact.
+    A link of our own there is still followed (the link kept, its target replaced)."""
+    from fdi.atomic import OutputError, write_atomic
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    os.chmod(shared, 0o1777)
+    os.chown(shared, 4343, 4343)
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious\n", encoding="utf-8")
+    link = shared / "out.txt"
+    link.symlink_to(victim)
+    os.lchown(link, 4242, 4242)
+    code, err = _cli(["tables", MODELS / "two_tank_valve.yaml", "-o", link], capsys)
+    assert code == 2
+    _one_line(err, "-o:", "owned by another user", "uid 4242")
+    with pytest.raises(OutputError, match="not followed"):
+        write_atomic(link, "x\n")
+    assert victim.read_text(encoding="utf-8") == "precious\n" and link.is_symlink()
+    os.lchown(link, os.geteuid(), os.getegid())                  # our own link: followed, kept
+    write_atomic(link, "new\n")
+    assert link.is_symlink() and victim.read_text(encoding="utf-8") == "new\n"
+
+
+@pytest.mark.parametrize("signum", ["SIGTERM", "SIGINT"])
+def test_a_signal_during_a_write_leaves_the_old_file_and_no_partial_one(tmp_path, signum):
+    """The signal arrives after half the pieces were written: the target keeps its old content,
+    no hidden temporary file stays in the folder, and the signal ends the write (Terminated for
+    SIGTERM, KeyboardInterrupt for SIGINT)."""
+    import signal
+
+    from fdi.atomic import Terminated, write_atomic
+    target = tmp_path / "report.csv"
+    target.write_text("old\n", encoding="utf-8")
+    before = signal.getsignal(signal.SIGTERM)
+
+    def pieces():
+        for i in range(10):
+            if i == 5:
+                os.kill(os.getpid(), getattr(signal, signum))
+            yield f"row {i}\n"
+    with pytest.raises(Terminated if signum == "SIGTERM" else KeyboardInterrupt):
+        write_atomic(target, pieces())
+    assert target.read_text(encoding="utf-8") == "old\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["report.csv"]
+    assert signal.getsignal(signal.SIGTERM) == before               # the handler set back
+
+
+def test_a_plot_folder_that_cannot_be_written_is_refused_before_the_work(tmp_path, capsys):
+    """--plot into a folder where nothing can be created: refused at once, one line, exit 2 (for
+    the superuser too: /proc takes no folder, whatever the permission bits say)."""
+    pytest.importorskip("matplotlib")
+    if os.geteuid() == 0:
+        where = "/proc/bgfdi-plots"
+    else:
+        locked = tmp_path / "locked"
+        locked.mkdir()
+        os.chmod(locked, 0o555)
+        where = str(locked / "plots")
+    data = MODELS / "data" / "cycab" / "nominal.csv"
+    code, err = _cli(["diagnose", MODELS / "cycab_steering.yaml", data, "--plot", where], capsys)
+    assert code == 2
+    _one_line(err, "--plot:", "cannot create folder")

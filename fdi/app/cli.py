@@ -23,7 +23,8 @@ from bondgraph.model import Model
 from ..errors import UsageError
 from ..data import DataError
 from ..options import DEFAULT_WORKERS, MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
-from .output import check_output, is_stdout, write_atomic
+from .output import (Terminated, check_folder, check_folder_not_input, check_not_input, check_output, is_stdout,
+                     write_atomic)
 from .progress import LOG, NORMAL, QUIET, VERBOSE, Progress, Steps, configure, stage
 
 
@@ -151,23 +152,46 @@ def check_plot(path: str | None, folder: bool) -> None:
         raise need_matplotlib()
     if is_stdout(path):
         raise UsageError("--plot: standard output takes no plot; name a " + ("folder" if folder else "PNG file"))
-    if not folder:
+    if folder:
+        check_folder(path, "--plot")
+    else:
         check_output(path, "--plot")
-        return
-    from pathlib import Path
-    p = Path(path)
-    if p.exists() and not p.is_dir():
-        raise UsageError(f"--plot: '{path}' is a file; name a folder for the plots")
-    if not p.exists() and not p.parent.is_dir():
-        raise UsageError(f"--plot: folder '{p.parent}' does not exist; create it or name a folder in an existing one")
+
+
+def command_inputs(args: argparse.Namespace) -> list[str]:
+    """Every file the command reads: the model, data, scenario and run files, the scenarios of a
+    suite folder (an output must be none of them)."""
+    inputs = [getattr(args, "model", None), getattr(args, "scenario", None)]
+    for name in ("data", "runs"):
+        value = getattr(args, name, None)
+        inputs += value if isinstance(value, list) else [value]
+    if getattr(args, "scenarios", None):
+        from .evaluate import suite_files
+        inputs += [str(p) for p in suite_files(args.scenarios)] + list(args.scenarios)
+    if args.command == "demo":
+        from .resources import scenarios_dir, shipped_model
+        inputs += [str(shipped_model("cycab_steering")), str(scenarios_dir() / f"cycab_{args.scenario}.json")]
+    return [str(x) for x in inputs if isinstance(x, (str, os.PathLike))]
 
 
 def check_outputs(args: argparse.Namespace) -> None:
     """Every output the command will write, checked before it starts (nothing is then computed
-    only to fail at the end)."""
+    only to fail at the end, and no input is replaced by an output)."""
+    inputs = command_inputs(args)
     if getattr(args, "output", None) is not None:
         check_output(args.output, "-o")
-    check_plot(getattr(args, "plot", None), folder=args.command in ("diagnose", "demo"))
+        check_not_input(args.output, inputs, "-o")
+    plot = getattr(args, "plot", None)
+    folder = args.command in ("diagnose", "demo")
+    check_plot(plot, folder)
+    if plot is not None:
+        if folder:
+            check_folder_not_input(plot, inputs, "--plot")
+        else:
+            check_not_input(plot, inputs, "--plot")
+    if plot is not None and getattr(args, "output", None) is not None and not folder \
+            and os.path.realpath(plot) == os.path.realpath(args.output):
+        raise UsageError(f"--plot: '{plot}' is also the -o file; name two files")
 
 
 def parse_mode(text: str, model: Model) -> dict[str, int]:
@@ -950,6 +974,9 @@ def _run(argv: list[str] | None) -> int:
     except KeyboardInterrupt:
         LOG.critical("interrupted")
         return 130
+    except Terminated as exc:                 # SIGTERM or SIGHUP while an output was written: it was removed
+        LOG.critical(f"terminated by signal {exc.signum}; the partial output was removed")
+        return 128 + exc.signum
 
 
 if __name__ == "__main__":  # pragma: no cover
