@@ -32,6 +32,7 @@ import csv
 import gzip
 import io
 import itertools
+import unicodedata
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -91,6 +92,7 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
         delimiter = ";" if first.count(";") > first.count(",") else ","
         reader = csv.reader(itertools.chain([first], fh), delimiter=delimiter)
         header = [h.strip() for h in next(reader, [])]
+        check_header(path, header)
         if "t" not in header:
             shown = delimiter.join(header)
             raise DataError(f"{path}: no 't' column in the header ({shown[:80]}); "
@@ -124,6 +126,23 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
         raise DataError(f"{path}: not a CSV file ({str(exc)[:80]})") from None
 
 
+def check_header(path: str, header: list[str]) -> None:
+    """Refuse a header whose names cannot all be meant: a name given twice (which column would
+    the model read? a dict keeps the last, silently), or two names that are one once
+    Unicode-normalised (NFKC: 'µ' and 'μ', 'ﬁx' and 'fix' look alike and Python reads them as one)."""
+    seen: dict[str, int] = {}
+    for i, name in enumerate(header, 1):
+        key = unicodedata.normalize("NFKC", name)
+        if key in seen:
+            first = header[seen[key] - 1]
+            if first == name:
+                raise DataError(f"{path}: column '{name}' appears twice in the header (columns {seen[key]} and {i}); "
+                                "rename or remove one")
+            raise DataError(f"{path}: columns '{first}' (column {seen[key]}) and '{name}' (column {i}) are one name "
+                            "once Unicode-normalised (NFKC); rename one")
+        seen[key] = i
+
+
 def open_text(path: str | Path):
     """A measurement file as text (see :func:`_open_text`), errors as one-line DataErrors."""
     try:
@@ -155,6 +174,7 @@ def read_csv(path: str | Path) -> Measurements:
 def checked(path: str, header: list[str], table: np.ndarray) -> Measurements:
     """Measurements from a parsed table (rows x columns of ``header``), after the checks every
     source of data gets: two samples at least, no NaN, time increasing on a uniform axis."""
+    check_header(path, list(header))
     if table.shape[0] < 2:
         raise DataError(f"{path}: needs a header row and at least two samples")
     bad = np.flatnonzero(~np.isfinite(table).all(axis=1))

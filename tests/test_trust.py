@@ -180,3 +180,118 @@ def test_a_plot_folder_that_cannot_be_written_is_refused_before_the_work(tmp_pat
     code, err = _cli(["diagnose", MODELS / "cycab_steering.yaml", data, "--plot", where], capsys)
     assert code == 2
     _one_line(err, "--plot:", "cannot create folder")
+
+
+# ------------------------------------------------------------------ 3. inputs that cannot be meant
+
+CYCAB_HEADER = "t,u_in,theta1,theta2,p1,p2"
+
+
+def _short_cycab(header: str) -> str:
+    rows = (MODELS / "data" / "cycab" / "nominal.csv").read_text(encoding="utf-8").splitlines()[1:301]
+    return header + "\n" + "\n".join(rows) + "\n"
+
+
+@pytest.mark.parametrize("header, words", [
+    ("t,u_in,theta1,theta2,p1,p1", ["column 'p1' appears twice", "columns 5 and 6"]),
+    ("t,u_in,theta1,theta2,p1,p2,p1", ["column 'p1' appears twice"]),
+    ("t,u_in,theta1,theta2,p1,p2,\u00b5,\u03bc", ["'\u00b5' (column 7) and '\u03bc' (column 8)", "NFKC"]),
+])
+@pytest.mark.parametrize("command", ["diagnose", "monitor"])
+def test_a_header_naming_a_column_twice_is_refused(tmp_path, capsys, header, words, command):
+    """The later column no longer wins silently (a dict keeps the last): the file is refused."""
+    data = tmp_path / "d.csv"
+    body = _short_cycab(CYCAB_HEADER).split("\n", 1)[1]
+    extra = header.count(",") - CYCAB_HEADER.count(",")
+    data.write_text(header + "\n" + "".join(r + ",0" * extra + "\n" for r in body.splitlines()), encoding="utf-8")
+    code, err = _cli([command, MODELS / "cycab_steering.yaml", data, "--workers", "1"], capsys)
+    assert code == 2
+    _one_line(err, "d.csv", *words)
+
+
+class FrameLike:
+    """What the API reads of a pandas DataFrame: column names (repeatable) and a matrix of cells."""
+
+    def __init__(self, names: list, cells: list[list]):
+        self.columns = names
+        self._m = np.array(cells, dtype=object)
+
+    def to_numpy(self, dtype=None):
+        return self._m.astype(dtype) if dtype is not None else self._m
+
+
+def test_dataframes_with_a_repeated_column_or_cells_that_are_no_numbers_are_refused():
+    from fdi.api import measurements
+    from fdi.data import DataError
+    with pytest.raises(DataError, match="column 'p' appears twice"):
+        measurements(FrameLike(["t", "p", "p"], [[0.0, 1.0, 2.0], [0.1, 1.0, 2.0]]))
+    with pytest.raises(DataError, match="a value is no number"):
+        measurements(FrameLike(["t", "p"], [[0.0, "high"], [0.1, 1.0]]))
+    with pytest.raises(DataError, match="a value is no number"):
+        measurements(FrameLike(["t", "p"], [[0.0, [1, 2]], [0.1, None]]))
+    with pytest.raises(DataError, match="appears twice"):
+        measurements({"t": [0.0, 0.1], 1: [1.0, 2.0], "1": [3.0, 4.0]})
+    with pytest.raises(DataError, match="not arrays of numbers"):
+        measurements({"t": [0.0, 0.1], "p": ["a", "b"]})
+
+
+@pytest.mark.parametrize("name, text, words", [
+    ("s.json", '{"T": 2, "fs": 100, "T": 3}', ["duplicate key 'T'"]),
+    ("s.json", '{"T": 2, "fs": 100, "faults": [{"target": "R4", "type": "abrupt", "t0": 1, "t0": 1.5, '
+               '"value": 1e7}]}', ["duplicate key 't0'"]),
+    ("s.yaml", "T: 2\nfs: 100\nT: 3\n", ["duplicate key 'T' at line 3 (first at line 1)"]),
+    ("s.yaml", "T: 2\nfs: 100\nnoise: {p1: 1, p1: 2}\n", ["duplicate key 'p1' at line 3"]),
+])
+def test_a_scenario_key_given_twice_is_refused(tmp_path, capsys, name, text, words):
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    code, err = _cli(["simulate", MODELS / "cycab_steering.yaml", path, "-o", tmp_path / "o.csv"], capsys)
+    assert code == 2
+    _one_line(err, name, *words, "give each key once")
+    assert not (tmp_path / "o.csv").exists()
+
+
+def test_a_yaml_merge_may_still_be_overridden():
+    """``<<: *base`` then an own key is YAML's override, not a duplicate."""
+    from fdi.app.scenario import _UniqueKeyLoader
+    import yaml
+    doc = yaml.load("base: &b {T: 1, fs: 10}\nrun:\n  <<: *b\n  T: 2\n", Loader=_UniqueKeyLoader)
+    assert doc["run"] == {"T": 2, "fs": 10}
+
+
+@pytest.mark.parametrize("old, new, words", [
+    # a parameter micro sign (U+00B5) beside a Greek mu (U+03BC): NFKC reads both as U+03BC
+    ("  Cd:  {value", "  \u00b5: {value: 1.0, unit: Pa}\n  \u03bc: {value: 2.0, unit: Pa}\n  Cd:  {value",
+     ["'\u03bc' and '\u00b5' (a parameter)", "NFKC"]),
+    # a ligature fi (U+FB01) in one name, plain fi in another
+    ("  Cd:  {value", "  \ufb01x: {value: 1.0, unit: Pa}\n  fix: {value: 2.0, unit: Pa}\n  Cd:  {value",
+     ["'fix' and '\ufb01x' (a parameter)"]),
+    ("columns: [t, Qin, p1, p2]", "columns: [t, Qin, p1, p2, p1]", ["data.columns", "'p1' is listed twice"]),
+    ("p2: {type: De, junction: J2, column: p2", "p2: {type: De, junction: J2, column: p1",
+     ["sensors.p2.column", "reads column 'p1' as sensor 'p1' does"]),
+])
+def test_names_that_cannot_be_told_apart_are_refused_at_load(old, new, words):
+    from bondgraph.errors import ModelError
+    from bondgraph.loader import load_model_text
+    assert old in TANK
+    with pytest.raises(ModelError) as err:
+        load_model_text(TANK.replace(old, new, 1), "m.yaml")
+    for w in words:
+        assert w in str(err.value), str(err.value)
+
+
+def test_one_name_in_another_unicode_form_is_still_the_same_parameter():
+    """R12 renamed to the micro sign and used in an expression: the expression's parser reads
+    U+03BC, which is that parameter (it was 'undefined symbol')."""
+    from bondgraph.loader import load_model_text
+    text = TANK.replace("R12", "\u00b5").replace('effort: "rho*g*q/A1"', 'effort: "rho*g*q/A1 + 0*\u00b5"')
+    model = load_model_text(text, "m.yaml")
+    assert "\u00b5" in model.parameters and model.parameters["\u00b5"].value == 1.0e7
+
+
+def test_calibrating_on_constant_data_is_refused_with_the_reason(tmp_path, capsys):
+    run = tmp_path / "flat.csv"
+    run.write_text("t,Qin,p1,p2\n" + "".join(f"{i / 10:.1f},0,0,0\n" for i in range(600)), encoding="utf-8")
+    code, err = _cli(["calibrate", MODELS / "two_tank_valve.yaml", run], capsys)
+    assert code == 2
+    _one_line(err, "flat.csv", "every column is constant", "no threshold can be learnt")
