@@ -59,8 +59,10 @@ class Measurements:
         return float(self.t[1] - self.t[0])
 
 
-CHUNK = 65536          # rows parsed at a time: memory stays near the size of the numbers read
+CHUNK = 8192           # rows parsed at a time (their text as Python objects: about 5 MB for 6 columns)
 MAX_VALUES = 100_000_000   # numbers in one file (800 MB as float64): beyond, split the file
+MAX_LINE = 1 << 20         # characters in one line (the header or a row): 1 MiB, some 50 000 numbers
+MAX_COLUMNS = 10_000       # columns of the header
 MAX_TIME = 1.0e9           # s (31 years): a time column beyond it is not seconds
 BOMS = ((b"\xef\xbb\xbf", "utf-8-sig"), (b"\xff\xfe", "utf-16"), (b"\xfe\xff", "utf-16"))
 
@@ -88,10 +90,14 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
     cut while a row was written, is dropped and ``cut(message)`` told; a short row anywhere
     else is an error, as it is in a file."""
     try:
-        first = fh.readline()
+        lines = bounded_lines(fh, path)
+        first = next(lines, "")
         delimiter = ";" if first.count(";") > first.count(",") else ","
-        reader = csv.reader(itertools.chain([first], fh), delimiter=delimiter)
+        reader = csv.reader(itertools.chain([first], lines), delimiter=delimiter)
         header = [h.strip() for h in next(reader, [])]
+        if len(header) > MAX_COLUMNS:
+            raise DataError(f"{path}: {len(header):,} columns in the header, more than {MAX_COLUMNS:,}; a measurement "
+                            "file has t and the model's columns")
         check_header(path, header)
         if "t" not in header:
             shown = delimiter.join(header)
@@ -124,6 +130,23 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
         raise DataError(f"{path}: not UTF-8 text{at}; save the file as UTF-8 CSV") from None
     except (csv.Error, EOFError, zlib.error) as exc:
         raise DataError(f"{path}: not a CSV file ({str(exc)[:80]})") from None
+
+
+def bounded_lines(fh, path: str) -> Iterator[str]:
+    """The lines of a text stream, each read with a limit of MAX_LINE characters: a file with no
+    line end (``/dev/zero``, a binary file, one endless row) is refused after 1 MiB, where reading
+    a line without limit would hold all of it in memory first."""
+    readline = fh.readline
+    number = 0
+    while True:
+        line = readline(MAX_LINE + 1)
+        if not line:
+            return
+        number += 1
+        if len(line) > MAX_LINE and line[-1] not in "\r\n":
+            raise DataError(f"{path}: line {number} is longer than {MAX_LINE:,} characters (no line end within "
+                            f"{MAX_LINE >> 20} MiB); a measurement file has one short row per sample: is it a CSV file?")
+        yield line
 
 
 def check_header(path: str, header: list[str]) -> None:
@@ -163,12 +186,23 @@ def read_csv(path: str | Path) -> Measurements:
     with open_text(path) as fh:
         for header, block in blocks(fh, str(path)):
             parts.append(block)
-    if not parts:
-        parts.append(np.zeros((0, max(1, len(header)))))
-    blocks_ = parts
-    table = np.concatenate(blocks_) if len(blocks_) > 1 else blocks_[0]
-    del blocks_, parts
-    return checked(str(path), header, table)
+    return checked(str(path), header, _columns_first(parts, len(header)))
+
+
+def _columns_first(parts: list[np.ndarray], width: int) -> np.ndarray:
+    """The blocks stacked into one (rows, width) array in column order (each column contiguous:
+    ``checked`` then takes views, no copies), each block released once copied: the table's pages
+    are touched as they are filled, so the peak stays near one table, not two."""
+    rows = sum(p.shape[0] for p in parts)
+    table = np.empty((rows, max(1, width)), order="F")
+    at = 0
+    parts.reverse()
+    while parts:
+        part = parts.pop()
+        table[at:at + part.shape[0]] = part
+        at += part.shape[0]
+        del part
+    return table
 
 
 def checked(path: str, header: list[str], table: np.ndarray) -> Measurements:
@@ -266,7 +300,8 @@ def signals_from_data(model: Model, data: Measurements) -> dict[str, np.ndarray]
     out: dict[str, np.ndarray] = {}
     for s in model.sensors.values():
         names, fn = functions[s.name]
-        out[s.name] = np.asarray(fn(*[data.columns[x] for x in names]), dtype=float) * np.ones_like(data.t)
+        value = np.asarray(fn(*[data.columns[x] for x in names]), dtype=float)
+        out[s.name] = value if value.shape == data.t.shape else value * np.ones_like(data.t)   # a column: no copy
     for i in model.inputs.values():
         out[i.name] = data.columns[i.column] if i.column else input_values(model, i.name, data.t)
     for m in model.modes.values():

@@ -295,3 +295,136 @@ def test_calibrating_on_constant_data_is_refused_with_the_reason(tmp_path, capsy
     code, err = _cli(["calibrate", MODELS / "two_tank_valve.yaml", run], capsys)
     assert code == 2
     _one_line(err, "flat.csv", "every column is constant", "no threshold can be learnt")
+
+
+# ------------------------------------------------------------------ 4. bounded memory and time
+
+@pytest.mark.parametrize("shape, window", [((5000,), 0.4001), ((3, 4000), 0.1001), ((2, 2, 3000), 0.0501)])
+def test_the_derivative_filter_in_blocks_gives_the_same_numbers(monkeypatch, shape, window):
+    """Blocks of a few windows (BLOCK_VALUES made tiny: hundreds of blocks) give the numbers of
+    one product over all the windows to 1e-12 of the largest value, every order and both edge
+    rules, for one signal, a population and a population of populations; and on a cubic (which
+    the cubic fit reproduces exactly) the analytic derivatives."""
+    from fdi import derivatives
+    x = np.random.default_rng(7).standard_normal(shape).cumsum(axis=-1) + 1e3
+    t = np.arange(shape[-1]) * 1e-4
+    cubic = 1e3 + 2 * t - 5 * t ** 2 + 7 * t ** 3
+    exact = [cubic, 2 - 10 * t + 21 * t ** 2, -10 + 42 * t, 42 + 0 * t]
+    for edges in ("interp", "mirror"):
+        monkeypatch.setattr(derivatives, "BLOCK_VALUES", 1 << 40)
+        whole = derivatives.estimate(x, 1e-4, 3, window=window, polyorder=3, edges=edges)
+        monkeypatch.setattr(derivatives, "BLOCK_VALUES", 5000)
+        ours = derivatives.estimate(x, 1e-4, 3, window=window, polyorder=3, edges=edges)
+        for k in range(4):
+            assert np.max(np.abs(ours[k] - whole[k])) <= 1e-12 * np.abs(whole[k]).max(), (edges, k)
+    fitted = derivatives.estimate(cubic, 1e-4, 3, window=window, polyorder=3)
+    for k, tol in enumerate((1e-8, 1e-7, 1e-7, 1e-3)):                   # round-off grows with the order
+        assert np.max(np.abs(fitted[k] - exact[k])) <= tol * np.abs(exact[k]).max(), k
+
+
+def test_the_derivative_filter_memory_grows_with_the_samples_not_the_window():
+    """100 000 samples and a window of 2001: all windows at once would copy 1.6 GB; in blocks the
+    peak of numpy's allocations stays under 64 MB (the signal, its padding, four derivatives of
+    0.8 MB each and one block of at most 16 MB)."""
+    import tracemalloc
+
+    from fdi import derivatives
+    t = np.arange(100_000) * 1e-4
+    x = np.sin(3.0 * t) + 0.1 * t ** 3
+    tracemalloc.start()
+    try:
+        v = derivatives.estimate(x, 1e-4, 3, window=0.2, polyorder=3)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 64 << 20, peak / 2 ** 20
+    inner = slice(2000, -2000)
+    assert np.max(np.abs(v[1][inner] - (3 * np.cos(3 * t) + 0.3 * t ** 2)[inner])) < 1e-3   # d/dt, analytic
+
+
+def test_residuals_in_blocks_are_the_hand_derived_residual_and_the_same_numbers(monkeypatch):
+    """The two-tank ARR1 = Qin - (A1/(rho g)) dp1/dt - v (p1 - p2)/R12 (the model file's own
+    derivation, docs) on p1 rising at 2 Pa/s, p2 = 1000 Pa, Qin = 1e-4: the value by hand at every
+    trusted sample; evaluated 500 samples at a time it is the same array, bit for bit."""
+    from fdi import residuals as R
+    from fdi.monitor import Monitor
+    from fdi.data import checked, signals_from_data
+    m = Monitor(TANK)
+    t = np.arange(3000) * 0.1
+    cols = {"t": t, "Qin": np.full_like(t, 1e-4), "p1": 5000 + 2.0 * t, "p2": np.full_like(t, 1000.0)}
+    data = checked("x", list(cols), np.column_stack(list(cols.values())))
+    raw = signals_from_data(m.model, data)
+    monkeypatch.setattr(R, "EVAL_BLOCK", 1 << 30)
+    whole = R.evaluate(m.model, list(m.residuals), raw, 0.1, window=5.0)
+    monkeypatch.setattr(R, "EVAL_BLOCK", 500)
+    blocked = R.evaluate(m.model, list(m.residuals), raw, 0.1, window=5.0)
+    assert np.array_equal(whole, blocked)
+    arr1 = 1e-4 - 0.0154 / (1000 * 9.81) * 2.0 - (cols["p1"] - 1000.0) / 1.0e7
+    i = m.names.index("ARR1")
+    assert np.allclose(blocked[i][50:-50], arr1[50:-50], rtol=1e-9, atol=1e-15)
+
+
+@pytest.mark.parametrize("source", ["file", "stream"])
+def test_a_line_without_end_is_refused_after_one_mebibyte(tmp_path, capsys, monkeypatch, source):
+    """/dev/zero as data (a file or standard input): one line, exit 2, after reading 1 MiB, not
+    after exhausting the memory."""
+    import io
+    import sys
+    import time
+    if not os.path.exists("/dev/zero"):
+        pytest.skip("no /dev/zero")
+    model = MODELS / "cycab_steering.yaml"
+    start = time.perf_counter()
+    if source == "file":
+        code, err = _cli(["diagnose", model, "/dev/zero"], capsys)
+    else:
+        with open("/dev/zero", "rb") as raw:
+            monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(raw, encoding="utf-8"))
+            code, err = _cli(["monitor", model, "-"], capsys)
+    assert code == 2 and time.perf_counter() - start < 5
+    _one_line(err, "line 1 is longer than 1,048,576 characters")
+
+
+def test_a_long_row_and_a_wide_header_are_refused(tmp_path, capsys):
+    from fdi.data import MAX_COLUMNS, MAX_LINE
+    model = MODELS / "cycab_steering.yaml"
+    row = tmp_path / "row.csv"
+    row.write_text(CYCAB_HEADER + "\n0," + "1," * (MAX_LINE // 2) + "1\n", encoding="utf-8")
+    code, err = _cli(["diagnose", model, row], capsys)
+    assert code == 2
+    _one_line(err, "row.csv", "line 2 is longer")
+    wide = tmp_path / "wide.csv"
+    wide.write_text("t," + ",".join(f"c{i}" for i in range(MAX_COLUMNS)) + "\n", encoding="utf-8")
+    code, err = _cli(["diagnose", model, wide], capsys)
+    assert code == 2
+    _one_line(err, "wide.csv", f"{MAX_COLUMNS + 1:,} columns")
+
+
+def test_a_local_cluster_has_no_more_workers_than_files(monkeypatch):
+    """--scheduler local --jobs 16 for 2 files starts 2 workers (the cluster is faked: what is
+    asked of dask is the point, not dask starting)."""
+    distributed = pytest.importorskip("distributed")
+    from fdi.app import fleet
+    asked = {}
+
+    class FakeCluster:
+        def __init__(self, n_workers, **kw):
+            asked["n"] = n_workers
+
+        def close(self):
+            pass
+
+    class FakeClient:
+        def __init__(self, cluster, **kw):
+            pass
+
+        def close(self):
+            pass
+    monkeypatch.setattr(distributed, "LocalCluster", FakeCluster)
+    monkeypatch.setattr(distributed, "Client", FakeClient)
+    with fleet.Cluster("local", 16, files=2):
+        pass
+    assert asked["n"] == 2
+    with fleet.Cluster("local", 1, files=5):
+        pass
+    assert asked["n"] == 1

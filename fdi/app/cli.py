@@ -565,9 +565,11 @@ def _diagnose_batch(args: argparse.Namespace, options) -> int:
 
     from .fleet import Cluster, diagnose_many, workers_of
     jobs = args.jobs or 1
+    local = max(1, min(args.jobs or os.cpu_count() or 1, len(args.data)))    # no more workers than files
     where = (f"dask scheduler {args.scheduler}" if args.scheduler and args.scheduler != "local"
-             else "a dask LocalCluster" if args.scheduler else f"{min(jobs, len(args.data))} process(es)")
-    with (Cluster(args.scheduler, args.jobs) if args.scheduler else nullcontext()) as client:
+             else f"a dask LocalCluster of {local} worker(s)" if args.scheduler
+             else f"{min(jobs, len(args.data))} process(es)")
+    with (Cluster(args.scheduler, args.jobs, len(args.data)) if args.scheduler else nullcontext()) as client:
         if client is not None:
             LOG.debug("dask scheduler %s: %d worker(s)", client.scheduler.address, workers_of(client))
         LOG.info(f"diagnosing {len(args.data)} file(s) on {where}")
