@@ -428,3 +428,67 @@ def test_a_local_cluster_has_no_more_workers_than_files(monkeypatch):
     with fleet.Cluster("local", 1, files=5):
         pass
     assert asked["n"] == 1
+
+
+# ------------------------------------------------------------------ 5. the tracebacks left
+
+MU_TANK = TANK.replace("R12", "\u00b5")          # a model whose names need more than ASCII
+
+
+def test_standard_output_on_a_full_disk_is_one_line(capsys, monkeypatch):
+    """/dev/full takes no byte (ENOSPC on every write): one line, exit 2, no traceback."""
+    import sys
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full")
+    with open("/dev/full", "w", encoding="utf-8") as full:
+        monkeypatch.setattr(sys, "stdout", full)
+        code, err = _cli(["tables", MODELS / "two_tank_valve.yaml"], capsys)
+        assert code == 2
+        _one_line(err, "standard output: cannot write", "No space left on device")
+
+
+def test_an_ascii_standard_output_with_a_non_ascii_model_is_one_line(tmp_path, capsys, monkeypatch):
+    """PYTHONIOENCODING=ascii (or an ASCII locale) and a parameter named µ: one line saying how to
+    get UTF-8, exit 2; with -o the file is written in UTF-8 and the command succeeds."""
+    import io
+    import sys
+    model = tmp_path / "mu.yaml"
+    model.write_text(MU_TANK, encoding="utf-8")
+    monkeypatch.setattr(sys, "stdout", io.TextIOWrapper(io.BytesIO(), encoding="ascii"))
+    code, err = _cli(["tables", model], capsys)
+    assert code == 2
+    _one_line(err, "encoding ascii", "PYTHONIOENCODING=utf-8", "-o")
+    code, err = _cli(["tables", model, "-o", tmp_path / "t.txt"], capsys)
+    assert code == 0 and "\u00b5" in (tmp_path / "t.txt").read_text(encoding="utf-8")
+
+
+def test_monitor_with_standard_input_closed_is_one_line(capsys, monkeypatch):
+    import sys
+    monkeypatch.setattr(sys, "stdin", None)                 # what Python gives for `bgfdi monitor M - <&-`
+    code, err = _cli(["monitor", MODELS / "cycab_steering.yaml", "-", "--workers", "1"], capsys)
+    assert code == 2
+    _one_line(err, "standard input is closed")
+
+
+def test_a_fifo_in_a_suite_folder_is_skipped_not_waited_for(tmp_path, capsys):
+    """evaluate on a folder whose only *.json is a FIFO with no writer: it is skipped with a line
+    (reading it would wait forever), then 'no scenario files', exit 2, at once."""
+    import signal
+    if not hasattr(os, "mkfifo"):
+        pytest.skip("no FIFOs")
+    suite = tmp_path / "suite"
+    suite.mkdir()
+    os.mkfifo(suite / "x.json")
+
+    def hang(signum, frame):
+        raise TimeoutError("evaluate waited on the FIFO")
+    old = signal.signal(signal.SIGALRM, hang)
+    signal.alarm(10)
+    try:
+        code, err = _cli(["evaluate", MODELS / "cycab_steering.yaml", suite], capsys)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 2 and "x.json: not a regular file" in lines[0] and "no scenario files" in lines[1], err

@@ -8,6 +8,7 @@ ends the command quietly. See docs/cli.md.
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
 import sys
@@ -622,7 +623,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
     model = compiled(args.model).model
     options = _options(args, model)
-    files = suite_files(args.scenarios)
+    files = suite_files(args.scenarios, skipped=LOG.warning)
     if not files:
         raise UsageError(f"no scenario files in {', '.join(args.scenarios)}")
     for f in files:                                   # every file checked before the first simulation
@@ -677,6 +678,8 @@ def cmd_monitor(args: argparse.Namespace) -> int:
         else:
             print(line, flush=True)
     source = "standard input" if args.data == "-" else args.data
+    if args.data == "-" and (sys.stdin is None or sys.stdin.closed):
+        raise UsageError("monitor: standard input is closed; pipe the CSV stream in (header first), or give a file")
     fh = sys.stdin if args.data == "-" else open_text(args.data)
     try:
         monitor = compiled(args.model).stream(emit, options, source=source, refresh=args.refresh,
@@ -944,6 +947,32 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:
         _silence_stdout()
         return 1
+    except UnicodeEncodeError as exc:          # standard output in an encoding that cannot hold the text
+        encoding = getattr(sys.stdout, "encoding", None) or exc.encoding
+        _silence_stdout()
+        LOG.error(f"standard output: its encoding {encoding} (from the locale or PYTHONIOENCODING) cannot hold "
+                  f"{exc.object[exc.start:exc.end]!r}; set PYTHONIOENCODING=utf-8 or a UTF-8 locale "
+                  "(LC_ALL=C.UTF-8), or write to a file with -o (always UTF-8)")
+        return 2
+    except OSError as exc:                     # a write to standard output failed: a full disk, /dev/full
+        if not (_stdout_failed() or (exc.filename is None and exc.errno in WRITE_ERRORS)):
+            raise                              # files' errors are one-line errors where they are opened
+        _silence_stdout()
+        LOG.error(f"standard output: cannot write ({exc.strerror or exc}); free space or write to a file with -o")
+        return 2
+
+
+WRITE_ERRORS = {getattr(errno, name) for name in ("ENOSPC", "EDQUOT", "EFBIG", "EIO") if hasattr(errno, name)}
+
+
+def _stdout_failed() -> bool:
+    """True when standard output cannot take what it holds (flushing it fails again)."""
+    try:
+        if sys.stdout is not None:
+            sys.stdout.flush()
+    except (OSError, ValueError):
+        return True
+    return False
 
 
 def _silence_stdout() -> None:
