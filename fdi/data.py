@@ -172,6 +172,8 @@ def open_text(path: str | Path):
         if Path(path).is_dir():
             raise DataError(f"{path}: is a folder; give a measurement CSV file")
         return _open_text(path)
+    except (EOFError, zlib.error) as exc:            # gzip's magic bytes, then a cut or broken stream
+        raise DataError(f"{path}: not a complete gzip file ({str(exc)[:80]})") from None
     except OSError as exc:
         raise DataError(f"{path}: cannot read ({exc.strerror or exc})") from None
 

@@ -423,7 +423,8 @@ def check_options(argv: list[str]) -> None:
             except SystemExit as exc:            # argparse's own refusal of a malformed value
                 rc = exc.code
         lines = [ln for ln in err.getvalue().splitlines() if ln.strip() and not ln.startswith("usage:")]
-        if rc not in (0, 2) or "Traceback" in err.getvalue() or (rc == 2 and len(lines) != 1):
+        allowed = (0, 2, 3) if "--fail-on-fault" in argv else (0, 2)      # 3: a fault found, as asked
+        if rc not in allowed or "Traceback" in err.getvalue() or (rc == 2 and len(lines) != 1):
             raise AssertionError(f"exit {rc}: {err.getvalue()[:200]}")
         if rc == 2:
             raise UsageError(lines[0])

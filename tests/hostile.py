@@ -197,6 +197,8 @@ CASES: list[tuple[str, dict, list[str], str]] = [
     ("data-long-row", *data(_NOMINAL_LINES[0] + "0," + "1," * 600_000 + "1\n"), "error"),
     ("data-wide-header", *data("t," + ",".join(f"c{i}" for i in range(10_001)) + "\n"), "error"),
     ("data-gzip-no-line-end", *data(gzip.compress(b"\x00" * 3_000_000)), "error"),
+    ("data-gzip-magic-only", *data(b"\x1f\x8b"), "error"),            # found by the csv fuzzer (EOFError)
+    ("data-gzip-cut", *data(gzip.compress(SHORT.encode())[:300]), "error"),
     # ------------------------------------------------------------------ issue 23: never lose an input
     ("output-is-the-data", {"d.csv": SHORT}, ["diagnose", CYCAB, "{d.csv}", "--workers", "1", "-o", "{d.csv}"], "error"),
     ("output-is-the-scenario", {"s.json": '{"T": 1, "fs": 100}'}, ["simulate", CYCAB, "{s.json}", "-o", "{s.json}"],

@@ -949,6 +949,8 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except UnicodeEncodeError as exc:          # standard output in an encoding that cannot hold the text
         encoding = getattr(sys.stdout, "encoding", None) or exc.encoding
+        if (encoding or "").lower().replace("-", "") != (exc.encoding or "").lower().replace("-", ""):
+            raise                              # not standard output's: a bug, shown as one
         _silence_stdout()
         LOG.error(f"standard output: its encoding {encoding} (from the locale or PYTHONIOENCODING) cannot hold "
                   f"{exc.object[exc.start:exc.end]!r}; set PYTHONIOENCODING=utf-8 or a UTF-8 locale "
