@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import ast
 import math
+import unicodedata
 from collections.abc import Mapping
 
 import sympy as sp
@@ -119,9 +120,12 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
             raise ExpressionError(f"number {_short(str(node.value), 20)} out of range in '{src}' (at most 1e300)")
         return sp.Integer(node.value) if isinstance(node.value, int) else sp.Float(node.value)
     if isinstance(node, ast.Name):
-        name = node.id
+        name = node.id                               # Python's parser gives identifiers in NFKC form
         if name in symbols:
             return symbols[name]
+        written = [k for k in symbols if unicodedata.normalize("NFKC", k) == name]
+        if len(written) == 1:                        # a name written in another form ('µ' read as 'μ')
+            return symbols[written[0]]
         if name in CONSTANTS:
             return CONSTANTS[name]
         if name in FUNCTIONS:
