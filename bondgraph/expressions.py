@@ -112,6 +112,25 @@ def _power(base: sp.Expr, exponent: sp.Expr, src: str) -> sp.Expr:
     return base ** exponent
 
 
+def same_name(names) -> tuple[int, int] | None:
+    """The first pair (i, j), i < j, of ``names`` that are one name as expressions read them:
+    equal, or equal once Unicode-normalised (NFKC: 'µ' is 'μ', 'ﬁx' is 'fix', as Python's parser
+    reads identifiers); None when every name is its own.
+
+    >>> same_name(["t", "µ", "x", "μ"])
+    (1, 3)
+    >>> same_name(["t", "x"]) is None
+    True
+    """
+    seen: dict[str, int] = {}
+    for j, name in enumerate(names):
+        key = unicodedata.normalize("NFKC", name)
+        if key in seen:
+            return seen[key], j
+        seen[key] = j
+    return None
+
+
 def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
     if isinstance(node, ast.Constant):
         if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):

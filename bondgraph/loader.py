@@ -24,7 +24,7 @@ import sympy as sp
 import yaml
 
 from .errors import ModelError
-from .expressions import ExpressionError, parse_expression
+from .expressions import ExpressionError, parse_expression, same_name
 from .model import (LAW_VARIABLES, ELEMENT_KINDS, FAULT_KINDS, JUNCTION_KINDS, SENSOR_KINDS, SOURCE_KINDS,
                     TWO_PORT_KINDS, Bond, Element, Fault, Input, Junction, Model, Mode, Parameter,
                     Sensor, t)
@@ -408,15 +408,13 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
 
 def _check_columns(ctx: _Ctx, columns: tuple[str, ...]) -> None:
     """data.columns: each name once, also once Unicode-normalised (NFKC)."""
-    seen: dict[str, int] = {}
-    for i, c in enumerate(columns):
-        key = unicodedata.normalize("NFKC", c)
-        if key in seen:
-            first = columns[seen[key]]
-            what = (f"'{c}' is listed twice" if first == c else
-                    f"'{first}' and '{c}' are one name once Unicode-normalised (NFKC)")
-            raise ctx.error(("data", "columns", i), f"{what} (items {seen[key]} and {i}); give each column once")
-        seen[key] = i
+    pair = same_name(columns)
+    if pair:
+        i, j = pair
+        first, c = columns[i], columns[j]
+        what = (f"'{c}' is listed twice" if first == c else
+                f"'{first}' and '{c}' are one name once Unicode-normalised (NFKC)")
+        raise ctx.error(("data", "columns", j), f"{what} (items {i} and {j}); give each column once")
 
 
 def _where_of(taken: dict, name: str) -> tuple:

@@ -32,7 +32,6 @@ import csv
 import gzip
 import io
 import itertools
-import unicodedata
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,6 +40,7 @@ from typing import Callable, Iterator, Mapping
 import numpy as np
 import sympy as sp
 
+from bondgraph.expressions import same_name
 from bondgraph.model import Model
 
 
@@ -153,17 +153,15 @@ def check_header(path: str, header: list[str]) -> None:
     """Refuse a header whose names cannot all be meant: a name given twice (which column would
     the model read? a dict keeps the last, silently), or two names that are one once
     Unicode-normalised (NFKC: 'µ' and 'μ', 'ﬁx' and 'fix' look alike and Python reads them as one)."""
-    seen: dict[str, int] = {}
-    for i, name in enumerate(header, 1):
-        key = unicodedata.normalize("NFKC", name)
-        if key in seen:
-            first = header[seen[key] - 1]
-            if first == name:
-                raise DataError(f"{path}: column '{name}' appears twice in the header (columns {seen[key]} and {i}); "
-                                "rename or remove one")
-            raise DataError(f"{path}: columns '{first}' (column {seen[key]}) and '{name}' (column {i}) are one name "
-                            "once Unicode-normalised (NFKC); rename one")
-        seen[key] = i
+    pair = same_name(header)
+    if pair:
+        i, j = pair
+        first, name = header[i], header[j]
+        if first == name:
+            raise DataError(f"{path}: column '{name}' appears twice in the header (columns {i + 1} and {j + 1}); "
+                            "rename or remove one")
+        raise DataError(f"{path}: columns '{first}' (column {i + 1}) and '{name}' (column {j + 1}) are one name "
+                        "once Unicode-normalised (NFKC); rename one")
 
 
 def open_text(path: str | Path):
