@@ -238,6 +238,9 @@ def evaluate(model: Model, residuals: list[Residual], raw: Mapping[str, np.ndarr
              values: Mapping[str, object] | None = None, betas: Mapping[str, object] | None = None,
              window: float = derivatives.DEFAULT_WINDOW, biases: Mapping[str, object] | None = None) -> np.ndarray:
     """Residuals on data: array of shape (n_residuals, ..., samples)."""
+    blocked = _in_blocks(model, residuals, raw, ts, parameter_values(model, values), betas, window, biases)
+    if blocked is not None:
+        return blocked
     sig = corrected_signals(model, raw, ts, derivative_orders(residuals), betas, window, biases=biases)
     vals = parameter_values(model, values)
     samples = _one_record(residuals, sig, vals)
@@ -254,6 +257,46 @@ def evaluate(model: Model, residuals: list[Residual], raw: Mapping[str, np.ndarr
 
 
 EVAL_BLOCK = 1 << 16    # samples per call of a residual kernel on one long record (its temporaries: 0.5 MB each)
+
+
+def _in_blocks(model: Model, residuals: list[Residual], raw: Mapping[str, np.ndarray], ts: float,
+               vals: Mapping[str, object], betas: Mapping[str, object] | None, window: float,
+               biases: Mapping[str, object] | None) -> np.ndarray | None:
+    """The residuals of one long record (more than EVAL_BLOCK samples, every signal 1-D), the
+    signals' derivatives included, computed EVAL_BLOCK samples at a time from the samples of the
+    block and half a derivative window each side (the first and last whole windows at the ends):
+    memory of one block of derivatives, not of (signals x orders x samples) (a minute at 10 kHz:
+    37 MB for the CyCab). Each sample's derivative is the same filter over the same samples, so the
+    numbers are the whole record's, bit for bit. None where that does not hold (mode switches,
+    stored quantities, profiles or populations): the caller evaluates the whole record."""
+    orders = derivative_orders(residuals)
+    if not orders or any(r.composites for r in residuals):
+        return None
+    signals = [np.asarray(raw[name]) for name in orders]
+    samples = signals[0].shape[-1] if signals[0].ndim == 1 else 0
+    if samples <= EVAL_BLOCK or any(x.shape != (samples,) for x in signals):
+        return None
+    corrections = list((betas or {}).values()) + list((biases or {}).values())
+    if any(np.ndim(v) for v in corrections):
+        return None
+    varying = {n for r in residuals for n in r.symbols if np.ndim(vals[n])}
+    if any(np.shape(vals[n]) != (samples,) for n in varying):
+        return None
+    n = max(derivatives.window_samples(window, ts, max(derivatives.DEFAULT_ORDER, k)) for k in orders.values())
+    if 4 * n > EVAL_BLOCK or len(mode_breaks(model, raw)):
+        return None
+    half = n // 2
+    out = np.empty((len(residuals), samples))
+    for a in range(0, samples, EVAL_BLOCK):
+        b = min(samples, a + EVAL_BLOCK)
+        lo, hi = max(0, min(a - half, samples - n)), min(samples, max(b + half, n))
+        part = {name: x[lo:hi] for name, x in zip(orders, signals)}
+        sig = corrected_signals(model, part, ts, orders, betas, window, biases=biases)
+        here = {**vals, **{name: np.asarray(vals[name])[lo:hi] for name in varying}}
+        for row, r in zip(out, residuals):
+            row[a:b] = r(sig, here, ts, window, crop=slice(a - lo, b - lo))
+        del sig, part
+    return out
 
 
 def _one_record(residuals: list[Residual], sig: Mapping[str, list[np.ndarray]], vals: Mapping[str, object]) -> int:
