@@ -718,33 +718,53 @@ def _scipy(system: System, table: _ParameterTable, how: str, a: float, b: float,
     return _Solution(sol.t, sol.y, end)
 
 
+OUTPUT_BLOCK = 4096   # output points whose parameters and rates are tabulated at a time in _trajectory
+
+
 def _trajectory(model: Model, pieces: list[tuple[System, np.ndarray, np.ndarray, tuple[float, float], Callable]],
                 vectorised: bool, configs: list) -> Trajectory:
-    """Outputs at the output points of every piece, computed over all the piece's samples at once."""
-    out_sig: dict[str, list] = {}
-    out_states: dict[str, list] = {}
-    for system, ts, ys, span, values in pieces:
-        table = _ParameterTable(values, system.param_names, vectorised, span)
-        P = table.rows(ts)
-        dx = np.array([system.rates(tt, y, p) for tt, y, p in zip(ts, ys.T.tolist(), P.tolist())],
-                      dtype=float).reshape(len(ts), -1)
-        observed = system.observe(ts, tuple(ys), tuple(P.T), tuple(dx.T))
-        for name, v in zip(system.output_names, observed):
-            out_sig.setdefault(name, []).append(np.broadcast_to(np.asarray(v, dtype=float), ts.shape))
-        for name in model.sensors:          # a sensor on a switched-off junction measures zero
-            if name not in system.output_names:
-                out_sig.setdefault(name, []).append(np.zeros(ts.shape))
-        for name, v in zip(system.states, ys):
-            out_states.setdefault(name, []).append(v)
+    """Outputs at the output points of every piece (taken from ``pieces``, which is left empty),
+    written into one array per signal and state, OUTPUT_BLOCK points at a time: the parameters,
+    rates and outputs of a block are tabulated together (each point's numbers as over the whole
+    piece at once), where tabulating a whole minute at 10 kHz held its parameter rows as Python
+    lists (1 GB for the CyCab)."""
     n = sum(len(ts) for _, ts, _, _, _ in pieces)
-    sig = {k: np.concatenate(v) for k, v in out_sig.items()}
-    sig = {k: v for k, v in sig.items() if len(v) == n}
-    states = {k: np.concatenate(v) for k, v in out_states.items()}
-    states = {k: v for k, v in states.items() if len(v) == n}
+    covered: dict[str, int] = {}            # samples each signal (state) is given in: kept if all n
+    states_covered: dict[str, int] = {}
+    for system, ts, _, _, _ in pieces:
+        for name in list(system.output_names) + [s for s in model.sensors if s not in system.output_names]:
+            covered[name] = covered.get(name, 0) + len(ts)
+        for name in system.states:
+            states_covered[name] = states_covered.get(name, 0) + len(ts)
+    sig = {k: np.empty(n) for k, c in covered.items() if c == n}
+    states = {k: np.empty(n) for k, c in states_covered.items() if c == n}
+    t_all = np.concatenate([ts for _, ts, _, _, _ in pieces]) if pieces else np.zeros(0)
+    at = 0
+    pieces.reverse()                        # taken from the list: each piece's states released once copied
+    while pieces:
+        system, ts, ys, span, values = pieces.pop()
+        table = _ParameterTable(values, system.param_names, vectorised, span)
+        for a in range(0, len(ts), OUTPUT_BLOCK):
+            b = min(len(ts), a + OUTPUT_BLOCK)
+            tb, yb = ts[a:b], ys[:, a:b]
+            P = table.rows(tb)
+            dx = np.array([system.rates(tt, y, p) for tt, y, p in zip(tb, yb.T.tolist(), P.tolist())],
+                          dtype=float).reshape(len(tb), -1)
+            observed = system.observe(tb, tuple(yb), tuple(P.T), tuple(dx.T))
+            for name, v in zip(system.output_names, observed):
+                if name in sig:
+                    sig[name][at + a:at + b] = np.broadcast_to(np.asarray(v, dtype=float), tb.shape)
+            for name in model.sensors:          # a sensor on a switched-off junction measures zero
+                if name not in system.output_names and name in sig:
+                    sig[name][at + a:at + b] = 0.0
+        for name, v in zip(system.states, ys):
+            if name in states:
+                states[name][at:at + len(ts)] = v
+        at += len(ts)
+        del ys
     for s in model.sensors.values():
         if s.measures in ("displacement", "momentum"):
             sig[s.name] = states.get(s.name, np.zeros(n))
-    t_all = np.concatenate([ts for _, ts, _, _, _ in pieces]) if pieces else np.zeros(0)
     return Trajectory(t_all, sig, states, configs)
 
 
@@ -761,7 +781,7 @@ def _ros2_grid(a: float, b: float, pts: np.ndarray, h_max: float) -> tuple[np.nd
     marks = list(pts) + ([b] if not pts.size or pts[-1] < b else [])
     starts, sizes, reached = [], [], []
     tt = a
-    for target in marks:
+    for i, target in enumerate(marks):
         span = target - tt
         if span > 0:
             n = max(1, int(np.ceil(span / h_max - 1e-9)))
@@ -771,7 +791,7 @@ def _ros2_grid(a: float, b: float, pts: np.ndarray, h_max: float) -> tuple[np.nd
                 sizes.append(h)
                 tt += h
             tt = target
-        if pts.size and target in pts:
+        if i < len(pts):                   # an output point (b, appended, is none)
             reached.append(len(starts))
     return np.asarray(starts), np.asarray(sizes), reached
 
@@ -786,7 +806,9 @@ def _ros2(system: System, table: _ParameterTable, a: float, b: float, x: np.ndar
         g = 1 + 1/sqrt(2).
 
     W = (I - g h J)^-1 is formed when the Jacobian is refreshed; a step is one call of
-    ``system.step`` with the (prepared) parameters at both stages tabulated beforehand.
+    ``system.step`` with the (prepared) parameters at both stages tabulated beforehand, for
+    ROS2_CHUNK output points at a time (the same grid and numbers as all at once; memory of a chunk,
+    where a minute at 10 kHz tabulated at once took 300 MB).
 
     Order 2 holds for any J, stability does not. A step whose stage 2 shows that the stiffness
     outgrew J (see :func:`_step_function`) is redone with J refreshed at its start; if it is still
@@ -801,36 +823,49 @@ def _ros2(system: System, table: _ParameterTable, a: float, b: float, x: np.ndar
 
     ``implicit_start``: the first step is one of backward Euler, as after a configuration change
     that adds a state: it starts from the constraint that just ended (an opened leak, no flow yet)."""
-    starts, sizes, reached = _ros2_grid(a, b, pts, h_max)
-    c0, c1 = table.prepared(starts, system.prepare), table.prepared(starts + sizes, system.prepare)
     n_state = len(x)
     eye = np.eye(n_state)
     xx = tuple(float(v) for v in x)
-    saved = {}
-    marks = set(reached)
+    ys = np.empty((n_state, len(pts)))       # the states at the output points, written as reached
+    done = 0
     W, h_used = None, None
     step, f = system.step, system.f
     first = 0 if implicit_start else -1
-    if 0 in marks:
-        saved[0] = xx
-    for k, (tt, h) in enumerate(zip(starts.tolist(), sizes.tolist())):
-        fresh = k % jac_every == 0 or h != h_used
-        if fresh:
-            W = tuple(np.linalg.inv(eye - GAMMA * h * _jacobian(f, tt, xx, c0[k])).ravel().tolist())
-            h_used = h
-        new, ok = step(tt, tt + h, h, xx, W, c0[k], c1[k])
-        if not ok or k == first:                       # rare: a few hundred steps in 60 000
-            if not ok and not fresh:
-                W = tuple(np.linalg.inv(eye - GAMMA * h * _jacobian(f, tt, xx, c0[k])).ravel().tolist())
-                new, ok = step(tt, tt + h, h, xx, W, c0[k], c1[k])
-            if k == first or not ok and _stiff(f, tt + h, h, new, c1[k]):
-                new = _implicit_euler(f, tt + h, h, xx, c1[k]) or new
-        xx = new
-        if k + 1 in marks:
-            saved[k + 1] = xx
-    ys = [saved[r] for r in reached]
-    return _Solution(pts[:len(ys)] if pts.size else np.zeros(0),
-                     np.asarray(ys, dtype=float).T if ys else np.zeros((n_state, 0)), np.asarray(xx, dtype=float))
+    k0, start = 0, a                         # steps taken before the chunk, and where it starts
+    for i in range(0, max(1, len(pts)), ROS2_CHUNK):   # the grid and parameters of ROS2_CHUNK points at a time
+        part = pts[i:i + ROS2_CHUNK]
+        last = i + ROS2_CHUNK >= len(pts)
+        starts, sizes, reached = _ros2_grid(start, b if last else part[-1], part, h_max)
+        if len(part):
+            start = part[-1]
+        c0, c1 = table.prepared(starts, system.prepare), table.prepared(starts + sizes, system.prepare)
+        j = 0
+        while j < len(reached) and reached[j] == 0:
+            ys[:, done] = xx
+            done, j = done + 1, j + 1
+        for kl, (tt, h) in enumerate(zip(starts.tolist(), sizes.tolist())):
+            k = k0 + kl
+            fresh = k % jac_every == 0 or h != h_used
+            if fresh:
+                W = tuple(np.linalg.inv(eye - GAMMA * h * _jacobian(f, tt, xx, c0[kl])).ravel().tolist())
+                h_used = h
+            new, ok = step(tt, tt + h, h, xx, W, c0[kl], c1[kl])
+            if not ok or k == first:                       # rare: a few hundred steps in 60 000
+                if not ok and not fresh:
+                    W = tuple(np.linalg.inv(eye - GAMMA * h * _jacobian(f, tt, xx, c0[kl])).ravel().tolist())
+                    new, ok = step(tt, tt + h, h, xx, W, c0[kl], c1[kl])
+                if k == first or not ok and _stiff(f, tt + h, h, new, c1[kl]):
+                    new = _implicit_euler(f, tt + h, h, xx, c1[kl]) or new
+            xx = new
+            while j < len(reached) and reached[j] == kl + 1:
+                ys[:, done] = xx
+                done, j = done + 1, j + 1
+        k0 += len(starts)
+        del c0, c1, starts, sizes
+    return _Solution(pts[:done] if pts.size else np.zeros(0), ys[:, :done], np.asarray(xx, dtype=float))
+
+
+ROS2_CHUNK = 8192   # output points whose steps are laid out and parameters tabulated at a time (memory)
 
 
 def _stiff(f: Callable, t1: float, h: float, y: tuple, c: tuple) -> bool:

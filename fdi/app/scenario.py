@@ -571,12 +571,14 @@ def _with_offsets(model: Model, faults: list) -> Model:
 
 
 def csv_chunks(columns: dict[str, np.ndarray], rows: int = 10_000) -> Iterator[str]:
-    """The CSV text in pieces of ``rows`` lines, so that 10 million samples never make one string."""
+    """The CSV text in pieces of ``rows`` lines, so that 10 million samples never make one string
+    (nor one table of them: each piece's rows are gathered from the columns as it is written)."""
     names = list(columns)
     yield ",".join(names) + "\n"
-    table = np.column_stack([columns[n] for n in names])
-    for a in range(0, table.shape[0], rows):
-        yield "".join(",".join(f"{v:.10g}" for v in row) + "\n" for row in table[a:a + rows])
+    samples = len(columns[names[0]]) if names else 0
+    for a in range(0, samples, rows):
+        table = np.column_stack([columns[n][a:a + rows] for n in names])
+        yield "".join(",".join(f"{v:.10g}" for v in row) + "\n" for row in table)
 
 
 def to_csv(columns: dict[str, np.ndarray]) -> str:
