@@ -81,8 +81,8 @@ def _open_text(path: str | Path) -> io.TextIOWrapper:
     return io.TextIOWrapper(raw, encoding=encoding, newline="")
 
 
-def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None = None
-           ) -> Iterator[tuple[list[str], np.ndarray]]:
+def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None = None,
+           on_header: Callable[[list[str]], None] | None = None) -> Iterator[tuple[list[str], np.ndarray]]:
     """(header, block of at most ``rows`` rows as float64) from a CSV text stream, as the rows
     arrive (a file, or standard input for the monitor); the header is checked for a ``t`` column,
     the separator found from it (semicolons: a decimal comma is read as a point). Empty fields are
@@ -90,7 +90,8 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
 
     With ``cut`` (a stream: the monitor), a last row with fewer values than the header, a stream
     cut while a row was written, is dropped and ``cut(message)`` told; a short row anywhere
-    else is an error, as it is in a file."""
+    else is an error, as it is in a file. ``on_header(header)`` is called once the header is read
+    and checked, before any row is waited for (the monitor's first event waits for it)."""
     try:
         lines = bounded_lines(fh, path)
         first = next(lines, "")
@@ -105,6 +106,8 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
             shown = delimiter.join(header)
             raise DataError(f"{path}: no 't' column in the header ({shown[:80]}); "
                             "the first column must be time in s")
+        if on_header is not None:
+            on_header(header)
         comma = delimiter == ";"
         pending, count = [], 0
         width = len(header)

@@ -385,6 +385,56 @@ def test_a_line_without_end_is_refused_after_one_mebibyte(tmp_path, capsys, monk
     _one_line(err, "line 1 is longer than 1,048,576 characters")
 
 
+@pytest.mark.parametrize("stream, words", [
+    ("zero", ["standard input", "line 1 is longer than 1,048,576 characters"]),
+    ("t,a,b\n0,1,2\n0.01,1,2\n", ["standard input", "missing column(s)", "columns found: t, a, b"]),
+])
+def test_monitor_prints_no_event_before_the_header_is_checked(capsys, monkeypatch, stream, words):
+    """``monitor M - < /dev/zero`` and a stream for another model: one line, exit 2, and nothing on
+    standard output (the start event used to go out before the header was read)."""
+    import io
+    import sys
+    if stream == "zero" and not os.path.exists("/dev/zero"):
+        pytest.skip("no /dev/zero")
+    from fdi.app.cli import main
+    raw = open("/dev/zero", "rb") if stream == "zero" else io.BytesIO(stream.encode("ascii"))
+    with raw:
+        monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(raw, encoding="utf-8"))
+        code = main(["monitor", str(MODELS / "cycab_steering.yaml"), "-"])
+    out, err = capsys.readouterr()
+    assert code == 2 and out == ""
+    _one_line(err, *words)
+
+
+def test_monitor_s_start_event_comes_with_the_header_before_any_row(capsys, monkeypatch):
+    """A stream that has sent its header and nothing more: the start event is out already (the
+    monitor does not wait for the first block of rows to say it has started)."""
+    import sys
+    import threading
+    from fdi.app.cli import main
+    read, write = os.pipe()
+    header = (MODELS / "data" / "cycab" / "nominal.csv").read_text(encoding="utf-8").splitlines()[0]
+    os.write(write, (header + "\n").encode("ascii"))
+    monkeypatch.setattr(sys, "stdin", open(read, "r", encoding="utf-8", newline=""))
+    seen = threading.Event()
+    real_print = print
+
+    def spy(*args, **kw):
+        real_print(*args, **kw)
+        if args and '"event": "start"' in str(args[0]):
+            seen.set()
+    monkeypatch.setattr("builtins.print", spy)
+    result = {}
+    runner = threading.Thread(target=lambda: result.update(code=main(["monitor", str(MODELS / "cycab_steering.yaml"), "-"])))
+    runner.start()
+    try:
+        assert seen.wait(30), "no start event while the stream waits for rows"
+    finally:
+        os.close(write)                                    # the stream ends: header only, too few samples
+        runner.join(30)
+    assert result.get("code") == 2
+
+
 def test_a_long_row_and_a_wide_header_are_refused(tmp_path, capsys):
     from fdi.data import MAX_COLUMNS, MAX_LINE
     model = MODELS / "cycab_steering.yaml"

@@ -661,15 +661,21 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     (or in the -o file, written when the stream ends)."""
     import json
 
-    from ..data import blocks, open_text
+    import numpy as np
+
+    from ..data import Measurements, blocks, check_against_model, open_text
     from ..monitor import compiled
     from ..results import deterministic
 
     model = compiled(args.model).model
     options = _options(args, model)
     lines: list[str] = []
+    held: list[dict] | None = []            # events before the header is read and checked: held
 
     def emit(event: dict) -> None:
+        if held is not None:
+            held.append(event)
+            return
         if not args.timings:
             event = deterministic(event)
         line = json.dumps(event, sort_keys=False, default=float)
@@ -677,6 +683,14 @@ def cmd_monitor(args: argparse.Namespace) -> int:
             lines.append(line)
         else:
             print(line, flush=True)
+
+    def header_read(header: list[str]) -> None:
+        """The header is one the model can read: the held events (``start``) go out."""
+        nonlocal held
+        check_against_model(model, Measurements(source, np.zeros(2), dict.fromkeys(header)))
+        events, held = held or [], None
+        for event in events:
+            emit(event)
     source = "standard input" if args.data == "-" else args.data
     if args.data == "-" and (sys.stdin is None or sys.stdin.closed):
         raise UsageError("monitor: standard input is closed; pipe the CSV stream in (header first), or give a file")
@@ -684,7 +698,8 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     try:
         monitor = compiled(args.model).stream(emit, options, source=source, refresh=args.refresh,
                                               history=args.history)
-        for header, block in blocks(fh, source, args.block, cut=LOG.warning):   # a stream cut mid-row
+        for header, block in blocks(fh, source, args.block, cut=LOG.warning,   # a stream cut mid-row
+                                    on_header=header_read):
             monitor.feed(header, block)
         monitor.close()
     finally:
