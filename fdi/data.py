@@ -45,6 +45,8 @@ import sympy as sp
 from bondgraph.expressions import same_name
 from bondgraph.model import Model
 
+from .inputs import NoWriter, open_binary
+
 
 class DataError(ValueError):
     """A measurement file the diagnosis cannot use."""
@@ -72,7 +74,7 @@ BOMS = ((b"\xef\xbb\xbf", "utf-8-sig"), (b"\xff\xfe", "utf-16"), (b"\xfe\xff", "
 def _open_text(path: str | Path) -> io.TextIOWrapper:
     """The file as text: gunzipped when it starts with gzip's magic bytes, decoded as UTF-8, or
     as UTF-16 when it starts with that byte-order mark (a spreadsheet's "Unicode text")."""
-    raw = open(path, "rb")
+    raw = open_binary(path)                  # a FIFO with no writer: NoWriter, not a wait
     head = raw.peek(4)[:4] if hasattr(raw, "peek") else b""
     if head[:2] == b"\x1f\x8b":
         raw = gzip.open(raw, "rb")
@@ -180,6 +182,8 @@ def open_text(path: str | Path):
         return _open_text(path)
     except (EOFError, zlib.error) as exc:            # gzip's magic bytes, then a cut or broken stream
         raise DataError(f"{path}: not a complete gzip file ({str(exc)[:80]})") from None
+    except NoWriter as exc:
+        raise DataError(str(exc)) from None
     except OSError as exc:
         raise DataError(f"{path}: cannot read ({exc.strerror or exc})") from None
 

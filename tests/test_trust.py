@@ -542,3 +542,67 @@ def test_a_fifo_in_a_suite_folder_is_skipped_not_waited_for(tmp_path, capsys):
     assert code == 2
     lines = err.strip().splitlines()
     assert len(lines) == 2 and "x.json: not a regular file" in lines[0] and "no scenario files" in lines[1], err
+
+
+def _within(seconds: int, run):
+    """``run()``, failing with TimeoutError if it is still waiting after ``seconds`` (SIGALRM)."""
+    import signal
+
+    def hang(signum, frame):
+        raise TimeoutError("waited on a FIFO")
+    old = signal.signal(signal.SIGALRM, hang)
+    signal.alarm(seconds)
+    try:
+        return run()
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+
+
+@pytest.mark.parametrize("role", ["scenario", "data", "model"])
+def test_a_fifo_with_no_writer_is_refused_not_waited_for(tmp_path, capsys, role):
+    """A named FIFO nothing writes into, given as the scenario, the data or the model: one line
+    naming it, exit 2, at once (opening it to read used to wait for a writer forever)."""
+    if not hasattr(os, "mkfifo"):
+        pytest.skip("no FIFOs")
+    fifo = tmp_path / "input"
+    os.mkfifo(fifo)
+    model = MODELS / "cycab_steering.yaml"
+    argv = {"scenario": ["simulate", model, fifo, "-o", tmp_path / "out.csv"],
+            "data": ["diagnose", model, fifo], "model": ["check", fifo]}[role]
+    code, err = _within(10, lambda: _cli(argv, capsys))
+    assert code == 2
+    _one_line(err, str(fifo), "give the model as a regular file" if role == "model" else "nothing writes into")
+    assert not (tmp_path / "out.csv").exists()
+
+
+def test_a_fifo_whose_writer_has_already_left_is_read_whole(tmp_path, capsys):
+    """A writer that opens the FIFO, writes the whole scenario and leaves before bgfdi reads it
+    (a quick writer started first): the scenario is read through the descriptor that found the
+    writer, not by opening the FIFO again (that would wait for a second writer), and simulated:
+    the CSV has the scenario's T * fs + 1 samples."""
+    import threading
+    if not hasattr(os, "mkfifo"):
+        pytest.skip("no FIFOs")
+    fifo = tmp_path / "scenario.json"
+    os.mkfifo(fifo)
+    text = '{"seed": 1, "T": 2, "fs": 100, "faults": []}'
+    left = threading.Event()
+
+    def write() -> None:
+        with open(fifo, "w", encoding="utf-8") as fh:      # waits for bgfdi's reader, then writes and leaves
+            fh.write(text)
+        left.set()
+    import time
+    threading.Thread(target=write, daemon=True).start()
+    time.sleep(0.3)                                        # the writer is waiting in open(): started first
+    from fdi.inputs import open_binary
+    with _within(10, lambda: open_binary(fifo)) as fh:
+        assert left.wait(10)                               # the writer is gone before the first read
+        assert fh.read() == text.encode("utf-8")
+    threading.Thread(target=write, daemon=True).start()
+    time.sleep(0.3)
+    out = tmp_path / "out.csv"
+    code = _within(60, lambda: _cli(["simulate", MODELS / "two_tank_valve.yaml", fifo, "-o", out], capsys))[0]
+    assert code == 0
+    assert len(out.read_text(encoding="utf-8").splitlines()) == 1 + 2 * 100 + 1

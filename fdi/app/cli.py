@@ -175,6 +175,16 @@ def command_inputs(args: argparse.Namespace) -> list[str]:
     return [str(x) for x in inputs if isinstance(x, (str, os.PathLike))]
 
 
+def check_model_input(args: argparse.Namespace) -> None:
+    """A model given as a named FIFO is refused before any work: its reader would wait for a writer
+    that may never come. (Data and scenario files that are FIFOs are opened without waiting and
+    refused only when nothing writes into them: fdi.inputs.)"""
+    from ..inputs import is_named_fifo
+    model = getattr(args, "model", None)
+    if isinstance(model, str) and is_named_fifo(model):
+        raise UsageError(f"{model}: a named FIFO; give the model as a regular file (or as <(cat {model}))")
+
+
 def check_outputs(args: argparse.Namespace) -> None:
     """Every output the command will write, checked before it starts (nothing is then computed
     only to fail at the end, and no input is replaced by an output)."""
@@ -1011,6 +1021,7 @@ def _run(argv: list[str] | None) -> int:
     try:
         if args.quiet and args.verbose:
             raise UsageError("-q and -v: give one of them")
+        check_model_input(args)
         check_outputs(args)
         return args.func(args)
     except CausalityError as exc:

@@ -47,6 +47,7 @@ from bondgraph.timescales import model_integration_step
 from .. import profiles
 from ..data import input_values
 from ..errors import UsageError
+from ..inputs import NoWriter, open_binary
 
 TYPES = ("abrupt", "intermittent", "incipient", "mode")
 METHODS = ("auto", "ros2", "LSODA", "Radau", "BDF", "RK45")
@@ -107,10 +108,12 @@ def _show(value) -> str:
 def _read_text(p: Path, path: str) -> str:
     """The file's text: at most MAX_BYTES, UTF-8 (a byte-order mark is allowed)."""
     try:
-        with open(p, "rb") as fh:
+        with open_binary(p) as fh:                # a FIFO with no writer: refused, not waited on
             raw = fh.read(MAX_BYTES + 1)
     except OSError as exc:
         raise ScenarioError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    except NoWriter as exc:
+        raise ScenarioError(str(exc)) from None
     if len(raw) > MAX_BYTES:
         raise ScenarioError(f"{path}: larger than {MAX_BYTES >> 20} MB; a scenario file is a few lines")
     try:
