@@ -141,6 +141,41 @@ def test_a_link_planted_by_another_user_in_a_sticky_folder_is_not_followed(tmp_p
     assert link.is_symlink() and victim.read_text(encoding="utf-8") == "new\n"
 
 
+def test_a_link_another_user_owns_in_a_sticky_folder_is_not_followed_as_any_user(tmp_path, capsys, monkeypatch):
+    """The same refusal without root (CI): a sticky, world-writable folder of our own with
+    out.txt -> victim, and the link's owner, as the process sees it (lstat), uid 4242 — neither us
+    nor the folder's owner, as a link another user planted in /tmp. -o is refused before the work,
+    write_atomic refuses too, the victim is intact; seen as ours again, the link is followed."""
+    from fdi.atomic import OutputError, write_atomic
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    os.chmod(shared, 0o1777)
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious\n", encoding="utf-8")
+    link = shared / "out.txt"
+    link.symlink_to(victim)
+    real_lstat = os.lstat
+    stranger = 4242 if os.geteuid() != 4242 else 4243
+
+    def lstat(path, *args, **kw):
+        st = real_lstat(path, *args, **kw)
+        if os.fspath(path) == os.fspath(link):             # the link, as planted by uid 4242
+            fields = list(st[:10])
+            fields[4] = stranger
+            return os.stat_result(fields)
+        return st
+    monkeypatch.setattr(os, "lstat", lstat)
+    code, err = _cli(["tables", MODELS / "two_tank_valve.yaml", "-o", link], capsys)
+    assert code == 2
+    _one_line(err, "-o:", "owned by another user", f"uid {stranger}")
+    with pytest.raises(OutputError, match="not followed"):
+        write_atomic(link, "x\n")
+    assert victim.read_text(encoding="utf-8") == "precious\n" and link.is_symlink()
+    monkeypatch.setattr(os, "lstat", real_lstat)                 # our own link: followed, kept
+    write_atomic(link, "new\n")
+    assert link.is_symlink() and victim.read_text(encoding="utf-8") == "new\n"
+
+
 @pytest.mark.parametrize("signum", ["SIGTERM", "SIGINT"])
 def test_a_signal_during_a_write_leaves_the_old_file_and_no_partial_one(tmp_path, signum):
     """The signal arrives after half the pieces were written: the target keeps its old content,
