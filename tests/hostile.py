@@ -11,7 +11,9 @@ command (nothing the command reads is replaced).
 Issue 23 added the kinds that were still misbehaving: names given twice or equal once
 Unicode-normalised (data headers, model names and columns, scenario keys), two sensors on one
 column, constant calibration data, outputs that are inputs, unbounded lines (``/dev/zero``), a
-FIFO in a suite folder, a ``--plot`` folder that cannot be created.
+FIFO in a suite folder, a ``--plot`` folder that cannot be created; its second round a FIFO
+with no writer given directly (scenario, data, stream, calibration run, model), a stream whose
+header is for another model, and line ends and encodings the reader sizes its arrays from.
 """
 from __future__ import annotations
 
@@ -210,4 +212,14 @@ CASES: list[tuple[str, dict, list[str], str]] = [
     ("plot-folder-unwritable", {}, ["diagnose", CYCAB, str(ROOT / "models/data/cycab/nominal.csv"), "--plot",
                                     UNWRITABLE], "error"),
     ("evaluate-fifo-in-suite", {"suite/x.json": Fifo()}, ["evaluate", CYCAB, "{out}/suite"], "error"),
+    # ------------------------------------------------------------------ issue 23, second round
+    ("scenario-fifo", {"s.json": Fifo()}, ["simulate", CYCAB, "{s.json}", "-o", "{out}/o.csv"], "error"),
+    ("data-fifo", {"d.csv": Fifo()}, ["diagnose", CYCAB, "{d.csv}", "--workers", "1"], "error"),
+    ("monitor-fifo", {"d.csv": Fifo()}, ["monitor", CYCAB, "{d.csv}"], "error"),
+    ("calibrate-fifo", {"c.csv": Fifo()}, ["calibrate", CYCAB, "{c.csv}"], "error"),
+    ("model-fifo", {"m.yaml": Fifo()}, ["check", "{m.yaml}"], "error"),
+    ("evaluate-fifo-scenario", {"s.json": Fifo()}, ["evaluate", CYCAB, "{s.json}"], "error"),
+    ("monitor-other-model-header", {"d.csv": "t,a,b\n0,1,2\n0.01,1,2\n"}, ["monitor", CYCAB, "{d.csv}"], "error"),
+    ("data-cr-line-ends", *data(SHORT.replace("\n", "\r")), "ok"),
+    ("data-utf16", *data(SHORT.encode("utf-16")), "ok"),
 ]
