@@ -54,8 +54,8 @@ class SquareWave:
     strength: float
 
 
-def square_waves(x: np.ndarray, ts: float, low: float, high: float, count: int = 3) -> tuple[SquareWave, ...]:
-    """Up to ``count`` square waves of period in [low, high] (s) in the magnitude signal ``x``
+def square_waves(x: np.ndarray, ts: float, low: float, high: float, count: int = 5) -> tuple[SquareWave, ...]:
+    """Up to ``count`` square waves of period in [low / 3, high] (s) in the magnitude signal ``x``
     (sampled every ``ts`` s; time 0 at its first sample), strongest first; none when no peak of its
     periodogram stands ``SIGNIFICANCE`` times above the periodogram's median."""
     x = np.asarray(x, dtype=float)
@@ -66,7 +66,9 @@ def square_waves(x: np.ndarray, ts: float, low: float, high: float, count: int =
     y = x - x.mean()
     power = np.abs(np.fft.rfft(y, PAD * n)) ** 2
     freq = np.fft.rfftfreq(PAD * n, ts)
-    band = (freq >= 1.0 / high) & (freq <= 1.0 / max(low, 2 * ts)) & (freq > 0)
+    # down to a third of the shortest period: a sensor's gain switching makes its derivatives spike at
+    # both edges, a peak at T/2 (measured on the CyCab encoder fault of period 0.7 s: the peak at 0.35 s)
+    band = (freq >= 1.0 / high) & (freq <= 1.0 / max(low / 3, 2 * ts)) & (freq > 0)
     if band.sum() < 3:
         return ()
     median = float(np.median(power[1:])) or 1e-300
@@ -78,7 +80,7 @@ def square_waves(x: np.ndarray, ts: float, low: float, high: float, count: int =
         period = 1.0 / freq[k]
         if any(abs(period - w.period) <= REFINE * w.period for w in out):
             continue
-        T, phase = refine(y, ts, period, low, high)
+        T, phase = refine(y, ts, period, low / 3, high)
         out.append(SquareWave(T, phase, float(p[k] / median)))
         if len(out) == count:
             break
@@ -86,13 +88,14 @@ def square_waves(x: np.ndarray, ts: float, low: float, high: float, count: int =
 
 
 def refine(y: np.ndarray, ts: float, period: float, low: float, high: float,
-           steps: int = 81) -> tuple[float, float]:
+           steps: int = 81, reach: float | None = None) -> tuple[float, float]:
     """The period within ``REFINE`` of ``period`` (or one periodogram bin: few periods in the data
     leave a peak as wide as T / span) and the phase whose square wave correlates best
     with the zero-mean magnitude ``y``: (period, phase) in s."""
     t = ts * np.arange(y.size)
     best = (-np.inf, period, 0.0)
-    reach = max(REFINE, period / (ts * y.size))          # a periodogram bin, as a share of the period: T / span
+    if reach is None:
+        reach = max(REFINE, period / (ts * y.size))      # a periodogram bin, as a share of the period: T / span
     for T in np.unique(np.clip(period * (1 + np.linspace(-reach, reach, steps)), low, high)):
         phases = np.arange(0.0, T, max(ts, T / 200))
         wave = np.sin(2 * np.pi * (t[None, :] - phases[:, None]) / T) > 0
@@ -103,15 +106,22 @@ def refine(y: np.ndarray, ts: float, period: float, low: float, high: float,
     return best[1], best[2]
 
 
-def candidate_periods(waves: tuple[SquareWave, ...], low: float, high: float) -> list[tuple[float, float]]:
+def candidate_periods(x: np.ndarray, ts: float, waves: tuple[SquareWave, ...], low: float,
+                      high: float) -> list[tuple[float, float]]:
     """(period, phase) pairs to seed a search with: each wave's period and its multiples
-    (``MULTIPLES``), within [low, high], in that order, without repeats."""
+    (``MULTIPLES``) within [low, high], every wave's own first, then every wave's double, ...,
+    without repeats. A multiple gets its own phase (and its period a last touch, within a
+    twentieth of ``REFINE``) from the magnitude ``x``: the edges of a wave at T/2 (a sensor's gain
+    switching) do not say which half of T is faulty."""
+    x = np.asarray(x, dtype=float)
+    y = np.where(np.isfinite(x), x, 0.0)
+    y = y - y.mean()
     out: list[tuple[float, float]] = []
-    for w in waves:
-        for m in MULTIPLES:
+    for m in MULTIPLES:
+        for w in waves:
             T = w.period * m
             if low <= T <= high and not any(abs(T - u) <= 1e-3 * u for u, _ in out):
-                out.append((T, w.phase % T))
+                out.append((T, w.phase % T) if m == 1.0 else refine(y, ts, T, low, high, steps=9, reach=REFINE / 20))
     return out
 
 
@@ -185,7 +195,7 @@ def onset_interval(r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, t_d: fl
 
 
 def intermittent_rows(spaces: list, bits: np.ndarray, seeds: list[list[tuple[float, float]]],
-                      onsets=None, levels: int = 6) -> np.ndarray:
+                      onsets=None, levels: int = 4) -> np.ndarray:
     """Decision vectors (``fdi.encoding``'s reals, plus the onset last when ``onsets`` is given)
     seeding the intermittent faults of the structure of ``bits``: for each such fault j and each
     (period, phase) of ``seeds[j]``, ``levels`` faulty values spread over its bounds, the onset at
@@ -209,3 +219,10 @@ def intermittent_rows(spaces: list, bits: np.ndarray, seeds: list[list[tuple[flo
                         row[-1] = t0
                     rows.append(row)
     return np.asarray(rows).reshape(-1, d)
+
+
+def nesting_depth(residual) -> int:
+    """How many derivative filters a residual's samples pass through in series: one for its signals,
+    one more per level of stored quantities it differentiates (``composites``)."""
+    inner = [nesting_depth(kernel) for _, kernel in getattr(residual, "composites", ())]
+    return 1 + max(inner, default=0)

@@ -108,7 +108,7 @@ class AHDEOptions(Options):
     starting points within it of the best seed the race."""
     restarts: int = 3
     """Rounds of redrawing the converged finalists around their best points."""
-    finest: float = 0.01
+    finest: float = 1e-4
     """The smallest restart radius, as a share of each range: the leader alone at 1 % after 10 %
     stops improving (scenario 1: R4 4 % off in 2 of 20 seeds without the 1 % round)."""
     revivals: int = 2
@@ -236,13 +236,13 @@ class AHDE(GenerationalSolver):
         return shells
 
     def proposals(self, bits: np.ndarray, free: np.ndarray) -> np.ndarray:
-        """The problem's ``propose``d points for the structure of ``bits`` (at most ``screen_each``),
+        """The problem's ``propose``d points for the structure of ``bits`` (at most 8 ``screen_each``),
         NaN drawn uniformly within the bounds, the reals the structure does not read at their
         midpoints, all within bounds: screened with the structure's own draws."""
         d = self.bounds.shape[0]
         if self.propose is None:
             return np.empty((0, d))
-        got = np.asarray(self.propose(bits), dtype=float).reshape(-1, d)[:self.options.screen_each]
+        got = np.asarray(self.propose(bits), dtype=float).reshape(-1, d)[:8 * self.options.screen_each]
         lo, hi = self.bounds[:, 0], self.bounds[:, 1]
         drawn = lo + self.rng.random(got.shape) * (hi - lo)
         x = np.where(np.isnan(got), drawn, got)

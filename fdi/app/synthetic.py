@@ -178,7 +178,7 @@ def problem(case: str, seed: int = 0, noise: float = NOISE) -> Problem:
     seen = np.abs(np.vstack([noise_g[l] + sum(C[l, f] * excite[f] * (gs[f](np.full(N, spaces[f].nominal)) - true_g[f])
                                               for f in range(len(spaces)))
                              for l in range(3)]))
-    seeds = [hints.candidate_periods(hints.square_waves(seen[C[:, f] > 0].sum(axis=0), TS, *s.period), *s.period)
-             for f, s in enumerate(spaces)]
+    mags = [seen[C[:, f] > 0].sum(axis=0) for f in range(len(spaces))]
+    seeds = [hints.candidate_periods(x, TS, hints.square_waves(x, TS, *s.period), *s.period) for x, s in zip(mags, spaces)]
     del nominal
     return Problem(case, spaces, truth, t, T0, cost, f"synthetic {case}, seed {seed}", seeds=seeds)
