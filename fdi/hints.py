@@ -40,6 +40,7 @@ import numpy as np
 
 SIGNIFICANCE = 25.0   # a peak of the periodogram of |r| this many times its median (of white noise: max/median ~ 10)
 REFINE = 0.04         # periods searched within 4 % of the periodogram's peak (its bin at 14 periods per window: 7 %)
+LOCAL = 2.0           # the median a peak is compared with: over frequencies from f / 2 to 2 f
 PAD = 8               # zero padding of the periodogram: peaks located to an eighth of a bin before the refinement
 BAND_MARGIN = 1.2     # the noise band: the reference stretch's largest deviation times this
 MULTIPLES = (1.0, 2.0, 3.0, 0.5, 1.0 / 3.0)   # each peak's period, its sub-harmonics and harmonics
@@ -57,7 +58,8 @@ class SquareWave:
 def square_waves(x: np.ndarray, ts: float, low: float, high: float, count: int = 5) -> tuple[SquareWave, ...]:
     """Up to ``count`` square waves of period in [low / 3, high] (s) in the magnitude signal ``x``
     (sampled every ``ts`` s; time 0 at its first sample), strongest first; none when no peak of its
-    periodogram stands ``SIGNIFICANCE`` times above the periodogram's median."""
+    periodogram stands ``SIGNIFICANCE`` times above the periodogram's median from half to twice its
+    frequency (``LOCAL``)."""
     x = np.asarray(x, dtype=float)
     x = x[np.isfinite(x)] if not np.isfinite(x).all() else x
     n = x.size
@@ -71,17 +73,19 @@ def square_waves(x: np.ndarray, ts: float, low: float, high: float, count: int =
     band = (freq >= 1.0 / high) & (freq <= 1.0 / max(low / 3, 2 * ts)) & (freq > 0)
     if band.sum() < 3:
         return ()
-    median = float(np.median(power[1:])) or 1e-300
     p = np.where(band, power, 0.0)
     peaks = np.flatnonzero((p[1:-1] > p[:-2]) & (p[1:-1] >= p[2:])) + 1
-    peaks = peaks[p[peaks] >= SIGNIFICANCE * median]
+    # against the periodogram's median within an octave around the peak: filtered noise is coloured
+    local = {int(k): float(np.median(power[(freq >= freq[k] / LOCAL) & (freq <= freq[k] * LOCAL) & (freq > 0)]))
+             or 1e-300 for k in peaks}
+    peaks = np.asarray([k for k in peaks if p[k] >= SIGNIFICANCE * local[int(k)]], dtype=int)
     out: list[SquareWave] = []
     for k in peaks[np.argsort(-p[peaks])]:
         period = 1.0 / freq[k]
         if any(abs(period - w.period) <= REFINE * w.period for w in out):
             continue
         T, phase = refine(y, ts, period, low / 3, high)
-        out.append(SquareWave(T, phase, float(p[k] / median)))
+        out.append(SquareWave(T, phase, float(p[k] / local[int(k)])))
         if len(out) == count:
             break
     return tuple(out)
