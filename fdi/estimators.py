@@ -18,7 +18,7 @@ import numpy as np
 import optim
 from optim.core import fitness
 
-from . import encoding
+from . import encoding, hints
 from .objective import Objective, Window, window
 from .results import Estimate
 
@@ -213,27 +213,39 @@ class Estimators:
 REFIT_REACH = 2.5   # a refit with an earlier onset lowered a biased drift's cost 4-fold (581 -> 133, best 308)
 
 
+def evidence_onsets(monitor: "Monitor", r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, t_d: float,
+                    start: float) -> tuple[float, float]:
+    """The onsets the residuals ``r`` (residuals x samples, from ``start``, the settling time, on)
+    allow (:func:`fdi.hints.onset_interval`): never earlier than the first departure of a residual
+    from its noise band minus its look-ahead (nesting depth of its derivative filters x half the
+    derivative window), never later than t_D plus that look-ahead."""
+    w = monitor.config.derivative_window
+    look = np.array([hints.nesting_depth(res) * w / 2 for res in monitor.residuals])
+    return hints.onset_interval(np.asarray(r).reshape(len(monitor.residuals), -1), t, thresholds, t_d, start, look)
+
+
 def refit_early_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t_d: float, samples: int,
                        candidates: list, results: list[Estimate], weights: np.ndarray, seed: int,
-                       lookback: float) -> list[Estimate]:
-    """Estimators fitted with their onset at t_D, the earliest the search allows, refitted from
+                       onsets: tuple[float, float]) -> list[Estimate]:
+    """Estimators fitted with their onset at t_D, the earliest the first search allows, refitted from
     their fit (and the structures one decision away: an abrupt fault may be a drift seen late) with
-    the onset free up to ``lookback`` before t_D (back to the data's start); the better fit is
-    kept. A slow drift crosses its threshold well after it starts, and fitted from t_D on, its rate
-    comes out biased while spurious extra faults absorb the rest (measured: a beta_theta2 drift
-    from 20 s, detected at 22.5 s: b2 -0.042 for -0.03, and {R4, R5, beta_theta2} won; refitted:
-    b2 -0.0298, onset 19.98 s, and beta_theta2 alone wins). Only fits within REFIT_REACH of the
-    best cost are refitted, and only these: a wider onset range for every fit makes an
-    intermittent fault's phase far harder to find."""
+    the onset free over ``onsets``, the interval the evidence allows (:func:`evidence_onsets`); the
+    better fit is kept. A slow drift crosses its threshold well after it starts, and fitted from
+    t_D on, its rate comes out biased while spurious extra faults absorb the rest (measured: a
+    beta_theta2 drift from 20 s, detected at 22.5 s: b2 -0.042 for -0.03, and {R4, R5, beta_theta2}
+    won; refitted: b2 -0.0298, onset 19.98 s, and beta_theta2 alone wins). Only fits within
+    REFIT_REACH of the best cost are refitted, and only these: a wider onset range for every fit
+    makes an intermittent fault's phase far harder to find. Searched back to the start of the data,
+    an intermittent encoder fault of period 0.7 s was fitted as an eq. (19) drift from 12 s before
+    any residual fired."""
     ts = float(t[1] - t[0])
     best = min(e.cost for e in results)
     redo = [i for i, e in enumerate(results) if e.faults and min(f["t0"] for f in e.faults) <= t_d + 1.5 * ts
             and e.cost <= REFIT_REACH * best]
-    if not redo or lookback <= 0:
+    if not redo or onsets[0] >= t_d - ts:
         return results
-    w = est.monitor.config.derivative_window
     refits = est.run(t, raw, t_d, samples, [candidates[i] for i in redo], weights, seed + 15485863, None, None,
-                     [(t_d - lookback, t_d + w)] * len(redo), [[list(results[i].faults)] for i in redo])
+                     [tuple(onsets)] * len(redo), [[list(results[i].faults)] for i in redo])
     out = list(results)
     for i, r in zip(redo, refits):
         if r.cost < out[i].cost:

@@ -48,13 +48,19 @@ class Problem(Protocol):
     - ``onehot`` (()): groups of bit indices of which exactly one is set (each fault's type);
     - ``structure(bits)`` (the bits as a tuple): a hashable key of what the bits decide; patterns
       with one key are one structure (the AHDEs search structures, not patterns);
-    - ``family(bits)`` (None: no families): a coarser key (each fault's type, the degradation
-      model left out) whose best structure the AHDE keeps through the first rungs of its race;
+    - ``family(bits)`` (None: no families): a coarser key whose best structure the AHDE keeps
+      through the first rungs of its race and re-polishes at the end, or a ``frozenset`` of keys
+      when a structure belongs to several families (the diagnosis: one family per fault and
+      type-and-degradation-model, so each model (16)-(19) of each fault has its champion);
     - ``free(bits)`` (None: every real): a boolean mask (D,) of the reals a structure reads;
     - ``coarse(real, bits)`` (None: the cost itself): a cheaper cost that ranks like the cost
       (the diagnosis: every k-th sample), on which the AHDE screens and races;
     - ``init`` (()): starting points, ``(real (D,), bits (B,))`` pairs (the fits of smaller
-      candidate sets).
+      candidate sets);
+    - ``propose(bits)`` (None: nothing to propose): points the data suggest for the structure of
+      ``bits``, an array (k, D) with NaN where the data say nothing (the engine draws those); the
+      AHDE screens them with its own draws (the diagnosis: intermittent periods and phases found
+      in the residuals, onsets where they left their noise band).
     """
 
     def __call__(self, real: np.ndarray, bits: np.ndarray) -> np.ndarray: ...
@@ -80,6 +86,7 @@ class Posed:
     free: Callable[[np.ndarray], np.ndarray] | None = None
     coarse: Cost | None = None
     init: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+    propose: Callable[[np.ndarray], np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         put = lambda name, value: object.__setattr__(self, name, value)
