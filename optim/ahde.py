@@ -151,6 +151,7 @@ class AHDE(GenerationalSolver):
         self.describe = problem.structure
         self.family = problem.family
         self.propose = problem.propose
+        self.penalized = problem.penalized
         self.free = problem.free or (lambda b: np.ones(self.bounds.shape[0], dtype=bool))
         self.budget = options.pop * (options.generations + 1)
         self.init = list(problem.init)
@@ -427,8 +428,10 @@ class AHDE(GenerationalSolver):
                 return
             b.f, b.stale = self.evaluate([b.x], [b])[0], 0
             self.migrate([win, b])
+            if b.best > win.best * (1 + self.options.reach):
+                continue          # out of reach at its rim too: not worth a settle (halves a diagnosis' time)
             self.settle([b])
-            if b.best < win.best * (1 - self.options.tol):
+            if self.rank(b) < self.rank(win) * (1 - self.options.tol):
                 finalists.append(b)
 
     def leading_seeds(self) -> list[np.ndarray]:
@@ -566,12 +569,17 @@ class AHDE(GenerationalSolver):
                 break
             self.settle([back])
 
+    def rank(self, b: Branch) -> float:
+        """What the final choice compares: the branch's best cost, charged for its parameters when
+        the problem says how (``penalized``)."""
+        return b.best if self.penalized is None else float(self.penalized(b.best, b.bits))
+
     def result(self) -> Result:
         finalists = self.finalists
-        finalists.sort(key=lambda b: b.best)
+        finalists.sort(key=self.rank)
         win = finalists[0]
         i = int(np.argmin(win.f))
-        margin = finalists[1].best / max(win.best, 1e-300) if len(finalists) > 1 else float("inf")
+        margin = self.rank(finalists[1]) / max(self.rank(win), 1e-300) if len(finalists) > 1 else float("inf")
         extra = {"margin": margin, "structures": [(b.key, b.best) for b in finalists],
                  "raced": len(self.branches)}
         return self.make_result(win.x[i].copy(), win.bits.copy(), win.best, extra)

@@ -60,7 +60,11 @@ class Problem(Protocol):
     - ``propose(bits)`` (None: nothing to propose): points the data suggest for the structure of
       ``bits``, an array (k, D) with NaN where the data say nothing (the engine draws those); the
       AHDE screens them with its own draws (the diagnosis: intermittent periods and phases found
-      in the residuals, onsets where they left their noise band).
+      in the residuals, onsets where they left their noise band);
+    - ``penalized(cost, bits)`` (None: the cost): the cost an information criterion charges the
+      structure of ``bits`` for its parameters, on which the AHDE chooses among its finalists (the
+      diagnosis: Schwarz's criterion as an equivalent cost, so that a degradation model with more
+      coefficients wins only when its better fit pays for them).
     """
 
     def __call__(self, real: np.ndarray, bits: np.ndarray) -> np.ndarray: ...
@@ -87,6 +91,7 @@ class Posed:
     coarse: Cost | None = None
     init: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
     propose: Callable[[np.ndarray], np.ndarray] | None = None
+    penalized: Callable[[float, np.ndarray], float] | None = None
 
     def __post_init__(self) -> None:
         put = lambda name, value: object.__setattr__(self, name, value)
