@@ -70,8 +70,8 @@ class MonitorConfig:
     derivative_window: float | None = None
     faults: Mapping[str, FaultSettings] = field(default_factory=dict)
     exoneration: str = "sensitivity"        # or "structural": the paper's (every structural 1 exonerates)
-    persistence: float | None = None        # threshold-seconds a residual's excursion lasts before it is
-                                            # latched (fdi.detect); None: a quarter derivative window
+    persistence: float | None = None        # threshold-seconds of evidence before a residual is latched
+                                            # (fdi.detect); None: one derivative window
 
     def bounds(self, fault: str) -> tuple[float, float] | None:
         """The search bounds of ``fault`` given in the file, or None."""
@@ -108,8 +108,8 @@ def read_config(doc: Document, model: Model) -> MonitorConfig:
     persistence = None
     if diag.get("persistence") is not None:
         persistence = doc.number(diag["persistence"], ("diagnosis", "persistence"),
-                                 "persistence (threshold-seconds: how long a residual at twice its threshold "
-                                 "takes to be confirmed; 0 = the first crossing)", minimum=0, maximum=MAX_TIME)
+                                 "persistence (threshold-seconds: a residual's time above its threshold, "
+                                 "weighted by |r|/threshold, before it is confirmed; 0 = the first crossing)", minimum=0, maximum=MAX_TIME)
     samples = int(doc.number(diag.get("samples", DEFAULT_SAMPLES), ("diagnosis", "samples"), "samples",
                              integer=True, minimum=2, maximum=MAX_SAMPLES))
     return MonitorConfig(thresholds=_thresholds(doc, model), waiting_time=waiting, samples=samples,

@@ -62,11 +62,6 @@ class Alarms:
         return (self.at[:, None] >= 0) & (k >= self.at[:, None])
 
 
-def inconsistency(residuals: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
-    """Boolean (n_residuals, samples): |r_i| > eps_i."""
-    return np.abs(residuals) > np.asarray(thresholds, dtype=float)[:, None]
-
-
 def settling(settle: float | None, floor: float) -> float:
     """The seconds after the data start that detection ignores: the data's own settling time
     ``floor`` (:func:`fdi.scales.settle`: at least half the derivative window, where the
@@ -88,8 +83,7 @@ def trusted(t: np.ndarray, settle: float, edge: float = 0.0) -> np.ndarray:
     return (t >= t[0] + settle) & (t <= t[-1] - edge)
 
 
-
-def excess(residuals: np.ndarray, thresholds: np.ndarray, ts: float, keep: np.ndarray | None = None) -> np.ndarray:
+def evidence(residuals: np.ndarray, thresholds: np.ndarray, ts: float, keep: np.ndarray | None = None) -> np.ndarray:
     """Each sample's evidence in threshold-seconds: t_s |r|/eps above the threshold, else 0 (and 0
     where a residual has no value or the sample is not looked at, ``keep`` False)."""
     with np.errstate(invalid="ignore"):
@@ -120,6 +114,21 @@ def evidence_samples(span: float, ts: float) -> int:
     return max(1, int(round(span / ts)))
 
 
+def confirmed(z: np.ndarray, n: int, persistence: float, head: np.ndarray | None = None) -> np.ndarray:
+    """Boolean like ``z`` (evidence, residuals x samples): where a crossing brings the evidence of
+    the last ``n`` samples (``head``: those before the block) past ``persistence``; with 0, every
+    crossing (the paper's rule)."""
+    if persistence <= 0:
+        return z > 0
+    return (moving_sum(z, n, head) > persistence) & (z > 0)
+
+
+def span_start(z: np.ndarray, at: int, n: int) -> int:
+    """The first crossing of the ``n`` samples of evidence ``z`` (one residual) that end at ``at``."""
+    lo = max(0, at - n + 1)
+    return lo + int(np.argmax(z[lo:at + 1] > 0))
+
+
 def alarms(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, settle: float = 0.0, edge: float = 0.0,
            persistence: float = 0.0, span: float = 0.0) -> Alarms:
     """Each residual's first confirmed alarm (see the module doc) on the samples detection looks
@@ -134,16 +143,13 @@ def alarms(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, settle:
     1
     """
     ts = float(t[1] - t[0]) if t.size > 1 else 1.0
-    z = excess(residuals, thresholds, ts, trusted(t, settle, edge))
+    z = evidence(residuals, thresholds, ts, trusted(t, settle, edge))
     n = evidence_samples(span, ts)
-    fired = (moving_sum(z, n) > persistence) & (z > 0) if persistence > 0 else z > 0
+    fired = confirmed(z, n, persistence)
     any_ = fired.any(axis=1)
     at = np.where(any_, np.argmax(fired, axis=1), -1)
-    start = np.full(at.shape, -1)
-    for i in np.flatnonzero(any_):
-        lo = max(0, at[i] - n + 1)
-        start[i] = lo + int(np.argmax(z[i, lo:at[i] + 1] > 0))
-    return Alarms(at.astype(int), start.astype(int))
+    start = np.array([span_start(z[i], int(a), n) if a >= 0 else -1 for i, a in enumerate(at)], dtype=int)
+    return Alarms(at.astype(int), start)
 
 
 def detect(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, waiting_time: float,

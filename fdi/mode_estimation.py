@@ -12,10 +12,12 @@ import numpy as np
 
 from bondgraph.model import Model
 from optim import bde
+from optim.core import fitness
 
 from .data import commanded
-from .objective import Window
+from .objective import Objective, Window
 from .residuals import Residual, corrected_signals, derivative_orders, parameter_values
+from .results import Estimate
 
 MODE_TABLE = 4     # suspected mode variables up to which every combination's cost is reported (16 rows)
 
@@ -76,15 +78,21 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
     return ModeEstimate(current, best_cost, table)
 
 
+def mode_variable(model: Model, name: str) -> str:
+    """The mode variable of a mode fault (or of a mode change named by its variable)."""
+    f = model.faults.get(name)
+    return f.targets[0] if f is not None and f.kind == "mode" else name
+
+
 def mode_values(model: Model, win: Window, mode_faults: list[dict], modes: dict[str, float] | None = None) -> dict:
     """Mode variables over the window with mode faults switched in: each variable keeps its value
     (commanded sample by sample, fixed by the caller, or nominal) before its fault's ``t0`` and the
     fault's value from it, (1, window samples) arrays for the residuals (:class:`fdi.objective.Objective`)."""
     out: dict = {}
-    commands = commanded(model, win.raw)
+    known = {**commanded(model, win.raw), **(modes or {})}     # a mode the caller fixed wins over its command
     for f in mode_faults:
-        var = model.faults[f["name"]].targets[0] if f["name"] in model.faults else f["name"]
-        base = out.get(var, commands.get(var, (modes or {}).get(var, model.modes[var].nominal)))
+        var = mode_variable(model, f["name"])
+        base = out.get(var, known.get(var, model.modes[var].nominal))
         base = np.broadcast_to(np.asarray(base, dtype=float).reshape(-1), win.t.shape)
         out[var] = np.where(win.t >= f.get("t0", -np.inf), float(f["value"]), base)[None, :]
     return {**(modes or {}), **out}
@@ -97,9 +105,6 @@ def mode_change_fits(monitor, win: Window, weights: np.ndarray, known: list[dict
     value) switched in at the onset, searched over t_change +- half a derivative window on a grid
     of samples, that explains the data best. Returns one :class:`fdi.results.Estimate` per change
     (no parameter is identified: its cost is what the information criterion charges nothing for)."""
-    from .objective import Objective
-    from .results import Estimate
-    from optim.core import fitness
     model, w = monitor.model, monitor.config.derivative_window
     components = [f for f in known if f["type"] != "mode"]
     known_modes = [f for f in known if f["type"] == "mode"]

@@ -25,7 +25,7 @@ from .detect import Detection, detect, settling, thresholds_for
 from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide, since_detection
 from .estimators import Estimators, Search, evidence_onsets, refit_early_onsets
 from .isolate import candidate_sets, new_mode_changes, pruned_sets, relaxed_sets, suspected_mode_changes
-from .mode_estimation import estimate_mode
+from .mode_estimation import estimate_mode, mode_variable
 from .objective import nominal, window
 from .options import MIN_WINDOW_S, Options, check_samples
 from .prognose import prognose
@@ -70,16 +70,16 @@ class Prepared:
         return self.monitor.config.derivative_window
 
     @property
-    def persistence(self) -> float:
-        """Threshold-seconds of excess before a residual is latched (:mod:`fdi.detect`)."""
-        o = self.options.persistence
-        return self.scales.persistence if o is None else float(o)
+    def rule(self) -> tuple[float, float]:
+        """Detection's persistence (threshold-seconds) and evidence span (s), :mod:`fdi.detect`."""
+        from .scales import detection_rule
+        return detection_rule(self.window_s, self.wait, self.options.persistence, self.monitor.config.persistence)
 
     @property
-    def span(self) -> float:
-        """Seconds over which a residual's evidence is summed (:func:`fdi.scales.evidence_span`)."""
-        from .scales import evidence_span
-        return evidence_span(self.window_s, self.wait)
+    def covering(self) -> bool:
+        """Whether a mode change whose MCSM signature contains the coherence vector is suspected
+        (exoneration off, or by sensitivity: a residual a change enters may stay quiet)."""
+        return not self.options.exoneration or self.monitor.config.exoneration == "sensitivity"
 
 
 class Clock:
@@ -110,7 +110,7 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
     clock.lap("load")
     r = evaluate(p.monitor.model, list(p.monitor.residuals), p.raw, meas.ts, window=p.window_s, values=p.values(p.raw))
     clock.lap("residuals")
-    det = detect(r, meas.t, p.thresholds, p.wait, p.settle, p.scales.end_edge, p.persistence, p.span)
+    det = detect(r, meas.t, p.thresholds, p.wait, p.settle, p.scales.end_edge, *p.rule)
     base = Diagnosis(p.monitor.model.name, dict(o.mode or nominal_mode(p.monitor.model)), note=blind(p, r),
                      t=meas.t, residuals=r, thresholds=p.thresholds, names=p.monitor.names, units=p.monitor.units,
                      timings=clock.times,
@@ -209,12 +209,24 @@ def isolate(p: Prepared, det: Detection, mode: dict[str, int]):
             weak = {x.fault: tuple(sorted(y.residual for y in entries if y.fault == x.fault)) for x in entries}
     candidates = candidate_sets(fsm, det.final_coherence, o.exoneration, o.max_set)
     pruned = pruned_sets(fsm, det.final_coherence, o.exoneration, o.max_set)
-    # with exoneration by sensitivity, a mode change whose signature contains the coherence vector is
-    # suspected too: a residual it enters may stay quiet (the estimator's cost decides)
-    covering = not o.exoneration or m.config.exoneration == "sensitivity"
-    suspects = suspected_mode_changes(m.mcsm(mode), det.final_coherence, covering)
+    suspects = [s for s in suspected_mode_changes(m.mcsm(mode), det.final_coherence, p.covering)
+                if not switching(p, det, s)]
     return fsm, Isolation(tuple(map(tuple, candidates)), tuple(suspects), int(pruned or 0),
                           o.max_set, False, weak)
+
+
+def switching(p: Prepared, det: Detection, suspect: str) -> bool:
+    """Whether a suspected mode change's variable is commanded to switch within the identification
+    window (a PWM switch): one value over the window explains nothing there, so the fault-mode
+    estimator leaves it out."""
+    model = p.monitor.model
+    var = mode_variable(model, suspect)
+    cmd = commanded(model, p.raw).get(var)
+    if cmd is None or (p.options.mode and var in p.options.mode):
+        return False
+    i0 = int(np.searchsorted(p.meas.t, det.time - 1e-9))
+    seen = np.asarray(cmd).reshape(-1)[i0:i0 + p.samples]
+    return seen.size > 0 and bool(np.any(seen != seen[0]))
 
 
 def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects) -> ModeFault:
@@ -222,8 +234,7 @@ def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects) 
     its estimate implies (none when it agrees with the mode at t_D)."""
     model = p.monitor.model
     win = window(p.meas.t, p.raw, det.time, p.samples, p.window_s)
-    by_fault = {f.name: f.targets[0] for f in model.faults.values() if f.kind == "mode"}
-    variables = sorted({by_fault.get(s, s) for s in suspects})
+    variables = sorted({mode_variable(model, s) for s in suspects})
     e = estimate_mode(model, p.monitor.residuals, win, p.weights, p.options.seed, p.window_s, variables, p.modes)
     changed = [v for v in e.mode if e.mode[v] != mode[v]]
     faults = tuple(faults_of({"name": mode_fault_name(model, v, e.mode[v]), "type": "mode", "value": e.mode[v]}
@@ -307,20 +318,19 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
     i0 = int(np.searchsorted(t, det.time - 1e-9))
     now = float(t[i0]) + min(p.samples, t.size - i0) * float(t[1] - t[0])   # the first window's end
     clock.restart()
-    lit, began = latched(r, t, p.thresholds, p.settle, p.scales.end_edge, p.persistence, p.span)
+    lit, began = latched(r, t, p.thresholds, p.settle, p.scales.end_edge, *p.rule)
     j = int(np.searchsorted(t, det.decision_time, side="right")) - 1
     episodes = []
     faults = [f.to_dict() for f in d.faults]
     winner = d.winner
     mcsm = p.monitor.mcsm(d.mode)
-    covering = p.monitor.config.exoneration == "sensitivity"
     while (change := next_change(lit, j)) is not None:
         k, j = change, decision_index(t, change, p.wait)
         coherence = tuple(int(x) for x in lit[:, j])
         before = tuple(int(x) for x in lit[:, k - 1])
         joined = (lit[:, k] & ~lit[:, k - 1]).nonzero()[0]
         onset = int(min(began[joined])) if joined.size else k        # where the new excursion began
-        changes = mode_changes_at(p, new_mode_changes(mcsm, before, coherence, covering), onset, faults)
+        changes = mode_changes_at(p, new_mode_changes(mcsm, before, coherence, p.covering), onset, faults)
         e = redecide(est, p.meas, p.raw, det, p.weights, p.options, fsm, faults, float(t[onset]), float(t[j]),
                      coherence, p.samples, len(episodes) + 1, changes, p.modes)
         episodes.append(e)
@@ -328,9 +338,7 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
         now = float(t[j])
     if episodes:
         clock.lap("re-diagnosis")
-    model = p.monitor.model
-    switched = {model.faults[f["name"]].targets[0]: int(f["value"]) for f in faults
-                if f["type"] == "mode" and f["name"] in model.faults}
+    switched = {mode_variable(p.monitor.model, f["name"]): int(f["value"]) for f in faults if f["type"] == "mode"}
     return replace(d, episodes=tuple(episodes), faults=faults_of(faults), winner=winner, mode={**d.mode, **switched},
                    window=(float(det.time), float(now))), now
 
@@ -340,12 +348,12 @@ def mode_changes_at(p: Prepared, suspects: list[str], k: int, known: list[dict])
     variable to the other value than it has at sample ``k`` (as commanded, fixed, or nominal), one at
     a time as the paper assumes; none on a variable a known fault already switched."""
     model = p.monitor.model
-    taken = {model.faults[f["name"]].targets[0] for f in known if f["type"] == "mode" and f["name"] in model.faults}
+    taken = {mode_variable(model, f["name"]) for f in known if f["type"] == "mode"}
     now = {**{m: int(model.modes[m].nominal) for m in model.modes}, **p.modes,
            **{m: int(v[k]) for m, v in commanded(model, p.raw).items()}}
     out = []
     for s in suspects:
-        var = model.faults[s].targets[0] if s in model.faults else s
+        var = mode_variable(model, s)
         if var in taken:
             continue
         value = 1 - int(now[var])

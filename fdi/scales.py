@@ -50,7 +50,7 @@ PERIOD_SAMPLES = 4              # ... and two samples in each of its phases
 PERSISTENCE_WINDOWS = 1.0       # threshold-seconds of evidence per derivative window (see persistence())
 EVIDENCE_WINDOWS = 4.0          # the shortest span the evidence is summed over, in derivative windows
 
-__all__ = ["Scales", "derivative_window", "settle", "end_edge", "min_period", "waiting_time", "persistence", "evidence_span",
+__all__ = ["Scales", "derivative_window", "settle", "end_edge", "min_period", "waiting_time", "persistence", "evidence_span", "detection_rule",
            "integration_step",
            "model_time_scales", "for_data", "for_model", "resolve"]
 
@@ -181,6 +181,17 @@ def evidence_span(window: float, wait: float = 0.0) -> float:
     return max(wait, EVIDENCE_WINDOWS * window)
 
 
+def detection_rule(window: float, wait: float, *given: float | None) -> tuple[float, float]:
+    """(persistence, span) of detection: the first persistence ``given`` that is not None (the
+    run's options, then the model file), else :func:`persistence`; the span :func:`evidence_span`.
+
+    >>> detection_rule(0.25, 5.0), detection_rule(0.25, 5.0, None, 0.0)
+    ((0.25, 5.0), (0.0, 5.0))
+    """
+    chosen = next((float(g) for g in given if g is not None), persistence(window))
+    return chosen, evidence_span(window, wait)
+
+
 @dataclass(frozen=True)
 class Scales:
     """The time scales of one diagnosis (all in s): ``ts`` of the data, ``fastest`` time constant
@@ -193,8 +204,6 @@ class Scales:
     min_period: float
     waiting_time: float
     step: float
-    persistence: float = 0.0
-    span: float = 0.0
 
     def min_samples(self) -> int:
         """The fewest identification samples N: N ts must reach the shortest period."""
@@ -205,22 +214,19 @@ class Scales:
 
 
 def for_data(ts: float, fastest: float, window: float | None = None, wait: float | None = None,
-             eigenvalues=(), polyorder: int = POLYORDER, persist: float | None = None) -> Scales:
+             eigenvalues=(), polyorder: int = POLYORDER) -> Scales:
     """The scales of data sampled every ``ts`` s of a model whose fastest time constant is
-    ``fastest`` (and whose linearisations have ``eigenvalues``); a ``window``, ``wait`` or
-    ``persist`` given (the model file's) is kept exactly."""
+    ``fastest`` (and whose linearisations have ``eigenvalues``); a ``window`` or ``wait`` given
+    (the model file's) is kept exactly."""
     w = derivative_window(ts, fastest, polyorder) if window is None else float(window)
     return Scales(ts, fastest, w, settle(w, eigenvalues), end_edge(w), min_period(w, ts),
-                  waiting_time(w) if wait is None else float(wait), integration_step(ts, fastest),
-                  persistence(w) if persist is None else float(persist),
-                  evidence_span(w, waiting_time(w) if wait is None else float(wait)))
+                  waiting_time(w) if wait is None else float(wait), integration_step(ts, fastest))
 
 
 def for_model(model: Model, config: MonitorConfig, ts: float) -> Scales:
     """The scales of ``model`` monitored with ``config`` on data sampled every ``ts`` s."""
     tau = model_time_scales(model)
-    return for_data(ts, tau.fastest, config.derivative_window, config.waiting_time, tau.eigenvalues,
-                    persist=config.persistence)
+    return for_data(ts, tau.fastest, config.derivative_window, config.waiting_time, tau.eigenvalues)
 
 
 def resolve(config: MonitorConfig, model: Model, ts: float) -> MonitorConfig:

@@ -39,7 +39,7 @@ from bondgraph.timescales import model_time_scales
 
 from . import scales
 from .data import DataError, Measurements, checked, commanded, signals_from_data
-from .detect import evidence_samples, excess, moving_sum, settling, thresholds_for
+from .detect import confirmed, evidence, evidence_samples, settling, span_start, thresholds_for
 from .options import Options
 from .pipeline import refresh_prognosis
 from .residuals import evaluate
@@ -67,7 +67,7 @@ class Stream:
     history: float = 3600.0             # s of samples kept before a detection (bounded memory)
     t_detect: float | None = None
     lit: np.ndarray | None = None       # latched coherence
-    recent: np.ndarray | None = None    # each residual's excess over the last evidence span (fdi.detect)
+    recent: np.ndarray | None = None    # each residual's evidence over the last span (fdi.detect)
     recent_t: np.ndarray | None = None  # and its times
     pending: list[float] = field(default_factory=list)       # decision times not yet reached
     decided: int = 0                    # decisions emitted
@@ -100,10 +100,8 @@ class Stream:
             self.samples = self.options.samples or max(self.config.samples, sc.min_samples())
         self.window = self.config.derivative_window
         self.lag = self.window / 2
-        o = self.options.persistence
-        self.persistence = (self.config.persistence if self.config.persistence is not None
-                            else scales.persistence(self.window)) if o is None else float(o)
-        self.span = scales.evidence_span(self.window, self.wait)
+        self.persistence, self.span = scales.detection_rule(self.window, self.wait, self.options.persistence,
+                                                            self.config.persistence)
         self.settle = settling(self.options.settle, scales.settle(self.window, model_time_scales(self.model).eigenvalues))
         self.emit({"event": "start", "model": self.model.name, "residuals": self.names,
                    "thresholds": dict(zip(self.names, map(float, self.thresholds))), "lag_s": self.lag,
@@ -183,15 +181,15 @@ class Stream:
     # ------------------------------------------------------------------ detection
     def _detect(self, t: np.ndarray, start: int, stop: int) -> None:
         """The block's final residuals through the persistence rule (:mod:`fdi.detect`), with the
-        excess of the last evidence span carried from the blocks before: the same alarms as on the
+        evidence of the last span carried from the blocks before: the same alarms as on the
         whole file."""
         ts = float(t[1] - t[0])
         n = evidence_samples(self.span, ts)
-        z = excess(self.residuals, self.thresholds, ts, t[start:stop] >= t[0] + self.settle)
+        z = evidence(self.residuals, self.thresholds, ts, t[start:stop] >= t[0] + self.settle)
         if self.recent is None:
             self.recent, self.recent_t = np.zeros((z.shape[0], n - 1)), np.full(n - 1, -np.inf)
         head, head_t = self.recent, self.recent_t
-        fired = (moving_sum(z, n, head) > self.persistence) & (z > 0) if self.persistence > 0 else z > 0
+        fired = confirmed(z, n, self.persistence, head)
         zs, ts_all = np.concatenate([head, z], axis=1), np.concatenate([head_t, t[start:stop]])
         self.recent, self.recent_t = zs[:, zs.shape[1] - (n - 1):], ts_all[ts_all.size - (n - 1):]
         known_at = float(t[self.n - 1])
@@ -200,8 +198,8 @@ class Stream:
             if not now.any():
                 continue
             alarm = float(t[start + k])
-            lo = head.shape[1] + k - n + 1                    # the span that confirmed it, in zs
-            began = min(float(ts_all[lo + int(np.argmax(zs[i, lo:lo + n] > 0))]) for i in np.flatnonzero(now))
+            at = head.shape[1] + k                          # the alarm's column in zs (head, then this block)
+            began = min(float(ts_all[span_start(zs[i], at, n)]) for i in np.flatnonzero(now))
             if self.lit is None:
                 self.lit = now.copy()
                 self.t_detect = began

@@ -809,9 +809,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help="override a threshold (VALUE > 0)")
         p.add_argument("--wait", type=real(0, high=MAX_WAIT), help="waiting time T_wt in s, >= 0 (default: the model's)")
         p.add_argument("--persistence", type=real(0, high=MAX_WAIT),
-                       help="threshold-seconds a residual's excursion must carry before it joins the coherence "
-                            "vector (CUSUM of |r|/threshold - 1; 0: the first crossing, the paper's rule; "
-                            "default: the model's, else a quarter of the derivative window)")
+                       help="threshold-seconds of evidence before a residual joins the coherence vector: its time "
+                            "above the threshold weighted by |r|/threshold, within max(T_wt, 4 derivative windows) "
+                            "(0: the first crossing, the paper's rule; default: the model's, else one derivative "
+                            "window)")
         p.add_argument("--no-exoneration", action="store_true", help="also admit sets whose union covers the coherence vector")
         p.add_argument("--max-set", type=whole(1, 6), default=3,
                        help="largest candidate set identified, 1 to 6 (default 3); larger ones are counted in the report")

@@ -25,7 +25,7 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
             out.append(f"note: {report['note']}")
         return "\n".join(out) + "\n"
     alarm = det.get("alarm", det["time"])
-    confirmed = "" if alarm is None or alarm == det["time"] else f" (confirmed at {alarm:.2f} s)"
+    confirmed = "" if alarm is None or f"{alarm:.2f}" == f"{det['time']:.2f}" else f" (confirmed at {alarm:.2f} s)"
     out.append(f"detection: t_D = {det['time']:.2f} s{confirmed}, coherence {_vec(det['coherence'])}; "
                f"at the decision {det['decision_time']:.2f} s: {_vec(det['final_coherence'])}")
     mode = report.get("mode") or {}
