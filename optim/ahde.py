@@ -121,8 +121,14 @@ class AHDEOptions(Options):
     """More structures than this: the race starts from a random sample and grows from the leader's
     neighbours."""
     reach: float = 3.0
-    """A family's champion stays through the first ``protect`` rungs, and is re-polished by the
-    final check, while its cost is within (1 + reach) times the leader's."""
+    """A family's champion stays through the first ``protect`` rungs while its cost is within
+    (1 + reach) times the leader's."""
+    recheck: bool = True
+    """The final check (``AHDE.recheck``): each family's best re-polished at its bottom. It costs
+    as much as the race (a diagnosis of CyCab scenario 2: 17 000 of 49 000 evaluations); a caller
+    that runs many problems and needs the check on few (the diagnosis: the candidate sets that may
+    win) runs without it first. Skipping families out of reach at their rim loses the check's point:
+    synthetic intermittent + eq. (19), 16 of 20 seeds with every family, 5 of 20 within 4x."""
     protect: int = 3
     """During the first ``protect`` rungs each ``family``'s best structure stays while within
     ``spare`` of the leader (CyCab scenario 1: beta_theta1's intermittent fault found in 3 of 8 seeds
@@ -428,9 +434,10 @@ class AHDE(GenerationalSolver):
                 return
             b.f, b.stale = self.evaluate([b.x], [b])[0], 0
             self.migrate([win, b])
-            if b.best > win.best * (1 + self.options.reach):
-                continue          # out of reach at its rim too: not worth a settle (halves a diagnosis' time)
-            self.settle([b])
+            if b.free.size > win.free.size:
+                self.settle([b])
+            else:
+                self.advance([b], self.budget, until_converged=True)
             if self.rank(b) < self.rank(win) * (1 - self.options.tol):
                 finalists.append(b)
 
@@ -560,7 +567,8 @@ class AHDE(GenerationalSolver):
         self.refine(finalists)
         self.migrate(sorted(finalists, key=lambda b: b.best))
         self.settle(finalists)
-        self.recheck(finalists)
+        if self.options.recheck:
+            self.recheck(finalists)
         for _ in range(self.options.revivals):
             if self.stop != "converged":
                 break
