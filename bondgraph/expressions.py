@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import ast
 import math
+import unicodedata
 from collections.abc import Mapping
 
 import sympy as sp
@@ -111,6 +112,25 @@ def _power(base: sp.Expr, exponent: sp.Expr, src: str) -> sp.Expr:
     return base ** exponent
 
 
+def same_name(names) -> tuple[int, int] | None:
+    """The first pair (i, j), i < j, of ``names`` that are one name as expressions read them:
+    equal, or equal once Unicode-normalised (NFKC: 'µ' is 'μ', 'ﬁx' is 'fix', as Python's parser
+    reads identifiers); None when every name is its own.
+
+    >>> same_name(["t", "µ", "x", "μ"])
+    (1, 3)
+    >>> same_name(["t", "x"]) is None
+    True
+    """
+    seen: dict[str, int] = {}
+    for j, name in enumerate(names):
+        key = unicodedata.normalize("NFKC", name)
+        if key in seen:
+            return seen[key], j
+        seen[key] = j
+    return None
+
+
 def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
     if isinstance(node, ast.Constant):
         if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
@@ -119,9 +139,12 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
             raise ExpressionError(f"number {_short(str(node.value), 20)} out of range in '{src}' (at most 1e300)")
         return sp.Integer(node.value) if isinstance(node.value, int) else sp.Float(node.value)
     if isinstance(node, ast.Name):
-        name = node.id
+        name = node.id                               # Python's parser gives identifiers in NFKC form
         if name in symbols:
             return symbols[name]
+        written = [k for k in symbols if unicodedata.normalize("NFKC", k) == name]
+        if len(written) == 1:                        # a name written in another form ('µ' read as 'μ')
+            return symbols[written[0]]
         if name in CONSTANTS:
             return CONSTANTS[name]
         if name in FUNCTIONS:

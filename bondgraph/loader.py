@@ -14,6 +14,7 @@ from __future__ import annotations
 import keyword
 import math
 import re
+import unicodedata
 from dataclasses import dataclass
 from itertools import product
 from pathlib import Path
@@ -23,7 +24,7 @@ import sympy as sp
 import yaml
 
 from .errors import ModelError
-from .expressions import ExpressionError, parse_expression
+from .expressions import ExpressionError, parse_expression, same_name
 from .model import (LAW_VARIABLES, ELEMENT_KINDS, FAULT_KINDS, JUNCTION_KINDS, SENSOR_KINDS, SOURCE_KINDS,
                     TWO_PORT_KINDS, Bond, Element, Fault, Input, Junction, Model, Mode, Parameter,
                     Sensor, t)
@@ -347,11 +348,17 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
             raise ctx.error((key,), f"unknown top-level key '{key}' (allowed: {', '.join(sorted(_TOP_KEYS))})")
     symbols: dict[str, sp.Expr] = {}
     taken: dict[str, str] = {}
+    normal: dict[str, str] = {}          # NFKC form -> the name as written
 
     def claim(name: str, what: str, where: tuple) -> None:
         if name in taken:
             raise ctx.error(where, f"'{name}' is already used as {taken[name]}; names must be unique")
+        other = normal.get(unicodedata.normalize("NFKC", name))
+        if other is not None:
+            raise ctx.error(where, f"'{name}' and '{other}' ({taken[other]}) are one name once Unicode-normalised "
+                                   "(NFKC, as expressions read names: 'µ' is 'μ', 'ﬁ' is 'fi'); rename one")
         taken[name] = what
+        normal[unicodedata.normalize("NFKC", name)] = name
 
     parameters = _parameters(ctx, data, symbols, claim)
     modes = _modes(ctx, data, symbols, claim)
@@ -360,6 +367,7 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
     if not isinstance(raw_columns, list):
         raise ctx.error(("data", "columns"), f"columns must be a list of column names such as [t, u, y], got {_shown(raw_columns)}")
     columns = tuple(_ref(ctx, c, ("data", "columns", i), "a column") for i, c in enumerate(raw_columns))
+    _check_columns(ctx, columns)
     column_symbols = {c: sp.Symbol(c, real=True) for c in columns if c != "t"}
     sampling_time = (_number(ctx, data_spec["sampling_time"], ("data", "sampling_time"), "sampling_time", above=0)
                      if "sampling_time" in data_spec else None)
@@ -396,6 +404,17 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
                  inputs=inputs, modes=modes, elements=elements, junctions=junctions, sensors=sensors,
                  bonds=bonds, faults=faults, columns=columns, sampling_time=sampling_time,
                  initial=initial, symbols=plain)
+
+
+def _check_columns(ctx: _Ctx, columns: tuple[str, ...]) -> None:
+    """data.columns: each name once, also once Unicode-normalised (NFKC)."""
+    pair = same_name(columns)
+    if pair:
+        i, j = pair
+        first, c = columns[i], columns[j]
+        what = (f"'{c}' is listed twice" if first == c else
+                f"'{first}' and '{c}' are one name once Unicode-normalised (NFKC)")
+        raise ctx.error(("data", "columns", j), f"{what} (items {i} and {j}); give each column once")
 
 
 def _where_of(taken: dict, name: str) -> tuple:
@@ -501,7 +520,12 @@ def _inputs(ctx, data, symbols, claim, columns) -> dict[str, Input]:
 
 
 def _sensors(ctx, data, symbols, claim, column_symbols, columns) -> dict[str, Sensor]:
+    """The sensors; two that read one signal (the same column, or the same expression of
+    columns) are refused: the second is the first measurement again, not a second sensor, and
+    the residual between them is zero by construction, which the signature matrix would count
+    as detecting faults it never sees."""
     out: dict[str, Sensor] = {}
+    read: dict[sp.Expr, str] = {}
     for name, spec in _mapping(ctx, data.get("sensors"), ("sensors",)).items():
         where = ("sensors", name)
         _name(ctx, name, where)
@@ -534,6 +558,12 @@ def _sensors(ctx, data, symbols, claim, column_symbols, columns) -> dict[str, Se
             outputs[str(col)] = _expr(ctx, text, where + ("columns", col),
                                       {**{k: v for k, v in symbols.items() if isinstance(v, sp.Symbol)},
                                        name: sp.Symbol(name, real=True)})
+        if signal in read:
+            key = "expr" if spec.get("expr") is not None else "column"
+            raise ctx.error(where + (key,), f"sensor '{name}' reads {_signal_text(signal)} as sensor '{read[signal]}' "
+                                            "does: one measurement, not two (their residual is zero by "
+                                            "construction); give it its own data column or remove it")
+        read[signal] = name
         noise = _per_column(ctx, spec.get("noise"), where + ("noise",), signal)
         resolution = _per_column(ctx, spec.get("resolution"), where + ("resolution",), signal)
         claim(name, "a sensor signal", where)
@@ -542,6 +572,10 @@ def _sensors(ctx, data, symbols, claim, column_symbols, columns) -> dict[str, Se
                            _unit(ctx, spec.get("unit"), where + ("unit",)), noise, resolution,
                            _text(spec, "description"), outputs)
     return out
+
+
+def _signal_text(signal: sp.Expr) -> str:
+    return f"column '{signal}'" if isinstance(signal, sp.Symbol) else f"'{signal}'"
 
 
 def _per_column(ctx, value, where, signal: sp.Expr) -> dict[str, float]:

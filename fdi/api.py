@@ -31,7 +31,7 @@ import numpy as np
 from bondgraph.model import Model
 
 from .config import MonitorConfig
-from .data import DataError, Measurements, checked, read_csv
+from .data import DataError, Measurements, check_header, checked, read_csv
 from .monitor import Monitor, monitor_of
 from .options import Options
 from .results import Diagnosis
@@ -45,22 +45,45 @@ def measurements(data: Any, name: str = "data") -> Measurements:
         return read_csv(data)
     if hasattr(data, "columns") and hasattr(data, "to_numpy"):            # a pandas DataFrame
         header = [str(c) for c in data.columns]
-        table = np.asarray(data.to_numpy(dtype=float))
+        check_header(name, header)
+        try:
+            table = np.asarray(data.to_numpy(dtype=float), dtype=float)
+        except (TypeError, ValueError) as exc:              # object cells: text, None, lists
+            raise DataError(f"{name}: {_not_numbers(data, header)} (as {str(exc)[:60]}); give numbers "
+                            "(DataFrame.astype(float) shows where)") from None
     elif isinstance(data, np.ndarray) and data.dtype.names:                # a structured array
         header = list(data.dtype.names)
-        table = np.column_stack([np.asarray(data[h], dtype=float) for h in header])
+        try:
+            table = np.column_stack([np.asarray(data[h], dtype=float) for h in header])
+        except (TypeError, ValueError) as exc:
+            raise DataError(f"{name}: a field is not numbers ({str(exc)[:60]}); give numeric fields") from None
     elif isinstance(data, dict):
         header = [str(k) for k in data]
+        check_header(name, header)                      # 1 and "1" are one column name
         try:
             table = np.column_stack([np.asarray(v, dtype=float).reshape(-1) for v in data.values()])
-        except ValueError as exc:
-            raise DataError(f"{name}: the columns are not arrays of one length ({exc})") from None
+        except (TypeError, ValueError) as exc:
+            raise DataError(f"{name}: the columns are not arrays of numbers of one length ({str(exc)[:80]})") from None
     else:
         raise DataError(f"{name}: data must be a CSV path, a DataFrame, a dict of arrays or a structured array, "
                         f"not {type(data).__name__}")
     if "t" not in header:
         raise DataError(f"{name}: no 't' column (time in s) among {', '.join(header)}")
     return checked(name, header, table)
+
+
+def _not_numbers(frame, header: list[str]) -> str:
+    """Which column of a DataFrame holds a cell that is no number (the first found)."""
+    for h, column in zip(header, frame.columns):
+        try:
+            cells = frame[column].to_numpy()
+        except (TypeError, KeyError, AttributeError):    # a frame-like object without columns by name
+            break
+        try:
+            np.asarray(cells, dtype=float)
+        except (TypeError, ValueError):
+            return f"column '{h}' holds a value that is no number"
+    return "a value is no number"
 
 
 def diagnose(model: Monitor | Model | str | Path, data: Any, config: MonitorConfig | Options | None = None,

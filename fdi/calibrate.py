@@ -95,13 +95,24 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
     c = compiled(model_path)
     model, arrs = c.model, c.arrs
     names = [a.name for a in arrs]
-    samples = [nominal_residuals(model_path, run, settle) for run in runs]
+    data = [run if isinstance(run, Measurements) else read_csv(run) for run in runs]
+    for meas in data:
+        if all(np.ptp(v) == 0 for k, v in meas.columns.items() if k != "t"):
+            raise DataError(f"{meas.path}: every column is constant: no sensor noise and nothing moving, so no "
+                            "threshold can be learnt from it (it would be 0, or miss the noise every real run "
+                            "has); calibrate on fault-free runs recorded from the plant, noise included")
+    samples = [nominal_residuals(model_path, meas, settle) for meas in data]
     thresholds = _threshold(samples, quantile, margin)
     blank = [n for n, v in zip(names, thresholds) if not np.isfinite(v)]
     if blank:
         raise DataError(f"{model_path}: {', '.join(blank)} have no sample to calibrate on: every stretch between "
                         f"two mode switches is shorter than the derivative window ({c.config.derivative_window:g} s); "
                         "shorten diagnosis.derivative_window or sample faster")
+    zero = [n for n, v in zip(names, thresholds) if not v > 0]
+    if zero:
+        raise DataError(f"{model_path}: {', '.join(zero)} would get a threshold of 0 (the residual is exactly 0 on "
+                        "every sample of the runs: noise-free data?); a zero threshold alarms on any noise: "
+                        "calibrate on runs recorded with the sensors' noise")
     false_alarms = worst = None
     if len(samples) > 1:
         false_alarms, worst = [], []
@@ -113,7 +124,7 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
     return Calibration(model.name, names, [arr_unit(model, a) for a in arrs],
                        [[float(x) for x in np.nanmax(s, axis=1)] for s in samples], [float(x) for x in thresholds],
                        "peak" if quantile is None else f"quantile {quantile:g}", margin, false_alarms,
-                       [getattr(r, "path", str(r)) for r in runs], worst)
+                       [m.path for m in data], worst)
 
 
 def format_calibration(c: Calibration) -> str:

@@ -40,6 +40,7 @@ from typing import Callable, Iterator, Mapping
 import numpy as np
 import sympy as sp
 
+from bondgraph.expressions import same_name
 from bondgraph.model import Model
 
 
@@ -58,8 +59,10 @@ class Measurements:
         return float(self.t[1] - self.t[0])
 
 
-CHUNK = 65536          # rows parsed at a time: memory stays near the size of the numbers read
+CHUNK = 8192           # rows parsed at a time (their text as Python objects: about 5 MB for 6 columns)
 MAX_VALUES = 100_000_000   # numbers in one file (800 MB as float64): beyond, split the file
+MAX_LINE = 1 << 20         # characters in one line (the header or a row): 1 MiB, some 50 000 numbers
+MAX_COLUMNS = 10_000       # columns of the header
 MAX_TIME = 1.0e9           # s (31 years): a time column beyond it is not seconds
 BOMS = ((b"\xef\xbb\xbf", "utf-8-sig"), (b"\xff\xfe", "utf-16"), (b"\xfe\xff", "utf-16"))
 
@@ -87,10 +90,15 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
     cut while a row was written, is dropped and ``cut(message)`` told; a short row anywhere
     else is an error, as it is in a file."""
     try:
-        first = fh.readline()
+        lines = bounded_lines(fh, path)
+        first = next(lines, "")
         delimiter = ";" if first.count(";") > first.count(",") else ","
-        reader = csv.reader(itertools.chain([first], fh), delimiter=delimiter)
+        reader = csv.reader(itertools.chain([first], lines), delimiter=delimiter)
         header = [h.strip() for h in next(reader, [])]
+        if len(header) > MAX_COLUMNS:
+            raise DataError(f"{path}: {len(header):,} columns in the header, more than {MAX_COLUMNS:,}; a measurement "
+                            "file has t and the model's columns")
+        check_header(path, header)
         if "t" not in header:
             shown = delimiter.join(header)
             raise DataError(f"{path}: no 't' column in the header ({shown[:80]}); "
@@ -124,12 +132,46 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
         raise DataError(f"{path}: not a CSV file ({str(exc)[:80]})") from None
 
 
+def bounded_lines(fh, path: str) -> Iterator[str]:
+    """The lines of a text stream, each read with a limit of MAX_LINE characters: a file with no
+    line end (``/dev/zero``, a binary file, one endless row) is refused after 1 MiB, where reading
+    a line without limit would hold all of it in memory first."""
+    readline = fh.readline
+    number = 0
+    while True:
+        line = readline(MAX_LINE + 1)
+        if not line:
+            return
+        number += 1
+        if len(line) > MAX_LINE and line[-1] not in "\r\n":
+            raise DataError(f"{path}: line {number} is longer than {MAX_LINE:,} characters (no line end within "
+                            f"{MAX_LINE >> 20} MiB); a measurement file has one short row per sample: is it a CSV file?")
+        yield line
+
+
+def check_header(path: str, header: list[str]) -> None:
+    """Refuse a header whose names cannot all be meant: a name given twice (which column would
+    the model read? a dict keeps the last, silently), or two names that are one once
+    Unicode-normalised (NFKC: 'µ' and 'μ', 'ﬁx' and 'fix' look alike and Python reads them as one)."""
+    pair = same_name(header)
+    if pair:
+        i, j = pair
+        first, name = header[i], header[j]
+        if first == name:
+            raise DataError(f"{path}: column '{name}' appears twice in the header (columns {i + 1} and {j + 1}); "
+                            "rename or remove one")
+        raise DataError(f"{path}: columns '{first}' (column {i + 1}) and '{name}' (column {j + 1}) are one name "
+                        "once Unicode-normalised (NFKC); rename one")
+
+
 def open_text(path: str | Path):
     """A measurement file as text (see :func:`_open_text`), errors as one-line DataErrors."""
     try:
         if Path(path).is_dir():
             raise DataError(f"{path}: is a folder; give a measurement CSV file")
         return _open_text(path)
+    except (EOFError, zlib.error) as exc:            # gzip's magic bytes, then a cut or broken stream
+        raise DataError(f"{path}: not a complete gzip file ({str(exc)[:80]})") from None
     except OSError as exc:
         raise DataError(f"{path}: cannot read ({exc.strerror or exc})") from None
 
@@ -144,17 +186,29 @@ def read_csv(path: str | Path) -> Measurements:
     with open_text(path) as fh:
         for header, block in blocks(fh, str(path)):
             parts.append(block)
-    if not parts:
-        parts.append(np.zeros((0, max(1, len(header)))))
-    blocks_ = parts
-    table = np.concatenate(blocks_) if len(blocks_) > 1 else blocks_[0]
-    del blocks_, parts
-    return checked(str(path), header, table)
+    return checked(str(path), header, _columns_first(parts, len(header)))
+
+
+def _columns_first(parts: list[np.ndarray], width: int) -> np.ndarray:
+    """The blocks stacked into one (rows, width) array in column order (each column contiguous:
+    ``checked`` then takes views, no copies), each block released once copied: the table's pages
+    are touched as they are filled, so the peak stays near one table, not two."""
+    rows = sum(p.shape[0] for p in parts)
+    table = np.empty((rows, max(1, width)), order="F")
+    at = 0
+    parts.reverse()
+    while parts:
+        part = parts.pop()
+        table[at:at + part.shape[0]] = part
+        at += part.shape[0]
+        del part
+    return table
 
 
 def checked(path: str, header: list[str], table: np.ndarray) -> Measurements:
     """Measurements from a parsed table (rows x columns of ``header``), after the checks every
     source of data gets: two samples at least, no NaN, time increasing on a uniform axis."""
+    check_header(path, list(header))
     if table.shape[0] < 2:
         raise DataError(f"{path}: needs a header row and at least two samples")
     bad = np.flatnonzero(~np.isfinite(table).all(axis=1))
@@ -246,7 +300,8 @@ def signals_from_data(model: Model, data: Measurements) -> dict[str, np.ndarray]
     out: dict[str, np.ndarray] = {}
     for s in model.sensors.values():
         names, fn = functions[s.name]
-        out[s.name] = np.asarray(fn(*[data.columns[x] for x in names]), dtype=float) * np.ones_like(data.t)
+        value = np.asarray(fn(*[data.columns[x] for x in names]), dtype=float)
+        out[s.name] = value if value.shape == data.t.shape else value * np.ones_like(data.t)   # a column: no copy
     for i in model.inputs.values():
         out[i.name] = data.columns[i.column] if i.column else input_values(model, i.name, data.t)
     for m in model.modes.values():

@@ -104,9 +104,13 @@ def moving_sum(x: np.ndarray, n: int, head: np.ndarray | None = None) -> np.ndar
     """
     k = x.shape[1]
     full = x if head is None else np.concatenate([head, x], axis=1)
-    c = np.concatenate([np.zeros((x.shape[0], 1)), np.cumsum(full, axis=1)], axis=1)
-    end = np.arange(full.shape[1] - k, full.shape[1]) + 1
-    return c[:, end] - c[:, np.maximum(end - n, 0)]
+    c = np.cumsum(full, axis=1)
+    out = c[:, full.shape[1] - k:].copy()                     # sum of full[: j + 1], j the block's samples
+    first = full.shape[1] - k                                 # index in full of the block's first sample
+    lag = np.arange(first, full.shape[1]) - n                 # minus the sum up to j - n, where j - n >= 0
+    past = lag >= 0
+    out[:, past] -= c[:, lag[past]]
+    return out
 
 
 def evidence_samples(span: float, ts: float) -> int:
@@ -143,13 +147,17 @@ def alarms(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, settle:
     1
     """
     ts = float(t[1] - t[0]) if t.size > 1 else 1.0
-    z = evidence(residuals, thresholds, ts, trusted(t, settle, edge))
+    keep = trusted(t, settle, edge)
     n = evidence_samples(span, ts)
-    fired = confirmed(z, n, persistence)
-    any_ = fired.any(axis=1)
-    at = np.where(any_, np.argmax(fired, axis=1), -1)
-    start = np.array([span_start(z[i], int(a), n) if a >= 0 else -1 for i, a in enumerate(at)], dtype=int)
-    return Alarms(at.astype(int), start)
+    thresholds = np.asarray(thresholds, dtype=float)
+    at, start = [], []
+    for i in range(residuals.shape[0]):        # a residual at a time: memory of a few rows, not of all
+        z = evidence(residuals[i:i + 1], thresholds[i:i + 1], ts, keep)
+        fired = confirmed(z, n, persistence)[0]
+        a = int(np.argmax(fired)) if fired.any() else -1
+        at.append(a)
+        start.append(span_start(z[0], a, n) if a >= 0 else -1)
+    return Alarms(np.asarray(at, dtype=int), np.asarray(start, dtype=int))
 
 
 def detect(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, waiting_time: float,

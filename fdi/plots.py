@@ -50,8 +50,19 @@ def plot_signals(columns: dict[str, np.ndarray], path: str | Path, units: dict[s
             ax.legend(fontsize=7, loc="upper left", ncol=4)
     np.atleast_1d(axes)[-1].set_xlabel("t [s]")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    _save(fig, path)
     plt.close(fig)
+
+
+def _save(fig, path: str | Path) -> None:
+    """The figure as a PNG file, written atomically (never half a file, never over a link planted
+    in a shared folder: :func:`fdi.atomic.write_atomic`)."""
+    import io
+
+    from .atomic import write_atomic
+    buffer = io.BytesIO()
+    fig.savefig(buffer, dpi=110, format="png")
+    write_atomic(path, buffer.getvalue())
 
 
 def plot_diagnosis(d, folder: str | Path, model) -> list[Path]:
@@ -62,7 +73,7 @@ def plot_diagnosis(d, folder: str | Path, model) -> list[Path]:
     written = []
     for name, fig in diagnosis_figures(d, model).items():
         written.append(out_dir / f"{name}.png")
-        fig.savefig(written[-1], dpi=110)
+        _save(fig, written[-1])
         plt.close(fig)
     return written
 
@@ -238,6 +249,6 @@ def plot_rul_cone(scores, path: str | Path, alpha: float = 0.2) -> Path:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper right")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    _save(fig, path)
     plt.close(fig)
     return Path(path)

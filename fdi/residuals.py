@@ -240,6 +240,32 @@ def evaluate(model: Model, residuals: list[Residual], raw: Mapping[str, np.ndarr
     """Residuals on data: array of shape (n_residuals, ..., samples)."""
     sig = corrected_signals(model, raw, ts, derivative_orders(residuals), betas, window, biases=biases)
     vals = parameter_values(model, values)
+    samples = _one_record(residuals, sig, vals)
+    if samples > EVAL_BLOCK:                      # one long record: each residual written in place, in blocks
+        out = np.empty((len(residuals), samples))
+        for row, r in zip(out, residuals):
+            for a in range(0, samples, EVAL_BLOCK):
+                b = min(samples, a + EVAL_BLOCK)
+                row[a:b] = r(sig, vals, ts, window, crop=slice(a, b))
+        return out
     outs = [r(sig, vals, ts, window) for r in residuals]
     shape = np.broadcast_shapes(*[o.shape for o in outs], *[np.shape(v[0]) for v in sig.values()])
     return np.stack([np.broadcast_to(o, shape) for o in outs])
+
+
+EVAL_BLOCK = 1 << 16    # samples per call of a residual kernel on one long record (its temporaries: 0.5 MB each)
+
+
+def _one_record(residuals: list[Residual], sig: Mapping[str, list[np.ndarray]], vals: Mapping[str, object]) -> int:
+    """The number of samples when the residuals are evaluated on one record (every signal and
+    time-varying value 1-D, no stored quantity differentiated on the whole span), else 0. Such
+    residuals are computed EVAL_BLOCK samples at a time: a kernel's common subexpressions are
+    arrays as long as its arguments (a minute at 10 kHz made them 80 MB), and the numbers are the
+    same, sample by sample. Populations (the estimators' windows) are evaluated in one call."""
+    lengths = {np.shape(x[0]) for x in sig.values()}
+    if len(lengths) != 1 or len(next(iter(lengths))) != 1 or any(r.composites for r in residuals):
+        return 0
+    shape = next(iter(lengths))
+    if any(np.ndim(vals[n]) != 0 and np.shape(vals[n]) != shape for r in residuals for n in r.symbols):
+        return 0
+    return shape[0]

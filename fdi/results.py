@@ -58,8 +58,8 @@ def _vec(v) -> str:
 class Fault:
     """One identified fault. ``type`` abrupt or stuck: ``value``; intermittent: ``value`` and
     ``period`` (s); incipient: degradation ``model`` k (the paper's eq. 15 + k), its ``eta`` bits,
-    coefficients ``b`` and their 95 % bands ``b_band``; mode: ``value`` the mode the variable is
-    stuck in. ``t0``: the onset (s)."""
+    coefficients ``b`` and their 95 % bands ``b_band`` (the onset's ``t0_band``); mode: ``value`` the
+    mode the variable is stuck in. ``t0``: the onset (s)."""
     name: str
     type: str
     value: float | None = None
@@ -69,18 +69,20 @@ class Fault:
     b: tuple[float, ...] | None = None
     t0: float | None = None
     b_band: tuple[tuple[float, float], ...] | None = None
+    t0_band: tuple[float, float] | None = None
 
     @classmethod
     def from_dict(cls, d: Mapping) -> "Fault":
         band = d.get("b_band")
         return cls(str(d["name"]), str(d["type"]), d.get("value"), d.get("period"), d.get("model"),
                    None if d.get("eta") is None else tuple(d["eta"]), None if d.get("b") is None else tuple(d["b"]),
-                   d.get("t0"), None if band is None else tuple(tuple(x) for x in band))
+                   d.get("t0"), None if band is None else tuple(tuple(x) for x in band),
+                   None if d.get("t0_band") is None else tuple(d["t0_band"]))
 
     def to_dict(self) -> dict:
-        """The report's entry: name, type, the type's values, t0, then the band."""
+        """The report's entry: name, type, the type's values, t0, then the bands."""
         out: dict = {"name": self.name, "type": self.type}
-        for key in ("value", "period", "model", "eta", "b", "t0", "b_band"):
+        for key in ("value", "period", "model", "eta", "b", "t0", "b_band", "t0_band"):
             v = getattr(self, key)
             if v is not None:
                 out[key] = [list(x) for x in v] if key == "b_band" else list(v) if isinstance(v, tuple) else v

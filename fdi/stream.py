@@ -38,7 +38,7 @@ import numpy as np
 from bondgraph.timescales import model_time_scales
 
 from . import scales
-from .data import DataError, Measurements, checked, commanded, signals_from_data
+from .data import DataError, Measurements, check_header, checked, commanded, signals_from_data
 from .detect import confirmed, evidence, evidence_samples, settling, span_start, thresholds_for
 from .options import Options
 from .pipeline import refresh_prognosis
@@ -111,6 +111,7 @@ class Stream:
     def feed(self, header: list[str], block: np.ndarray) -> None:
         """A block of rows (columns of ``header``, one of them ``t``)."""
         if not self.header:
+            check_header(self.source, list(header))
             self.header = list(header)
             self.buffer = np.empty((1024, len(header)))
             self.ti = self.header.index("t")

@@ -63,8 +63,8 @@ class Problem(Protocol):
       in the residuals, onsets where they left their noise band);
     - ``penalized(cost, bits)`` (None: the cost): the cost an information criterion charges the
       structure of ``bits`` for its parameters, on which the AHDE chooses among its finalists (the
-      diagnosis: Schwarz's criterion as an equivalent cost, so that a degradation model with more
-      coefficients wins only when its better fit pays for them).
+      diagnosis: Schwarz's criterion as an equivalent cost, so that a structure with more
+      parameters wins only when its better fit pays for them).
     """
 
     def __call__(self, real: np.ndarray, bits: np.ndarray) -> np.ndarray: ...

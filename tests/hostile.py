@@ -2,19 +2,39 @@
 malicious user might give. Shared by ``tests/test_hostile.py`` (every case) and ``tests/fuzz.py``.
 
 A case is ``(id, files, argv, expect)``: ``files`` maps a file name to its text or bytes (written
-into a fresh folder), ``argv`` the command with ``{name}`` standing for that file's path, and
-``expect`` is ``"error"`` (exit 2, one line naming the file or option) or ``"ok"`` (valid but
-unusual: exit 0).
+into a fresh folder), a :class:`Fifo` (a named pipe nobody writes to) or a :class:`Link` (a
+symbolic link to another of the files), ``argv`` the command with ``{name}`` standing for that
+file's path, and ``expect`` is ``"error"`` (exit 2, one line naming the file or option; warnings
+aside) or ``"ok"`` (valid but unusual: exit 0). Every input file must be the same bytes after the
+command (nothing the command reads is replaced).
+
+Issue 23 added the kinds that were still misbehaving: names given twice or equal once
+Unicode-normalised (data headers, model names and columns, scenario keys), two sensors on one
+column, constant calibration data, outputs that are inputs, unbounded lines (``/dev/zero``), a
+FIFO in a suite folder, a ``--plot`` folder that cannot be created.
 """
 from __future__ import annotations
 
 import gzip
+import os
+from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 TANK = (ROOT / "models" / "two_tank_valve.yaml").read_text(encoding="utf-8")
 CYCAB = str(ROOT / "models" / "cycab_steering.yaml")
 NOMINAL = (Path(__file__).resolve().parent.parent / "models" / "data" / "cycab" / "nominal.csv").read_text(encoding="utf-8")
+
+
+@dataclass(frozen=True)
+class Fifo:
+    """A named pipe that nobody writes to: reading it would wait forever."""
+
+
+@dataclass(frozen=True)
+class Link:
+    """A symbolic link to another file of the case."""
+    target: str
 
 
 def tank(old: str, new: str) -> str:
@@ -43,6 +63,8 @@ LAUGHS = "a: &a [x, x, x, x, x, x, x, x, x]\n" + "".join(
     f"{c}: &{c} [{', '.join(['*' + p] * 9)}]\n" for p, c in zip("abcdefgh", "bcdefghi"))
 _NOMINAL_LINES = NOMINAL.splitlines(keepends=True)
 SHORT = "".join(_NOMINAL_LINES[:1200])            # 12 s of nominal data: no detection, fast
+SHORT_ROWS = "".join(_NOMINAL_LINES[1:1200])
+UNWRITABLE = "/proc/bgfdi-plots" if hasattr(os, "geteuid") and os.geteuid() == 0 else "/proc/self/bgfdi-plots"
 
 CASES: list[tuple[str, dict, list[str], str]] = [
     # ------------------------------------------------------------------ model files
@@ -147,4 +169,45 @@ CASES: list[tuple[str, dict, list[str], str]] = [
     ("output-directory", {}, ["tables", CYCAB, "-o", "{out}"], "error"),
     ("output-missing-folder", {}, ["tables", CYCAB, "-o", "{out}/no/such/folder/t.txt"], "error"),
     ("output-dash", {}, ["tables", CYCAB, "--mode", "a1=1,a2=1", "-o", "-"], "ok"),
+    # ------------------------------------------------------------------ issue 23: names that cannot be meant
+    ("data-column-twice", *data("t,u_in,theta1,theta2,p1,p1\n" + SHORT_ROWS), "error"),
+    ("data-column-twice-extra", *data("t,u_in,theta1,theta2,p1,p2,p1\n"
+                                      + "".join(r.rstrip("\n") + ",0\n" for r in SHORT_ROWS.splitlines(True))), "error"),
+    ("data-columns-nfkc", *data("t,u_in,theta1,theta2,p1,p2,\u00b5,\u03bc\n"
+                                + "".join(r.rstrip("\n") + ",0,0\n" for r in SHORT_ROWS.splitlines(True))), "error"),
+    ("monitor-column-twice", {"d.csv": "t,u_in,theta1,theta2,p1,p1\n" + SHORT_ROWS},
+     ["monitor", CYCAB, "{d.csv}", "--workers", "1"], "error"),
+    ("model-names-nfkc", *check(tank("  Cd:  {value", "  \u00b5: {value: 1.0, unit: Pa}\n  \u03bc: {value: 2.0, unit: Pa}\n"
+                                     "  Cd:  {value")), "error"),
+    ("model-names-ligature", *check(tank("  Cd:  {value", "  \ufb01x: {value: 1.0, unit: Pa}\n  fix: {value: 2.0, unit: Pa}\n"
+                                         "  Cd:  {value")), "error"),
+    ("model-name-micro-alone", *check(TANK.replace("R12", "\u00b5")), "ok"),
+    ("model-columns-twice", *check(tank("columns: [t, Qin, p1, p2]", "columns: [t, Qin, p1, p2, p2]")), "error"),
+    ("model-duplicate-key", *check(tank("  A2:  {value", "  A1:  {value")), "error"),
+    ("model-two-sensors-one-column", *check(tank("p2: {type: De, junction: J2, column: p2",
+                                                 "p2: {type: De, junction: J2, column: p1")), "error"),
+    ("scenario-key-twice-json", *scenario('{"T": 1, "fs": 100, "T": 2}'), "error"),
+    ("scenario-key-twice-yaml", {"s.yaml": "T: 1\nfs: 100\nT: 2\n"},
+     ["simulate", CYCAB, "{s.yaml}", "-o", "{out}/o.csv"], "error"),
+    ("calibrate-constant", {"c.csv": "t,Qin,p1,p2\n" + "".join(f"{i / 10:.1f},0,0,0\n" for i in range(600))},
+     ["calibrate", str(ROOT / "models" / "two_tank_valve.yaml"), "{c.csv}"], "error"),
+    # ------------------------------------------------------------------ issue 23: sizes without bounds
+    ("data-dev-zero", {}, ["diagnose", CYCAB, "/dev/zero"], "error"),
+    ("monitor-dev-zero", {}, ["monitor", CYCAB, "/dev/zero", "--workers", "1"], "error"),
+    ("data-long-row", *data(_NOMINAL_LINES[0] + "0," + "1," * 600_000 + "1\n"), "error"),
+    ("data-wide-header", *data("t," + ",".join(f"c{i}" for i in range(10_001)) + "\n"), "error"),
+    ("data-gzip-no-line-end", *data(gzip.compress(b"\x00" * 3_000_000)), "error"),
+    ("data-gzip-magic-only", *data(b"\x1f\x8b"), "error"),            # found by the csv fuzzer (EOFError)
+    ("data-gzip-cut", *data(gzip.compress(SHORT.encode())[:300]), "error"),
+    # ------------------------------------------------------------------ issue 23: never lose an input
+    ("output-is-the-data", {"d.csv": SHORT}, ["diagnose", CYCAB, "{d.csv}", "--workers", "1", "-o", "{d.csv}"], "error"),
+    ("output-is-the-scenario", {"s.json": '{"T": 1, "fs": 100}'}, ["simulate", CYCAB, "{s.json}", "-o", "{s.json}"],
+     "error"),
+    ("output-link-to-the-scenario", {"s.json": '{"T": 1, "fs": 100}', "l.csv": Link("s.json")},
+     ["simulate", CYCAB, "{s.json}", "-o", "{l.csv}"], "error"),
+    ("output-is-the-model", {"m.yaml": TANK}, ["tables", "{m.yaml}", "-o", "{m.yaml}"], "error"),
+    ("output-dotted-model", {"m.yaml": TANK}, ["graph", "{m.yaml}", "-o", "{out}/./m.yaml"], "error"),
+    ("plot-folder-unwritable", {}, ["diagnose", CYCAB, str(ROOT / "models/data/cycab/nominal.csv"), "--plot",
+                                    UNWRITABLE], "error"),
+    ("evaluate-fifo-in-suite", {"suite/x.json": Fifo()}, ["evaluate", CYCAB, "{out}/suite"], "error"),
 ]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import os
 import signal
 import sys
 import tempfile
@@ -14,7 +15,7 @@ import pytest
 
 from fdi.app.cli import main
 
-from .hostile import CASES
+from .hostile import CASES, Fifo, Link
 
 LIMIT_S = 20
 
@@ -30,7 +31,14 @@ def _alarm(signum, frame):
 def run_case(files: dict, argv: list[str], folder: Path) -> tuple[int | str, str, str, float]:
     """(exit status or the exception's name, stdout, stderr, seconds) of one case run in-process."""
     for name, content in files.items():
-        (folder / name).write_bytes(content if isinstance(content, bytes) else content.encode("utf-8"))
+        path = folder / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if isinstance(content, Fifo):
+            os.mkfifo(path)
+        elif isinstance(content, Link):
+            path.symlink_to(folder / content.target)
+        else:
+            path.write_bytes(content if isinstance(content, bytes) else content.encode("utf-8"))
     args = [a.replace("{out}", str(folder)) for a in argv]
     for name in files:
         args = [a.replace("{" + name + "}", str(folder / name)) for a in args]
@@ -61,7 +69,7 @@ def verdict(expect: str, rc, out: str, err: str) -> str | None:
         return None if rc == 0 else f"exit {rc}: {err.strip()[:200]}"
     if rc != 2:
         return f"exit {rc} (wanted 2): {(err or out).strip()[:200]}"
-    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("usage:")]
+    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith(("usage:", "bgfdi: warning:"))]
     if "Traceback" in err or len(lines) != 1:
         return f"{len(lines)} error lines: {err.strip()[:300]}"
     return None
@@ -73,8 +81,13 @@ def test_hostile_input(case, tmp_path):
     rc, out, err, _ = run_case(files, argv, tmp_path)
     problem = verdict(expect, rc, out, err)
     assert problem is None, f"{name}: {problem}"
+    written = {p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*") if p.is_file() or p.is_symlink()}
     if expect == "error":
-        assert not [p for p in tmp_path.rglob("*") if p.is_file() and p.name not in files], "a file was written"
+        assert written <= set(files), f"a file was written: {sorted(written - set(files))}"
+    for fname, content in files.items():              # every input as it was
+        if isinstance(content, (str, bytes)):
+            raw = content if isinstance(content, bytes) else content.encode("utf-8")
+            assert (tmp_path / fname).read_bytes() == raw, f"{fname} was changed"
 
 
 if __name__ == "__main__":          # python -m tests.test_hostile: the counts, before and after a change

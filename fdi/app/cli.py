@@ -8,6 +8,7 @@ ends the command quietly. See docs/cli.md.
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
 import sys
@@ -23,7 +24,8 @@ from bondgraph.model import Model
 from ..errors import UsageError
 from ..data import DataError
 from ..options import DEFAULT_WORKERS, MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
-from .output import check_output, is_stdout, write_atomic
+from .output import (Terminated, check_folder, check_folder_not_input, check_not_input, check_output, is_stdout,
+                     write_atomic)
 from .progress import LOG, NORMAL, QUIET, VERBOSE, Progress, Steps, configure, stage
 
 
@@ -151,23 +153,46 @@ def check_plot(path: str | None, folder: bool) -> None:
         raise need_matplotlib()
     if is_stdout(path):
         raise UsageError("--plot: standard output takes no plot; name a " + ("folder" if folder else "PNG file"))
-    if not folder:
+    if folder:
+        check_folder(path, "--plot")
+    else:
         check_output(path, "--plot")
-        return
-    from pathlib import Path
-    p = Path(path)
-    if p.exists() and not p.is_dir():
-        raise UsageError(f"--plot: '{path}' is a file; name a folder for the plots")
-    if not p.exists() and not p.parent.is_dir():
-        raise UsageError(f"--plot: folder '{p.parent}' does not exist; create it or name a folder in an existing one")
+
+
+def command_inputs(args: argparse.Namespace) -> list[str]:
+    """Every file the command reads: the model, data, scenario and run files, the scenarios of a
+    suite folder (an output must be none of them)."""
+    inputs = [getattr(args, "model", None), getattr(args, "scenario", None)]
+    for name in ("data", "runs"):
+        value = getattr(args, name, None)
+        inputs += value if isinstance(value, list) else [value]
+    if getattr(args, "scenarios", None):
+        from .evaluate import suite_files
+        inputs += [str(p) for p in suite_files(args.scenarios)] + list(args.scenarios)
+    if args.command == "demo":
+        from .resources import scenarios_dir, shipped_model
+        inputs += [str(shipped_model("cycab_steering")), str(scenarios_dir() / f"cycab_{args.scenario}.json")]
+    return [str(x) for x in inputs if isinstance(x, (str, os.PathLike))]
 
 
 def check_outputs(args: argparse.Namespace) -> None:
     """Every output the command will write, checked before it starts (nothing is then computed
-    only to fail at the end)."""
+    only to fail at the end, and no input is replaced by an output)."""
+    inputs = command_inputs(args)
     if getattr(args, "output", None) is not None:
         check_output(args.output, "-o")
-    check_plot(getattr(args, "plot", None), folder=args.command in ("diagnose", "demo"))
+        check_not_input(args.output, inputs, "-o")
+    plot = getattr(args, "plot", None)
+    folder = args.command in ("diagnose", "demo")
+    check_plot(plot, folder)
+    if plot is not None:
+        if folder:
+            check_folder_not_input(plot, inputs, "--plot")
+        else:
+            check_not_input(plot, inputs, "--plot")
+    if plot is not None and getattr(args, "output", None) is not None and not folder \
+            and os.path.realpath(plot) == os.path.realpath(args.output):
+        raise UsageError(f"--plot: '{plot}' is also the -o file; name two files")
 
 
 def parse_mode(text: str, model: Model) -> dict[str, int]:
@@ -541,9 +566,11 @@ def _diagnose_batch(args: argparse.Namespace, options) -> int:
 
     from .fleet import Cluster, diagnose_many, workers_of
     jobs = args.jobs or 1
+    local = max(1, min(args.jobs or os.cpu_count() or 1, len(args.data)))    # no more workers than files
     where = (f"dask scheduler {args.scheduler}" if args.scheduler and args.scheduler != "local"
-             else "a dask LocalCluster" if args.scheduler else f"{min(jobs, len(args.data))} process(es)")
-    with (Cluster(args.scheduler, args.jobs) if args.scheduler else nullcontext()) as client:
+             else f"a dask LocalCluster of {local} worker(s)" if args.scheduler
+             else f"{min(jobs, len(args.data))} process(es)")
+    with (Cluster(args.scheduler, args.jobs, len(args.data)) if args.scheduler else nullcontext()) as client:
         if client is not None:
             LOG.debug("dask scheduler %s: %d worker(s)", client.scheduler.address, workers_of(client))
         LOG.info(f"diagnosing {len(args.data)} file(s) on {where}")
@@ -596,7 +623,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
     model = compiled(args.model).model
     options = _options(args, model)
-    files = suite_files(args.scenarios)
+    files = suite_files(args.scenarios, skipped=LOG.warning)
     if not files:
         raise UsageError(f"no scenario files in {', '.join(args.scenarios)}")
     for f in files:                                   # every file checked before the first simulation
@@ -651,6 +678,8 @@ def cmd_monitor(args: argparse.Namespace) -> int:
         else:
             print(line, flush=True)
     source = "standard input" if args.data == "-" else args.data
+    if args.data == "-" and (sys.stdin is None or sys.stdin.closed):
+        raise UsageError("monitor: standard input is closed; pipe the CSV stream in (header first), or give a file")
     fh = sys.stdin if args.data == "-" else open_text(args.data)
     try:
         monitor = compiled(args.model).stream(emit, options, source=source, refresh=args.refresh,
@@ -918,6 +947,34 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:
         _silence_stdout()
         return 1
+    except UnicodeEncodeError as exc:          # standard output in an encoding that cannot hold the text
+        encoding = getattr(sys.stdout, "encoding", None) or exc.encoding
+        if (encoding or "").lower().replace("-", "") != (exc.encoding or "").lower().replace("-", ""):
+            raise                              # not standard output's: a bug, shown as one
+        _silence_stdout()
+        LOG.error(f"standard output: its encoding {encoding} (from the locale or PYTHONIOENCODING) cannot hold "
+                  f"{exc.object[exc.start:exc.end]!r}; set PYTHONIOENCODING=utf-8 or a UTF-8 locale "
+                  "(LC_ALL=C.UTF-8), or write to a file with -o (always UTF-8)")
+        return 2
+    except OSError as exc:                     # a write to standard output failed: a full disk, /dev/full
+        if not (_stdout_failed() or (exc.filename is None and exc.errno in WRITE_ERRORS)):
+            raise                              # files' errors are one-line errors where they are opened
+        _silence_stdout()
+        LOG.error(f"standard output: cannot write ({exc.strerror or exc}); free space or write to a file with -o")
+        return 2
+
+
+WRITE_ERRORS = {getattr(errno, name) for name in ("ENOSPC", "EDQUOT", "EFBIG", "EIO") if hasattr(errno, name)}
+
+
+def _stdout_failed() -> bool:
+    """True when standard output cannot take what it holds (flushing it fails again)."""
+    try:
+        if sys.stdout is not None:
+            sys.stdout.flush()
+    except (OSError, ValueError):
+        return True
+    return False
 
 
 def _silence_stdout() -> None:
@@ -950,6 +1007,9 @@ def _run(argv: list[str] | None) -> int:
     except KeyboardInterrupt:
         LOG.critical("interrupted")
         return 130
+    except Terminated as exc:                 # SIGTERM or SIGHUP while an output was written: it was removed
+        LOG.critical(f"terminated by signal {exc.signum}; the partial output was removed")
+        return 128 + exc.signum
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -32,6 +32,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -322,12 +323,23 @@ def format_scores(scores: list[Score], totals: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def suite_files(paths: list[str]) -> list[Path]:
-    """Scenario files from files and folders (every *.json and *.yaml in a folder, sorted)."""
+def suite_files(paths: list[str], skipped: Callable[[str], None] | None = None) -> list[Path]:
+    """Scenario files from files and folders (every *.json and *.yaml regular file in a folder,
+    sorted). A FIFO, socket or device in a folder is skipped (reading one would wait for a writer
+    forever), and ``skipped`` told in one line; a folder that cannot be listed is a UsageError."""
     out: list[Path] = []
     for p in map(Path, paths):
-        if p.is_dir():
-            out += sorted(q for q in p.iterdir() if q.suffix.lower() in (".json", ".yaml", ".yml"))
-        else:
+        if not p.is_dir():
             out.append(p)
+            continue
+        try:
+            found = sorted(q for q in p.iterdir() if q.suffix.lower() in (".json", ".yaml", ".yml"))
+        except OSError as exc:
+            raise UsageError(f"{p}: cannot list the folder ({exc.strerror or exc}); give scenario files or a "
+                             "readable folder") from None
+        for q in found:
+            if q.is_file():                          # follows links: a link to a regular file counts
+                out.append(q)
+            elif skipped is not None:
+                skipped(f"{q}: not a regular file (a FIFO, socket, device or broken link): skipped")
     return out

@@ -18,8 +18,9 @@ cache), so a model is derived once per worker, not once per file.
 
 On dask, this process reads the model and every file (with the reader and checks of the local
 path, so a bad file gives the same line) and sends them to the workers: the workers need bgfdi
-installed (the same version), not the files. Each worker writes the model once into its temporary
-folder and keeps it derived.
+installed (the same version), not the files. Each worker derives the model once, in memory, and
+keeps it (nothing is written to disk). A LocalCluster started by the command has at most one
+worker per file (``--jobs 16`` for 2 files starts 2).
 """
 from __future__ import annotations
 
@@ -174,8 +175,8 @@ class Cluster:
     many worker processes, one thread each) or of the scheduler at ``address``; closed at the end.
     A missing extra or a scheduler that does not answer is a UsageError (one line, exit 2)."""
 
-    def __init__(self, address: str, workers: int | None = None) -> None:
-        self.address, self.workers = address, workers
+    def __init__(self, address: str, workers: int | None = None, files: int | None = None) -> None:
+        self.address, self.workers, self.files = address, workers, files
         self.cluster = self.client = None
 
     def __enter__(self):
@@ -186,6 +187,8 @@ class Cluster:
         from distributed import Client, LocalCluster
         if self.address == "local":
             n = self.workers or max(1, os.cpu_count() or 1)
+            if self.files is not None:
+                n = max(1, min(n, self.files))            # a worker per file at most
             self.cluster = LocalCluster(n_workers=n, processes=True, threads_per_worker=1, dashboard_address=":0",
                                         silence_logs=logging.ERROR)
             self.client = Client(self.cluster)

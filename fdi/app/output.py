@@ -1,36 +1,33 @@
-"""Writing results: atomically (temporary file, then rename), so that nothing is half-written.
+"""Checking outputs before any work: paths that can be written, and none of them an input.
 
-``-`` names standard output. A new file gets the mode the user's umask gives (0666 & ~umask, as
-``open`` would), an existing file keeps its mode. An existing target that is no regular file (a
-FIFO, ``/dev/null``) is written into directly: renaming over it would replace the device.
-Failures are one-line :class:`OutputError`\\ s naming the path.
+Writing itself is :func:`fdi.atomic.write_atomic` (atomic, ``-`` for standard output, no link
+planted by another user followed). Refused here, each as a one-line :class:`OutputError` naming
+the option and the path, before the command starts:
+
+- an output that resolves (through links, ``..``, hard links) to one of the command's inputs:
+  ``diagnose M data.csv -o data.csv`` would replace the data it reads;
+- a symbolic link owned by another user in a shared sticky folder (:func:`fdi.atomic.foreign_link`);
+- a folder, a missing folder, a folder or file that cannot be written; a ``--plot`` folder that
+  cannot be created or written into.
 """
 from __future__ import annotations
 
 import os
 import stat
-import sys
 import tempfile
 from pathlib import Path
 from typing import Iterable
 
-from ..errors import UsageError
+from ..atomic import STDOUT, OutputError, Terminated, foreign_link, is_stdout, write_atomic
 
-STDOUT = "-"
-
-
-class OutputError(UsageError):
-    """An output path that cannot be written (one line: the option, the path, what to change)."""
-
-
-def is_stdout(path: str | Path | None) -> bool:
-    """True when ``path`` is ``-``: write to standard output."""
-    return str(path) == STDOUT
+__all__ = ["STDOUT", "OutputError", "Terminated", "check_folder", "check_folder_not_input", "check_not_input",
+           "check_output", "foreign_link", "is_stdout", "write_atomic"]
 
 
 def check_output(path: str | Path, option: str = "-o") -> None:
     """Refuse, before any work, an output path that cannot be a file: a folder, a path in a
-    missing folder or under a file, a folder we may not write into."""
+    missing folder or under a file, a folder we may not write into, a link planted by another
+    user in a shared folder."""
     if is_stdout(path):
         return
     if str(path).strip() == "":
@@ -43,60 +40,85 @@ def check_output(path: str | Path, option: str = "-o") -> None:
         raise OutputError(f"{option}: folder '{parent}' does not exist; create it or name a file in an existing folder")
     if not parent.is_dir():
         raise OutputError(f"{option}: '{parent}' is not a folder; name a file in a folder")
-    if not p.exists() and not os.access(parent, os.W_OK | os.X_OK):
-        raise OutputError(f"{option}: cannot create files in '{parent}' (permission denied); choose another folder")
+    foreign_link(p, option)
     if p.exists() and not os.access(p, os.W_OK):
         raise OutputError(f"{option}: '{path}' is not writable; choose another file")
+    if p.exists() and not stat.S_ISREG(p.stat().st_mode):
+        return                                       # a FIFO or a device: written into, not replaced
+    folder = p.resolve().parent if p.exists() else parent
+    problem = _cannot_create(folder)
+    if problem:
+        raise OutputError(f"{option}: cannot create files in '{folder}' ({problem}); choose another folder")
 
 
-def _umask() -> int:
-    """The process's umask (os.umask can only be read by setting it, so it is set back at once)."""
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-def _chunks(text: str | Iterable[str]) -> Iterable[str]:
-    return (text,) if isinstance(text, str) else text
-
-
-def write_atomic(path: str | Path, text: str | Iterable[str]) -> None:
-    """Write ``text`` (a string or an iterable of pieces, so a large CSV need not be one string)
-    to ``path`` through a temporary file in the same folder, or to standard output for ``-``."""
-    if is_stdout(path):
-        for piece in _chunks(text):
-            sys.stdout.write(piece)
-        sys.stdout.flush()
-        return
+def check_folder(path: str | Path, option: str = "--plot") -> None:
+    """Refuse, before any work, a folder of outputs that cannot be written into (or created)."""
     p = Path(path)
-    if p.is_symlink():
-        p = Path(os.path.realpath(p))                     # replace the file the link names, keep the link
+    if p.exists() and not p.is_dir():
+        raise OutputError(f"{option}: '{path}' is a file; name a folder")
+    if not p.exists():
+        if not p.parent.is_dir():
+            raise OutputError(f"{option}: folder '{p.parent}' does not exist; create it or name a folder in an "
+                              "existing one")
+        problem = _cannot_create(p.parent, folder=True)
+        if problem:
+            raise OutputError(f"{option}: cannot create folder '{path}' in '{p.parent}' ({problem}); "
+                              "choose another folder")
+        return
+    problem = _cannot_create(p)
+    if problem:
+        raise OutputError(f"{option}: cannot write into folder '{path}' ({problem}); choose another folder")
+
+
+def _cannot_create(where: Path, folder: bool = False) -> str | None:
+    """Why a file (or, with ``folder``, a folder) cannot be created in ``where``, or None: tried
+    for real with a private temporary name removed at once (permissions alone say nothing of a
+    read-only file system, and nothing to the superuser)."""
     try:
-        if p.exists() and not stat.S_ISREG(p.stat().st_mode):
-            _write_direct(p, text)
+        if folder:
+            os.rmdir(tempfile.mkdtemp(prefix=".bgfdi-probe-", dir=where))
         else:
-            _write_replace(p, text)
+            fd, name = tempfile.mkstemp(prefix=".bgfdi-probe-", dir=where)
+            os.close(fd)
+            os.unlink(name)
     except OSError as exc:
-        raise OutputError(f"{path}: cannot write ({exc.strerror or exc}); choose another file") from None
+        return exc.strerror or str(exc)
+    return None
 
 
-def _write_direct(p: Path, text: str | Iterable[str]) -> None:
-    """Into an existing FIFO or device, which a rename would replace."""
-    with open(p, "w", encoding="utf-8", newline="") as fh:
-        for piece in _chunks(text):
-            fh.write(piece)
-
-
-def _write_replace(p: Path, text: str | Iterable[str]) -> None:
-    """Temporary file in the target's folder, mode set as ``open`` would, then an atomic rename."""
-    mode = stat.S_IMODE(p.stat().st_mode) if p.exists() else 0o666 & ~_umask()
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", dir=p.parent)
+def _identity(path: str | Path) -> tuple | None:
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            os.fchmod(fh.fileno(), mode)
-            for piece in _chunks(text):
-                fh.write(piece)
-        os.replace(tmp, p)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    return (st.st_dev, st.st_ino)
+
+
+def check_not_input(path: str | Path, inputs: Iterable[str | Path], option: str = "-o") -> None:
+    """Refuse an output that is one of the command's inputs: the same file (through links, hard
+    links or another spelling of its path), or a file that does not exist yet whose resolved path
+    is an input's."""
+    if is_stdout(path):
+        return
+    out_id, out_real = _identity(path), os.path.realpath(path)
+    for source in inputs:
+        if source is None or is_stdout(source):
+            continue
+        same_id = out_id is not None and out_id == _identity(source)
+        if same_id and not stat.S_ISREG(os.stat(path).st_mode):
+            continue                                # /dev/null or a FIFO as both: nothing is replaced
+        if same_id or out_real == os.path.realpath(source):
+            raise OutputError(f"{option}: '{path}' is the input {source} of this command; writing it would "
+                              "replace what is read; name another file")
+
+
+def check_folder_not_input(folder: str | Path, inputs: Iterable[str | Path], option: str = "--plot") -> None:
+    """Refuse a plot folder holding an input PNG file (the plots are PNG files named by figure)."""
+    real = os.path.realpath(folder)
+    for source in inputs:
+        if source is None or is_stdout(source):
+            continue
+        src = os.path.realpath(source)
+        if os.path.dirname(src) == real and src.lower().endswith(".png"):
+            raise OutputError(f"{option}: folder '{folder}' holds the input {source}, which a plot could replace; "
+                              "name another folder")

@@ -13,7 +13,7 @@ def _confidence(margin) -> str:
     if margin is None:
         return "type decision margin: n/a"
     word = "clear" if margin > 1.2 else "fair" if margin > 1.02 else "weak: the runner-up structure fits almost as well"
-    return f"type decision margin {margin:.3f} (runner-up cost / best cost; {word})"
+    return f"type decision margin {margin:.3f} (runner-up / best, each cost charged for its parameters; {word})"
 
 
 def to_text(report: dict, model_name: str, data_name: str) -> str:

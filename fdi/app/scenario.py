@@ -119,13 +119,53 @@ def _read_text(p: Path, path: str) -> str:
         raise ScenarioError(f"{path}: not UTF-8 text (byte {exc.start}); save it as UTF-8") from None
 
 
+class _Duplicate(Exception):
+    """A key given twice in one mapping of a scenario file (``line`` and ``first``: YAML only)."""
+
+    def __init__(self, key: str, line: int | None = None, first: int | None = None) -> None:
+        super().__init__(key)
+        self.key, self.line, self.first = key, line, first
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """The safe loader, refusing a key given twice in one mapping (plain ``safe_load`` keeps the
+    last silently: ``T: 2 ... T: 3`` would run 3 s with nothing said)."""
+
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):              # the mapping's own keys (a merged << may be overridden)
+            seen: dict[tuple, int] = {}
+            for key_node, _ in node.value:
+                if isinstance(key_node, yaml.ScalarNode) and key_node.tag != "tag:yaml.org,2002:merge":
+                    key = (key_node.tag, key_node.value)
+                    line = key_node.start_mark.line + 1
+                    if key in seen:
+                        raise _Duplicate(key_node.value, line, seen[key])
+                    seen[key] = line
+        return super().construct_mapping(node, deep)
+
+
+def _unique_pairs(pairs: list[tuple[str, object]]) -> dict:
+    """json.loads' object hook refusing a key given twice in one object (json keeps the last)."""
+    out: dict = {}
+    for key, value in pairs:
+        if key in out:
+            raise _Duplicate(key)
+        out[key] = value
+    return out
+
+
 def load_scenario(path: str | Path, model: Model) -> Scenario:
-    """Read and check a scenario file (JSON by its .json suffix, YAML otherwise)."""
+    """Read and check a scenario file (JSON by its .json suffix, YAML otherwise); a key given
+    twice in one mapping is refused."""
     p = Path(path)
     text = _read_text(p, str(path))
     kind = "JSON" if p.suffix.lower() == ".json" else "YAML"
     try:
-        data = json.loads(text) if kind == "JSON" else yaml.safe_load(text)
+        data = (json.loads(text, object_pairs_hook=_unique_pairs) if kind == "JSON"
+                else yaml.load(text, Loader=_UniqueKeyLoader))  # noqa: S506 - a SafeLoader subclass
+    except _Duplicate as exc:
+        where = f" at line {exc.line} (first at line {exc.first})" if exc.line else ""
+        raise ScenarioError(f"{path}: duplicate key '{str(exc.key)[:40]}'{where}; give each key once") from None
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
         raise ScenarioError(f"{path}: not valid {kind}: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
     except ValueError:                              # an integer of more than 4300 digits

@@ -1,0 +1,494 @@
+"""Trust (issue 23): no planted file is read, no input is lost or damaged, inputs that cannot be
+meant are refused in one line, and every input is read within bounded memory and time.
+
+Each test builds its designed truth by hand: a planted file whose model would answer otherwise,
+an output path that *is* an input, a header written twice, and so on."""
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+
+import numpy as np
+import pytest
+
+from fdi.api import diagnose
+
+from .conftest import MODELS
+
+TANK = (MODELS / "two_tank_valve.yaml").read_text(encoding="utf-8")
+QUIET = TANK.replace("thresholds: {ARR1: 1.0e-4, ARR2: 1.0e-4, ARR3: 1.5e-4}",
+                     "thresholds: {ARR1: 1.0e3, ARR2: 1.0e3, ARR3: 1.0e3}")
+LOUD = TANK.replace("thresholds: {ARR1: 1.0e-4, ARR2: 1.0e-4, ARR3: 1.5e-4}",
+                    "thresholds: {ARR1: 1.0e-12, ARR2: 1.0e-12, ARR3: 1.0e-12}")
+
+
+def tank_data() -> dict:
+    """Constant pressures far from the tanks' equilibrium: every residual is about 1e-4 m^3/s."""
+    t = np.arange(0, 200, 0.1)
+    return {"t": t, "Qin": 1e-4 * (1 + 0.5 * np.sin(0.01 * t)), "p1": np.full_like(t, 5000.0),
+            "p2": np.full_like(t, 2000.0)}
+
+
+# ------------------------------------------------------------------ 1. no temporary file is trusted
+
+def test_the_api_reads_no_planted_file_and_follows_no_planted_link(tmp_path, monkeypatch):
+    """Earlier versions wrote YAML text to <tmp>/bgfdi-model-<sha256[:16]>.yaml and reused it when
+    it existed. A file planted there (thresholds of 1e-12: everything detected) and a .tmp link to
+    a victim file are both ignored: the text's own thresholds (1e3: nothing crosses) decide, the
+    victim is untouched and nothing is written in the temporary folder."""
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    monkeypatch.setenv("TMPDIR", str(shared))
+    monkeypatch.setattr(tempfile, "tempdir", str(shared))
+    digest = hashlib.sha256(QUIET.encode("utf-8")).hexdigest()[:16]
+    planted = shared / f"bgfdi-model-{digest}.yaml"
+    planted.write_text(LOUD, encoding="utf-8")
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious\n", encoding="utf-8")
+    os.symlink(victim, shared / f"bgfdi-model-{digest}.tmp")
+    before = sorted(p.name for p in shared.iterdir())
+    d = diagnose(QUIET, tank_data(), workers=1)
+    assert d.detection is None                                    # the text's thresholds, not the planted file's
+    assert victim.read_text(encoding="utf-8") == "precious\n"
+    assert planted.read_text(encoding="utf-8") == LOUD
+    assert sorted(p.name for p in shared.iterdir()) == before     # nothing written there
+
+
+# ------------------------------------------------------------------ 2. never lose or damage a file
+
+def _cli(argv: list[str], capsys) -> tuple[int, str]:
+    from fdi.app.cli import main
+    code = main([str(a) for a in argv])
+    return code, capsys.readouterr().err
+
+
+def _one_line(err: str, *words: str) -> None:
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+
+
+@pytest.mark.parametrize("how", ["same", "dot", "link", "hardlink"])
+def test_an_output_that_is_an_input_is_refused_and_the_input_kept(tmp_path, capsys, how):
+    """``simulate M sc.json -o sc.json`` (also as ./sc.json, a link to it, a hard link): exit 2,
+    one line, the scenario byte for byte as it was."""
+    scenario = tmp_path / "sc.json"
+    text = '{"T": 1, "fs": 100}\n'
+    scenario.write_text(text, encoding="utf-8")
+    out = {"same": scenario, "dot": tmp_path / "." / "sc.json", "link": tmp_path / "l.json",
+           "hardlink": tmp_path / "h.json"}[how]
+    if how == "link":
+        out.symlink_to(scenario)
+    if how == "hardlink":
+        os.link(scenario, out)
+    code, err = _cli(["simulate", MODELS / "cycab_steering.yaml", scenario, "-o", out], capsys)
+    assert code == 2
+    _one_line(err, "-o:", "is the input", "name another file")
+    assert scenario.read_text(encoding="utf-8") == text
+
+
+@pytest.mark.parametrize("argv", [
+    ["diagnose", "{model}", "{data}", "-o", "{data}"],
+    ["calibrate", "{model}", "{data}", "-o", "{model}"],
+    ["monitor", "{model}", "{data}", "-o", "{data}"],
+    ["tables", "{model}", "-o", "{model}"],
+    ["evaluate", "{model}", "{suite}", "-o", "{suite}/s.json"],
+    ["evaluate", "{model}", "{suite}", "--plot", "{suite}/s.json"],
+])
+def test_no_command_writes_over_what_it_reads(tmp_path, capsys, argv):
+    model = tmp_path / "m.yaml"
+    model.write_text(TANK, encoding="utf-8")
+    data = tmp_path / "d.csv"
+    data.write_text("t,Qin,p1,p2\n0,1e-4,0,0\n0.1,1e-4,0,0\n", encoding="utf-8")
+    suite = tmp_path / "suite"
+    suite.mkdir()
+    (suite / "s.json").write_text('{"T": 1, "fs": 10}\n', encoding="utf-8")
+    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    args = [a.format(model=model, data=data, suite=suite) for a in argv]
+    if "--plot" in args:
+        pytest.importorskip("matplotlib")
+    code, err = _cli(args, capsys)
+    assert code == 2
+    _one_line(err, "is the input")
+    assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
+
+
+@pytest.mark.skipif(not hasattr(os, "lchown") or os.geteuid() != 0, reason="needs a link owned by another user")
+def test_a_link_planted_by_another_user_in_a_sticky_folder_is_not_followed(tmp_path, capsys):
+    """A world-writable sticky folder (as /tmp) with out.csv -> victim, the link owned by uid 4242:
+    -o out.csv is refused before the work and write_atomic refuses it too; the victim is intact.
+    A link of our own there is still followed (the link kept, its target replaced)."""
+    from fdi.atomic import OutputError, write_atomic
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    os.chmod(shared, 0o1777)
+    os.chown(shared, 4343, 4343)
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious\n", encoding="utf-8")
+    link = shared / "out.txt"
+    link.symlink_to(victim)
+    os.lchown(link, 4242, 4242)
+    code, err = _cli(["tables", MODELS / "two_tank_valve.yaml", "-o", link], capsys)
+    assert code == 2
+    _one_line(err, "-o:", "owned by another user", "uid 4242")
+    with pytest.raises(OutputError, match="not followed"):
+        write_atomic(link, "x\n")
+    assert victim.read_text(encoding="utf-8") == "precious\n" and link.is_symlink()
+    os.lchown(link, os.geteuid(), os.getegid())                  # our own link: followed, kept
+    write_atomic(link, "new\n")
+    assert link.is_symlink() and victim.read_text(encoding="utf-8") == "new\n"
+
+
+@pytest.mark.parametrize("signum", ["SIGTERM", "SIGINT"])
+def test_a_signal_during_a_write_leaves_the_old_file_and_no_partial_one(tmp_path, signum):
+    """The signal arrives after half the pieces were written: the target keeps its old content,
+    no hidden temporary file stays in the folder, and the signal ends the write (Terminated for
+    SIGTERM, KeyboardInterrupt for SIGINT)."""
+    import signal
+
+    from fdi.atomic import Terminated, write_atomic
+    target = tmp_path / "report.csv"
+    target.write_text("old\n", encoding="utf-8")
+    before = signal.getsignal(signal.SIGTERM)
+
+    def pieces():
+        for i in range(10):
+            if i == 5:
+                os.kill(os.getpid(), getattr(signal, signum))
+            yield f"row {i}\n"
+    with pytest.raises(Terminated if signum == "SIGTERM" else KeyboardInterrupt):
+        write_atomic(target, pieces())
+    assert target.read_text(encoding="utf-8") == "old\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["report.csv"]
+    assert signal.getsignal(signal.SIGTERM) == before               # the handler set back
+
+
+def test_a_plot_folder_that_cannot_be_written_is_refused_before_the_work(tmp_path, capsys):
+    """--plot into a folder where nothing can be created: refused at once, one line, exit 2 (for
+    the superuser too: /proc takes no folder, whatever the permission bits say)."""
+    pytest.importorskip("matplotlib")
+    if os.geteuid() == 0:
+        where = "/proc/bgfdi-plots"
+    else:
+        locked = tmp_path / "locked"
+        locked.mkdir()
+        os.chmod(locked, 0o555)
+        where = str(locked / "plots")
+    data = MODELS / "data" / "cycab" / "nominal.csv"
+    code, err = _cli(["diagnose", MODELS / "cycab_steering.yaml", data, "--plot", where], capsys)
+    assert code == 2
+    _one_line(err, "--plot:", "cannot create folder")
+
+
+# ------------------------------------------------------------------ 3. inputs that cannot be meant
+
+CYCAB_HEADER = "t,u_in,theta1,theta2,p1,p2"
+
+
+def _short_cycab(header: str) -> str:
+    rows = (MODELS / "data" / "cycab" / "nominal.csv").read_text(encoding="utf-8").splitlines()[1:301]
+    return header + "\n" + "\n".join(rows) + "\n"
+
+
+@pytest.mark.parametrize("header, words", [
+    ("t,u_in,theta1,theta2,p1,p1", ["column 'p1' appears twice", "columns 5 and 6"]),
+    ("t,u_in,theta1,theta2,p1,p2,p1", ["column 'p1' appears twice"]),
+    ("t,u_in,theta1,theta2,p1,p2,\u00b5,\u03bc", ["'\u00b5' (column 7) and '\u03bc' (column 8)", "NFKC"]),
+])
+@pytest.mark.parametrize("command", ["diagnose", "monitor"])
+def test_a_header_naming_a_column_twice_is_refused(tmp_path, capsys, header, words, command):
+    """The later column no longer wins silently (a dict keeps the last): the file is refused."""
+    data = tmp_path / "d.csv"
+    body = _short_cycab(CYCAB_HEADER).split("\n", 1)[1]
+    extra = header.count(",") - CYCAB_HEADER.count(",")
+    data.write_text(header + "\n" + "".join(r + ",0" * extra + "\n" for r in body.splitlines()), encoding="utf-8")
+    code, err = _cli([command, MODELS / "cycab_steering.yaml", data, "--workers", "1"], capsys)
+    assert code == 2
+    _one_line(err, "d.csv", *words)
+
+
+class FrameLike:
+    """What the API reads of a pandas DataFrame: column names (repeatable) and a matrix of cells."""
+
+    def __init__(self, names: list, cells: list[list]):
+        self.columns = names
+        self._m = np.array(cells, dtype=object)
+
+    def to_numpy(self, dtype=None):
+        return self._m.astype(dtype) if dtype is not None else self._m
+
+
+def test_dataframes_with_a_repeated_column_or_cells_that_are_no_numbers_are_refused():
+    from fdi.api import measurements
+    from fdi.data import DataError
+    with pytest.raises(DataError, match="column 'p' appears twice"):
+        measurements(FrameLike(["t", "p", "p"], [[0.0, 1.0, 2.0], [0.1, 1.0, 2.0]]))
+    with pytest.raises(DataError, match="a value is no number"):
+        measurements(FrameLike(["t", "p"], [[0.0, "high"], [0.1, 1.0]]))
+    with pytest.raises(DataError, match="a value is no number"):
+        measurements(FrameLike(["t", "p"], [[0.0, [1, 2]], [0.1, None]]))
+    with pytest.raises(DataError, match="appears twice"):
+        measurements({"t": [0.0, 0.1], 1: [1.0, 2.0], "1": [3.0, 4.0]})
+    with pytest.raises(DataError, match="not arrays of numbers"):
+        measurements({"t": [0.0, 0.1], "p": ["a", "b"]})
+
+
+@pytest.mark.parametrize("name, text, words", [
+    ("s.json", '{"T": 2, "fs": 100, "T": 3}', ["duplicate key 'T'"]),
+    ("s.json", '{"T": 2, "fs": 100, "faults": [{"target": "R4", "type": "abrupt", "t0": 1, "t0": 1.5, '
+               '"value": 1e7}]}', ["duplicate key 't0'"]),
+    ("s.yaml", "T: 2\nfs: 100\nT: 3\n", ["duplicate key 'T' at line 3 (first at line 1)"]),
+    ("s.yaml", "T: 2\nfs: 100\nnoise: {p1: 1, p1: 2}\n", ["duplicate key 'p1' at line 3"]),
+])
+def test_a_scenario_key_given_twice_is_refused(tmp_path, capsys, name, text, words):
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    code, err = _cli(["simulate", MODELS / "cycab_steering.yaml", path, "-o", tmp_path / "o.csv"], capsys)
+    assert code == 2
+    _one_line(err, name, *words, "give each key once")
+    assert not (tmp_path / "o.csv").exists()
+
+
+def test_a_yaml_merge_may_still_be_overridden():
+    """``<<: *base`` then an own key is YAML's override, not a duplicate."""
+    from fdi.app.scenario import _UniqueKeyLoader
+    import yaml
+    doc = yaml.load("base: &b {T: 1, fs: 10}\nrun:\n  <<: *b\n  T: 2\n", Loader=_UniqueKeyLoader)
+    assert doc["run"] == {"T": 2, "fs": 10}
+
+
+@pytest.mark.parametrize("old, new, words", [
+    # a parameter micro sign (U+00B5) beside a Greek mu (U+03BC): NFKC reads both as U+03BC
+    ("  Cd:  {value", "  \u00b5: {value: 1.0, unit: Pa}\n  \u03bc: {value: 2.0, unit: Pa}\n  Cd:  {value",
+     ["'\u03bc' and '\u00b5' (a parameter)", "NFKC"]),
+    # a ligature fi (U+FB01) in one name, plain fi in another
+    ("  Cd:  {value", "  \ufb01x: {value: 1.0, unit: Pa}\n  fix: {value: 2.0, unit: Pa}\n  Cd:  {value",
+     ["'fix' and '\ufb01x' (a parameter)"]),
+    ("columns: [t, Qin, p1, p2]", "columns: [t, Qin, p1, p2, p1]", ["data.columns", "'p1' is listed twice"]),
+    ("p2: {type: De, junction: J2, column: p2", "p2: {type: De, junction: J2, column: p1",
+     ["sensors.p2.column", "reads column 'p1' as sensor 'p1' does"]),
+])
+def test_names_that_cannot_be_told_apart_are_refused_at_load(old, new, words):
+    from bondgraph.errors import ModelError
+    from bondgraph.loader import load_model_text
+    assert old in TANK
+    with pytest.raises(ModelError) as err:
+        load_model_text(TANK.replace(old, new, 1), "m.yaml")
+    for w in words:
+        assert w in str(err.value), str(err.value)
+
+
+def test_one_name_in_another_unicode_form_is_still_the_same_parameter():
+    """R12 renamed to the micro sign and used in an expression: the expression's parser reads
+    U+03BC, which is that parameter (it was 'undefined symbol')."""
+    from bondgraph.loader import load_model_text
+    text = TANK.replace("R12", "\u00b5").replace('effort: "rho*g*q/A1"', 'effort: "rho*g*q/A1 + 0*\u00b5"')
+    model = load_model_text(text, "m.yaml")
+    assert "\u00b5" in model.parameters and model.parameters["\u00b5"].value == 1.0e7
+
+
+def test_calibrating_on_constant_data_is_refused_with_the_reason(tmp_path, capsys):
+    run = tmp_path / "flat.csv"
+    run.write_text("t,Qin,p1,p2\n" + "".join(f"{i / 10:.1f},0,0,0\n" for i in range(600)), encoding="utf-8")
+    code, err = _cli(["calibrate", MODELS / "two_tank_valve.yaml", run], capsys)
+    assert code == 2
+    _one_line(err, "flat.csv", "every column is constant", "no threshold can be learnt")
+
+
+# ------------------------------------------------------------------ 4. bounded memory and time
+
+@pytest.mark.parametrize("shape, window", [((5000,), 0.4001), ((3, 4000), 0.1001), ((2, 2, 3000), 0.0501)])
+def test_the_derivative_filter_in_blocks_gives_the_same_numbers(monkeypatch, shape, window):
+    """Blocks of a few windows (BLOCK_VALUES made tiny: hundreds of blocks) give the numbers of
+    one product over all the windows to 1e-12 of the largest value, every order and both edge
+    rules, for one signal, a population and a population of populations; and on a cubic (which
+    the cubic fit reproduces exactly) the analytic derivatives."""
+    from fdi import derivatives
+    x = np.random.default_rng(7).standard_normal(shape).cumsum(axis=-1) + 1e3
+    t = np.arange(shape[-1]) * 1e-4
+    cubic = 1e3 + 2 * t - 5 * t ** 2 + 7 * t ** 3
+    exact = [cubic, 2 - 10 * t + 21 * t ** 2, -10 + 42 * t, 42 + 0 * t]
+    for edges in ("interp", "mirror"):
+        monkeypatch.setattr(derivatives, "BLOCK_VALUES", 1 << 40)
+        whole = derivatives.estimate(x, 1e-4, 3, window=window, polyorder=3, edges=edges)
+        monkeypatch.setattr(derivatives, "BLOCK_VALUES", 5000)
+        ours = derivatives.estimate(x, 1e-4, 3, window=window, polyorder=3, edges=edges)
+        for k in range(4):
+            assert np.max(np.abs(ours[k] - whole[k])) <= 1e-12 * np.abs(whole[k]).max(), (edges, k)
+    fitted = derivatives.estimate(cubic, 1e-4, 3, window=window, polyorder=3)
+    for k, tol in enumerate((1e-8, 1e-7, 1e-7, 1e-3)):                   # round-off grows with the order
+        assert np.max(np.abs(fitted[k] - exact[k])) <= tol * np.abs(exact[k]).max(), k
+
+
+def test_the_derivative_filter_memory_grows_with_the_samples_not_the_window():
+    """100 000 samples and a window of 2001: all windows at once would copy 1.6 GB; in blocks the
+    peak of numpy's allocations stays under 64 MB (the signal, its padding, four derivatives of
+    0.8 MB each and one block of at most 16 MB)."""
+    import tracemalloc
+
+    from fdi import derivatives
+    t = np.arange(100_000) * 1e-4
+    x = np.sin(3.0 * t) + 0.1 * t ** 3
+    tracemalloc.start()
+    try:
+        v = derivatives.estimate(x, 1e-4, 3, window=0.2, polyorder=3)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 64 << 20, peak / 2 ** 20
+    inner = slice(2000, -2000)
+    assert np.max(np.abs(v[1][inner] - (3 * np.cos(3 * t) + 0.3 * t ** 2)[inner])) < 1e-3   # d/dt, analytic
+
+
+def test_residuals_in_blocks_are_the_hand_derived_residual_and_the_same_numbers(monkeypatch):
+    """The two-tank ARR1 = Qin - (A1/(rho g)) dp1/dt - v (p1 - p2)/R12 (the model file's own
+    derivation, docs) on p1 rising at 2 Pa/s, p2 = 1000 Pa, Qin = 1e-4: the value by hand at every
+    trusted sample; evaluated 500 samples at a time it is the same array, bit for bit."""
+    from fdi import residuals as R
+    from fdi.monitor import Monitor
+    from fdi.data import checked, signals_from_data
+    m = Monitor(TANK)
+    t = np.arange(3000) * 0.1
+    cols = {"t": t, "Qin": np.full_like(t, 1e-4), "p1": 5000 + 2.0 * t, "p2": np.full_like(t, 1000.0)}
+    data = checked("x", list(cols), np.column_stack(list(cols.values())))
+    raw = signals_from_data(m.model, data)
+    monkeypatch.setattr(R, "EVAL_BLOCK", 1 << 30)
+    whole = R.evaluate(m.model, list(m.residuals), raw, 0.1, window=5.0)
+    monkeypatch.setattr(R, "EVAL_BLOCK", 500)
+    blocked = R.evaluate(m.model, list(m.residuals), raw, 0.1, window=5.0)
+    assert np.array_equal(whole, blocked)
+    arr1 = 1e-4 - 0.0154 / (1000 * 9.81) * 2.0 - (cols["p1"] - 1000.0) / 1.0e7
+    i = m.names.index("ARR1")
+    assert np.allclose(blocked[i][50:-50], arr1[50:-50], rtol=1e-9, atol=1e-15)
+
+
+@pytest.mark.parametrize("source", ["file", "stream"])
+def test_a_line_without_end_is_refused_after_one_mebibyte(tmp_path, capsys, monkeypatch, source):
+    """/dev/zero as data (a file or standard input): one line, exit 2, after reading 1 MiB, not
+    after exhausting the memory."""
+    import io
+    import sys
+    import time
+    if not os.path.exists("/dev/zero"):
+        pytest.skip("no /dev/zero")
+    model = MODELS / "cycab_steering.yaml"
+    start = time.perf_counter()
+    if source == "file":
+        code, err = _cli(["diagnose", model, "/dev/zero"], capsys)
+    else:
+        with open("/dev/zero", "rb") as raw:
+            monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(raw, encoding="utf-8"))
+            code, err = _cli(["monitor", model, "-"], capsys)
+    assert code == 2 and time.perf_counter() - start < 5
+    _one_line(err, "line 1 is longer than 1,048,576 characters")
+
+
+def test_a_long_row_and_a_wide_header_are_refused(tmp_path, capsys):
+    from fdi.data import MAX_COLUMNS, MAX_LINE
+    model = MODELS / "cycab_steering.yaml"
+    row = tmp_path / "row.csv"
+    row.write_text(CYCAB_HEADER + "\n0," + "1," * (MAX_LINE // 2) + "1\n", encoding="utf-8")
+    code, err = _cli(["diagnose", model, row], capsys)
+    assert code == 2
+    _one_line(err, "row.csv", "line 2 is longer")
+    wide = tmp_path / "wide.csv"
+    wide.write_text("t," + ",".join(f"c{i}" for i in range(MAX_COLUMNS)) + "\n", encoding="utf-8")
+    code, err = _cli(["diagnose", model, wide], capsys)
+    assert code == 2
+    _one_line(err, "wide.csv", f"{MAX_COLUMNS + 1:,} columns")
+
+
+def test_a_local_cluster_has_no_more_workers_than_files(monkeypatch):
+    """--scheduler local --jobs 16 for 2 files starts 2 workers (the cluster is faked: what is
+    asked of dask is the point, not dask starting)."""
+    distributed = pytest.importorskip("distributed")
+    from fdi.app import fleet
+    asked = {}
+
+    class FakeCluster:
+        def __init__(self, n_workers, **kw):
+            asked["n"] = n_workers
+
+        def close(self):
+            pass
+
+    class FakeClient:
+        def __init__(self, cluster, **kw):
+            pass
+
+        def close(self):
+            pass
+    monkeypatch.setattr(distributed, "LocalCluster", FakeCluster)
+    monkeypatch.setattr(distributed, "Client", FakeClient)
+    with fleet.Cluster("local", 16, files=2):
+        pass
+    assert asked["n"] == 2
+    with fleet.Cluster("local", 1, files=5):
+        pass
+    assert asked["n"] == 1
+
+
+# ------------------------------------------------------------------ 5. the tracebacks left
+
+MU_TANK = TANK.replace("R12", "\u00b5")          # a model whose names need more than ASCII
+
+
+def test_standard_output_on_a_full_disk_is_one_line(capsys, monkeypatch):
+    """/dev/full takes no byte (ENOSPC on every write): one line, exit 2, no traceback."""
+    import sys
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full")
+    with open("/dev/full", "w", encoding="utf-8") as full:
+        monkeypatch.setattr(sys, "stdout", full)
+        code, err = _cli(["tables", MODELS / "two_tank_valve.yaml"], capsys)
+        assert code == 2
+        _one_line(err, "standard output: cannot write", "No space left on device")
+
+
+def test_an_ascii_standard_output_with_a_non_ascii_model_is_one_line(tmp_path, capsys, monkeypatch):
+    """PYTHONIOENCODING=ascii (or an ASCII locale) and a parameter named µ: one line saying how to
+    get UTF-8, exit 2; with -o the file is written in UTF-8 and the command succeeds."""
+    import io
+    import sys
+    model = tmp_path / "mu.yaml"
+    model.write_text(MU_TANK, encoding="utf-8")
+    monkeypatch.setattr(sys, "stdout", io.TextIOWrapper(io.BytesIO(), encoding="ascii"))
+    code, err = _cli(["tables", model], capsys)
+    assert code == 2
+    _one_line(err, "encoding ascii", "PYTHONIOENCODING=utf-8", "-o")
+    code, err = _cli(["tables", model, "-o", tmp_path / "t.txt"], capsys)
+    assert code == 0 and "\u00b5" in (tmp_path / "t.txt").read_text(encoding="utf-8")
+
+
+def test_monitor_with_standard_input_closed_is_one_line(capsys, monkeypatch):
+    import sys
+    monkeypatch.setattr(sys, "stdin", None)                 # what Python gives for `bgfdi monitor M - <&-`
+    code, err = _cli(["monitor", MODELS / "cycab_steering.yaml", "-", "--workers", "1"], capsys)
+    assert code == 2
+    _one_line(err, "standard input is closed")
+
+
+def test_a_fifo_in_a_suite_folder_is_skipped_not_waited_for(tmp_path, capsys):
+    """evaluate on a folder whose only *.json is a FIFO with no writer: it is skipped with a line
+    (reading it would wait forever), then 'no scenario files', exit 2, at once."""
+    import signal
+    if not hasattr(os, "mkfifo"):
+        pytest.skip("no FIFOs")
+    suite = tmp_path / "suite"
+    suite.mkdir()
+    os.mkfifo(suite / "x.json")
+
+    def hang(signum, frame):
+        raise TimeoutError("evaluate waited on the FIFO")
+    old = signal.signal(signal.SIGALRM, hang)
+    signal.alarm(10)
+    try:
+        code, err = _cli(["evaluate", MODELS / "cycab_steering.yaml", suite], capsys)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 2 and "x.json: not a regular file" in lines[0] and "no scenario files" in lines[1], err
