@@ -50,6 +50,7 @@ class Job:
     onset: tuple[float, float] | None = None
     modes: tuple[tuple[str, float], ...] = ()      # mode variables the caller knows (Options.mode)
     recheck: bool = True                           # the engine's final check (where it has one)
+    resume: object = None                          # the first pass's engine state: only the check runs
 
 
 def fit(monitor: "Monitor", job: Job) -> Estimate:
@@ -62,7 +63,7 @@ def fit(monitor: "Monitor", job: Job) -> Estimate:
                     fixed=list(job.fixed), onset=job.onset, config=config, modes=dict(job.modes))
     problem = optim.pose(obj, n_bits=encoding.N_BITS * len(obj.spaces), onehot=encoding.onehot_groups(obj.spaces),
                          init=[obj.encode(list(faults)) for faults in job.known])
-    extra = {"recheck": job.recheck} if has_recheck(job.search.engine) else {}
+    extra = {"recheck": job.recheck, "resume": job.resume} if has_recheck(job.search.engine) else {}
     r = optim.minimize(problem, engine=job.search.engine, pop=job.search.pop, generations=job.search.generations,
                        seed=job.seed, **extra)
     margin = r.extra.get("margin")
@@ -77,7 +78,7 @@ def fit(monitor: "Monitor", job: Job) -> Estimate:
             faults[i] = {"name": f["name"], "type": "abrupt", "value": f["value"], "t0": f["t0"]}
     return Estimate(tuple(job.candidate), r.cost, float(fitness(r.cost)), tuple(float(fitness(c)) for c in r.history),
                     None if margin is None or not np.isfinite(margin) else float(margin),
-                    tuple(faults), r.evaluations, r.wall_s, r.objective_s)
+                    tuple(faults), r.evaluations, r.wall_s, r.objective_s, r.extra.get("snapshot"))
 
 
 def has_recheck(engine: str) -> bool:
@@ -209,9 +210,9 @@ class Estimators:
         ``t0``, smaller sets first: a set starts from the fits of the sets it contains, its other
         faults as no-ops (the engine searches around them; results do not depend on ``workers``).
         With an engine that has a final check (AHDE's ``recheck``), every set is first fitted
-        without it, and the sets within ``RECHECK_REACH`` of the best cost are fitted again with it
-        (the same seed: the same run, checked): the check costs as much as the race, and only the
-        sets that may win need it.
+        without it, and the sets within ``RECHECK_REACH`` of the best cost are continued with it
+        from where their first pass stopped (``Estimate.resume``): the check costs as much as the
+        race, and only the sets that may win need it.
 
         Per candidate set, optionally: ``fixed`` faults held at an earlier fit (each with its
         onset), the ``onsets`` interval its own onset is searched in, and ``known`` fits to start
@@ -237,7 +238,8 @@ class Estimators:
         if two_phase:                    # the final check only where it can change the decision
             best = min((r.cost for r in done.values() if np.isfinite(r.cost)), default=np.inf)
             again = [i for i in sorted(done) if done[i].cost <= best * (1 + RECHECK_REACH)]
-            done.update(zip(again, self._run([replace(jobs[i], recheck=True) for i in again], t, t0, samples)))
+            done.update(zip(again, self._run([replace(jobs[i], recheck=True, resume=done[i].resume) for i in again],
+                                             t, t0, samples)))
         return [done[i] for i in range(len(candidates))]
 
     def _run(self, jobs: list[Job], t: np.ndarray, t0: float, samples: int) -> list[Estimate]:

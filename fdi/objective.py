@@ -403,6 +403,13 @@ class Objective:
             self._seeds = out
         return self._seeds
 
+    def translate(self, real: np.ndarray, bits_from: np.ndarray, bits_to: np.ndarray) -> np.ndarray:
+        """The engine's ``translate`` hook: ``real``'s fault profiles re-expressed in the structure
+        of ``bits_to`` (:func:`fdi.hints.translate`), the onset kept; NaN where nothing changes."""
+        real = np.asarray(real, dtype=float)
+        out = hints.translate(self.spaces, real[:-1], bits_from, bits_to, self.win.t[self.crop()], float(real[-1]))
+        return np.append(out, np.nan)
+
     def propose(self, bits: np.ndarray) -> np.ndarray:
         """Points the data suggest for the structure of ``bits`` (the engine's ``propose`` hook): its
         intermittent faults at the periods found in the residuals (:meth:`seeds`), each with its

@@ -61,6 +61,10 @@ class Problem(Protocol):
       ``bits``, an array (k, D) with NaN where the data say nothing (the engine draws those); the
       AHDE screens them with its own draws (the diagnosis: intermittent periods and phases found
       in the residuals, onsets where they left their noise band);
+    - ``translate(real, bits_from, bits_to)`` (None: nothing): the point with which the structure of
+      ``bits_to`` behaves like ``real`` under ``bits_from``, an array (D,) with NaN where it keeps
+      its own (the diagnosis: each fault's profile re-expressed in another degradation model);
+      the AHDE's final check starts each family from the winner so translated;
     - ``penalized(cost, bits)`` (None: the cost): the cost an information criterion charges the
       structure of ``bits`` for its parameters, on which the AHDE chooses among its finalists (the
       diagnosis: Schwarz's criterion as an equivalent cost, so that a structure with more
@@ -91,6 +95,7 @@ class Posed:
     coarse: Cost | None = None
     init: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
     propose: Callable[[np.ndarray], np.ndarray] | None = None
+    translate: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None
     penalized: Callable[[float, np.ndarray], float] | None = None
 
     def __post_init__(self) -> None:

@@ -75,6 +75,10 @@ class Problem:
             return np.empty((0, encoding.N_REAL * len(self.spaces)))
         return hints.intermittent_rows(self.spaces, bits, self.seeds)
 
+    def translate(self, real: np.ndarray, bits_from: np.ndarray, bits_to: np.ndarray) -> np.ndarray:
+        """The fault profiles of ``real`` re-expressed in another structure (:func:`fdi.hints.translate`)."""
+        return hints.translate(self.spaces, np.asarray(real, dtype=float), bits_from, bits_to, self.t, self.t0)
+
     def finish(self, real: np.ndarray, bits: np.ndarray) -> np.ndarray:
         """The best individual with the magnitudes the objective solves written in."""
         if self.objective is not None:
