@@ -268,7 +268,7 @@ class AHDE(GenerationalSolver):
         d = self.bounds.shape[0]
         if self.propose is None:
             return np.empty((0, d))
-        got = np.asarray(self.propose(bits), dtype=float).reshape(-1, d)[:8 * self.options.screen_each]
+        got = np.asarray(self.propose(bits), dtype=float).reshape(-1, d)[:2 * self.options.screen_each]
         lo, hi = self.bounds[:, 0], self.bounds[:, 1]
         drawn = lo + self.rng.random(got.shape) * (hi - lo)
         x = np.where(np.isnan(got), drawn, got)
