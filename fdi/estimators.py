@@ -237,7 +237,14 @@ class Estimators:
                 progress(len(done), len(candidates))
         if two_phase:                    # the final check only where it can change the decision
             best = min((r.cost for r in done.values() if np.isfinite(r.cost)), default=np.inf)
-            again = [i for i in sorted(done) if done[i].cost <= best * (1 + RECHECK_REACH)]
+            n_eff = criterion.effective_samples(win.crop.stop - win.crop.start, len(self.monitor.residuals), win.ts,
+                                                self.monitor.config.derivative_window)
+            score = {i: criterion.information(r.cost, list(r.faults), n_eff) for i, r in done.items()}
+            # a set a subset of which the criterion already prefers adds a fault that explains nothing:
+            # its check would re-polish the subset's families beside a no-op
+            again = [i for i in sorted(done) if done[i].cost <= best * (1 + RECHECK_REACH)
+                     and not any(set(candidates[j]) < set(candidates[i]) and fixed[j] == fixed[i]
+                                 and score[j] <= score[i] for j in done)]
             done.update(zip(again, self._run([replace(jobs[i], recheck=True, resume=done[i].resume) for i in again],
                                              t, t0, samples)))
         return [done[i] for i in range(len(candidates))]
