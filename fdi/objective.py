@@ -177,6 +177,7 @@ class Objective:
             for x in series:
                 self.gaps |= np.isnan(np.asarray(x, dtype=float)).reshape(-1, win.t.size).any(axis=0)
         self._constant: dict[int, float] = {}
+        self.composites = any(r.composites for r in residuals)
         # the screening fidelity: every stride-th sample, a sixth of the derivative window apart, so that
         # the filtered residuals barely change between the samples left out
         self.stride = max(1, int(round(window_s / win.ts)) // 6)
@@ -271,7 +272,7 @@ class Objective:
         steps = {j: ps[j] for j in solve}
         for j, rows in solve.items():
             ps[j] = np.where(rows[:, None], self.spaces[j].nominal, ps[j])
-        values, signals, invalid = self.inputs(ps)
+        values, signals, invalid = self.inputs(ps, stride=stride)
         n = real.shape[0]
         total = np.full(n, self.constant(stride))
         plain = [i for i in self.active if not any(self.enters[j][i] for j in solve)]
@@ -328,9 +329,12 @@ class Objective:
         ends = sorted(to_u(np.asarray(space.bounds, dtype=float)) - to_u(space.nominal))
         return ends[0], ends[1]
 
-    def inputs(self, ps: list[np.ndarray], signals: dict | None = None) -> tuple[dict, dict, np.ndarray]:
+    def inputs(self, ps: list[np.ndarray], signals: dict | None = None,
+               stride: int = 1) -> tuple[dict, dict, np.ndarray]:
         """Parameter values, (corrected) signals and the invalid individuals for the profiles ``ps``;
-        ``signals`` given when only parameters changed (the sensor corrections are then known)."""
+        ``signals`` given when only parameters changed (the sensor corrections are then known).
+        Corrected signals are filtered on the samples of ``crop(stride)`` only, unless a residual
+        differentiates a stored quantity (which reads them over the whole window)."""
         n = ps[0].shape[0] if ps else 1
         values = dict(self.nominal)
         betas: dict[str, np.ndarray] = {}
@@ -360,7 +364,8 @@ class Objective:
             signals.update(corrected_signals(self.model, self.win.raw, self.win.ts,
                                              {k: self.orders[k] for k in changed if k in self.orders},
                                              {**self.fixed_betas, **betas}, self.window_s, edges="mirror",
-                                             biases={**self.fixed_biases, **biases}))
+                                             biases={**self.fixed_biases, **biases},
+                                             at=None if self.composites else self.crop(stride)))
         return values, signals, invalid
 
     def residual_values(self, residual: Residual, signals: dict, values: dict, n: int, stride: int = 1) -> np.ndarray:
