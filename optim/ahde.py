@@ -120,10 +120,12 @@ class AHDEOptions(Options):
     starting points within it of the best seed the race."""
     restarts: int = 3
     """Rounds of redrawing the converged finalists around their best points."""
-    finest: float = 1e-4
+    finest: float = 0.01
     """The smallest restart radius, as a share of each range: the leader alone at 1 % after 10 %
-    stops improving, then 0.1 % and 0.01 % while ``restarts`` rounds remain (scenario 1: R4 4 % off in 2 of 20 seeds without the 1 %
-    round; a 0.7 s intermittent period's basin is 0.05 % of its range)."""
+    stops improving (scenario 1: R4 4 % off in 2 of 20 seeds without the 1 % round). Rounds at
+    0.1 % and 0.01 % (for a 0.7 s period's basin, 0.05 % of its range, now seeded from the
+    residuals' spectrum) spent the budget around the first basin: the tutorial's eq. (16) drift was
+    left at an onset of 7.87 s and eq. (17) (cost 1965) for the truth's 5.3 s (cost 1853)."""
     revivals: int = 2
     """Times a structure left behind may come back with the winner's reals (measured: "R4 abrupt +
     beta_theta1 intermittent" went from cost 1548 to 205 once the winner's period was carried over)."""
