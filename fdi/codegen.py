@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -163,14 +164,21 @@ def sampling_time(model: Model, given: float | None) -> float:
 
 
 def prefix_for(model: Model, given: str | None = None) -> str:
-    """The C prefix of the generated names and files: ``given`` (checked) or bgfdi_<model name>."""
+    """The C prefix of the generated names and files: ``given`` (checked), or bgfdi_ and the
+    model's name in lower-case ASCII words joined by ``_``.
+
+    >>> from bondgraph.examples import rc_parallel
+    >>> prefix_for(rc_parallel()), prefix_for(rc_parallel(), "Pump_A")
+    ('bgfdi_rc_parallel', 'pump_a')
+    """
     if given is not None:
         if not (given.isascii() and given[:1].isalpha() and all(c.isalnum() or c == "_" for c in given)
                 and len(given) <= 40):
             raise CodegenError(f"--prefix: must be a C identifier (a letter, then letters, digits and _; "
                                f"at most 40 characters), got {given!r}")
         return given.lower()
-    return ("bgfdi_" + identifier(model.name).lower())[:40].rstrip("_")
+    words = re.findall(r"[a-z0-9]+", model.name.lower())
+    return ("bgfdi_" + "_".join(words))[:40].rstrip("_") if words else "bgfdi_model"
 
 
 def plan(monitor, ts: float | None = None, options=None, prefix: str | None = None) -> Plan:
@@ -187,7 +195,7 @@ def plan(monitor, ts: float | None = None, options=None, prefix: str | None = No
     config = monitor.config
     names = list(monitor.names)
     if not names:
-        raise CodegenError(f"{where}: the model has no residual to monitor")
+        raise CodegenError(f"{where}: the model has no residual to monitor (bgfdi check {where} says why)")
     try:
         thresholds = thresholds_for(config.thresholds, names, o.thresholds)
     except ValueError as exc:
@@ -544,3 +552,20 @@ def _umask() -> int:
     mask = os.umask(0o022)
     os.umask(mask)
     return mask
+
+
+def check_folder_output(folder: str, inputs: list[str], files: Mapping[str, str] | None = None) -> None:
+    """Refuse, before any work, an output folder that is standard output, a file, cannot be made
+    or written into, or holds an input under a generated file's name (``files``, once known)."""
+    from .app.output import check_folder, check_not_input, is_stdout
+    from .atomic import OutputError
+    if is_stdout(folder):
+        raise OutputError("-o: standard output cannot take a folder of files; name a folder")
+    if str(folder).strip() == "":
+        raise OutputError("-o: the path is empty; name a folder")
+    for source in inputs:
+        if Path(folder).exists() and os.path.samefile(folder, source):
+            raise OutputError(f"-o: '{folder}' is the input {source} of this command; name a folder")
+    check_folder(folder, "-o")
+    for name in files or ():
+        check_not_input(Path(folder) / name, inputs, "-o")

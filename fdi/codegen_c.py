@@ -664,26 +664,40 @@ static char line[MAX_LINE];
 static char *fields[MAX_FIELDS];
 static ${P}_state state;                  /* static: no allocation, no large stack frame */
 
-/* Splits line in place at commas; fields stripped of spaces, quotes and the line end. */
+/* Splits line in place into comma-separated fields: spaces around a field and the line end
+ * dropped, a quoted field unquoted ("" inside it is one "). Returns the number of fields, or -1. */
 static int split(char *text)
 {
     int n = 0;
-    char *start = text, *end;
+    char *in = text;
     for (;;) {
-        char *comma = strchr(start, ',');
-        if (comma != NULL)
-            *comma = '\0';
-        while (*start == ' ' || *start == '\t' || *start == '"')
-            start++;
-        end = start + strlen(start);
-        while (end > start && (end[-1] == '\n' || end[-1] == '\r' || end[-1] == ' ' || end[-1] == '\t' || end[-1] == '"'))
-            *--end = '\0';
+        char *out, *start;
+        while (*in == ' ' || *in == '\t')
+            in++;
+        out = start = in;
+        if (*in == '"') {
+            in++;
+            while (*in != '\0' && !(*in == '"' && in[1] != '"')) {
+                if (*in == '"')
+                    in++;
+                *out++ = *in++;
+            }
+            if (*in == '"')
+                in++;
+        }
+        while (*in != '\0' && *in != ',')
+            *out++ = *in++;
+        while (out > start && (out[-1] == '\n' || out[-1] == '\r' || out[-1] == ' ' || out[-1] == '\t'))
+            out--;
         if (n == MAX_FIELDS)
             return -1;
         fields[n++] = start;
-        if (comma == NULL)
+        if (*in == '\0') {
+            *out = '\0';
             return n;
-        start = comma + 1;
+        }
+        in++;
+        *out = '\0';
     }
 }
 
