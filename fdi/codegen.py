@@ -566,6 +566,9 @@ def check_folder_output(folder: str, inputs: list[str], files: Mapping[str, str]
     for source in inputs:
         if Path(folder).exists() and os.path.samefile(folder, source):
             raise OutputError(f"-o: '{folder}' is the input {source} of this command; name a folder")
+    parent = Path(folder).parent
+    if parent.exists() and not parent.is_dir():
+        raise OutputError(f"-o: '{parent}' is a file, not a folder; name a folder in a folder")
     check_folder(folder, "-o")
     for name in files or ():
         check_not_input(Path(folder) / name, inputs, "-o")
