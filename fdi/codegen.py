@@ -94,9 +94,9 @@ class Mode:
 
 @dataclass(frozen=True)
 class Kernel:
-    """One residual: its ARR's name, sensor, unit, threshold and the C statements computing it."""
+    """One residual: its ARR's name, what it is, unit, threshold and the C statements computing it."""
     name: str
-    sensor: str | None
+    what: str                  # "the AGARR of sensor theta1", "the MSO residual at junction shaft"
     unit: str
     threshold: float
     text: str                  # the ARR as sympy prints it (for the comment)
@@ -222,7 +222,9 @@ def plan(monitor, ts: float | None = None, options=None, prefix: str | None = No
         expr = builder.numeric(r, f"{arr.name}")
         body = _body(expr, builder, f"{where}: {arr.name}")
         shown = numeric_form(model, arr.exact if arr.exact is not None else arr.expr)
-        kernels.append(Kernel(arr.name, arr.sensor, unit, float(eps), sp.sstr(shown), body))
+        what = (f"the AGARR of sensor {arr.sensor}" if arr.origin == "SCAPH" and arr.sensor else
+                f"the MSO residual at junction {arr.junction} (sensors {arr.sensor})")
+        kernels.append(Kernel(arr.name, what, unit, float(eps), sp.sstr(shown), body))
     take, take_helpers, modes = _take(model, column_index, builder, per_sample)
     channels = tuple(builder.channels)
     deepest = max(c.orders for c in channels)
@@ -353,7 +355,7 @@ class _Builder:
             return self.symbols[key]
         c = self.channels[channel]
         first = sum(1 for x in self.channels if x.kind == "signal")
-        local = identifier(f"q{channel - first}" + ("" if order == 1 else f"_d{order}"), self.locals)
+        local = identifier(f"rate{channel - first}" + ("" if order == 1 else f"_d{order}"), self.locals)
         rate = "d/dt" if order == 1 else f"d{order}/dt{order}"
         load = f"const double {local} = v[{c.out + order}];   /* {rate} of {comment(label, 70)} */"
         return self._symbol(key, local, load, channel)
@@ -364,8 +366,9 @@ class _Builder:
         expr = r.expr
         stored = {}
         for i, (order, inner) in enumerate(r.composites):
-            channel = self.stored(inner, order, f"{label}, stored quantity {i + 1}")
-            stored[sp.Symbol(f"__stored{i}", real=True)] = self.stored_symbol(order, channel, sp.sstr(inner.expr))
+            shown = sp.sstr(shown_form(inner))
+            channel = self.stored(inner, order, f"stored quantity {shown}")
+            stored[sp.Symbol(f"__stored{i}", real=True)] = self.stored_symbol(order, channel, shown)
         replace: dict[sp.Expr, sp.Expr] = {}
         for d in expr.atoms(sp.Derivative):
             if not is_signal(d.expr) or d.expr.func.__name__ not in self.by_signal:
@@ -412,6 +415,13 @@ class _Builder:
                 note = "efficiency factor"
             out.append(Parameter(name, field, value, note))
         return out
+
+
+def shown_form(r: Residual) -> sp.Expr:
+    """``r``'s expression with the rate of each stored quantity inside it written out
+    (``Derivative(CT1*p1(t), t)`` for the placeholder the compiled kernel reads)."""
+    return r.expr.xreplace({sp.Symbol(f"__stored{i}", real=True): sp.Derivative(shown_form(inner), (TIME, order))
+                            for i, (order, inner) in enumerate(r.composites)})
 
 
 def _structure(r: Residual) -> tuple:

@@ -56,9 +56,9 @@ def header(p: Plan) -> str:
     lines += ["", f"/* The residuals, in this order: each its ARR's name, unit and threshold. */",
               f"#define {up}_RESIDUALS {len(p.residuals)}"]
     for i, k in enumerate(p.residuals):
-        what = f"AGARR of sensor {k.sensor}" if k.sensor else "residual"
+        what = k.what
         lines.append(f"/* {i:3d}  {comment(k.name, 20):<6}  {comment(k.unit, 20):<10}  threshold "
-                     f"{k.threshold:.6g}  ({comment(what, 50)}) */")
+                     f"{k.threshold:.6g}  ({comment(what, 80)}) */")
     lag_s = p.lag * p.ts
     lines += ["",
               f"#define {up}_TS {double(p.ts)}   /* s: the sampling time the filter was generated for */",
@@ -236,12 +236,13 @@ def _model_code(p: Plan) -> list[str]:
     lines.append("")
     stored = [c for c in p.channels if c.kind == "stored"]
     for i, c in enumerate(stored):
-        doc = [f"Stored quantity {i} ({comment(c.name, 60)}): its value at one sample, from the gathered values v;",
-               f"the monitor differentiates it {c.orders} time(s) with the derivative filter."]
+        doc = [f"Stored quantity {i}: its value at one sample, from the gathered values v; the monitor",
+               f"differentiates it {'once' if c.orders == 1 else f'{c.orders} times'} with the derivative filter "
+               f"(rate{i}). It is"] + ["  " + x for x in wrapped(c.name.removeprefix("stored quantity "), 92)]
         lines += _function(f"stored_{i}", "double", f"const double *v, const {P}_params *p", c.inner.lines, doc, ("v", "p"))
         lines.append("")
     for i, k in enumerate(p.residuals):
-        doc = [f"{comment(k.name, 20)}" + (f": the AGARR of sensor {comment(k.sensor, 40)}" if k.sensor else ""),
+        doc = [f"{comment(k.name, 20)}: {comment(k.what, 80)}",
                f"unit {comment(k.unit, 30)}, threshold {k.threshold:.6g}; as the model's ARR reads:"]
         doc += ["  " + x for x in wrapped(k.text, 92)]
         lines += _function(f"residual_{i}", "double", f"const double *v, const {P}_params *p", k.body.lines, doc, ("v", "p"))
