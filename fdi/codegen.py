@@ -146,10 +146,11 @@ class Plan:
         return frozenset(out)
 
     def state_bytes(self) -> int:
-        """The size of the monitor's state, roughly (its arrays): what a controller must hold."""
-        doubles = self.ring * (1 + max(1, len(self.modes)) + len(self.channels) + self.outputs + len(self.residuals))
-        doubles += len(self.residuals) * self.span_samples
-        return 8 * doubles + self.ring + len(self.residuals) * self.span_samples + 64 * len(self.residuals) + 512
+        """sizeof the monitor's state struct, to within its padding: what a controller must hold."""
+        r = len(self.residuals)
+        rings = self.ring * (8 * (1 + max(1, len(self.modes)) + len(self.channels) + self.outputs + r) + 1)
+        return (rings + r * self.span_samples * 9 + 8 * (max(1, len(self.parameters)) + 6 * r)
+                + 16 * len(self.channels) + 2 * r + 8 * 18)
 
 
 def sampling_time(model: Model, given: float | None) -> float:

@@ -65,7 +65,8 @@ def header(p: Plan) -> str:
               f"#define {up}_WINDOW {double(p.window)}   /* s: the derivative window */",
               f"#define {up}_LAG {p.lag}   /* samples: a residual at sample k is final once sample k + {p.lag} "
               f"has arrived ({lag_s:.6g} s; later near mode switches and at the start) */",
-              f"#define {up}_RING {p.ring}   /* samples held (a power of two) */",
+              f"#define {up}_RING {p.ring}   /* samples held (a power of two): the state is about "
+              f"{p.state_bytes() / 1024:.0f} kB */",
               f"#define {up}_SPAN {p.span_samples}   /* samples over which a residual's evidence is summed */",
               f"#define {up}_CHANNELS {len(p.channels)}   /* filtered sequences: signals, then stored quantities */",
               f"#define {up}_OUTPUTS {p.outputs}   /* their derivatives, gathered per sample */",
