@@ -149,7 +149,7 @@ class Plan:
         """sizeof the monitor's state struct, to within its padding: what a controller must hold."""
         r = len(self.residuals)
         rings = self.ring * (8 * (1 + max(1, len(self.modes)) + len(self.channels) + self.outputs + r) + 1)
-        return (rings + r * self.span_samples * 9 + 8 * (max(1, len(self.parameters)) + 6 * r)
+        return (rings + (9 * r + 8) * self.span_samples + 8 * (max(1, len(self.parameters)) + 6 * r)
                 + 16 * len(self.channels) + 2 * r + 8 * 18)
 
 

@@ -135,6 +135,7 @@ typedef struct {
         double r[${U}_RESIDUALS][${U}_RING];
         double cum[${U}_RESIDUALS];
         double past[${U}_RESIDUALS][${U}_SPAN];
+        double span_t[${U}_SPAN];
         unsigned char hit[${U}_RESIDUALS][${U}_SPAN];
     } priv;
 } ${P}_state;
@@ -432,6 +433,7 @@ static void judge(${P}_state *s, int64_t k, int at_end)
     int i, fired = 0;
     int64_t began = -1;
     s->priv.judged[SLOT(k)] = (unsigned char)judged;
+    s->priv.span_t[k % SPAN] = tk;          /* t_D may lie a span back, further than the ring holds */
     if (s->detected && !s->decided && tk > s->t_alarm + WAIT) {
         s->decided = 1;
         s->t_decision = s->priv.t[SLOT(k - 1)];
@@ -468,7 +470,7 @@ static void judge(${P}_state *s, int64_t k, int at_end)
     if (fired && !s->detected) {
         s->detected = 1;
         s->t_alarm = tk;
-        s->t_detect = s->priv.t[SLOT(began)];
+        s->t_detect = s->priv.span_t[began % SPAN];
         for (i = 0; i < RESIDUALS_N; i++)
             s->alarm_coherence[i] = (unsigned char)(s->alarm_at[i] >= 0);
     }

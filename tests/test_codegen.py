@@ -188,6 +188,25 @@ def test_boost_converter_switching_at_20_khz(tmp_path):
     assert found["detection"] is not None and 0.001 <= found["detection"].time < 0.0011
 
 
+def test_a_diode_that_decides_its_own_mode_and_a_detection_further_back_than_the_ring(tmp_path):
+    # discontinuous conduction: the diode's mode is 1 while iL > 0 (an autonomous mode, from the
+    # data). Thresholds at 1.5 times the peak of a noise-free run: the sensor noise of a second run
+    # crosses them now and then, and its evidence adds up over the span (200 samples) until an
+    # alarm whose t_D, the first crossing of that span, lies further back than the ring holds
+    from .independent import boost
+    model = Path(__file__).parent / "data" / "boost_dcm.yaml"
+    clean = boost.simulate_dcm(0.002, p={"L": 2.0e-5})
+    options = calibrated(model, clean)
+    monitor = compiled(model).with_config(compiled(model).config.replace(thresholds=options.thresholds))
+    p, exe = build(tmp_path, monitor)
+    assert [(m.name, m.column) for m in p.modes] == [("s", 2), ("c", None)]
+    check(monitor, p, exe, write_csv(clean, tmp_path / "clean.csv"))
+    noise = np.random.default_rng(0)
+    noisy = {k: v + noise.normal(0.0, 0.01, v.size) if k in ("iL", "vo") else v for k, v in clean.items()}
+    found = check(monitor, p, exe, write_csv(noisy, tmp_path / "noisy.csv"))["detection"]
+    assert found is not None and round((found.alarm_time - found.time) / 1e-6) > p.ring
+
+
 def test_two_inertia_shaft_with_a_window_from_the_data(tmp_path):
     from .independent import shaft
     model = MODELS / "two_inertia_shaft.yaml"
