@@ -86,10 +86,10 @@ class Parameter:
 
 @dataclass(frozen=True)
 class Mode:
-    """A mode variable read per sample: from its command column, or from its condition."""
+    """A mode variable read per sample: from its command column (its index in the sample), or,
+    autonomous (``column`` None), from its condition on the sample's signals."""
     name: str
     column: int | None
-    condition: Body | None
 
 
 @dataclass(frozen=True)
@@ -140,9 +140,6 @@ class Plan:
         for c in self.channels:
             if c.inner is not None:
                 out |= c.inner.helpers
-        for m in self.modes:
-            if m.condition is not None:
-                out |= m.condition.helpers
         return frozenset(out)
 
     def state_bytes(self) -> int:
@@ -183,12 +180,14 @@ def prefix_for(model: Model, given: str | None = None) -> str:
 
 
 def plan(monitor, ts: float | None = None, options=None, prefix: str | None = None) -> Plan:
-    """The C monitor of ``monitor`` (a :class:`fdi.monitor.Monitor`) for data sampled every ``ts``
-    s (the model file's sampling time by default), with the run ``options`` a diagnosis would use
-    (:class:`fdi.options.Options`: thresholds, waiting time and persistence overrides)."""
+    """The C monitor of ``monitor`` (a :class:`fdi.monitor.Monitor`, or a model path, YAML text or
+    Model: :func:`fdi.monitor.monitor_of`) for data sampled every ``ts`` s (the model file's
+    sampling time by default), with the run ``options`` a diagnosis would use
+    (:class:`fdi.options.Options`: thresholds, waiting time, persistence and settling overrides)."""
+    from .monitor import monitor_of
     from .options import Options
     o = options or Options()
-    monitor = monitor.with_config(o.settings)
+    monitor = monitor_of(monitor).with_config(o.settings)
     model = monitor.model
     where = model.path or model.name
     ts = sampling_time(model, ts)
@@ -515,7 +514,7 @@ def _take(model: Model, index: dict[str, int], builder: _Builder,
     modes = []
     for k, m in enumerate(per_sample):
         lines.append(f"mode[{k}] = {local[m.name]};" if m.column else f"mode[{k}] = {local[m.name]} > 0.0 ? 1.0 : 0.0;")
-        modes.append(Mode(m.name, index[m.column] if m.column else None, None))
+        modes.append(Mode(m.name, index[m.column] if m.column else None))
     for c, ch in enumerate(builder.channels):
         if ch.kind == "signal":
             lines.append(f"x[{c}] = {local[ch.name]};")
@@ -524,7 +523,15 @@ def _take(model: Model, index: dict[str, int], builder: _Builder,
 
 def generate(monitor, ts: float | None = None, options=None, prefix: str | None = None,
              lang: str = "c") -> dict[str, str]:
-    """The files of the generated monitor by name (the header, the monitor, ``main.c``, the Makefile)."""
+    """The files of the generated monitor by name (the header, the monitor, ``main.c``, the
+    Makefile); the arguments as :func:`plan`'s.
+
+    >>> files = generate("models/cycab_steering.yaml")
+    >>> sorted(files)
+    ['Makefile', 'bgfdi_cycab_steering.c', 'bgfdi_cycab_steering.h', 'main.c']
+    >>> "#define BGFDI_CYCAB_STEERING_LAG 12" in files["bgfdi_cycab_steering.h"]
+    True
+    """
     if lang not in LANGUAGES:
         raise CodegenError(f"--lang: must be one of {', '.join(LANGUAGES)}, got {lang!r}")
     from .codegen_c import render
