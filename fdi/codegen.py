@@ -571,22 +571,3 @@ def _umask() -> int:
     os.umask(mask)
     return mask
 
-
-def check_folder_output(folder: str, inputs: list[str], files: Mapping[str, str] | None = None) -> None:
-    """Refuse, before any work, an output folder that is standard output, a file, cannot be made
-    or written into, or holds an input under a generated file's name (``files``, once known)."""
-    from .app.output import check_folder, check_not_input, is_stdout
-    from .atomic import OutputError
-    if is_stdout(folder):
-        raise OutputError("-o: standard output cannot take a folder of files; name a folder")
-    if str(folder).strip() == "":
-        raise OutputError("-o: the path is empty; name a folder")
-    for source in inputs:
-        if Path(folder).exists() and os.path.samefile(folder, source):
-            raise OutputError(f"-o: '{folder}' is the input {source} of this command; name a folder")
-    parent = Path(folder).parent
-    if parent.exists() and not parent.is_dir():
-        raise OutputError(f"-o: '{parent}' is a file, not a folder; name a folder in a folder")
-    check_folder(folder, "-o")
-    for name in files or ():
-        check_not_input(Path(folder) / name, inputs, "-o")

@@ -11,13 +11,16 @@ caller places where it likes (static memory on a controller).
 from __future__ import annotations
 
 from string import Template
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import derivatives
-from .codegen import Plan
 from .codegen_names import comment, string_literal, wrapped
 from .codegen_printer import HELPERS, double
+
+if TYPE_CHECKING:
+    from .codegen import Plan
 
 INDENT = "    "
 

@@ -781,21 +781,42 @@ def cmd_codegen(args: argparse.Namespace) -> int:
     """A self-contained C99 residual monitor of the model, written into a folder (docs/deploy.md)."""
     from pathlib import Path
 
-    from ..codegen import check_folder_output, generate, write_folder
+    from ..codegen import generate, write_folder
     from ..monitor import compiled
     from ..options import Options
-    check_folder_output(args.folder, [args.model])
+    _check_codegen_folder(args.folder, [args.model])
     with stage("load"):
         monitor = compiled(args.model)
     thresholds = _named(args.threshold, "--threshold", list(monitor.names), f"residual of {monitor.model.name}")
     options = Options(thresholds=thresholds, waiting_time=args.wait, persistence=args.persistence)
     with stage("code generation"):
         files = generate(monitor, args.sampling_time, options, args.prefix, args.lang)
-    check_folder_output(args.folder, [args.model], files)
+    _check_codegen_folder(args.folder, [args.model], files)
     write_folder(files, args.folder)
     _note(f"wrote {', '.join(str(Path(args.folder) / n) for n in files)}; build and run: make -C {args.folder} "
           f"&& {Path(args.folder) / 'monitor'} DATA.csv", None)
     return 0
+
+
+def _check_codegen_folder(folder: str, inputs: list[str], files: dict[str, str] | None = None) -> None:
+    """Refuse, before any work, an output folder that is standard output, a file, cannot be made
+    or written into, or holds an input under a generated file's name (``files``, once known)."""
+    from pathlib import Path
+
+    from .output import OutputError
+    if is_stdout(folder):
+        raise OutputError("-o: standard output cannot take a folder of files; name a folder")
+    if str(folder).strip() == "":
+        raise OutputError("-o: the path is empty; name a folder")
+    for source in inputs:
+        if Path(folder).exists() and Path(source).exists() and os.path.samefile(folder, source):
+            raise OutputError(f"-o: '{folder}' is the input {source} of this command; name a folder")
+    parent = Path(folder).parent
+    if parent.exists() and not parent.is_dir():
+        raise OutputError(f"-o: '{parent}' is a file, not a folder; name a folder in a folder")
+    check_folder(folder, "-o")
+    for name in files or ():
+        check_not_input(Path(folder) / name, inputs, "-o")
 
 
 # ------------------------------------------------------------------ main
