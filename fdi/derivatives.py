@@ -46,12 +46,14 @@ def window_samples(window: float | None, ts: float, polyorder: int) -> int:
 
 
 def estimate(x: np.ndarray, ts: float, orders: int, window: float | None = DEFAULT_WINDOW,
-             polyorder: int = DEFAULT_ORDER, edges: str = "interp") -> list[np.ndarray]:
+             polyorder: int = DEFAULT_ORDER, edges: str = "interp", at: slice | None = None) -> list[np.ndarray]:
     """[x, dx/dt, ..., d^orders x/dt^orders] estimated along the last axis of ``x``.
 
     ``edges``: the first and last half-windows are either fitted by the polynomial of the first
     (last) whole window (``interp``, as scipy's ``savgol_filter``), or filtered on the signal
     mirrored about its end samples (``mirror``: cheaper, for callers that crop the edges away).
+    ``at`` (with ``mirror``): only the samples of that slice are estimated, the others are NaN (an
+    estimator screening on every k-th sample needs a k-th of the filter's work).
 
     >>> t = np.arange(0, 1, 0.01)
     >>> x, v = estimate(t ** 3, 0.01, 1, window=0.1)
@@ -67,6 +69,13 @@ def estimate(x: np.ndarray, ts: float, orders: int, window: float | None = DEFAU
         raise ValueError(f"edges must be 'interp' or 'mirror', not {edges!r}")
     half = n // 2
     padded = np.pad(x, [(0, 0)] * (x.ndim - 1) + [(half, half)], mode="reflect")
+    if at is not None:
+        if edges != "mirror":
+            raise ValueError("at: only with edges='mirror'")
+        idx = np.arange(x.shape[-1])[at]
+        out = np.full(x.shape + (orders + 1,), np.nan)
+        out[..., idx, :] = sliding_window_view(padded, n, axis=-1)[..., idx, :] @ kernels(n, p, orders, float(ts), half)
+        return [out[..., k] for k in range(orders + 1)]
     out = _convolve(padded, kernels(n, p, orders, float(ts), half), x.shape[-1])
     if edges == "interp" and n * half * (orders + 1) <= EDGE_VALUES:    # a kernel per edge position, kept
         out[..., :half, :] = np.einsum("...n,npk->...pk", x[..., :n], kernels_at(n, p, orders, float(ts), 0, half))

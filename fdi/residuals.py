@@ -169,10 +169,11 @@ def derivative_orders(residuals: list[Residual]) -> dict[str, int]:
 def corrected_signals(model: Model, raw: Mapping[str, np.ndarray], ts: float, orders: Mapping[str, int],
                       betas: Mapping[str, object] | None = None,
                       window: float = derivatives.DEFAULT_WINDOW, edges: str = "interp",
-                      biases: Mapping[str, object] | None = None) -> dict[str, list[np.ndarray]]:
+                      biases: Mapping[str, object] | None = None, at: slice | None = None) -> dict[str, list[np.ndarray]]:
     """Each signal (sensor measurement / beta, or beta * input) and its derivatives; ``biases``
     are additive offsets removed first (a sensor reads true + b: (measured - b) / beta; a source
-    gives commanded + b: beta * (input + b))."""
+    gives commanded + b: beta * (input + b)). ``at``: only those samples are needed
+    (:func:`fdi.derivatives.estimate`; ignored where a mode switch splits the record)."""
     betas = betas or {}
     biases = biases or {}
     out: dict[str, list[np.ndarray]] = {}
@@ -185,7 +186,7 @@ def corrected_signals(model: Model, raw: Mapping[str, np.ndarray], ts: float, or
         beta = betas.get(name)
         if beta is not None:
             x = x / beta if name in model.sensors else x * beta
-        out[name] = derivatives.estimate(x, ts, order, window, edges=edges) if not len(breaks) else \
+        out[name] = derivatives.estimate(x, ts, order, window, edges=edges, at=at) if not len(breaks) else \
             _piecewise(x, ts, order, window, breaks)
     return out
 

@@ -800,6 +800,50 @@ def cmd_bench(args: argparse.Namespace) -> int:
     raise UsageError(f"unknown benchmark '{args.what}'")
 
 
+# ------------------------------------------------------------------ codegen
+
+def cmd_codegen(args: argparse.Namespace) -> int:
+    """A self-contained C99 residual monitor of the model, written into a folder (docs/deploy.md)."""
+    from pathlib import Path
+
+    from ..codegen import generate, write_folder
+    from ..monitor import compiled
+    from ..options import Options
+    _check_codegen_folder(args.folder, [args.model])
+    with stage("load"):
+        monitor = compiled(args.model)
+    thresholds = _named(args.threshold, "--threshold", list(monitor.names), f"residual of {monitor.model.name}")
+    options = Options(thresholds=thresholds, waiting_time=args.wait, persistence=args.persistence)
+    with stage("code generation"):
+        files = generate(monitor, args.sampling_time, options, args.prefix, args.lang)
+    _check_codegen_folder(args.folder, [args.model], files)
+    write_folder(files, args.folder)
+    _note(f"wrote {', '.join(str(Path(args.folder) / n) for n in files)}; build and run: make -C {args.folder} "
+          f"&& {Path(args.folder) / 'monitor'} DATA.csv", None)
+    return 0
+
+
+def _check_codegen_folder(folder: str, inputs: list[str], files: dict[str, str] | None = None) -> None:
+    """Refuse, before any work, an output folder that is standard output, a file, cannot be made
+    or written into, or holds an input under a generated file's name (``files``, once known)."""
+    from pathlib import Path
+
+    from .output import OutputError
+    if is_stdout(folder):
+        raise OutputError("-o: standard output cannot take a folder of files; name a folder")
+    if str(folder).strip() == "":
+        raise OutputError("-o: the path is empty; name a folder")
+    for source in inputs:
+        if Path(folder).exists() and Path(source).exists() and os.path.samefile(folder, source):
+            raise OutputError(f"-o: '{folder}' is the input {source} of this command; name a folder")
+    parent = Path(folder).parent
+    if parent.exists() and not parent.is_dir():
+        raise OutputError(f"-o: '{parent}' is a file, not a folder; name a folder in a folder")
+    check_folder(folder, "-o")
+    for name in files or ():
+        check_not_input(Path(folder) / name, inputs, "-o")
+
+
 # ------------------------------------------------------------------ main
 
 def build_parser() -> argparse.ArgumentParser:
@@ -934,6 +978,23 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--scenario", default="scenario2", choices=("nominal", "scenario1", "scenario2", "scenario3"))
     diagnosis_options(demo)
     demo.set_defaults(func=cmd_demo)
+
+    cg = sub.add_parser("codegen", help="generate a self-contained C99 residual monitor of a model (docs/deploy.md)")
+    cg.add_argument("model")
+    cg.add_argument("--lang", choices=("c",), default="c", help="the language: c (C99 and libm; the default)")
+    cg.add_argument("-o", "--output", dest="folder", metavar="DIR", required=True,
+                    help="folder to write the monitor into (made when missing; its files replaced when present)")
+    cg.add_argument("--sampling-time", type=real(0, strict=True, high=MAX_WAIT), metavar="S",
+                    help="the data's sampling time in s, > 0 (default: the model's data.sampling_time); the "
+                         "filter's coefficients are made for it")
+    cg.add_argument("--threshold", action="append", type=pair(0, strict=True), metavar="ARRk=VALUE",
+                    help="override a threshold (VALUE > 0)")
+    cg.add_argument("--wait", type=real(0, high=MAX_WAIT), help="waiting time T_wt in s, >= 0 (default: the model's)")
+    cg.add_argument("--persistence", type=real(0, high=MAX_WAIT),
+                    help="threshold-seconds of evidence before a residual joins the coherence vector (default: the "
+                         "model's, else one derivative window; 0: the first crossing)")
+    cg.add_argument("--prefix", help="C prefix of the generated names and files (default: bgfdi_ and the model's name)")
+    cg.set_defaults(func=cmd_codegen)
 
     b = sub.add_parser("bench", help="benchmarks, printed as tables")
     b.add_argument("what", choices=("derive", "simulate", "optim", "diagnose", "accuracy"))
