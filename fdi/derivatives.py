@@ -74,7 +74,12 @@ def estimate(x: np.ndarray, ts: float, orders: int, window: float | None = DEFAU
             raise ValueError("at: only with edges='mirror'")
         idx = np.arange(x.shape[-1])[at]
         out = np.full(x.shape + (orders + 1,), np.nan)
-        out[..., idx, :] = sliding_window_view(padded, n, axis=-1)[..., idx, :] @ kernels(n, p, orders, float(ts), half)
+        view, kernel = sliding_window_view(padded, n, axis=-1), kernels(n, p, orders, float(ts), half)
+        rows = int(np.prod(x.shape[:-1], dtype=np.int64))
+        step = max(1, BLOCK_VALUES // max(1, rows * n))      # windows copied at once, as in _convolve
+        for a in range(0, idx.size, step):
+            part = idx[a:a + step]
+            out[..., part, :] = view[..., part, :] @ kernel
         return [out[..., k] for k in range(orders + 1)]
     out = _convolve(padded, kernels(n, p, orders, float(ts), half), x.shape[-1])
     if edges == "interp" and n * half * (orders + 1) <= EDGE_VALUES:    # a kernel per edge position, kept

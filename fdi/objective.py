@@ -38,6 +38,8 @@ from .encoding import FaultSpace
 from .residuals import Residual, corrected_signals, derivative_orders, parameter_values
 
 ROWS = 256             # individuals per objective block (bounds memory on wide screening calls)
+WINDOW_VALUES = 1 << 18  # ... and at most this many individual-samples per block: a 10 kHz window of 5 000
+                         # samples took 256 rows x 5 000 at once, 20 MB per temporary (peak 460 MB; 203 MB so)
 BLOCK = 32768          # samples x individuals per block of the objective (about 128 kB per temporary)
 PHASES = 16           # onsets proposed per period found in the residuals (fdi.hints)
 DEFAULT_BOUNDS = {"sensor": (0.05, 1.5), "source": (0.05, 1.5), "group": (0.1, 10.0)}
@@ -250,8 +252,9 @@ class Objective:
         magnitude is solved per individual (weighted least squares, then iteratively reweighted
         towards the L1 cost of eq. 24) instead of searched."""
         real, bits = np.atleast_2d(real), np.atleast_2d(bits)
-        if real.shape[0] > ROWS:
-            parts = [self.evaluate(real[i:i + ROWS], bits[i:i + ROWS], stride) for i in range(0, real.shape[0], ROWS)]
+        rows = max(1, min(ROWS, WINDOW_VALUES // self.win.t.size))
+        if real.shape[0] > rows:
+            parts = [self.evaluate(real[i:i + rows], bits[i:i + rows], stride) for i in range(0, real.shape[0], rows)]
             return np.concatenate([c for c, _ in parts]), np.vstack([r for _, r in parts])
         with np.errstate(all="ignore"):      # an individual whose signals overflow costs inf, silently
             return self._evaluate(real, bits, stride)
