@@ -52,8 +52,9 @@ def estimate(x: np.ndarray, ts: float, orders: int, window: float | None = DEFAU
     ``edges``: the first and last half-windows are either fitted by the polynomial of the first
     (last) whole window (``interp``, as scipy's ``savgol_filter``), or filtered on the signal
     mirrored about its end samples (``mirror``: cheaper, for callers that crop the edges away).
-    ``at`` (with ``mirror``): only the samples of that slice are estimated, the others are NaN (an
-    estimator screening on every k-th sample needs a k-th of the filter's work).
+    ``at``: only the samples of that slice are estimated, the others are NaN (an estimator
+    screening on every k-th sample needs a k-th of the filter's work); the samples estimated are
+    the same numbers as without it (edge samples by the fit of their whole edge window).
 
     >>> t = np.arange(0, 1, 0.01)
     >>> x, v = estimate(t ** 3, 0.01, 1, window=0.1)
@@ -70,26 +71,40 @@ def estimate(x: np.ndarray, ts: float, orders: int, window: float | None = DEFAU
     half = n // 2
     padded = np.pad(x, [(0, 0)] * (x.ndim - 1) + [(half, half)], mode="reflect")
     if at is not None:
-        if edges != "mirror":
-            raise ValueError("at: only with edges='mirror'")
         idx = np.arange(x.shape[-1])[at]
         out = np.full(x.shape + (orders + 1,), np.nan)
         view, kernel = sliding_window_view(padded, n, axis=-1), kernels(n, p, orders, float(ts), half)
+        inner = idx if edges == "mirror" else idx[(idx >= half) & (idx < x.shape[-1] - half)]
         rows = int(np.prod(x.shape[:-1], dtype=np.int64))
         step = max(1, BLOCK_VALUES // max(1, rows * n))      # windows copied at once, as in _convolve
-        for a in range(0, idx.size, step):
-            part = idx[a:a + step]
+        stride = int(inner[1] - inner[0]) if inner.size > 1 else 1
+        for a in range(0, inner.size, step):                 # a slice of the samples: views, not copies
+            part = slice(int(inner[a]), int(inner[min(inner.size, a + step) - 1]) + 1, stride)
             out[..., part, :] = view[..., part, :] @ kernel
+        if edges == "interp" and inner.size < idx.size:       # the edge samples asked for, as without at=
+            first, last = idx[idx < half], idx[idx >= x.shape[-1] - half]
+            if first.size:
+                out[..., first, :] = _edges(x, n, p, orders, float(ts), start=True)[..., first, :]
+            if last.size:
+                out[..., last, :] = _edges(x, n, p, orders, float(ts), start=False)[..., last - (x.shape[-1] - half), :]
         return [out[..., k] for k in range(orders + 1)]
     out = _convolve(padded, kernels(n, p, orders, float(ts), half), x.shape[-1])
-    if edges == "interp" and n * half * (orders + 1) <= EDGE_VALUES:    # a kernel per edge position, kept
-        out[..., :half, :] = np.einsum("...n,npk->...pk", x[..., :n], kernels_at(n, p, orders, float(ts), 0, half))
-        out[..., -half:, :] = np.einsum("...n,npk->...pk", x[..., -n:],
-                                        kernels_at(n, p, orders, float(ts), half + 1, n))
-    elif edges == "interp":                                                # one fit per edge, evaluated
-        out[..., :half, :] = _edge(x[..., :n], p, orders, float(ts), range(0, half))
-        out[..., -half:, :] = _edge(x[..., -n:], p, orders, float(ts), range(half + 1, n))
+    if edges == "interp":
+        out[..., :half, :] = _edges(x, n, p, orders, float(ts), start=True)
+        out[..., -half:, :] = _edges(x, n, p, orders, float(ts), start=False)
     return [out[..., k] for k in range(orders + 1)]
+
+
+def _edges(x: np.ndarray, n: int, polyorder: int, orders: int, ts: float, start: bool) -> np.ndarray:
+    """(..., half, orders + 1): the first (``start``) or last half-window of samples estimated by the
+    polynomial of the first or last whole window: a kernel per edge position, kept, while that is
+    small; for longer windows one fit per edge, evaluated."""
+    half = n // 2
+    first, stop = (0, half) if start else (half + 1, n)
+    part = x[..., :n] if start else x[..., -n:]
+    if n * half * (orders + 1) <= EDGE_VALUES:
+        return np.einsum("...n,npk->...pk", part, kernels_at(n, polyorder, orders, ts, first, stop))
+    return _edge(part, polyorder, orders, ts, range(first, stop))
 
 
 def _edge(x: np.ndarray, polyorder: int, orders: int, ts: float, positions: range) -> np.ndarray:

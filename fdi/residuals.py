@@ -58,7 +58,8 @@ class Residual:
                  ts: float | None = None, window: float = derivatives.DEFAULT_WINDOW,
                  crop: slice | None = None) -> np.ndarray:
         """The residual on the samples of ``crop`` (all by default): signals and time-varying values
-        are cut before the kernel runs, stored quantities are differentiated on the whole span first."""
+        are cut before the kernel runs; stored quantities are formed on the whole span (the filter reads
+        their neighbours) and differentiated at the samples of ``crop`` only."""
         def cut(a):
             return a[..., crop] if crop is not None and np.ndim(a) and np.shape(a)[-1] > 1 else a
         args = [cut(signals[s][k]) for s, k in self.signals]
@@ -67,8 +68,8 @@ class Residual:
                 raise ValueError(f"{self.name} differentiates a stored quantity numerically: pass ts")
             x = np.asarray(inner(signals, values, ts, window), dtype=float)
             bad = ~np.isfinite(x).all(axis=-1, keepdims=True)    # an individual past a pole: no residual
-            d = derivatives.estimate(np.where(np.isfinite(x), x, 0.0), ts, order, window)[order]
-            args.append(cut(np.where(bad, np.nan, d)))
+            d = derivatives.estimate(np.where(np.isfinite(x), x, 0.0), ts, order, window, at=crop)[order]
+            args.append(np.where(bad, np.nan, cut(d)))
         args += [cut(values[n]) for n in self.symbols]
         out = self.func(*args)
         return np.asarray(out, dtype=float)

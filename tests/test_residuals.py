@@ -103,3 +103,19 @@ def test_savitzky_golay_matches_scipy(edges):
     for k in range(3):
         ref = savgol_filter(x, 25, 3, deriv=k, delta=0.01, axis=-1, mode=edges)
         assert np.allclose(ours[k], ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
+
+
+@pytest.mark.parametrize("edges", ["interp", "mirror"])
+@pytest.mark.parametrize("at", [slice(None, None, 3), slice(5, 190, 4), slice(0, 30, 1), slice(180, None, 2)])
+def test_savitzky_golay_at_some_samples_matches_scipy(edges, at):
+    """The filter asked for some samples only (a stored quantity's rate at an estimator's coarse
+    samples, edges included) gives scipy's savgol_filter there, and NaN elsewhere."""
+    from scipy.signal import savgol_filter
+    x = np.random.default_rng(2).standard_normal((4, 200)).cumsum(axis=1)
+    ours = derivatives.estimate(x, 0.01, 2, window=0.25, polyorder=3, edges=edges, at=at)
+    asked = np.zeros(200, dtype=bool)
+    asked[at] = True
+    for k in range(3):
+        ref = savgol_filter(x, 25, 3, deriv=k, delta=0.01, axis=-1, mode=edges)
+        assert np.allclose(ours[k][:, asked], ref[:, asked], rtol=1e-9, atol=1e-9 * np.abs(ref).max())
+        assert np.isnan(ours[k][:, ~asked]).all()
