@@ -69,18 +69,22 @@ def estimate(x: np.ndarray, ts: float, orders: int, window: float | None = DEFAU
     if edges not in ("interp", "mirror"):
         raise ValueError(f"edges must be 'interp' or 'mirror', not {edges!r}")
     half = n // 2
-    padded = np.pad(x, [(0, 0)] * (x.ndim - 1) + [(half, half)], mode="reflect")
+    pad = [(0, 0)] * (x.ndim - 1) + [(half, half)]
     if at is not None:
         idx = np.arange(x.shape[-1])[at]
         out = np.full(x.shape + (orders + 1,), np.nan)
-        view, kernel = sliding_window_view(padded, n, axis=-1), kernels(n, p, orders, float(ts), half)
+        kernel = kernels(n, p, orders, float(ts), half)
         inner = idx if edges == "mirror" else idx[(idx >= half) & (idx < x.shape[-1] - half)]
+        if inner.size and inner[0] >= half and inner[-1] < x.shape[-1] - half:   # whole windows: no padding
+            view, shift = sliding_window_view(x, n, axis=-1), half     # view[j] is centred on sample j + half
+        else:
+            view, shift = sliding_window_view(np.pad(x, pad, mode="reflect"), n, axis=-1), 0
         rows = int(np.prod(x.shape[:-1], dtype=np.int64))
         step = max(1, BLOCK_VALUES // max(1, rows * n))      # windows copied at once, as in _convolve
         stride = int(inner[1] - inner[0]) if inner.size > 1 else 1
         for a in range(0, inner.size, step):                 # a slice of the samples: views, not copies
-            part = slice(int(inner[a]), int(inner[min(inner.size, a + step) - 1]) + 1, stride)
-            out[..., part, :] = view[..., part, :] @ kernel
+            first, last = int(inner[a]), int(inner[min(inner.size, a + step) - 1])
+            out[..., first:last + 1:stride, :] = view[..., first - shift:last + 1 - shift:stride, :] @ kernel
         if edges == "interp" and inner.size < idx.size:       # the edge samples asked for, as without at=
             first, last = idx[idx < half], idx[idx >= x.shape[-1] - half]
             if first.size:
@@ -88,7 +92,7 @@ def estimate(x: np.ndarray, ts: float, orders: int, window: float | None = DEFAU
             if last.size:
                 out[..., last, :] = _edges(x, n, p, orders, float(ts), start=False)[..., last - (x.shape[-1] - half), :]
         return [out[..., k] for k in range(orders + 1)]
-    out = _convolve(padded, kernels(n, p, orders, float(ts), half), x.shape[-1])
+    out = _convolve(np.pad(x, pad, mode="reflect"), kernels(n, p, orders, float(ts), half), x.shape[-1])
     if edges == "interp":
         out[..., :half, :] = _edges(x, n, p, orders, float(ts), start=True)
         out[..., -half:, :] = _edges(x, n, p, orders, float(ts), start=False)

@@ -176,6 +176,7 @@ class Objective:
             for x in series:
                 self.gaps |= np.isnan(np.asarray(x, dtype=float)).reshape(-1, win.t.size).any(axis=0)
         self._constant: dict[int, float] = {}
+        self._rates: dict = {}
         self.composites = any(r.composites for r in residuals)
         # the screening fidelity: every stride-th sample, a sixth of the derivative window apart, so that
         # the filtered residuals barely change between the samples left out
@@ -254,7 +255,11 @@ class Objective:
             parts = [self.evaluate(real[i:i + rows], bits[i:i + rows], stride) for i in range(0, real.shape[0], rows)]
             return np.concatenate([c for c, _ in parts]), np.vstack([r for _, r in parts])
         with np.errstate(all="ignore"):      # an individual whose signals overflow costs inf, silently
-            return self._evaluate(real, bits, stride)
+            self._rates = {}                   # stored quantities' rates shared within this evaluation
+            try:
+                return self._evaluate(real, bits, stride)
+            finally:
+                self._rates = {}
 
     def _evaluate(self, real: np.ndarray, bits: np.ndarray, stride: int) -> tuple[np.ndarray, np.ndarray]:
         real = real.copy()
@@ -375,13 +380,14 @@ class Objective:
         m = len(range(crop.start, crop.stop, stride))
         step = max(1, BLOCK // m)
         out = np.empty((n, m))
+        rates = self._rates if n <= step else None       # blocks of rows are new arrays: nothing to share
         for a in range(0, n, step):
             rows = slice(a, min(n, a + step))
             part = {k: v if n <= step else [x[rows] if np.ndim(x) == 2 and x.shape[0] == n else x for x in v]
                     for k, v in signals.items()}
             vals = values if n <= step else {k: v[rows] if np.ndim(v) == 2 and np.shape(v)[0] == n else v
                                              for k, v in values.items()}
-            out[rows] = residual(part, vals, self.win.ts, self.window_s, crop)
+            out[rows] = residual(part, vals, self.win.ts, self.window_s, crop, rates=rates)
         if self.gaps.any():
             out[:, self.gaps[crop]] = 0.0
         return out

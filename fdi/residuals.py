@@ -56,23 +56,46 @@ class Residual:
 
     def __call__(self, signals: Mapping[str, list[np.ndarray]], values: Mapping[str, object],
                  ts: float | None = None, window: float = derivatives.DEFAULT_WINDOW,
-                 crop: slice | None = None) -> np.ndarray:
+                 crop: slice | None = None, rates: dict | None = None) -> np.ndarray:
         """The residual on the samples of ``crop`` (all by default): signals and time-varying values
         are cut before the kernel runs; stored quantities are formed on the whole span (the filter reads
-        their neighbours) and differentiated at the samples of ``crop`` only."""
+        their neighbours) and differentiated at the samples of ``crop`` only.
+
+        ``rates``: a dict the caller keeps while its ``signals`` and ``values`` stay the same arrays
+        (one objective evaluation): a stored quantity's rate is filtered once there and reused by
+        every residual that reads it with the same inputs (the CyCab's and the RC filter's ARR2 and
+        ARR3 share d(C1 v)/dt; a linear fault's unit step leaves it unchanged)."""
         def cut(a):
             return a[..., crop] if crop is not None and np.ndim(a) and np.shape(a)[-1] > 1 else a
         args = [cut(signals[s][k]) for s, k in self.signals]
         for order, inner in self.composites:
             if ts is None:
                 raise ValueError(f"{self.name} differentiates a stored quantity numerically: pass ts")
-            x = np.asarray(inner(signals, values, ts, window), dtype=float)
-            bad = ~np.isfinite(x).all(axis=-1, keepdims=True)    # an individual past a pole: no residual
-            d = derivatives.estimate(np.where(np.isfinite(x), x, 0.0), ts, order, window, at=crop)[order]
-            args.append(np.where(bad, np.nan, cut(d)))
+            args.append(self._rate(order, inner, signals, values, ts, window, crop, rates))
         args += [cut(values[n]) for n in self.symbols]
         out = self.func(*args)
         return np.asarray(out, dtype=float)
+
+    @staticmethod
+    def _rate(order: int, inner: "Residual", signals: Mapping, values: Mapping, ts: float, window: float,
+              crop: slice | None, rates: dict | None) -> np.ndarray:
+        """d^order/dt^order of the stored quantity ``inner`` at the samples of ``crop``; from ``rates``
+        when the same quantity was filtered there from the very same input arrays (compared by
+        identity, and held by the entry, so an id is never reused while it is compared)."""
+        reads = tuple(signals[s][k] for s, k in inner.signal_orders()) + \
+            tuple(values[n] for n in sorted(inner.parameter_names()))
+        key = (inner.expr, order, None if crop is None else (crop.start, crop.stop, crop.step))
+        if rates is not None:
+            for held, rate in rates.get(key, ()):
+                if len(held) == len(reads) and all(a is b for a, b in zip(held, reads)):
+                    return rate
+        x = np.asarray(inner(signals, values, ts, window, rates=rates), dtype=float)
+        bad = ~np.isfinite(x).all(axis=-1, keepdims=True)    # an individual past a pole: no residual
+        d = derivatives.estimate(np.where(np.isfinite(x), x, 0.0), ts, order, window, at=crop)[order]
+        rate = np.where(bad, np.nan, d[..., crop] if crop is not None else d)
+        if rates is not None:
+            rates.setdefault(key, []).append((reads, rate))
+        return rate
 
     def parameter_names(self) -> set[str]:
         """Every parameter, efficiency factor and mode this kernel reads, its stored quantities' included."""
