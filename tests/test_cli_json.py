@@ -165,7 +165,9 @@ def test_bench_simulate_json(capsys):
     assert d["benchmark"] == "simulate" and d["scenario"] == "cycab_scenario2.json" and d["duration"] == 60.0
     assert set(d["stages_cpu_s"]) == {"build", "integrate", "outputs", "sampling"}
     assert sum(d["stages_cpu_s"].values()) == pytest.approx(d["total_cpu_s"])
-    assert d["reference_cpu_s"] == 2.3
+    # the independent plant timed in the same run (a stored figure was printed before): a 60 s run
+    # takes it about a second, never nothing, never the whole minute
+    assert 0.01 < d["reference_cpu_s"] < 60 and d["reference_cpu_s"] != 2.3
 
 
 def test_bench_diagnose_json(capsys):
