@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import errno
+import logging
 import math
 import os
 import sys
@@ -26,6 +27,7 @@ from ..data import DataError
 from ..options import DEFAULT_WORKERS, MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
 from .output import (Terminated, check_folder, check_folder_not_input, check_not_input, check_output, is_stdout,
                      write_atomic)
+from .sources import Sources, shown
 from .progress import LOG, NORMAL, QUIET, VERBOSE, Progress, Steps, configure, stage
 
 
@@ -33,6 +35,8 @@ USER_ERRORS = (ModelError, CausalityError, DataError, UsageError)
 CAUSALITY_CHOICES = ("derivative", "mixed")
 MAX_WORKERS = 256          # processes; more is a typo (and on a forkserver platform, that many processes)
 MAX_WAIT = 1e6             # s, as for the model's waiting_time
+SIGNALS_PNG = "signals.png"        # simulate --plot DIR: the figure's name in DIR
+RUL_CONE_PNG = "rul_cone.png"      # evaluate --plot DIR
 MAX_CHAIN = 10_000         # bench derive: a chain of 2000 elements takes about 11 s
 
 
@@ -193,7 +197,7 @@ def check_outputs(args: argparse.Namespace) -> None:
         check_output(args.output, "-o")
         check_not_input(args.output, inputs, "-o")
     plot = getattr(args, "plot", None)
-    folder = args.command in ("diagnose", "demo")
+    folder = True                                   # --plot names a folder in every command
     check_plot(plot, folder)
     if plot is not None:
         if folder:
@@ -226,10 +230,10 @@ def _emit(text: str, out: str | None) -> None:
 
 def _note(text: str, out: str | None) -> None:
     """A status line: on stdout, unless the result itself goes there (-o -): then a note on
-    stderr (silenced by -q)."""
+    stderr. Silenced by -q either way."""
     if is_stdout(out):
         LOG.info(text)
-    else:
+    elif LOG.isEnabledFor(logging.INFO):          # -q silences every note
         print(text)
 
 
@@ -263,7 +267,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
     with stage("load"):
         model, _ = load(args.model)              # the bond graph and the monitor settings both checked
-    _print_summary(model, args.model)
+    _print_summary(model, shown(args.model))
     arrs = _print_diagnostic_causality(model, args)
     sim = assign(model, SIMULATION)
     print()
@@ -278,6 +282,7 @@ def _check_json(args: argparse.Namespace) -> int:
     """``check --json``: the analysis as one object; 1 when a verified residual does not vanish."""
     from .check_report import analyse
     report = analyse(args.model, args.causality, args.seed if args.verify else None)
+    report["file"] = shown(report["file"])
     _emit(_json_text(report), None)
     verification = report["verification"]
     if verification is not None and not verification["ok"]:
@@ -379,11 +384,46 @@ def _print_verification(model: Model, arrs: list, args: argparse.Namespace) -> i
     return 0 if verification.ok else 1
 
 
+GRAPH_FORMATS = ("dot", "svg", "png", "pdf")
+GRAPH_SUFFIXES = {".dot": "dot", ".gv": "dot", ".svg": "svg", ".png": "png", ".pdf": "pdf"}
+
+
+def graph_format(fmt: str | None, output: str | None) -> str:
+    """The format of ``graph``: ``--format``, else the -o file's suffix, else DOT; a --format that
+    contradicts a known suffix (DOT text in ``g.png``) is refused."""
+    from pathlib import Path
+
+    implied = None if output is None or is_stdout(output) else GRAPH_SUFFIXES.get(Path(output).suffix.lower())
+    if fmt is not None and implied is not None and fmt != implied:
+        raise UsageError(f"--format {fmt}: contradicts -o {output} ({implied}); give a file ending in .{fmt} or "
+                         f"--format {implied}")
+    return fmt or implied or "dot"
+
+
 def cmd_graph(args: argparse.Namespace) -> int:
+    """The model as Graphviz DOT text, or rendered by Graphviz's ``dot`` (svg, png, pdf)."""
+    import shutil
+    import subprocess
+
     from bondgraph.dot import to_dot
 
+    fmt = graph_format(args.format, args.output)
+    dot = shutil.which("dot") if fmt != "dot" else None
+    if fmt != "dot" and dot is None:
+        given = f"--format {fmt}" if args.format else f"-o {args.output} ({fmt})"
+        raise UsageError(f"{given}: needs Graphviz's dot program on PATH (install Graphviz: apt install "
+                         "graphviz, brew install graphviz or conda install graphviz), or write --format dot")
     model = load_model(args.model)
-    _emit(to_dot(model, assign(model, args.purpose)), args.output)
+    text = to_dot(model, assign(model, args.purpose))
+    if fmt == "dot":
+        _emit(text, args.output)
+        return 0
+    with stage(f"dot -T{fmt}"):
+        done = subprocess.run([dot, f"-T{fmt}"], input=text.encode("utf-8"), capture_output=True, timeout=600)
+    if done.returncode != 0:
+        problem = done.stderr.decode("utf-8", "replace").strip().splitlines()
+        raise UsageError(f"dot -T{fmt} failed (exit {done.returncode}): {problem[0] if problem else 'no message'}")
+    write_atomic(args.output if args.output else "-", done.stdout)
     return 0
 
 
@@ -458,10 +498,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if not args.json:
         _note(f"wrote {where}: {len(columns['t'])} samples of {', '.join(columns)}", args.output)
     if args.plot:
+        from pathlib import Path
+
         from ..plots import column_units, plot_signals
-        plot_signals(columns, args.plot, column_units(model), [(f.target, f.t0) for f in scenario.faults])
+        Path(args.plot).mkdir(parents=True, exist_ok=True)
+        written = Path(args.plot) / SIGNALS_PNG
+        plot_signals(columns, written, column_units(model), [(f.target, f.t0) for f in scenario.faults])
         if not args.json:
-            _note(f"plot: {args.plot}", args.output)
+            _note(f"plot: {written}", args.output)
     if args.json:
         sys.stdout.write(_json_text(_simulation_summary(model, scenario, columns, args)))
     return 0
@@ -471,7 +515,7 @@ def _simulation_summary(model: Model, scenario, columns: dict, args: argparse.Na
     """simulate --json: what was simulated and written (times in s)."""
     from dataclasses import asdict
     t = columns["t"]
-    return {"model": model.name, "scenario": str(args.scenario), "output": args.output, "plot": args.plot,
+    return {"model": model.name, "scenario": shown(args.scenario), "output": args.output, "plot": args.plot,
             "samples": int(len(t)), "columns": list(columns), "t_start": float(t[0]), "t_end": float(t[-1]),
             "sampling_time": 1.0 / scenario.fs, "seed": scenario.seed, "method": args.method,
             "faults": [{k: list(v) if isinstance(v, tuple) else v for k, v in asdict(f).items()}
@@ -550,7 +594,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         return _diagnose_batch(args, options)
     data = read_csv(args.data[0])
     check_samples(options.samples, data.ts, "--samples", compiled(args.model).min_period(options, data.ts))
-    return _diagnose_and_print(args.model, data, options, args, args.data[0])
+    return _diagnose_and_print(args.model, data, options, args, shown(args.data[0]))
 
 
 def _check_fleet_options(args: argparse.Namespace) -> None:
@@ -587,6 +631,8 @@ def _diagnose_batch(args: argparse.Namespace, options) -> int:
         with Steps("diagnosed", "files") as tick, stage("fleet"):
             lines = diagnose_many(args.model, args.data, options, client=client, jobs=jobs, timings=args.timings,
                                   progress=tick)
+    for line in lines:
+        line["file"] = shown(line["file"])
     text = "".join(json.dumps(line, default=float) + "\n" for line in lines)
     _emit(text, getattr(args, "output", None))
     if any("error" in line for line in lines):
@@ -646,8 +692,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         text = format_scores(scores, totals)
     _emit(text, args.output)
     if args.plot:
+        from pathlib import Path
+
         from ..plots import plot_rul_cone
-        plot_rul_cone(scores, args.plot)
+        Path(args.plot).mkdir(parents=True, exist_ok=True)
+        LOG.info(f"plot: {plot_rul_cone(scores, Path(args.plot) / RUL_CONE_PNG)}")
     return 0
 
 
@@ -664,6 +713,14 @@ def _evaluate_files(model_path: str, files: list, options) -> list:
             LOG.debug("scenario %s: %.2f s", f.name, time.perf_counter() - start)
             bar.advance()
     return scores
+
+
+def check_monitor_options(args: argparse.Namespace) -> None:
+    """The diagnosis options monitor takes but could not honour are refused, not ignored."""
+    if args.json:
+        raise UsageError("--json: monitor always writes JSON lines, one event each; drop --json")
+    if args.plot:
+        raise UsageError("--plot: monitor draws no plots; diagnose the recorded file with bgfdi diagnose --plot DIR")
 
 
 def cmd_monitor(args: argparse.Namespace) -> int:
@@ -864,9 +921,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="--verify: the seed of its random states and inputs, an integer >= 0 (default 0)")
     c.set_defaults(func=cmd_check)
 
-    g = sub.add_parser("graph", help="write Graphviz DOT with causal strokes")
+    g = sub.add_parser("graph", help="the bond graph with causal strokes: Graphviz DOT, or SVG, PNG, PDF by dot")
     g.add_argument("model")
-    g.add_argument("-o", "--output", help="file to write (default, or -: standard output)")
+    g.add_argument("-o", "--output", help="file to write (default, or -: standard output); its suffix (.dot, .gv, "
+                   ".svg, .png, .pdf) sets the format when --format is not given")
+    g.add_argument("--format", choices=GRAPH_FORMATS,
+                   help="dot (the default: DOT text), or svg, png, pdf rendered by Graphviz's dot (on PATH)")
     g.add_argument("--purpose", choices=(DIAGNOSIS, SIMULATION), default=DIAGNOSIS)
     g.set_defaults(func=cmd_graph)
 
@@ -897,7 +957,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("-o", "--output", required=True, help="CSV file to write (-: standard output)")
     s.add_argument("--seed", type=whole(0), help="override the scenario's noise seed (an integer >= 0)")
     s.add_argument("--method", type=method, default="auto", help="auto (default), ros2, LSODA, Radau, BDF or RK45")
-    s.add_argument("--plot", metavar="PNG", help="also plot the signals (needs the plot extra)")
+    s.add_argument("--plot", metavar="DIR", help=f"also plot the signals into DIR/{SIGNALS_PNG} (DIR made when "
+                   "missing; needs the plot extra)")
     s.add_argument("--json", action="store_true",
                    help="print a JSON summary of the run on standard output (the CSV goes to -o FILE)")
     s.set_defaults(func=cmd_simulate)
@@ -929,7 +990,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--json", action="store_true", help="print the report as JSON")
         p.add_argument("--timings", action="store_true",
                        help="add wall-clock times to the report (without them two runs give identical reports)")
-        p.add_argument("--plot", metavar="DIR", help="write plots into DIR (needs the plot extra)")
+        p.add_argument("--plot", metavar="DIR", help="write the plots into the folder DIR, made when missing (needs "
+                       "the plot extra)")
         p.add_argument("-o", "--output", help="write the report to a file instead of standard output (-)")
 
     d = sub.add_parser("diagnose", help="detect, isolate, identify and prognose faults in a measurement file")
@@ -1074,22 +1136,29 @@ def _silence_stdout() -> None:
 
 def _run(argv: list[str] | None) -> int:
     parser = build_parser()
+    if not (sys.argv[1:] if argv is None else argv):     # ``bgfdi`` alone: the help, as ``pip`` does
+        parser.print_help()
+        return 0
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:                  # a bad option (one line printed) or --help: its code, returned
         return 0 if exc.code is None else exc.code if isinstance(exc.code, int) else 2
     configure(QUIET if args.quiet else VERBOSE if args.verbose else NORMAL)
+    sources = Sources()
     try:
         if args.quiet and args.verbose:
             raise UsageError("-q and -v: give one of them")
+        if args.command == "monitor":
+            check_monitor_options(args)
+        sources.resolve(args)                  # - for standard input, shipped files by name
         check_model_input(args)
         check_outputs(args)
         return args.func(args)
     except CausalityError as exc:
-        LOG.error(f"{getattr(args, 'model', '')}: causality: {'; '.join(exc.problems)}")
+        LOG.error(sources.message(f"{getattr(args, 'model', '')}: causality: {'; '.join(exc.problems)}"))
         return 2
     except USER_ERRORS as exc:
-        LOG.error(str(exc))
+        LOG.error(sources.message(str(exc)))
         return 2
     except KeyboardInterrupt:
         LOG.critical("interrupted")
@@ -1097,6 +1166,8 @@ def _run(argv: list[str] | None) -> int:
     except Terminated as exc:                 # SIGTERM or SIGHUP while an output was written: it was removed
         LOG.critical(f"terminated by signal {exc.signum}; the partial output was removed")
         return 128 + exc.signum
+    finally:
+        sources.close()
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,0 +1,138 @@
+"""The command line's inputs: ``-`` for standard input and shipped files by name.
+
+Every file a command reads (the model, a scenario, measurement files, calibration runs, scenario
+suites) may be given as
+
+- a path: it always wins, even when a shipped file has the same name;
+- ``-``: standard input, read once into a private temporary file (so every reader, the fleet's
+  workers included, sees an ordinary file; messages name it "standard input"). At most one input
+  of a command can be ``-``; ``monitor``'s data ``-`` is a stream, read as the rows arrive;
+- the name of a shipped file (no such path exists): a model (``cycab_steering``, from
+  ``models/``, installed as ``fdi.models``), a scenario (``cycab_scenario2``), reference data
+  (``scenario2``: ``models/data/cycab/scenario2.csv``) or a scenario suite
+  (``suite_cycab_steering``).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+from ..errors import UsageError
+from .resources import models_dir, scenarios_dir, shipped_models
+
+STDIN = "-"
+STDIN_NAME = "standard input"
+NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*\Z")      # a bare name: no folder, no ~
+
+
+def _suffixed(name: str, suffixes: tuple[str, ...]) -> list[str]:
+    return [name] if name.lower().endswith(suffixes) else [name + s for s in suffixes]
+
+
+def shipped(kind: str, name: str) -> Path | None:
+    """The shipped file (or suite folder) ``name`` of ``kind`` (model, scenario, data, suite), or None."""
+    if not NAME.match(name):
+        return None
+    if kind == "model":
+        found = [models_dir() / n for n in _suffixed(name, (".yaml",))]
+    elif kind == "scenario":
+        found = [scenarios_dir() / n for n in _suffixed(name, (".json", ".yaml"))]
+    elif kind == "suite":
+        found = [scenarios_dir() / name] + [scenarios_dir() / n for n in _suffixed(name, (".json", ".yaml"))]
+    else:                                              # measurement files: models/data/<set>/<name>.csv
+        found = sorted((models_dir() / "data").glob("*/" + (name if name.lower().endswith(".csv") else name + ".csv")))
+    return next((p for p in found if p.is_file() or (kind == "suite" and p.is_dir())), None)
+
+
+def shipped_names(kind: str) -> list[str]:
+    """The names a user can give for ``kind`` (for messages)."""
+    if kind == "model":
+        return [p.stem for p in shipped_models()]
+    if kind == "scenario":
+        return sorted(p.stem for p in scenarios_dir().glob("*.json"))
+    if kind == "suite":
+        return sorted(p.name for p in scenarios_dir().iterdir() if p.is_dir() and p.name.startswith("suite_"))
+    return sorted(p.stem for p in (models_dir() / "data").glob("*/*.csv"))
+
+
+_COPIES: set[str] = set()        # the temporary copies of standard input of the running command
+
+
+def shown(path: object) -> str:
+    """``path`` as the user gave it: "standard input" for the copy of ``-``."""
+    return STDIN_NAME if str(path) in _COPIES else str(path)
+
+
+class Sources:
+    """Resolves a parsed command line's inputs in place (``resolve``) and removes the temporary
+    copy of standard input afterwards (``close``); ``message`` puts "standard input" back into a
+    message that names the copy."""
+
+    def __init__(self) -> None:
+        self.folder: str | None = None
+        self.copy: str | None = None
+        self.taken: str | None = None           # the option that took standard input
+
+    def resolve(self, args: argparse.Namespace) -> None:
+        command = getattr(args, "command", None)
+        if isinstance(getattr(args, "model", None), str):
+            args.model = self._one(args.model, "model", "the model")
+        if command == "simulate":
+            args.scenario = self._one(args.scenario, "scenario", "the scenario")
+        if command == "diagnose":
+            args.data = [self._one(d, "data", "the data") for d in args.data]
+        if command == "monitor" and args.data == STDIN:
+            self._take("the data")             # a stream, read as it comes: only claimed here
+        elif command == "monitor":
+            args.data = self._one(args.data, "data", "the data")
+        if command == "calibrate":
+            args.runs = [self._one(r, "data", "a run") for r in args.runs]
+        if command == "evaluate":
+            args.scenarios = [self._one(s, "suite", "the scenarios") for s in args.scenarios]
+
+    def _take(self, what: str) -> None:
+        if self.taken is not None:
+            raise UsageError(f"-: standard input is already {self.taken}; give {what} as a file")
+        self.taken = what
+
+    def _one(self, value: str, kind: str, what: str) -> str:
+        if value == STDIN:
+            self._take(what)
+            return self._copy_stdin(kind)
+        if os.path.lexists(value) or not NAME.match(value):
+            return value                          # a path wins over a shipped name
+        found = shipped(kind, value)
+        if found is not None:
+            return str(found)
+        if kind == "model" and "." not in value:    # a bare word: most likely a misspelt shipped name
+            raise UsageError(f"{value}: no such file, nor a shipped model (shipped: {', '.join(shipped_names('model'))})")
+        return value
+
+    def _copy_stdin(self, kind: str) -> str:
+        stream = sys.stdin.buffer if sys.stdin is not None and hasattr(sys.stdin, "buffer") else None
+        if stream is None or sys.stdin.closed:
+            raise UsageError("-: standard input is closed; pipe the file in, or give its path")
+        head = stream.peek(64)[:64] if hasattr(stream, "peek") else b""
+        suffix = {"model": ".yaml", "data": ".csv"}.get(kind, ".yaml")
+        if kind in ("scenario", "suite") and head.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"{"):
+            suffix = ".json"                      # a JSON scenario: its reader refuses duplicate keys
+        self.folder = tempfile.mkdtemp(prefix="bgfdi-stdin-")
+        self.copy = os.path.join(self.folder, "stdin" + suffix)
+        with open(self.copy, "wb") as fh:
+            shutil.copyfileobj(stream, fh, 1 << 20)
+        _COPIES.add(self.copy)
+        return self.copy
+
+    def message(self, text: str) -> str:
+        return text.replace(self.copy, STDIN_NAME) if self.copy else text
+
+    def close(self) -> None:
+        _COPIES.discard(self.copy or "")
+        if self.folder is not None:
+            shutil.rmtree(self.folder, ignore_errors=True)
+            self.folder = None
