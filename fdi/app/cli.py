@@ -590,11 +590,28 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     _check_fleet_options(args)
     model = compiled(args.model).model
     options = _options(args, model)
-    if len(args.data) > 1 or (args.jobs or 1) > 1 or args.scheduler:
+    if len(args.data) > 1 or (args.jobs or 1) > 1 or args.scheduler or is_parquet(args.output):
         return _diagnose_batch(args, options)
     data = read_csv(args.data[0])
     check_samples(options.samples, data.ts, "--samples", compiled(args.model).min_period(options, data.ts))
     return _diagnose_and_print(args.model, data, options, args, shown(args.data[0]))
+
+
+def is_parquet(path: str | None) -> bool:
+    """An -o file whose suffix asks for a Parquet table (``diagnose``)."""
+    return path is not None and not is_stdout(path) and str(path).lower().endswith(".parquet")
+
+
+def check_parquet(args: argparse.Namespace) -> None:
+    """``diagnose -o X.parquet``: the parquet extra installed and no --json, checked before any work."""
+    from .fleet import have_parquet, need_parquet
+    if not is_parquet(getattr(args, "output", None)):
+        return
+    if args.json or args.plot:
+        raise UsageError(f"{'--json' if args.json else '--plot'}: -o {args.output} writes a Parquet table, one "
+                         "row per fault; drop it, or write the report to a .json file")
+    if not have_parquet():
+        raise need_parquet(f"-o {args.output}")
 
 
 def _check_fleet_options(args: argparse.Namespace) -> None:
@@ -633,11 +650,15 @@ def _diagnose_batch(args: argparse.Namespace, options) -> int:
                                   progress=tick)
     for line in lines:
         line["file"] = shown(line["file"])
-    text = "".join(json.dumps(line, default=float) + "\n" for line in lines)
-    _emit(text, getattr(args, "output", None))
-    if any("error" in line for line in lines):
+    if is_parquet(args.output):
+        from .fleet import parquet_bytes
+        write_atomic(args.output, parquet_bytes(lines))
+        _note(f"wrote {args.output}: {len(lines)} file(s), one row per fault", args.output)
+    else:
+        _emit("".join(json.dumps(line, default=float) + "\n" for line in lines), getattr(args, "output", None))
+    if any(line["error"] is not None for line in lines):
         for line in lines:
-            if "error" in line:
+            if line["error"] is not None:
                 LOG.error(line["error"])
         return 2
     if args.fail_on_fault and any(line["diagnosis"]["faults"] for line in lines):
@@ -1150,6 +1171,8 @@ def _run(argv: list[str] | None) -> int:
             raise UsageError("-q and -v: give one of them")
         if args.command == "monitor":
             check_monitor_options(args)
+        if args.command == "diagnose":
+            check_parquet(args)
         sources.resolve(args)                  # - for standard input, shipped files by name
         check_model_input(args)
         check_outputs(args)
