@@ -224,3 +224,36 @@ def test_pyproject_has_no_deprecated_licence_metadata():
     assert (ROOT / project["project"]["license-files"][0]).is_file()
     floor = [r for r in project["build-system"]["requires"] if r.startswith("setuptools")][0]
     assert tuple(int(x) for x in floor.split(">=")[1].split(".")) >= (77,)
+
+
+def test_the_eta_of_evaluate_weighs_each_scenario_by_its_samples(tmp_path, monkeypatch):
+    """Two scenarios, 101 and 1001 samples (T fs + 1): after the short one the bar is 101/1102
+    done, so the ETA is elapsed x 1001/101, not elapsed x 1 as a uniform rate per scenario says."""
+    from fdi.app import cli, evaluate
+    from fdi.app.progress import Progress
+    (tmp_path / "a.json").write_text('{"T": 10, "fs": 10, "faults": []}')
+    (tmp_path / "b.json").write_text('{"T": 100, "fs": 10, "faults": []}')
+    now = [0.0]
+    seen = []
+
+    class Clocked(Progress):
+        def __init__(self, total, label, unit="", **kw):
+            super().__init__(total, label, unit, clock=lambda: now[0], tty=False)
+            seen.append(self)
+
+    def fake(model, path, options):
+        now[0] += 1.0                       # each scenario "takes" 1 s of the fake clock
+        return path.name
+
+    monkeypatch.setattr(cli, "Progress", Clocked)
+    monkeypatch.setattr(evaluate, "evaluate_scenario", fake)
+    etas = []
+    original = Clocked.advance
+
+    def advance(self, n=1.0):
+        original(self, n)
+        etas.append((self.done, self.total, self.eta()))
+    monkeypatch.setattr(Clocked, "advance", advance)
+    files = [tmp_path / "a.json", tmp_path / "b.json"]
+    assert cli._evaluate_files(str(TANK), files, None) == ["a.json", "b.json"]
+    assert etas[0][:2] == (101.0, 1102.0) and etas[0][2] == pytest.approx(1001 / 101)

@@ -694,7 +694,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 def cmd_evaluate(args: argparse.Namespace) -> int:
     """Each scenario simulated, diagnosed and scored (fdi.app.evaluate); a table or --json."""
 
-    from .evaluate import format_scores, suite_files, summary
+    from .evaluate import format_scores, scenario_cost, suite_files, summary
     from ..monitor import compiled
     from .scenario import load_scenario
 
@@ -703,9 +703,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     files = suite_files(args.scenarios, skipped=LOG.warning)
     if not files:
         raise UsageError(f"no scenario files in {', '.join(args.scenarios)}")
-    for f in files:                                   # every file checked before the first simulation
-        load_scenario(f, model)
-    scores = _evaluate_files(args.model, files, options)
+    # every file checked before the first simulation; each weighs its samples in the ETA
+    costs = [scenario_cost(load_scenario(f, model)) for f in files]
+    scores = _evaluate_files(args.model, files, options, costs)
     totals = summary(scores)
     if args.json:
         text = _json_text({"model": model.name, "summary": totals, "scenarios": [s.to_dict() for s in scores]})
@@ -721,18 +721,25 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _evaluate_files(model_path: str, files: list, options) -> list:
-    """Each scenario simulated, diagnosed and scored, with progress (one line each with -v)."""
+def _evaluate_files(model_path: str, files: list, options, costs: list[float] | None = None) -> list:
+    """Each scenario simulated, diagnosed and scored, with progress (one line each with -v). The
+    progress counts each scenario's samples (``costs``, :func:`fdi.app.evaluate.scenario_cost`):
+    simulating and diagnosing take time in proportion to them, so the ETA of a suite of unequal
+    scenarios is not the optimistic one of a uniform rate per scenario."""
     import time
 
-    from .evaluate import evaluate_scenario
+    from .evaluate import evaluate_scenario, scenario_cost
+    if costs is None:
+        from .scenario import load_scenario
+        model = load_model(model_path)
+        costs = [scenario_cost(load_scenario(f, model)) for f in files]
     scores = []
-    with Progress(len(files), f"evaluating {model_path}", "scenarios") as bar:
-        for f in files:
+    with Progress(sum(costs), f"evaluating {model_path} ({len(files)} scenarios)", "samples") as bar:
+        for f, cost in zip(files, costs):
             start = time.perf_counter()
             scores.append(evaluate_scenario(model_path, f, options))
             LOG.debug("scenario %s: %.2f s", f.name, time.perf_counter() - start)
-            bar.advance()
+            bar.advance(cost)
     return scores
 
 
