@@ -257,3 +257,13 @@ def test_the_eta_of_evaluate_weighs_each_scenario_by_its_samples(tmp_path, monke
     files = [tmp_path / "a.json", tmp_path / "b.json"]
     assert cli._evaluate_files(str(TANK), files, None) == ["a.json", "b.json"]
     assert etas[0][:2] == (101.0, 1102.0) and etas[0][2] == pytest.approx(1001 / 101)
+
+
+def test_slow_marker_is_registered_and_ci_runs_everything():
+    tomllib = pytest.importorskip("tomllib")
+    markers = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["pytest"]["ini_options"]["markers"]
+    assert any(m.startswith("slow:") for m in markers)
+    ci = (ROOT / ".ci" / "run").read_text()
+    assert "python -m pytest -q\n" in ci and "not slow" not in ci
+    readme = (ROOT / "README.md").read_text()
+    assert "python -m pytest -q  # the tests" in readme and '-m "not slow"' in readme

@@ -88,6 +88,7 @@ def test_the_summary_counts_band_coverage_and_reads_off_the_goals():
     assert "inside the 95 % band: 50 % of 2 checkpoints (2 with a prediction" in text and "(out of band)" in text
 
 
+@pytest.mark.slow
 def test_one_scenario_end_to_end_with_its_rul_checkpoints():
     # the data from the independent reference plant (the design's "plant": "cycab")
     s = evaluate_scenario(str(CYCAB), scenarios_dir() / "suite_cycab_steering" / "theta2_incipient17.json")
@@ -101,6 +102,7 @@ def test_one_scenario_end_to_end_with_its_rul_checkpoints():
 
 
 
+@pytest.mark.slow
 def test_a_slow_eq18_drift_alone_is_isolated_and_typed():
     # the design: beta_theta2 of eq. (18) with b3 = -3, b4 = -1.002 from 25 s, growing as exp(0.303 tau):
     # detected only at ~35 s, its fit from there needs b3 < -3 (a slower rate), which the search
