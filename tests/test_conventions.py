@@ -267,3 +267,10 @@ def test_slow_marker_is_registered_and_ci_runs_everything():
     assert "python -m pytest -q\n" in ci and "not slow" not in ci
     readme = (ROOT / "README.md").read_text()
     assert "python -m pytest -q  # the tests" in readme and '-m "not slow"' in readme
+
+
+def test_an_unreadable_standard_input_is_one_line(capsys):
+    """Under pytest, standard input cannot be read (its capture refuses): one line, exit 2."""
+    code, _, err = _run(["check", "-"], capsys)
+    assert code == 2
+    _one_line(err, "-:", "standard input")

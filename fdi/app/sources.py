@@ -117,14 +117,21 @@ class Sources:
         stream = sys.stdin.buffer if sys.stdin is not None and hasattr(sys.stdin, "buffer") else None
         if stream is None or sys.stdin.closed:
             raise UsageError("-: standard input is closed; pipe the file in, or give its path")
-        head = stream.peek(64)[:64] if hasattr(stream, "peek") else b""
         suffix = {"model": ".yaml", "data": ".csv"}.get(kind, ".yaml")
+        self.folder = tempfile.mkdtemp(prefix="bgfdi-stdin-")
+        copy = os.path.join(self.folder, "stdin")
+        try:
+            with open(copy, "wb") as fh:
+                shutil.copyfileobj(stream, fh, 1 << 20)
+        except (OSError, ValueError) as exc:      # not readable (a closed descriptor, a test's capture)
+            raise UsageError(f"-: cannot read standard input ({getattr(exc, 'strerror', None) or exc}); pipe the "
+                             "file in, or give its path") from None
+        with open(copy, "rb") as fh:
+            head = fh.read(64)
         if kind in ("scenario", "suite") and head.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"{"):
             suffix = ".json"                      # a JSON scenario: its reader refuses duplicate keys
-        self.folder = tempfile.mkdtemp(prefix="bgfdi-stdin-")
-        self.copy = os.path.join(self.folder, "stdin" + suffix)
-        with open(self.copy, "wb") as fh:
-            shutil.copyfileobj(stream, fh, 1 << 20)
+        self.copy = copy + suffix
+        os.replace(copy, self.copy)
         _COPIES.add(self.copy)
         return self.copy
 
