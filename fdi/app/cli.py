@@ -835,7 +835,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     if args.what == "derive":
         sizes = args.sizes or bench.CHAIN_SIZES
-        rows = bench.derive_rows(shipped_models(), sizes, echo=LOG.info if args.json else print)
+        rows = bench.derive_rows(shipped_models(), sizes, echo=LOG.info if args.json else lambda line: _note(line, None))
         sys.stdout.write(_json_text(bench.derive_json(rows)) if args.json else bench.format_derive(rows))
         return 0
     if args.what == "simulate":
