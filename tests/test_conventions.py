@@ -170,6 +170,12 @@ def test_plot_names_a_folder_not_a_file(capsys, tmp_path):
         _one_line(err, "--plot", "is a file; name a folder")
 
 
+def test_a_fleet_refuses_plot_rather_than_ignoring_it(capsys, tmp_path):
+    code, out, err = _run(["diagnose", TANK, tmp_path / "a.csv", tmp_path / "b.csv", "--plot", tmp_path / "p"], capsys)
+    assert code == 2 and out == ""
+    _one_line(err, "--plot", "fleet")
+
+
 def test_quiet_silences_every_note(capsys, tmp_path):
     pytest.importorskip("matplotlib")
     (tmp_path / "sc.json").write_text(SCENARIO)

@@ -615,8 +615,10 @@ def check_parquet(args: argparse.Namespace) -> None:
 
 
 def _check_fleet_options(args: argparse.Namespace) -> None:
-    """--scheduler: the dask extra installed; --jobs only with a LocalCluster (a running cluster
-    has its own workers). Checked before any work."""
+    """--plot: one file only; --scheduler: the dask extra installed; --jobs only with a
+    LocalCluster (a running cluster has its own workers). Checked before any work."""
+    if args.plot and (len(args.data) > 1 or (args.jobs or 1) > 1 or args.scheduler):
+        raise UsageError("--plot: a fleet of files draws no plots; diagnose one file with --plot DIR")
     if not args.scheduler:
         return
     from .fleet import have_dask, need_dask
