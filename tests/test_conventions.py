@@ -280,3 +280,11 @@ def test_an_unreadable_standard_input_is_one_line(capsys):
     code, _, err = _run(["check", "-"], capsys)
     assert code == 2
     _one_line(err, "-:", "standard input")
+
+
+def test_a_plot_folder_whose_figure_is_the_output_is_refused(capsys, tmp_path):
+    (tmp_path / "sc.json").write_text(SCENARIO)
+    code, _, err = _run(["simulate", TANK, tmp_path / "sc.json", "-o", tmp_path / "signals.png", "--plot", tmp_path],
+                        capsys)
+    assert code == 2 and not (tmp_path / "signals.png").exists()
+    _one_line(err, "--plot", "signals.png", "-o")

@@ -146,9 +146,9 @@ def scheduler(text: str) -> str:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
-def check_plot(path: str | None, folder: bool) -> None:
-    """``--plot``: matplotlib present, and a PNG file (or a folder, for a diagnosis) that can be
-    written, refused before any work as ``-o`` is."""
+def check_plot(path: str | None) -> None:
+    """``--plot``: matplotlib present, and a folder that can be made or written into (every
+    command's --plot names a folder), refused before any work as ``-o`` is."""
     if path is None:
         return
     import importlib.util
@@ -156,11 +156,8 @@ def check_plot(path: str | None, folder: bool) -> None:
         from ..errors import need_matplotlib
         raise need_matplotlib()
     if is_stdout(path):
-        raise UsageError("--plot: standard output takes no plot; name a " + ("folder" if folder else "PNG file"))
-    if folder:
-        check_folder(path, "--plot")
-    else:
-        check_output(path, "--plot")
+        raise UsageError("--plot: standard output takes no plot; name a folder")
+    check_folder(path, "--plot")
 
 
 def command_inputs(args: argparse.Namespace) -> list[str]:
@@ -196,17 +193,16 @@ def check_outputs(args: argparse.Namespace) -> None:
     if getattr(args, "output", None) is not None:
         check_output(args.output, "-o")
         check_not_input(args.output, inputs, "-o")
-    plot = getattr(args, "plot", None)
-    folder = True                                   # --plot names a folder in every command
-    check_plot(plot, folder)
-    if plot is not None:
-        if folder:
-            check_folder_not_input(plot, inputs, "--plot")
-        else:
-            check_not_input(plot, inputs, "--plot")
-    if plot is not None and getattr(args, "output", None) is not None and not folder \
-            and os.path.realpath(plot) == os.path.realpath(args.output):
-        raise UsageError(f"--plot: '{plot}' is also the -o file; name two files")
+    plot = getattr(args, "plot", None)               # --plot names a folder in every command
+    check_plot(plot)
+    if plot is None:
+        return
+    check_folder_not_input(plot, inputs, "--plot")
+    named = {"simulate": SIGNALS_PNG, "evaluate": RUL_CONE_PNG}.get(args.command)
+    output = getattr(args, "output", None)
+    if named is not None and output is not None and not is_stdout(output) \
+            and os.path.realpath(os.path.join(plot, named)) == os.path.realpath(output):
+        raise UsageError(f"--plot: '{os.path.join(plot, named)}' is also the -o file; name another folder or file")
 
 
 def parse_mode(text: str, model: Model) -> dict[str, int]:
