@@ -979,7 +979,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("simulate", help="simulate a scenario with faults injected; write a measurement CSV")
     s.add_argument("model")
-    s.add_argument("scenario", help="scenario file (JSON or YAML)")
+    s.add_argument("scenario", help="scenario file (JSON or YAML), - for standard input, or a shipped scenario's "
+                   "name (cycab_scenario2)")
     s.add_argument("-o", "--output", required=True, help="CSV file to write (-: standard output)")
     s.add_argument("--seed", type=whole(0), help="override the scenario's noise seed (an integer >= 0)")
     s.add_argument("--method", type=method, default="auto", help="auto (default), ros2, LSODA, Radau, BDF or RK45")
@@ -1022,7 +1023,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     d = sub.add_parser("diagnose", help="detect, isolate, identify and prognose faults in a measurement file")
     d.add_argument("model")
-    d.add_argument("data", nargs="+", help="measurement CSV file(s) (t first, SI units); several: one JSON line each")
+    d.add_argument("data", nargs="+", help="measurement CSV file(s) (t first, SI units), - for standard input, or "
+                   "shipped data by name (scenario2); several: one JSON line each (-o X.parquet: one table)")
     d.add_argument("--jobs", type=whole(1, MAX_WORKERS),
                    help="files diagnosed at once (each job one process that keeps the derived model; default 1); "
                         "with --scheduler local, the LocalCluster's worker processes (default: one per core)")
@@ -1036,7 +1038,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     cal = sub.add_parser("calibrate", help="thresholds from fault-free runs, each residual with its unit")
     cal.add_argument("model")
-    cal.add_argument("runs", nargs="+", help="nominal measurement CSV files")
+    cal.add_argument("runs", nargs="+", help="nominal measurement CSV files (one may be -: standard input)")
     cal.add_argument("--margin", type=real(1.0, high=1e6), default=1.5, help="factor on the level (default 1.5)")
     cal.add_argument("--quantile", type=real(0.5, high=1.0), help="use this quantile of |r| instead of its peak")
     cal.add_argument("--json", action="store_true", help="print the calibration as JSON")
@@ -1045,7 +1047,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     ev = sub.add_parser("evaluate", help="simulate, diagnose and score a suite of scenarios against their designs")
     ev.add_argument("model")
-    ev.add_argument("scenarios", nargs="+", help="scenario files or folders of them (a suite)")
+    ev.add_argument("scenarios", nargs="+", help="scenario files or folders of them (a suite), - for standard "
+                    "input, or a shipped suite's name (suite_cycab_steering)")
     diagnosis_options(ev)
     ev.set_defaults(func=cmd_evaluate)
 
@@ -1097,6 +1100,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.set_defaults(func=cmd_bench)
     for command in sub.choices.values():
         _verbosity_options(command, suppress=True)
+        for action in command._actions:               # every model positional says what it may be
+            if action.dest == "model" and action.help is None:
+                action.help = "model YAML file, - for standard input, or a shipped model's name (cycab_steering)"
     return p
 
 
