@@ -73,3 +73,14 @@ def test_fleet_lines_good_and_failed_hold_the_same_keys_and_are_valid():
     VALIDATOR.validate(failed)
     assert not VALIDATOR.is_valid({**ok, "diagnosis": None})                 # a diagnosed file has its diagnosis
     assert not VALIDATOR.is_valid({**failed, "mode": {}})                    # a failed file has nothing else
+
+
+def test_a_nominal_and_a_faulty_report_have_the_same_keys():
+    """docs/cli.md: a key that does not apply is null, never missing (issue 25: nominal reports had
+    6 keys, fault reports 10 to 13)."""
+    from fdi.results import Diagnosis, Fault, Prognosis
+    nominal = Diagnosis(model="m", mode={}).to_dict()
+    faulty = Diagnosis(model="m", mode={"a1": 1}, faults=(Fault("R4", "abrupt", value=2.5e7, t0=32.0),),
+                       prognosis=(Prognosis("R4", 1e9, 65.0, 23.0, 42.0, 22.0, 24.0),)).to_dict()
+    assert list(nominal) == list(faulty) == SCHEMA["required"]
+    VALIDATOR.validate(nominal)
