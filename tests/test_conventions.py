@@ -288,3 +288,15 @@ def test_a_plot_folder_whose_figure_is_the_output_is_refused(capsys, tmp_path):
                         capsys)
     assert code == 2 and not (tmp_path / "signals.png").exists()
     _one_line(err, "--plot", "signals.png", "-o")
+
+
+def test_standard_input_is_bounded_and_named_in_a_fleets_lines(monkeypatch, capsys, tmp_path):
+    _feed(monkeypatch, b"a" * (2 << 20))
+    code, _, err = _run(["check", "-"], capsys)
+    assert code == 2
+    _one_line(err, "standard input", "larger than 1 MB")
+    _feed(monkeypatch, b"t,x\n0,1\n0.1,2\n")
+    code, out, err = _run(["diagnose", TANK, tmp_path / "missing.csv", "-", "-q"], capsys)
+    lines = [json.loads(x) for x in out.splitlines()]
+    assert code == 2 and [x["file"] for x in lines] == [str(tmp_path / "missing.csv"), "standard input"]
+    assert lines[1]["error"].startswith("standard input: missing column(s)") and "bgfdi-stdin" not in out + err

@@ -27,7 +27,7 @@ from ..data import DataError
 from ..options import DEFAULT_WORKERS, MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
 from .output import (Terminated, check_folder, check_folder_not_input, check_not_input, check_output, is_stdout,
                      write_atomic)
-from .sources import Sources, shown
+from .sources import Sources, said, shown
 from .progress import LOG, NORMAL, QUIET, VERBOSE, Progress, Steps, configure, stage
 
 
@@ -648,6 +648,7 @@ def _diagnose_batch(args: argparse.Namespace, options) -> int:
                                   progress=tick)
     for line in lines:
         line["file"] = shown(line["file"])
+        line["error"] = None if line["error"] is None else said(line["error"])
     if is_parquet(args.output):
         from .fleet import parquet_bytes
         write_atomic(args.output, parquet_bytes(lines))

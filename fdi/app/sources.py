@@ -27,6 +27,8 @@ from .resources import models_dir, scenarios_dir, shipped_models
 
 STDIN = "-"
 STDIN_NAME = "standard input"
+MAX_TEXT = 1 << 20               # a model or scenario: its reader refuses more than 1 MiB, and says so
+MAX_DATA = 1 << 32               # 4 GiB of CSV text: beyond the readers' 100 million numbers
 NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*\Z")      # a bare name: no folder, no ~
 
 
@@ -66,6 +68,13 @@ _COPIES: set[str] = set()        # the temporary copies of standard input of the
 def shown(path: object) -> str:
     """``path`` as the user gave it: "standard input" for the copy of ``-``."""
     return STDIN_NAME if str(path) in _COPIES else str(path)
+
+
+def said(text: str) -> str:
+    """A message with the copy of ``-`` named "standard input"."""
+    for copy in _COPIES:
+        text = text.replace(copy, STDIN_NAME)
+    return text
 
 
 class Sources:
@@ -120,12 +129,19 @@ class Sources:
         suffix = {"model": ".yaml", "data": ".csv"}.get(kind, ".yaml")
         self.folder = tempfile.mkdtemp(prefix="bgfdi-stdin-")
         copy = os.path.join(self.folder, "stdin")
+        limit = MAX_DATA if kind == "data" else MAX_TEXT + 1     # the text readers say "larger than 1 MB"
         try:
             with open(copy, "wb") as fh:
-                shutil.copyfileobj(stream, fh, 1 << 20)
+                kept = 0
+                while kept < limit and (block := stream.read(min(1 << 20, limit - kept))):
+                    fh.write(block)
+                    kept += len(block)
         except (OSError, ValueError) as exc:      # not readable (a closed descriptor, a test's capture)
             raise UsageError(f"-: cannot read standard input ({getattr(exc, 'strerror', None) or exc}); pipe the "
                              "file in, or give its path") from None
+        if kind == "data" and kept >= limit:
+            raise UsageError(f"-: standard input holds more than {MAX_DATA >> 30} GiB of measurements; split the "
+                             "record, or give it as a file")
         with open(copy, "rb") as fh:
             head = fh.read(64)
         if kind in ("scenario", "suite") and head.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"{"):
@@ -136,7 +152,7 @@ class Sources:
         return self.copy
 
     def message(self, text: str) -> str:
-        return text.replace(self.copy, STDIN_NAME) if self.copy else text
+        return said(text)
 
     def close(self) -> None:
         _COPIES.discard(self.copy or "")
