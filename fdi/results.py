@@ -298,6 +298,31 @@ class Diagnosis:
         """:meth:`rows` as a pandas DataFrame (the pandas extra)."""
         return to_frame([self])
 
+    def faults_frame(self):
+        """One row per fault identified (none: no rows) with its type, values, onset and RUL band:
+        :data:`FAULT_COLUMNS` (the pandas extra)."""
+        pd = need_pandas("faults_frame")
+        rows = [{k: r[k] for k in FAULT_COLUMNS} for r in fault_rows([self]) if r["fault"] is not None]
+        return pd.DataFrame(rows, columns=list(FAULT_COLUMNS))
+
+    def residuals_frame(self):
+        """One row per sample: ``t`` [s], each residual by name (in its unit, ``attrs["units"]``),
+        then ``NAME_threshold`` (the threshold it is compared with) and ``NAME_above`` (True where
+        |r| exceeds it; the persistence rule then decides the coherence vector). The pandas extra."""
+        pd = need_pandas("residuals_frame")
+        if self.t is None or self.residuals is None:
+            raise ValueError("this Diagnosis carries no residuals (it was read from a report); diagnose the data")
+        r = np.asarray(self.residuals, dtype=float)
+        thresholds = np.broadcast_to(np.asarray(self.thresholds, dtype=float).reshape(len(self.names), -1), r.shape)
+        columns: dict = {"t": np.asarray(self.t, dtype=float)}
+        columns.update({name: r[i] for i, name in enumerate(self.names)})
+        columns.update({f"{name}_threshold": thresholds[i] for i, name in enumerate(self.names)})
+        with np.errstate(invalid="ignore"):
+            columns.update({f"{name}_above": np.abs(r[i]) > thresholds[i] for i, name in enumerate(self.names)})
+        frame = pd.DataFrame(columns)
+        frame.attrs.update({"model": self.model, "units": {"t": "s", **dict(zip(self.names, self.units))}})
+        return frame
+
     def summary(self) -> str:
         """The diagnosis in a few lines: detection, faults, RULs."""
         d = self.detection
@@ -330,7 +355,7 @@ class Diagnosis:
         return f"<Diagnosis of {self.model}: {when}; {found}>"
 
 
-ROW_KEYS = ("file", "detection_time", "fault", "type", "value", "period", "model", "b", "t0", "rul", "rul_low",
+ROW_KEYS = ("file", "error", "detection_time", "fault", "type", "value", "period", "model", "b", "t0", "rul", "rul_low",
             "rul_high")
 
 
@@ -340,14 +365,15 @@ def fault_rows(reports) -> list[dict]:
     report without a fault gives one row with ``fault`` None, so every file of a fleet shows.
 
     >>> fault_rows([{"file": "a.csv", "detection": None, "diagnosis": {"faults": []}, "prognosis": []}])
-    [{'file': 'a.csv', 'detection_time': None, 'fault': None, 'type': None, 'value': None, 'period': None, 'model': None, 'b': None, 't0': None, 'rul': None, 'rul_low': None, 'rul_high': None}]
+    [{'file': 'a.csv', 'error': None, 'detection_time': None, 'fault': None, 'type': None, 'value': None, 'period': None, 'model': None, 'b': None, 't0': None, 'rul': None, 'rul_low': None, 'rul_high': None}]
     """
     out = []
     for r in reports:
         report = r.to_dict() if isinstance(r, Diagnosis) else r
         det = report.get("detection")
         life = {p["name"]: p for p in report.get("prognosis") or []}
-        base = {"file": report.get("file"), "detection_time": None if det is None else det["time"]}
+        base = {"file": report.get("file"), "error": report.get("error"),
+                "detection_time": None if det is None else det["time"]}
         faults = (report.get("diagnosis") or {}).get("faults") or [None]
         for f in faults:
             row = dict.fromkeys(ROW_KEYS)
@@ -361,14 +387,24 @@ def fault_rows(reports) -> list[dict]:
     return out
 
 
-def to_frame(reports):
-    """:func:`fault_rows` as a pandas DataFrame (``pip install 'bgfdi[pandas]'``); without pandas,
-    :func:`fault_rows` gives the same rows as dicts."""
+FAULT_COLUMNS = ROW_KEYS[3:]            # a Diagnosis's faults_frame: no file, error or detection time
+
+
+def need_pandas(what: str):
+    """pandas, or an ImportError in one line naming the extra."""
     try:
         import pandas as pd
     except ImportError:
-        raise ImportError("to_frame needs pandas: pip install 'bgfdi[pandas]' (fault_rows gives the same rows "
+        raise ImportError(f"{what} needs pandas: pip install 'bgfdi[pandas]' (fault_rows gives the fault rows "
                           "as plain dicts)") from None
+    return pd
+
+
+def to_frame(reports):
+    """:func:`fault_rows` as a pandas DataFrame, one row per fault of each report (a fleet's
+    reports: one DataFrame; ``pip install 'bgfdi[pandas]'``); without pandas, :func:`fault_rows`
+    gives the same rows as dicts."""
+    pd = need_pandas("to_frame")
     return pd.DataFrame(fault_rows(reports), columns=list(ROW_KEYS))
 
 

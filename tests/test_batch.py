@@ -14,6 +14,7 @@ def test_four_reference_files_in_two_jobs_give_their_single_reports(capsys, tmp_
     assert main(["diagnose", str(CYCAB), *FILES, "--jobs", "2", "--fail-on-fault"]) == 3    # faults found
     lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert [line.pop("file") for line in lines] == FILES
+    assert [line.pop("error") for line in lines] == [None] * len(FILES)      # every line has every key
     for path, line in zip(FILES, lines):
         assert main(["diagnose", str(CYCAB), path, "--json", "--workers", "1"]) == 0
         assert json.loads(capsys.readouterr().out) == line

@@ -36,6 +36,7 @@ def test_a_valve_stuck_open_against_its_command_is_a_mode_fault():
     assert report["diagnosis"]["faults"] == [{"name": "v_open", "type": "mode", "value": 1}]
 
 
+@pytest.mark.slow
 def test_a_valve_stuck_closed_against_its_command_is_a_mode_fault():
     _, report = _diagnose("stuck_closed")
     assert 150 <= report["detection"]["time"] < 152

@@ -119,6 +119,7 @@ def test_bad_options_exit_2(capsys):
     assert main(["diagnose", "models/cycab_steering.yaml", str(DATA / "nominal.csv"), "--failure", "beta_theta2"]) == 2
 
 
+@pytest.mark.slow
 def test_demo_simulates_and_diagnoses_scenario2(capsys):
     """The README's main command, end to end: own simulation of scenario 2, then the diagnosis."""
     assert main(["demo", "--json"]) == 0

@@ -118,7 +118,8 @@ DRIFTS = [Fault("Ra", "incipient", T0, rate=0.2),        # Ra = exp(0.2 (t - 1.3
           Fault("beta_i", "incipient", T0, rate=-0.2)]   # the current sensor's gain sinks 10 % in 0.5 s
 
 
-@pytest.mark.parametrize("fault", DRIFTS, ids=lambda f: f.target)
+@pytest.mark.parametrize("fault", [pytest.param(f, marks=pytest.mark.slow) if f.target == "Ra" else f for f in DRIFTS],
+                         ids=lambda f: f.target)                                # Ra: 15 s (--durations)
 def test_a_drift_is_typed_incipient_sized_and_its_life_predicted(fault):
     _, config = load(MODEL)
     report = diagnose(str(MODEL), _data(f"{fault.target} drift", 10, fault), Options(workers=1, seed=0, max_set=1)).to_dict()

@@ -129,6 +129,7 @@ def test_prognostic_horizon_relative_accuracy_and_convergence_by_hand():
     assert "prognostic horizon (alpha 0.2 of life) median 30 % of life" in format_scores([drift], totals)
 
 
+@pytest.mark.slow
 def test_one_scenario_end_to_end_with_its_rul_checkpoints():
     # the data from the independent reference plant (the design's "plant": "cycab")
     s = evaluate_scenario(str(CYCAB), scenarios_dir() / "suite_cycab_steering" / "theta2_incipient17.json")
@@ -145,6 +146,7 @@ def test_one_scenario_end_to_end_with_its_rul_checkpoints():
 
 
 
+@pytest.mark.slow
 def test_a_slow_eq18_drift_alone_is_isolated_and_typed():
     # the design: beta_theta2 of eq. (18) with b3 = -3, b4 = -1.002 from 25 s, growing as exp(0.303 tau):
     # detected only at ~35 s, its fit from there needs b3 < -3 (a slower rate), which the search

@@ -96,7 +96,9 @@ def test_diagnose_many_on_a_client_in_file_order(cluster, jobs_lines, tmp_path):
     expected = {r["file"]: r for r in map(json.loads, jobs_lines.splitlines())}
     assert [r["file"] for r in reports] == files
     assert reports[0] == expected[FILES[2]] and reports[2] == expected[FILES[0]]
-    assert reports[1] == {"file": files[1], "error": f"{files[1]}: cannot read (No such file or directory)"}
+    from fdi.results import REPORT_KEYS
+    assert reports[1] == {"file": files[1], "error": f"{files[1]}: cannot read (No such file or directory)",
+                          **dict.fromkeys(REPORT_KEYS)}
     assert "missing column(s)" in reports[3]["error"]
     assert reports == fleet.diagnose_many(str(CYCAB), files, OPTIONS)            # the same as locally
 

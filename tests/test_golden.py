@@ -46,7 +46,13 @@ def laid_out(text: str, door: str) -> str:
         return "".join(json.dumps(_report(e, "event") if e["event"] == "summary" else e, default=float) + "\n"
                        for e in events)
     old = json.loads(text)
-    return json.dumps(_report(old, "file" if door == "fleet" else None), indent=1, default=float) + "\n"
+    report = _report(old, "file" if door == "fleet" else None)
+    if door == "fleet":                       # issue 25: every fleet line has ``error`` (null), after ``file``
+        report = {"file": report["file"], "error": old.get("error"), **{k: v for k, v in report.items() if k != "file"}}
+    return json.dumps(report, indent=1, default=float) + "\n"
+
+
+SLOW_CASES = {"boost_rL"}       # 2 to 37 s a door (--durations): left out by -m "not slow"
 
 
 RTOL = 1e-9     # round-off: a matrix product need not sum in the same order on every CPU and BLAS
@@ -89,13 +95,15 @@ def folder(tmp_path_factory):
     return tmp_path_factory.mktemp("golden")
 
 
-@pytest.mark.parametrize("case, door", [(c, d) for c in CASES for d in c.doors],
+@pytest.mark.parametrize("case, door", [pytest.param(c, d, marks=[pytest.mark.slow] if c.name in SLOW_CASES else [])
+                                         for c in CASES for d in c.doors],
                          ids=[f"{c.name}-{d}" for c in CASES for d in c.doors])
 def test_every_front_door_prints_what_it_printed_before(case, door, folder, monkeypatch):
     monkeypatch.chdir(ROOT)
     same_text(DOORS[door](case, data_file(case, folder)), laid_out(EXPECTED[case.name][door], door))
 
 
+@pytest.mark.slow
 def test_the_installed_command_prints_the_same_report():
     """The console script in a fresh process (its own imports and derivation) gives the same bytes."""
     (case,) = [c for c in CASES if c.name == "cycab_scenario2"]

@@ -77,6 +77,7 @@ def test_a_pipe_of_unknown_length_is_read_whole(tmp_path):
         assert np.array_equal(data.columns[name], values), name
 
 
+@pytest.mark.slow
 def test_reading_holds_the_numbers_once(tmp_path):
     """300 000 rows x 4 (9.2 MiB of numbers): reading allocates the table once (1.0x) and a block of
     text, where stacking blocks after the read held the numbers twice (measured: 2.3x)."""
@@ -173,6 +174,7 @@ def test_detection_holds_a_row_or_two_not_residuals_times_samples():
     assert a.at.tolist() == [-1, 300_000 + 1024, -1] and a.start.tolist() == [-1, 300_000, -1]
 
 
+@pytest.mark.slow
 def test_a_long_simulation_holds_its_output_and_a_chunk(monkeypatch):
     """The DC motor's step response (L di/dt = u - R i - K w, J dw/dt = K i - (bm + bL) w, u = 1 V
     from rest: the matrix exponential's solution, computed here) on 30 001 output points, laid

@@ -60,6 +60,7 @@ def test_events_of_scenario1_in_stream_time():
     assert {f["name"] for f in decision["faults"]} == {"R4", "beta_theta1"}
 
 
+@pytest.mark.slow
 def test_stdin_stream_ends_with_the_diagnosis_of_the_file(capsys, monkeypatch):
     path = str(DATA / "scenario2.csv")
     assert main(["diagnose", str(CYCAB), path, "--json", "--workers", "1"]) == 0

@@ -36,6 +36,7 @@ def _fault(r, name):
     return next(f for f in r["diagnosis"]["faults"] if f["name"] == name)
 
 
+@pytest.mark.slow
 def test_a_late_residual_overturns_a_wrong_first_decision():
     # ARR1 touches its threshold once, at 49.2 s, for 0.04 s at 1.01 times it (3e-4 threshold-seconds):
     # with the paper's first-crossing rule (persistence 0) that touch is latched and decided again ...
@@ -55,6 +56,7 @@ def test_a_touch_of_a_threshold_is_not_latched():
     assert r["detection"]["final_coherence"] == [0, 1, 0] and not r["episodes"]
 
 
+@pytest.mark.slow
 def test_a_slow_drift_seen_late_is_identified_with_the_leak():
     r = report("slow_drift")
     assert r["detection"]["final_coherence"] == [0, 1, 0]
@@ -68,6 +70,7 @@ def test_a_slow_drift_seen_late_is_identified_with_the_leak():
     assert p["eol"] == pytest.approx(145.0, rel=0.05)
 
 
+@pytest.mark.slow
 def test_a_second_fault_after_the_first_decision_is_found():
     r = report("second_fault")
     r4 = _fault(r, "R4")

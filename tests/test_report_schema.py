@@ -60,3 +60,27 @@ def test_fault_rows_have_one_shape_for_a_fleet():
         ("cycab_nominal", None, None), ("cycab_scenario2", "R4", "abrupt"),
         ("cycab_scenario2", "beta_theta2", "incipient")]
     assert rows[1]["rul"] is None and rows[2]["rul"] > 0 and rows[2]["model"] in (1, 2, 3, 4)
+
+
+def test_fleet_lines_good_and_failed_hold_the_same_keys_and_are_valid():
+    """Issue 25: every fleet line has ``file``, ``error`` and every report key; a failed line has
+    its error and nulls, and nulls are refused where a file was diagnosed."""
+    from fdi.app.fleet import line
+    good = json.loads(laid_out(EXPECTED["cycab_scenario2"]["cli"], "cli"))
+    ok, failed = line("a.csv", good), line("b.csv", error="b.csv: cannot read (No such file or directory)")
+    assert list(ok) == list(failed) == ["file", "error", *REPORT_KEYS]
+    VALIDATOR.validate(ok)
+    VALIDATOR.validate(failed)
+    assert not VALIDATOR.is_valid({**ok, "diagnosis": None})                 # a diagnosed file has its diagnosis
+    assert not VALIDATOR.is_valid({**failed, "mode": {}})                    # a failed file has nothing else
+
+
+def test_a_nominal_and_a_faulty_report_have_the_same_keys():
+    """docs/cli.md: a key that does not apply is null, never missing (issue 25: nominal reports had
+    6 keys, fault reports 10 to 13)."""
+    from fdi.results import Diagnosis, Fault, Prognosis
+    nominal = Diagnosis(model="m", mode={}).to_dict()
+    faulty = Diagnosis(model="m", mode={"a1": 1}, faults=(Fault("R4", "abrupt", value=2.5e7, t0=32.0),),
+                       prognosis=(Prognosis("R4", 1e9, 65.0, 23.0, 42.0, 22.0, 24.0),)).to_dict()
+    assert list(nominal) == list(faulty) == SCHEMA["required"]
+    VALIDATOR.validate(nominal)

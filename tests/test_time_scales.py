@@ -98,7 +98,8 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("case", list(CASES))
+@pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.slow) if c == "room 1 h at 1 Hz" else c
+                                  for c in CASES])                          # the room: 52 s (--durations)
 def test_calibrate_and_diagnose_at_any_time_scale(case, tmp_path, capsys):
     R, C, r_unit, c_unit, e_unit, fs, T_tau, tf_tau, u0, a, sigma = CASES[case]
     tau = R * C

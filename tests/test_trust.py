@@ -95,7 +95,7 @@ def test_an_output_that_is_an_input_is_refused_and_the_input_kept(tmp_path, caps
     ["monitor", "{model}", "{data}", "-o", "{data}"],
     ["tables", "{model}", "-o", "{model}"],
     ["evaluate", "{model}", "{suite}", "-o", "{suite}/s.json"],
-    ["evaluate", "{model}", "{suite}", "--plot", "{suite}/s.json"],
+    ["simulate", "{model}", "{suite}/s.json", "-o", "{suite}/s.json"],     # (--plot is a folder: tests/test_conventions.py)
 ])
 def test_no_command_writes_over_what_it_reads(tmp_path, capsys, argv):
     model = tmp_path / "m.yaml"

@@ -6,11 +6,14 @@ import re
 import subprocess
 import sys
 
+import pytest
+
 from .conftest import ROOT
 
 BLOCK = re.compile(r"```(\w+)([^\n]*)\n(.*?)```", re.S)
 
 
+@pytest.mark.slow
 def test_the_tutorial_runs_as_written(tmp_path):
     text = (ROOT / "docs" / "tutorial.md").read_text(encoding="utf-8")
     outputs = []

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import errno
+import logging
 import math
 import os
 import sys
@@ -26,6 +27,7 @@ from ..data import DataError
 from ..options import DEFAULT_WORKERS, MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
 from .output import (Terminated, check_folder, check_folder_not_input, check_not_input, check_output, is_stdout,
                      write_atomic)
+from .sources import Sources, said, shown
 from .progress import LOG, NORMAL, QUIET, VERBOSE, Progress, Steps, configure, stage
 
 
@@ -33,6 +35,8 @@ USER_ERRORS = (ModelError, CausalityError, DataError, UsageError)
 CAUSALITY_CHOICES = ("derivative", "mixed")
 MAX_WORKERS = 256          # processes; more is a typo (and on a forkserver platform, that many processes)
 MAX_WAIT = 1e6             # s, as for the model's waiting_time
+SIGNALS_PNG = "signals.png"        # simulate --plot DIR: the figure's name in DIR
+RUL_CONE_PNG = "rul_cone.png"      # evaluate --plot DIR
 MAX_CHAIN = 10_000         # bench derive: a chain of 2000 elements takes about 11 s
 
 
@@ -142,9 +146,9 @@ def scheduler(text: str) -> str:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
-def check_plot(path: str | None, folder: bool) -> None:
-    """``--plot``: matplotlib present, and a PNG file (or a folder, for a diagnosis) that can be
-    written, refused before any work as ``-o`` is."""
+def check_plot(path: str | None) -> None:
+    """``--plot``: matplotlib present, and a folder that can be made or written into (every
+    command's --plot names a folder), refused before any work as ``-o`` is."""
     if path is None:
         return
     import importlib.util
@@ -152,11 +156,8 @@ def check_plot(path: str | None, folder: bool) -> None:
         from ..errors import need_matplotlib
         raise need_matplotlib()
     if is_stdout(path):
-        raise UsageError("--plot: standard output takes no plot; name a " + ("folder" if folder else "PNG file"))
-    if folder:
-        check_folder(path, "--plot")
-    else:
-        check_output(path, "--plot")
+        raise UsageError("--plot: standard output takes no plot; name a folder")
+    check_folder(path, "--plot")
 
 
 def command_inputs(args: argparse.Namespace) -> list[str]:
@@ -192,17 +193,16 @@ def check_outputs(args: argparse.Namespace) -> None:
     if getattr(args, "output", None) is not None:
         check_output(args.output, "-o")
         check_not_input(args.output, inputs, "-o")
-    plot = getattr(args, "plot", None)
-    folder = args.command in ("diagnose", "demo")
-    check_plot(plot, folder)
-    if plot is not None:
-        if folder:
-            check_folder_not_input(plot, inputs, "--plot")
-        else:
-            check_not_input(plot, inputs, "--plot")
-    if plot is not None and getattr(args, "output", None) is not None and not folder \
-            and os.path.realpath(plot) == os.path.realpath(args.output):
-        raise UsageError(f"--plot: '{plot}' is also the -o file; name two files")
+    plot = getattr(args, "plot", None)               # --plot names a folder in every command
+    check_plot(plot)
+    if plot is None:
+        return
+    check_folder_not_input(plot, inputs, "--plot")
+    named = {"simulate": SIGNALS_PNG, "evaluate": RUL_CONE_PNG}.get(args.command)
+    output = getattr(args, "output", None)
+    if named is not None and output is not None and not is_stdout(output) \
+            and os.path.realpath(os.path.join(plot, named)) == os.path.realpath(output):
+        raise UsageError(f"--plot: '{os.path.join(plot, named)}' is also the -o file; name another folder or file")
 
 
 def parse_mode(text: str, model: Model) -> dict[str, int]:
@@ -226,10 +226,10 @@ def _emit(text: str, out: str | None) -> None:
 
 def _note(text: str, out: str | None) -> None:
     """A status line: on stdout, unless the result itself goes there (-o -): then a note on
-    stderr (silenced by -q)."""
+    stderr. Silenced by -q either way."""
     if is_stdout(out):
         LOG.info(text)
-    else:
+    elif LOG.isEnabledFor(logging.INFO):          # -q silences every note
         print(text)
 
 
@@ -263,7 +263,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
     with stage("load"):
         model, _ = load(args.model)              # the bond graph and the monitor settings both checked
-    _print_summary(model, args.model)
+    _print_summary(model, shown(args.model))
     arrs = _print_diagnostic_causality(model, args)
     sim = assign(model, SIMULATION)
     print()
@@ -278,6 +278,7 @@ def _check_json(args: argparse.Namespace) -> int:
     """``check --json``: the analysis as one object; 1 when a verified residual does not vanish."""
     from .check_report import analyse
     report = analyse(args.model, args.causality, args.seed if args.verify else None)
+    report["file"] = shown(report["file"])
     _emit(_json_text(report), None)
     verification = report["verification"]
     if verification is not None and not verification["ok"]:
@@ -379,11 +380,46 @@ def _print_verification(model: Model, arrs: list, args: argparse.Namespace) -> i
     return 0 if verification.ok else 1
 
 
+GRAPH_FORMATS = ("dot", "svg", "png", "pdf")
+GRAPH_SUFFIXES = {".dot": "dot", ".gv": "dot", ".svg": "svg", ".png": "png", ".pdf": "pdf"}
+
+
+def graph_format(fmt: str | None, output: str | None) -> str:
+    """The format of ``graph``: ``--format``, else the -o file's suffix, else DOT; a --format that
+    contradicts a known suffix (DOT text in ``g.png``) is refused."""
+    from pathlib import Path
+
+    implied = None if output is None or is_stdout(output) else GRAPH_SUFFIXES.get(Path(output).suffix.lower())
+    if fmt is not None and implied is not None and fmt != implied:
+        raise UsageError(f"--format {fmt}: contradicts -o {output} ({implied}); give a file ending in .{fmt} or "
+                         f"--format {implied}")
+    return fmt or implied or "dot"
+
+
 def cmd_graph(args: argparse.Namespace) -> int:
+    """The model as Graphviz DOT text, or rendered by Graphviz's ``dot`` (svg, png, pdf)."""
+    import shutil
+    import subprocess
+
     from bondgraph.dot import to_dot
 
+    fmt = graph_format(args.format, args.output)
+    dot = shutil.which("dot") if fmt != "dot" else None
+    if fmt != "dot" and dot is None:
+        given = f"--format {fmt}" if args.format else f"-o {args.output} ({fmt})"
+        raise UsageError(f"{given}: needs Graphviz's dot program on PATH (install Graphviz: apt install "
+                         "graphviz, brew install graphviz or conda install graphviz), or write --format dot")
     model = load_model(args.model)
-    _emit(to_dot(model, assign(model, args.purpose)), args.output)
+    text = to_dot(model, assign(model, args.purpose))
+    if fmt == "dot":
+        _emit(text, args.output)
+        return 0
+    with stage(f"dot -T{fmt}"):
+        done = subprocess.run([dot, f"-T{fmt}"], input=text.encode("utf-8"), capture_output=True, timeout=600)
+    if done.returncode != 0:
+        problem = done.stderr.decode("utf-8", "replace").strip().splitlines()
+        raise UsageError(f"dot -T{fmt} failed (exit {done.returncode}): {problem[0] if problem else 'no message'}")
+    write_atomic(args.output if args.output else "-", done.stdout)
     return 0
 
 
@@ -458,10 +494,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if not args.json:
         _note(f"wrote {where}: {len(columns['t'])} samples of {', '.join(columns)}", args.output)
     if args.plot:
+        from pathlib import Path
+
         from ..plots import column_units, plot_signals
-        plot_signals(columns, args.plot, column_units(model), [(f.target, f.t0) for f in scenario.faults])
+        Path(args.plot).mkdir(parents=True, exist_ok=True)
+        written = Path(args.plot) / SIGNALS_PNG
+        plot_signals(columns, written, column_units(model), [(f.target, f.t0) for f in scenario.faults])
         if not args.json:
-            _note(f"plot: {args.plot}", args.output)
+            _note(f"plot: {written}", args.output)
     if args.json:
         sys.stdout.write(_json_text(_simulation_summary(model, scenario, columns, args)))
     return 0
@@ -471,7 +511,7 @@ def _simulation_summary(model: Model, scenario, columns: dict, args: argparse.Na
     """simulate --json: what was simulated and written (times in s)."""
     from dataclasses import asdict
     t = columns["t"]
-    return {"model": model.name, "scenario": str(args.scenario), "output": args.output, "plot": args.plot,
+    return {"model": model.name, "scenario": shown(args.scenario), "output": args.output, "plot": args.plot,
             "samples": int(len(t)), "columns": list(columns), "t_start": float(t[0]), "t_end": float(t[-1]),
             "sampling_time": 1.0 / scenario.fs, "seed": scenario.seed, "method": args.method,
             "faults": [{k: list(v) if isinstance(v, tuple) else v for k, v in asdict(f).items()}
@@ -546,16 +586,35 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     _check_fleet_options(args)
     model = compiled(args.model).model
     options = _options(args, model)
-    if len(args.data) > 1 or (args.jobs or 1) > 1 or args.scheduler:
+    if len(args.data) > 1 or (args.jobs or 1) > 1 or args.scheduler or is_parquet(args.output):
         return _diagnose_batch(args, options)
     data = read_csv(args.data[0])
     check_samples(options.samples, data.ts, "--samples", compiled(args.model).min_period(options, data.ts))
-    return _diagnose_and_print(args.model, data, options, args, args.data[0])
+    return _diagnose_and_print(args.model, data, options, args, shown(args.data[0]))
+
+
+def is_parquet(path: str | None) -> bool:
+    """An -o file whose suffix asks for a Parquet table (``diagnose``)."""
+    return path is not None and not is_stdout(path) and str(path).lower().endswith(".parquet")
+
+
+def check_parquet(args: argparse.Namespace) -> None:
+    """``diagnose -o X.parquet``: the parquet extra installed and no --json, checked before any work."""
+    from .fleet import have_parquet, need_parquet
+    if not is_parquet(getattr(args, "output", None)):
+        return
+    if args.json or args.plot:
+        raise UsageError(f"{'--json' if args.json else '--plot'}: -o {args.output} writes a Parquet table, one "
+                         "row per fault; drop it, or write the report to a .json file")
+    if not have_parquet():
+        raise need_parquet(f"-o {args.output}")
 
 
 def _check_fleet_options(args: argparse.Namespace) -> None:
-    """--scheduler: the dask extra installed; --jobs only with a LocalCluster (a running cluster
-    has its own workers). Checked before any work."""
+    """--plot: one file only; --scheduler: the dask extra installed; --jobs only with a
+    LocalCluster (a running cluster has its own workers). Checked before any work."""
+    if args.plot and (len(args.data) > 1 or (args.jobs or 1) > 1 or args.scheduler):
+        raise UsageError("--plot: a fleet of files draws no plots; diagnose one file with --plot DIR")
     if not args.scheduler:
         return
     from .fleet import have_dask, need_dask
@@ -587,11 +646,18 @@ def _diagnose_batch(args: argparse.Namespace, options) -> int:
         with Steps("diagnosed", "files") as tick, stage("fleet"):
             lines = diagnose_many(args.model, args.data, options, client=client, jobs=jobs, timings=args.timings,
                                   progress=tick)
-    text = "".join(json.dumps(line, default=float) + "\n" for line in lines)
-    _emit(text, getattr(args, "output", None))
-    if any("error" in line for line in lines):
+    for line in lines:
+        line["file"] = shown(line["file"])
+        line["error"] = None if line["error"] is None else said(line["error"])
+    if is_parquet(args.output):
+        from .fleet import parquet_bytes
+        write_atomic(args.output, parquet_bytes(lines))
+        _note(f"wrote {args.output}: {len(lines)} file(s), one row per fault", args.output)
+    else:
+        _emit("".join(json.dumps(line, default=float) + "\n" for line in lines), getattr(args, "output", None))
+    if any(line["error"] is not None for line in lines):
         for line in lines:
-            if "error" in line:
+            if line["error"] is not None:
                 LOG.error(line["error"])
         return 2
     if args.fail_on_fault and any(line["diagnosis"]["faults"] for line in lines):
@@ -627,7 +693,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 def cmd_evaluate(args: argparse.Namespace) -> int:
     """Each scenario simulated, diagnosed and scored (fdi.app.evaluate); a table or --json."""
 
-    from .evaluate import format_scores, suite_files, summary
+    from .evaluate import format_scores, scenario_cost, suite_files, summary
     from ..monitor import compiled
     from .scenario import load_scenario
 
@@ -636,9 +702,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     files = suite_files(args.scenarios, skipped=LOG.warning)
     if not files:
         raise UsageError(f"no scenario files in {', '.join(args.scenarios)}")
-    for f in files:                                   # every file checked before the first simulation
-        load_scenario(f, model)
-    scores = _evaluate_files(args.model, files, options)
+    # every file checked before the first simulation; each weighs its samples in the ETA
+    costs = [scenario_cost(load_scenario(f, model)) for f in files]
+    scores = _evaluate_files(args.model, files, options, costs)
     totals = summary(scores)
     if args.json:
         text = _json_text({"model": model.name, "summary": totals, "scenarios": [s.to_dict() for s in scores]})
@@ -646,24 +712,42 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         text = format_scores(scores, totals)
     _emit(text, args.output)
     if args.plot:
+        from pathlib import Path
+
         from ..plots import plot_rul_cone
-        plot_rul_cone(scores, args.plot)
+        Path(args.plot).mkdir(parents=True, exist_ok=True)
+        LOG.info(f"plot: {plot_rul_cone(scores, Path(args.plot) / RUL_CONE_PNG)}")
     return 0
 
 
-def _evaluate_files(model_path: str, files: list, options) -> list:
-    """Each scenario simulated, diagnosed and scored, with progress (one line each with -v)."""
+def _evaluate_files(model_path: str, files: list, options, costs: list[float] | None = None) -> list:
+    """Each scenario simulated, diagnosed and scored, with progress (one line each with -v). The
+    progress counts each scenario's samples (``costs``, :func:`fdi.app.evaluate.scenario_cost`):
+    simulating and diagnosing take time in proportion to them, so the ETA of a suite of unequal
+    scenarios is not the optimistic one of a uniform rate per scenario."""
     import time
 
-    from .evaluate import evaluate_scenario
+    from .evaluate import evaluate_scenario, scenario_cost
+    if costs is None:
+        from .scenario import load_scenario
+        model = load_model(model_path)
+        costs = [scenario_cost(load_scenario(f, model)) for f in files]
     scores = []
-    with Progress(len(files), f"evaluating {model_path}", "scenarios") as bar:
-        for f in files:
+    with Progress(sum(costs), f"evaluating {model_path} ({len(files)} scenarios)", "samples") as bar:
+        for f, cost in zip(files, costs):
             start = time.perf_counter()
             scores.append(evaluate_scenario(model_path, f, options))
             LOG.debug("scenario %s: %.2f s", f.name, time.perf_counter() - start)
-            bar.advance()
+            bar.advance(cost)
     return scores
+
+
+def check_monitor_options(args: argparse.Namespace) -> None:
+    """The diagnosis options monitor takes but could not honour are refused, not ignored."""
+    if args.json:
+        raise UsageError("--json: monitor always writes JSON lines, one event each; drop --json")
+    if args.plot:
+        raise UsageError("--plot: monitor draws no plots; diagnose the recorded file with bgfdi diagnose --plot DIR")
 
 
 def cmd_monitor(args: argparse.Namespace) -> int:
@@ -750,7 +834,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     if args.what == "derive":
         sizes = args.sizes or bench.CHAIN_SIZES
-        rows = bench.derive_rows(shipped_models(), sizes, echo=LOG.info if args.json else print)
+        rows = bench.derive_rows(shipped_models(), sizes, echo=LOG.info if args.json else lambda line: _note(line, None))
         sys.stdout.write(_json_text(bench.derive_json(rows)) if args.json else bench.format_derive(rows))
         return 0
     if args.what == "simulate":
@@ -864,9 +948,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="--verify: the seed of its random states and inputs, an integer >= 0 (default 0)")
     c.set_defaults(func=cmd_check)
 
-    g = sub.add_parser("graph", help="write Graphviz DOT with causal strokes")
+    g = sub.add_parser("graph", help="the bond graph with causal strokes: Graphviz DOT, or SVG, PNG, PDF by dot")
     g.add_argument("model")
-    g.add_argument("-o", "--output", help="file to write (default, or -: standard output)")
+    g.add_argument("-o", "--output", help="file to write (default, or -: standard output); its suffix (.dot, .gv, "
+                   ".svg, .png, .pdf) sets the format when --format is not given")
+    g.add_argument("--format", choices=GRAPH_FORMATS,
+                   help="dot (the default: DOT text), or svg, png, pdf rendered by Graphviz's dot (on PATH)")
     g.add_argument("--purpose", choices=(DIAGNOSIS, SIMULATION), default=DIAGNOSIS)
     g.set_defaults(func=cmd_graph)
 
@@ -893,11 +980,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("simulate", help="simulate a scenario with faults injected; write a measurement CSV")
     s.add_argument("model")
-    s.add_argument("scenario", help="scenario file (JSON or YAML)")
+    s.add_argument("scenario", help="scenario file (JSON or YAML), - for standard input, or a shipped scenario's "
+                   "name (cycab_scenario2)")
     s.add_argument("-o", "--output", required=True, help="CSV file to write (-: standard output)")
     s.add_argument("--seed", type=whole(0), help="override the scenario's noise seed (an integer >= 0)")
     s.add_argument("--method", type=method, default="auto", help="auto (default), ros2, LSODA, Radau, BDF or RK45")
-    s.add_argument("--plot", metavar="PNG", help="also plot the signals (needs the plot extra)")
+    s.add_argument("--plot", metavar="DIR", help=f"also plot the signals into DIR/{SIGNALS_PNG} (DIR made when "
+                   "missing; needs the plot extra)")
     s.add_argument("--json", action="store_true",
                    help="print a JSON summary of the run on standard output (the CSV goes to -o FILE)")
     s.set_defaults(func=cmd_simulate)
@@ -929,12 +1018,14 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--json", action="store_true", help="print the report as JSON")
         p.add_argument("--timings", action="store_true",
                        help="add wall-clock times to the report (without them two runs give identical reports)")
-        p.add_argument("--plot", metavar="DIR", help="write plots into DIR (needs the plot extra)")
+        p.add_argument("--plot", metavar="DIR", help="write the plots into the folder DIR, made when missing (needs "
+                       "the plot extra)")
         p.add_argument("-o", "--output", help="write the report to a file instead of standard output (-)")
 
     d = sub.add_parser("diagnose", help="detect, isolate, identify and prognose faults in a measurement file")
     d.add_argument("model")
-    d.add_argument("data", nargs="+", help="measurement CSV file(s) (t first, SI units); several: one JSON line each")
+    d.add_argument("data", nargs="+", help="measurement CSV file(s) (t first, SI units), - for standard input, or "
+                   "shipped data by name (scenario2); several: one JSON line each (-o X.parquet: one table)")
     d.add_argument("--jobs", type=whole(1, MAX_WORKERS),
                    help="files diagnosed at once (each job one process that keeps the derived model; default 1); "
                         "with --scheduler local, the LocalCluster's worker processes (default: one per core)")
@@ -948,7 +1039,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     cal = sub.add_parser("calibrate", help="thresholds from fault-free runs, each residual with its unit")
     cal.add_argument("model")
-    cal.add_argument("runs", nargs="+", help="nominal measurement CSV files")
+    cal.add_argument("runs", nargs="+", help="nominal measurement CSV files (one may be -: standard input)")
     cal.add_argument("--margin", type=real(1.0, high=1e6), default=1.5, help="factor on the level (default 1.5)")
     cal.add_argument("--quantile", type=real(0.5, high=1.0), help="use this quantile of |r| instead of its peak")
     cal.add_argument("--json", action="store_true", help="print the calibration as JSON")
@@ -957,7 +1048,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     ev = sub.add_parser("evaluate", help="simulate, diagnose and score a suite of scenarios against their designs")
     ev.add_argument("model")
-    ev.add_argument("scenarios", nargs="+", help="scenario files or folders of them (a suite)")
+    ev.add_argument("scenarios", nargs="+", help="scenario files or folders of them (a suite), - for standard "
+                    "input, or a shipped suite's name (suite_cycab_steering)")
     diagnosis_options(ev)
     ev.set_defaults(func=cmd_evaluate)
 
@@ -1009,6 +1101,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.set_defaults(func=cmd_bench)
     for command in sub.choices.values():
         _verbosity_options(command, suppress=True)
+        for action in command._actions:               # every model positional says what it may be
+            if action.dest == "model" and action.help is None:
+                action.help = "model YAML file, - for standard input, or a shipped model's name (cycab_steering)"
     return p
 
 
@@ -1074,22 +1169,31 @@ def _silence_stdout() -> None:
 
 def _run(argv: list[str] | None) -> int:
     parser = build_parser()
+    if not (sys.argv[1:] if argv is None else argv):     # ``bgfdi`` alone: the help, as ``pip`` does
+        parser.print_help()
+        return 0
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:                  # a bad option (one line printed) or --help: its code, returned
         return 0 if exc.code is None else exc.code if isinstance(exc.code, int) else 2
     configure(QUIET if args.quiet else VERBOSE if args.verbose else NORMAL)
+    sources = Sources()
     try:
         if args.quiet and args.verbose:
             raise UsageError("-q and -v: give one of them")
+        if args.command == "monitor":
+            check_monitor_options(args)
+        if args.command == "diagnose":
+            check_parquet(args)
+        sources.resolve(args)                  # - for standard input, shipped files by name
         check_model_input(args)
         check_outputs(args)
         return args.func(args)
     except CausalityError as exc:
-        LOG.error(f"{getattr(args, 'model', '')}: causality: {'; '.join(exc.problems)}")
+        LOG.error(sources.message(f"{getattr(args, 'model', '')}: causality: {'; '.join(exc.problems)}"))
         return 2
     except USER_ERRORS as exc:
-        LOG.error(str(exc))
+        LOG.error(sources.message(str(exc)))
         return 2
     except KeyboardInterrupt:
         LOG.critical("interrupted")
@@ -1097,6 +1201,8 @@ def _run(argv: list[str] | None) -> int:
     except Terminated as exc:                 # SIGTERM or SIGHUP while an output was written: it was removed
         LOG.critical(f"terminated by signal {exc.signum}; the partial output was removed")
         return 128 + exc.signum
+    finally:
+        sources.close()
 
 
 if __name__ == "__main__":  # pragma: no cover

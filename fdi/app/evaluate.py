@@ -425,6 +425,12 @@ def format_scores(scores: list[Score], totals: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def scenario_cost(scenario) -> float:
+    """A scenario's weight in the progress of a suite: the samples it simulates and diagnoses
+    (T fs + 1), which set its simulation's and its diagnosis's time."""
+    return float(round(scenario.T * scenario.fs) + 1)
+
+
 def suite_files(paths: list[str], skipped: Callable[[str], None] | None = None) -> list[Path]:
     """Scenario files from files and folders (every *.json and *.yaml regular file in a folder,
     sorted). A FIFO, socket or device in a folder is skipped (reading one would wait for a writer

@@ -8,9 +8,10 @@ cluster (the optional extra ``pip install 'bgfdi[dask]'``). From Python::
     reports = diagnose_many("models/cycab_steering.yaml", ["a.csv", "b.csv"], jobs=2)
     reports = diagnose_many(model, files, client=Client("tcp://10.0.0.5:8786"))
 
-Each report is what ``bgfdi diagnose FILE --json`` prints, with the file first (``{"file": ...,
-"detection": ..., ...}``), or ``{"file": ..., "error": "..."}`` for a file that cannot be
-diagnosed (a bad file does not stop the others). Every file is diagnosed in one process with one
+Each report is what ``bgfdi diagnose FILE --json`` prints, with the file and ``error`` (null)
+first (``{"file": ..., "error": null, "detection": ..., ...}``); a file that cannot be diagnosed
+has the same keys, its one-line ``error`` and every other key null (a bad file does not stop the
+others). :func:`to_table` makes one DataFrame of them, :func:`write_parquet` a Parquet file. Every file is diagnosed in one process with one
 estimator process (``workers=1``): the diagnosis is seeded, so the reports are the same bytes
 whichever way they are run (processes, a LocalCluster, a remote cluster) and whatever the order
 the files finish in. Each worker process keeps the derived model between files (``compiled``'s
@@ -86,8 +87,8 @@ def diagnose_data(monitor, path: str, data, options, timings: bool = False) -> d
     try:
         d = monitor.diagnose(data, replace(options, workers=1))
     except _user_errors() as exc:
-        return {"file": path, "error": str(exc)}
-    return {"file": path, **d.to_dict(timings)}
+        return line(path, error=str(exc), timings=timings)
+    return line(path, d.to_dict(timings))
 
 
 def diagnose_file(monitor, path: str, options, timings: bool = False) -> dict:
@@ -96,8 +97,46 @@ def diagnose_file(monitor, path: str, options, timings: bool = False) -> dict:
     try:
         data = read_file(path, options, monitor)
     except _user_errors() as exc:
-        return {"file": path, "error": str(exc)}
+        return line(path, error=str(exc), timings=timings)
     return diagnose_data(monitor, path, data, options, timings)
+
+
+def line(path: str, report: dict | None = None, error: str | None = None, timings: bool = False) -> dict:
+    """A fleet's line: ``file``, ``error`` (None), then the report; a failed file's line has the
+    same keys (``timings`` too, with ``timings``), every one but ``file`` and ``error`` None."""
+    from ..results import REPORT_KEYS
+    if report is None:
+        report = dict.fromkeys(REPORT_KEYS + (("timings",) if timings else ()))
+    return {"file": path, "error": error, **report}
+
+
+PARQUET_EXTRA = "pip install 'bgfdi[parquet]'"
+
+
+def have_parquet() -> bool:
+    """pandas and pyarrow importable (the ``parquet`` extra)."""
+    return all(importlib.util.find_spec(m) is not None for m in ("pandas", "pyarrow"))
+
+
+def need_parquet(option: str) -> UsageError:
+    return UsageError(f"{option}: a Parquet file needs pandas and pyarrow: {PARQUET_EXTRA}")
+
+
+def to_table(lines: list[dict]):
+    """A fleet's lines as one pandas DataFrame, one row per fault (a file without a fault, or that
+    failed, has one row: :func:`fdi.results.fault_rows`, columns :data:`fdi.results.ROW_KEYS`)."""
+    from ..results import to_frame
+    return to_frame(lines)
+
+
+def parquet_bytes(lines: list[dict]) -> bytes:
+    """:func:`to_table` as the bytes of a Parquet file (``b`` lists as lists of floats)."""
+    import io
+    if not have_parquet():
+        raise need_parquet("Parquet")
+    buffer = io.BytesIO()
+    to_table(lines).to_parquet(buffer, engine="pyarrow", index=False)
+    return buffer.getvalue()
 
 
 def _job(job: tuple) -> dict:
@@ -149,7 +188,7 @@ def _on_dask(client, monitor, files: list[str], options, timings: bool, progress
         try:
             data = read_file(path, options, monitor)
         except _user_errors() as exc:
-            out[i] = {"file": path, "error": str(exc)}
+            out[i] = line(path, error=str(exc), timings=timings)
             done += 1
             if progress:
                 progress(done, len(files))
