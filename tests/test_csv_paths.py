@@ -1,0 +1,53 @@
+"""The CSV reader's three paths read the same numbers and refuse the same files in the same words:
+pandas' C parser (the ``pandas`` extra), numpy's parser for plain blocks, and the csv module with
+Python's float for everything else. The reference is Python's own float() of each field's text."""
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+
+from fdi.data import DataError, read_csv
+
+HEADER = "t,u_in,theta1,theta2,p1,p2\n"
+
+
+def _write(path, rows: list[str]) -> str:
+    path.write_text(HEADER + "".join(r + "\n" for r in rows), encoding="utf-8")
+    return str(path)
+
+
+@pytest.fixture(params=["pandas", "numpy"])
+def path_kind(request, monkeypatch):
+    if request.param == "pandas":
+        pytest.importorskip("pandas")
+    else:
+        monkeypatch.setitem(sys.modules, "pandas", None)      # import pandas fails: the plain-numpy path
+    return request.param
+
+
+def test_every_path_reads_python_floats(tmp_path, path_kind):
+    rng = np.random.default_rng(5)
+    values = rng.standard_normal((20_000, 5)) * 10.0 ** rng.integers(-300, 300, (20_000, 5))
+    texts = [[f"{0.01 * i:.17g}"] + [repr(float(v)) for v in row] for i, row in enumerate(values)]
+    got = read_csv(_write(tmp_path / "d.csv", [",".join(r) for r in texts]))
+    for j, name in enumerate(HEADER.strip().split(",")):
+        assert np.array_equal(got.columns[name], np.array([float(r[j]) for r in texts]))
+
+
+@pytest.mark.parametrize("bad, words", [
+    ("0.02,1,2,3,4", "rows do not all have 6 values"),
+    ("0.02,1,2,3,4,5,6", "rows do not all have 6 values"),
+    ("0.02,1,,3,4,5", "row(s) with NaN or missing values, first at line 4"),
+    ("0.02,1,x,3,4,5", "a value is not a number"),
+])
+def test_every_path_refuses_in_the_same_words(tmp_path, path_kind, bad, words):
+    rows = ["0,1,2,3,4,5", "0.01,1,2,3,4,5", bad, "0.03,1,2,3,4,5"]
+    with pytest.raises(DataError, match=words.replace("(", r"\(").replace(")", r"\)")):
+        read_csv(_write(tmp_path / "d.csv", rows))
+
+
+def test_a_number_only_python_reads_is_read_as_python_reads_it(tmp_path, path_kind):
+    got = read_csv(_write(tmp_path / "d.csv", ["0,1_000,2,3,4,5", "0.01, 7 ,2,3,4,5", "0.02,1,2,3,4,5"]))
+    assert got.columns["u_in"].tolist() == [1000.0, 7.0, 1.0]
