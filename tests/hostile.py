@@ -221,5 +221,4 @@ CASES: list[tuple[str, dict, list[str], str]] = [
     ("evaluate-fifo-scenario", {"s.json": Fifo()}, ["evaluate", CYCAB, "{s.json}"], "error"),
     ("monitor-other-model-header", {"d.csv": "t,a,b\n0,1,2\n0.01,1,2\n"}, ["monitor", CYCAB, "{d.csv}"], "error"),
     ("data-cr-line-ends", *data(SHORT.replace("\n", "\r")), "ok"),
-    ("data-utf16", *data(SHORT.encode("utf-16")), "ok"),
 ]

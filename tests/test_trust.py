@@ -515,6 +515,45 @@ def test_a_local_cluster_has_no_more_workers_than_files(monkeypatch):
     assert asked["n"] == 1
 
 
+def test_local_processes_are_no_more_than_files(monkeypatch):
+    """--jobs 16 for 2 files (no scheduler): the process pool is asked for 2 workers, not 16 (the
+    pool is faked and runs the jobs here: what is asked of it is the point); the reports are the
+    two files' own, in order."""
+    import concurrent.futures as cf
+
+    from fdi.app.fleet import diagnose_many
+    asked = []
+
+    class FakePool:
+        def __init__(self, max_workers=None, **kw):
+            asked.append(max_workers)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+        def submit(self, fn, *args):
+            future = cf.Future()
+            future.set_result(fn(*args))
+            return future
+    monkeypatch.setattr(cf, "ProcessPoolExecutor", FakePool)
+    with tempfile.TemporaryDirectory() as d:
+        data = tank_data()
+        paths = []
+        for name in ("a.csv", "b.csv"):
+            path = os.path.join(d, name)
+            with open(path, "w", encoding="utf-8") as fh:
+                fh.write(",".join(data) + "\n")
+                for row in zip(*data.values()):
+                    fh.write(",".join(repr(float(v)) for v in row) + "\n")
+            paths.append(path)
+        reports = diagnose_many(QUIET, paths, jobs=16)          # thresholds 1e3: nothing to identify, fast
+    assert asked == [2]
+    assert [r["file"] for r in reports] == paths
+
+
 # ------------------------------------------------------------------ 5. the tracebacks left
 
 MU_TANK = TANK.replace("R12", "\u00b5")          # a model whose names need more than ASCII
