@@ -179,6 +179,9 @@ def open_text(path: str | Path):
     try:
         if Path(path).is_dir():
             raise DataError(f"{path}: is a folder; give a measurement CSV file")
+        if str(path) == "-" and not Path(path).exists():
+            raise DataError("-: no file of that name; this command reads measurement files (a command's output as "
+                            "<(command)); a live stream on standard input is read by bgfdi monitor MODEL -")
         return _open_text(path)
     except (EOFError, zlib.error) as exc:            # gzip's magic bytes, then a cut or broken stream
         raise DataError(f"{path}: not a complete gzip file ({str(exc)[:80]})") from None

@@ -270,6 +270,29 @@ def test_dataframes_with_a_repeated_column_or_cells_that_are_no_numbers_are_refu
         measurements({"t": [0.0, 0.1], "p": ["a", "b"]})
 
 
+def test_notebook_data_that_would_be_read_wrong_is_refused():
+    """Three ways the API used to read data silently wrong: complex samples (cast to float with
+    only a warning: the imaginary parts dropped), a (5, 2) matrix beside 10 times (flattened: its
+    rows read as 10 later samples), and CSV text given as a file name (its line ends in the error
+    line). Each is one line naming what to give; a column vector (n, 1) is still one column."""
+    from fdi.api import measurements
+    from fdi.data import DataError
+    t = np.arange(10) * 0.1
+    with pytest.raises(DataError, match="column 'p' holds complex numbers; give real values"):
+        measurements({"t": t, "p": t + 1j})
+    with pytest.raises(DataError, match="column 'p' holds complex numbers"):
+        measurements(np.zeros(3, dtype=[("t", float), ("p", complex)]))
+    with pytest.raises(DataError, match="a value is no number"):                 # object cells: no cast at all
+        measurements(FrameLike(["t", "p"], [[0.0, 1 + 1j], [0.1, 2.0]]))
+    with pytest.raises(DataError, match=r"column 'p' is an array of shape \(5, 2\), not one value per sample"):
+        measurements({"t": t, "p": np.ones((5, 2))})
+    with pytest.raises(DataError) as err:
+        measurements("t,p\n0,1\n0.1,2\n")
+    assert "\n" not in str(err.value) and "text with line ends, not a file name" in str(err.value)
+    column = measurements({"t": t, "p": (2 * t).reshape(-1, 1)})
+    assert np.array_equal(column.columns["p"], 2 * t)
+
+
 @pytest.mark.parametrize("name, text, words", [
     ("s.json", '{"T": 2, "fs": 100, "T": 3}', ["duplicate key 'T'"]),
     ("s.json", '{"T": 2, "fs": 100, "faults": [{"target": "R4", "type": "abrupt", "t0": 1, "t0": 1.5, '

@@ -26,7 +26,7 @@ from ..data import DataError
 from ..options import DEFAULT_WORKERS, MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
 from .output import (Terminated, check_folder, check_folder_not_input, check_not_input, check_output, is_stdout,
                      write_atomic)
-from .progress import LOG, NORMAL, QUIET, VERBOSE, Progress, Steps, configure, stage
+from .progress import LOG, NORMAL, QUIET, VERBOSE, Progress, Steps, configure, shown, stage
 
 
 USER_ERRORS = (ModelError, CausalityError, DataError, UsageError)
@@ -45,7 +45,7 @@ class Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # type: ignore[override]
         message = message.removeprefix("argument ")
         hint = "" if "must be" in message else f" (see {self.prog} --help)"
-        self.exit(2, f"bgfdi: error: {message}{hint}\n")
+        self.exit(2, f"bgfdi: error: {shown(message)}{hint}\n")
 
 
 def _bad(expected: str, text: str) -> argparse.ArgumentTypeError:
