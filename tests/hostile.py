@@ -228,4 +228,6 @@ CASES: list[tuple[str, dict, list[str], str]] = [
      ["diagnose", CYCAB, "{a\nb\x1b[2J.csv}", "--workers", "1", "-o", "{a\nb\x1b[2J.csv}"], "error"),
     ("option-value-line-end", {}, ["diagnose", CYCAB, "{out}/d.csv", "--engine", "a\nb"], "error"),
     ("diagnose-dash", {}, ["diagnose", CYCAB, "-"], "error"),
+    ("model-sensor-reads-time", *check(tank("p2: {type: De, junction: J2, column: p2",
+                                            "p2: {type: De, junction: J2, column: t")), "error"),
 ]

@@ -327,6 +327,9 @@ def test_a_yaml_merge_may_still_be_overridden():
     ("columns: [t, Qin, p1, p2]", "columns: [t, Qin, p1, p2, p1]", ["data.columns", "'p1' is listed twice"]),
     ("p2: {type: De, junction: J2, column: p2", "p2: {type: De, junction: J2, column: p1",
      ["sensors.p2.column", "reads column 'p1' as sensor 'p1' does"]),
+    # a sensor on the time column: its "pressure" would be the seconds since the start
+    ("p2: {type: De, junction: J2, column: p2", "p2: {type: De, junction: J2, column: t",
+     ["sensors.p2.column", "reads column 't', the time (s)"]),
 ])
 def test_names_that_cannot_be_told_apart_are_refused_at_load(old, new, words):
     from bondgraph.errors import ModelError
