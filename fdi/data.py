@@ -93,7 +93,9 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
     With ``cut`` (a stream: the monitor), a last row with fewer values than the header, a stream
     cut while a row was written, is dropped and ``cut(message)`` told; a short row anywhere
     else is an error, as it is in a file. ``on_header(header)`` is called once the header is read
-    and checked, before any row is waited for (the monitor's first event waits for it)."""
+    and checked, before any row is waited for (the monitor's first event waits for it); what it
+    raises is its own (a failed write of that event is standard output's error, not this file's)."""
+    in_callback = False
     try:
         lines = bounded_lines(fh, path)
         first = next(lines, "")
@@ -109,7 +111,9 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
             raise DataError(f"{path}: no 't' column in the header ({shown[:80]}); "
                             "the first column must be time in s")
         if on_header is not None:
+            in_callback = True
             on_header(header)
+            in_callback = False
         comma = delimiter == ";"
         pending, count = [], 0
         width = len(header)
@@ -133,6 +137,8 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
             block, pending = _numbers(path, pending, width, comma), []
             yield header, block
     except OSError as exc:
+        if in_callback:
+            raise
         what = exc.strerror or str(exc)
         raise DataError(f"{path}: cannot read ({what})") from None
     except (UnicodeDecodeError, UnicodeError) as exc:

@@ -597,6 +597,22 @@ def test_standard_output_on_a_full_disk_is_one_line(capsys, monkeypatch):
         _one_line(err, "standard output: cannot write", "No space left on device")
 
 
+def test_monitor_s_first_event_on_a_full_disk_blames_standard_output_not_the_data(tmp_path, capsys, monkeypatch):
+    """The start event goes out from inside the reader (once the header is checked): its failed
+    write was reported as the data file's ('d.csv: cannot read (No space left on device)')."""
+    import sys
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full")
+    data = tmp_path / "d.csv"
+    data.write_text(_short_cycab(CYCAB_HEADER), encoding="utf-8")
+    with open("/dev/full", "w", encoding="utf-8") as full:
+        monkeypatch.setattr(sys, "stdout", full)
+        code, err = _cli(["monitor", MODELS / "cycab_steering.yaml", data, "--workers", "1"], capsys)
+        assert code == 2
+        _one_line(err, "standard output: cannot write", "No space left on device")
+        assert "d.csv" not in err
+
+
 def test_an_ascii_standard_output_with_a_non_ascii_model_is_one_line(tmp_path, capsys, monkeypatch):
     """PYTHONIOENCODING=ascii (or an ASCII locale) and a parameter named µ: one line saying how to
     get UTF-8, exit 2; with -o the file is written in UTF-8 and the command succeeds."""
