@@ -200,6 +200,39 @@ def test_a_signal_during_a_write_leaves_the_old_file_and_no_partial_one(tmp_path
     assert signal.getsignal(signal.SIGTERM) == before               # the handler set back
 
 
+@pytest.mark.parametrize("signum, code", [("SIGTERM", 143), ("SIGHUP", 129), ("SIGINT", 130)])
+def test_a_signal_during_simulate_s_output_ends_the_command_and_keeps_the_old_file(tmp_path, capsys, monkeypatch,
+                                                                                  signum, code):
+    """``bgfdi simulate M sc.json -o out.csv`` signalled after the header and a block of rows
+    went into the temporary file: exit 128 + the signal, one line, the old out.csv byte for byte,
+    no .part left (the signal is sent from inside the CSV's pieces, so it lands mid-write)."""
+    import signal
+
+    from fdi.app import cli
+    if not hasattr(signal, signum):
+        pytest.skip(f"no {signum}")
+    scenario = tmp_path / "sc.json"
+    scenario.write_text('{"seed": 1, "T": 5, "fs": 100}', encoding="utf-8")
+    out = tmp_path / "out.csv"
+    out.write_text("old\n", encoding="utf-8")
+    real = cli.write_atomic
+
+    def signalled(path, content):
+        def pieces():
+            for i, piece in enumerate([content] if isinstance(content, (str, bytes)) else content):
+                if i == 1:
+                    os.kill(os.getpid(), getattr(signal, signum))
+                yield piece
+        return real(path, pieces())
+    monkeypatch.setattr(cli, "write_atomic", signalled)
+    rc, err = _cli(["simulate", MODELS / "two_tank_valve.yaml", scenario, "-o", out], capsys)
+    assert rc == code
+    assert "Traceback" not in err and ("interrupted" in err if signum == "SIGINT" else
+                                       f"terminated by signal {getattr(signal, signum).value}" in err), err
+    assert out.read_text(encoding="utf-8") == "old\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv", "sc.json"]
+
+
 def test_a_plot_folder_that_cannot_be_written_is_refused_before_the_work(tmp_path, capsys):
     """--plot into a folder where nothing can be created: refused at once, one line, exit 2 (for
     the superuser too: /proc takes no folder, whatever the permission bits say)."""
