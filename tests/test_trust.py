@@ -544,6 +544,27 @@ def test_a_long_row_and_a_wide_header_are_refused(tmp_path, capsys):
     _one_line(err, "wide.csv", f"{MAX_COLUMNS + 1:,} columns")
 
 
+def test_a_model_whose_residual_nests_too_deep_is_one_line(tmp_path, capsys):
+    """A drivetrain chain of 200 stages (800 elements) loads, but its one residual runs the whole
+    chain: with Python's recursion limit 150 frames above the caller, sympy's walks over it fail
+    (as a 1 600-element chain does at the default limit, and the 10 000-element one after 77 s):
+    one line naming the model and what to change, exit 2, no traceback."""
+    import inspect
+    import sys
+
+    from bondgraph.chains import chain_yaml
+    model = tmp_path / "chain.yaml"
+    model.write_text(chain_yaml(800), encoding="utf-8")
+    old = sys.getrecursionlimit()
+    sys.setrecursionlimit(len(inspect.stack()) + 150)
+    try:
+        code, err = _cli(["check", model], capsys)
+    finally:
+        sys.setrecursionlimit(old)
+    assert code == 2
+    _one_line(err, "chain.yaml", "nest deeper than Python follows", "measure more signals")
+
+
 def test_a_local_cluster_has_no_more_workers_than_files(monkeypatch):
     """--scheduler local --jobs 16 for 2 files starts 2 workers (the cluster is faked: what is
     asked of dask is the point, not dask starting)."""

@@ -1091,6 +1091,12 @@ def _run(argv: list[str] | None) -> int:
     except USER_ERRORS as exc:
         LOG.error(str(exc))
         return 2
+    except RecursionError:                    # a model that loads, but whose derived equations nest too deep
+        model = getattr(args, "model", None)
+        LOG.error(f"{model or args.command}: the derived equations nest deeper than Python follows (recursion "
+                  f"limit {sys.getrecursionlimit():,}): the model is too large for one residual; measure more "
+                  "signals along it (each sensor starts a shorter residual) or split it")
+        return 2
     except KeyboardInterrupt:
         LOG.critical("interrupted")
         return 130
