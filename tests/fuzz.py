@@ -448,6 +448,7 @@ def run(target: str, cases: int, seed: int = 0, seconds: float | None = None) ->
     counts: collections.Counter = collections.Counter()
     examples: list[tuple[str, object]] = []
     deadline = None if seconds is None else time.perf_counter() + seconds
+    worst: list = [0, None]                        # [kB the peak rose during one case, that case]
 
     base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss      # kB on Linux
 
@@ -457,7 +458,11 @@ def run(target: str, cases: int, seed: int = 0, seconds: float | None = None) ->
     def body(case):
         if deadline is not None and time.perf_counter() > deadline:
             raise OutOfTime()
+        before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
         outcome, _ = judge(lambda: fn(case))
+        rise = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before
+        if rise > worst[0]:                        # the case that raised the peak most (the peak only grows)
+            worst[:] = [rise, case]
         if resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base > MEMORY_KB and not counts["memory"]:
             outcome = "memory"                     # the peak only grows: the first case past 1 GB is counted
         counts[outcome.split(":")[0]] += 1
@@ -472,6 +477,7 @@ def run(target: str, cases: int, seed: int = 0, seconds: float | None = None) ->
         counts["_out_of_time"] = 1  # type: ignore[assignment]
     counts["_peak_mb"] = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base) // 1024  # type: ignore[assignment]
     counts["_examples"] = examples  # type: ignore[assignment]
+    counts["_worst"] = (worst[0] // 1024, worst[1])  # type: ignore[assignment]
     return counts
 
 
@@ -492,12 +498,14 @@ def main_fuzz(argv: list[str] | None = None) -> int:
         examples = c.pop("_examples")
         peak = c.pop("_peak_mb")
         stopped = c.pop("_out_of_time", 0)
+        worst_mb, worst_case = c.pop("_worst")
         broken = c["crash"] + c["slow"] + c["hang"] + c["memory"]
         bad += broken
         print(f"{target:10s} {sum(c.values()):6d} cases: {c['ok']} ok, {c['error']} refused with one line, "
               f"{c['crash']} crashes, {c['slow']} slower than {SLOW_S:g} s, {c['hang']} hangs, "
               f"{c['memory']} past 1 GB (peak +{peak} MB) ({time.perf_counter() - t0:.0f} s"
               f"{'; stopped by --seconds' if stopped else ''})", flush=True)
+        print(f"    largest rise of the peak in one case: +{worst_mb} MB, input: {worst_case!r:.160}")
         for outcome, case in examples:
             print(f"    {outcome}\n      input: {case!r:.300}")
     return 1 if bad else 0
