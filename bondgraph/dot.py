@@ -15,10 +15,62 @@ def _quote(s: str) -> str:
     return '"' + s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
 
 
+RANKS_PER_COLUMN = 7      # a power chain longer than this many bond hops is folded into columns
+
+
+def _spine(model: Model) -> list[str]:
+    """The longest chain of bonds (a path of the bond graph taken undirected): its two ends by two
+    breadth-first searches, the path between them."""
+    adj: dict[str, list[str]] = {}
+    for b in model.bonds:
+        adj.setdefault(b.source, []).append(b.target)
+        adj.setdefault(b.target, []).append(b.source)
+
+    def farthest(start: str) -> tuple[str, dict[str, str | None]]:
+        parent: dict[str, str | None] = {start: None}
+        queue, last = [start], start
+        while queue:
+            nxt = []
+            for n in queue:
+                for m in adj.get(n, ()):
+                    if m not in parent:
+                        parent[m] = n
+                        nxt.append(m)
+            if nxt:
+                last = nxt[-1]
+            queue = nxt
+        return last, parent
+
+    if not adj:
+        return []
+    end, _ = farthest(model.bonds[0].source)
+    other, parent = farthest(end)
+    path = [other]
+    while parent[path[-1]] is not None:
+        path.append(parent[path[-1]])
+    return path
+
+
+def folds(model: Model, per_column: int = RANKS_PER_COLUMN) -> set[frozenset]:
+    """The bonds of the longest chain where the drawing starts a new column: every ``per_column``
+    hops, in as many columns as make the page about as wide as it is tall (the CyCab's chain of 17
+    hops in 3 columns). Graphviz lays a chain out as one rank per hop, a strip 235 x 960 px for
+    the CyCab; a bond drawn with ``constraint=false`` no longer ranks its head below its tail, so
+    the chain after it starts again at the top, beside the part before it."""
+    spine = _spine(model)
+    hops = len(spine) - 1
+    if hops <= per_column + 2:
+        return set()
+    columns = -(-hops // per_column)
+    length = -(-hops // columns)
+    return {frozenset((spine[i - 1], spine[i])) for i in range(length, hops, length)}
+
+
 def to_dot(model: Model, causality: Causality) -> str:
-    # rankdir LR lays a chain of elements out as a strip; TB with a size and ratio keeps a model of a
-    # few dozen nodes on a page
-    lines = [f"digraph {_quote(model.name)} {{", "  rankdir=TB; ratio=compress; size=\"8,10\";",
+    """The DOT text: top to bottom, a long chain folded into columns (:func:`folds`), on a page of
+    at most 10 x 8 inches (landscape: a screen or a slide)."""
+    cut = folds(model)
+    lines = [f"digraph {_quote(model.name)} {{", "  rankdir=TB; size=\"10,8\"; ratio=compress; nodesep=0.35; fontname=Helvetica;",
              "  node [fontname=Helvetica, shape=plaintext];",
              "  edge [fontname=Helvetica, fontsize=10];",
              f"  label={_quote(f'{model.name}: {causality.purpose} causality')}; labelloc=t;"]
@@ -42,6 +94,7 @@ def to_dot(model: Model, causality: Causality) -> str:
         tail = "tee" if receiver == src else "none"
         style = ", style=dashed" if signal else ""
         label = "" if signal else f", label={_quote(str(key))}"
-        lines.append(f"  {_quote(src)} -> {_quote(dst)} [dir=both, arrowhead={head}, arrowtail={tail}{label}{style}];")
+        fold = ", constraint=false, color=gray40" if frozenset((src, dst)) in cut else ""
+        lines.append(f"  {_quote(src)} -> {_quote(dst)} [dir=both, arrowhead={head}, arrowtail={tail}{label}{style}{fold}];")
     lines.append("}")
     return "\n".join(lines) + "\n"

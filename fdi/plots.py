@@ -1,6 +1,7 @@
 """Optional plots (``pip install bgfdi[plot]``): matplotlib is imported only here, only when asked."""
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,47 @@ def _plt():
         return plt
     except ImportError:
         raise need_matplotlib() from None
+
+
+_SUPERSCRIPT = {"2": "\u00b2", "3": "\u00b3", "4": "\u2074", "-1": "\u207b\u00b9", "-2": "\u207b\u00b2"}
+# a unit a prefix may stand in front of: its first symbol has no exponent and is not kg (2 kN*m,
+# 3 mm/s, 5 MOhm are right; a prefix on m^3/s would read (mm)^3/s, on kg a double prefix)
+_PREFIXABLE = re.compile(r"^(?!kg)[A-Za-z\u03a9]+(?=$|[*/])")
+
+
+def pretty_unit(unit: str | None) -> str:
+    """A model's unit as a reader writes it: N*m -> N·m, m^3/s -> m³/s, Ohm -> Ω; '-' and '?' kept.
+
+    >>> pretty_unit("Pa^0.5*s/m^3"), pretty_unit("Ohm"), pretty_unit("kg*m^2")
+    ('Pa^0.5·s/m³', 'Ω', 'kg·m²')
+    """
+    if not unit:
+        return "-"
+    out = re.sub(r"\bOhm\b", "\u03a9", unit).replace("*", "\u00b7")
+    return re.sub(r"\^(-?\d+)(?![.\d])", lambda m: _SUPERSCRIPT.get(m.group(1), m.group(0)), out)
+
+
+def unit_axis(axis, unit: str | None, name: str = "") -> None:
+    """Label a matplotlib axis (``ax.xaxis``/``ax.yaxis``) with ``name`` and give its ticks SI
+    prefixes (``matplotlib.ticker.EngFormatter``): 2.2 mF, 600 kPa, 40 s. Where a prefix may stand
+    before the unit, the ticks carry the unit and the label is the name alone ("p1", ticks "600 kPa");
+    where it may not (m³/s, kg·m²), the ticks carry the prefix and the label the unit ("Q [m³/s]", ticks
+    "500 µ"); a dimensionless axis ('-') keeps plain numbers (an efficiency reads 0.5, not 500 m)."""
+    from matplotlib.ticker import EngFormatter
+
+    pretty = pretty_unit(unit)
+    if unit in (None, "", "-", "?"):
+        axis.set_label_text(f"{name} [{pretty}]" if name else f"[{pretty}]")
+    elif _PREFIXABLE.match(unit):
+        axis.set_major_formatter(EngFormatter(unit=pretty))
+        axis.set_label_text(name or pretty)
+    else:
+        axis.set_major_formatter(EngFormatter())
+        axis.set_label_text(f"{name} [{pretty}]" if name else f"[{pretty}]")
+
+
+def _time_axis(ax) -> None:
+    unit_axis(ax.xaxis, "s", "time t")
 
 
 def column_units(model) -> dict[str, str]:
@@ -44,11 +86,11 @@ def plot_signals(columns: dict[str, np.ndarray], path: str | Path, units: dict[s
         ax.plot(columns["t"], columns[name], lw=0.8, label=name)
         for j, (fault, t0) in enumerate(onsets):
             ax.axvline(t0, color=f"C{j + 1}", ls="--", lw=0.8, label=f"{fault} onset ({t0:g} s)" if k == 0 else None)
-        ax.set_ylabel(f"{name} [{units.get(name, '?')}]")
+        unit_axis(ax.yaxis, units.get(name, "?"), name)
         ax.grid(alpha=0.3)
         if k == 0 and onsets:
             ax.legend(fontsize=7, loc="upper left", ncol=4)
-    np.atleast_1d(axes)[-1].set_xlabel("t [s]")
+    _time_axis(np.atleast_1d(axes)[-1])
     fig.tight_layout()
     _save(fig, path)
     plt.close(fig)
@@ -89,7 +131,7 @@ def diagnosis_figures(d, model) -> dict:
     if report.get("estimators"):
         figures["fitness"] = _fitness_figure(plt, report["estimators"])
     if report.get("mode_costs"):
-        figures["mode_estimate"] = _mode_figure(plt, report)
+        figures["mode_estimate"] = _mode_figure(plt, report, model)
     faults = [f for f in report["diagnosis"]["faults"] if f["type"] != "mode"]
     if faults and report.get("detection"):
         figures["profiles"] = _profile_figure(plt, report, faults, d.t, model)
@@ -111,21 +153,32 @@ def _residual_figure(plt, d, det: dict | None):
         if det:
             ax.axvline(det["time"], color="r", lw=0.8, label="detection $t_D$")
             ax.axvline(det["decision_time"], color="r", ls=":", lw=0.8, label="decision $t_D + T_{wt}$")
-        ax.set_ylabel(f"{name} [{units.get(name, '?')}]")
+        unit_axis(ax.yaxis, units.get(name, "?"), name)
         if k == 0:
             ax.legend(fontsize=7, loc="upper left", ncol=4)
-    np.atleast_1d(axes)[-1].set_xlabel("t [s]")
+    _time_axis(np.atleast_1d(axes)[-1])
     fig.tight_layout()
     return fig
 
 
 def _fitness_figure(plt, estimators: list[dict]):
-    """The best fitness of every estimator per generation."""
+    """The best fitness of every estimator per generation: the x axis counts the generations of its
+    search (each one population of candidate fault parameters evaluated on the window by eq. 24), the
+    legend how many evaluations that was in all."""
+    from matplotlib.ticker import EngFormatter, MaxNLocator
+
     fig, ax = plt.subplots(figsize=(7, 4))
     for e in estimators:
-        ax.plot(e["history"], label="{" + ", ".join(e["candidate"]) + "}")
-    ax.set_xlabel("generation")
-    ax.set_ylabel("best fitness")
+        n = len(e["history"])
+        ax.plot(np.arange(1, n + 1), e["history"],
+                label="{" + ", ".join(e["candidate"]) + "}" + f": {e.get('evaluations', 0):,} evaluations "
+                f"in {n} generations".replace(",", "\u2009"))
+    ax.set_xlabel("generation of the estimator's search (one population of candidate faults evaluated by eq. 24 each)",
+                  fontsize=8)
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.set_ylabel("best fitness 1/(cost + \u03b5) [-]")
+    ax.yaxis.set_major_formatter(EngFormatter())
+    ax.set_title("identification: best fitness per generation", fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
@@ -151,8 +204,8 @@ def _profile_figure(plt, report: dict, faults: list[dict], t: np.ndarray, model)
         if not np.isfinite(nominal):
             ax.text(0.01, 0.9, "nominal value: infinite (a healthy part)", transform=ax.transAxes, fontsize=8)
         ax.set_title(f"{f['name']}: identified {f['type']} profile", fontsize=9)
-        ax.set_ylabel(f"{f['name']} [{fault_unit(model, f['name'])}]")
-        ax.set_xlabel("t [s]")
+        unit_axis(ax.yaxis, fault_unit(model, f["name"]), f["name"])
+        _time_axis(ax)
         ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
     return fig
@@ -178,8 +231,8 @@ def _rul_figure(plt, prog: dict, f: dict, t0: float, model):
         ax.axvspan(prog["at"] + low, prog["at"] + high, color="r", alpha=0.12,
                    label=f"RUL band {low:.1f}-{high:.1f} s (95 % coefficient intervals)")
     ax.legend(fontsize=7)
-    ax.set_ylabel(f"{prog['name']} [{fault_unit(model, prog['name'])}]")
-    ax.set_xlabel("t [s]")
+    unit_axis(ax.yaxis, fault_unit(model, prog["name"]), prog["name"])
+    _time_axis(ax)
     fig.tight_layout()
     return fig
 
@@ -201,22 +254,41 @@ def _data_window(report: dict, t: np.ndarray) -> tuple[float, float]:
     return float(start), float(min(max(end, start), t[-1]))
 
 
-def _mode_figure(plt, report: dict):
+def _mode_figure(plt, report: dict, model=None):
     """The fault-mode estimate (the paper's Fig. 8): the weighted residual cost, eq. (24), of every
     combination of the suspected mode variables on the identification window; the estimate is the
-    lowest, the mode in force before the detection is marked."""
+    lowest and is labelled so; the mode in force at the detection is marked where it differs (the
+    report's ``mode`` is the estimate once a fault mode is diagnosed, so the mode at t_D is the
+    estimate with each mode fault's variable switched back)."""
+    from matplotlib.ticker import EngFormatter, LogLocator
+
     rows = report["mode_costs"]
     labels = [" ".join(f"{k}={v}" for k, v in r["mode"].items()) for r in rows]
     costs = [r["cost"] for r in rows]
     estimate = report.get("mode_estimate") or {}
+    faults = getattr(model, "faults", {})
+    faulted = {(faults[f["name"]].targets[0] if f["name"] in faults else f["name"]): f.get("value")
+               for f in report["diagnosis"]["faults"] if f["type"] == "mode"}
+    before = {k: (1 - v if k in faulted and v in (0, 1) else v) for k, v in estimate.items()}
+    if not faulted:
+        before = {k: report["mode"].get(k) for k in estimate}
     fig, ax = plt.subplots(figsize=(7, 0.5 * len(rows) + 1.6))
-    colors = ["C3" if all(estimate.get(k) == v for k, v in r["mode"].items()) else "C0" for r in rows]
-    ax.barh(range(len(rows)), costs, color=colors)
+    is_estimate = [all(estimate.get(k) == v for k, v in r["mode"].items()) for r in rows]
+    ax.barh(range(len(rows)), costs, color=["C3" if e else "C0" for e in is_estimate])
     ax.set_yticks(range(len(rows)), labels)
     for i, r in enumerate(rows):
-        if all(report["mode"].get(k) == v for k, v in r["mode"].items()):
-            ax.text(costs[i], i, "  mode before t_D", va="center", fontsize=8)
+        at_detection = all(before.get(k) == v for k, v in r["mode"].items())
+        if is_estimate[i]:
+            text = "  estimate (lowest cost)" + (": no mode change" if at_detection else ": a fault mode")
+        elif at_detection:
+            text = "  mode at t_D"
+        else:
+            continue
+        ax.text(costs[i], i, text, va="center", fontsize=8)
     ax.set_xscale("log")
+    ax.xaxis.set_major_formatter(EngFormatter())
+    ax.xaxis.set_minor_locator(LogLocator(subs=(2.0, 3.0, 5.0)))   # minor ticks labelled, not crowded (9 k by 10 k)
+    ax.xaxis.set_minor_formatter(EngFormatter())
     ax.set_xlabel("weighted residual cost, eq. (24) [-] (red: the estimate)")
     ax.set_title("fault-mode estimate", fontsize=9)
     fig.tight_layout()

@@ -46,10 +46,76 @@ LINE = 110      # characters of LaTeX per line of a broken ARR (a page holds abo
 
 def arr_latex_lines(arr: ARR) -> list[str]:
     """The ARR's terms in lines of about LINE characters (an align row each): a long ARR breaks
-    between its terms instead of running off the page."""
+    between its terms instead of running off the page. A term longer than a line (a fraction or
+    a product cannot be broken inside) has sub-expressions named first (:func:`arr_latex_parts`);
+    this gives the lines of the named form, without the definitions."""
+    return arr_latex_parts(arr)[0]
+
+
+MIN_NAMED = 30  # characters of LaTeX: a shorter sub-expression (1/beta, xi^2 + 1) is not worth a name
+
+
+def _abbreviate(e: sp.Expr, names: dict, limit: int = LINE) -> tuple[sp.Expr, list[tuple[sp.Symbol, sp.Expr]]]:
+    """``e`` with sub-expressions named xi_1, xi_2 ... until every term of it is at most ``limit``
+    characters of LaTeX, and the definitions in order (each one line: a named sub-expression is
+    chosen no longer than ``limit``). The sub-expression named first is the one that saves the most
+    characters, its length times how often it occurs (so a repeated tan(theta2/beta) goes before
+    a long part that occurs once)."""
+    def size(x: sp.Expr) -> int:
+        return len(sp.latex(x, symbol_names=names))
+
+    taken = {str(s) for s in e.free_symbols}
+    defs: list[tuple[sp.Symbol, sp.Expr]] = []
+    for _ in range(200):                      # each step shortens the longest term; 200 is far more than needed
+        long = [t for t in sp.Add.make_args(e) if size(t) > limit]
+        if not long:
+            break
+        term = max(long, key=size)
+        counts: dict[sp.Expr, int] = {}
+        for sub in sp.preorder_traversal(e):
+            counts[sub] = counts.get(sub, 0) + 1
+        candidates = [x for x in set(sp.preorder_traversal(term))
+                      if x is not term and not x.is_Atom and MIN_NAMED <= size(x) <= limit]
+        k = len(defs) + 1
+        while f"xi_{k}" in taken:
+            k += 1
+        sym = sp.Symbol(f"xi_{k}")
+        taken.add(sym.name)
+        if not candidates:        # a sum or product of many short parts: name its first parts that fit a line
+            sums = [x for x in sp.preorder_traversal(term) if (x.is_Add or x.is_Mul) and size(x) > limit]
+            if not sums:
+                break
+            whole = min(sums, key=size)
+            chunk: list[sp.Expr] = []
+            for arg in whole.args:
+                if len(chunk) >= 2 and size(whole.func(*chunk, arg)) > limit:
+                    break
+                chunk.append(arg)
+            if len(chunk) == len(whole.args):
+                break
+            defs.append((sym, whole.func(*chunk)))
+            e = e.xreplace({whole: whole.func(sym, *whole.args[len(chunk):])})
+            continue
+        best = max(candidates, key=lambda x: (size(x) * counts.get(x, 1), size(x)))
+        negated = best.is_Mul and best.args[0] == -1          # -J1*theta1''/k3 named for J1*theta1''/k3
+        defs.append((sym, -best if negated else best))
+        e = e.xreplace({best: -sym if negated else sym})
+    return e, defs
+
+
+def arr_latex_parts(arr: ARR) -> tuple[list[str], list[tuple[str, str]]]:
+    """The ARR's lines (see :func:`arr_latex_lines`) and its named sub-expressions as (name,
+    LaTeX) pairs: the CyCab's ARR3, whose first term is one fraction of 2 233 characters, becomes
+    lines of at most LINE characters with a few definitions, each one line."""
     e = _display(arr.expr, latex=True)
     names = _names(e)
+    e, defs = _abbreviate(e, names)
     terms = [sp.latex(t, symbol_names=names) for t in sp.Add.make_args(e)] if e.is_Add else [sp.latex(e, symbol_names=names)]
+    return _pack(terms), [(sp.latex(s), sp.latex(x, symbol_names=names)) for s, x in defs]
+
+
+def _pack(terms: list[str]) -> list[str]:
+    """Terms joined with their signs into lines of at most about LINE characters."""
     lines, current = [], ""
     for k, t in enumerate(terms):
         piece = t if k == 0 else (f" - {t[1:].lstrip()}" if t.startswith("-") else f" + {t}")
@@ -126,13 +192,17 @@ def to_latex(arrs: list[ARR], fsms: list[FSM], mcsm: MCSM) -> str:
            r"% \documentclass{article}\usepackage{amsmath}\begin{document} <this> \end{document}",
            r"\begin{align}"]
     for a in arrs:
-        lines = arr_latex_lines(a)
+        lines, defs = arr_latex_parts(a)
         out.append(rf"  \mathrm{{{a.name}}}:\quad 0 &= {lines[0]} \\")
         out[-1] = out[-1].replace(r" \\", r" \nonumber \\") if len(lines) > 1 else out[-1]
         out += [rf"  &\quad {line} \nonumber \\" for line in lines[1:-1]]
         out += [rf"  &\quad {lines[-1]} \\"] if len(lines) > 1 else []   # the number on the ARR's last line
-    out[-1] = out[-1].rstrip(" \\")
-    out.append(r"\end{align}")
+        for k, (name, value) in enumerate(defs):      # named sub-expressions, one line each, unnumbered
+            lead = r"\text{where}\quad " if k == 0 else ""
+            out.append(rf"  {lead}{name} &= {value} \nonumber \\")
+        out[-1] = out[-1].rstrip(" \\")
+        out += [r"\end{align}", r"\begin{align}"]       # one align per ARR: a page may break between them
+    out = out[:-1]
     for fsm in fsms:
         cols = len(fsm.columns) + 1
         out += ["", r"\begin{table}[ht]", r"\centering",

@@ -75,12 +75,27 @@ def test_plot_returns_figures():
     figures = d.plot()
     assert {"residuals", "fitness", "profiles", "mode_estimate"} <= set(figures)
     # units from the model: ARR1 is a torque balance (N*m), R4's leak law sqrt|dp|/R4 gives Pa^0.5*s/m^3
+    from matplotlib.ticker import EngFormatter
     labels = [ax.get_ylabel() for ax in figures["residuals"].axes]
-    assert labels[0] == "ARR1 [N*m]"
-    assert [ax.get_ylabel() for ax in figures["profiles"].axes][0] == "R4 [Pa^0.5*s/m^3]"
+    assert labels[0] == "ARR1"                         # the unit in the ticks, with an SI prefix: 10 N·m
+    arr1 = figures["residuals"].axes[0].yaxis.get_major_formatter()
+    assert isinstance(arr1, EngFormatter) and arr1.unit == "N\u00b7m" and arr1(2.2e-3) == "2.2 mN\u00b7m"
+    arr2 = figures["residuals"].axes[1]              # m³/s takes no prefix: the prefix in the ticks, the unit in the label
+    assert arr2.get_ylabel() == "ARR2 [m\u00b3/s]" and arr2.yaxis.get_major_formatter()(5e-4) == "500 \u00b5"
+    time_axis = figures["residuals"].axes[-1]
+    assert time_axis.get_xlabel() == "time t" and time_axis.xaxis.get_major_formatter().unit == "s"
+    r4 = figures["profiles"].axes[0]
+    assert r4.get_ylabel() == "R4 [Pa^0.5\u00b7s/m\u00b3]" and r4.yaxis.get_major_formatter()(2.5e7) == "25 M"
+    beta = figures["profiles"].axes[1].yaxis.get_major_formatter()
+    assert figures["profiles"].axes[1].get_ylabel() == "beta_theta1 [-]" and not isinstance(beta, EngFormatter)
+    fitness = figures["fitness"].axes[0]
+    assert fitness.get_xlabel().startswith("generation of the estimator's search")
+    assert all("evaluations in" in label for label in fitness.get_legend_handles_labels()[1])
     # the fault-mode estimate (Fig. 8): coherence [1 1 0] suspects a broken belt; a2 = 1 costs least
     mode_axes = figures["mode_estimate"].axes[0]
     assert [t.get_text() for t in mode_axes.get_yticklabels()] == ["a2=0", "a2=1"]
+    notes = [t.get_text().strip() for t in mode_axes.texts]    # the estimate labelled as the estimate
+    assert notes == ["estimate (lowest cost): no mode change"]
     assert d.mode_fault.mode["a2"] == 1
     costs = {tuple(r["mode"].items()): r["cost"] for r in d.to_dict()["mode_costs"]}
     assert costs[(("a2", 1),)] < costs[(("a2", 0),)]
@@ -88,6 +103,21 @@ def test_plot_returns_figures():
     for fig in figures.values():
         fig.canvas.draw()                      # renders, not only builds
         plt.close(fig)
+
+
+@pytest.mark.skipif(importlib.util.find_spec("matplotlib") is None, reason="the plot extra is not installed")
+def test_a_diagnosed_fault_mode_is_labelled_the_estimate_and_the_mode_at_detection_apart():
+    """Once a fault mode is diagnosed the report's mode is the estimate; the plot still marks the
+    mode in force at t_D on the other bar, and the estimate as the estimate."""
+    import matplotlib.pyplot as plt
+
+    from fdi.plots import _mode_figure
+    report = {"mode_costs": [{"mode": {"a2": 0}, "cost": 2.2e4}, {"mode": {"a2": 1}, "cost": 5.6e3}],
+              "mode_estimate": {"a2": 1}, "mode": {"a2": 1},
+              "diagnosis": {"faults": [{"name": "a2", "type": "mode", "value": 1}]}}
+    fig = _mode_figure(plt, report)
+    assert [t.get_text().strip() for t in fig.axes[0].texts] == ["mode at t_D", "estimate (lowest cost): a fault mode"]
+    plt.close(fig)
 
 
 def test_monitor_settings_given_in_a_notebook_replace_the_files():

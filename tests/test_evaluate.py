@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import pytest
 
-from fdi.app.evaluate import evaluate_scenario, format_scores, score, summary
+from fdi.app.evaluate import (evaluate_scenario, format_scores, prognostic_metrics, score, summary,
+                              trajectory_metrics)
 from fdi.app.resources import scenarios_dir
 from fdi.app.scenario import FaultEvent, load_scenario, run
 from fdi.data import Measurements
@@ -88,6 +89,46 @@ def test_the_summary_counts_band_coverage_and_reads_off_the_goals():
     assert "inside the 95 % band: 50 % of 2 checkpoints (2 with a prediction" in text and "(out of band)" in text
 
 
+def test_prognostic_horizon_relative_accuracy_and_convergence_by_hand():
+    # Saxena et al. 2010 on a designed trajectory: a fault from 10 s failing at 110 s (life 100 s),
+    # predictions at 30 %, 50 %, 70 %, 90 % of life; alpha = 0.2: PH bounds r* +- 20 s
+    onset, eol = 10.0, 110.0
+    rul = {40.0: None, 60.0: 75.0, 80.0: 32.0, 100.0: 10.0}        # no prediction at 40 s; true 50, 30, 10 s
+    traj = [{"fault": "P", "t": t, "true_rul": eol - t, "rul": r, "onset": onset, "eol": eol} for t, r in rul.items()]
+    m = prognostic_metrics(traj, eol, onset, alpha=0.2)
+    # 60 s: |75 - 50| = 25 > 20 outside; 80 s: |32 - 30| = 2 inside -> PH = 110 - 80 = 30 s
+    assert m["ph"] == pytest.approx(30.0)
+    # RA = 1 - |r* - r| / r*: 1 - 25/50, 1 - 2/30, 1 - 0/10; CRA their mean over the predictions made
+    assert m["ra"] == [None, pytest.approx(0.5), pytest.approx(1 - 2 / 30), pytest.approx(1.0)]
+    assert m["cra"] == pytest.approx((0.5 + 28 / 30 + 1.0) / 3)
+    # convergence of M = |error|: 25 s on [50, 70], 2 s on [70, 90], 0 s on [90, 100] (life time):
+    # area 20*25 + 20*2 = 540; x_c = (2400*25 + 3200*2) / 2 / 540 = 61.481; y_c = (20*625 + 20*4) / 2 / 540
+    x_c, y_c = 66400 / 2 / 540, 12580 / 2 / 540
+    assert m["convergence"] == pytest.approx(((x_c - 50.0) ** 2 + y_c ** 2) ** 0.5)
+    assert m["convergence"] == pytest.approx(16.356, abs=1e-3)
+    # a trajectory whose errors shrink sooner converges better (smaller); exact predictions: 0
+    sooner = [dict(p, rul=None if p["rul"] is None else p["true_rul"] + (3.0 if p["t"] == 60.0 else 0.0))
+              for p in traj]
+    assert prognostic_metrics(sooner, eol, onset)["convergence"] < m["convergence"]
+    exact = [dict(p, rul=p["true_rul"]) for p in traj]
+    assert prognostic_metrics(exact, eol, onset) == {"ph": pytest.approx(70.0), "ra": [1.0] * 4, "cra": 1.0,
+                                                     "convergence": 0.0}
+    never = [dict(p, rul=None if p["rul"] is None else p["true_rul"] * 4) for p in traj]
+    assert prognostic_metrics(never, eol, onset)["ph"] is None        # 4x: 30 s off even at 90 % of life
+    # per fault in a score, and in the summary and the text
+    drift = score("drift", [DRIFT], _report(31.0, [{"name": "P", "type": "incipient", "model": 2, "b": [-0.03]}]), {})
+    drift.rul = [dict(p, fraction=f, error=None if p["rul"] is None else (p["rul"] - p["true_rul"]) / p["true_rul"],
+                      alpha_ok=False, rul_low=None, rul_high=None, covered=False)
+                 for p, f in zip(traj, (0.3, 0.5, 0.7, 0.9))]
+    (per_fault,) = drift.prognostics = trajectory_metrics(drift.rul)
+    assert per_fault["ph"] == pytest.approx(30.0) and per_fault["ph_fraction"] == pytest.approx(0.3)
+    assert per_fault["predictions"] == 3 and drift.rul[1]["ra"] == pytest.approx(0.5)
+    totals = summary([drift])
+    assert totals["prognostic_horizon_fraction_median"] == pytest.approx(0.3)
+    assert totals["cumulative_relative_accuracy_median"] == pytest.approx(m["cra"])
+    assert "prognostic horizon (alpha 0.2 of life) median 30 % of life" in format_scores([drift], totals)
+
+
 def test_one_scenario_end_to_end_with_its_rul_checkpoints():
     # the data from the independent reference plant (the design's "plant": "cycab")
     s = evaluate_scenario(str(CYCAB), scenarios_dir() / "suite_cycab_steering" / "theta2_incipient17.json")
@@ -98,6 +139,9 @@ def test_one_scenario_end_to_end_with_its_rul_checkpoints():
     for r in s.rul:
         assert r["rul"] is not None and abs(r["error"]) < 0.125 and r["alpha_ok"]
         assert r["rul_low"] <= r["rul"] <= r["rul_high"]
+        assert r["ra"] == pytest.approx(1 - abs(r["error"]))
+    (m,) = s.prognostics                     # within alpha = 20 % of life at 50 %: PH = half the life
+    assert m["ph_fraction"] == pytest.approx(0.5) and m["cra"] > 0.875 and m["convergence"] is not None
 
 
 

@@ -19,6 +19,8 @@ prognostic performance", IJPHM 2010: relative accuracy and alpha-lambda accuracy
   accuracy: the prediction within alpha = 20 % of the true RUL (lambda measured from the onset);
   and the **RUL band's coverage**: whether the true RUL lies inside the prognosis' 95 % band
   (``Prognosis.rul_low``-``rul_high``); a checkpoint without a prediction is not covered;
+- **prognostic horizon, relative accuracy, convergence** of each incipient fault's RUL trajectory
+  (its checkpoints, :func:`prognostic_metrics`), as Saxena et al. (2010) define them;
 - **sub-threshold designs** (``"expect": "nothing"``): faults too small to cross the thresholds;
   right when nothing is detected, a false alarm otherwise.
 
@@ -70,6 +72,7 @@ class Score:
     expect_nothing: bool = False          # a sub-threshold design: right when nothing is reported
     diagnosed: list[dict] = field(default_factory=list)   # the faults found: name, type, model and fitted values
     duration: float | None = None         # s, the run's length
+    prognostics: list[dict] = field(default_factory=list)  # per incipient fault: PH, CRA, convergence
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -128,8 +131,11 @@ def score(name: str, events: list[FaultEvent], report: dict, mode_names: dict[st
                  identification_errors(events, faults))
 
 
-def evaluate_scenario(model_path: str, scenario_path: str | Path, options: Options | None = None) -> Score:
-    """Simulate one scenario, diagnose it, score it; RUL checkpoints for its incipient faults."""
+def evaluate_scenario(model_path: str, scenario_path: str | Path, options: Options | None = None,
+                      life_points: tuple[float, ...] = LIFE_POINTS) -> Score:
+    """Simulate one scenario, diagnose it, score it; RUL checkpoints for its incipient faults at the
+    fractions ``life_points`` of their lives (each costs a diagnosis: more points give the
+    prognostic horizon and convergence a finer trajectory, 50 % and 90 % by default)."""
     o = options or Options()
     c = compiled(model_path)
     model, config = c.model, c.config
@@ -149,8 +155,28 @@ def evaluate_scenario(model_path: str, scenario_path: str | Path, options: Optio
     s.diagnosed = [{k: f[k] for k in ("name", "type", "model", "t0", "value", "period", "b") if f.get(k) is not None}
                    for f in report["diagnosis"]["faults"]]
     if not s.expect_nothing:
-        s.rul = rul_checkpoints(model_path, model, config, scenario, meas, report, o)
+        s.rul = rul_checkpoints(model_path, model, config, scenario, meas, report, o, life_points)
+        s.prognostics = trajectory_metrics(s.rul)
     return s
+
+
+def trajectory_metrics(checkpoints: list[dict], alpha: float = ALPHA) -> list[dict]:
+    """:func:`prognostic_metrics` of each fault's checkpoints that the run reaches; each
+    checkpoint gets its relative accuracy ``ra`` (None without a prediction)."""
+    out = []
+    for name in dict.fromkeys(r["fault"] for r in checkpoints):
+        points = sorted((r for r in checkpoints if r["fault"] == name and "run ends" not in r.get("note", "")),
+                        key=lambda r: r["t"])
+        if not points:
+            continue
+        eol, onset = points[0]["eol"], points[0]["onset"]
+        m = prognostic_metrics(points, eol, onset, alpha)
+        for r, ra in zip(points, m["ra"]):
+            r["ra"] = ra
+        out.append({"fault": name, "onset": onset, "eol": eol, "alpha": alpha, "ph": m["ph"],
+                    "ph_fraction": None if m["ph"] is None else m["ph"] / (eol - onset), "cra": m["cra"],
+                    "convergence": m["convergence"], "predictions": sum(r["rul"] is not None for r in points)})
+    return out
 
 
 def true_end_of_life(model, scenario: Scenario, e: FaultEvent, failure: float) -> float:
@@ -163,7 +189,7 @@ def true_end_of_life(model, scenario: Scenario, e: FaultEvent, failure: float) -
 
 
 def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements, report: dict,
-                    o: Options) -> list[dict]:
+                    o: Options, life_points: tuple[float, ...] = LIFE_POINTS) -> list[dict]:
     """For each incipient design fault with a failure value: the RUL the toolkit gives at 50 % and
     90 % of its life (the data up to then diagnosed and refitted), against the true RUL."""
     out = []
@@ -174,10 +200,11 @@ def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements
         eol = true_end_of_life(model, scenario, e, failure)
         if not math.isfinite(eol):
             continue
-        for fraction in LIFE_POINTS:
+        for fraction in life_points:
             at = e.t0 + fraction * (eol - e.t0)
             entry = {"fault": e.target, "fraction": fraction, "t": at, "true_rul": eol - at, "rul": None,
-                     "error": None, "alpha_ok": False, "rul_low": None, "rul_high": None, "covered": False}
+                     "error": None, "alpha_ok": False, "rul_low": None, "rul_high": None, "covered": False,
+                     "ra": None, "onset": e.t0, "eol": eol}
             k = int(np.searchsorted(meas.t, at, side="right"))
             if at > meas.t[-1]:
                 entry["note"] = "the run ends before this point of life"
@@ -209,8 +236,70 @@ def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements
     return out
 
 
+def relative_accuracy(true_rul: float, rul: float) -> float:
+    """Saxena et al. (2010), eq. of RA: 1 - |r* - r| / r* at one time (1 is perfect; negative when
+    the error exceeds the true RUL)."""
+    return 1.0 - abs(true_rul - rul) / true_rul
+
+
+def prognostic_metrics(trajectory: list[dict], eol: float, onset: float, alpha: float = ALPHA) -> dict:
+    """Prognostic horizon, relative accuracy and convergence of one fault's RUL trajectory
+    (Saxena, Celaya, Saha, Saha, Goebel, "Metrics for offline evaluation of prognostic
+    performance", IJPHM 1(1), 2010, sec. 6). ``trajectory``: the predictions in time order, each a
+    dict with ``t`` (s, when it was made), ``true_rul`` and ``rul`` (None: no prediction there).
+    Time is the fault's life: from its ``onset`` (the paper's time 0) to the true ``eol``, so the
+    paper's t_EoL is ``eol - onset`` here.
+
+    - **prognostic horizon** PH = t_EoL - t_i, i the first prediction within the alpha bounds
+      r*(t_i) +- alpha * t_EoL (bounds of constant width, unlike alpha-lambda's shrinking cone);
+      None if no prediction is ever within them. Longer is better.
+    - **relative accuracy** RA = 1 - |r* - r| / r* of each prediction (``ra``, None where there is
+      none) and the cumulative relative accuracy CRA, their mean over the predictions made.
+    - **convergence** C_M = sqrt((x_c - t_P)^2 + y_c^2) (s): the distance from the first prediction
+      t_P to the centroid (x_c, y_c) of the area under M(t) = |r* - r| (s), M(i) held from its
+      prediction to the next and the last to t_EoL:
+      x_c = 1/2 sum (t_{i+1}^2 - t_i^2) M(i) / sum (t_{i+1} - t_i) M(i),
+      y_c = 1/2 sum (t_{i+1} - t_i) M(i)^2 / sum (t_{i+1} - t_i) M(i).
+      Smaller is better (errors small, and small early); 0 when every prediction is exact; None
+      without predictions.
+
+    A designed trajectory (life 100 s; predictions at 50, 70, 90 s of 75, 32, 10 s for true RULs of
+    50, 30, 10 s; alpha 0.2, so the PH bounds are +-20 s): 25 s off at 50 s, inside from 70 s, so
+    PH = 30 s; RA = 0.5, 0.933, 1; M = 25, 2, 0 s over 20, 20, 10 s gives x_c = 61.48 s, y_c = 11.65 s:
+
+    >>> traj = [{"t": t, "true_rul": 100 - t, "rul": r} for t, r in ((50, 75), (70, 32), (90, 10))]
+    >>> m = prognostic_metrics(traj, eol=100.0, onset=0.0)
+    >>> m["ph"], [round(x, 4) for x in m["ra"]], round(m["cra"], 4), round(m["convergence"], 3)
+    (30.0, [0.5, 0.9333, 1.0], 0.8111, 16.356)
+    """
+    life = eol - onset
+    made = [(float(p["t"]) - onset, float(p["true_rul"]), float(p["rul"])) for p in trajectory
+            if p.get("rul") is not None and math.isfinite(p["rul"])]
+    ph = next((life - t for t, true, r in made if abs(r - true) <= alpha * life), None)
+    ra = [None if p.get("rul") is None or not math.isfinite(p["rul"]) else relative_accuracy(p["true_rul"], p["rul"])
+          for p in trajectory]
+    done = [x for x in ra if x is not None]
+    convergence = None
+    if made:
+        times = [t for t, _, _ in made] + [life]
+        m = [abs(true - r) for _, true, r in made]
+        area = sum((b - a) * e for a, b, e in zip(times, times[1:], m))
+        if area > 0:
+            x_c = 0.5 * sum((b * b - a * a) * e for a, b, e in zip(times, times[1:], m)) / area
+            y_c = 0.5 * sum((b - a) * e * e for a, b, e in zip(times, times[1:], m)) / area
+            convergence = math.hypot(x_c - times[0], y_c)
+        else:
+            convergence = 0.0
+    return {"ph": ph, "ra": ra, "cra": float(np.mean(done)) if done else None, "convergence": convergence}
+
+
 def _fraction(flags: list[bool]) -> float | None:
     return float(np.mean(flags)) if flags else None
+
+
+def _median(xs: list) -> float | None:
+    xs = [x for x in xs if x is not None]
+    return float(np.median(xs)) if xs else None
 
 
 def summary(scores: list[Score]) -> dict:
@@ -252,6 +341,11 @@ def summary(scores: list[Score]) -> dict:
         "nominal_false_alarms": sum(s.false_alarm for s in nominal),
         "longest_nominal": None if longest is None else {"name": longest.name, "duration_s": longest.duration,
                                                          "false_alarm": longest.false_alarm},
+        "prognostic_horizon_fraction_median": _median([p["ph_fraction"] for s in scores for p in s.prognostics]),
+        "prognostic_horizon_found": _fraction([p["ph"] is not None for s in scores for p in s.prognostics]),
+        "relative_accuracy_90": _median([r["ra"] for r in late if r.get("ra") is not None]),
+        "cumulative_relative_accuracy_median": _median([p["cra"] for s in scores for p in s.prognostics]),
+        "convergence_median_s": _median([p["convergence"] for s in scores for p in s.prognostics]),
         "subthreshold": len(quiet_designs),
         "subthreshold_quiet": sum(not s.false_alarm for s in quiet_designs),
         "subthreshold_reported": [s.name for s in quiet_designs if s.false_alarm],
@@ -271,6 +365,10 @@ def summary(scores: list[Score]) -> dict:
 
 def _pct(x) -> str:
     return "-" if x is None else f"{100 * x:.0f} %"
+
+
+def _num(x, unit: str = "") -> str:
+    return "-" if x is None else f"{x:.3g}{unit}"
 
 
 def _band(r: dict) -> str:
@@ -308,6 +406,10 @@ def format_scores(scores: list[Score], totals: dict) -> str:
               f"RUL: median |error| {_pct(t['rul_error_50'])} at 50 % of life, {_pct(t['rul_error_90'])} at 90 %; "
               f"alpha-lambda accuracy (alpha {ALPHA:g}) {_pct(t['alpha_lambda_50'])} at 50 %, "
               f"{_pct(t['alpha_lambda_90'])} at 90 %",
+              f"prognostic horizon (alpha {ALPHA:g} of life) median {_pct(t.get('prognostic_horizon_fraction_median'))} "
+              f"of life, found for {_pct(t.get('prognostic_horizon_found'))} of the drifts; relative accuracy at 90 %: "
+              f"{_num(t.get('relative_accuracy_90'))}, cumulative (median) {_num(t.get('cumulative_relative_accuracy_median'))}; "
+              f"convergence (median) {_num(t.get('convergence_median_s'), ' s')}",
               f"RUL within {100 * RUL_TOLERANCE:g} % at 90 % of life: {_pct(t.get('rul_within_12_5pct_at_90'))}; "
               f"true RUL inside the 95 % band: {_pct(t.get('rul_band_coverage'))} of {t.get('rul_checkpoints', 0)} "
               f"checkpoints ({t.get('rul_predicted', 0)} with a prediction; goal {_pct(COVERAGE_GOAL)})",
