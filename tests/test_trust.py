@@ -176,8 +176,18 @@ def test_a_link_another_user_owns_in_a_sticky_folder_is_not_followed_as_any_user
     assert link.is_symlink() and victim.read_text(encoding="utf-8") == "new\n"
 
 
+@pytest.fixture
+def interactive_sigint():
+    """SIGINT raising KeyboardInterrupt, as it does in a terminal: a test run started in the
+    background (``pytest &``, nohup) inherits SIGINT ignored, and Python keeps it so."""
+    import signal
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, old)
+
+
 @pytest.mark.parametrize("signum", ["SIGTERM", "SIGINT"])
-def test_a_signal_during_a_write_leaves_the_old_file_and_no_partial_one(tmp_path, signum):
+def test_a_signal_during_a_write_leaves_the_old_file_and_no_partial_one(tmp_path, signum, interactive_sigint):
     """The signal arrives after half the pieces were written: the target keeps its old content,
     no hidden temporary file stays in the folder, and the signal ends the write (Terminated for
     SIGTERM, KeyboardInterrupt for SIGINT)."""
@@ -202,7 +212,7 @@ def test_a_signal_during_a_write_leaves_the_old_file_and_no_partial_one(tmp_path
 
 @pytest.mark.parametrize("signum, code", [("SIGTERM", 143), ("SIGHUP", 129), ("SIGINT", 130)])
 def test_a_signal_during_simulate_s_output_ends_the_command_and_keeps_the_old_file(tmp_path, capsys, monkeypatch,
-                                                                                  signum, code):
+                                                                                  signum, code, interactive_sigint):
     """``bgfdi simulate M sc.json -o out.csv`` signalled after the header and a block of rows
     went into the temporary file: exit 128 + the signal, one line, the old out.csv byte for byte,
     no .part left (the signal is sent from inside the CSV's pieces, so it lands mid-write)."""
