@@ -550,6 +550,9 @@ def _sensors(ctx, data, symbols, claim, column_symbols, columns) -> dict[str, Se
             column = _ref(ctx, spec.get("column", name), where + ("column",), "column")
             if columns and column not in columns:
                 raise ctx.error(where + ("column",), f"column '{column}' is not among data.columns {list(columns)}")
+            if str(column) == "t":
+                raise ctx.error(where + ("column",), f"sensor '{name}' reads column 't', the time (s) of every "
+                                                     "measurement file; give it the column of its measurement")
             signal = sp.Symbol(str(column), real=True)
         outputs = {}
         for col, text in _mapping(ctx, spec.get("columns"), where + ("columns",)).items():

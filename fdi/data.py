@@ -94,7 +94,9 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
     With ``cut`` (a stream: the monitor), a last row with fewer values than the header, a stream
     cut while a row was written, is dropped and ``cut(message)`` told; a short row anywhere
     else is an error, as it is in a file. ``on_header(header)`` is called once the header is read
-    and checked, before any row is waited for (the monitor's first event waits for it)."""
+    and checked, before any row is waited for (the monitor's first event waits for it); what it
+    raises is its own (a failed write of that event is standard output's error, not this file's)."""
+    in_callback = False
     try:
         lines = bounded_lines(fh, path)
         first = next(lines, "")
@@ -110,7 +112,9 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
             raise DataError(f"{path}: no 't' column in the header ({shown[:80]}); "
                             "the first column must be time in s")
         if on_header is not None:
+            in_callback = True
             on_header(header)
+            in_callback = False
         comma = delimiter == ";"
         pending, count = [], 0
         width = len(header)
@@ -160,6 +164,8 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
             block, pending = _numbers(path, pending, width, comma), []
             yield header, block
     except OSError as exc:
+        if in_callback:
+            raise
         what = exc.strerror or str(exc)
         raise DataError(f"{path}: cannot read ({what})") from None
     except (UnicodeDecodeError, UnicodeError) as exc:
@@ -206,6 +212,9 @@ def open_text(path: str | Path):
     try:
         if Path(path).is_dir():
             raise DataError(f"{path}: is a folder; give a measurement CSV file")
+        if str(path) == "-" and not Path(path).exists():
+            raise DataError("-: no file of that name; this command reads measurement files (a command's output as "
+                            "<(command)); a live stream on standard input is read by bgfdi monitor MODEL -")
         return _open_text(path)
     except (EOFError, zlib.error) as exc:            # gzip's magic bytes, then a cut or broken stream
         raise DataError(f"{path}: not a complete gzip file ({str(exc)[:80]})") from None

@@ -436,11 +436,19 @@ TARGETS = {"models": (model_texts(), check_model), "csv": (csv_files(), check_cs
            "api": (api_data(), check_api), "outputs": (output_cases(), check_outputs)}
 
 
-def run(target: str, cases: int, seed: int = 0) -> collections.Counter:
-    """``cases`` examples of one target, counted by outcome (the first crashes kept to reproduce)."""
+class OutOfTime(Exception):
+    """The target's time budget is spent: the cases run so far are its count."""
+
+
+def run(target: str, cases: int, seed: int = 0, seconds: float | None = None) -> collections.Counter:
+    """``cases`` examples of one target, counted by outcome (the first crashes kept to reproduce);
+    with ``seconds``, stop at the first case that would start after that budget (the counts are
+    then of the cases actually run)."""
     strategy, fn = TARGETS[target]
     counts: collections.Counter = collections.Counter()
     examples: list[tuple[str, object]] = []
+    deadline = None if seconds is None else time.perf_counter() + seconds
+    worst: list = [0, None]                        # [kB the peak rose during one case, that case]
 
     base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss      # kB on Linux
 
@@ -448,7 +456,13 @@ def run(target: str, cases: int, seed: int = 0) -> collections.Counter:
               suppress_health_check=list(HealthCheck), derandomize=True)
     @given(strategy)
     def body(case):
+        if deadline is not None and time.perf_counter() > deadline:
+            raise OutOfTime()
+        before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
         outcome, _ = judge(lambda: fn(case))
+        rise = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before
+        if rise > worst[0]:                        # the case that raised the peak most (the peak only grows)
+            worst[:] = [rise, case]
         if resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base > MEMORY_KB and not counts["memory"]:
             outcome = "memory"                     # the peak only grows: the first case past 1 GB is counted
         counts[outcome.split(":")[0]] += 1
@@ -457,9 +471,13 @@ def run(target: str, cases: int, seed: int = 0) -> collections.Counter:
         if outcome not in ("ok", "error") and len(examples) < 8 and kind not in kinds:
             examples.append((outcome, case))       # the first of each kind of failure
 
-    body()
+    try:
+        body()
+    except OutOfTime:
+        counts["_out_of_time"] = 1  # type: ignore[assignment]
     counts["_peak_mb"] = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base) // 1024  # type: ignore[assignment]
     counts["_examples"] = examples  # type: ignore[assignment]
+    counts["_worst"] = (worst[0] // 1024, worst[1])  # type: ignore[assignment]
     return counts
 
 
@@ -467,6 +485,8 @@ def main_fuzz(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("targets", nargs="*", help=f"some of {', '.join(TARGETS)} (default: all)")
     ap.add_argument("--cases", type=int, default=10000)
+    ap.add_argument("--seconds", type=float, default=None,
+                    help="stop each target after this many seconds (the counts say how many cases ran)")
     args = ap.parse_args(argv)
     unknown = [t for t in args.targets if t not in TARGETS]
     if unknown:
@@ -474,14 +494,18 @@ def main_fuzz(argv: list[str] | None = None) -> int:
     bad = 0
     for target in args.targets or list(TARGETS):
         t0 = time.perf_counter()
-        c = run(target, args.cases)
+        c = run(target, args.cases, seconds=args.seconds)
         examples = c.pop("_examples")
         peak = c.pop("_peak_mb")
+        stopped = c.pop("_out_of_time", 0)
+        worst_mb, worst_case = c.pop("_worst")
         broken = c["crash"] + c["slow"] + c["hang"] + c["memory"]
         bad += broken
         print(f"{target:10s} {sum(c.values()):6d} cases: {c['ok']} ok, {c['error']} refused with one line, "
               f"{c['crash']} crashes, {c['slow']} slower than {SLOW_S:g} s, {c['hang']} hangs, "
-              f"{c['memory']} past 1 GB (peak +{peak} MB) ({time.perf_counter() - t0:.0f} s)", flush=True)
+              f"{c['memory']} past 1 GB (peak +{peak} MB) ({time.perf_counter() - t0:.0f} s"
+              f"{'; stopped by --seconds' if stopped else ''})", flush=True)
+        print(f"    largest rise of the peak in one case: +{worst_mb} MB, input: {worst_case!r:.160}")
         for outcome, case in examples:
             print(f"    {outcome}\n      input: {case!r:.300}")
     return 1 if bad else 0

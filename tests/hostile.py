@@ -13,7 +13,9 @@ Unicode-normalised (data headers, model names and columns, scenario keys), two s
 column, constant calibration data, outputs that are inputs, unbounded lines (``/dev/zero``), a
 FIFO in a suite folder, a ``--plot`` folder that cannot be created; its second round a FIFO
 with no writer given directly (scenario, data, stream, calibration run, model), a stream whose
-header is for another model, and line ends and encodings the reader sizes its arrays from.
+header is for another model, and line ends and encodings the reader sizes its arrays from; its
+third round file names and option values with line ends and terminal escapes (shown escaped, on
+one line) and ``diagnose M -``.
 """
 from __future__ import annotations
 
@@ -221,5 +223,11 @@ CASES: list[tuple[str, dict, list[str], str]] = [
     ("evaluate-fifo-scenario", {"s.json": Fifo()}, ["evaluate", CYCAB, "{s.json}"], "error"),
     ("monitor-other-model-header", {"d.csv": "t,a,b\n0,1,2\n0.01,1,2\n"}, ["monitor", CYCAB, "{d.csv}"], "error"),
     ("data-cr-line-ends", *data(SHORT.replace("\n", "\r")), "ok"),
-    ("data-utf16", *data(SHORT.encode("utf-16")), "ok"),
+    # ------------------------------------------------------------------ issue 23, third round
+    ("file-name-line-end-and-escape", {"a\nb\x1b[2J.csv": SHORT},
+     ["diagnose", CYCAB, "{a\nb\x1b[2J.csv}", "--workers", "1", "-o", "{a\nb\x1b[2J.csv}"], "error"),
+    ("option-value-line-end", {}, ["diagnose", CYCAB, "{out}/d.csv", "--engine", "a\nb"], "error"),
+    ("diagnose-dash", {}, ["diagnose", CYCAB, "-"], "error"),
+    ("model-sensor-reads-time", *check(tank("p2: {type: De, junction: J2, column: p2",
+                                            "p2: {type: De, junction: J2, column: t")), "error"),
 ]

@@ -72,6 +72,8 @@ def verdict(expect: str, rc, out: str, err: str) -> str | None:
     lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith(("usage:", "bgfdi: warning:"))]
     if "Traceback" in err or len(lines) != 1:
         return f"{len(lines)} error lines: {err.strip()[:300]}"
+    if "\x1b" in err:
+        return f"a terminal escape reached standard error: {err.strip()[:300]!r}"
     return None
 
 

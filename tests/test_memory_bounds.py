@@ -8,6 +8,7 @@ from __future__ import annotations
 import gzip
 import os
 import threading
+import time
 import tracemalloc
 
 import numpy as np
@@ -71,6 +72,7 @@ def test_a_pipe_of_unknown_length_is_read_whole(tmp_path):
             fh.write(text)
     writer = threading.Thread(target=write, daemon=True)
     writer.start()
+    time.sleep(0.3)             # the writer waits in open(): started first, as <(command) is (fdi.inputs)
     data = read_csv(fifo)
     writer.join(10)
     for name, values in cols.items():

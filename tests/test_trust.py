@@ -176,8 +176,18 @@ def test_a_link_another_user_owns_in_a_sticky_folder_is_not_followed_as_any_user
     assert link.is_symlink() and victim.read_text(encoding="utf-8") == "new\n"
 
 
+@pytest.fixture
+def interactive_sigint():
+    """SIGINT raising KeyboardInterrupt, as it does in a terminal: a test run started in the
+    background (``pytest &``, nohup) inherits SIGINT ignored, and Python keeps it so."""
+    import signal
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, old)
+
+
 @pytest.mark.parametrize("signum", ["SIGTERM", "SIGINT"])
-def test_a_signal_during_a_write_leaves_the_old_file_and_no_partial_one(tmp_path, signum):
+def test_a_signal_during_a_write_leaves_the_old_file_and_no_partial_one(tmp_path, signum, interactive_sigint):
     """The signal arrives after half the pieces were written: the target keeps its old content,
     no hidden temporary file stays in the folder, and the signal ends the write (Terminated for
     SIGTERM, KeyboardInterrupt for SIGINT)."""
@@ -198,6 +208,39 @@ def test_a_signal_during_a_write_leaves_the_old_file_and_no_partial_one(tmp_path
     assert target.read_text(encoding="utf-8") == "old\n"
     assert [p.name for p in tmp_path.iterdir()] == ["report.csv"]
     assert signal.getsignal(signal.SIGTERM) == before               # the handler set back
+
+
+@pytest.mark.parametrize("signum, code", [("SIGTERM", 143), ("SIGHUP", 129), ("SIGINT", 130)])
+def test_a_signal_during_simulate_s_output_ends_the_command_and_keeps_the_old_file(tmp_path, capsys, monkeypatch,
+                                                                                  signum, code, interactive_sigint):
+    """``bgfdi simulate M sc.json -o out.csv`` signalled after the header and a block of rows
+    went into the temporary file: exit 128 + the signal, one line, the old out.csv byte for byte,
+    no .part left (the signal is sent from inside the CSV's pieces, so it lands mid-write)."""
+    import signal
+
+    from fdi.app import cli
+    if not hasattr(signal, signum):
+        pytest.skip(f"no {signum}")
+    scenario = tmp_path / "sc.json"
+    scenario.write_text('{"seed": 1, "T": 5, "fs": 100}', encoding="utf-8")
+    out = tmp_path / "out.csv"
+    out.write_text("old\n", encoding="utf-8")
+    real = cli.write_atomic
+
+    def signalled(path, content):
+        def pieces():
+            for i, piece in enumerate([content] if isinstance(content, (str, bytes)) else content):
+                if i == 1:
+                    os.kill(os.getpid(), getattr(signal, signum))
+                yield piece
+        return real(path, pieces())
+    monkeypatch.setattr(cli, "write_atomic", signalled)
+    rc, err = _cli(["simulate", MODELS / "two_tank_valve.yaml", scenario, "-o", out], capsys)
+    assert rc == code
+    assert "Traceback" not in err and ("interrupted" in err if signum == "SIGINT" else
+                                       f"terminated by signal {getattr(signal, signum).value}" in err), err
+    assert out.read_text(encoding="utf-8") == "old\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv", "sc.json"]
 
 
 def test_a_plot_folder_that_cannot_be_written_is_refused_before_the_work(tmp_path, capsys):
@@ -270,6 +313,29 @@ def test_dataframes_with_a_repeated_column_or_cells_that_are_no_numbers_are_refu
         measurements({"t": [0.0, 0.1], "p": ["a", "b"]})
 
 
+def test_notebook_data_that_would_be_read_wrong_is_refused():
+    """Three ways the API used to read data silently wrong: complex samples (cast to float with
+    only a warning: the imaginary parts dropped), a (5, 2) matrix beside 10 times (flattened: its
+    rows read as 10 later samples), and CSV text given as a file name (its line ends in the error
+    line). Each is one line naming what to give; a column vector (n, 1) is still one column."""
+    from fdi.api import measurements
+    from fdi.data import DataError
+    t = np.arange(10) * 0.1
+    with pytest.raises(DataError, match="column 'p' holds complex numbers; give real values"):
+        measurements({"t": t, "p": t + 1j})
+    with pytest.raises(DataError, match="column 'p' holds complex numbers"):
+        measurements(np.zeros(3, dtype=[("t", float), ("p", complex)]))
+    with pytest.raises(DataError, match="a value is no number"):                 # object cells: no cast at all
+        measurements(FrameLike(["t", "p"], [[0.0, 1 + 1j], [0.1, 2.0]]))
+    with pytest.raises(DataError, match=r"column 'p' is an array of shape \(5, 2\), not one value per sample"):
+        measurements({"t": t, "p": np.ones((5, 2))})
+    with pytest.raises(DataError) as err:
+        measurements("t,p\n0,1\n0.1,2\n")
+    assert "\n" not in str(err.value) and "text with line ends, not a file name" in str(err.value)
+    column = measurements({"t": t, "p": (2 * t).reshape(-1, 1)})
+    assert np.array_equal(column.columns["p"], 2 * t)
+
+
 @pytest.mark.parametrize("name, text, words", [
     ("s.json", '{"T": 2, "fs": 100, "T": 3}', ["duplicate key 'T'"]),
     ("s.json", '{"T": 2, "fs": 100, "faults": [{"target": "R4", "type": "abrupt", "t0": 1, "t0": 1.5, '
@@ -304,6 +370,9 @@ def test_a_yaml_merge_may_still_be_overridden():
     ("columns: [t, Qin, p1, p2]", "columns: [t, Qin, p1, p2, p1]", ["data.columns", "'p1' is listed twice"]),
     ("p2: {type: De, junction: J2, column: p2", "p2: {type: De, junction: J2, column: p1",
      ["sensors.p2.column", "reads column 'p1' as sensor 'p1' does"]),
+    # a sensor on the time column: its "pressure" would be the seconds since the start
+    ("p2: {type: De, junction: J2, column: p2", "p2: {type: De, junction: J2, column: t",
+     ["sensors.p2.column", "reads column 't', the time (s)"]),
 ])
 def test_names_that_cannot_be_told_apart_are_refused_at_load(old, new, words):
     from bondgraph.errors import ModelError
@@ -485,6 +554,27 @@ def test_a_long_row_and_a_wide_header_are_refused(tmp_path, capsys):
     _one_line(err, "wide.csv", f"{MAX_COLUMNS + 1:,} columns")
 
 
+def test_a_model_whose_residual_nests_too_deep_is_one_line(tmp_path, capsys):
+    """A drivetrain chain of 200 stages (800 elements) loads, but its one residual runs the whole
+    chain: with Python's recursion limit 150 frames above the caller, sympy's walks over it fail
+    (as a 1 600-element chain does at the default limit, and the 10 000-element one after 77 s):
+    one line naming the model and what to change, exit 2, no traceback."""
+    import inspect
+    import sys
+
+    from bondgraph.chains import chain_yaml
+    model = tmp_path / "chain.yaml"
+    model.write_text(chain_yaml(800), encoding="utf-8")
+    old = sys.getrecursionlimit()
+    sys.setrecursionlimit(len(inspect.stack()) + 150)
+    try:
+        code, err = _cli(["check", model], capsys)
+    finally:
+        sys.setrecursionlimit(old)
+    assert code == 2
+    _one_line(err, "chain.yaml", "nest deeper than Python follows", "measure more signals")
+
+
 def test_a_local_cluster_has_no_more_workers_than_files(monkeypatch):
     """--scheduler local --jobs 16 for 2 files starts 2 workers (the cluster is faked: what is
     asked of dask is the point, not dask starting)."""
@@ -515,6 +605,45 @@ def test_a_local_cluster_has_no_more_workers_than_files(monkeypatch):
     assert asked["n"] == 1
 
 
+def test_local_processes_are_no_more_than_files(monkeypatch):
+    """--jobs 16 for 2 files (no scheduler): the process pool is asked for 2 workers, not 16 (the
+    pool is faked and runs the jobs here: what is asked of it is the point); the reports are the
+    two files' own, in order."""
+    import concurrent.futures as cf
+
+    from fdi.app.fleet import diagnose_many
+    asked = []
+
+    class FakePool:
+        def __init__(self, max_workers=None, **kw):
+            asked.append(max_workers)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+        def submit(self, fn, *args):
+            future = cf.Future()
+            future.set_result(fn(*args))
+            return future
+    monkeypatch.setattr(cf, "ProcessPoolExecutor", FakePool)
+    with tempfile.TemporaryDirectory() as d:
+        data = tank_data()
+        paths = []
+        for name in ("a.csv", "b.csv"):
+            path = os.path.join(d, name)
+            with open(path, "w", encoding="utf-8") as fh:
+                fh.write(",".join(data) + "\n")
+                for row in zip(*data.values()):
+                    fh.write(",".join(repr(float(v)) for v in row) + "\n")
+            paths.append(path)
+        reports = diagnose_many(QUIET, paths, jobs=16)          # thresholds 1e3: nothing to identify, fast
+    assert asked == [2]
+    assert [r["file"] for r in reports] == paths
+
+
 # ------------------------------------------------------------------ 5. the tracebacks left
 
 MU_TANK = TANK.replace("R12", "\u00b5")          # a model whose names need more than ASCII
@@ -530,6 +659,22 @@ def test_standard_output_on_a_full_disk_is_one_line(capsys, monkeypatch):
         code, err = _cli(["tables", MODELS / "two_tank_valve.yaml"], capsys)
         assert code == 2
         _one_line(err, "standard output: cannot write", "No space left on device")
+
+
+def test_monitor_s_first_event_on_a_full_disk_blames_standard_output_not_the_data(tmp_path, capsys, monkeypatch):
+    """The start event goes out from inside the reader (once the header is checked): its failed
+    write was reported as the data file's ('d.csv: cannot read (No space left on device)')."""
+    import sys
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full")
+    data = tmp_path / "d.csv"
+    data.write_text(_short_cycab(CYCAB_HEADER), encoding="utf-8")
+    with open("/dev/full", "w", encoding="utf-8") as full:
+        monkeypatch.setattr(sys, "stdout", full)
+        code, err = _cli(["monitor", MODELS / "cycab_steering.yaml", data, "--workers", "1"], capsys)
+        assert code == 2
+        _one_line(err, "standard output: cannot write", "No space left on device")
+        assert "d.csv" not in err
 
 
 def test_an_ascii_standard_output_with_a_non_ascii_model_is_one_line(tmp_path, capsys, monkeypatch):

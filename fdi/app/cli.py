@@ -27,8 +27,17 @@ from ..data import DataError
 from ..options import DEFAULT_WORKERS, MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
 from .output import (Terminated, check_folder, check_folder_not_input, check_not_input, check_output, is_stdout,
                      write_atomic)
-from .sources import Sources, said, shown
+from .sources import Sources, said
+from .sources import shown as source_name
 from .progress import LOG, NORMAL, QUIET, VERBOSE, Progress, Steps, configure, stage
+from .progress import shown as escaped
+
+
+def shown(path: object) -> str:
+    """A path or name as a message shows it: the copy of ``-`` as "standard input", control
+    characters escaped (a name read from a file can neither start a second line nor drive the
+    terminal)."""
+    return escaped(source_name(path))
 
 
 USER_ERRORS = (ModelError, CausalityError, DataError, UsageError)
@@ -49,7 +58,7 @@ class Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # type: ignore[override]
         message = message.removeprefix("argument ")
         hint = "" if "must be" in message else f" (see {self.prog} --help)"
-        self.exit(2, f"bgfdi: error: {message}{hint}\n")
+        self.exit(2, f"bgfdi: error: {shown(message)}{hint}\n")
 
 
 def _bad(expected: str, text: str) -> argparse.ArgumentTypeError:
@@ -1194,6 +1203,12 @@ def _run(argv: list[str] | None) -> int:
         return 2
     except USER_ERRORS as exc:
         LOG.error(sources.message(str(exc)))
+        return 2
+    except RecursionError:                    # a model that loads, but whose derived equations nest too deep
+        model = getattr(args, "model", None)
+        LOG.error(f"{model or args.command}: the derived equations nest deeper than Python follows (recursion "
+                  f"limit {sys.getrecursionlimit():,}): the model is too large for one residual; measure more "
+                  "signals along it (each sensor starts a shorter residual) or split it")
         return 2
     except KeyboardInterrupt:
         LOG.critical("interrupted")

@@ -45,13 +45,30 @@ class _Stderr(logging.Handler):
             pass
 
 
+def shown(message: str, keep_line_ends: bool = False) -> str:
+    """``message`` with its control characters escaped (a line end as ``\\n``, ESC as ``\\x1b``):
+    a file name or a name read from a file can neither start a second error line nor drive the
+    terminal (colours, clearing, a forged prompt). Printable text, Unicode included, is kept.
+
+    >>> shown("a\\nb.csv: cannot read")
+    'a\\\\nb.csv: cannot read'
+    >>> shown("\\x1b[2J\u00b5.csv")
+    '\\\\x1b[2J\u00b5.csv'
+    """
+    if message.isprintable():
+        return message
+    return "".join(c if c.isprintable() or (keep_line_ends and c == "\n")
+                   else c.encode("unicode_escape").decode("ascii") for c in message)
+
+
 class _Format(logging.Formatter):
     def __init__(self, start: float) -> None:
         super().__init__()
         self.start = start
 
     def format(self, record: logging.LogRecord) -> str:
-        message = record.getMessage()
+        # warnings and errors are one line each; notes may span lines, but carry no other control
+        message = shown(record.getMessage(), keep_line_ends=record.levelno < logging.WARNING)
         if record.levelno >= logging.CRITICAL:
             return f"bgfdi: {message}"
         if record.levelno >= logging.ERROR:
