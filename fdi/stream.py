@@ -118,7 +118,7 @@ class Worker:
                 self._pool = ThreadPoolExecutor(1, thread_name_prefix="bgfdi-identify")
             else:
                 self._pool = ProcessPoolExecutor(1, initializer=_install, initargs=(self.monitor,))
-                self._pool.submit(int).result()         # started and the monitor installed
+                self._pool.submit(int)                  # the process starts now, not at the first job
 
     def submit(self, fn: Callable[..., tuple], *args: Any) -> Future:
         self.start()
@@ -299,16 +299,16 @@ class Stream:
             if self.lit is None:
                 self.lit = now.copy()
                 self.t_detect = began
-                if self.live:
-                    self.identifier.start()     # the worker starts while the waiting time passes
                 self.emit({"event": "detection", "t": self.t_detect, "alarm": alarm,
                            "coherence": self.lit.astype(int).tolist(), "known_at": known_at})
+                if self.live:
+                    self.identifier.start()     # the worker starts while the waiting time passes
                 self.pending.append(alarm + self.wait)
                 continue
             self.lit |= now
             self.emit({"event": "coherence", "t": alarm, "began": began,
                        "coherence": self.lit.astype(int).tolist(), "known_at": known_at})
-            if self.decided or alarm > self.pending[0]:
+            if self.decided or not self.pending or alarm > self.pending[0]:    # else the first decision's
                 self.pending.append(alarm + self.wait)
 
     # ------------------------------------------------------------------ decisions
