@@ -44,6 +44,7 @@ import math
 import os
 import signal
 import time
+import weakref
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Callable
@@ -119,6 +120,7 @@ class Worker:
             else:
                 self._pool = ProcessPoolExecutor(1, initializer=_install, initargs=(self.monitor,))
                 self._pool.submit(int)                  # the process starts now, not at the first job
+            weakref.finalize(self, self._pool.shutdown, wait=False)    # a stream dropped unclosed
 
     def submit(self, fn: Callable[..., tuple], *args: Any) -> Future:
         self.start()
