@@ -737,6 +737,10 @@ def _live(fh) -> bool:
         return False
 
 
+class Stopped(Terminated):
+    """SIGTERM or SIGHUP while the monitor read its stream (no partial output to remove)."""
+
+
 @contextlib.contextmanager
 def _terminated_raises():
     """SIGTERM (and SIGHUP) raise :class:`Terminated` while the monitor runs, so that its worker is
@@ -744,7 +748,7 @@ def _terminated_raises():
     import signal
 
     def handler(signum, frame):
-        raise Terminated(signum)
+        raise Stopped(signum)
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -1132,7 +1136,8 @@ def _run(argv: list[str] | None) -> int:
         LOG.critical("interrupted")
         return 130
     except Terminated as exc:                 # SIGTERM or SIGHUP while an output was written: it was removed
-        LOG.critical(f"terminated by signal {exc.signum}; the partial output was removed")
+        LOG.critical(f"terminated by signal {exc.signum}"
+                     + ("" if isinstance(exc, Stopped) else "; the partial output was removed"))
         return 128 + exc.signum
 
 
