@@ -137,8 +137,8 @@ class Worker:
             for p in list(getattr(pool, "_processes", {}).values()):
                 try:
                     os.killpg(p.pid, signal.SIGKILL) if hasattr(os, "killpg") else p.kill()
-                except (ProcessLookupError, PermissionError):
-                    pass
+                except (ProcessLookupError, PermissionError):     # not yet its own group: itself
+                    p.kill()
         pool.shutdown(wait=not now or isinstance(pool, ProcessPoolExecutor), cancel_futures=now)
 
 
