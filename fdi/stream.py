@@ -21,6 +21,17 @@ Each event carries ``t`` (the stream time it refers to) and ``known_at`` (the ti
 sample received when it was emitted): the difference is the latency of the method, chiefly the
 waiting time and the identification window, plus the lag.
 
+Identification takes seconds, so a decision (and a prognosis refresh) runs in a worker
+(:class:`Worker`: one process) while the samples keep being read, their residuals computed and
+detection and coherence events emitted. At most one identification is in flight; decision times
+that come due meanwhile are coalesced into the next one (a monitor in the field cannot queue
+copies of its record without bound). Each is computed on the samples received when it came due,
+as it was before the worker (the same decisions, the same seed), and emitted when it finishes,
+with ``known_at`` the stream time then and ``identification_s`` the wall-clock seconds it took.
+A recorded file is replayed with ``live=False``: the stream waits for each identification, as if
+it took no stream time, and the events are the same on every run. ``close`` waits for the work
+in flight before the summary.
+
 Residuals are causal up to a lag: the Savitzky–Golay derivative at time t needs the samples up to
 t + W/2 (W the derivative window), so a residual sample is final, and used for detection, half a
 window after it was measured (0.125 s on the CyCab). A model file that gives no window leaves it
@@ -30,8 +41,13 @@ with a margin of one window on each side, and equal those of the whole file.
 from __future__ import annotations
 
 import math
+import os
+import signal
+import time
+import weakref
+from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
@@ -49,6 +65,81 @@ if TYPE_CHECKING:
     from .monitor import Monitor
 
 Emit = Callable[[dict], None]
+
+_installed: "Monitor | None" = None        # the worker process's monitor (installed once, at its start)
+
+
+def _install(monitor: "Monitor") -> None:
+    """The worker process's initializer: its own process group (so that the stream, on Ctrl-C or
+    SIGTERM, ends it and the estimator pool it may open in one signal: no orphan), and the
+    monitor (with ``fork``, the parent's derivation, inherited; else derived once)."""
+    global _installed
+    if hasattr(os, "setpgid"):
+        os.setpgid(0, 0)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)      # the stream decides when its worker ends
+    _installed = monitor
+
+
+def _diagnose(monitor: "Monitor | None", meas: Measurements, options: Options, memo: dict) -> tuple:
+    """A decision in the worker: the report, the diagnosis without its residuals (for refreshes),
+    the memo entries it added (handed back: the next decision reuses them) and its seconds."""
+    start = time.perf_counter()
+    mine = dict(memo)
+    d = (monitor or _installed).diagnose(meas, options, memo=mine)
+    fresh = {k: v for k, v in mine.items() if k not in memo}
+    return d.to_dict(), replace(d, t=None, residuals=None), fresh, time.perf_counter() - start
+
+
+def _refresh(monitor: "Monitor | None", meas: Measurements, latest: Diagnosis, options: Options,
+             memo: dict) -> tuple:
+    """A prognosis refresh in the worker: faults, prognosis, new memo entries, seconds."""
+    start = time.perf_counter()
+    mine = dict(memo)
+    faults, prognosis = refresh_prognosis(monitor or _installed, meas, latest, options, mine)
+    fresh = {k: v for k, v in mine.items() if k not in memo}
+    return faults, prognosis, fresh, time.perf_counter() - start
+
+
+class Worker:
+    """Where a stream's identifications run, one at a time: ``"process"`` (one worker process; the
+    reader keeps the interpreter to itself) or ``"thread"`` (shares the interpreter lock with the
+    reader). ``submit`` hands over the job, ``result`` waits for it, ``stop`` ends the worker,
+    killing its process group when ``now`` (Ctrl-C, SIGTERM, an error)."""
+
+    def __init__(self, monitor: "Monitor", kind: str = "process") -> None:
+        if kind not in ("process", "thread"):
+            raise ValueError(f"worker: 'process' or 'thread', not {kind!r}")
+        self.monitor, self.kind = monitor, kind
+        self._pool: Executor | None = None
+
+    def start(self) -> None:
+        """Open the worker ahead of its first job (a process starts while the samples flow)."""
+        if self._pool is None:
+            if self.kind == "thread":
+                self._pool = ThreadPoolExecutor(1, thread_name_prefix="bgfdi-identify")
+            else:
+                self._pool = ProcessPoolExecutor(1, initializer=_install, initargs=(self.monitor,))
+                self._pool.submit(int)                  # the process starts now, not at the first job
+            weakref.finalize(self, self._pool.shutdown, wait=False)    # a stream dropped unclosed
+
+    def submit(self, fn: Callable[..., tuple], *args: Any) -> Future:
+        self.start()
+        assert self._pool is not None
+        return self._pool.submit(fn, None if self.kind == "process" else self.monitor, *args)
+
+    def stop(self, now: bool = False) -> None:
+        """End the worker: after its job, or ``now``, killing its process group (the worker and
+        any estimator pool it opened) so that no process outlives the stream."""
+        pool, self._pool = self._pool, None
+        if pool is None:
+            return
+        if now and isinstance(pool, ProcessPoolExecutor):
+            for p in list(getattr(pool, "_processes", {}).values()):
+                try:
+                    os.killpg(p.pid, signal.SIGKILL) if hasattr(os, "killpg") else p.kill()
+                except (ProcessLookupError, PermissionError):     # not yet its own group: itself
+                    p.kill()
+        pool.shutdown(wait=not now or isinstance(pool, ProcessPoolExecutor), cancel_futures=now)
 
 
 @dataclass
@@ -75,6 +166,10 @@ class Stream:
     refresh: float = 5.0                # s between prognosis refreshes
     latest: Diagnosis | None = None     # the last decision
     next_refresh: float = math.inf
+    live: bool = True                   # samples arrive in real time: read on while identifying
+    worker: str = "process"             # where identifications run (Worker)
+    due: int | None = None              # samples received when the next decision came due (coalesced)
+    job: tuple[str, Future, int] | None = None     # the identification in flight: kind, future, samples
 
     def __post_init__(self) -> None:
         self.options = self.options or Options()
@@ -87,6 +182,7 @@ class Stream:
         self.wait = self.config.waiting_time if self.options.waiting_time is None else self.options.waiting_time
         self.samples = self.options.samples or self.config.samples
         self.window = None
+        self.identifier = Worker(self.monitor, self.worker)
         if self.config.derivative_window is not None and self.wait is not None:
             self._start()               # else once two samples tell the sampling time (fdi.scales)
 
@@ -95,6 +191,7 @@ class Stream:
         model file leaves out come from the sampling time ``ts`` and the model (fdi.scales)."""
         if ts is not None:
             self.monitor, sc = self.monitor.scaled(ts)
+            self.identifier.monitor = self.monitor
             self.config = self.monitor.config
             self.wait = self.config.waiting_time if self.options.waiting_time is None else self.options.waiting_time
             self.samples = self.options.samples or max(self.config.samples, sc.min_samples())
@@ -206,18 +303,22 @@ class Stream:
                 self.t_detect = began
                 self.emit({"event": "detection", "t": self.t_detect, "alarm": alarm,
                            "coherence": self.lit.astype(int).tolist(), "known_at": known_at})
+                if self.live:
+                    self.identifier.start()     # the worker starts while the waiting time passes
                 self.pending.append(alarm + self.wait)
                 continue
             self.lit |= now
             self.emit({"event": "coherence", "t": alarm, "began": began,
                        "coherence": self.lit.astype(int).tolist(), "known_at": known_at})
-            if self.decided or alarm > self.pending[0]:
+            if self.decided or not self.pending or alarm > self.pending[0]:    # else the first decision's
                 self.pending.append(alarm + self.wait)
 
     # ------------------------------------------------------------------ decisions
     def _decide(self) -> None:
-        """Run the diagnosis on the samples so far once a decision time has passed and the data it
-        needs (N samples from t_D, the filter's margin) have arrived."""
+        """Once a decision time has passed and the data it needs (N samples from t_D, the filter's
+        margin) have arrived, the diagnosis of the samples so far is handed to the worker (or, with
+        one in flight, kept for when it ends: later decision times coalesce into one)."""
+        self._collect()
         if not self.pending or self.t_detect is None:
             return
         t = self.buffer[:self.n, self.ti]
@@ -228,25 +329,61 @@ class Stream:
         if not due or t_last < ready:
             return
         self.pending = [d for d in self.pending if d not in due]
-        d = self.monitor.diagnose(self.measurements(), self.options, memo=self.memo)
-        self._report_decisions(d.to_dict(), float(t[-1]))
-        self.latest = replace(d, t=None, residuals=None)     # the decision, not the stream's residuals
-        self.next_refresh = float(t[-1]) + self.refresh
+        self.due = self.n
+        self._submit()
+
+    def _submit(self) -> None:
+        """The due decision to the worker, when none is in flight: the samples received when it
+        came due (after a detection no sample is dropped: the first ``due`` rows are final)."""
+        if self.job is not None or self.due is None:
+            return
+        n, self.due = self.due, None
+        meas = checked(self.source, self.header, self.buffer[:n])
+        self.job = ("decision", self.identifier.submit(_diagnose, meas, self.options, self.memo), n)
+        if not self.live:
+            self._collect(wait=True)
+
+    def _collect(self, wait: bool = False) -> None:
+        """The identification in flight, if it has ended (or ``wait`` for it): its events, stamped
+        with the stream time now; then the next due decision goes to the worker."""
+        while self.job is not None and (wait or self.job[1].done()):
+            kind, future, n = self.job
+            result = future.result()
+            self.job = None
+            known_at = float(self.buffer[self.n - 1, self.ti])
+            if kind == "decision":
+                report, self.latest, fresh, seconds = result
+                self.memo.update(fresh)
+                self._report_decisions(report, known_at, seconds)
+                self.next_refresh = known_at + self.refresh
+            else:
+                faults, prognosis, fresh, seconds = result
+                self.memo.update(fresh)
+                self.emit({"event": "prognosis", "t": float(self.buffer[n - 1, self.ti]),
+                           "faults": [f for f in faults if f["type"] == "incipient"],
+                           "prognosis": plain([p.to_dict() for p in prognosis]), "known_at": known_at,
+                           "identification_s": seconds})
+            self._submit()
 
     def _refresh(self) -> None:
         """Every ``refresh`` seconds after a decision with a growing fault, its fit refreshed on the
-        data so far and the prognosis re-issued (a ``prognosis`` event)."""
-        if self.latest is None or not self.latest.prognosis or self.pending:
+        data so far and the prognosis re-issued (a ``prognosis`` event), in the worker too."""
+        self._collect()
+        if self.latest is None or not self.latest.prognosis or self.pending or self.job is not None \
+                or self.due is not None:
             return
         t_last = float(self.buffer[self.n - 1, self.ti])
         if t_last < self.next_refresh:
             return
         self.next_refresh = t_last + self.refresh
-        faults, prognosis = refresh_prognosis(self.monitor, self.measurements(), self.latest, self.options, self.memo)
-        self.emit({"event": "prognosis", "t": t_last, "faults": [f for f in faults if f["type"] == "incipient"],
-                   "prognosis": plain([p.to_dict() for p in prognosis]), "known_at": t_last})
+        job = self.identifier.submit(_refresh, self.measurements(), self.latest, self.options, self.memo)
+        self.job = ("prognosis", job, self.n)
+        if not self.live:
+            self._collect(wait=True)
 
-    def _report_decisions(self, report: dict, known_at: float) -> None:
+    def _report_decisions(self, report: dict, known_at: float, seconds: float | None = None) -> None:
+        """The decisions of ``report`` not yet emitted, in order; those of an identification carry
+        ``identification_s``, its wall-clock seconds (the summary's are the summary's)."""
         decisions = []
         if report["detection"] is not None:
             first = {"t": report["detection"]["decision_time"], "coherence": report["detection"]["final_coherence"],
@@ -264,13 +401,21 @@ class Stream:
                 event["prognosis"] = report["prognosis"]
             elif d["faults"] is None:
                 event.pop("faults")
+            if seconds is not None:
+                event["identification_s"] = seconds
             self.emit(event)
         self.decided = max(self.decided, len(decisions))
 
     def close(self) -> Diagnosis:
-        """The end of the stream: the summary, the diagnosis of every sample received."""
+        """The end of the stream: the identifications in flight or due waited for (their events
+        first), then the summary, the diagnosis of every sample received."""
         if self.n < 2:
+            self.stop(now=True)
             raise DataError(f"{self.source}: the stream ended before two samples arrived")
+        try:
+            self._collect(wait=True)
+        finally:
+            self.stop(now=self.job is not None)
         meas = self.measurements()
         if self.window is None:             # a stream of two samples: the start event still comes first
             self._start(meas.ts)
@@ -279,3 +424,9 @@ class Stream:
         self._report_decisions(out, float(meas.t[-1]))
         self.emit({"event": "summary", **out})
         return d
+
+    def stop(self, now: bool = False) -> None:
+        """End the worker: after its work, or ``now`` (Ctrl-C, SIGTERM, an error: its processes
+        killed, nothing left running)."""
+        self.job = None if now else self.job
+        self.identifier.stop(now)

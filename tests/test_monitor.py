@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import io
 import json
+import multiprocessing
+import time
 
 import numpy as np
 import pytest
@@ -119,3 +121,56 @@ def test_a_stream_cut_mid_row_ends_with_its_summary(capsys, monkeypatch, block):
     monkeypatch.setattr("sys.stdin", io.StringIO(broken))
     assert main(["monitor", str(CYCAB), "-", "--block", str(block)]) == 2
     assert "rows do not all have 6 values" in capsys.readouterr().err
+
+
+# R4 leak and beta_theta2 at 15 s (the first decision: several candidate sets, seconds of
+# identification), then beta_theta1 at 30 s: ARR1 joins while that identification runs
+THREE_FAULTS = {"seed": 7, "T": 80, "fs": 100, "theta2_0": -0.15, "faults": [
+    {"target": "R4", "type": "abrupt", "t0": 15, "value": 2.5e7},
+    {"target": "beta_theta2", "type": "abrupt", "t0": 15.2, "value": 0.8},
+    {"target": "beta_theta1", "type": "abrupt", "t0": 30, "value": 0.5}]}
+
+
+def _paced(header, table, speed: float, start: float, block: int = 50):
+    """Blocks of rows as a live source gives them: the first ``start`` seconds at once, then at
+    ``speed`` times real time (a sleep before each block until its last sample is due)."""
+    i0 = int(np.searchsorted(table[:, 0], start))
+    yield table[:i0]
+    wall = time.perf_counter()
+    for a in range(i0, table.shape[0], block):
+        rows = table[a:a + block]
+        wait = wall + (rows[-1, 0] - table[i0, 0]) / speed - time.perf_counter()
+        if wait > 0:
+            time.sleep(wait)
+        yield rows
+
+
+def test_the_monitor_keeps_reading_while_it_identifies(tmp_path):
+    """Fed at 10x real time, the stream's coherence event comes while the first decision is being
+    identified (in the worker), and the decision follows with how long it took; the worker ends
+    with the stream (no process left)."""
+    from bondgraph.loader import load_model
+    from fdi.app.scenario import load_scenario, run
+
+    model = load_model(CYCAB)
+    (tmp_path / "three.json").write_text(json.dumps(THREE_FAULTS), encoding="utf-8")
+    columns = run(model, load_scenario(tmp_path / "three.json", model))
+    header = list(columns)
+    table = np.column_stack([columns[h] for h in header])
+    stamped: list[tuple[float, dict]] = []
+    mon = compiled(CYCAB).stream(lambda e: stamped.append((time.perf_counter(), e)), Options(workers=1))
+    try:
+        for rows in _paced(header, table, speed=10.0, start=14.0):
+            mon.feed(header, rows)
+            if any(e["event"] == "decision" for _, e in stamped):
+                break
+    finally:
+        mon.stop(now=True)
+    assert not multiprocessing.active_children()
+    (ended, decision), = [(w, e) for w, e in stamped if e["event"] == "decision"]
+    began = ended - decision["identification_s"]
+    during = [e for w, e in stamped if began < w < ended and e["event"] != "decision"]
+    assert [e["event"] for e in during] == ["coherence"] and during[0]["coherence"] == [1, 1, 1]
+    # stamped in stream time too: the coherence change was known before the decision was
+    assert during[0]["known_at"] < decision["known_at"] and decision["coherence"] == [0, 1, 1]
+    assert decision["identification_s"] > 1.0

@@ -8,11 +8,13 @@ ends the command quietly. See docs/cli.md.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import logging
 import math
 import os
 import sys
+import threading
 from collections import Counter
 from typing import Callable
 
@@ -798,19 +800,58 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     if args.data == "-" and (sys.stdin is None or sys.stdin.closed):
         raise UsageError("monitor: standard input is closed; pipe the CSV stream in (header first), or give a file")
     fh = sys.stdin if args.data == "-" else open_text(args.data)
+    monitor = None
     try:
-        monitor = compiled(args.model).stream(emit, options, source=source, refresh=args.refresh,
-                                              history=args.history)
-        for header, block in blocks(fh, source, args.block, cut=LOG.warning,   # a stream cut mid-row
-                                    on_header=header_read):
-            monitor.feed(header, block)
-        monitor.close()
+        with _terminated_raises():
+            monitor = compiled(args.model).stream(emit, options, source=source, refresh=args.refresh,
+                                                  history=args.history, live=_live(fh))
+            for header, block in blocks(fh, source, args.block, cut=LOG.warning,   # a stream cut mid-row
+                                        on_header=header_read):
+                monitor.feed(header, block)
+            monitor.close()
     finally:
+        if monitor is not None:
+            monitor.stop(now=True)          # after an error, Ctrl-C or SIGTERM: no worker left running
         if fh is not sys.stdin:
             fh.close()
     if lines:
         write_atomic(args.output, "\n".join(lines) + "\n")
     return 0
+
+
+def _live(fh) -> bool:
+    """A stream read as it arrives (a pipe, a terminal, a socket): identifications run while it is
+    read on. A regular file is a recording, replayed: each identification waited for, as if it took
+    no stream time, so its events are the same on every run."""
+    import stat
+    try:
+        return not stat.S_ISREG(os.fstat(fh.fileno()).st_mode)
+    except (AttributeError, OSError, ValueError):     # no descriptor (a test's StringIO): a recording
+        return False
+
+
+class Stopped(Terminated):
+    """SIGTERM or SIGHUP while the monitor read its stream (no partial output to remove)."""
+
+
+@contextlib.contextmanager
+def _terminated_raises():
+    """SIGTERM (and SIGHUP) raise :class:`Terminated` while the monitor runs, so that its worker is
+    ended (``finally``) instead of outliving a killed reader; the handlers are put back after."""
+    import signal
+
+    def handler(signum, frame):
+        raise Stopped(signum)
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    names = [getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
+    before = {s: signal.signal(s, handler) for s in names}
+    try:
+        yield
+    finally:
+        for s, h in before.items():
+            signal.signal(s, h)
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
@@ -1214,7 +1255,8 @@ def _run(argv: list[str] | None) -> int:
         LOG.critical("interrupted")
         return 130
     except Terminated as exc:                 # SIGTERM or SIGHUP while an output was written: it was removed
-        LOG.critical(f"terminated by signal {exc.signum}; the partial output was removed")
+        LOG.critical(f"terminated by signal {exc.signum}"
+                     + ("" if isinstance(exc, Stopped) else "; the partial output was removed"))
         return 128 + exc.signum
     finally:
         sources.close()
