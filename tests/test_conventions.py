@@ -270,9 +270,9 @@ def test_slow_marker_is_registered_and_ci_runs_everything():
     markers = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["pytest"]["ini_options"]["markers"]
     assert any(m.startswith("slow:") for m in markers)
     ci = (ROOT / ".ci" / "run").read_text()
-    assert "python -m pytest -q\n" in ci and "not slow" not in ci
+    assert "python -m pytest -q -n auto\n" in ci and "not slow" not in ci
     readme = (ROOT / "README.md").read_text()
-    assert "python -m pytest -q  # the tests" in readme and '-m "not slow"' in readme
+    assert "python -m pytest -q -n auto  # the tests" in readme and '-m "not slow"' in readme
 
 
 def test_an_unreadable_standard_input_is_one_line(capsys):
