@@ -182,10 +182,13 @@ def structure(spaces: list[FaultSpace], bits: np.ndarray) -> tuple:
     return tuple((TYPES[int(d.kind[0])], int(d.model[0]) if d.kind[0] == 2 else None) for d in ds)
 
 
-def family(spaces: list[FaultSpace], bits: np.ndarray) -> tuple:
-    """Each fault's type alone (an incipient fault's model left out): structures of one family
-    share the meaning of their reals but for the degradation coefficients."""
-    return tuple(kind for kind, _ in structure(spaces, bits))
+def family(spaces: list[FaultSpace], bits: np.ndarray) -> frozenset:
+    """The families of one individual's structure, one per fault: (fault index, type, degradation
+    model or None). Each family's best structure is a champion of the race: every degradation
+    model (16)-(19) of every fault keeps one structure through the first rungs and is re-polished
+    at the end, whatever the other faults are (a narrow basin of one model is not left behind
+    because a smooth fit of another costs less after two generations)."""
+    return frozenset((i, kind, model) for i, (kind, model) in enumerate(structure(spaces, bits)))
 
 
 def free(spaces: list[FaultSpace], bits: np.ndarray) -> np.ndarray:

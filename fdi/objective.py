@@ -20,6 +20,8 @@ number of worker processes.
 """
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 from typing import Mapping
 
@@ -29,7 +31,7 @@ import sympy as sp
 from bondgraph.errors import ModelError
 from bondgraph.model import Model
 
-from . import criterion, encoding, scales
+from . import criterion, encoding, hints, scales
 from .config import MonitorConfig
 from .data import commanded
 from .encoding import FaultSpace
@@ -39,6 +41,7 @@ ROWS = 256             # individuals per objective block (bounds memory on wide 
 WINDOW_VALUES = 1 << 18  # ... and at most this many individual-samples per block: a 10 kHz window of 5 000
                          # samples took 256 rows x 5 000 at once, 20 MB per temporary (peak 460 MB; 203 MB so)
 BLOCK = 32768          # samples x individuals per block of the objective (about 128 kB per temporary)
+PHASES = 16           # onsets proposed per period found in the residuals (fdi.hints)
 DEFAULT_BOUNDS = {"sensor": (0.05, 1.5), "source": (0.05, 1.5), "group": (0.1, 10.0)}
 
 
@@ -391,6 +394,47 @@ class Objective:
         if self.gaps.any():
             out[:, self.gaps[crop]] = 0.0
         return out
+
+    def seeds(self) -> list[list[tuple[float, float]]]:
+        """Per candidate fault, the (period, phase) pairs the data suggest (:mod:`fdi.hints`): square
+        waves in the weighted magnitude of the residuals it enters, at the nominal hypothesis (the
+        fixed faults held), from the window's first sample; computed once."""
+        if getattr(self, "_seeds", None) is None:
+            c = self.crop()
+            mags = {}
+            for i in self.active:
+                x = np.asarray(self.residuals[i](self.base_signals, self.nominal, self.win.ts, self.window_s))
+                x = np.abs(np.broadcast_to(x, x.shape[:-1] + (self.win.t.size,)).reshape(-1, self.win.t.size)[0, c])
+                mags[i] = self.weights[i] * np.where(np.isfinite(x), x, 0.0)
+            out = []
+            for j, space in enumerate(self.spaces):
+                f = self.model.faults[space.name]
+                mine = [i for i in self.active if set(f.symbols) & self.residuals[i].parameter_names()
+                        or f.targets[0] in {s for s, _ in self.residuals[i].signal_orders()}]
+                x = sum((mags[i] for i in mine), np.zeros(c.stop - c.start))
+                waves = hints.square_waves(x, self.win.ts, *space.period) if mine else ()
+                out.append(hints.candidate_periods(x, self.win.ts, waves, *space.period))
+            self._seeds = out
+        return self._seeds
+
+    def translate(self, real: np.ndarray, bits_from: np.ndarray, bits_to: np.ndarray) -> np.ndarray:
+        """The engine's ``translate`` hook: ``real``'s fault profiles re-expressed in the structure
+        of ``bits_to`` (:func:`fdi.hints.translate`), the onset kept; NaN where nothing changes."""
+        real = np.asarray(real, dtype=float)
+        out = hints.translate(self.spaces, real[:-1], bits_from, bits_to, self.win.t[self.crop()], float(real[-1]))
+        return np.append(out, np.nan)
+
+    def propose(self, bits: np.ndarray) -> np.ndarray:
+        """Points the data suggest for the structure of ``bits`` (the engine's ``propose`` hook): its
+        intermittent faults at the periods found in the residuals (:meth:`seeds`), each with its
+        onset where its square wave switches on within the onset interval; NaN elsewhere."""
+        lo, hi = self.bounds()[-1]
+
+        def onsets(T: float, phase: float) -> list[float]:
+            # the phase's own switch first, then PHASES evenly over the period: the phase of |r| is
+            # biased by the spikes a gain's switching leaves at both edges (measured: 70 ms on 0.7 s)
+            return [hints.aligned_onsets(T, phase + k * T / PHASES, self.win.t0, lo, hi)[0] for k in range(PHASES)]
+        return hints.intermittent_rows(self.spaces, bits, self.seeds(), onsets, levels=3)
 
     def structure(self, bits: np.ndarray):
         return encoding.structure(self.spaces, bits)

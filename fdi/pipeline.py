@@ -23,7 +23,7 @@ from .decide import alternatives, effective_samples, information, select_winner,
 from .derivatives import DEFAULT_ORDER, window_samples
 from .detect import Detection, detect, settling, thresholds_for
 from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide, since_detection
-from .estimators import Estimators, Search, refit_early_onsets
+from .estimators import Estimators, Search, evidence_onsets, refit_early_onsets
 from .isolate import candidate_sets, new_mode_changes, pruned_sets, relaxed_sets, suspected_mode_changes
 from .mode_estimation import estimate_mode, mode_variable
 from .objective import nominal, window
@@ -283,12 +283,13 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
     significance check and the prognosis."""
     det, o, t = d.detection, p.options, p.meas.t
     clock.restart()
-    results = est.run(t, p.raw, det.time, p.samples, list(d.candidates), p.weights, o.seed, progress)
-    # a drift may have started long before it crossed a threshold: its onset is searched back to the
-    # start of the data (after the settling time)
-    lookback = max(p.wait, det.time - float(t[0]) - p.settle)
+    # onsets the evidence allows: from the first departure from a noise band (minus the filter's
+    # look-ahead) to t_D plus the look-ahead; searched from t_D first, then back for a drift seen late
+    onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, float(t[0]) + p.settle)
+    results = est.run(t, p.raw, det.time, p.samples, list(d.candidates), p.weights, o.seed, progress, None,
+                      [(det.time, onsets[1])] * len(d.candidates))
     results = refit_early_onsets(est, t, p.raw, det.time, p.samples, list(d.candidates), results, p.weights,
-                                 o.seed, lookback)
+                                 o.seed, onsets, float(t[0]) + p.settle)
     clock.lap("identification")
     d = replace(d, estimates=tuple(results))
     n_eff = effective_samples(p.samples, len(p.monitor.residuals), p.meas.ts, p.window_s)

@@ -143,6 +143,9 @@ class Estimate:
     evaluations: int
     wall_s: float
     objective_s: float = 0.0
+    resume: object = field(default=None, repr=False, compare=False)
+    """The engine's state when it ran without its final check (``optim.ahde.Snapshot``): what a
+    second pass continues from. Not reported."""
 
     def to_dict(self, history: bool = True) -> dict:
         out: dict = {"candidate": list(self.candidate), "fitness": self.fitness}

@@ -48,13 +48,23 @@ class Problem(Protocol):
     - ``onehot`` (()): groups of bit indices of which exactly one is set (each fault's type);
     - ``structure(bits)`` (the bits as a tuple): a hashable key of what the bits decide; patterns
       with one key are one structure (the AHDEs search structures, not patterns);
-    - ``family(bits)`` (None: no families): a coarser key (each fault's type, the degradation
-      model left out) whose best structure the AHDE keeps through the first rungs of its race;
+    - ``family(bits)`` (None: no families): a coarser key whose best structure the AHDE keeps
+      through the first rungs of its race and re-polishes at the end, or a ``frozenset`` of keys
+      when a structure belongs to several families (the diagnosis: one family per fault and
+      type-and-degradation-model, so each model (16)-(19) of each fault has its champion);
     - ``free(bits)`` (None: every real): a boolean mask (D,) of the reals a structure reads;
     - ``coarse(real, bits)`` (None: the cost itself): a cheaper cost that ranks like the cost
       (the diagnosis: every k-th sample), on which the AHDE screens and races;
     - ``init`` (()): starting points, ``(real (D,), bits (B,))`` pairs (the fits of smaller
       candidate sets);
+    - ``propose(bits)`` (None: nothing to propose): points the data suggest for the structure of
+      ``bits``, an array (k, D) with NaN where the data say nothing (the engine draws those); the
+      AHDE screens them with its own draws (the diagnosis: intermittent periods and phases found
+      in the residuals, onsets where they left their noise band);
+    - ``translate(real, bits_from, bits_to)`` (None: nothing): the point with which the structure of
+      ``bits_to`` behaves like ``real`` under ``bits_from``, an array (D,) with NaN where it keeps
+      its own (the diagnosis: each fault's profile re-expressed in another degradation model);
+      the AHDE's final check starts each family from the winner so translated;
     - ``penalized(cost, bits)`` (None: the cost): the cost an information criterion charges the
       structure of ``bits`` for its parameters, on which the AHDE chooses among its finalists (the
       diagnosis: Schwarz's criterion as an equivalent cost, so that a structure with more
@@ -84,6 +94,8 @@ class Posed:
     free: Callable[[np.ndarray], np.ndarray] | None = None
     coarse: Cost | None = None
     init: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+    propose: Callable[[np.ndarray], np.ndarray] | None = None
+    translate: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None
     penalized: Callable[[float, np.ndarray], float] | None = None
 
     def __post_init__(self) -> None:

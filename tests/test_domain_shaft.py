@@ -67,5 +67,8 @@ def test_a_dragging_brake_is_abrupt_not_intermittent(thresholds):
     assert report["detection"]["time"] == pytest.approx(15.0, abs=0.05)
     (found,) = report["diagnosis"]["faults"]
     assert (found["name"], found["type"]) == ("b2", "abrupt")
-    assert found["value"] == pytest.approx(0.15, rel=0.03)
+    # the ARR sees b2 only through b2 * dw2/dt, near zero but in the deceleration after the step: the
+    # data fix the value loosely (the L1-optimal value at the true onset 15.000 s is 0.131, at 15.002 s
+    # 0.138, at 15.009 s 0.154; each within the likelihood-ratio limit of the best fit)
+    assert found["value"] == pytest.approx(0.15, rel=0.15)
     assert found["t0"] == pytest.approx(15.0, abs=0.05)

@@ -22,7 +22,7 @@ from typing import Callable
 
 import numpy as np
 
-from .. import encoding
+from .. import encoding, hints
 from ..encoding import FaultSpace
 
 T0, TS, N = 32.0, 0.01, 1000
@@ -38,6 +38,7 @@ class Problem:
     cost: Callable[[np.ndarray, np.ndarray], np.ndarray]
     description: str = ""
     objective: object = None          # an fdi.objective.Objective (onset fixed at t0) when the problem is on data
+    seeds: list = None                # per fault, (period, phase) pairs found in the residuals (fdi.hints)
 
     def __call__(self, real: np.ndarray, bits: np.ndarray) -> np.ndarray:
         """The cost: a problem of ``optim`` (``optim.core.Problem``), its hooks ``n_bits``,
@@ -66,6 +67,17 @@ class Problem:
         if self.objective is not None:
             return self.objective.free(bits)[:-1]
         return encoding.free(self.spaces, bits)
+
+    def propose(self, bits: np.ndarray) -> np.ndarray:
+        """Seeds for the intermittent faults of a structure, from the periods found in the residuals
+        at the nominal hypothesis (:mod:`fdi.hints`); none without seeds."""
+        if not self.seeds:
+            return np.empty((0, encoding.N_REAL * len(self.spaces)))
+        return hints.intermittent_rows(self.spaces, bits, self.seeds)
+
+    def translate(self, real: np.ndarray, bits_from: np.ndarray, bits_to: np.ndarray) -> np.ndarray:
+        """The fault profiles of ``real`` re-expressed in another structure (:func:`fdi.hints.translate`)."""
+        return hints.translate(self.spaces, np.asarray(real, dtype=float), bits_from, bits_to, self.t, self.t0)
 
     def finish(self, real: np.ndarray, bits: np.ndarray) -> np.ndarray:
         """The best individual with the magnitudes the objective solves written in."""
@@ -165,4 +177,12 @@ def problem(case: str, seed: int = 0, noise: float = NOISE) -> Problem:
             total += np.abs(g_l).sum(axis=1)
         return np.where(np.isfinite(total), total, np.inf)
 
-    return Problem(case, spaces, truth, t, T0, cost, f"synthetic {case}, seed {seed}")
+    nominal = encoding.encode(spaces, [{"type": "abrupt", "value": s.nominal if np.isfinite(s.nominal) else s.bounds[1]}
+                                       for s in spaces])
+    seen = np.abs(np.vstack([noise_g[l] + sum(C[l, f] * excite[f] * (gs[f](np.full(N, spaces[f].nominal)) - true_g[f])
+                                              for f in range(len(spaces)))
+                             for l in range(3)]))
+    mags = [seen[C[:, f] > 0].sum(axis=0) for f in range(len(spaces))]
+    seeds = [hints.candidate_periods(x, TS, hints.square_waves(x, TS, *s.period), *s.period) for x, s in zip(mags, spaces)]
+    del nominal
+    return Problem(case, spaces, truth, t, T0, cost, f"synthetic {case}, seed {seed}", seeds=seeds)

@@ -1,0 +1,338 @@
+"""What the residuals themselves say about a fault before any fit: its period, its phase, its onset.
+
+The identification's narrow basins (an intermittent fault's period and phase, an onset) are found
+far more surely from a seed the data give than from a random screen:
+
+- **Period and phase** (:func:`square_waves`). Eq. (15) makes an intermittent fault faulty during
+  the first half of each period T from its onset t0, so a residual it enters carries the fault's
+  effect switched on and off by a square wave of period T: its magnitude |r(t)| (the excitation may
+  change the sign of the effect, not whether it is there) has a spectral peak at 1/T. The peaks of
+  the periodogram of |r| that stand out of the periodogram's own median by ``SIGNIFICANCE`` are
+  refined by the square wave that correlates best with |r| (periods within ``REFINE`` of the peak,
+  phases one sample apart): the periodogram's bin is 1/span wide, far coarser than the basin
+  (0.7 % of the period on the CyCab's 0.7 s encoder fault). :func:`candidate_periods` adds each
+  peak's harmonics and sub-harmonics (a square wave's third harmonic is a peak of its own; a
+  search seeded at T/3 alone fits the wrong period).
+- **Onset** (:func:`departure`, :func:`onset_interval`). A residual leaves its noise band (the
+  largest deviation from its median over a stretch before the fault, times ``BAND_MARGIN``) at or
+  after the fault begins, and the centred derivative filter makes it move up to its look-ahead
+  (nesting depth x half the derivative window) before: the onset is never earlier than the first
+  departure minus that look-ahead, and never later than the detection plus it.
+
+A square wave of period 0.7 s from t0 = 0.2 s, seen through |r| with noise, is found with its phase;
+noise alone gives no period:
+
+>>> import numpy as np
+>>> t = np.arange(0.0, 10.0, 0.01)
+>>> x = np.abs(np.where(np.sin(2 * np.pi * (t - 0.2) / 0.7) > 0, 1.0, 0.0)
+...            + 0.2 * np.random.default_rng(0).standard_normal(t.size))
+>>> (w,) = square_waves(x, 0.01, 0.5, 10.0, count=1)
+>>> bool(abs(w.period - 0.7) < 0.002), bool(abs(w.phase - 0.2) < 0.015)    # within 0.3 % and 1.5 samples
+(True, True)
+>>> square_waves(np.abs(np.random.default_rng(1).standard_normal(t.size)), 0.01, 0.5, 10.0)
+()
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+SIGNIFICANCE = 25.0   # a peak of the periodogram of |r| this many times its median (of white noise: max/median ~ 10)
+REFINE = 0.04         # periods searched within 4 % of the periodogram's peak (its bin at 14 periods per window: 7 %)
+LOCAL = 2.0           # the median a peak is compared with: over frequencies from f / 2 to 2 f
+PAD = 8               # zero padding of the periodogram: peaks located to an eighth of a bin before the refinement
+BAND_MARGIN = 1.2     # the noise band: the reference stretch's largest deviation times this
+MULTIPLES = (1.0, 2.0, 3.0, 0.5, 1.0 / 3.0)   # each peak's period, its sub-harmonics and harmonics
+
+
+@dataclass(frozen=True)
+class SquareWave:
+    """A square wave found in |r|: its period T (s), its phase (s, in [0, T): the wave is high on
+    [phase + k T, phase + k T + T/2)), and its strength (the peak over the periodogram's median)."""
+    period: float
+    phase: float
+    strength: float
+
+
+def square_waves(x: np.ndarray, ts: float, low: float, high: float, count: int = 5) -> tuple[SquareWave, ...]:
+    """Up to ``count`` square waves of period in [low / 3, high] (s) in the magnitude signal ``x``
+    (sampled every ``ts`` s; time 0 at its first sample), strongest first; none when no peak of its
+    periodogram stands ``SIGNIFICANCE`` times above the periodogram's median from half to twice its
+    frequency (``LOCAL``)."""
+    x = np.asarray(x, dtype=float)
+    x = x[np.isfinite(x)] if not np.isfinite(x).all() else x
+    n = x.size
+    if n < 8 or high <= 0:
+        return ()
+    y = x - x.mean()
+    power = np.abs(np.fft.rfft(y, PAD * n)) ** 2
+    freq = np.fft.rfftfreq(PAD * n, ts)
+    # down to a third of the shortest period: a sensor's gain switching makes its derivatives spike at
+    # both edges, a peak at T/2 (measured on the CyCab encoder fault of period 0.7 s: the peak at 0.35 s)
+    band = (freq >= 1.0 / high) & (freq <= 1.0 / max(low / 3, 2 * ts)) & (freq > 0)
+    if band.sum() < 3:
+        return ()
+    p = np.where(band, power, 0.0)
+    peaks = np.flatnonzero((p[1:-1] > p[:-2]) & (p[1:-1] >= p[2:])) + 1
+    # against the periodogram's median within an octave around the peak: filtered noise is coloured
+    local = {int(k): float(np.median(power[(freq >= freq[k] / LOCAL) & (freq <= freq[k] * LOCAL) & (freq > 0)]))
+             or 1e-300 for k in peaks}
+    peaks = np.asarray([k for k in peaks if p[k] >= SIGNIFICANCE * local[int(k)]], dtype=int)
+    out: list[SquareWave] = []
+    for k in peaks[np.argsort(-p[peaks])]:
+        period = 1.0 / freq[k]
+        if any(abs(period - w.period) <= REFINE * w.period for w in out):
+            continue
+        T, phase = refine(y, ts, period, low / 3, high)
+        out.append(SquareWave(T, phase, float(p[k] / local[int(k)])))
+        if len(out) == count:
+            break
+    return tuple(out)
+
+
+def refine(y: np.ndarray, ts: float, period: float, low: float, high: float,
+           steps: int = 81, reach: float | None = None) -> tuple[float, float]:
+    """The period within ``REFINE`` of ``period`` (or one periodogram bin: few periods in the data
+    leave a peak as wide as T / span) and the phase whose square wave correlates best
+    with the zero-mean magnitude ``y``: (period, phase) in s.
+
+    The score of a phase, sum(y where the wave is high) - sum(y where it is low), is read off the
+    prefix sums of y sorted by each sample's position within the period (O(n log n) per period,
+    not O(n x phases))."""
+    y = np.asarray(y, dtype=float)
+    t = ts * np.arange(y.size)
+    total = float(y.sum())
+    best = (-np.inf, period, 0.0)
+    if reach is None:
+        reach = max(REFINE, period / (ts * y.size))      # a periodogram bin, as a share of the period: T / span
+    for T in np.unique(np.clip(period * (1 + np.linspace(-reach, reach, steps)), low, high)):
+        phases = np.arange(0.0, T, max(ts, T / 200))
+        pos = np.mod(t, T)
+        order = np.argsort(pos, kind="stable")
+        pos, cum = pos[order], np.concatenate(([0.0], np.cumsum(y[order])))
+        # high on ((t - phase) mod T) in (0, T/2): positions in (phase, phase + T/2), wrapping past T
+        a = np.searchsorted(pos, phases, side="right")
+        end = phases + T / 2
+        inside = end < T
+        b = np.where(inside, np.searchsorted(pos, np.minimum(end, T), side="left"), pos.size)
+        high_sum = cum[b] - cum[a]
+        wrap = ~inside
+        b2 = np.searchsorted(pos, np.where(wrap, end - T, 0.0), side="left")
+        high_sum = high_sum + np.where(wrap, cum[b2], 0.0)
+        score = 2.0 * high_sum - total
+        i = int(np.argmax(score))
+        if score[i] > best[0]:
+            best = (float(score[i]), float(T), float(phases[i]))
+    return best[1], best[2]
+
+
+def candidate_periods(x: np.ndarray, ts: float, waves: tuple[SquareWave, ...], low: float,
+                      high: float) -> list[tuple[float, float]]:
+    """(period, phase) pairs to seed a search with: each wave's period and its multiples
+    (``MULTIPLES``) within [low, high], every wave's own first, then every wave's double, ...,
+    without repeats. A multiple gets its own phase (and its period a last touch, within a
+    twentieth of ``REFINE``) from the magnitude ``x``: the edges of a wave at T/2 (a sensor's gain
+    switching) do not say which half of T is faulty."""
+    x = np.asarray(x, dtype=float)
+    y = np.where(np.isfinite(x), x, 0.0)
+    y = y - y.mean()
+    out: list[tuple[float, float]] = []
+    for m in MULTIPLES:
+        for w in waves:
+            T = w.period * m
+            if low <= T <= high and not any(abs(T - u) <= 1e-3 * u for u, _ in out):
+                out.append((T, w.phase % T) if m == 1.0 else refine(y, ts, T, low, high, steps=9, reach=REFINE / 20))
+    return out
+
+
+def aligned_onsets(period: float, phase: float, origin: float, low: float, high: float) -> list[float]:
+    """The onsets in [low, high] (s) at which a square wave of ``period`` and ``phase`` (relative to
+    ``origin``, s) switches on; the switch nearest the interval when none falls inside."""
+    k0 = int(np.ceil((low - origin - phase) / period - 1e-9))
+    out = [origin + phase + k * period for k in range(k0, k0 + 64) if origin + phase + k * period <= high + 1e-9]
+    if out:
+        return out
+    return [float(np.clip(origin + phase + (k0 - 1) * period, low, high))]
+
+
+def noise_band(r: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
+    """The residual's median over the ``reference`` samples (a boolean mask of a stretch without
+    fault) and its band: the largest deviation from that median there, times ``BAND_MARGIN``."""
+    ref = r[reference & np.isfinite(r)]
+    if ref.size == 0:
+        return 0.0, np.inf
+    centre = float(np.median(ref))
+    return centre, BAND_MARGIN * float(np.max(np.abs(ref - centre)))
+
+
+def departure(r: np.ndarray, t: np.ndarray, start: float, until: float) -> float | None:
+    """Where the residual ``r`` first leaves its noise band after the reference stretch: the band
+    from the first half of [start, until] (a stretch before the fault: from the settling time to
+    the threshold crossing), the departure the first sample of the second half outside it. None
+    when it never leaves.
+
+    >>> t = np.arange(0.0, 20.0, 0.01)
+    >>> r = 0.1 * np.sin(37 * t) + np.where(t >= 12.0, 1.0, 0.0)
+    >>> departure(r, t, 1.0, 15.0)
+    12.0
+    """
+    r = np.asarray(r, dtype=float)
+    middle = (start + until) / 2
+    centre, band = noise_band(r, (t >= start) & (t < middle))
+    out = np.flatnonzero((t >= middle) & (t <= until) & (np.abs(r - centre) > band))
+    return float(t[out[0]]) if out.size else None
+
+
+def onset_interval(r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, t_d: float, start: float,
+                   lookahead: np.ndarray) -> tuple[float, float]:
+    """The onsets the evidence allows: from the earliest departure from its noise band
+    (:func:`departure`, before its first threshold crossing at or after ``start``) of a residual
+    that crossed, minus its ``lookahead`` (s), to the detection ``t_d`` plus the look-ahead of the
+    residuals that crossed at t_D (the filter crosses before the fault). ``r`` (residuals x samples),
+    ``thresholds`` and ``lookahead`` one per residual.
+
+    >>> t = np.arange(0.0, 20.0, 0.01)
+    >>> r = np.vstack([0.1 * np.sin(37 * t) + np.where(t >= 12.0, 0.1 * (t - 12.0) ** 2, 0.0), 0 * t])
+    >>> lo, hi = onset_interval(r, t, np.array([1.0, 1.0]), 15.0, 1.0, np.array([0.25, 0.25]))
+    >>> bool(12.0 - 0.25 <= lo <= 12.0 + 1.0), hi     # the drift starts at 12 s; the band is 0.12 wide
+    (True, 15.25)
+    """
+    r = np.asarray(r, dtype=float).reshape(len(thresholds), -1)
+    lookahead = np.broadcast_to(np.asarray(lookahead, dtype=float), (len(thresholds),))
+    lows, highs = [], []
+    for i, (row, thr) in enumerate(zip(r, thresholds)):
+        over = np.flatnonzero((t >= start) & (np.abs(row) > thr))
+        if not over.size:
+            continue
+        cross = float(t[over[0]])
+        if cross <= t_d + 1e-9:
+            highs.append(t_d + lookahead[i])
+        dep = departure(row, t, start, cross)
+        lows.append((cross if dep is None else dep) - lookahead[i])
+    if not lows:
+        return t_d, t_d + float(lookahead.max(initial=0.0))
+    return max(float(t[0]), min(min(lows), t_d)), float(max(highs) if highs else t_d + lookahead.max())
+
+
+def intermittent_rows(spaces: list, bits: np.ndarray, seeds: list[list[tuple[float, float]]],
+                      onsets=None, levels: int = 4) -> np.ndarray:
+    """Decision vectors (``fdi.encoding``'s reals, plus the onset last when ``onsets`` is given)
+    seeding the intermittent faults of the structure of ``bits``: for each such fault j and each
+    (period, phase) of ``seeds[j]``, ``levels`` faulty values spread over its bounds, the onset at
+    each of ``onsets(period, phase)``; NaN elsewhere (the engine draws those). No rows when the
+    structure has no intermittent fault with a seed."""
+    from . import encoding
+    d = encoding.N_REAL * len(spaces) + (1 if onsets is not None else 0)
+    rows = []
+    decoded = encoding.decode(spaces, np.zeros((1, encoding.N_REAL * len(spaces))), np.asarray(bits)[None, :])
+    for j, (space, dec) in enumerate(zip(spaces, decoded)):
+        if int(dec.kind[0]) != 1 or not seeds[j]:
+            continue
+        lo, hi = encoding.bounds([space])[0]
+        values = lo + (np.arange(levels) + 0.5) / levels * (hi - lo)
+        for period, phase in seeds[j]:
+            for t0 in (onsets(period, phase) if onsets is not None else [None]):
+                for v in values:
+                    row = np.full(d, np.nan)
+                    row[encoding.N_REAL * j], row[encoding.N_REAL * j + 1] = v, period
+                    if t0 is not None:
+                        row[-1] = t0
+                    rows.append(row)
+    return np.asarray(rows).reshape(-1, d)
+
+
+def nesting_depth(residual) -> int:
+    """How many derivative filters a residual's samples pass through in series: one for its signals,
+    one more per level of stored quantities it differentiates (``composites``)."""
+    inner = [nesting_depth(kernel) for _, kernel in getattr(residual, "composites", ())]
+    return 1 + max(inner, default=0)
+
+
+TRANSLATE_POINTS = 160    # profile samples a translation compares (the window, evenly)
+TRANSLATE_DRAWS = 768     # candidate coefficient vectors per round of the translation's search
+TRANSLATE_ROUNDS = 7      # rounds, each in a box half as wide around the best so far
+
+
+def translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: np.ndarray, t: np.ndarray,
+              t0: float, seed: int = 0) -> np.ndarray:
+    """The reals (``fdi.encoding``'s, without the onset) with which the structure of ``bits_to``
+    reproduces the fault profiles that ``real`` gives under ``bits_from`` over the times ``t``, the
+    onset ``t0`` shared; NaN where a fault keeps its type and model (its reals carry over as they
+    are) or where nothing translates (an intermittent target from another type: the engine keeps
+    its own point there). An abrupt target takes the profile's median after the onset; a
+    degradation model (16)-(19) the coefficients whose profile is nearest, in the parameter's
+    scale (its reciprocal when the nominal value is infinite), by a shrinking random search over
+    the coefficients' box. No residual is evaluated: a profile costs microseconds.
+
+    Why: a family whose degradation model differs from the winner's starts the final check from a
+    screen of its own, at the rim of a narrow basin (a drift of eq. (19) at 6-7 times the winner's
+    cost after the race): re-expressed from the winner's profile, it starts near the bottom when
+    the data are its kind.
+
+    An eq. (17) drift 1/P = 1 + 0.02 tau re-expressed as eq. (16) P = exp(b1 tau): over 10 s the
+    nearest b1 is about the mean log-slope, -0.019:
+
+    >>> from fdi import encoding
+    >>> s = encoding.FaultSpace.make("beta", 1.0, (0.05, 1.5))
+    >>> real, bits = encoding.encode([s], [{"type": "incipient", "model": 2, "b": [-0.02]}])
+    >>> _, to = encoding.encode([s], [{"type": "incipient", "model": 1, "b": [0.0]}])
+    >>> out = translate([s], real, bits, to, np.linspace(0.0, 10.0, 101), 0.0)
+    >>> b1 = encoding.describe([s], np.where(np.isnan(out), real, out), to)[0]["b"][0]
+    >>> bool(-0.021 < b1 < -0.017)
+    True
+    """
+    from . import encoding
+    rng = np.random.default_rng(seed)
+    n_real = encoding.N_REAL
+    out = np.full(n_real * len(spaces), np.nan)
+    t = np.asarray(t, dtype=float)
+    t = t[np.linspace(0, t.size - 1, min(t.size, TRANSLATE_POINTS)).astype(int)] if t.size else t
+    after = t >= t0
+    if not after.any():
+        return out
+    src = encoding.decode(spaces, real[None, :], np.asarray(bits_from)[None, :])
+    dst = encoding.decode(spaces, real[None, :], np.asarray(bits_to)[None, :])
+    bounds = encoding.bounds(spaces)
+    for j, (space, a, b) in enumerate(zip(spaces, src, dst)):
+        ka, kb = int(a.kind[0]), int(b.kind[0])
+        if ka == kb and (kb != 2 or int(a.model[0]) == int(b.model[0])):
+            continue
+        p = encoding.profiles([space], [a], t, t0)[0][0]
+        if not np.isfinite(p[after]).all():
+            continue
+        scale = (lambda v: 1.0 / v) if not np.isfinite(space.nominal) else (lambda v: v)
+        target = scale(p)
+        if kb == 0:
+            value = float(np.median(p[after]))
+            out[n_real * j] = np.log10(value) if space.log else value
+            lo, hi = bounds[n_real * j]
+            out[n_real * j] = float(np.clip(out[n_real * j], lo, hi))
+        elif kb == 2:
+            model = int(b.model[0])
+            cols = [n_real * j + slot for slot in encoding.COEFF_SLOTS[model]]
+            box = bounds[cols].astype(float).copy()
+            width = np.abs(target[after] - scale(space.nominal) if np.isfinite(scale(space.nominal))
+                           else target[after]).max() + 1e-300
+            best_x, best_e = None, np.inf
+            for _ in range(TRANSLATE_ROUNDS):
+                x = box[:, 0] + rng.random((TRANSLATE_DRAWS, len(cols))) * (box[:, 1] - box[:, 0])
+                if best_x is not None:
+                    x[0] = best_x
+                rows = np.tile(real[n_real * j: n_real * (j + 1)], (TRANSLATE_DRAWS, 1))
+                rows[:, [c - n_real * j for c in cols]] = x
+                bits_j = np.tile(np.asarray(bits_to)[encoding.N_BITS * j: encoding.N_BITS * (j + 1)], (TRANSLATE_DRAWS, 1))
+                (q,) = encoding.profiles([space], encoding.decode([space], rows, bits_j), t, t0)
+                with np.errstate(all="ignore"):
+                    e = np.abs(scale(q) - target[None, :])[:, after].sum(axis=1) / width
+                e = np.where(np.isfinite(e), e, np.inf)
+                i = int(np.argmin(e))
+                if e[i] < best_e:
+                    best_x, best_e = x[i].copy(), float(e[i])
+                half = (box[:, 1] - box[:, 0]) / 4
+                lo, hi = bounds[cols, 0], bounds[cols, 1]
+                centre = best_x if best_x is not None else (box[:, 0] + box[:, 1]) / 2
+                box = np.column_stack([np.maximum(lo, centre - half), np.minimum(hi, centre + half)])
+            if best_x is not None:
+                out[cols] = best_x
+    return out
