@@ -51,7 +51,8 @@ def laid_out(text: str, door: str) -> str:
         return "".join(json.dumps(_report(e, "event") if e["event"] == "summary" else e, default=float) + "\n"
                        for e in events)
     old = json.loads(text)
-    report = _report(old, "file" if door == "fleet" else None)
+    report = _report({k: v for k, v in old.items() if k != "error"} if door == "fleet" else old,
+                     "file" if door == "fleet" else None)
     if door == "fleet":                       # issue 25: every fleet line has ``error`` (null), after ``file``
         report = {"file": report["file"], "error": old.get("error"), **{k: v for k, v in report.items() if k != "file"}}
     return json.dumps(report, indent=1, default=float) + "\n"

@@ -11,6 +11,7 @@ from __future__ import annotations
 import gzip
 import io
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -62,6 +63,9 @@ def make_reports(tmp: Path) -> None:
                 expected[case.name][door] = run(case, data)
                 print(f"  {door} {time.perf_counter() - t:.1f} s", flush=True)
         print(case.name, {k: len(v) for k, v in expected[case.name].items()}, flush=True)
+    for doors in expected.values():          # the monitor's identification_s is wall time (test_golden.timed)
+        if "monitor" in doors:
+            doors["monitor"] = re.sub(r', "identification_s": [0-9.eE+-]+', "", doors["monitor"])
     (HERE / "expected.json").write_text(json.dumps(expected, indent=0, sort_keys=True) + "\n", encoding="utf-8")
 
 
