@@ -121,27 +121,22 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
         pending, count = [], 0
         width = len(header)
         group: list[str] = []
-        for line in lines:                 # plain rows: numpy's C parser, a block of lines at a time
-            group.append(line)
-            if len(group) < rows:
-                continue
-            block = _plain(group, width, comma)
+        for line in itertools.chain(lines, [None]):   # plain rows: numpy's C parser, a block at a time
+            if line is not None:
+                group.append(line)
+                if len(group) < rows:
+                    continue
+            block = _plain(group, width, comma) if group else None
             if block is None:
+                if line is None and not group:      # the end, every row read
+                    return
                 break
             count += block.size
             if count > MAX_VALUES:
                 raise DataError(f"{path}: more than {MAX_VALUES:.0e} values; split the file")
             group = []
             yield header, block
-        else:
-            block = _plain(group, width, comma) if group else None
-            if block is not None:
-                count += block.size
-                if count > MAX_VALUES:
-                    raise DataError(f"{path}: more than {MAX_VALUES:.0e} values; split the file")
-                group = []
-                yield header, block
-            if not group:
+            if line is None:
                 return
         # anything else (quotes, empty fields, a short or long row, a stream cut mid-row, a number
         # only Python reads): the csv module from the first block that was not plain, as before
@@ -252,8 +247,8 @@ def _by_pandas(path: str, bound: int | None) -> tuple[list[str], np.ndarray] | N
     by :func:`blocks`, as for every file. Used when pandas is imported already (a notebook) or the
     file has PANDAS_BYTES or more (below, importing pandas costs more time than it saves: a 41 MB
     file reads in 0.61 s by numpy's parser, 0.55 s by pandas' with its import, which also takes
-    70 MB). None when pandas is absent or the file is anything but
-    plain (gzip, UTF-16, a BOM, semicolons, a pipe, more than MAX_VALUES numbers), and after pandas
+    70 MB). None when pandas is absent or the file is anything but plain (gzip, UTF-16, a BOM,
+    semicolons, a pipe, more than MAX_VALUES numbers), and after pandas
     when a value is missing, a row is short or long or a number is one only Python reads: the reader
     of every other source then reads the file and says what is wrong, in its words."""
     if bound is None:
