@@ -37,7 +37,7 @@ from .profiles import N_COEFFICIENTS, TYPES, incipient, intermittent, abrupt
 N_REAL = 9
 N_BITS = 5
 COEFF_SLOTS = {1: [2], 2: [3], 3: [4, 5], 4: [6, 7, 8]}           # real indices of each model's b's
-DEFAULT_COEFF_BOUNDS = [(-0.3, 0.3), (-0.3, 0.3), (-2.0, 1.0), (-2.0, 0.0), (-5.0, 5.0), (-1.0, 1.0), (-1.0, 1.0)]
+DEFAULT_COEFF_BOUNDS = [(-0.3, 0.3), (-0.3, 0.3), (-2.0, 1.0), (-2.0, 0.0), (-20.0, 20.0), (-1.0, 1.0), (-1.0, 1.0)]
 RATE_SLOT = 4                 # real index of eq. (18)'s log10(r1) (b3 = r1 - 1/r1)
 # The intermittent period's search interval (s) of a FaultSpace made without data: the optimiser
 # benchmarks' synthetic problems, on the CyCab's time axis. A diagnosis always gives its own, from

@@ -85,7 +85,9 @@ def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float)
     """EOL, RUL at ``now`` = tf + N ts, and the RUL band: the RULs at the corners of the 95 %
     profile-likelihood intervals of the coefficients and the onset (``b_band``, ``t0_band``, from
     the final fit: see ``fdi.estimators.coefficient_band``; the RUL is monotone in each, so the
-    corners bound it over the box); without a band, the band is the RUL itself."""
+    corners bound it over the box), widened to the RUL of each other degradation model the data
+    cannot tell from the fit's (``other_models``, :func:`fdi.estimators.other_models`); without a
+    band, the band is the RUL itself."""
     eol = end_of_life(fault["model"], fault["b"], nominal, failure, tf, now)
     band = fault.get("b_band") or []
     onsets = list(fault.get("t0_band") or []) or [tf]
@@ -94,6 +96,8 @@ def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float)
     if corners:
         ruls += [float(e) - now for e in ends_of_life(fault["model"], [c for c, _ in corners], nominal, failure,
                                                         [start for _, start in corners], now)]
+    for other in fault.get("other_models") or []:      # a degradation model the data cannot tell apart
+        ruls.append(end_of_life(other["model"], other["b"], nominal, failure, other["t0"], now) - now)
     finite = [r for r in ruls if np.isfinite(r)]
     return {"name": fault["name"], "failure": failure, "eol": eol, "rul": eol - now, "at": now,
             "rul_low": min(finite) if finite else float("inf"), "rul_high": max(finite) if finite else float("inf")}
