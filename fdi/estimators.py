@@ -74,7 +74,9 @@ def fit(monitor: "Monitor", job: Job) -> Estimate:
         f["t0"] = float(real[-1])
         if f["type"] == "incipient":
             f["b_band"], f["t0_band"] = coefficient_band(obj, real, r.bits, r.cost, i, job.seed)
-            others = other_models(obj, real, r.bits, r.cost, i, job.seed)
+            seeds = [m for known in job.known for k in known if k.get("name") == f["name"]
+                     for m in k.get("other_models") or ()]
+            others = other_models(obj, real, r.bits, r.cost, i, job.seed, r.extra.get("families", ()), seeds)
             if others:
                 f["other_models"] = others
         elif f["type"] == "intermittent" and f["t0"] + f["period"] / 2 >= end:
@@ -151,10 +153,14 @@ MODEL_ONSETS = (0.0, 1.0, 2.0, 4.0, 8.0)   # s before the fit's onset where each
 
 
 def other_models(obj: Objective, real: np.ndarray, bits: np.ndarray, cost: float, index: int,
-                 seed: int = 0) -> list[dict]:
+                 seed: int = 0, families=(), seeds: list[dict] = ()) -> list[dict]:
     """The other degradation models (16)-(19) of incipient fault ``index`` that the window cannot
     tell from the fit's: each re-expressed from the fitted profile (:func:`fdi.hints.translate`),
-    polished on the objective by a shrinking Gaussian search over its coefficients and the onset,
+    and from the engine's best point of that structure where its final check settled one
+    (``families``: bits, reals, cost) and from the plausible models an earlier fit of the fault
+    found (``seeds``: a refit on more data starts where the shorter window left each model),
+    polished on the objective by a shrinking Gaussian search over
+    its coefficients and the onset,
     and kept when Schwarz's criterion (:func:`fdi.criterion.information`) is within ``MODEL_ODDS``
     of the fit's: posterior odds of at least 1 to 20 against it (BIC approximates twice the log
     Bayes factor). Returns report entries {model, b, t0, cost}, for the prognosis' band: its
@@ -181,6 +187,16 @@ def other_models(obj: Objective, real: np.ndarray, bits: np.ndarray, cost: float
             onset = float(np.clip(real[-1] - back, *bounds[-1]))
             moved = hints.translate(obj.spaces, real[:-1], bits, to, t, onset, seed)
             starts.append(np.append(np.where(np.isnan(moved), real[:-1], moved), onset))
+        starts += [np.asarray(x, dtype=float) for b, x, _ in families
+                   if np.array_equal(np.asarray(b, dtype=bool), to) and np.asarray(x).shape == real.shape]
+        for known in seeds:
+            if int(known["model"]) == other:
+                x = starts[0].copy()
+                part, _ = encoding.encode([obj.spaces[index]], [{"type": "incipient", "model": other, "b": known["b"]}])
+                cols = [encoding.N_REAL * index + slot for slot in encoding.COEFF_SLOTS[other]]
+                x[cols] = part[encoding.COEFF_SLOTS[other]]
+                x[-1] = known["t0"]
+                starts.append(np.clip(x, bounds[:, 0], bounds[:, 1]))
         starts = np.unique(np.array(starts), axis=0)
         c = obj(starts, np.tile(to, (len(starts), 1)))
         k = int(np.nanargmin(np.where(np.isfinite(c), c, np.inf)))
@@ -198,9 +214,6 @@ def other_models(obj: Objective, real: np.ndarray, bits: np.ndarray, cost: float
                 best, x = float(c[k]), rows[k]
             else:
                 scale /= 4
-        import os, sys
-        if os.environ.get("OMDEBUG"):
-            print("OM", other, "start", float(c[k]), "final", best, encoding.describe(obj.spaces, x[:-1], to)[index]["b"], x[-1], file=sys.stderr)
         if not np.isfinite(best):
             continue
         entry = encoding.describe(obj.spaces, x[:-1], to)[index]

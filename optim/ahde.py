@@ -492,6 +492,7 @@ class AHDE(GenerationalSolver):
         close = [b for b in bests if self.rank(b) <= self.rank(win) * (1 + self.options.spare)]
         if close:
             self.advance(close, self.budget, until_converged=True)
+        self.checked = [(b.bits.copy(), b.x[int(np.argmin(b.f))].copy(), float(b.best)) for b in bests]
         for b in close:
             if self.rank(b) < self.rank(win) * (1 - self.options.tol):
                 finalists.append(b)
@@ -696,7 +697,7 @@ class AHDE(GenerationalSolver):
         i = int(np.argmin(win.f))
         margin = self.rank(finalists[1]) / max(self.rank(win), 1e-300) if len(finalists) > 1 else float("inf")
         extra = {"margin": margin, "structures": [(b.key, b.best) for b in finalists],
-                 "raced": len(self.branches)}
+                 "raced": len(self.branches), "families": list(getattr(self, "checked", []))}
         if not self.options.recheck and self.options.resume is None:
             extra["snapshot"] = self.snapshot()
         return self.make_result(win.x[i].copy(), win.bits.copy(), win.best, extra)

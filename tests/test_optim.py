@@ -357,7 +357,6 @@ def test_a_run_without_its_check_resumed_finds_the_second_order_drift():
     assert done.evaluations > snapshot.evaluations                  # it continued, counting what was spent
     assert done.cost < first.cost
     assert synthetic.recovered(p.spaces, p.truth, p.finish(done.real, done.bits), done.bits, p.t, p.t0)
-    # without the translation the eq. (19) family starts at its rim and is dropped on the way down
-    plain = optim.minimize(dataclasses.replace(optim.pose(p), translate=None), engine="AHDE", seed=0, resume=snapshot,
-                           **settings)
-    assert not synthetic.recovered(p.spaces, p.truth, p.finish(plain.real, plain.bits), plain.bits, p.t, p.t0)
+    # (without the translation the eq. (19) family started at its rim and was dropped on the way down
+    # while eq. (19)'s b5 was searched in [-5, 5]; searched in [-20, 20] the untranslated family comes
+    # back on this seed too, so that contrast is no longer a test)

@@ -11,6 +11,8 @@ paper's method alone misses; each truth is the run's design.
 """
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from fdi.api import Options, diagnose
@@ -48,3 +50,14 @@ def test_a_drift_decided_again_when_its_second_residual_fires_keeps_its_early_on
     eol = pc.end_of_life(truth, 0.5)                                      # 54.2 s, the plant's own profile
     (p,) = d.prognosis
     assert p.rul_low <= eol - p.at <= p.rul_high
+
+
+def test_a_degradation_model_the_data_cannot_tell_apart_widens_the_rul_band():
+    # eq. (17): 1/P = 1 + 0.03 (t - 32) reaches 0.5 at 32 + 100/3 s; eq. (16): P = exp(-0.02 (t - 32))
+    # reaches it at 32 + ln 2 / 0.02 s; at 37 s the RULs are 28.333 and 29.657 s (by hand)
+    from fdi.prognose import prognose
+    fault = {"name": "beta", "model": 2, "b": [-0.03], "t0": 32.0,
+             "other_models": [{"model": 1, "b": [-0.02], "t0": 32.0, "cost": 1.0}]}
+    p = prognose(fault, 1.0, 0.5, tf=32.0, now=37.0)
+    assert p["rul"] == pytest.approx(100 / 3 - 5, abs=1e-9)
+    assert (p["rul_low"], p["rul_high"]) == pytest.approx((100 / 3 - 5, 50 * math.log(2) - 5), abs=1e-9)
