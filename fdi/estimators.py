@@ -51,6 +51,7 @@ class Job:
     modes: tuple[tuple[str, float], ...] = ()      # mode variables the caller knows (Options.mode)
     recheck: bool = True                           # the engine's final check (where it has one)
     resume: object = None                          # the first pass's engine state: only the check runs
+    prognosed: tuple[str, ...] = ()                # faults with a failure value: their RUL band's other models
 
 
 def fit(monitor: "Monitor", job: Job) -> Estimate:
@@ -76,9 +77,10 @@ def fit(monitor: "Monitor", job: Job) -> Estimate:
             f["b_band"], f["t0_band"] = coefficient_band(obj, real, r.bits, r.cost, i, job.seed)
             seeds = [m for known in job.known for k in known if k.get("name") == f["name"]
                      for m in k.get("other_models") or ()]
-            others = other_models(obj, real, r.bits, r.cost, i, job.seed, r.extra.get("families", ()), seeds)
-            if others:
-                f["other_models"] = others
+            if job.recheck and f["name"] in job.prognosed:      # the final fit of a fault with a prognosis
+                others = other_models(obj, real, r.bits, r.cost, i, job.seed, r.extra.get("families", ()), seeds)
+                if others:
+                    f["other_models"] = others
         elif f["type"] == "intermittent" and f["t0"] + f["period"] / 2 >= end:
             faults[i] = {"name": f["name"], "type": "abrupt", "value": f["value"], "t0": f["t0"]}
     return Estimate(tuple(job.candidate), r.cost, float(fitness(r.cost)), tuple(float(fitness(c)) for c in r.history),
@@ -149,7 +151,7 @@ def coefficient_band(obj: Objective, real: np.ndarray, bits: np.ndarray, cost: f
 MODEL_ODDS = 2.0 * float(np.log(20.0))   # Schwarz's criterion within this of the fit's: posterior odds above 1/20
 MODEL_ROUNDS = 12    # rounds of the local search that polishes each other degradation model
 MODEL_DRAWS = 64     # points per round (one objective call)
-MODEL_ONSETS = (0.0, 1.0, 2.0, 4.0, 8.0)   # s before the fit's onset where each other model's search may start
+MODEL_ONSETS = (0.0, 2.0, 8.0)   # s before the fit's onset where each other model's search may start
 
 
 def other_models(obj: Objective, real: np.ndarray, bits: np.ndarray, cost: float, index: int,
@@ -263,8 +265,9 @@ class Estimators:
     process pool, opened when first needed and closed with the diagnosis (``with`` block)."""
 
     def __init__(self, monitor: "Monitor", search: Search, workers: int = 1, memo: dict | None = None,
-                 modes: dict[str, float] | None = None) -> None:
+                 modes: dict[str, float] | None = None, prognosed=()) -> None:
         self.monitor, self.search, self.workers, self.memo = monitor, search, workers, memo
+        self.prognosed = tuple(sorted(prognosed))
         self.modes = tuple(sorted((modes or {}).items()))
         self._pool: ProcessPoolExecutor | None = None
 
@@ -313,7 +316,7 @@ class Estimators:
                 jobs[i] = Job(win, tuple(candidates[i]), np.asarray(weights), self.search, seed + 1000 * i,
                               tuple(known[i]) + tuple(list(r.faults) for j, r in done.items()
                                                       if set(r.candidate) < set(candidates[i]) and fixed[j] == fixed[i]),
-                              tuple(fixed[i]), onsets[i], self.modes, recheck=not two_phase)
+                              tuple(fixed[i]), onsets[i], self.modes, recheck=not two_phase, prognosed=self.prognosed)
             done.update(zip(wave, self._run([jobs[i] for i in wave], t, t0, samples)))
             if progress:
                 progress(len(done), len(candidates))
@@ -352,7 +355,7 @@ class Estimators:
         end = min(t.size, i0 + samples + margin)
         return json.dumps([self.monitor.key, repr(self.monitor.config), t0, samples, end, list(job.candidate),
                            list(map(float, job.weights)), repr(job.search), job.seed, job.known, job.fixed,
-                           job.onset, job.modes, job.recheck], default=float, sort_keys=True)
+                           job.onset, job.modes, job.recheck, job.prognosed], default=float, sort_keys=True)
 
 
 RECHECK_REACH = 1.0  # the engine's final check reruns the candidate sets within twice the best cost: the

@@ -66,6 +66,13 @@ class Prepared:
         return {**commanded(self.monitor.model, raw), **self.modes}
 
     @property
+    def prognosed(self) -> frozenset[str]:
+        """The faults with a failure value (the options' or the model's): those a prognosis follows."""
+        config = self.monitor.config
+        return frozenset(n for n in self.monitor.model.faults
+                         if self.options.failures.get(n, config.failure(n)) is not None)
+
+    @property
     def window_s(self) -> float:
         return self.monitor.config.derivative_window
 
@@ -189,7 +196,7 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
     except DataError as exc:                  # detected at the end of the data: reported, not identified
         return replace(d, note=str(exc).split(": ", 1)[-1])
     search = Search(p.options.engine, p.options.pop, p.options.generations)
-    with Estimators(p.monitor, search, p.options.workers, memo, p.modes) as est:
+    with Estimators(p.monitor, search, p.options.workers, memo, p.modes, p.prognosed) as est:
         return identify(p, d, fsm, r, est, clock, progress)
 
 
@@ -472,7 +479,7 @@ def refresh_prognosis(monitor: "Monitor", meas: Measurements, d: Diagnosis, opti
     t0 = min(f["t0"] for f in growing)
     w = p.window_s
     search = Search(o.engine, o.pop, o.generations)
-    with Estimators(p.monitor, search, 1, memo, p.modes) as est:
+    with Estimators(p.monitor, search, 1, memo, p.modes, p.prognosed) as est:
         (result,) = est.run(meas.t, p.raw, start, span, [tuple(f["name"] for f in growing)], p.weights,
                             o.seed + 104729, None, [others], [(min(t0 - w, float(meas.t[0]) + p.settle), t0 + w)],
                             [[growing]])
