@@ -222,8 +222,15 @@ class Stream:
         if rows is None or block.shape[0] <= rows:
             self._one(block)
             return
+        self.residuals = None
+        pieces = []
         for a in range(self._bulk(block, rows), block.shape[0], rows):
+            if self.residuals is not None:
+                pieces.append(self.residuals)
+            self.residuals = None
             self._one(block[a:a + rows])
+        if pieces:
+            self.residuals = np.concatenate(pieces + ([] if self.residuals is None else [self.residuals]), axis=1)
 
     def _one(self, block: np.ndarray) -> None:
         """One block of rows: appended, the residuals that became final computed from the carried
@@ -261,9 +268,12 @@ class Stream:
         persistence rule run over them with the evidence carried before. The blocks before the
         one whose residuals confirm an alarm are committed; the rows consumed are returned, the
         rest go block by block (:meth:`_one`: the detection event with its ``known_at``). Rows
-        that :meth:`_append` would refuse also go block by block (the error at its block)."""
+        that :meth:`_append` would refuse also go block by block (the error at its block), and so
+        do models on the whole-segment path of :mod:`fdi.carry` (stored quantities, mode switches),
+        whose residuals near a block's end depend on where the block ends."""
         if self.window is None or self.n < 3 or self.t_detect is not None or self.pending or self.job is not None \
-                or self.due is not None or self.latest is not None or not self._acceptable(block):
+                or self.due is not None or self.latest is not None or not self._carried().cropped \
+                or not self._acceptable(block):
             return 0
         ti, m = self.ti, block.shape[0]
         ts = float(self.buffer[1, ti] - self.buffer[0, ti])
