@@ -40,6 +40,7 @@ import math
 from typing import Mapping
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from bondgraph.model import Model
 
@@ -81,9 +82,46 @@ class Carried:
             r = evaluate(self.model, self.kernels, raw, ts, window=self.window, values={**modes, **self.mode})
             return np.asarray(r)[:, lo:hi]
         values = {**self.constants, **modes, **self.mode}
-        at = slice(lo, hi)
-        sig = corrected_signals(self.model, raw, ts, self.orders, window=self.window, at=at)
         out = np.empty((len(self.kernels), hi - lo))
+        if lo < self.behind(ts):                  # the record's first samples: the filter's edge fit
+            at = slice(lo, hi)
+            sig = corrected_signals(self.model, raw, ts, self.orders, window=self.window, at=at)
+            for row, r in zip(out, self.kernels):
+                row[:] = r(sig, values, ts, self.window, crop=at)
+            return out
+        sig = {name: filtered(np.asarray(raw[name], dtype=float), ts, order, self.window, lo, hi)
+               for name, order in self.orders.items()}
         for row, r in zip(out, self.kernels):
-            row[:] = r(sig, values, ts, self.window, crop=at)
+            row[:] = r(sig, values, ts, self.window)
         return out
+
+
+def filtered(x: np.ndarray, ts: float, order: int, window: float, lo: int, hi: int) -> list[np.ndarray]:
+    """[x, dx/dt, ..., d^order x/dt^order] at samples [lo, hi) of ``x``, each sample's whole window
+    inside ``x``: the Savitzky-Golay kernels of :func:`fdi.derivatives.kernels` applied to the
+    sliding windows, as :func:`fdi.derivatives.estimate` does, but FILTER_ROWS windows at a time.
+    numpy's matrix product over a long strided window view copies all its windows first (14 000
+    samples x 25: 4.3 ms for three orders, measured); in cache-sized blocks it takes 0.3 ms. The
+    same product of the same windows: the whole record's numbers (np.correlate, as fast, sums in
+    another order, and a Coulomb friction's sign(dθ/dt) of an encoder standing still, a
+    derivative of exactly 0 give or take round-off, then flips a residual by its full term).
+
+    >>> t = np.arange(0.0, 1.0, 0.01)
+    >>> x, v = filtered(t ** 3, 0.01, 1, 0.1, 5, 95)
+    >>> bool(np.allclose(v, 3 * t[5:95] ** 2))
+    True
+    """
+    p = max(derivatives.DEFAULT_ORDER, order)
+    n = derivatives.window_samples(window, ts, p)
+    half = n // 2
+    if lo < half or hi + half > x.shape[-1]:
+        raise ValueError(f"samples [{lo}, {hi}) need {half} samples either side; {x.shape[-1]} given")
+    kernel = derivatives.kernels(n, p, order, float(ts), half)
+    view = sliding_window_view(x[lo - half:hi + half], n)
+    out = np.empty((hi - lo, order + 1))
+    for a in range(0, hi - lo, FILTER_ROWS):
+        out[a:a + FILTER_ROWS] = view[a:a + FILTER_ROWS] @ kernel
+    return [out[:, k] for k in range(order + 1)]
+
+
+FILTER_ROWS = 1024      # windows multiplied at a time (200 KB of windows for 25 samples: in cache)

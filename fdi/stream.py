@@ -223,12 +223,19 @@ class Stream:
             self._one(block)
             return
         self.residuals = None
-        pieces = []
-        for a in range(self._bulk(block, rows), block.shape[0], rows):
+        pieces, a, bulk = [], 0, True
+        while a < block.shape[0]:
+            used = self._bulk(block[a:], rows) if bulk else 0
             if self.residuals is not None:
                 pieces.append(self.residuals)
-            self.residuals = None
+                self.residuals = None
+            if used:
+                a += used
+                bulk = a >= block.shape[0]          # stopped short: an alarm in the next block, which goes alone
+                continue
+            bulk = self._bulk_ready() is None    # declined for a reason a block may end (the start): try on; else per block
             self._one(block[a:a + rows])
+            a += rows
         if pieces:
             self.residuals = np.concatenate(pieces + ([] if self.residuals is None else [self.residuals]), axis=1)
 
@@ -261,6 +268,15 @@ class Stream:
                                    self.source)
         return self.carried
 
+    def _bulk_ready(self) -> bool | None:
+        """Whether :meth:`_bulk` may take blocks at once: True; None before the stream has started
+        (a block may start it); False once detected, with decisions pending or identifying, or on
+        the whole-segment path."""
+        if self.window is None or self.n < 3:
+            return None
+        return self.t_detect is None and not self.pending and self.job is None and self.due is None \
+            and self.latest is None and self._carried().cropped
+
     def _bulk(self, block: np.ndarray, rows: int) -> int:
         """Blocks of ``rows`` rows of ``block`` taken at once while nothing is detected or due: the
         per-block bookkeeping (which samples each block makes final, when rows are forgotten) is
@@ -271,9 +287,7 @@ class Stream:
         that :meth:`_append` would refuse also go block by block (the error at its block), and so
         do models on the whole-segment path of :mod:`fdi.carry` (stored quantities, mode switches),
         whose residuals near a block's end depend on where the block ends."""
-        if self.window is None or self.n < 3 or self.t_detect is not None or self.pending or self.job is not None \
-                or self.due is not None or self.latest is not None or not self._carried().cropped \
-                or not self._acceptable(block):
+        if self._bulk_ready() is not True or not self._acceptable(block):
             return 0
         ti, m = self.ti, block.shape[0]
         ts = float(self.buffer[1, ti] - self.buffer[0, ti])

@@ -1,0 +1,128 @@
+"""A recorded CSV read a megabyte at a time and parsed in C: what ``bgfdi monitor`` replays a file with.
+
+:func:`fdi.data.blocks` reads a stream line by line, as its rows arrive, and hands over ``rows``
+of them at a time: right for a live source (a pipe, a socket), where a block is what has come.
+A recording (a regular file, or text already in memory) has all its rows there: reading them one
+Python line at a time cost more than the monitor's own work (1 h at 100 Hz: 7 200 reads of 50
+rows). :func:`chunks` reads ~1 MB of text at once, checks in numpy that every line is plain (the
+header's number of values, separated by commas, no quotes), parses it with numpy's C parser, and
+yields a whole number of ``rows``-row blocks per chunk, so that ``Stream.feed(header, table,
+rows=...)`` sees the same blocks as before and emits the same events.
+
+Anything else (a semicolon-separated file, quotes, empty fields, a short or long row, a row cut
+at the end of the stream, text that is not ASCII) is handed, from the first block it touches, to
+:func:`fdi.data.blocks` with the rest of the stream: the same numbers, errors and messages.
+
+>>> import io
+>>> text = "t,x\\n" + "".join(f"{k / 10},{k}\\n" for k in range(7))
+>>> [(h, b.shape) for h, b in chunks(io.StringIO(text), "x.csv", 3)]
+[(['t', 'x'], (6, 2)), (['t', 'x'], (1, 2))]
+"""
+from __future__ import annotations
+
+import io
+import warnings
+import zlib
+from typing import Callable, Iterator
+
+import numpy as np
+
+from .data import MAX_LINE, MAX_VALUES, DataError, blocks
+
+CHUNK_CHARS = 1 << 20       # characters read at a time (~14 000 rows of 6 columns; the text and its array ~10 MB)
+
+
+def chunks(fh, path: str, rows: int, cut: Callable[[str], None] | None = None,
+           on_header: Callable[[list[str]], None] | None = None,
+           size: int = CHUNK_CHARS) -> Iterator[tuple[list[str], np.ndarray]]:
+    """(header, table) from a recorded CSV text stream: tables of a whole number of ``rows``-row
+    blocks (the last one may end with a shorter block), as :func:`fdi.data.blocks` would group
+    them; ``cut`` and ``on_header`` as there."""
+    head = _read(fh, path, lambda: fh.readline(MAX_LINE + 1))
+    got: list[list[str]] = []
+
+    def held(header: list[str]) -> None:
+        got.append(header)
+        if on_header is not None:
+            on_header(header)
+    for _ in blocks(io.StringIO(head), path, rows, cut, held):   # the header's checks and messages
+        pass
+    header = got[0]
+    width = len(header)
+    text, values = "", 0
+    semicolons = head.count(";") > head.count(",")      # decimal commas: blocks' own path
+    while not semicolons:
+        more = _read(fh, path, lambda: fh.read(size))
+        if not more:
+            break                                 # the end: what is left goes to blocks (a cut row, a last short block)
+        text += more
+        end = text.rfind("\n") + 1
+        if not end:
+            if len(text) > MAX_LINE:
+                break                             # no line end: blocks says so
+            continue
+        table, used = _parse(text[:end], width, rows)
+        if table is None:
+            break
+        values += table.size
+        if values > MAX_VALUES:
+            raise DataError(f"{path}: more than {MAX_VALUES:.0e} values; split the file")
+        text = text[used:]
+        if table.size:
+            yield header, table
+    rest = _Joined(head + text, fh)
+    yield from blocks(rest, path, rows, cut)
+
+
+def _parse(text: str, width: int, rows: int) -> tuple[np.ndarray | None, int]:
+    """The first whole ``rows``-row blocks of ``text`` (complete lines) as a float table, and the
+    characters they took; (None, 0) when a line is not plain (the caller hands over to blocks)."""
+    if '"' in text or not text.isascii():
+        return None, 0
+    raw = np.frombuffer(text.encode("ascii"), dtype=np.uint8)
+    at = np.flatnonzero((raw == 44) | (raw == 10))           # every comma and line end, in order
+    seps = raw[at]
+    if seps.size % width:
+        return None, 0
+    seps, at = seps.reshape(-1, width), at.reshape(-1, width)
+    if not (seps[:, -1] == 10).all() or (width > 1 and not (seps[:, :-1] == 44).all()):
+        return None, 0
+    take = at.shape[0] - at.shape[0] % rows
+    if not take:
+        return np.empty((0, width)), 0
+    used = int(at[take - 1, -1]) + 1
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            values = np.fromstring(text[:used - 1].replace("\n", ","), dtype=float, sep=",")
+    except (ValueError, DeprecationWarning):
+        return None, 0
+    if values.size != take * width:
+        return None, 0
+    return values.reshape(take, width), used
+
+
+def _read(fh, path: str, read: Callable[[], str]) -> str:
+    """``read()`` on the stream, its failures the one-line errors of :func:`fdi.data.blocks`."""
+    try:
+        return read()
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    except (UnicodeDecodeError, UnicodeError) as exc:
+        at = f" (byte {exc.start})" if isinstance(exc, UnicodeDecodeError) else ""
+        raise DataError(f"{path}: not UTF-8 text{at}; save the file as UTF-8 CSV") from None
+    except (EOFError, zlib.error) as exc:
+        raise DataError(f"{path}: not a CSV file ({str(exc)[:80]})") from None
+
+
+class _Joined:
+    """Text already read, then the rest of the stream, line by line (what blocks reads)."""
+
+    def __init__(self, first: str, rest) -> None:
+        self.first, self.rest = io.StringIO(first), rest
+
+    def readline(self, limit: int = -1) -> str:
+        line = self.first.readline(limit)
+        if line.endswith("\n") or (limit >= 0 and len(line) >= limit):
+            return line
+        return line + self.rest.readline(limit - len(line) if limit >= 0 else -1)
