@@ -334,7 +334,13 @@ class Stream:
                 commit = next(j for j, f in finals if f > at)
         used = min(m, commit * rows)
         done0 = self.done
-        for a in range(0, used, rows):                 # the blocks before an alarm: rows kept, samples final, forgetting
+        if self.n + used < 2 * keep:                   # nothing forgotten meanwhile: the rows in one copy
+            self._append(block[:used], checked=True)
+            self.done = max([self.done] + [f for j, f in finals if j < commit])
+            used_rows = 0
+        else:
+            used_rows = used
+        for a in range(0, used_rows, rows):            # the blocks before an alarm: rows kept, samples final, forgetting
             self._append(block[a:a + rows], checked=True)
             t = self.buffer[:self.n, ti]
             ts_now = float(t[1] - t[0])

@@ -83,3 +83,26 @@ def test_chunks_taken_as_blocks_give_the_batch_residuals_and_the_same_events():
     assert [{k: v for k, v in e.items() if k != "identification_s"} for e in by_chunk] == strip
     one.stop(now=True)
     many.stop(now=True)
+
+
+def test_chunks_forget_what_blocks_forget():
+    """With 5 s of history, chunks taken as 50-row blocks forget the rows 50-row feeds forget
+    (the buffer's start and length at every chunk's end) and detect scenario 2's leak at the
+    time and with the coherence the whole file gives (31.98 s, [0 1 0]), known at the same time."""
+    s2 = read_csv(DATA / "scenario2.csv")
+    header = list(s2.columns)
+    table = np.column_stack([s2.columns[h] for h in header])[:3300]
+    by_block, by_chunk = [], []
+    one = compiled(CYCAB).stream(by_block.append, Options(workers=1), history=5.0)
+    many = compiled(CYCAB).stream(by_chunk.append, Options(workers=1), history=5.0)
+    for a in range(0, 3300, 1100):
+        for b in range(a, a + 1100, 50):
+            one.feed(header, table[b:b + 50])
+        many.feed(header, table[a:a + 1100], rows=50)
+        assert (many.n, many.done) == (one.n, one.done)
+        assert many.buffer[0, many.ti] == one.buffer[0, one.ti] > 0.0
+    detection = [e for e in by_chunk if e["event"] == "detection"]
+    assert detection == [e for e in by_block if e["event"] == "detection"]
+    assert detection[0]["t"] == 31.98 and detection[0]["coherence"] == [0, 1, 0]
+    one.stop(now=True)
+    many.stop(now=True)
