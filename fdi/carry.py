@@ -40,7 +40,7 @@ import math
 from typing import Mapping
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
+from numpy.lib.stride_tricks import as_strided
 
 from bondgraph.model import Model
 
@@ -62,14 +62,24 @@ class Carried:
             not any(m.column or m.autonomous for m in model.modes.values())
         self.constants = parameter_values(model, self.mode)     # nominal values, once (not per block)
         self.ti = self.header.index("t")
+        self._behind: dict[float, int] = {}
 
     def behind(self, ts: float) -> int:
         """Samples before the first one asked for that the filters read (their carried state):
         half the longest derivative window, or two windows and a sample on the whole-segment path."""
+        known = self._behind.get(ts)
+        if known is not None:
+            return known
         if not self.cropped:
-            return 2 * (int(math.ceil(self.window / ts)) + 1)
-        n = [derivatives.window_samples(self.window, ts, max(derivatives.DEFAULT_ORDER, k)) for k in self.orders.values()]
-        return max(n, default=1) // 2
+            out = 2 * (int(math.ceil(self.window / ts)) + 1)
+        else:
+            n = [derivatives.window_samples(self.window, ts, max(derivatives.DEFAULT_ORDER, k))
+                 for k in self.orders.values()]
+            out = max(n, default=1) // 2
+        if len(self._behind) > 64:                  # a stream's sampling time is one number, give or take round-off
+            self._behind.clear()
+        self._behind[ts] = out
+        return out
 
     def __call__(self, table: np.ndarray, ts: float, lo: int, hi: int) -> np.ndarray:
         """(residuals, hi - lo): the residuals at rows [lo, hi) of ``table`` (rows x columns of the
@@ -117,7 +127,9 @@ def filtered(x: np.ndarray, ts: float, order: int, window: float, lo: int, hi: i
     if lo < half or hi + half > x.shape[-1]:
         raise ValueError(f"samples [{lo}, {hi}) need {half} samples either side; {x.shape[-1]} given")
     kernel = derivatives.kernels(n, p, order, float(ts), half)
-    view = sliding_window_view(x[lo - half:hi + half], n)
+    part = np.ascontiguousarray(x[lo - half:hi + half])
+    step = part.strides[0]                     # the windows of sliding_window_view, without its checks
+    view = as_strided(part, shape=(hi - lo, n), strides=(step, step), writeable=False)
     out = np.empty((hi - lo, order + 1))
     for a in range(0, hi - lo, FILTER_ROWS):
         out[a:a + FILTER_ROWS] = view[a:a + FILTER_ROWS] @ kernel

@@ -61,3 +61,13 @@ def test_a_cut_last_row_is_dropped_with_its_warning():
     parts = [b for _, b in chunks(io.StringIO(cut), "x.csv", 50, cut=told.append, size=2048)]
     assert np.array_equal(np.concatenate(parts), expected[:-1])
     assert told == ["x.csv: the last row was cut (2 of 5 values): dropped"]
+
+
+@pytest.mark.parametrize("parser", PARSERS)
+def test_windows_line_ends_read_as_the_line_reader_reads_them(parser):
+    """A recording saved with CRLF line ends: the numbers of data.blocks, in whole blocks."""
+    text, expected = _text(777, seed=3)
+    crlf = text.replace("\n", "\r\n")
+    got = np.concatenate([b for _, b in chunks(io.StringIO(crlf, newline=""), "x.csv", 50, size=4096, parser=parser)])
+    want = np.concatenate([b for _, b in blocks(io.StringIO(crlf, newline=""), "x.csv", 50)])
+    assert np.array_equal(got, expected) and np.array_equal(want, expected)
