@@ -80,6 +80,50 @@ def chunks(fh, path: str, rows: int, cut: Callable[[str], None] | None = None,
     yield from blocks(rest, path, rows, cut)
 
 
+GATHER_ROWS = 16384         # rows of a live stream joined at most while more are already waiting
+
+
+def gathered(parts: Iterator[tuple[list[str], np.ndarray]], fh,
+             most: int = GATHER_ROWS) -> Iterator[tuple[list[str], np.ndarray]]:
+    """The blocks of a live stream (:func:`fdi.data.blocks`), joined while the next ones are
+    already waiting in it (``select`` on its descriptor says so): a producer far ahead of the
+    monitor (``cat data.csv | bgfdi monitor M -``) is taken thousands of rows at a time, a live
+    one block by block as before, never waiting for more than a block. A failure of the source
+    comes after the blocks read before it, as without joining."""
+    try:
+        fd = fh.fileno()
+    except (AttributeError, OSError, ValueError):
+        fd = None
+    pending: list[np.ndarray] = []
+    header: list[str] = []
+    it = iter(parts)
+    while True:
+        try:
+            header, block = next(it)
+        except StopIteration:
+            break
+        except BaseException:
+            if pending:
+                yield header, np.concatenate(pending)
+            raise
+        pending.append(block)
+        if sum(b.shape[0] for b in pending) < most and fd is not None and _waiting(fd):
+            continue
+        yield header, pending[0] if len(pending) == 1 else np.concatenate(pending)
+        pending = []
+    if pending:
+        yield header, np.concatenate(pending)
+
+
+def _waiting(fd: int) -> bool:
+    """Whether reading ``fd`` now would not wait (data or its end are there)."""
+    import select
+    try:
+        return bool(select.select([fd], [], [], 0)[0])
+    except (OSError, ValueError):
+        return False
+
+
 def _parse(text: str, width: int, rows: int, arrow: bool = False) -> tuple[np.ndarray | None, int]:
     """The first whole ``rows``-row blocks of ``text`` (complete lines) as a float table, and the
     characters they took; (None, 0) when a line is not plain (the caller hands over to blocks).

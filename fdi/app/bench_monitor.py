@@ -14,7 +14,10 @@ Measured in the same run, each the least CPU time (``time.process_time``) of ``r
 
 - **monitor**: the stream over the whole file;
 - **per block**: the same rows fed 50 at a time through the line reader of live sources
-  (:func:`fdi.data.blocks`): what a pipe costs;
+  (:func:`fdi.data.blocks`): what a live producer at its own pace costs;
+- **a pipe**: ``cat FILE | bgfdi monitor M -``, a producer ahead of the monitor: the line reader's
+  blocks joined while more are waiting (:func:`fdi.chunks.gathered`; a live stream, so the
+  identification runs beside it);
 - **floor**: what cannot be avoided, done once over the hour: the file parsed in one call (by
   pyarrow when installed, else numpy), the filters and residual kernels over the whole record in
   one call, the persistence rule over it (:func:`floor_once`).
@@ -26,7 +29,9 @@ as many as it keeps have aged out), then stays.
 """
 from __future__ import annotations
 
+import io
 import os
+import shutil
 import tempfile
 import time
 from pathlib import Path
@@ -75,7 +80,7 @@ def stream_once(path: Path, block: int = BLOCK, history: float = 3600.0, reader:
     """The monitor over the file: CPU seconds of the stream (reading, parsing, residuals,
     detection; not the identification in the worker, nor the summary) and its events.
     ``memory(t)`` is called after each fed table with the stream time reached."""
-    from ..chunks import chunks
+    from ..chunks import chunks, gathered
     from ..data import blocks, open_text
     from ..monitor import compiled
     from ..options import Options
@@ -83,11 +88,22 @@ def stream_once(path: Path, block: int = BLOCK, history: float = 3600.0, reader:
 
     events: list[dict] = []
     monitor = compiled(str(shipped_model("cycab_steering"))).stream(events.append, Options(workers=1),
-                                                                     source=str(path), history=history, live=False)
+                                                                     source=str(path), history=history,
+                                                                     live=reader == "pipe")
     def read(fh, source, rows):
-        return chunks(fh, source, rows, parser=parser) if reader == "chunks" else blocks(fh, source, rows)
+        if reader == "chunks":
+            return chunks(fh, source, rows, parser=parser)
+        if reader == "pipe":
+            return gathered(blocks(fh, source, rows), fh)
+        return blocks(fh, source, rows)
+    if reader == "pipe":                         # a producer ahead of the monitor: cat FILE | bgfdi monitor M -
+        import subprocess
+        producer = subprocess.Popen(["cat", str(path)], stdout=subprocess.PIPE)
+        opened = io.TextIOWrapper(producer.stdout, encoding="utf-8", newline="")
+    else:
+        producer, opened = None, open_text(path)
     try:
-        with open_text(path) as fh:
+        with opened as fh:
             t0 = time.process_time()
             for header, table in read(fh, str(path), block):
                 monitor.feed(header, table, rows=block)
@@ -96,7 +112,38 @@ def stream_once(path: Path, block: int = BLOCK, history: float = 3600.0, reader:
             seconds = time.process_time() - t0
     finally:
         monitor.stop(now=True)
+        if producer is not None:
+            producer.wait()
     return seconds, events
+
+
+def memory_run(path: Path, block: int, history: float, marks: list[float]) -> dict[str, float]:
+    """The resident MB when the stream reaches each of ``marks`` (s), in a process of its own (this
+    one holds the simulated data and the earlier runs' memory): ``{"10 min": MB, ...}``."""
+    import json
+    import subprocess
+    import sys
+
+    code = ("import json, sys; from pathlib import Path; from fdi.app.bench_monitor import memory_marks; "
+            "print(json.dumps(memory_marks(Path(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3]), "
+            "[float(m) for m in sys.argv[4:]])))")
+    out = subprocess.run([sys.executable, "-c", code, str(path), str(block), repr(history), *map(repr, marks)],
+                         check=True, capture_output=True, text=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def memory_marks(path: Path, block: int, history: float, marks: list[float]) -> dict[str, float]:
+    """The stream over the file (as :func:`stream_once`), the resident MB read at each mark:
+    before the first table, then as the stream time passes each of ``marks``."""
+    seen: dict[str, float] = {}
+
+    def memory(t: float) -> None:
+        for mark in marks:
+            key = f"{mark / 60:g} min"
+            if t >= mark and key not in seen:
+                seen[key] = rss_mb()
+    stream_once(path, block, history=history, memory=memory)
+    return seen
 
 
 def floor_once(path: Path) -> dict:
@@ -154,23 +201,14 @@ def monitor_rows(hours: float = 1.0, block: int = BLOCK, repeat: int = 3, echo: 
             seconds, events = stream_once(path, block)
             runs.append(seconds)
         numpy_s = min(stream_once(path, block, parser="numpy")[0] for _ in range(repeat)) if arrow_available() else None
-        say("the same rows 50 at a time through the line reader ...")
+        say("the same rows 50 at a time through the line reader, and through a pipe ...")
         per_block = min(stream_once(path, BLOCK, reader="blocks")[0] for _ in range(1 if hours > 1 else min(2, repeat)))
+        pipe = min(stream_once(path, block, reader="pipe")[0] for _ in range(repeat)) if shutil.which("cat") else None
         floors = [floor_once(path) for _ in range(repeat)]
         floor = min(floors, key=lambda f: f["total_s"])
         marks = [m for m in CHECKPOINTS if m < hours * 3600 - 60] + [hours * 3600 - 60]    # the last: nominal still
         start = rss_mb()
-        rss: dict[str, dict[str, float]] = {}
-        for history in MEMORY_HISTORIES:
-            seen: dict[str, float] = {}
-
-            def memory(t: float) -> None:
-                for mark in marks:
-                    key = f"{mark / 60:g} min"
-                    if t >= mark and key not in seen:
-                        seen[key] = rss_mb()
-            stream_once(path, block, history=history, memory=memory)
-            rss[f"{history:g}"] = seen
+        rss = {f"{history:g}": memory_run(path, block, history, marks) for history in MEMORY_HISTORIES}
         file_mb = path.stat().st_size / 1e6
     best = min(runs)
     real = hours * 3600.0
@@ -179,7 +217,7 @@ def monitor_rows(hours: float = 1.0, block: int = BLOCK, repeat: int = 3, echo: 
     return {"hours": hours, "samples": samples, "block": block, "file_mb": file_mb, "simulation_s": sim_s,
             "parser": "pyarrow" if arrow_available() else "numpy", "monitor_s": best, "runs_s": runs,
             "monitor_numpy_s": numpy_s, "x_real_time": real / best, "us_per_sample": 1e6 * best / samples,
-            "per_block_s": per_block, "per_block_x_real_time": real / per_block,
+            "per_block_s": per_block, "per_block_x_real_time": real / per_block, "pipe_s": pipe,
             "floor": floor, "floor_x_real_time": real / floor["total_s"], "over_floor": best / floor["total_s"],
             "detection": None if detection is None else {"t": detection["t"], "known_at": detection["known_at"]},
             "identification_s": None if decision is None else decision.get("identification_s"),
@@ -199,6 +237,8 @@ def format_monitor(row: dict) -> str:
              if row["monitor_numpy_s"] else []),
            f"{'50 rows at a time (live reader)':<34}{row['per_block_s']:>8.3f}{row['per_block_x_real_time']:>14,.0f}"
            f"{1e6 * row['per_block_s'] / row['samples']:>11.2f}",
+           *([f"{'a pipe (cat FILE |), rows gathered':<34}{row['pipe_s']:>8.3f}{row['hours'] * 3600 / row['pipe_s']:>14,.0f}"
+              f"{1e6 * row['pipe_s'] / row['samples']:>11.2f}"] if row["pipe_s"] else []),
            f"{'floor (one pass of each)':<34}{f['total_s']:>8.3f}{row['floor_x_real_time']:>14,.0f}"
            f"{1e6 * f['total_s'] / row['samples']:>11.2f}",
            f"  floor: parse {f['parse_s']:.3f} s ({f['parser']}), filters and residual kernels {f['residuals_s']:.3f} s, "

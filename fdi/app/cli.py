@@ -768,7 +768,7 @@ def cmd_monitor(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from ..chunks import chunks
+    from ..chunks import chunks, gathered
     from ..data import Measurements, blocks, check_against_model, open_text
     from ..monitor import compiled
     from ..results import deterministic
@@ -809,9 +809,11 @@ def cmd_monitor(args: argparse.Namespace) -> int:
                                                   history=args.history, live=live)
             # a live source block by block as its rows arrive; a recording a megabyte at a time,
             # parsed in C (fdi.chunks) and fed as blocks of --block rows: the same events
-            read = blocks if live else chunks
-            for header, block in read(fh, source, args.block, cut=LOG.warning,   # a stream cut mid-row
-                                      on_header=header_read):
+            if live:                        # joined while more rows are already waiting
+                rows = gathered(blocks(fh, source, args.block, cut=LOG.warning, on_header=header_read), fh)
+            else:
+                rows = chunks(fh, source, args.block, cut=LOG.warning, on_header=header_read)
+            for header, block in rows:      # a stream cut mid-row: its last row dropped with a warning
                 monitor.feed(header, block, rows=args.block)
             monitor.close()
     finally:
