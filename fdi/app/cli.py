@@ -768,6 +768,7 @@ def cmd_monitor(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from ..chunks import chunks, gathered
     from ..data import Measurements, blocks, check_against_model, open_text
     from ..monitor import compiled
     from ..results import deterministic
@@ -803,11 +804,17 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     monitor = None
     try:
         with _terminated_raises():
+            live = _live(fh)
             monitor = compiled(args.model).stream(emit, options, source=source, refresh=args.refresh,
-                                                  history=args.history, live=_live(fh))
-            for header, block in blocks(fh, source, args.block, cut=LOG.warning,   # a stream cut mid-row
-                                        on_header=header_read):
-                monitor.feed(header, block)
+                                                  history=args.history, live=live)
+            # a live source block by block as its rows arrive; a recording a megabyte at a time,
+            # parsed in C (fdi.chunks) and fed as blocks of --block rows: the same events
+            if live:                        # joined while more rows are already waiting
+                rows = gathered(blocks(fh, source, args.block, cut=LOG.warning, on_header=header_read), fh)
+            else:
+                rows = chunks(fh, source, args.block, cut=LOG.warning, on_header=header_read)
+            for header, block in rows:      # a stream cut mid-row: its last row dropped with a warning
+                monitor.feed(header, block, rows=args.block)
             monitor.close()
     finally:
         if monitor is not None:
@@ -925,6 +932,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
                 sys.stdout.write(f"{suite.name} ({model})\n" + format_scores(scores, summary(scores)) + "\n")
         if args.json:
             sys.stdout.write(_json_text({"benchmark": "accuracy", "suites": suites}))
+        return 0
+    if args.what == "monitor":
+        from .bench_monitor import format_monitor, monitor_json, monitor_rows
+        row = monitor_rows(args.hours, args.block, echo=LOG.info if args.json else lambda line: _note(line, None))
+        sys.stdout.write(_json_text(monitor_json(row)) if args.json else format_monitor(row))
         return 0
     if args.what == "diagnose":
         from .resources import reference_data
@@ -1139,7 +1151,10 @@ def build_parser() -> argparse.ArgumentParser:
     cg.set_defaults(func=cmd_codegen)
 
     b = sub.add_parser("bench", help="benchmarks, printed as tables")
-    b.add_argument("what", choices=("derive", "simulate", "optim", "diagnose", "accuracy"))
+    b.add_argument("what", choices=("derive", "simulate", "optim", "diagnose", "accuracy", "monitor"))
+    b.add_argument("--hours", type=real(0.05, high=24.0), default=1.0,
+                   help="monitor: hours of 100 Hz data streamed (default 1; 4 reads the memory at 4 h too)")
+    b.add_argument("--block", type=whole(1, 1_000_000), default=50, help="monitor: rows per block (default 50)")
     b.add_argument("--sizes", type=chain_sizes,
                    help=f"derive: comma-separated chain sizes, 1 to {MAX_CHAIN} (default 10,20,50,100,200)")
     b.add_argument("--problem", default="synthetic", help="optim: synthetic (3 cases), synthetic-all, scenario2 or one case")
