@@ -20,6 +20,7 @@ from typing import Callable
 
 
 from bondgraph.causality import DIAGNOSIS, SIMULATION, Causality, assign
+from bondgraph.deep import LIMIT, run_deep
 from bondgraph.errors import CausalityError, ModelError
 from bondgraph.loader import load_model
 from bondgraph.model import Model
@@ -1238,6 +1239,8 @@ def _run(argv: list[str] | None) -> int:
         sources.resolve(args)                  # - for standard input, shipped files by name
         check_model_input(args)
         check_outputs(args)
+        if args.func in DEEP_COMMANDS:         # derivation only: room for the residuals of long chains
+            return run_deep(args.func, args)
         return args.func(args)
     except CausalityError as exc:
         LOG.error(sources.message(f"{getattr(args, 'model', '')}: causality: {'; '.join(exc.problems)}"))
@@ -1247,8 +1250,9 @@ def _run(argv: list[str] | None) -> int:
         return 2
     except RecursionError:                    # a model that loads, but whose derived equations nest too deep
         model = getattr(args, "model", None)
+        limit = LIMIT if args.func in DEEP_COMMANDS else sys.getrecursionlimit()
         LOG.error(f"{model or args.command}: the derived equations nest deeper than Python follows (recursion "
-                  f"limit {sys.getrecursionlimit():,}): the model is too large for one residual; measure more "
+                  f"limit {limit:,}): the model is too large for one residual; measure more "
                   "signals along it (each sensor starts a shorter residual) or split it")
         return 2
     except KeyboardInterrupt:
@@ -1260,6 +1264,13 @@ def _run(argv: list[str] | None) -> int:
         return 128 + exc.signum
     finally:
         sources.close()
+
+
+# Commands that only derive and print: run on a deep-stack thread (bondgraph.deep), so that the
+# residual of a chain of 10 000 elements (about 6 000 levels of sympy) is derived, not refused.
+# The others (simulate, diagnose, monitor...) keep the main thread: their worker pools and signal
+# handling are made there.
+DEEP_COMMANDS = (cmd_check, cmd_graph, cmd_tables, cmd_isolability)
 
 
 if __name__ == "__main__":  # pragma: no cover
