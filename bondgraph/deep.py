@@ -56,3 +56,35 @@ def run_deep(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
     if "error" in out:
         raise out["error"]
     return out.get("value")
+
+
+def free_symbols(expr) -> set:
+    """``expr.free_symbols``, each shared subexpression visited once and without recursion.
+
+    sympy's property walks the expression as a tree: a residual of a long chain shares its
+    subexpressions (the flows of a transformer chain hold one another), so the tree walk visits
+    them again and again (2.4 million visits for one residual of a 4 000-element chain, 6 s),
+    and recurses as deep as the expression. Here a node seen once is not entered again. A node that
+    binds variables (an Integral, a Lambda, a Subs) gives its own ``free_symbols``.
+
+    >>> import sympy as sp
+    >>> x, y = sp.symbols("x y")
+    >>> sorted(free_symbols(sp.sin(x) * (x + y) + sp.Derivative(sp.Function("w")(x), x)), key=str)
+    [x, y]
+    """
+    out: set = set()
+    seen: set[int] = set()
+    stack = [expr]
+    while stack:
+        node = stack.pop()
+        key = id(node)
+        if key in seen:
+            continue
+        seen.add(key)
+        if node.is_Symbol:
+            out.add(node)
+        elif getattr(node, "bound_symbols", None):
+            out |= node.free_symbols
+        else:
+            stack.extend(node.args)
+    return out

@@ -53,6 +53,7 @@ import sympy as sp
 
 from bondgraph.causality import DIAGNOSIS, assign
 from bondgraph.model import Model
+from bondgraph.deep import free_symbols
 from bondgraph.sequential import realize, residual_plan
 from bondgraph.structure import (DERIVATIVE, EquationSystem, Structure, derivative_plan, mso_enumerate, msos_around,
                                  redundancy_of, residual_choices)
@@ -188,9 +189,9 @@ def expression_faults(model: Model, arr: ARR, mode: Mapping[str, int],
     (its column of :func:`fdi.signatures.fault_signature_matrix`, from one pass over them) and of
     the right-hand sides of its integrated states (mixed causality: a fault there moves X(t))."""
     modes = {model.symbols[m]: sp.Integer(v) for m, v in mode.items()}
-    present = set(arr.expr.xreplace(modes).free_symbols)
+    present = free_symbols(arr.expr.xreplace(modes) if modes else arr.expr)     # each shared part once
     for _, rhs in arr.states:
-        present |= sp.sympify(rhs).xreplace(modes).free_symbols
+        present |= free_symbols(sp.sympify(rhs).xreplace(modes))
     return frozenset(f for f, syms in fault_symbols.items() if syms & present)
 
 
