@@ -29,7 +29,7 @@ import networkx as nx
 
 from .errors import CausalityError
 from .graph import BondKey, port_table, to_networkx
-from .laws import bond_variables, resistor_equation
+from .laws import bond_variables, model_laws, resistor_equation
 from .model import SOURCE_KINDS, Model
 
 DIAGNOSIS = "diagnosis"
@@ -255,7 +255,8 @@ def resistor_forms(model: Model, element) -> frozenset[str]:
     """The causal forms a resistor's law gives in closed form: ``resistance`` (e from f) and/or
     ``conductance`` (f from e), read off its equation's explicit solutions (:mod:`bondgraph.laws`)."""
     effort, flow = bond_variables(element.name)
-    solutions = resistor_equation(model, element, element.name).solutions
+    solutions = model_laws(model, ("R forms", element.name),       # once per model, not per assignment
+                           lambda: resistor_equation(model, element, element.name)).solutions
     return frozenset(form for form, v in (("resistance", effort), ("conductance", flow)) if v in solutions)
 
 

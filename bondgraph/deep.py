@@ -58,14 +58,47 @@ def run_deep(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
     return out.get("value")
 
 
-def free_symbols(expr) -> set:
-    """``expr.free_symbols``, each shared subexpression visited once and without recursion.
+def nodes(expr):
+    """Every distinct subexpression of ``expr`` (``expr`` first), each once, without recursion.
 
-    sympy's property walks the expression as a tree: a residual of a long chain shares its
-    subexpressions (the flows of a transformer chain hold one another), so the tree walk visits
-    them again and again (2.4 million visits for one residual of a 4 000-element chain, 6 s),
-    and recurses as deep as the expression. Here a node seen once is not entered again. A node that
-    binds variables (an Integral, a Lambda, a Subs) gives its own ``free_symbols``.
+    sympy's own walks (``preorder_traversal``, ``has``, ``free_symbols``) treat an expression as a
+    tree: a residual of a long chain shares its subexpressions (the flows of a transformer chain
+    hold one another), so a tree walk visits them again and again (2.4 million visits for one
+    residual of a 4 000-element chain) and recurses as deep as the expression.
+
+    >>> import sympy as sp
+    >>> x = sp.Symbol("x")
+    >>> sorted(map(str, nodes(sp.sin(x) + x)))
+    ['sin(x)', 'x', 'x + sin(x)']
+    """
+    seen: set[int] = set()
+    stack = [expr]
+    while stack:
+        node = stack.pop()
+        key = id(node)
+        if key in seen:
+            continue
+        seen.add(key)
+        yield node
+        stack.extend(node.args)
+
+
+def has_any(expr, targets) -> bool:
+    """``expr.has(*targets)`` for atoms (numbers such as ``zoo``, ``nan``, ``oo``, symbols), each
+    shared subexpression looked at once (:func:`nodes`).
+
+    >>> import sympy as sp
+    >>> has_any(1 / sp.Symbol("a") + sp.zoo, (sp.zoo, sp.nan)), has_any(sp.Symbol("a"), (sp.nan,))
+    (True, False)
+    """
+    wanted = set(targets)
+    return any(node in wanted for node in nodes(expr) if not node.args)
+
+
+def free_symbols(expr) -> set:
+    """``expr.free_symbols``, each shared subexpression visited once and without recursion
+    (:func:`nodes`; sympy's property took 6.3 s on one residual of a 4 000-element chain). A node
+    that binds variables (an Integral, a Lambda, a Subs) gives its own ``free_symbols``.
 
     >>> import sympy as sp
     >>> x, y = sp.symbols("x y")

@@ -70,8 +70,10 @@ class Equation:
         return frozenset(s for s in self.expr.free_symbols if s not in self.variables and s != t)
 
 
+@functools.lru_cache(maxsize=1 << 16)
 def bond_variables(bond) -> tuple[sp.Symbol, sp.Symbol]:
-    """The effort and flow of a bond (a power bond's id or a sensor's signal bond), ``e[k]``, ``f[k]``."""
+    """The effort and flow of a bond (a power bond's id or a sensor's signal bond), ``e[k]``, ``f[k]``.
+    Kept (a symbol with assumptions costs about 10 us to make, and a chain asks 20 times per bond)."""
     return sp.Symbol(f"e[{bond}]", real=True), sp.Symbol(f"f[{bond}]", real=True)
 
 
@@ -113,19 +115,31 @@ class _Solutions(Mapping):
     """An equation's explicit solutions: those given, and those of the ``linear`` variables,
     each solved (:func:`solve_linear`) only when asked for. A causal form needs one solution per
     equation, the dependency graph none: solving every law for every variable up front cost
-    most of the derivation of a long chain."""
-    __slots__ = ("_expr", "_given", "_linear", "_solved", "_keys")
+    most of the derivation of a long chain. Which variables it gives (``in``, iteration: the
+    structure of the equations) is read from the coefficient alone, without solving."""
+    __slots__ = ("_expr", "_given", "_linear", "_solved", "_solvable", "_keys")
 
     def __init__(self, expr: sp.Expr, given: dict, linear: Sequence) -> None:
         self._expr, self._given = expr, given
         self._linear = [v for v in dict.fromkeys(linear) if v not in given]
         self._solved: dict = {}
+        self._solvable: dict = {}
         self._keys: tuple | None = None
 
     def _solve(self, v) -> sp.Expr | None:
         if v not in self._solved:
             self._solved[v] = solve_linear(self._expr, v)
         return self._solved[v]
+
+    def _gives(self, v) -> bool:
+        """Whether :func:`solve_linear` would give ``v``: the same tests, without the solution."""
+        if v not in self._solvable:
+            if v in self._solved:
+                self._solvable[v] = self._solved[v] is not None
+            else:
+                coeff = coefficient(self._expr, v) if self._expr.has(v) else sp.Integer(0)
+                self._solvable[v] = coeff != 0 and not coeff.has(v)
+        return self._solvable[v]
 
     def __getitem__(self, v) -> sp.Expr:
         if v in self._given:
@@ -135,11 +149,11 @@ class _Solutions(Mapping):
         raise KeyError(v)
 
     def __contains__(self, v) -> bool:
-        return v in self._given or (v in self._linear and self._solve(v) is not None)
+        return v in self._given or (v in self._linear and self._gives(v))
 
     def __iter__(self):
         if self._keys is None:
-            self._keys = tuple(self._given) + tuple(v for v in self._linear if self._solve(v) is not None)
+            self._keys = tuple(self._given) + tuple(v for v in self._linear if self._gives(v))
         return iter(self._keys)
 
     def __len__(self) -> int:
