@@ -146,8 +146,7 @@ def read_document_text(text: str, path: str = "<model>") -> Document:
         raise ModelError(f"larger than {MAX_BYTES >> 20} MB; a model file is a few kB of YAML", file=path)
     loader = None
     try:
-        loader = yaml.SafeLoader(text.lstrip("\ufeff"))      # the reader refuses control characters here
-        node = loader.get_single_node()
+        loader, node = _compose(text.lstrip("\ufeff"))
         if node is None:
             raise ModelError("the file is empty; see docs/model-format.md for the layout", file=path)
         _measure(node, path)
@@ -170,6 +169,42 @@ def read_document_text(text: str, path: str = "<model>") -> Document:
         raise _Ctx(path, lines).error((), "the top level must be a mapping with keys such as parameters, elements, "
                                           "bonds")
     return Document(path, data, lines)
+
+
+C_PARSER_BYTES = 32 << 10   # from this size on, libyaml's parser where PyYAML has it
+
+
+def _compose(text: str) -> tuple[yaml.SafeLoader, yaml.Node | None]:
+    """The safe loader of ``text`` and its composed document. PyYAML's own loader (its reader
+    refuses control characters); for a large text with nothing that reader refuses, the same
+    loader on libyaml's C parser, about 10 times faster (a 10 000-element chain, 0.9 MB: 3.5 s
+    in the pure parser): the same tags, resolvers and constructors, the same node tree. A text
+    the C parser refuses is composed again by the pure loader, so that messages stay its own."""
+    if len(text) >= C_PARSER_BYTES and getattr(yaml, "__with_libyaml__", False) \
+            and not yaml.reader.Reader.NON_PRINTABLE.search(text) and _flow_depth(text) <= MAX_NESTING:
+        loader = yaml.CSafeLoader(text)
+        try:
+            return loader, loader.get_single_node()
+        except yaml.YAMLError:
+            loader.dispose()
+    loader = yaml.SafeLoader(text)
+    try:
+        return loader, loader.get_single_node()
+    except BaseException:
+        loader.dispose()
+        raise
+
+
+def _flow_depth(text: str) -> int:
+    """An upper bound of the nesting of ``[`` and ``{`` in ``text`` (quotes not told apart). libyaml
+    composes nested nodes by C recursion, unchecked: deeper texts go to the pure parser, which
+    refuses them in a message. (Nesting by indentation needs d^2/2 bytes for depth d: at most
+    about 1 450 levels in a file of MAX_BYTES.)"""
+    depth = deepest = 0
+    for c in re.sub(r"[^\[\]{}]+", "", text):
+        depth += 1 if c in "[{" else -1
+        deepest = max(deepest, depth)
+    return deepest
 
 
 def _measure(root: yaml.Node, path: str) -> None:
