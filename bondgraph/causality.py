@@ -254,6 +254,8 @@ class _Assigner:
 def resistor_forms(model: Model, element) -> frozenset[str]:
     """The causal forms a resistor's law gives in closed form: ``resistance`` (e from f) and/or
     ``conductance`` (f from e), read off its equation's explicit solutions (:mod:`bondgraph.laws`)."""
+    if not element.laws and element.parameter is not None:      # e = R f: both ways, nothing to solve
+        return frozenset(("resistance", "conductance"))
     effort, flow = bond_variables(element.name)
     solutions = model_laws(model, ("R forms", element.name),       # once per model, not per assignment
                            lambda: resistor_equation(model, element, element.name)).solutions

@@ -150,9 +150,12 @@ def causal_forms(model: Model, causality: Causality, signals: Mapping[sp.Symbol,
             outputs = [bond_variables(k)[common] for k, _, _ in ps if k != strong]
             outputs.append(bond_variables(strong)[total])
             j = model.junctions[node]
-            used = model.symbols[j.mode].free_symbols if j.controlled else ()
-            eqs = _laws(model, ("junction", node, strong), used, signals,
-                        lambda sub: junction_equations(model, node, ps, strong, sub))
+            if not solve and not j.controlled:      # which variable from which: no sympy needed
+                eqs = _junction_shape(kind, ps, strong)
+            else:
+                used = model.symbols[j.mode].free_symbols if j.controlled else ()
+                eqs = _laws(model, ("junction", node, strong), used, signals,
+                            lambda sub: junction_equations(model, node, ps, strong, sub))
             out += _solved(node, eqs, outputs, ps, solve)
         elif kind in ("TF", "MTF", "GY", "MGY"):
             (b1, _, s1), (b2, _, _) = ps
@@ -162,8 +165,11 @@ def causal_forms(model: Model, causality: Causality, signals: Mapping[sp.Symbol,
             gets2 = gets1 if kind in ("GY", "MGY") else not gets1
             outputs = [bond_variables(b)[1 if gets else 0] for b, gets in ((b1, gets1), (b2, gets2))]
             el = model.elements[node]
-            eqs = _laws(model, ("two-port", node), el.modulus.free_symbols, signals,
-                        lambda sub: two_port_equations(el, ps, sub))
+            if not solve and el.modulus != 0:
+                eqs = _two_port_shape(kind, b1, b2)
+            else:
+                eqs = _laws(model, ("two-port", node), el.modulus.free_symbols, signals,
+                            lambda sub: two_port_equations(el, ps, sub))
             out += _solved(node, eqs, outputs, ps, solve)
         elif kind == "R":
             k = ps[0][0]
@@ -192,6 +198,32 @@ def causal_forms(model: Model, causality: Causality, signals: Mapping[sp.Symbol,
                     value = solve_for(eq, next(iter(eq.variables)))
                 out.append(CausalForm(node, var, (), (), value, "source"))
     return out
+
+
+@dataclass(frozen=True)
+class _Shape:
+    """What the dependency graph reads of an equation: the variables it holds, and whether it is
+    linear in them. The laws of a long chain cost most of its causality when built in sympy only
+    to be read for this (a 10 000-element chain's junctions and transformers)."""
+    variables: frozenset
+    linear: bool = True
+
+
+def _junction_shape(kind: str, ps, reference) -> list[_Shape]:
+    """The variables of :func:`bondgraph.laws.junction_equations` of an uncontrolled junction, in
+    its order: the common variable of each bond with the reference's, then the balance."""
+    common, total = (0, 1) if kind[0] == "0" else (1, 0)
+    x0 = bond_variables(reference)[common]
+    out = [_Shape(frozenset((bond_variables(k)[common], x0))) for k, _, _ in ps if k != reference]
+    return out + [_Shape(frozenset(bond_variables(k)[total] for k, _, _ in ps))]
+
+
+def _two_port_shape(kind: str, b1, b2) -> list[_Shape]:
+    """The variables of :func:`bondgraph.laws.two_port_equations` (a modulus other than 0)."""
+    (e1, f1), (e2, f2) = bond_variables(b1), bond_variables(b2)
+    if kind in ("TF", "MTF"):
+        return [_Shape(frozenset((e1, e2))), _Shape(frozenset((f1, f2)))]
+    return [_Shape(frozenset((e1, f2))), _Shape(frozenset((e2, f1)))]
 
 
 def _solved(node: str, eqs: list[Equation], outputs: list[sp.Symbol], ps, solve: bool = True) -> list[CausalForm]:
