@@ -266,6 +266,11 @@ def assign(model: Model, purpose: str = DIAGNOSIS) -> Causality:
     """Assign causality (SCAPH for ``diagnosis``, SCAP for ``simulation``) and check it."""
     if purpose not in (DIAGNOSIS, SIMULATION):
         raise ValueError(f"purpose must be {DIAGNOSIS!r} or {SIMULATION!r}")
+    # once per model and purpose: check, selection and the AGARRs all ask for SCAPH
+    return model_laws(model, ("causality", purpose), lambda: _assign(model, purpose))
+
+
+def _assign(model: Model, purpose: str) -> Causality:
     causality = _Assigner(model, purpose).run()
     loops = tuple(algebraic_loops(model, causality))
     modes = tuple(dict(zip(model.modes, values)) for values in product((1, 0), repeat=len(model.modes)))

@@ -95,6 +95,32 @@ def coefficient(expr: sp.Expr, var: sp.Symbol) -> sp.Expr:
     return sp.Add.fromiter(out)
 
 
+def _plain_coefficient(expr: sp.Expr, var: sp.Symbol) -> bool | None:
+    """Whether ``var`` has a nonzero coefficient free of ``var`` in ``expr``, read without
+    building it where ``var`` is a plain factor of exactly one term (a junction's, transformer's
+    or linear law's equation): True when that term's other factors are free of ``var``
+    (symbols and numbers here are never 0). None where it takes :func:`coefficient`."""
+    found = None
+    for term in sp.Add.make_args(expr):
+        if term == var:
+            hit = True
+        elif term.is_Mul and var in term.args:
+            hit = all(f.is_Symbol and f != var or f.is_Number and f != 0 for f in term.args if f != var) \
+                and term.args.count(var) == 1
+            if not hit:
+                return None
+        elif term.is_Symbol or term.is_Number:
+            continue
+        elif term.has(var):
+            return None
+        else:
+            continue
+        if found is not None:
+            return None
+        found = hit
+    return found
+
+
 def solve_linear(expr: sp.Expr, var: sp.Symbol) -> sp.Expr | None:
     """var from expr = 0 when expr is linear in var with a coefficient free of unknowns."""
     if not expr.has(var):
@@ -136,6 +162,8 @@ class _Solutions(Mapping):
         if v not in self._solvable:
             if v in self._solved:
                 self._solvable[v] = self._solved[v] is not None
+            elif (plain := _plain_coefficient(self._expr, v)) is not None:
+                self._solvable[v] = plain
             else:
                 coeff = coefficient(self._expr, v) if self._expr.has(v) else sp.Integer(0)
                 self._solvable[v] = coeff != 0 and not coeff.has(v)
