@@ -888,6 +888,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
         rows = bench.derive_rows(shipped_models(), sizes, echo=LOG.info if args.json else lambda line: _note(line, None))
         sys.stdout.write(_json_text(bench.derive_json(rows)) if args.json else bench.format_derive(rows))
         return 0
+    if args.what == "chain":
+        echo = LOG.info if args.json else (lambda line: _note(line, None))
+        rows = bench.chain_rows(args.sizes or bench.CHECK_CHAINS, echo=echo)
+        sys.stdout.write(_json_text(bench.chain_json(rows)) if args.json else bench.format_chain(rows))
+        return 0
     if args.what == "simulate":
         from .resources import scenarios_dir
         row = bench.simulate_rows(scenarios_dir() / "cycab_scenario2.json")
@@ -1140,9 +1145,10 @@ def build_parser() -> argparse.ArgumentParser:
     cg.set_defaults(func=cmd_codegen)
 
     b = sub.add_parser("bench", help="benchmarks, printed as tables")
-    b.add_argument("what", choices=("derive", "simulate", "optim", "diagnose", "accuracy"))
+    b.add_argument("what", choices=("derive", "chain", "simulate", "optim", "diagnose", "accuracy"))
     b.add_argument("--sizes", type=chain_sizes,
-                   help=f"derive: comma-separated chain sizes, 1 to {MAX_CHAIN} (default 10,20,50,100,200)")
+                   help=f"derive, chain: comma-separated chain sizes, 1 to {MAX_CHAIN} (derive: default "
+                        "10,20,50,100,200; chain: elements checked, default 10,100,1000)")
     b.add_argument("--problem", default="synthetic", help="optim: synthetic (3 cases), synthetic-all, scenario2 or one case")
     b.add_argument("--runs", type=whole(1), default=20, help="optim: independent runs per case, >= 1 (Table VI: 20)")
     b.add_argument("--methods", help="optim: comma-separated engines (default: all)")
