@@ -360,7 +360,7 @@ def benchmark_problem(name: str, seed: int):
 # ---------------------------------------------------------------- chains: cost against model size
 
 CHECK_CHAINS = (10, 100, 1000)          # elements of the drivetrain chain (chain_yaml) checked
-DIAGNOSE_CHAINS = (10, 100)             # tanks of fault_chain_yaml diagnosed (one capacitance fault)
+DIAGNOSE_CHAINS = (10, 100, 250)        # tanks of fault_chain_yaml diagnosed (one capacitance fault; 250: 1000 elements)
 
 
 def _cpu(fn) -> float:
