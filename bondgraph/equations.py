@@ -19,8 +19,8 @@ from typing import TYPE_CHECKING, Callable, Mapping
 import sympy as sp
 
 from .graph import BondKey, port_table, to_networkx
-from .laws import (Equation, bond_variables, coefficient, junction_equations, model_laws, resistor_equation, solve_for, source_equation,
-                   storage_equations, substitution, two_port_equations)
+from .laws import (Equation, bond_variables, coefficient, energy_variable, junction_equations, model_laws,
+                   resistor_equation, solve_for, source_equation, storage_equations, substitution, two_port_equations)
 from .linear import combine
 from .model import Element, Model, t
 from .program import Program, line_diff
@@ -174,11 +174,19 @@ def causal_forms(model: Model, causality: Causality, signals: Mapping[sp.Symbol,
         elif kind == "R":
             k = ps[0][0]
             el = model.elements[node]
+            resistance = causality.resistors.get(node) == "resistance"
+            if not solve and not el.laws:            # e = R f: e and f, linear
+                out += _solved(node, [_Shape(frozenset(bond_variables(k)))], [bond_variables(k)[0 if resistance else 1]],
+                               ps, solve)
+                continue
             eq = _laws(model, ("R", node), _law_symbols(el), signals, lambda sub: resistor_equation(model, el, k, sub))
             resistance = causality.resistors.get(node) == "resistance"
             out += _solved(node, [eq], [bond_variables(k)[0 if resistance else 1]], ps, solve)
         elif kind in ("C", "I"):
             el = model.elements[node]
+            if not solve and not el.laws:            # given by a parameter: no law needed to say what it computes
+                out.append(_storage_shape(el, ps[0][0], causality.storage.get(node)))
+                continue
             x, (law, _rate) = _laws(model, ("storage", node), _law_symbols(el), signals,
                                     lambda sub: storage_equations(model, el, ps[0][0], sub))
             out.append(_storage(el, ps[0][0], causality.storage.get(node), x, law))
@@ -224,6 +232,16 @@ def _two_port_shape(kind: str, b1, b2) -> list[_Shape]:
     if kind in ("TF", "MTF"):
         return [_Shape(frozenset((e1, e2))), _Shape(frozenset((f1, f2)))]
     return [_Shape(frozenset((e1, f2))), _Shape(frozenset((e2, f1)))]
+
+
+def _storage_shape(e: Element, k: BondKey, form: str | None) -> CausalForm:
+    """:func:`_storage`'s form of a storage element given by a parameter, without its law (``expr`` None)."""
+    ek, fk = bond_variables(k)
+    given, taken = (ek, fk) if e.kind == "C" else (fk, ek)
+    var = {ek: ("e", k), fk: ("f", k)}
+    if form == "integral":
+        return CausalForm(e.name, var[given], (), (energy_variable(e),), None, "state")
+    return CausalForm(e.name, var[taken], (var[given],), (given,), None, "derivative", True)
 
 
 def _solved(node: str, eqs: list[Equation], outputs: list[sp.Symbol], ps, solve: bool = True) -> list[CausalForm]:
