@@ -67,9 +67,13 @@ def nodes(expr):
     residual of a 4 000-element chain) and recurses as deep as the expression.
 
     >>> import sympy as sp
-    >>> x = sp.Symbol("x")
-    >>> sorted(map(str, nodes(sp.sin(x) + x)))
-    ['sin(x)', 'x', 'x + sin(x)']
+    >>> shared = sp.Symbol("x_shared") + 1
+    >>> expr = sp.sin(shared) + sp.cos(shared)      # a tree walk sees x_shared + 1 twice
+    >>> sorted(map(str, nodes(expr)))
+    ['1', 'cos(x_shared + 1)', 'sin(x_shared + 1)', 'sin(x_shared + 1) + cos(x_shared + 1)', 'x_shared', 'x_shared + 1']
+
+    Nodes are told apart by identity (hashing a deep expression would walk it): an equal copy
+    made apart (after ``sympy.core.cache.clear_cache()``) is visited again, which changes no answer.
     """
     seen: set[int] = set()
     stack = [expr]

@@ -13,6 +13,7 @@ output variables by its mode variable (diagnostic hybrid bond graph).
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, Mapping
 
@@ -42,8 +43,14 @@ class Relation:
     derivative: bool = False
     energy: Callable[[sp.Expr], sp.Expr] | None = None   # storage: q(e) or p(f), the stored quantity
     parameters: frozenset = frozenset()                   # symbols of the storage law
-    coefficients: tuple[sp.Expr, ...] | None = None       # linear law: output = sum(c_i * input_i)
-                                                          # (derivative: c * d(input)/dt)
+    linear_coefficients: Callable[[], tuple[sp.Expr, ...]] | None = None   # see ``coefficients``
+
+    @functools.cached_property
+    def coefficients(self) -> tuple[sp.Expr, ...] | None:
+        """A linear law's coefficients, ``output = sum(c_i * input_i)`` (derivative: c *
+        d(input)/dt); None for another law. Read when first asked: only straight-line code (the
+        simulator) uses them, and reading them cost a long chain's AGARR a tenth of its time."""
+        return None if self.linear_coefficients is None else self.linear_coefficients()
 
 
 PRODUCT_LIMIT = 6     # positive parameter factors a term may carry before they are grouped
@@ -321,12 +328,12 @@ def _relation(form: CausalForm, states: Mapping[str, sp.Expr]) -> Relation:
     if form.kind == "derivative":
         return _rate_relation(form)
     expr, symbols = form.expr, form.symbols
-    coefficients = tuple(coefficient(expr, s) for s in symbols) if form.linear and symbols else None
+    coefficients = (lambda: tuple(coefficient(expr, s) for s in symbols)) if form.linear and symbols else None
     if expr in symbols:         # an input passed on as it is (a junction's common variable)
         i = symbols.index(expr)
-        return Relation(form.output, form.inputs, lambda *xs: xs[i], coefficients=coefficients)
+        return Relation(form.output, form.inputs, lambda *xs: xs[i], linear_coefficients=coefficients)
     return Relation(form.output, form.inputs, lambda *xs: expr.xreplace(dict(zip(symbols, xs))),
-                    coefficients=coefficients)
+                    linear_coefficients=coefficients)
 
 
 def _rate_relation(form: CausalForm) -> Relation:
@@ -335,15 +342,15 @@ def _rate_relation(form: CausalForm) -> Relation:
     u = sp.Dummy("u", real=True)
     q = form.expr.xreplace({form.symbols[0]: u})
     slope = coefficient(q, u)   # dQ/du
-    coefficients = (slope,) if form.linear else None
+    coefficients = (lambda: (slope,)) if form.linear else None
     if q.has(t):            # modulated: q(u, t), its rate dQ/du u' + dQ/dt
         drift = ddt(q)
         return Relation(form.output, form.inputs, lambda x, dx: slope.xreplace({u: x}) * dx + drift.xreplace({u: x}),
                         derivative=True, energy=lambda x: q.xreplace({u: x}),
-                        parameters=frozenset(q.free_symbols - {u, t}), coefficients=coefficients)
+                        parameters=frozenset(q.free_symbols - {u, t}), linear_coefficients=coefficients)
     return Relation(form.output, form.inputs, lambda x, dx: slope.xreplace({u: x}) * dx, derivative=True,
                     energy=lambda x: q.xreplace({u: x}), parameters=frozenset(q.free_symbols - {u}),
-                    coefficients=coefficients)
+                    linear_coefficients=coefficients)
 def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozenset = frozenset(),
             program: Program | None = None) -> dict[Var, sp.Expr]:
     """Evaluate relations in causal order; only the ancestors of ``wanted`` if given.
