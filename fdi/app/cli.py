@@ -49,7 +49,7 @@ MAX_WORKERS = 256          # processes; more is a typo (and on a forkserver plat
 MAX_WAIT = 1e6             # s, as for the model's waiting_time
 SIGNALS_PNG = "signals.png"        # simulate --plot DIR: the figure's name in DIR
 RUL_CONE_PNG = "rul_cone.png"      # evaluate --plot DIR
-MAX_CHAIN = 10_000         # bench derive, bench chain: bgfdi check of 10 000 elements takes about 15 s CPU
+MAX_CHAIN = 10_000         # bench derive, bench chain: bgfdi check of 10 000 elements takes about 10 s CPU
 
 
 # ------------------------------------------------------------------ option values
