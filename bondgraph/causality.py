@@ -29,7 +29,7 @@ import networkx as nx
 
 from .errors import CausalityError
 from .graph import BondKey, port_table, to_networkx
-from .laws import bond_variables, resistor_equation
+from .laws import bond_variables, model_laws, resistor_equation
 from .model import SOURCE_KINDS, Model
 
 DIAGNOSIS = "diagnosis"
@@ -219,7 +219,7 @@ class _Assigner:
     def _resistors(self) -> dict[str, str]:
         out: dict[str, str] = {}
         rs = [e for e in self.model.elements.values() if e.kind == "R"]
-        forms = {e.name: resistor_forms(self.model, e) for e in rs}
+        forms = {e.name: resistor_forms(self.model, e, self._bond_of(e.name)[0]) for e in rs}
         # those with one law form first: their causality is not a free choice
         rs.sort(key=lambda e: 0 if len(forms[e.name]) == 1 else 1)
         for e in rs:
@@ -251,11 +251,16 @@ class _Assigner:
         return out
 
 
-def resistor_forms(model: Model, element) -> frozenset[str]:
+def resistor_forms(model: Model, element, bond=None) -> frozenset[str]:
     """The causal forms a resistor's law gives in closed form: ``resistance`` (e from f) and/or
-    ``conductance`` (f from e), read off its equation's explicit solutions (:mod:`bondgraph.laws`)."""
-    effort, flow = bond_variables(element.name)
-    solutions = resistor_equation(model, element, element.name).solutions
+    ``conductance`` (f from e), read off its equation's explicit solutions (:mod:`bondgraph.laws`).
+    With its ``bond``, the equation is the one the causal forms solve (built once per model)."""
+    if not element.laws and element.parameter is not None:      # e = R f: both ways, nothing to solve
+        return frozenset(("resistance", "conductance"))
+    bond = element.name if bond is None else bond
+    effort, flow = bond_variables(bond)
+    solutions = model_laws(model, ("R", element.name) if bond != element.name else ("R forms", element.name),
+                           lambda: resistor_equation(model, element, bond)).solutions
     return frozenset(form for form, v in (("resistance", effort), ("conductance", flow)) if v in solutions)
 
 
@@ -263,6 +268,11 @@ def assign(model: Model, purpose: str = DIAGNOSIS) -> Causality:
     """Assign causality (SCAPH for ``diagnosis``, SCAP for ``simulation``) and check it."""
     if purpose not in (DIAGNOSIS, SIMULATION):
         raise ValueError(f"purpose must be {DIAGNOSIS!r} or {SIMULATION!r}")
+    # once per model and purpose: check, selection and the AGARRs all ask for SCAPH
+    return model_laws(model, ("causality", purpose), lambda: _assign(model, purpose))
+
+
+def _assign(model: Model, purpose: str) -> Causality:
     causality = _Assigner(model, purpose).run()
     loops = tuple(algebraic_loops(model, causality))
     modes = tuple(dict(zip(model.modes, values)) for values in product((1, 0), repeat=len(model.modes)))

@@ -76,3 +76,54 @@ def tank_chain_yaml(n_tanks: int, sensor_faults: bool = True) -> str:
             bonds += [f"  {bid + 1}: [J{i}, V{i}]", f"  {bid + 2}: [V{i}, valve{i}]", f"  {bid + 3}: [V{i}, J{i + 1}]"]
             bid += 3
     return "\n".join(lines + junctions + sensors + bonds + faults) + "\n"
+
+
+PUMP = "1.0e-5*(1 + 0.1*sin(0.01*t))"    # m^3/s, the pump of fault_chain_yaml
+
+
+def fault_chain_yaml(n_tanks: int, threshold: float = 3.0e-6) -> str:
+    """``n_tanks`` tanks in series for diagnosis benchmarks: a pump into tank 1, linear valves
+    between the tanks and a linear outlet on the last, a pressure sensor on every tank and one
+    fault candidate per tank capacitance (``fT<i>``), so that a capacitance fault anywhere is
+    isolated to its tank by the balance of that tank alone:
+    ``ARR_i = q_{i-1} - CT_i dp_i/dt - (p_i - p_{i+1})/Rv_i`` (``q_0`` the pump, ``p_{n+1} = 0``).
+
+    Every tank has CT = 1e-5 m^3/Pa and Rv = 1e6 Pa s/m^3 (a time constant of 10 s) and starts
+    at the equilibrium of the mean pump flow (``initial``: volumes CT*p_i, p_i = (n - i + 1) Rv q0).
+    A capacitance fault shows as a jump of its tank's pressure (the stored volume is continuous)
+    and the relaxation after it; the pump's slow swing alone does not reach the middle of a long
+    chain (a chain of RC stages is a low-pass line).
+
+    >>> "fT2: {kind: parametric, parameters: [CT2]}" in fault_chain_yaml(3)
+    True
+    """
+    n = max(1, int(n_tanks))
+    q0 = 1.0e-5
+    lines = [f"name: fault_chain_{n}", "parameters:"]
+    for i in range(1, n + 1):
+        lines += [f"  CT{i}: {{value: 1.0e-5, unit: m^3/Pa}}", f"  Rv{i}: {{value: 1.0e6, unit: Pa*s/m^3}}"]
+    lines += ["data: {columns: [t, q0, " + ", ".join(f"p{i}" for i in range(1, n + 1)) + "], sampling_time: 0.5}",
+              "inputs:", f"  q0: {{column: q0, unit: m^3/s, expr: '{PUMP}'}}",
+              "elements:", "  pump: {type: MSf, input: q0}"]
+    junctions, sensors, bonds, faults = ["junctions:"], ["sensors:"], ["bonds:", "  1: [pump, J1]"], ["faults:"]
+    initial, thresholds = ["initial:"], []
+    bid = 1
+    for i in range(1, n + 1):
+        lines += [f"  tank{i}: {{type: C, parameter: CT{i}}}", f"  valve{i}: {{type: R, parameter: Rv{i}}}"]
+        junctions.append(f"  J{i}: {{type: '0'}}")
+        sensors.append(f"  p{i}: {{type: De, junction: J{i}, column: p{i}, unit: Pa, noise: 0.1}}")
+        faults.append(f"  fT{i}: {{kind: parametric, parameters: [CT{i}]}}")
+        initial.append(f"  tank{i}: {1.0e-5 * (n - i + 1) * 1.0e6 * q0:.6g}")    # q = CT p at the mean flow
+        thresholds.append(f"ARR{i}: {threshold:g}")
+        bonds.append(f"  {bid + 1}: [J{i}, tank{i}]")
+        bid += 1
+        if i == n:
+            bonds.append(f"  {bid + 1}: [J{i}, valve{i}]")
+            bid += 1
+        else:
+            junctions.append(f"  V{i}: {{type: '1'}}")
+            bonds += [f"  {bid + 1}: [J{i}, V{i}]", f"  {bid + 2}: [V{i}, valve{i}]", f"  {bid + 3}: [V{i}, J{i + 1}]"]
+            bid += 3
+    settings = ["thresholds: {" + ", ".join(thresholds) + "}",
+                "diagnosis: {waiting_time: 20.0, derivative_window: 5.0, samples: 400}"]
+    return "\n".join(lines + junctions + sensors + bonds + faults + settings + initial) + "\n"

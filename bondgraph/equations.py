@@ -13,14 +13,15 @@ output variables by its mode variable (diagnostic hybrid bond graph).
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, Mapping
 
 import sympy as sp
 
 from .graph import BondKey, port_table, to_networkx
-from .laws import (Equation, bond_variables, coefficient, junction_equations, model_laws, resistor_equation, solve_for, source_equation,
-                   storage_equations, substitution, two_port_equations)
+from .laws import (Equation, bond_variables, coefficient, energy_variable, junction_equations, model_laws,
+                   resistor_equation, solve_for, source_equation, storage_equations, substitution, two_port_equations)
 from .linear import combine
 from .model import Element, Model, t
 from .program import Program, line_diff
@@ -42,8 +43,14 @@ class Relation:
     derivative: bool = False
     energy: Callable[[sp.Expr], sp.Expr] | None = None   # storage: q(e) or p(f), the stored quantity
     parameters: frozenset = frozenset()                   # symbols of the storage law
-    coefficients: tuple[sp.Expr, ...] | None = None       # linear law: output = sum(c_i * input_i)
-                                                          # (derivative: c * d(input)/dt)
+    linear_coefficients: Callable[[], tuple[sp.Expr, ...]] | None = None   # see ``coefficients``
+
+    @functools.cached_property
+    def coefficients(self) -> tuple[sp.Expr, ...] | None:
+        """A linear law's coefficients, ``output = sum(c_i * input_i)`` (derivative: c *
+        d(input)/dt); None for another law. Read when first asked: only straight-line code (the
+        simulator) uses them, and reading them cost a long chain's AGARR a tenth of its time."""
+        return None if self.linear_coefficients is None else self.linear_coefficients()
 
 
 PRODUCT_LIMIT = 6     # positive parameter factors a term may carry before they are grouped
@@ -150,9 +157,12 @@ def causal_forms(model: Model, causality: Causality, signals: Mapping[sp.Symbol,
             outputs = [bond_variables(k)[common] for k, _, _ in ps if k != strong]
             outputs.append(bond_variables(strong)[total])
             j = model.junctions[node]
-            used = model.symbols[j.mode].free_symbols if j.controlled else ()
-            eqs = _laws(model, ("junction", node, strong), used, signals,
-                        lambda sub: junction_equations(model, node, ps, strong, sub))
+            if not solve and not j.controlled:      # which variable from which: no sympy needed
+                eqs = _junction_shape(kind, ps, strong)
+            else:
+                used = model.symbols[j.mode].free_symbols if j.controlled else ()
+                eqs = _laws(model, ("junction", node, strong), used, signals,
+                            lambda sub: junction_equations(model, node, ps, strong, sub))
             out += _solved(node, eqs, outputs, ps, solve)
         elif kind in ("TF", "MTF", "GY", "MGY"):
             (b1, _, s1), (b2, _, _) = ps
@@ -162,17 +172,28 @@ def causal_forms(model: Model, causality: Causality, signals: Mapping[sp.Symbol,
             gets2 = gets1 if kind in ("GY", "MGY") else not gets1
             outputs = [bond_variables(b)[1 if gets else 0] for b, gets in ((b1, gets1), (b2, gets2))]
             el = model.elements[node]
-            eqs = _laws(model, ("two-port", node), el.modulus.free_symbols, signals,
-                        lambda sub: two_port_equations(el, ps, sub))
+            if not solve and el.modulus != 0:
+                eqs = _two_port_shape(kind, b1, b2)
+            else:
+                eqs = _laws(model, ("two-port", node), el.modulus.free_symbols, signals,
+                            lambda sub: two_port_equations(el, ps, sub))
             out += _solved(node, eqs, outputs, ps, solve)
         elif kind == "R":
             k = ps[0][0]
             el = model.elements[node]
+            resistance = causality.resistors.get(node) == "resistance"
+            if not solve and not el.laws:            # e = R f: e and f, linear
+                out += _solved(node, [_Shape(frozenset(bond_variables(k)))], [bond_variables(k)[0 if resistance else 1]],
+                               ps, solve)
+                continue
             eq = _laws(model, ("R", node), _law_symbols(el), signals, lambda sub: resistor_equation(model, el, k, sub))
             resistance = causality.resistors.get(node) == "resistance"
             out += _solved(node, [eq], [bond_variables(k)[0 if resistance else 1]], ps, solve)
         elif kind in ("C", "I"):
             el = model.elements[node]
+            if not solve and not el.laws:            # given by a parameter: no law needed to say what it computes
+                out.append(_storage_shape(el, ps[0][0], causality.storage.get(node)))
+                continue
             x, (law, _rate) = _laws(model, ("storage", node), _law_symbols(el), signals,
                                     lambda sub: storage_equations(model, el, ps[0][0], sub))
             out.append(_storage(el, ps[0][0], causality.storage.get(node), x, law))
@@ -192,6 +213,42 @@ def causal_forms(model: Model, causality: Causality, signals: Mapping[sp.Symbol,
                     value = solve_for(eq, next(iter(eq.variables)))
                 out.append(CausalForm(node, var, (), (), value, "source"))
     return out
+
+
+@dataclass(frozen=True)
+class _Shape:
+    """What the dependency graph reads of an equation: the variables it holds, and whether it is
+    linear in them. The laws of a long chain cost most of its causality when built in sympy only
+    to be read for this (a 10 000-element chain's junctions and transformers)."""
+    variables: frozenset
+    linear: bool = True
+
+
+def _junction_shape(kind: str, ps, reference) -> list[_Shape]:
+    """The variables of :func:`bondgraph.laws.junction_equations` of an uncontrolled junction, in
+    its order: the common variable of each bond with the reference's, then the balance."""
+    common, total = (0, 1) if kind[0] == "0" else (1, 0)
+    x0 = bond_variables(reference)[common]
+    out = [_Shape(frozenset((bond_variables(k)[common], x0))) for k, _, _ in ps if k != reference]
+    return out + [_Shape(frozenset(bond_variables(k)[total] for k, _, _ in ps))]
+
+
+def _two_port_shape(kind: str, b1, b2) -> list[_Shape]:
+    """The variables of :func:`bondgraph.laws.two_port_equations` (a modulus other than 0)."""
+    (e1, f1), (e2, f2) = bond_variables(b1), bond_variables(b2)
+    if kind in ("TF", "MTF"):
+        return [_Shape(frozenset((e1, e2))), _Shape(frozenset((f1, f2)))]
+    return [_Shape(frozenset((e1, f2))), _Shape(frozenset((e2, f1)))]
+
+
+def _storage_shape(e: Element, k: BondKey, form: str | None) -> CausalForm:
+    """:func:`_storage`'s form of a storage element given by a parameter, without its law (``expr`` None)."""
+    ek, fk = bond_variables(k)
+    given, taken = (ek, fk) if e.kind == "C" else (fk, ek)
+    var = {ek: ("e", k), fk: ("f", k)}
+    if form == "integral":
+        return CausalForm(e.name, var[given], (), (energy_variable(e),), None, "state")
+    return CausalForm(e.name, var[taken], (var[given],), (given,), None, "derivative", True)
 
 
 def _solved(node: str, eqs: list[Equation], outputs: list[sp.Symbol], ps, solve: bool = True) -> list[CausalForm]:
@@ -271,12 +328,12 @@ def _relation(form: CausalForm, states: Mapping[str, sp.Expr]) -> Relation:
     if form.kind == "derivative":
         return _rate_relation(form)
     expr, symbols = form.expr, form.symbols
-    coefficients = tuple(coefficient(expr, s) for s in symbols) if form.linear and symbols else None
+    coefficients = (lambda: tuple(coefficient(expr, s) for s in symbols)) if form.linear and symbols else None
     if expr in symbols:         # an input passed on as it is (a junction's common variable)
         i = symbols.index(expr)
-        return Relation(form.output, form.inputs, lambda *xs: xs[i], coefficients=coefficients)
+        return Relation(form.output, form.inputs, lambda *xs: xs[i], linear_coefficients=coefficients)
     return Relation(form.output, form.inputs, lambda *xs: expr.xreplace(dict(zip(symbols, xs))),
-                    coefficients=coefficients)
+                    linear_coefficients=coefficients)
 
 
 def _rate_relation(form: CausalForm) -> Relation:
@@ -285,15 +342,15 @@ def _rate_relation(form: CausalForm) -> Relation:
     u = sp.Dummy("u", real=True)
     q = form.expr.xreplace({form.symbols[0]: u})
     slope = coefficient(q, u)   # dQ/du
-    coefficients = (slope,) if form.linear else None
+    coefficients = (lambda: (slope,)) if form.linear else None
     if q.has(t):            # modulated: q(u, t), its rate dQ/du u' + dQ/dt
         drift = ddt(q)
         return Relation(form.output, form.inputs, lambda x, dx: slope.xreplace({u: x}) * dx + drift.xreplace({u: x}),
                         derivative=True, energy=lambda x: q.xreplace({u: x}),
-                        parameters=frozenset(q.free_symbols - {u, t}), coefficients=coefficients)
+                        parameters=frozenset(q.free_symbols - {u, t}), linear_coefficients=coefficients)
     return Relation(form.output, form.inputs, lambda x, dx: slope.xreplace({u: x}) * dx, derivative=True,
                     energy=lambda x: q.xreplace({u: x}), parameters=frozenset(q.free_symbols - {u}),
-                    coefficients=coefficients)
+                    linear_coefficients=coefficients)
 def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozenset = frozenset(),
             program: Program | None = None) -> dict[Var, sp.Expr]:
     """Evaluate relations in causal order; only the ancestors of ``wanted`` if given.

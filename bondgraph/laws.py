@@ -70,8 +70,10 @@ class Equation:
         return frozenset(s for s in self.expr.free_symbols if s not in self.variables and s != t)
 
 
+@functools.lru_cache(maxsize=1 << 16)
 def bond_variables(bond) -> tuple[sp.Symbol, sp.Symbol]:
-    """The effort and flow of a bond (a power bond's id or a sensor's signal bond), ``e[k]``, ``f[k]``."""
+    """The effort and flow of a bond (a power bond's id or a sensor's signal bond), ``e[k]``, ``f[k]``.
+    Kept (a symbol with assumptions costs about 10 us to make, and a chain asks 20 times per bond)."""
     return sp.Symbol(f"e[{bond}]", real=True), sp.Symbol(f"f[{bond}]", real=True)
 
 
@@ -91,6 +93,32 @@ def coefficient(expr: sp.Expr, var: sp.Symbol) -> sp.Expr:
         elif term.has(var):
             return sp.diff(expr, var)
     return sp.Add.fromiter(out)
+
+
+def _plain_coefficient(expr: sp.Expr, var: sp.Symbol) -> bool | None:
+    """Whether ``var`` has a nonzero coefficient free of ``var`` in ``expr``, read without
+    building it where ``var`` is a plain factor of exactly one term (a junction's, transformer's
+    or linear law's equation): True when that term's other factors are free of ``var``
+    (symbols and numbers here are never 0). None where it takes :func:`coefficient`."""
+    found = None
+    for term in sp.Add.make_args(expr):
+        if term == var:
+            hit = True
+        elif term.is_Mul and var in term.args:
+            hit = all(f.is_Symbol and f != var or f.is_Number and f != 0 for f in term.args if f != var) \
+                and term.args.count(var) == 1
+            if not hit:
+                return None
+        elif term.is_Symbol or term.is_Number:
+            continue
+        elif term.has(var):
+            return None
+        else:
+            continue
+        if found is not None:
+            return None
+        found = hit
+    return found
 
 
 def solve_linear(expr: sp.Expr, var: sp.Symbol) -> sp.Expr | None:
@@ -113,19 +141,33 @@ class _Solutions(Mapping):
     """An equation's explicit solutions: those given, and those of the ``linear`` variables,
     each solved (:func:`solve_linear`) only when asked for. A causal form needs one solution per
     equation, the dependency graph none: solving every law for every variable up front cost
-    most of the derivation of a long chain."""
-    __slots__ = ("_expr", "_given", "_linear", "_solved", "_keys")
+    most of the derivation of a long chain. Which variables it gives (``in``, iteration: the
+    structure of the equations) is read from the coefficient alone, without solving."""
+    __slots__ = ("_expr", "_given", "_linear", "_solved", "_solvable", "_keys")
 
     def __init__(self, expr: sp.Expr, given: dict, linear: Sequence) -> None:
         self._expr, self._given = expr, given
         self._linear = [v for v in dict.fromkeys(linear) if v not in given]
         self._solved: dict = {}
+        self._solvable: dict = {}
         self._keys: tuple | None = None
 
     def _solve(self, v) -> sp.Expr | None:
         if v not in self._solved:
             self._solved[v] = solve_linear(self._expr, v)
         return self._solved[v]
+
+    def _gives(self, v) -> bool:
+        """Whether :func:`solve_linear` would give ``v``: the same tests, without the solution."""
+        if v not in self._solvable:
+            if v in self._solved:
+                self._solvable[v] = self._solved[v] is not None
+            elif (plain := _plain_coefficient(self._expr, v)) is not None:
+                self._solvable[v] = plain
+            else:
+                coeff = coefficient(self._expr, v) if self._expr.has(v) else sp.Integer(0)
+                self._solvable[v] = coeff != 0 and not coeff.has(v)
+        return self._solvable[v]
 
     def __getitem__(self, v) -> sp.Expr:
         if v in self._given:
@@ -135,11 +177,11 @@ class _Solutions(Mapping):
         raise KeyError(v)
 
     def __contains__(self, v) -> bool:
-        return v in self._given or (v in self._linear and self._solve(v) is not None)
+        return v in self._given or (v in self._linear and self._gives(v))
 
     def __iter__(self):
         if self._keys is None:
-            self._keys = tuple(self._given) + tuple(v for v in self._linear if self._solve(v) is not None)
+            self._keys = tuple(self._given) + tuple(v for v in self._linear if self._gives(v))
         return iter(self._keys)
 
     def __len__(self) -> int:

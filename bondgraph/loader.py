@@ -15,6 +15,7 @@ import keyword
 import math
 import re
 import unicodedata
+from collections import ChainMap
 from dataclasses import dataclass
 from itertools import product
 from pathlib import Path
@@ -145,8 +146,7 @@ def read_document_text(text: str, path: str = "<model>") -> Document:
         raise ModelError(f"larger than {MAX_BYTES >> 20} MB; a model file is a few kB of YAML", file=path)
     loader = None
     try:
-        loader = yaml.SafeLoader(text.lstrip("\ufeff"))      # the reader refuses control characters here
-        node = loader.get_single_node()
+        loader, node = _compose(text.lstrip("\ufeff"))
         if node is None:
             raise ModelError("the file is empty; see docs/model-format.md for the layout", file=path)
         _measure(node, path)
@@ -169,6 +169,42 @@ def read_document_text(text: str, path: str = "<model>") -> Document:
         raise _Ctx(path, lines).error((), "the top level must be a mapping with keys such as parameters, elements, "
                                           "bonds")
     return Document(path, data, lines)
+
+
+C_PARSER_BYTES = 32 << 10   # from this size on, libyaml's parser where PyYAML has it
+
+
+def _compose(text: str) -> tuple[yaml.SafeLoader, yaml.Node | None]:
+    """The safe loader of ``text`` and its composed document. PyYAML's own loader (its reader
+    refuses control characters); for a large text with nothing that reader refuses, the same
+    loader on libyaml's C parser, about 10 times faster (a 10 000-element chain, 0.9 MB: 3.5 s
+    in the pure parser): the same tags, resolvers and constructors, the same node tree. A text
+    the C parser refuses is composed again by the pure loader, so that messages stay its own."""
+    if len(text) >= C_PARSER_BYTES and getattr(yaml, "__with_libyaml__", False) \
+            and not yaml.reader.Reader.NON_PRINTABLE.search(text) and _flow_depth(text) <= MAX_NESTING:
+        loader = yaml.CSafeLoader(text)
+        try:
+            return loader, loader.get_single_node()
+        except yaml.YAMLError:
+            loader.dispose()
+    loader = yaml.SafeLoader(text)
+    try:
+        return loader, loader.get_single_node()
+    except BaseException:
+        loader.dispose()
+        raise
+
+
+def _flow_depth(text: str) -> int:
+    """An upper bound of the nesting of ``[`` and ``{`` in ``text`` (quotes not told apart). libyaml
+    composes nested nodes by C recursion, unchecked: deeper texts go to the pure parser, which
+    refuses them in a message. (Nesting by indentation needs d^2/2 bytes for depth d: at most
+    about 1 450 levels in a file of MAX_BYTES.)"""
+    depth = deepest = 0
+    for c in re.sub(r"[^\[\]{}]+", "", text):
+        depth += 1 if c in "[{" else -1
+        deepest = max(deepest, depth)
+    return deepest
 
 
 def _measure(root: yaml.Node, path: str) -> None:
@@ -321,7 +357,7 @@ def _ref(ctx: _Ctx, value: Any, where: tuple, what: str) -> str:
     return str(value)
 
 
-def _expr(ctx: _Ctx, text: Any, where: tuple, symbols: dict[str, sp.Expr]) -> sp.Expr:
+def _expr(ctx: _Ctx, text: Any, where: tuple, symbols: Mapping[str, sp.Expr]) -> sp.Expr:
     try:
         return parse_expression(text, symbols)
     except ExpressionError as exc:
@@ -620,6 +656,7 @@ _LAW_VARS = {("R", "effort"): "f", ("R", "flow"): "e", ("C", "effort"): "q",
 
 def _elements(ctx, data, symbols, claim, inputs, sensors) -> dict[str, Element]:
     out: dict[str, Element] = {}
+    params = dict(symbols)           # once, not per element: a copy each would make loading quadratic
     for name, spec in _mapping(ctx, data.get("elements"), ("elements",), required=True).items():
         where = ("elements", name)
         _name(ctx, name, where)
@@ -632,7 +669,6 @@ def _elements(ctx, data, symbols, claim, inputs, sensors) -> dict[str, Element]:
                             "sensors go under sensors:, junctions under junctions:)")
         _spec(ctx, spec, where, _ELEMENT_KEYS[kind] | {"type", "description"})
         claim(name, "an element", where)
-        params = {k: v for k, v in symbols.items()}
         element = Element(name=name, kind=kind, description=_text(spec, "description"))
         fields: dict[str, Any] = {}
         if kind in ("R", "C", "I"):
@@ -645,7 +681,7 @@ def _elements(ctx, data, symbols, claim, inputs, sensors) -> dict[str, Element]:
             for law in _ELEMENT_KEYS[kind] - {"parameter"}:
                 if spec.get(law) is not None:
                     var = _LAW_VARS[(kind, law)]
-                    laws[law] = _expr(ctx, spec[law], where + (law,), {**params, var: LAW_VARIABLES[var]})
+                    laws[law] = _expr(ctx, spec[law], where + (law,), ChainMap({var: LAW_VARIABLES[var]}, params))
             if kind in ("C", "I"):
                 laws = _storage_laws(ctx, where, kind, laws, fields.get("parameter"))
             elif len(laws) == 2:
@@ -673,7 +709,7 @@ def _elements(ctx, data, symbols, claim, inputs, sensors) -> dict[str, Element]:
                     raise ctx.error(where + ("input",), f"undefined input '{spec['input']}'; add it under inputs")
                 fields["input"] = spec["input"]
             elif spec.get("value") is not None:
-                fields["value"] = _expr(ctx, spec["value"], where + ("value",), {**params, "t": t})
+                fields["value"] = _expr(ctx, spec["value"], where + ("value",), ChainMap({"t": t}, params))
             else:
                 need = "input: <input name>" if kind.startswith("M") else "value: <number or expression of t>"
                 raise ctx.error(where, f"source '{name}' needs {need}")
@@ -818,8 +854,12 @@ def _bonds(ctx, data, elements, junctions) -> tuple[Bond, ...]:
 
 
 def _check_ports(ctx, elements, junctions, bonds) -> None:
+    at: dict[str, list] = {}           # the bonds at each node, in file order (one pass, not one per node)
+    for b in bonds:
+        at.setdefault(b.source, []).append(b)
+        at.setdefault(b.target, []).append(b)
     for name, e in elements.items():
-        attached = [b for b in bonds if name in (b.source, b.target)]
+        attached = at.get(name, [])
         where = ("elements", name)
         if e.kind in TWO_PORT_KINDS:
             if len(attached) != 2:
@@ -832,7 +872,7 @@ def _check_ports(ctx, elements, junctions, bonds) -> None:
         elif len(attached) != 1:
             raise ctx.error(where, f"{e.kind} '{name}' has {len(attached)} bonds; a one-port element needs exactly one")
     for name, j in junctions.items():
-        attached = [b for b in bonds if name in (b.source, b.target)]
+        attached = at.get(name, [])
         if not attached:
             raise ctx.error(("junctions", name), f"junction '{name}' has no bonds; connect it or remove it")
         if j.kind.endswith("c") and len(attached) < 2:

@@ -39,7 +39,7 @@ from typing import Iterable, Mapping
 import sympy as sp
 
 from .graph import ports, to_networkx
-from .laws import (Equation, bond_variables, equation, junction_equations, resistor_equation,
+from .laws import (Equation, bond_variables, equation, junction_equations, model_laws, resistor_equation,
                    source_equation, storage_equations, substitution, two_port_equations)
 from .model import SOURCE_KINDS, Model, t
 
@@ -81,6 +81,10 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
         variables += list(bond_variables(b.id))
     modes = {model.symbols[k]: sp.Integer(v) for k, v in (mode or {}).items()}
     sub = substitution(signals, modes)
+    shared = not signals and not modes      # the same laws as the causal forms: built once per model
+
+    def law(key, build):
+        return model_laws(model, key, lambda: build(sub)) if shared else build(sub)
 
     for node, kind in g.nodes(data="kind"):
         ps = [p for p in ports(g, node) if not isinstance(p[0], str)]
@@ -94,13 +98,13 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
                 value = model.symbols[f"beta_{el.input or el.name}"] * base
             eqs.append(source_equation(node, kind, ps[0][0], value, sub))
         elif kind == "R":
-            eqs.append(resistor_equation(model, model.elements[node], ps[0][0], sub))
+            eqs.append(law(("R", node), lambda s: resistor_equation(model, model.elements[node], ps[0][0], s)))
         elif kind in ("C", "I"):
-            x, new_eqs = storage_equations(model, model.elements[node], ps[0][0], sub)
+            x, new_eqs = law(("storage", node), lambda s: storage_equations(model, model.elements[node], ps[0][0], s))
             variables.append(x)
             eqs += new_eqs
         elif kind in ("TF", "MTF", "GY", "MGY"):
-            eqs += two_port_equations(model.elements[node], ps, sub)
+            eqs += law(("two-port", node), lambda s: two_port_equations(model.elements[node], ps, s))
     for s in model.sensors.values():
         j = model.junctions[s.junction]
         ref = _reference_bond(g, j, strong)

@@ -14,6 +14,7 @@ from dataclasses import replace
 import sympy as sp
 
 from bondgraph.model import Model, t
+from bondgraph.deep import has_any
 from bondgraph.structure import DERIVATIVE
 
 from .modewise import check_modes
@@ -56,8 +57,8 @@ def undefined_in_modes(model: Model, arrs: list[ARR], modes: list[dict[str, int]
     bad = []
     for mode in modes:
         for a in arrs:
-            e = a.expr.xreplace({model.symbols[m]: v for m, v in mode.items()})
-            if e.has(sp.zoo, sp.nan, sp.oo, -sp.oo):
+            e = a.expr.xreplace({model.symbols[m]: v for m, v in mode.items()}) if mode else a.expr
+            if has_any(e, (sp.zoo, sp.nan, sp.oo, -sp.oo)):         # each shared part once (bondgraph.deep)
                 bad.append(f"{a.name} undefined in mode {mode}")
     return bad
 

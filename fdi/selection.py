@@ -45,14 +45,16 @@ True
 """
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field
-from typing import Iterable, Mapping
+from typing import Callable, Iterable, Mapping
 
 import sympy as sp
 
 from bondgraph.causality import DIAGNOSIS, assign
 from bondgraph.model import Model
+from bondgraph.deep import free_symbols
 from bondgraph.sequential import realize, residual_plan
 from bondgraph.structure import (DERIVATIVE, EquationSystem, Structure, derivative_plan, mso_enumerate, msos_around,
                                  redundancy_of, residual_choices)
@@ -188,9 +190,9 @@ def expression_faults(model: Model, arr: ARR, mode: Mapping[str, int],
     (its column of :func:`fdi.signatures.fault_signature_matrix`, from one pass over them) and of
     the right-hand sides of its integrated states (mixed causality: a fault there moves X(t))."""
     modes = {model.symbols[m]: sp.Integer(v) for m, v in mode.items()}
-    present = set(arr.expr.xreplace(modes).free_symbols)
+    present = free_symbols(arr.expr.xreplace(modes) if modes else arr.expr)     # each shared part once
     for _, rhs in arr.states:
-        present |= sp.sympify(rhs).xreplace(modes).free_symbols
+        present |= free_symbols(sp.sympify(rhs).xreplace(modes))
     return frozenset(f for f, syms in fault_symbols.items() if syms & present)
 
 
@@ -229,7 +231,7 @@ def select(model: Model, causality: str = DERIVATIVE, budget: float = BUDGET) ->
     diag = assign(model, DIAGNOSIS)
     scaph = derive_arrs(model, diag) if diag.ok else []
     problems = tuple(diag.problems) + tuple(diag.loops)
-    search = _Search(model, structural_system(model, diag), causality, deadline)
+    search = _Search(model, lambda: structural_system(model, diag), causality, deadline)
     picks = [_Pick(a, search.faults_of(a)) for a in scaph]
     search.seen.update(a.expr for a in scaph)
     if diag.ok and not search.shortfall(picks):
@@ -264,14 +266,12 @@ class _Search:
     """The state of one selection: the structure, the candidates described so far (``pool``:
     those with a plan), the ones realised with sympy, and the time budget."""
 
-    def __init__(self, model: Model, system: EquationSystem, causality: str, deadline: float):
-        self.model, self.system, self.causality, self.deadline = model, system, causality, deadline
+    def __init__(self, model: Model, system: Callable[[], EquationSystem], causality: str, deadline: float):
+        self.model, self._system, self.causality, self.deadline = model, system, causality, deadline
         self.fault_names = [f for f, v in model.faults.items() if v.kind != "mode"]
         self.mode = nominal_mode(model)
         self.fault_symbols = {f: frozenset(model.symbols[s] for s in model.faults[f].symbols if s in model.symbols)
                               for f in self.fault_names}
-        self.best = StructuralBest(model, system, causality, self.fault_names)
-        self.st, self.fe = self.best.structure, self.best.fault_equations
         self.described: dict[frozenset, Candidate | None] = {}
         self.pool: dict[frozenset, Candidate] = {}
         self.realised: dict[frozenset, _Pick] = {}
@@ -287,10 +287,30 @@ class _Search:
         self.exact = storage_fault_parameters(model)
 
     # ---------------------------------------------------------------- structure
+    # Built when first asked: a model without fault candidates has nothing to isolate, and its
+    # SCAPH residuals are the selection (a 10 000-element chain's structure is 2 s of sympy).
+    @functools.cached_property
+    def system(self) -> EquationSystem:
+        return self._system()
+
+    @functools.cached_property
+    def best(self) -> StructuralBest:
+        return StructuralBest(self.model, self.system, self.causality, self.fault_names)
+
+    @property
+    def st(self) -> Structure:
+        return self.best.structure
+
+    @property
+    def fe(self) -> Mapping[str, frozenset]:
+        return self.best.fault_equations
+
     def faults_of(self, arr: ARR) -> frozenset[str]:
         return expression_faults(self.model, arr, self.mode, self.fault_symbols)
 
     def shortfall(self, picks: list[_Pick]) -> Shortfall:
+        if not self.fault_names:                 # nothing to detect or tell apart
+            return Shortfall((), ())
         return self.best.shortfall(_signatures(self.fault_names, picks))
 
     def candidate(self, eqs: frozenset) -> Candidate | None:

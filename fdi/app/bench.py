@@ -355,3 +355,117 @@ def benchmark_problem(name: str, seed: int):
     fixed_onset = lambda real, bits: obj(np.hstack([real, np.full((real.shape[0], 1), 32.0)]), bits)
     return Problem("scenario2", obj.spaces, truth, t_win, 32.0, fixed_onset, "scenario-2 identification, beta_theta2 & R4",
                    objective=obj)
+
+
+# ---------------------------------------------------------------- chains: cost against model size
+
+CHECK_CHAINS = (10, 100, 1000)          # elements of the drivetrain chain (chain_yaml) checked
+DIAGNOSE_CHAINS = (10, 100, 250)        # tanks of fault_chain_yaml diagnosed (one capacitance fault; 250: 1000 elements)
+
+
+def _cpu(fn) -> float:
+    """CPU seconds of ``fn()`` (process time: what the machine's other load does not inflate much)."""
+    start = time.process_time()
+    fn()
+    return time.process_time() - start
+
+
+def check_chain_row(size: int) -> dict:
+    """``bgfdi check --json`` of the drivetrain chain of ``size`` elements (:func:`chain_yaml`: one
+    residual along the whole chain), loading included, on a deep-stack thread as the command does;
+    one cold run (a fresh model object; sympy's cache cleared)."""
+    import tempfile
+
+    from sympy.core.cache import clear_cache
+
+    from bondgraph.deep import run_deep
+
+    from .check_report import analyse
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / f"chain_{size}.yaml"
+        path.write_text(chain_yaml(size))
+        clear_cache()
+        seconds = run_deep(_cpu, lambda: analyse(str(path)))
+    return {"case": f"check chain N={size}", "elements": size, "seconds": seconds}
+
+
+def diagnose_chain_row(tanks: int, workers: int = 1) -> dict:
+    """``bgfdi diagnose`` (monitor compiled from the text, detection, isolation, identification) of
+    ``tanks`` tanks in series (:func:`bondgraph.chains.fault_chain_yaml`) with the capacitance of
+    the middle tank dropped to 0.8 of its value at 100 s; the data simulated by bgfdi's own
+    simulator beforehand (not timed: the benchmark times the diagnosis, and
+    tests/test_chain_diagnosis.py checks it against an independent simulator)."""
+    from bondgraph.chains import fault_chain_yaml
+
+    from ..api import diagnose
+    from ..data import Measurements
+    from ..options import Options
+    from .scenario import parse_scenario, run
+
+    text = fault_chain_yaml(tanks)
+    model = load_model_text(text, f"fault_chain_{tanks}")
+    middle = (tanks + 1) // 2
+    scenario = parse_scenario({"seed": 1, "T": 300.0, "fs": 2.0,
+                               "faults": [{"target": f"fT{middle}", "type": "abrupt", "t0": 100.0, "value": 0.8e-5}]},
+                              model, "<bench chain>")
+    cols = run(model, scenario)
+    data = Measurements(f"fault_chain_{tanks}", cols["t"], cols)
+    result: dict = {}
+
+    def job():
+        result["report"] = diagnose(text, data,
+                                    Options(workers=workers, seed=0)).to_dict()
+    seconds = _cpu(job)
+    faults = result["report"]["diagnosis"]["faults"]
+    return {"case": f"diagnose tanks N={tanks}", "elements": len(model.elements) + len(model.junctions),
+            "tanks": tanks, "seconds": seconds, "found": [f.get("name") for f in faults],
+            "expected": f"fT{middle}"}
+
+
+def chain_rows(check_sizes=CHECK_CHAINS, tank_sizes=DIAGNOSE_CHAINS, echo=None) -> list[dict]:
+    rows = []
+    for n in check_sizes:
+        rows.append(check_chain_row(n))
+        if echo:
+            echo(f"check chain N={n}: {rows[-1]['seconds']:.2f} s CPU")
+    for n in tank_sizes:
+        rows.append(diagnose_chain_row(n))
+        if echo:
+            echo(f"diagnose tanks N={n}: {rows[-1]['seconds']:.2f} s CPU")
+    return rows
+
+
+def growth_exponent(rows: list[dict], size_key: str = "elements") -> float | None:
+    """The exponent k of time ~ size^k from the first to the last row (1 = linear)."""
+    if len(rows) < 2 or rows[0]["seconds"] <= 0:
+        return None
+    a, b = rows[0], rows[-1]
+    return math.log(b["seconds"] / a["seconds"]) / math.log(b[size_key] / a[size_key])
+
+
+def format_chain(rows: list[dict]) -> str:
+    out = ["Cost against model size (CPU seconds, one cold run each)",
+           f"{'case':<28}{'elements':>9}{'CPU [s]':>10}{'s/element':>12}  result"]
+    for r in rows:
+        result = ""
+        if "found" in r:
+            result = f"found {', '.join(map(str, r['found'])) or 'nothing'} (designed {r['expected']})"
+        out.append(f"{r['case']:<28}{r['elements']:>9}{r['seconds']:>10.2f}{r['seconds'] / r['elements']:>12.2e}  {result}")
+    for label, group, key in (("check", [r for r in rows if r["case"].startswith("check")], "elements"),
+                              ("diagnose", [r for r in rows if r["case"].startswith("diagnose")], "tanks")):
+        k = growth_exponent(group, key)
+        if k is not None:
+            out.append(f"{label} growth: time ~ n^{k:.2f} from n = {group[0][key]} to {group[-1][key]} (1 = linear)")
+    return "\n".join(out) + "\n"
+
+
+def chain_json(rows: list[dict]) -> dict:
+    check = [r for r in rows if r["case"].startswith("check")]
+    diag = [r for r in rows if r["case"].startswith("diagnose")]
+    return {"benchmark": "chain",
+            "check": [{"elements": r["elements"], "cpu_s": r["seconds"]} for r in check],
+            "check_exponent": growth_exponent(check),
+            "diagnose": [{"tanks": r["tanks"], "elements": r["elements"], "cpu_s": r["seconds"], "found": r["found"],
+                          "expected": r["expected"]} for r in diag],
+            "diagnose_exponent": growth_exponent(diag, "tanks")}

@@ -20,6 +20,7 @@ from typing import Callable
 
 
 from bondgraph.causality import DIAGNOSIS, SIMULATION, Causality, assign
+from bondgraph.deep import LIMIT, run_deep
 from bondgraph.errors import CausalityError, ModelError
 from bondgraph.loader import load_model
 from bondgraph.model import Model
@@ -48,7 +49,7 @@ MAX_WORKERS = 256          # processes; more is a typo (and on a forkserver plat
 MAX_WAIT = 1e6             # s, as for the model's waiting_time
 SIGNALS_PNG = "signals.png"        # simulate --plot DIR: the figure's name in DIR
 RUL_CONE_PNG = "rul_cone.png"      # evaluate --plot DIR
-MAX_CHAIN = 10_000         # bench derive: a chain of 2000 elements takes about 11 s
+MAX_CHAIN = 10_000         # bench derive, bench chain: bgfdi check of 10 000 elements takes about 10 s CPU
 
 
 # ------------------------------------------------------------------ option values
@@ -894,6 +895,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
         rows = bench.derive_rows(shipped_models(), sizes, echo=LOG.info if args.json else lambda line: _note(line, None))
         sys.stdout.write(_json_text(bench.derive_json(rows)) if args.json else bench.format_derive(rows))
         return 0
+    if args.what == "chain":
+        echo = LOG.info if args.json else (lambda line: _note(line, None))
+        rows = bench.chain_rows(args.sizes or bench.CHECK_CHAINS, echo=echo)
+        sys.stdout.write(_json_text(bench.chain_json(rows)) if args.json else bench.format_chain(rows))
+        return 0
     if args.what == "simulate":
         from .resources import scenarios_dir
         row = bench.simulate_rows(scenarios_dir() / "cycab_scenario2.json")
@@ -1151,12 +1157,13 @@ def build_parser() -> argparse.ArgumentParser:
     cg.set_defaults(func=cmd_codegen)
 
     b = sub.add_parser("bench", help="benchmarks, printed as tables")
-    b.add_argument("what", choices=("derive", "simulate", "optim", "diagnose", "accuracy", "monitor"))
+    b.add_argument("what", choices=("derive", "chain", "simulate", "optim", "diagnose", "accuracy", "monitor"))
     b.add_argument("--hours", type=real(0.05, high=24.0), default=1.0,
                    help="monitor: hours of 100 Hz data streamed (default 1; 4 reads the memory at 4 h too)")
     b.add_argument("--block", type=whole(1, 1_000_000), default=50, help="monitor: rows per block (default 50)")
     b.add_argument("--sizes", type=chain_sizes,
-                   help=f"derive: comma-separated chain sizes, 1 to {MAX_CHAIN} (default 10,20,50,100,200)")
+                   help=f"derive, chain: comma-separated chain sizes, 1 to {MAX_CHAIN} (derive: default "
+                        "10,20,50,100,200; chain: elements checked, default 10,100,1000)")
     b.add_argument("--problem", default="synthetic", help="optim: synthetic (3 cases), synthetic-all, scenario2 or one case")
     b.add_argument("--runs", type=whole(1), default=20, help="optim: independent runs per case, >= 1 (Table VI: 20)")
     b.add_argument("--methods", help="optim: comma-separated engines (default: all)")
@@ -1253,6 +1260,8 @@ def _run(argv: list[str] | None) -> int:
         sources.resolve(args)                  # - for standard input, shipped files by name
         check_model_input(args)
         check_outputs(args)
+        if args.func in DEEP_COMMANDS:         # derivation only: room for the residuals of long chains
+            return run_deep(args.func, args)
         return args.func(args)
     except CausalityError as exc:
         LOG.error(sources.message(f"{getattr(args, 'model', '')}: causality: {'; '.join(exc.problems)}"))
@@ -1262,8 +1271,9 @@ def _run(argv: list[str] | None) -> int:
         return 2
     except RecursionError:                    # a model that loads, but whose derived equations nest too deep
         model = getattr(args, "model", None)
+        limit = LIMIT if args.func in DEEP_COMMANDS else sys.getrecursionlimit()
         LOG.error(f"{model or args.command}: the derived equations nest deeper than Python follows (recursion "
-                  f"limit {sys.getrecursionlimit():,}): the model is too large for one residual; measure more "
+                  f"limit {limit:,}): the model is too large for one residual; measure more "
                   "signals along it (each sensor starts a shorter residual) or split it")
         return 2
     except KeyboardInterrupt:
@@ -1275,6 +1285,13 @@ def _run(argv: list[str] | None) -> int:
         return 128 + exc.signum
     finally:
         sources.close()
+
+
+# Commands that only derive and print: run on a deep-stack thread (bondgraph.deep), so that the
+# residual of a chain of 10 000 elements (about 6 000 levels of sympy) is derived, not refused.
+# The others (simulate, diagnose, monitor...) keep the main thread: their worker pools and signal
+# handling are made there.
+DEEP_COMMANDS = (cmd_check, cmd_graph, cmd_tables, cmd_isolability)
 
 
 if __name__ == "__main__":  # pragma: no cover
