@@ -255,7 +255,7 @@ TRANSLATE_ROUNDS = 7      # rounds, each in a box half as wide around the best s
 
 
 def translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: np.ndarray, t: np.ndarray,
-              t0: float, seed: int = 0) -> np.ndarray:
+              t0: float, seed: int = 0, t0_to: float | None = None) -> np.ndarray:
     """The reals (``fdi.encoding``'s, without the onset) with which the structure of ``bits_to``
     reproduces the fault profiles that ``real`` gives under ``bits_from`` over the times ``t``, the
     onset ``t0`` shared; NaN where a fault keeps its type and model (its reals carry over as they
@@ -263,7 +263,9 @@ def translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: np
     its own point there). An abrupt target takes the profile's median after the onset; a
     degradation model (16)-(19) the coefficients whose profile is nearest, in the parameter's
     scale (its reciprocal when the nominal value is infinite), by a shrinking random search over
-    the coefficients' box. No residual is evaluated: a profile costs microseconds.
+    the coefficients' box. No residual is evaluated: a profile costs microseconds. With ``t0_to``
+    the target's onset is that one (a drift re-expressed as one that started earlier); an
+    incipient fault that keeps its model is then re-expressed too.
 
     Why: a family whose degradation model differs from the winner's starts the final check from a
     screen of its own, at the rim of a narrow basin (a drift of eq. (19) at 6-7 times the winner's
@@ -291,12 +293,14 @@ def translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: np
     after = t >= t0
     if not after.any():
         return out
+    shift = t0_to is not None and t0_to != t0
+    onset = t0 if t0_to is None else t0_to
     src = encoding.decode(spaces, real[None, :], np.asarray(bits_from)[None, :])
     dst = encoding.decode(spaces, real[None, :], np.asarray(bits_to)[None, :])
     bounds = encoding.bounds(spaces)
     for j, (space, a, b) in enumerate(zip(spaces, src, dst)):
         ka, kb = int(a.kind[0]), int(b.kind[0])
-        if ka == kb and (kb != 2 or int(a.model[0]) == int(b.model[0])):
+        if ka == kb and (kb != 2 or int(a.model[0]) == int(b.model[0])) and not (shift and kb == 2):
             continue
         p = encoding.profiles([space], [a], t, t0)[0][0]
         if not np.isfinite(p[after]).all():
@@ -322,7 +326,7 @@ def translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: np
                 rows = np.tile(real[n_real * j: n_real * (j + 1)], (TRANSLATE_DRAWS, 1))
                 rows[:, [c - n_real * j for c in cols]] = x
                 bits_j = np.tile(np.asarray(bits_to)[encoding.N_BITS * j: encoding.N_BITS * (j + 1)], (TRANSLATE_DRAWS, 1))
-                (q,) = encoding.profiles([space], encoding.decode([space], rows, bits_j), t, t0)
+                (q,) = encoding.profiles([space], encoding.decode([space], rows, bits_j), t, onset)
                 with np.errstate(all="ignore"):
                     e = np.abs(scale(q) - target[None, :])[:, after].sum(axis=1) / width
                 e = np.where(np.isfinite(e), e, np.inf)
