@@ -61,3 +61,21 @@ def test_a_degradation_model_the_data_cannot_tell_apart_widens_the_rul_band():
     p = prognose(fault, 1.0, 0.5, tf=32.0, now=37.0)
     assert p["rul"] == pytest.approx(100 / 3 - 5, abs=1e-9)
     assert (p["rul_low"], p["rul_high"]) == pytest.approx((100 / 3 - 5, 50 * math.log(2) - 5), abs=1e-9)
+
+
+def test_evaluate_tells_a_search_miss_from_data_that_do_not_prefer_the_design():
+    """A leak R4 = 2.5e7 from 25 s on the plant: an answer equal to the design is 'data' (the
+    design is not preferred over it), a wrong leak value (1e8) is 'search' (the design, which the
+    data prefer by far, was missed)."""
+    from fdi.app.evaluate import design_check
+    from fdi.app.scenario import FaultEvent
+    events = [FaultEvent("R4", "abrupt", 25.0, value=2.5e7)]
+    meas = _run([Event("R4", "abrupt", 25.0, value=2.5e7)], seed=3, T=40.0)
+
+    def report(value):
+        return {"detection": {"time": 25.0}, "window": [25.0, 35.0],
+                "diagnosis": {"faults": [{"name": "R4", "type": "abrupt", "value": value, "t0": 25.0}]}}
+    same = design_check(str(CYCAB), meas, Options(workers=1), report(2.5e7), events)
+    assert same["verdict"] == "data" and same["design_cost"] == pytest.approx(same["answer_cost"])
+    wrong = design_check(str(CYCAB), meas, Options(workers=1), report(1e8), events)
+    assert wrong["verdict"] == "search" and wrong["design_cost"] < wrong["answer_cost"]

@@ -46,6 +46,7 @@ from ..pipeline import refresh_prognosis
 from ..monitor import compiled
 from ..objective import nominal
 from ..prognose import end_of_life
+from ..criterion import effective_samples
 from ..scales import for_model
 from .scenario import FaultEvent, Scenario, load_scenario, simulate_scenario
 
@@ -73,6 +74,7 @@ class Score:
     diagnosed: list[dict] = field(default_factory=list)   # the faults found: name, type, model and fitted values
     duration: float | None = None         # s, the run's length
     prognostics: list[dict] = field(default_factory=list)  # per incipient fault: PH, CRA, convergence
+    design_check: dict | None = None      # a miss: the design's cost and the answer's on the same data
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -154,10 +156,46 @@ def evaluate_scenario(model_path: str, scenario_path: str | Path, options: Optio
     s.duration = scenario.T
     s.diagnosed = [{k: f[k] for k in ("name", "type", "model", "t0", "value", "period", "b") if f.get(k) is not None}
                    for f in report["diagnosis"]["faults"]]
+    if not s.expect_nothing and not (s.isolated and s.typed) and s.detection is not None:
+        s.design_check = design_check(model_path, meas, o, report, list(scenario.faults))
     if not s.expect_nothing:
         s.rul = rul_checkpoints(model_path, model, config, scenario, meas, report, o, life_points)
         s.prognostics = trajectory_metrics(s.rul)
     return s
+
+
+def design_check(model_path: str, meas: Measurements, o: Options, report: dict,
+                 events: list[FaultEvent]) -> dict | None:
+    """Why a diagnosis missed its design: the design's faults and the answer's, each held at its
+    values, costed on the same data (the identification window since t_D to the final decision)
+    and compared by Schwarz's criterion. ``verdict`` is "search" when the design is preferred by
+    more than 2 (Kass & Raftery: the data hold the truth and the search missed it), else "data"
+    (the data do not prefer the design: no search could have found it there). None without a
+    detection or with a mode fault on either side (its switch time is not a design value)."""
+    from ..criterion import information
+    from ..episodes import MAX_GROWTH, since_detection
+    from ..objective import Objective, window
+    from ..pipeline import prepare
+    det, faults = report.get("detection"), report["diagnosis"]["faults"]
+    if det is None or any(e.type == "mode" for e in events) or any(f["type"] == "mode" for f in faults):
+        return None
+    c = compiled(model_path)
+    p = prepare(c.with_config(o.settings), meas, o)
+    t_d, now = report.get("window") or (det["time"], det["time"])
+    start, span = since_detection(meas.t, t_d, now, p.samples, MAX_GROWTH)
+    win = window(meas.t, p.raw, start, span, p.window_s)
+    n_eff = effective_samples(span, len(c.residuals), meas.ts, p.window_s)
+    design = [{k: v for k, v in (("name", e.target), ("type", e.type), ("value", e.value), ("period", e.period),
+                                 ("model", e.model), ("b", list(e.b) if e.b else None), ("t0", e.t0)) if v is not None}
+              for e in events]
+
+    def cost(fs: list[dict]) -> float:
+        return float(Objective(c.model, c.residuals, win, (), p.weights, p.window_s, fixed=fs, config=c.config,
+                               modes=p.modes).constant())
+    ours, theirs = cost(design), cost([dict(f) for f in faults])
+    ic_design, ic_answer = information(ours, design, n_eff), information(theirs, list(faults), n_eff)
+    return {"design_cost": ours, "answer_cost": theirs, "criterion_difference": ic_design - ic_answer,
+            "verdict": "search" if ic_design < ic_answer - 2.0 else "data"}
 
 
 def trajectory_metrics(checkpoints: list[dict], alpha: float = ALPHA) -> list[dict]:
@@ -418,7 +456,11 @@ def format_scores(scores: list[Score], totals: dict) -> str:
                  f"longest nominal run {longest['name']} ({longest['duration_s']:g} s): "
                  + ("false alarm" if longest["false_alarm"] else "quiet"))]
     if t.get("wrong"):
-        lines.append(f"not isolated and typed: {', '.join(t['wrong'])}")
+        checks = {s.name: s.design_check for s in scores if s.design_check}
+        lines.append("not isolated and typed: " + ", ".join(
+            name + (f" (design {checks[name]['design_cost']:.4g}, answer {checks[name]['answer_cost']:.4g}: "
+                    f"{'missed by the search' if checks[name]['verdict'] == 'search' else 'the data do not prefer the design'})"
+                    if name in checks else "") for name in t["wrong"]))
     if t.get("goals"):
         lines.append("goals: " + ", ".join(f"{k} {'n/a' if v is None else 'yes' if v else 'NO'}"
                                            for k, v in t["goals"].items()))
