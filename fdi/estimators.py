@@ -257,7 +257,7 @@ def other_models(obj: Objective, real: np.ndarray, bits: np.ndarray, cost: float
     return out
 
 
-MODEL_POLISH = 2.0   # another model's best within this factor of the fit's cost is polished by a simplex
+MODEL_POLISH = 1.25  # another model's best within this factor of the fit's cost is polished by a simplex (plausible: ~1.05)
 
 
 def _simplex(obj: Objective, x: np.ndarray, bits: np.ndarray, coords: list[int], bounds: np.ndarray,
