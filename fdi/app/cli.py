@@ -944,6 +944,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
         row = monitor_rows(args.hours, args.block, echo=LOG.info if args.json else lambda line: _note(line, None))
         sys.stdout.write(_json_text(monitor_json(row)) if args.json else format_monitor(row))
         return 0
+    if args.what == "fleet":
+        from .bench_fleet import fleet_json, fleet_rows, format_fleet
+        from .resources import reference_data, shipped_model
+        row = fleet_rows(reference_data("nominal.csv").parent, str(shipped_model("cycab_steering")),
+                         workers=args.workers, echo=LOG.info if args.json else lambda line: _note(line, None))
+        sys.stdout.write(_json_text(fleet_json(row)) if args.json else format_fleet(row))
+        return 0
     if args.what == "diagnose":
         from .resources import reference_data
         row = bench.diagnose_rows(reference_data("scenario2.csv"), args.workers)
@@ -1157,7 +1164,7 @@ def build_parser() -> argparse.ArgumentParser:
     cg.set_defaults(func=cmd_codegen)
 
     b = sub.add_parser("bench", help="benchmarks, printed as tables")
-    b.add_argument("what", choices=("derive", "chain", "simulate", "optim", "diagnose", "accuracy", "monitor"))
+    b.add_argument("what", choices=("derive", "chain", "simulate", "optim", "diagnose", "accuracy", "monitor", "fleet"))
     b.add_argument("--hours", type=real(0.05, high=24.0), default=1.0,
                    help="monitor: hours of 100 Hz data streamed (default 1; 4 reads the memory at 4 h too)")
     b.add_argument("--block", type=whole(1, 1_000_000), default=50, help="monitor: rows per block (default 50)")

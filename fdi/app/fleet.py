@@ -20,7 +20,8 @@ cache), so a model is derived once per worker, not once per file.
 On dask, this process reads the model and every file (with the reader and checks of the local
 path, so a bad file gives the same line) and sends them to the workers: the workers need bgfdi
 installed (the same version), not the files. Each worker derives the model once, in memory, and
-keeps it (nothing is written to disk). A LocalCluster started by the command has at most one
+keeps it (nothing is written to disk). Local processes (``--jobs``) get the monitor once each, at
+their start, and each file as its path. A LocalCluster started by the command has at most one
 worker per file (``--jobs 16`` for 2 files starts 2).
 """
 from __future__ import annotations
@@ -139,8 +140,18 @@ def parquet_bytes(lines: list[dict]) -> bytes:
     return buffer.getvalue()
 
 
+_worker_monitor = None        # the fleet's monitor in a local worker process, set once by _keep
+
+
+def _keep(monitor) -> None:
+    """A local worker's initializer: the monitor arrives once (unpickled: derived once, from the
+    process-wide cache) and keeps its signature matrices between files; each job is a path."""
+    global _worker_monitor
+    _worker_monitor = monitor
+
+
 def _job(job: tuple) -> dict:
-    return diagnose_file(*job)
+    return diagnose_file(_worker_monitor, *job)
 
 
 # ------------------------------------------------------------------ many files
@@ -171,7 +182,7 @@ def diagnose_many(model, files: Iterable[str | Path], options=None, *, client=No
         return []
     if client is not None:
         return _on_dask(client, monitor, files, options, timings, progress)
-    return map_in_order(_job, [(monitor, f, options, timings) for f in files], jobs, progress)
+    return map_in_order(_job, [(f, options, timings) for f in files], jobs, progress, _keep, (monitor,))
 
 
 def _on_dask(client, monitor, files: list[str], options, timings: bool, progress) -> list[dict]:

@@ -1,0 +1,123 @@
+"""``bgfdi bench fleet``: one fleet through ``--jobs 1``, ``--jobs N`` and a dask LocalCluster of N
+workers, in the same run; then a fleet of many short files in files per second.
+
+The fleet: the four CyCab reference files (``models/data/cycab``) copied ``copies`` times into a
+temporary directory (8 files by default), diagnosed at a small population (``pop`` 12,
+``generations`` 5: the fleet's machinery, not the search, is measured; the search is
+``bench diagnose``'s). The short fleet: ``short`` copies of the first 3 s of the nominal file
+(nothing detected: the cost is reading, shipping and the detector, per file).
+
+Each way is timed as the command runs it: the pool or the LocalCluster is started inside the
+timing (``bgfdi diagnose --scheduler local`` starts one per call); the cluster's start is also
+reported apart. CPU time is this process's and its reaped children's (``resource.getrusage``:
+the pool's processes and the cluster's workers, closed before it is read); wall time by
+``time.perf_counter``. Each way's reports are compared with ``--jobs 1``'s (the same lines, or
+the bench says not). Ratios are of numbers measured in this run.
+"""
+from __future__ import annotations
+
+import resource
+import shutil
+import tempfile
+import time
+from pathlib import Path
+from typing import Callable
+
+from .fleet import Cluster, diagnose_many, have_dask
+
+REFERENCE = ("nominal", "scenario1", "scenario2", "scenario3")
+SHORT_ROWS = 300                 # 3 s at 100 Hz
+
+
+def _cpu() -> float:
+    own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def _ways(workers: int) -> list[tuple[str, int, bool]]:
+    ways = [("--jobs 1", 1, False), (f"--jobs {workers}", workers, False)]
+    if have_dask():
+        ways.append((f"LocalCluster({workers})", workers, True))
+    return ways
+
+
+def run_ways(model: str, files: list[str], options, workers: int) -> list[dict]:
+    """Each way's wall and CPU seconds, its cluster's start and whether its reports are ``--jobs 1``'s."""
+    rows, first = [], None
+    for name, n, dask in _ways(workers):
+        w0, c0 = time.perf_counter(), _cpu()
+        start = 0.0
+        if dask:
+            with Cluster("local", n, len(files)) as client:
+                start = time.perf_counter() - w0
+                reports = diagnose_many(model, files, options, client=client)
+        else:
+            reports = diagnose_many(model, files, options, jobs=n)
+        wall, cpu = time.perf_counter() - w0, _cpu() - c0
+        first = reports if first is None else first
+        rows.append({"way": name, "wall_s": wall, "cpu_s": cpu, "start_s": start, "files": len(files),
+                     "same": reports == first})
+    return rows
+
+
+def fleet_rows(reference_dir: Path, model: str, copies: int = 2, short: int = 1000, workers: int = 2,
+               echo: Callable[[str], None] | None = None) -> dict:
+    """The measurements of ``bench fleet`` (module docstring)."""
+    from ..options import Options
+    options = Options(pop=12, generations=5, seed=3)
+    tmp = Path(tempfile.mkdtemp(prefix="bgfdi-bench-fleet-"))
+    try:
+        files = []
+        for c in range(copies):
+            for name in REFERENCE:
+                files.append(str(shutil.copy(reference_dir / f"{name}.csv", tmp / f"{name}-{c}.csv")))
+        if echo:
+            echo(f"{len(files)} reference files, {', '.join(w[0] for w in _ways(workers))}")
+        full = run_ways(model, files, options, workers)
+        with open(reference_dir / "nominal.csv", encoding="utf-8") as fh:
+            head = "".join(fh.readline() for _ in range(SHORT_ROWS + 1))
+        shorts = []
+        for i in range(short):
+            p = tmp / f"short-{i:04d}.csv"
+            p.write_text(head, encoding="utf-8")
+            shorts.append(str(p))
+        if echo:
+            echo(f"{short} short files")
+        brief = run_ways(model, shorts, options, workers) if short else []
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return {"workers": workers, "fleet": full, "short": brief, "short_rows": SHORT_ROWS}
+
+
+def _table(rows: list[dict], per_second: bool) -> list[str]:
+    base = rows[0]
+    out = [f"{'way':<18}{'wall [s]':>10}{'CPU [s]':>10}{'start [s]':>11}{'x --jobs 1':>12}"
+           f"{'files/s' if per_second else '':>10}  same reports"]
+    for r in rows:
+        rate = f"{r['files'] / r['wall_s']:>10.0f}" if per_second else f"{'':>10}"
+        out.append(f"{r['way']:<18}{r['wall_s']:>10.2f}{r['cpu_s']:>10.2f}{r['start_s']:>11.2f}"
+                   f"{r['wall_s'] / base['wall_s']:>12.2f}{rate}  {'yes' if r['same'] else 'NO'}")
+    return out
+
+
+def format_fleet(row: dict) -> str:
+    n = row["workers"]
+    out = [f"A fleet of {row['fleet'][0]['files']} CyCab files (pop 12, 5 generations), each way started and "
+           f"timed as the command runs it; CPU: this process and its workers"]
+    out += _table(row["fleet"], False)
+    by = {r["way"]: r for r in row["fleet"]}
+    cluster = by.get(f"LocalCluster({n})")
+    if cluster:
+        jobs = by[f"--jobs {n}"]
+        out.append(f"LocalCluster({n}) / --jobs {n}: wall {cluster['wall_s'] / jobs['wall_s']:.2f}, "
+                   f"CPU {cluster['cpu_s'] / jobs['cpu_s']:.2f} (target: wall <= 1.10)")
+    if row["short"]:
+        out.append("")
+        out.append(f"{row['short'][0]['files']} short files ({row['short_rows']} rows each, nothing detected)")
+        out += _table(row["short"], True)
+    return "\n".join(out) + "\n"
+
+
+def fleet_json(row: dict) -> dict:
+    """``bench fleet --json``."""
+    return {"benchmark": "fleet", **row}
