@@ -40,7 +40,8 @@ from .residuals import Residual, corrected_signals, derivative_orders, parameter
 ROWS = 256             # individuals per objective block (bounds memory on wide screening calls)
 WINDOW_VALUES = 1 << 18  # ... and at most this many individual-samples per block: a 10 kHz window of 5 000
                          # samples took 256 rows x 5 000 at once, 20 MB per temporary (peak 460 MB; 203 MB so)
-BLOCK = 32768          # samples x individuals per block of the objective (about 128 kB per temporary)
+BLOCK = 8192           # samples x individuals per block of the residual kernels (64 kB per temporary: the CyCab ARR3
+                       # in blocks of 8 rows x 1000 samples 24 ns a value, in one of 30 rows 53 ns, measured)
 PHASES = 16           # onsets proposed per period found in the residuals (fdi.hints)
 DEFAULT_BOUNDS = {"sensor": (0.05, 1.5), "source": (0.05, 1.5), "group": (0.1, 10.0)}
 
