@@ -384,6 +384,17 @@ class Objective:
         m = len(range(crop.start, crop.stop, stride))
         step = max(1, BLOCK // m)
         out = np.empty((n, m))
+        if not residual.composites and n > step:
+            # the kernel's arguments cut once, then sliced by rows per block (slicing every signal and
+            # value per block took a third of a 100-row call)
+            args = [np.asarray(a) for a in residual.arguments(signals, values, crop)]
+            rowwise = [a.ndim == 2 and a.shape[0] == n for a in args]
+            for a in range(0, n, step):
+                rows = slice(a, min(n, a + step))
+                out[rows] = residual.func(*[x[rows] if r else x for x, r in zip(args, rowwise)])
+            if self.gaps.any():
+                out[:, self.gaps[crop]] = 0.0
+            return out
         rates = self._rates if n <= step else None       # blocks of rows are new arrays: nothing to share
         for a in range(0, n, step):
             rows = slice(a, min(n, a + step))

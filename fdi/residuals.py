@@ -65,6 +65,14 @@ class Residual:
         (one objective evaluation): a stored quantity's rate is filtered once there and reused by
         every residual that reads it with the same inputs (the CyCab's and the RC filter's ARR2 and
         ARR3 share d(C1 v)/dt; a linear fault's unit step leaves it unchanged)."""
+        out = self.func(*self.arguments(signals, values, crop, ts, window, rates))
+        return np.asarray(out, dtype=float)
+
+    def arguments(self, signals: Mapping[str, list[np.ndarray]], values: Mapping[str, object],
+                  crop: slice | None = None, ts: float | None = None, window: float = derivatives.DEFAULT_WINDOW,
+                  rates: dict | None = None) -> list:
+        """The kernel's arguments in order (:meth:`__call__` without the call): signals and values
+        cut to ``crop``, stored quantities' rates filtered."""
         def cut(a):
             return a[..., crop] if crop is not None and np.ndim(a) and np.shape(a)[-1] > 1 else a
         args = [cut(signals[s][k]) for s, k in self.signals]
@@ -73,8 +81,7 @@ class Residual:
                 raise ValueError(f"{self.name} differentiates a stored quantity numerically: pass ts")
             args.append(self._rate(order, inner, signals, values, ts, window, crop, rates))
         args += [cut(values[n]) for n in self.symbols]
-        out = self.func(*args)
-        return np.asarray(out, dtype=float)
+        return args
 
     @staticmethod
     def _rate(order: int, inner: "Residual", signals: Mapping, values: Mapping, ts: float, window: float,
