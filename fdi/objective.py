@@ -40,8 +40,10 @@ from .residuals import Residual, corrected_signals, derivative_orders, parameter
 ROWS = 256             # individuals per objective block (bounds memory on wide screening calls)
 WINDOW_VALUES = 1 << 18  # ... and at most this many individual-samples per block: a 10 kHz window of 5 000
                          # samples took 256 rows x 5 000 at once, 20 MB per temporary (peak 460 MB; 203 MB so)
-BLOCK = 8192           # samples x individuals per block of the residual kernels (64 kB per temporary: the CyCab ARR3
-                       # in blocks of 8 rows x 1000 samples 24 ns a value, in one of 30 rows 53 ns, measured)
+BLOCK = 32768          # samples x individuals per block of a residual that filters a stored quantity (about 128 kB
+                       # per temporary; each block pays a filter call: the tutorial's RC, 5 000 samples, 6 rows a block)
+KERNEL_BLOCK = 8192    # ... and of one that does not (64 kB per temporary: the CyCab's ARR3 in blocks of 8 rows x 1 000
+                       # samples 24 ns a value, in one block of 30 rows 53 ns, measured)
 PHASES = 16           # onsets proposed per period found in the residuals (fdi.hints)
 DEFAULT_BOUNDS = {"sensor": (0.05, 1.5), "source": (0.05, 1.5), "group": (0.1, 10.0)}
 
@@ -382,7 +384,7 @@ class Objective:
         (measured on the CyCab's ARR3: 25 us per individual in blocks of 16, 94 us in one block of 300)."""
         crop = self.crop(stride)
         m = len(range(crop.start, crop.stop, stride))
-        step = max(1, BLOCK // m)
+        step = max(1, (BLOCK if residual.composites else KERNEL_BLOCK) // m)
         out = np.empty((n, m))
         if not residual.composites and n > step:
             # the kernel's arguments cut once, then sliced by rows per block (slicing every signal and
