@@ -183,6 +183,7 @@ class Objective:
                 self.gaps |= np.isnan(np.asarray(x, dtype=float)).reshape(-1, win.t.size).any(axis=0)
         self._constant: dict[int, float] = {}
         self._rates: dict = {}
+        self._blocks: dict = {}
         self.composites = any(r.composites for r in residuals)
         # the screening fidelity: every stride-th sample, a sixth of the derivative window apart, so that
         # the filtered residuals barely change between the samples left out
@@ -261,11 +262,11 @@ class Objective:
             parts = [self.evaluate(real[i:i + rows], bits[i:i + rows], stride) for i in range(0, real.shape[0], rows)]
             return np.concatenate([c for c, _ in parts]), np.vstack([r for _, r in parts])
         with np.errstate(all="ignore"):      # an individual whose signals overflow costs inf, silently
-            self._rates = {}                   # stored quantities' rates shared within this evaluation
+            self._rates, self._blocks = {}, {}  # stored quantities' rates (and row blocks) shared within this evaluation
             try:
                 return self._evaluate(real, bits, stride)
             finally:
-                self._rates = {}
+                self._rates, self._blocks = {}, {}
 
     def _evaluate(self, real: np.ndarray, bits: np.ndarray, stride: int) -> tuple[np.ndarray, np.ndarray]:
         real = real.copy()
@@ -397,14 +398,21 @@ class Objective:
             if self.gaps.any():
                 out[:, self.gaps[crop]] = 0.0
             return out
-        rates = self._rates if n <= step else None       # blocks of rows are new arrays: nothing to share
+        def block(x, rows: slice):
+            """x's rows of this block, one view per array and block within an evaluation: a stored
+            quantity's rate, filtered from the very same views, is then shared by every residual and
+            every unit step that reads it (the tutorial's RC: ARR2 and ARR3 share d(C1 v)/dt)."""
+            if not (np.ndim(x) == 2 and x.shape[0] == n):
+                return x
+            held = self._blocks.get((id(x), rows.start))
+            if held is None or held[0] is not x:        # the entry holds x: its id is not reused meanwhile
+                held = self._blocks[(id(x), rows.start)] = (x, x[rows])
+            return held[1]
         for a in range(0, n, step):
             rows = slice(a, min(n, a + step))
-            part = {k: v if n <= step else [x[rows] if np.ndim(x) == 2 and x.shape[0] == n else x for x in v]
-                    for k, v in signals.items()}
-            vals = values if n <= step else {k: v[rows] if np.ndim(v) == 2 and np.shape(v)[0] == n else v
-                                             for k, v in values.items()}
-            out[rows] = residual(part, vals, self.win.ts, self.window_s, crop, rates=rates)
+            part = signals if n <= step else {k: [block(x, rows) for x in v] for k, v in signals.items()}
+            vals = values if n <= step else {k: block(v, rows) for k, v in values.items()}
+            out[rows] = residual(part, vals, self.win.ts, self.window_s, crop, rates=self._rates)
         if self.gaps.any():
             out[:, self.gaps[crop]] = 0.0
         return out
