@@ -130,3 +130,32 @@ def weighted_median(points, weights):  # pragma: no cover - compiled
                 below += wl + we
                 lo = gt
     return out
+
+
+@njit(cache=True, nogil=True)
+def intermittent(t, t0, nominal, value, period):  # pragma: no cover - compiled
+    """Eq. (15) for every row: :func:`fdi.profiles.intermittent`'s numbers without a sine per
+    sample. The phase x = 2 pi (t - t0) / T is formed by the same operations; sin(x) > 0 exactly
+    when floor(x / pi) is even, which decides every sample farther than 1e-6 of a half-period from
+    a switch; those nearer (and x = 0, where eq. (15) gives the mean) take the sine itself."""
+    rows, n = t0.shape[0], t.shape[0]
+    out = np.empty((rows, n))
+    two_pi = 2 * np.pi
+    for r in range(rows):
+        a, v, T = t0[r], value[r], period[r]
+        mean = (nominal + v) / 2
+        for j in range(n):
+            if not t[j] >= a:
+                out[r, j] = nominal
+                continue
+            x = two_pi * (t[j] - a) / T
+            u = x / np.pi
+            k = math.floor(u)
+            f = u - k
+            if f > 1e-6 and f < 1 - 1e-6:
+                s = 1.0 if k % 2 == 0 else -1.0
+            else:
+                y = math.sin(x)
+                s = 1.0 if y > 0 else (-1.0 if y < 0 else 0.0)    # NaN: neither, the mean (np.sign)
+            out[r, j] = v if s > 0 else (nominal if s < 0 else mean)
+    return out

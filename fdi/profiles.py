@@ -49,6 +49,13 @@ def abrupt(t: np.ndarray, t0, nominal: float, value) -> np.ndarray:
 def intermittent(t: np.ndarray, t0, nominal: float, value, period) -> np.ndarray:
     t = np.asarray(t, dtype=float)[None, :]
     value, period, t0 = _col(value), _col(period), _col(t0)
+    fast = kernels.jit()
+    if fast is not None and t.size:        # the same numbers without a sine per sample (fdi.kernels)
+        rows = max(value.shape[0], period.shape[0], t0.shape[0])
+
+        def per_row(x: np.ndarray) -> np.ndarray:
+            return np.ascontiguousarray(np.broadcast_to(x[:, 0], (rows,)))
+        return fast.intermittent(np.ascontiguousarray(t[0]), per_row(t0), float(nominal), per_row(value), per_row(period))
     s = np.sign(np.sin(2 * np.pi * (t - t0) / period))
     with np.errstate(invalid="ignore"):
         mean = (nominal + value) / 2

@@ -124,3 +124,18 @@ def test_objective_costs_equal_on_every_fault_type_and_model():
         assert ok.sum() > 36
         assert np.allclose(c1[ok], c0[ok], rtol=1e-9, atol=0.0)
         assert np.allclose(r1, r0, rtol=1e-9, atol=0.0)
+
+
+def test_intermittent_paths_agree_at_and_between_switches():
+    """Eq. (15) on a grid that lands on the switching instants (onsets on the grid, periods of whole
+    samples: sin is ~1e-16 there, not 0, and the sign must still be the sine's) and on random ones."""
+    from fdi.profiles import intermittent
+
+    rng = np.random.default_rng(13)
+    t = np.arange(0.0, 20.0, 0.01)
+    t0 = np.concatenate([np.round(rng.uniform(0, 10, 100), 2), rng.uniform(0, 10, 100), [np.nan, 3.0]])
+    period = np.concatenate([np.round(rng.uniform(0.1, 5, 100), 2), rng.uniform(0.1, 5, 100), [1.0, 0.02]])
+    value = rng.uniform(0.1, 3, t0.size)
+    for nominal in (1.0, np.inf, 0.0):
+        plain, fast = both(lambda: intermittent(t, t0, nominal, value, period))
+        assert np.array_equal(plain, fast, equal_nan=True)
