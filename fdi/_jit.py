@@ -159,3 +159,26 @@ def intermittent(t, t0, nominal, value, period):  # pragma: no cover - compiled
                 s = 1.0 if y > 0 else (-1.0 if y < 0 else 0.0)    # NaN: neither, the mean (np.sign)
             out[r, j] = v if s > 0 else (nominal if s < 0 else mean)
     return out
+
+
+@njit(cache=True, nogil=True)
+def incipient17(t, t0, nominal, b2):  # pragma: no cover - compiled
+    """Eq. (17) for every row, as :func:`fdi.profiles.incipient` (model 2) computes it: 1/P = 1/P0 -
+    b2 tau from t0 on, infinite past the pole; only subtractions, products and one division per
+    sample, so the numbers are numpy's. ``nominal`` is not 0 (the caller's case)."""
+    rows, n = t0.shape[0], t.shape[0]
+    out = np.empty((rows, n))
+    c = 0.0 if math.isinf(nominal) else 1.0 / nominal
+    for r in range(rows):
+        a, b = t0[r], b2[r]
+        for j in range(n):
+            if not t[j] >= a:
+                out[r, j] = nominal
+                continue
+            tau = t[j] - a
+            if not tau > 0:
+                out[r, j] = nominal
+                continue
+            den = c - b * tau
+            out[r, j] = 1.0 / den if den > 0 else np.inf
+    return out

@@ -68,6 +68,11 @@ def incipient(t: np.ndarray, t0, nominal: float, model: int, b) -> np.ndarray:
     t = np.asarray(t, dtype=float)
     b = np.atleast_2d(np.asarray(b, dtype=float))
     t0 = _col(t0)
+    fast = kernels.jit()
+    if model == 2 and nominal != 0 and fast is not None and t.size:    # the same numbers in one pass (fdi.kernels)
+        rows = max(b.shape[0], t0.shape[0])
+        return fast.incipient17(t, np.ascontiguousarray(np.broadcast_to(t0[:, 0], (rows,))), float(nominal),
+                                np.ascontiguousarray(np.broadcast_to(b[:, 0], (rows,))))
     tau = np.maximum(t[None, :] - t0, 0.0)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         if model == 1:

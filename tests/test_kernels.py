@@ -139,3 +139,18 @@ def test_intermittent_paths_agree_at_and_between_switches():
     for nominal in (1.0, np.inf, 0.0):
         plain, fast = both(lambda: intermittent(t, t0, nominal, value, period))
         assert np.array_equal(plain, fast, equal_nan=True)
+
+
+def test_eq17_paths_agree_and_follow_the_closed_form(path):
+    """1/P = 1/P0 - b2 tau (infinite past the pole), for finite and infinite P0, on both paths."""
+    rng = np.random.default_rng(17)
+    t = np.arange(0.0, 30.0, 0.01)
+    t0 = np.concatenate([rng.uniform(0, 20, 50), [np.nan]])
+    b2 = rng.uniform(-0.5, 0.5, t0.size)
+    for p0 in (2.0, np.inf, -3.0):
+        p = incipient(t, t0, p0, 2, b2[:, None])
+        tau = t[None, :] - t0[:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            den = (0.0 if np.isinf(p0) else 1 / p0) - b2[:, None] * tau
+            want = np.where(tau > 0, np.where(den > 0, 1 / den, np.inf), p0)
+        assert np.array_equal(p, want)
