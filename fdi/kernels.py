@@ -3,10 +3,15 @@
 
 The parts are the ones a profile of identification names and that do not depend on the model:
 eq. (19)'s RK4 over the population (a Python loop of ~100 steps of ~40 numpy calls on (pop,)
-arrays, ~4 ms per call) and the weighted median that solves a linear fault's magnitude (a sort
-per row). Both paths give the same numbers (tests/test_kernels.py: 1e-9 relative on random
-populations); the model-specific part, the ARR expressions, stays in numpy (a JIT per model would
-cost each process seconds: CI runs ~1000 tests in many processes).
+arrays, ~4 ms per call), eq. (17) and eq. (15)'s profiles (one pass instead of ten over
+(pop, samples) arrays; eq. 15's sign of a sine read from the phase's half-period), and the
+weighted median that solves a linear fault's magnitude. Both paths give the same numbers
+(tests/test_kernels.py: equal arrays, and 1e-9 relative on the objective's costs on random
+populations); nothing whose last bits would differ is compiled: the filter's sums (numpy's are
+BLAS's) and the exponentials and sines of eqs. (16), (18) and of the ARRs (numpy's are SIMD
+code), since the Coulomb terms' sign of a filtered derivative turns 1e-15 into 3e-5 of a cost. The
+model-specific part, the ARR expressions, stays in numpy (a JIT per model would cost each process
+seconds: CI runs ~1000 tests in many processes).
 
 ``BGFDI_NUMBA=0`` in the environment, or ``use_numba(False)``, selects the numpy path (the
 reference the tests compare with). The compiled code is cached on disk by numba (``cache=True``;
@@ -44,7 +49,7 @@ def enabled() -> bool:
 def jit() -> ModuleType | None:
     """:mod:`fdi._jit` (numba imported on first use, not at start-up), or None without numba."""
     global _module, _tried
-    if not _tried:
+    if _wanted and not _tried:          # switched off: numba is not even imported
         _tried = True
         try:
             from . import _jit
