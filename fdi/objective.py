@@ -31,7 +31,7 @@ import sympy as sp
 from bondgraph.errors import ModelError
 from bondgraph.model import Model
 
-from . import criterion, encoding, hints, scales
+from . import criterion, encoding, hints, kernels, scales
 from .config import MonitorConfig
 from .data import commanded
 from .encoding import FaultSpace
@@ -40,7 +40,10 @@ from .residuals import Residual, corrected_signals, derivative_orders, parameter
 ROWS = 256             # individuals per objective block (bounds memory on wide screening calls)
 WINDOW_VALUES = 1 << 18  # ... and at most this many individual-samples per block: a 10 kHz window of 5 000
                          # samples took 256 rows x 5 000 at once, 20 MB per temporary (peak 460 MB; 203 MB so)
-BLOCK = 32768          # samples x individuals per block of the objective (about 128 kB per temporary)
+BLOCK = 32768          # samples x individuals per block of a residual that filters a stored quantity (about 128 kB
+                       # per temporary; each block pays a filter call: the tutorial's RC, 5 000 samples, 6 rows a block)
+KERNEL_BLOCK = 8192    # ... and of one that does not (64 kB per temporary: the CyCab's ARR3 in blocks of 8 rows x 1 000
+                       # samples 24 ns a value, in one block of 30 rows 53 ns, measured)
 PHASES = 16           # onsets proposed per period found in the residuals (fdi.hints)
 DEFAULT_BOUNDS = {"sensor": (0.05, 1.5), "source": (0.05, 1.5), "group": (0.1, 10.0)}
 
@@ -180,6 +183,7 @@ class Objective:
                 self.gaps |= np.isnan(np.asarray(x, dtype=float)).reshape(-1, win.t.size).any(axis=0)
         self._constant: dict[int, float] = {}
         self._rates: dict = {}
+        self._blocks: dict = {}
         self.composites = any(r.composites for r in residuals)
         # the screening fidelity: every stride-th sample, a sixth of the derivative window apart, so that
         # the filtered residuals barely change between the samples left out
@@ -258,11 +262,11 @@ class Objective:
             parts = [self.evaluate(real[i:i + rows], bits[i:i + rows], stride) for i in range(0, real.shape[0], rows)]
             return np.concatenate([c for c, _ in parts]), np.vstack([r for _, r in parts])
         with np.errstate(all="ignore"):      # an individual whose signals overflow costs inf, silently
-            self._rates = {}                   # stored quantities' rates shared within this evaluation
+            self._rates, self._blocks = {}, {}  # stored quantities' rates (and row blocks) shared within this evaluation
             try:
                 return self._evaluate(real, bits, stride)
             finally:
-                self._rates = {}
+                self._rates, self._blocks = {}, {}
 
     def _evaluate(self, real: np.ndarray, bits: np.ndarray, stride: int) -> tuple[np.ndarray, np.ndarray]:
         real = real.copy()
@@ -381,16 +385,34 @@ class Objective:
         (measured on the CyCab's ARR3: 25 us per individual in blocks of 16, 94 us in one block of 300)."""
         crop = self.crop(stride)
         m = len(range(crop.start, crop.stop, stride))
-        step = max(1, BLOCK // m)
+        step = max(1, (BLOCK if residual.composites else KERNEL_BLOCK) // m)
         out = np.empty((n, m))
-        rates = self._rates if n <= step else None       # blocks of rows are new arrays: nothing to share
+        if not residual.composites and n > step:
+            # the kernel's arguments cut once, then sliced by rows per block (slicing every signal and
+            # value per block took a third of a 100-row call)
+            args = [np.asarray(a) for a in residual.arguments(signals, values, crop)]
+            rowwise = [a.ndim == 2 and a.shape[0] == n for a in args]
+            for a in range(0, n, step):
+                rows = slice(a, min(n, a + step))
+                out[rows] = residual.func(*[x[rows] if r else x for x, r in zip(args, rowwise)])
+            if self.gaps.any():
+                out[:, self.gaps[crop]] = 0.0
+            return out
+        def block(x, rows: slice):
+            """x's rows of this block, one view per array and block within an evaluation: a stored
+            quantity's rate, filtered from the very same views, is then shared by every residual and
+            every unit step that reads it (the tutorial's RC: ARR2 and ARR3 share d(C1 v)/dt)."""
+            if not (np.ndim(x) == 2 and x.shape[0] == n):
+                return x
+            held = self._blocks.get((id(x), rows.start))
+            if held is None or held[0] is not x:        # the entry holds x: its id is not reused meanwhile
+                held = self._blocks[(id(x), rows.start)] = (x, x[rows])
+            return held[1]
         for a in range(0, n, step):
             rows = slice(a, min(n, a + step))
-            part = {k: v if n <= step else [x[rows] if np.ndim(x) == 2 and x.shape[0] == n else x for x in v]
-                    for k, v in signals.items()}
-            vals = values if n <= step else {k: v[rows] if np.ndim(v) == 2 and np.shape(v)[0] == n else v
-                                             for k, v in values.items()}
-            out[rows] = residual(part, vals, self.win.ts, self.window_s, crop, rates=rates)
+            part = signals if n <= step else {k: [block(x, rows) for x in v] for k, v in signals.items()}
+            vals = values if n <= step else {k: block(v, rows) for k, v in values.items()}
+            out[rows] = residual(part, vals, self.win.ts, self.window_s, crop, rates=self._rates)
         if self.gaps.any():
             out[:, self.gaps[crop]] = 0.0
         return out
@@ -484,6 +506,9 @@ def weighted_median(points: np.ndarray, weights: np.ndarray) -> np.ndarray:
     >>> weighted_median(np.array([[3.0, 1.0, 2.0, 10.0]]), np.array([[1.0, 1.0, 1.0, 0.5]])).tolist()
     [2.0]
     """
+    fast = kernels.jit()
+    if fast is not None and points.size:       # the same sums in one compiled pass (fdi.kernels)
+        return fast.weighted_median(np.ascontiguousarray(points, dtype=float), np.ascontiguousarray(weights, dtype=float))
     points = np.where(weights > 0, points, 0.0)
     n, m = points.shape
     order = (np.argsort(points, axis=1) + (np.arange(n) * m)[:, None]).ravel()    # flat indices, row by row

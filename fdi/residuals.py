@@ -65,16 +65,23 @@ class Residual:
         (one objective evaluation): a stored quantity's rate is filtered once there and reused by
         every residual that reads it with the same inputs (the CyCab's and the RC filter's ARR2 and
         ARR3 share d(C1 v)/dt; a linear fault's unit step leaves it unchanged)."""
-        def cut(a):
-            return a[..., crop] if crop is not None and np.ndim(a) and np.shape(a)[-1] > 1 else a
+        out = self.func(*self.arguments(signals, values, crop, ts, window, rates))
+        return np.asarray(out, dtype=float)
+
+    def arguments(self, signals: Mapping[str, list[np.ndarray]], values: Mapping[str, object],
+                  crop: slice | None = None, ts: float | None = None, window: float = derivatives.DEFAULT_WINDOW,
+                  rates: dict | None = None) -> list:
+        """The kernel's arguments in order (:meth:`__call__` without the call): signals and values
+        cut to ``crop``, stored quantities' rates filtered."""
+        def cut(a):      # an array along the samples is cut; a number, or one value per row (pop, 1), is not
+            return a[..., crop] if crop is not None and isinstance(a, np.ndarray) and a.ndim and a.shape[-1] > 1 else a
         args = [cut(signals[s][k]) for s, k in self.signals]
         for order, inner in self.composites:
             if ts is None:
                 raise ValueError(f"{self.name} differentiates a stored quantity numerically: pass ts")
             args.append(self._rate(order, inner, signals, values, ts, window, crop, rates))
         args += [cut(values[n]) for n in self.symbols]
-        out = self.func(*args)
-        return np.asarray(out, dtype=float)
+        return args
 
     @staticmethod
     def _rate(order: int, inner: "Residual", signals: Mapping, values: Mapping, ts: float, window: float,
@@ -138,7 +145,7 @@ def _compile(model: Model, expr: sp.Expr, name: str, sensor: str | None) -> Resi
             break
         outer = sorted((d for d in whole if not any(o is not d and o.has(d) for o in whole)), key=str)
         syms = [sp.Symbol(f"__stored{len(composite_syms) + i}", real=True) for i in range(len(outer))]
-        stored += [(sum(c for v, c in d.variable_count if v == t), _compile(model, d.expr, name, sensor)) for d in outer]
+        stored += [(int(sum(c for v, c in d.variable_count if v == t)), _compile(model, d.expr, name, sensor)) for d in outer]
         composite_syms += syms
         expr = expr.xreplace(dict(zip(outer, syms)))
     composites = tuple(stored)
@@ -148,7 +155,7 @@ def _compile(model: Model, expr: sp.Expr, name: str, sensor: str | None) -> Resi
         fn = d.expr
         if not is_signal(fn):
             raise ValueError(f"{name}: cannot evaluate the derivative {d} numerically")
-        order = sum(c for v, c in d.variable_count if v == t)
+        order = int(sum(c for v, c in d.variable_count if v == t))   # a Python int: sympy's cost 10 us per use
         replace[d] = sp.Symbol(f"{fn.func.__name__}__d{order}", real=True)
         used.append((fn.func.__name__, order))
     for fn in expr.atoms(sp.core.function.AppliedUndef):

@@ -176,7 +176,12 @@ def test_bench_diagnose_json(capsys):
     # scenario 2's five candidate sets (README): {beta_theta2}, {R4, R5}, and the three pairs/triple with both
     assert d["estimators"] == 5 and d["evaluations"] > 5 * 100
     assert {"load", "residuals", "isolation", "identification"} <= set(d["stages_s"])
-    assert all(_seconds(d[k]) for k in ("total_s", "estimator_s", "objective_s"))
+    assert all(_seconds(d[k]) for k in ("total_s", "estimator_s", "objective_s", "cpu_s"))
+    assert d["kernels"] in ("numba", "numpy")            # fdi.kernels: compiled where numba is installed
+    for name in ("full", "coarse"):                       # one objective call on 1 and on 100 rows
+        c = d["objective"][name]
+        assert c["call_100_s"] > c["call_1_s"] > 0 and c["per_row_s"] > 0
+        assert abs(c["overhead_s"] + c["per_row_s"] - c["call_1_s"]) < 1e-12
 
 
 def test_bench_accuracy_json(capsys, monkeypatch, tmp_path):

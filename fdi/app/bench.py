@@ -302,13 +302,49 @@ def diagnose_rows(data_path: Path, workers: int = 1) -> dict:
     from ..options import Options
     from .resources import shipped_model
 
-    t0 = time.perf_counter()
+    from .. import kernels
+
+    t0, cpu0 = time.perf_counter(), time.process_time()
     d = diagnose(shipped_model("cycab_steering"), data_path, Options(pop=100, generations=150, workers=workers))
-    total = time.perf_counter() - t0
+    total, cpu = time.perf_counter() - t0, time.process_time() - cpu0
     est = d.estimates
-    return {"stages": dict(d.timings), "total_s": total, "estimators": len(est), "workers": workers,
+    return {"stages": dict(d.timings), "total_s": total, "cpu_s": cpu, "estimators": len(est), "workers": workers,
             "objective_s": sum(e.objective_s for e in est), "estimator_s": sum(e.wall_s for e in est),
-            "evaluations": sum(e.evaluations for e in est)}
+            "evaluations": sum(e.evaluations for e in est), "kernels": "numba" if kernels.enabled() else "numpy",
+            "objective": objective_costs()}
+
+
+def objective_costs(rows: int = 100, repeat: int = 5, seed: int = 0) -> dict:
+    """CPU time of one objective call on scenario 2's identification (R4 & beta_theta2, the
+    bench problem), full and coarse, for 1 and ``rows`` random individuals of every structure
+    (min of ``repeat``): the per-row cost is the slope, the per-call overhead the intercept
+    (what a call costs before its rows)."""
+    import numpy as np
+
+    from ..encoding import N_BITS
+    obj = benchmark_problem("scenario2", seed).objective
+    rng = np.random.default_rng(seed)
+    b = obj.bounds()
+    real = b[:, 0] + rng.random((rows, b.shape[0])) * (b[:, 1] - b[:, 0])
+    bits = np.zeros((rows, N_BITS * len(obj.spaces)), dtype=bool)
+    for j in range(len(obj.spaces)):
+        bits[np.arange(rows), N_BITS * j + rng.integers(0, 3, rows)] = True
+        bits[:, N_BITS * j + 3:N_BITS * j + 5] = rng.random((rows, 2)) < 0.5
+
+    def cpu(fn, n: int) -> float:
+        fn(real[:n], bits[:n])
+        best = math.inf
+        for _ in range(repeat):
+            start = time.process_time()
+            fn(real[:n], bits[:n])
+            best = min(best, time.process_time() - start)
+        return best
+    out = {"rows": rows}
+    for name, fn in (("full", obj), ("coarse", obj.coarse)):
+        one, many = cpu(fn, 1), cpu(fn, rows)
+        per_row = (many - one) / (rows - 1)
+        out[name] = {"call_1_s": one, f"call_{rows}_s": many, "per_row_s": per_row, "overhead_s": one - per_row}
+    return out
 
 
 def format_diagnose(row: dict) -> str:
@@ -319,8 +355,17 @@ def format_diagnose(row: dict) -> str:
         out.append(f"{stage:<20}{secs:>10.2f}")
     out.append(f"{'total':<20}{row['total_s']:>10.2f}")
     share = row["objective_s"] / row["estimator_s"] if row["estimator_s"] else 0.0
+    out.append(f"{'total CPU':<20}{row['cpu_s']:>10.2f}")
     out.append(f"identification: {row['evaluations']} evaluations; {100 * share:.0f} % of estimator time in residual "
-               f"evaluation (the objective), {row['estimator_s'] - row['objective_s']:.2f} s in the engines")
+               f"evaluation (the objective), {row['estimator_s'] - row['objective_s']:.2f} s in the engines; "
+               f"{1e6 * row['objective_s'] / max(1, row['evaluations']):.0f} us per evaluated row")
+    o = row["objective"]
+    out.append(f"objective ({row['kernels']} kernels; R4 & beta_theta2, random rows of every structure, CPU, "
+               f"min of 5):")
+    for name in ("full", "coarse"):
+        c, key = o[name], f"call_{o['rows']}_s"
+        out.append(f"  {name:<7} 1 row {1e6 * c['call_1_s']:>7.0f} us, {o['rows']} rows {1e3 * c[key]:>6.2f} ms: "
+                   f"{1e6 * c['per_row_s']:>6.1f} us/row + {1e6 * c['overhead_s']:>6.0f} us per call")
     return "\n".join(out) + "\n"
 
 
@@ -328,8 +373,9 @@ def diagnose_json(row: dict) -> dict:
     """``bench diagnose --json``: wall seconds by stage of one diagnosis of scenario 2."""
     return {"benchmark": "diagnose", "data": "scenario2.csv", "pop": 100, "generations": 150,
             "workers": row["workers"], "estimators": row["estimators"], "stages_s": dict(row["stages"]),
-            "total_s": row["total_s"], "estimator_s": row["estimator_s"], "objective_s": row["objective_s"],
-            "evaluations": row["evaluations"]}
+            "total_s": row["total_s"], "cpu_s": row["cpu_s"], "estimator_s": row["estimator_s"],
+            "objective_s": row["objective_s"], "evaluations": row["evaluations"], "kernels": row["kernels"],
+            "objective": row["objective"]}
 
 
 def benchmark_problem(name: str, seed: int):

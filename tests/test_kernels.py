@@ -1,0 +1,156 @@
+"""The compiled kernels (fdi.kernels, numba) against the numpy path and against independent
+references: eq. (19) against its closed form where it has one, the weighted median against a
+brute-force L1 minimum, and the identification objective's costs on random populations of every
+fault type and degradation model against the numpy path (1e-9 relative)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fdi import kernels
+from fdi.encoding import N_BITS
+from fdi.objective import weighted_median
+from fdi.profiles import incipient
+
+
+@pytest.fixture(params=["numpy", "numba"])
+def path(request):
+    """Run the test on each path (the numba one only where numba is installed)."""
+    if request.param == "numba":
+        pytest.importorskip("numba")
+    before = kernels.use_numba(request.param == "numba")
+    yield request.param
+    kernels.use_numba(before)
+
+
+def both(fn):
+    """fn() on the numpy path, then on the numba path (numba required)."""
+    pytest.importorskip("numba")
+    before = kernels.use_numba(False)
+    try:
+        plain = fn()
+        kernels.use_numba(True)
+        assert kernels.enabled()
+        return plain, fn()
+    finally:
+        kernels.use_numba(before)
+
+
+def test_eq19_harmonic_case_is_a_cosine(path):
+    """b5 = 0, b6 = -w^2, b7 = 0: P'' = -w^2 P, P(t0) = P0, P'(t0) = 0, so P = P0 cos(w tau)
+    (RK4 on a 0.1 s grid, Hermite-read: error O(h^4))."""
+    t = np.linspace(0.0, 10.0, 1001)
+    w = np.array([0.5, 1.0, 2.0])
+    p = incipient(t, 1.0, 3.0, 4, np.column_stack([0 * w, -w ** 2, 0 * w]))
+    tau = np.maximum(t - 1.0, 0.0)
+    assert np.allclose(p, 3.0 * np.cos(w[:, None] * tau[None, :]), atol=3e-4 * 3.0)
+
+
+def test_eq19_constant_forcing_is_a_parabola(path):
+    """b5 = b6 = 0: P'' = b7, so P = P0 + b7 tau^2 / 2 (RK4 and cubic Hermite are exact)."""
+    t = np.linspace(0.0, 5.0, 333)
+    b7 = np.array([-0.2, 0.0, 0.7])
+    p = incipient(t, 0.5, 2.0, 4, np.column_stack([0 * b7, 0 * b7, b7]))
+    tau = np.maximum(t - 0.5, 0.0)
+    assert np.allclose(p, 2.0 + b7[:, None] * tau[None, :] ** 2 / 2, rtol=1e-12, atol=1e-12)
+
+
+def test_eq19_paths_agree_on_random_populations():
+    rng = np.random.default_rng(7)
+    t = np.arange(0.0, 10.5, 0.01)
+    t0 = rng.uniform(-1.0, 6.0, 200)
+    b = np.column_stack([rng.uniform(-3, 3, 200), rng.uniform(-1, 1, 200), rng.uniform(-2, 2, 200)])
+    for p0 in (1.0, 0.62, 2.5e7, 0.0):
+        plain, fast = both(lambda: incipient(t, t0, p0, 4, b))
+        assert np.array_equal(np.isinf(plain), np.isinf(fast))
+        finite = np.isfinite(plain)
+        assert np.allclose(fast[finite], plain[finite], rtol=1e-9, atol=0.0)
+
+
+def test_weighted_median_minimises_the_weighted_l1_cost(path):
+    """The result is a minimiser of sum_k w_k |x - p_k| (checked at every point, brute force)."""
+    rng = np.random.default_rng(3)
+    points = rng.normal(size=(40, 57))
+    points[:, :5] = points[:, 5:10]                     # ties
+    weights = rng.exponential(size=(40, 57))
+    weights[:, 10:20] = 0.0                             # points that count for nobody
+    m = weighted_median(points, weights)
+    best = np.array([min(cost_row(points[r], weights[r], x) for x in points[r][weights[r] > 0]) for r in range(40)])
+    got = np.array([cost_row(points[r], weights[r], m[r]) for r in range(40)])
+    assert np.allclose(got, best, rtol=1e-12)
+    assert np.array_equal(weighted_median(points, 0 * weights), np.zeros(40))
+
+
+def cost_row(p: np.ndarray, w: np.ndarray, x: float) -> float:
+    return float((w * np.abs(x - p)).sum())
+
+
+def test_weighted_median_paths_agree():
+    rng = np.random.default_rng(11)
+    points = rng.standard_cauchy(size=(300, 251))
+    weights = rng.random((300, 251)) * (rng.random((300, 251)) > 0.2)
+    plain, fast = both(lambda: weighted_median(points, weights))
+    assert np.array_equal(plain, fast)
+
+
+def random_population(obj, rows: int, rng) -> tuple[np.ndarray, np.ndarray]:
+    """Random reals in the bounds; per fault every type, and for incipient faults every degradation
+    model, in turn."""
+    b = obj.bounds()
+    real = b[:, 0] + rng.random((rows, b.shape[0])) * (b[:, 1] - b[:, 0])
+    bits = np.zeros((rows, N_BITS * len(obj.spaces)), dtype=bool)
+    structures = [(k, m) for k in range(2) for m in (0,)] + [(2, m) for m in range(4)]
+    for j in range(len(obj.spaces)):
+        pick = (np.arange(rows) + 3 * j) % len(structures)
+        for r, s in enumerate(pick):
+            kind, model = structures[s]
+            bits[r, N_BITS * j + kind] = True
+            bits[r, N_BITS * j + 3], bits[r, N_BITS * j + 4] = bool(model // 2), bool(model % 2)
+    return real, bits
+
+
+def test_objective_costs_equal_on_every_fault_type_and_model():
+    """Scenario 2's identification (R4, a parametric fault solved in closed form, and beta_theta2, a
+    sensor fault): the costs and the solved magnitudes of 72 random individuals, full and coarse,
+    on both paths."""
+    from fdi.app.bench import benchmark_problem
+
+    obj = benchmark_problem("scenario2", 0).objective
+    real, bits = random_population(obj, 72, np.random.default_rng(5))
+    for stride in (1, obj.stride):
+        (c0, r0), (c1, r1) = both(lambda: obj.evaluate(real, bits, stride))
+        assert np.array_equal(np.isfinite(c0), np.isfinite(c1))
+        ok = np.isfinite(c0)
+        assert ok.sum() > 36
+        assert np.allclose(c1[ok], c0[ok], rtol=1e-9, atol=0.0)
+        assert np.allclose(r1, r0, rtol=1e-9, atol=0.0)
+
+
+def test_intermittent_paths_agree_at_and_between_switches():
+    """Eq. (15) on a grid that lands on the switching instants (onsets on the grid, periods of whole
+    samples: sin is ~1e-16 there, not 0, and the sign must still be the sine's) and on random ones."""
+    from fdi.profiles import intermittent
+
+    rng = np.random.default_rng(13)
+    t = np.arange(0.0, 20.0, 0.01)
+    t0 = np.concatenate([np.round(rng.uniform(0, 10, 100), 2), rng.uniform(0, 10, 100), [np.nan, 3.0]])
+    period = np.concatenate([np.round(rng.uniform(0.1, 5, 100), 2), rng.uniform(0.1, 5, 100), [1.0, 0.02]])
+    value = rng.uniform(0.1, 3, t0.size)
+    for nominal in (1.0, np.inf, 0.0):
+        plain, fast = both(lambda: intermittent(t, t0, nominal, value, period))
+        assert np.array_equal(plain, fast, equal_nan=True)
+
+
+def test_eq17_paths_agree_and_follow_the_closed_form(path):
+    """1/P = 1/P0 - b2 tau (infinite past the pole), for finite and infinite P0, on both paths."""
+    rng = np.random.default_rng(17)
+    t = np.arange(0.0, 30.0, 0.01)
+    t0 = np.concatenate([rng.uniform(0, 20, 50), [np.nan]])
+    b2 = rng.uniform(-0.5, 0.5, t0.size)
+    for p0 in (2.0, np.inf, -3.0):
+        p = incipient(t, t0, p0, 2, b2[:, None])
+        tau = t[None, :] - t0[:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            den = (0.0 if np.isinf(p0) else 1 / p0) - b2[:, None] * tau
+            want = np.where(tau > 0, np.where(den > 0, 1 / den, np.inf), p0)
+        assert np.array_equal(p, want)
