@@ -25,7 +25,10 @@ from dataclasses import dataclass, field
 from itertools import product
 from typing import Mapping
 
-import networkx as nx
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:                       # networkx is imported where a graph is built (bgfdi's warm start needs none)
+    import networkx as nx
 
 from .errors import CausalityError
 from .graph import BondKey, port_table, to_networkx
@@ -298,6 +301,7 @@ def dependency_graph(model: Model, causality: Causality) -> nx.DiGraph:
     ['e1 -> ei', 'e2 -> ei', 'f2 -> e2', 'fi -> f1', 'fi -> f2']
     """
     from .equations import causal_forms
+    import networkx as nx
     dep = nx.DiGraph()
     for form in causal_forms(model, causality):
         kind = "derivative" if form.kind == "derivative" else "algebraic"
@@ -310,6 +314,7 @@ def algebraic_loops(model: Model, causality: Causality) -> list[str]:
     """Causal loops made of algebraic relations only (and derivative loops), as readable text."""
     dep = dependency_graph(model, causality)
     out: list[str] = []
+    import networkx as nx
     if nx.is_directed_acyclic_graph(dep):          # the common case, decided in linear time
         return out
     for cycle in nx.simple_cycles(dep):

@@ -17,7 +17,10 @@ the first valve's 1-junction and the pressure sensor p1:
 """
 from __future__ import annotations
 
-import networkx as nx
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:                       # networkx is imported where a graph is built (bgfdi's warm start needs none)
+    import networkx as nx
 
 from .model import Model
 
@@ -27,6 +30,7 @@ BondKey = int | str
 def to_networkx(model: Model) -> nx.MultiDiGraph:
     """A MultiDiGraph with edges in power direction; node attribute ``kind`` is the element,
     junction (0, 1, 0c, 1c) or sensor (De, Df) type; edge attribute ``signal`` marks sensor bonds."""
+    import networkx as nx
     g = nx.MultiDiGraph(name=model.name)
     for e in model.elements.values():
         g.add_node(e.name, kind=e.kind, role="element")

@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 from typing import Callable, Sequence
 
-import networkx as nx
 import numpy
 import sympy as sp
 from sympy.printing.numpy import NumPyPrinter
@@ -105,6 +104,7 @@ def linear_coefficients(program: Sequence[Line], unknowns: Sequence[sp.Symbol]
 def triangular_order(coefficients: dict[int, dict[int, sp.Expr]], n: int) -> list[int] | None:
     """An order in which x'_i can be solved one by one (every x'_j it needs solved before),
     or None when the equations are coupled in a cycle and need a linear solve."""
+    import networkx as nx                   # here, not at import: bgfdi's warm start needs no networkx
     g = nx.DiGraph()
     g.add_nodes_from(range(n))
     g.add_edges_from((j, i) for i, row in coefficients.items() for j in row if j != i)

@@ -19,7 +19,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Iterable
 
-import networkx as nx
 import sympy as sp
 
 from .model import t
@@ -183,6 +182,7 @@ def _blocks(system: EquationSystem, eqs, m) -> list[list[int]]:
     known (the rest of a loop once its states are)."""
     inc = system.incidence()
     owner = {m[e]: e for e in eqs}
+    import networkx as nx                   # here, not at import: bgfdi's warm start needs no networkx
     g = nx.DiGraph()
     g.add_nodes_from(eqs)
     for e in eqs:

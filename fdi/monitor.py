@@ -12,9 +12,17 @@ door (the CLI, the notebook API, fleets, the streaming monitor) diagnoses throug
     >>> d.detection.time, [(f.name, f.type) for f in d.faults]
     (31.96, [('a1', 'mode')])
 
-A monitor pickles as its model and settings; a process that unpickles it derives the model once
-(a process-wide cache keyed by the model's content), so a pool of workers started with
-``spawn`` (macOS, Windows, Python 3.14) derives it once per worker, not once per job.
+A monitor pickles compiled (its model, settings, kernels as the source lambdify generated, time
+scales and nominal FSM and MCSM: :mod:`fdi.persist`), so a worker of a pool started with
+``spawn`` (macOS, Windows, Python 3.14) or of a dask cluster derives nothing; a process unpickles
+one monitor once, however many jobs carry it. Where a kernel is not portable it pickles as its
+model and settings, and a process that unpickles it derives the model once (a process-wide cache
+keyed by the model's content).
+
+A model file's compiled monitor is also kept on disk between processes (:mod:`fdi.diskcache`:
+per user, authenticated before it is read, keyed by the file's path and text, bgfdi's source and
+the versions of Python, numpy and sympy), so a second ``bgfdi diagnose`` of the same model skips
+the derivation; ``BGFDI_CACHE=off`` or ``--no-cache`` turns that off.
 """
 from __future__ import annotations
 
@@ -27,12 +35,12 @@ from typing import TYPE_CHECKING, Any, Callable
 
 from bondgraph.model import Model
 
-from .arrs import ARR, select_arrs
 from .config import MonitorConfig, load, load_text
-from .residuals import Residual, compile_residuals
-from .signatures import FSM, MCSM, fault_signature_matrix, mode_change_signature_matrix
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:                   # the derivation's modules are imported where a model is derived, not on a warm start
+    from .arrs import ARR
+    from .residuals import Residual
+    from .signatures import FSM, MCSM
     from .options import Options
     from .results import Diagnosis
     from .scales import Scales
@@ -42,6 +50,7 @@ CACHE = 8                 # derived models kept per process (an edited model fil
 LOG_ENV = "BGFDI_DERIVATION_LOG"   # a file each derivation appends its process id to (tests count them)
 _derived: OrderedDict[str, tuple[tuple[ARR, ...], tuple[Residual, ...]]] = OrderedDict()
 _files: OrderedDict[tuple, "Monitor"] = OrderedDict()
+_unpacked: OrderedDict[bytes, "Monitor"] = OrderedDict()     # monitors received pickled, by their bytes' digest
 
 
 def _remember(cache: OrderedDict, key, value) -> None:
@@ -64,6 +73,8 @@ def derive(model: Model, key: str | None = None) -> tuple[tuple[ARR, ...], tuple
     if key in _derived:
         _derived.move_to_end(key)
         return _derived[key]
+    from .arrs import select_arrs
+    from .residuals import compile_residuals
     arrs = tuple(select_arrs(model).arrs)
     out = (arrs, tuple(compile_residuals(model, list(arrs))))
     _remember(_derived, key, out)
@@ -103,11 +114,73 @@ def _file(path: str) -> "Monitor":
     if version is not None and version in _files:
         _files.move_to_end(version)
         return _files[version]
-    model, config = load(path)
-    m = Monitor(model, config)
+    m = _from_disk(path, version)
+    if m is None:
+        source = _disk_source(path) if version is not None else None
+        model, config = load(path)
+        m = Monitor(model, config)
+        if source is not None and _disk_source(path) == source:    # stored only if the file did not change meanwhile
+            _to_disk(m, path, source)
     if version is not None:
         _remember(_files, version, m)
     return m
+
+
+def _disk_source(path: str) -> bytes | None:
+    """What a model file's disk-cache entry is derived from: its real path and its bytes."""
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read(1 << 20 | 1)
+    except OSError:
+        return None
+    return os.path.realpath(path).encode("utf-8", "surrogateescape") + b"\0" + raw
+
+
+def _from_disk(path: str, version) -> "Monitor | None":
+    """The compiled monitor of this very file text from the disk cache (:mod:`fdi.diskcache`),
+    or None (absent, stale, foreign, tampered, or the cache off: then it is derived afresh)."""
+    from . import diskcache
+    if version is None or not diskcache.enabled():
+        return None
+    source = _disk_source(path)
+    payload = None if source is None else diskcache.fetch("monitor", source)
+    if payload is None:
+        return None
+    try:
+        m = _restored(payload)
+    except Exception:                               # noqa: BLE001 - an unreadable entry is rebuilt, never trusted
+        return None
+    m._disk = (path, source, _persisted_size(m), m.config)
+    _derived[m.key] = (m.arrs, m.residuals)
+    return m
+
+
+def _persisted_size(m: "Monitor") -> int:
+    from .persist import size
+    return size(m)
+
+
+def _to_disk(m: "Monitor", path: str, source: bytes, config: MonitorConfig | None = None) -> None:
+    """Store the monitor of the file ``path`` (whose content is ``source``) with the file's settings."""
+    from . import diskcache
+    if not diskcache.enabled():
+        return
+    from .persist import pack
+    config = config or m.config
+    payload = pack(m, config)
+    if payload is not None and diskcache.store("monitor", source, payload):
+        m._disk = (path, source, _persisted_size(m), config)
+
+
+def persist(monitor: "Monitor") -> None:
+    """Store a model file's monitor again when it has derived more since it was stored (the time
+    scales, the FSM and MCSM of a mode): the next process starts with them. Cheap when nothing is new."""
+    disk = getattr(monitor, "_disk", None)
+    if disk is None or _persisted_size(monitor) <= disk[2]:
+        return
+    path, source, _, config = disk
+    if _disk_source(path) == source:                # the file is still what was derived
+        _to_disk(monitor, path, source, config)
 
 
 def compiled(path: str | Path) -> "Monitor":
@@ -151,6 +224,7 @@ class Monitor:
         """The MD-FSM in ``mode`` (computed once per mode)."""
         key = ("fsm",) + tuple(sorted(mode.items()))
         if key not in self._matrices:
+            from .signatures import fault_signature_matrix
             self._matrices[key] = fault_signature_matrix(self.model, list(self.arrs), mode)
         return self._matrices[key]
 
@@ -158,6 +232,7 @@ class Monitor:
         """The MCSM in ``mode`` (computed once per mode)."""
         key = ("mcsm",) + tuple(sorted(mode.items()))
         if key not in self._matrices:
+            from .signatures import mode_change_signature_matrix
             self._matrices[key] = mode_change_signature_matrix(self.model, list(self.arrs), mode)
         return self._matrices[key]
 
@@ -186,10 +261,43 @@ class Monitor:
         return Stream(self, emit, options, **kw)
 
     def __reduce__(self):
+        """Pickled compiled: its model, settings and what it derived (kernels as the source lambdify
+        generated, :mod:`fdi.persist`), so a worker process (a pool's, a dask cluster's) starts
+        without deriving; as its model and settings where a kernel is not portable (the worker
+        then derives it once)."""
+        from .persist import pack
+        payload = pack(self)
+        if payload is not None:
+            return (_unpack, (payload,))
         return (_rebuild, (self.model, self.config))
 
     def __repr__(self) -> str:
         return f"<Monitor of {self.model.name}: {len(self.arrs)} residuals, {len(self.model.faults)} faults>"
+
+
+def _unpack(payload: bytes) -> Monitor:
+    """A monitor pickled compiled (:meth:`Monitor.__reduce__`), in the process that receives it;
+    the first one of a model in a process is kept, so later ones share its derivation."""
+    digest = hashlib.sha256(payload).digest()
+    if digest in _unpacked:                         # the same monitor again (a pool's next job): unpickled once
+        _unpacked.move_to_end(digest)
+        return _unpacked[digest]
+    m = _restored(payload)
+    _remember(_unpacked, digest, m)
+    if m.key in _derived:
+        _derived.move_to_end(m.key)
+        m.arrs, m.residuals = _derived[m.key]
+    else:
+        _remember(_derived, m.key, (m.arrs, m.residuals))
+    return m
+
+
+def _restored(payload: bytes) -> Monitor:
+    """A monitor from the bytes :func:`fdi.persist.pack` made (authenticated or our own pickle)."""
+    from .persist import restore
+    m = object.__new__(Monitor)
+    m.__dict__.update(restore(payload))
+    return m
 
 
 def _rebuild(model: Model, config: MonitorConfig) -> Monitor:
@@ -209,4 +317,4 @@ def monitor_of(model: "Monitor | Model | str | Path", config: MonitorConfig | No
     return Monitor(model, config)
 
 
-__all__ = ["Monitor", "compiled", "monitor_of", "derive", "model_key"]
+__all__ = ["Monitor", "compiled", "monitor_of", "derive", "model_key", "persist"]

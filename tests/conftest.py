@@ -1,12 +1,18 @@
 """Shared fixtures: the shipped models and the CyCab reference data (copied into tests/data)."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
 
 from bondgraph.loader import load_model
 from fdi.arrs import derive_arrs
+
+# The compiled-model cache on disk is off in tests (and their subprocesses): a test never reads or
+# fills the user's ~/.cache, and every derivation it counts happens; tests/test_diskcache.py turns
+# it on in a folder of its own.
+os.environ["BGFDI_CACHE"] = "off"
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = ROOT / "models"

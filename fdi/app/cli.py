@@ -19,11 +19,14 @@ from collections import Counter
 from typing import Callable
 
 
-from bondgraph.causality import DIAGNOSIS, SIMULATION, Causality, assign
+from typing import TYPE_CHECKING
+
 from bondgraph.deep import LIMIT, run_deep
 from bondgraph.errors import CausalityError, ModelError
-from bondgraph.loader import load_model
-from bondgraph.model import Model
+
+if TYPE_CHECKING:                      # networkx (causality) and sympy (model) only where a command derives
+    from bondgraph.causality import Causality
+    from bondgraph.model import Model
 
 from ..errors import UsageError
 from ..data import DataError
@@ -34,6 +37,21 @@ from .sources import Sources, said
 from .sources import shown as source_name
 from .progress import LOG, NORMAL, QUIET, VERBOSE, Progress, Steps, configure, stage
 from .progress import shown as escaped
+
+
+DIAGNOSIS, SIMULATION = "diagnosis", "simulation"     # bondgraph.causality's purposes (tests/test_cli checks)
+
+
+def assign(model: "Model", purpose: str) -> "Causality":
+    """:func:`bondgraph.causality.assign`, imported when a command assigns causality (networkx)."""
+    from bondgraph.causality import assign as assign_causality
+    return assign_causality(model, purpose)
+
+
+def load_model(path):
+    """:func:`bondgraph.loader.load_model`, imported when a command reads a model (sympy, yaml)."""
+    from bondgraph.loader import load_model as load
+    return load(path)
 
 
 def shown(path: object) -> str:
@@ -569,12 +587,13 @@ def _timings_line(d) -> str:
 def _diagnose_and_print(model_path: str, data, options, args, data_name: str) -> int:
     """Diagnose, print (text or --json), plot; 3 with --fail-on-fault when a fault was found, else 0."""
 
-    from ..monitor import compiled
+    from ..monitor import compiled, persist
     from .report import to_text
     monitor = compiled(str(model_path))
     model = monitor.model
     with Steps("estimators") as tick:
         d = monitor.diagnose(data, options, progress=tick)
+    persist(monitor)                      # what this diagnosis derived (time scales, FSMs) for the next process
     for name, seconds in d.timings.items():
         LOG.debug("diagnosis stage %s: %.3f s", name, seconds)
     public = d.to_dict(args.timings)      # wall-clock times only with --timings: two runs are byte-identical
@@ -817,6 +836,8 @@ def cmd_monitor(args: argparse.Namespace) -> int:
             for header, block in rows:      # a stream cut mid-row: its last row dropped with a warning
                 monitor.feed(header, block, rows=args.block)
             monitor.close()
+        from ..monitor import persist
+        persist(compiled(args.model))
     finally:
         if monitor is not None:
             monitor.stop(now=True)          # after an error, Ctrl-C or SIGTERM: no worker left running
@@ -950,6 +971,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
         row = fleet_rows(reference_data("nominal.csv").parent, str(shipped_model("cycab_steering")),
                          workers=args.workers, echo=LOG.info if args.json else lambda line: _note(line, None))
         sys.stdout.write(_json_text(fleet_json(row)) if args.json else format_fleet(row))
+        return 0
+    if args.what == "startup":
+        from .bench_startup import format_startup, startup_json, startup_row
+        from .resources import reference_data, shipped_model
+        row = startup_row(shipped_model("cycab_steering"), reference_data("scenario3.csv"))
+        sys.stdout.write(_json_text(startup_json(row)) if args.json else format_startup(row))
         return 0
     if args.what == "diagnose":
         from .resources import reference_data
@@ -1164,7 +1191,8 @@ def build_parser() -> argparse.ArgumentParser:
     cg.set_defaults(func=cmd_codegen)
 
     b = sub.add_parser("bench", help="benchmarks, printed as tables")
-    b.add_argument("what", choices=("derive", "chain", "simulate", "optim", "diagnose", "accuracy", "monitor", "fleet"))
+    b.add_argument("what", choices=("derive", "chain", "simulate", "optim", "diagnose", "accuracy", "monitor", "fleet",
+                                          "startup"))
     b.add_argument("--hours", type=real(0.05, high=24.0), default=1.0,
                    help="monitor: hours of 100 Hz data streamed (default 1; 4 reads the memory at 4 h too)")
     b.add_argument("--block", type=whole(1, 1_000_000), default=50, help="monitor: rows per block (default 50)")
@@ -1194,6 +1222,8 @@ def _verbosity_options(p: argparse.ArgumentParser, suppress: bool) -> None:
                        help="no progress or notes on standard error (warnings and errors still print)")
     group.add_argument("-v", "--verbose", action="store_true", **default,
                        help="also stage timings and details on standard error")
+    p.add_argument("--no-cache", action="store_true", **default,
+                   help="derive the model afresh, without the compiled-model cache on disk (also BGFDI_CACHE=off)")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -1267,6 +1297,9 @@ def _run(argv: list[str] | None) -> int:
         sources.resolve(args)                  # - for standard input, shipped files by name
         check_model_input(args)
         check_outputs(args)
+        if getattr(args, "no_cache", False):
+            from .. import diskcache
+            diskcache.disable()
         if args.func in DEEP_COMMANDS:         # derivation only: room for the residuals of long chains
             return run_deep(args.func, args)
         return args.func(args)
@@ -1292,6 +1325,14 @@ def _run(argv: list[str] | None) -> int:
         return 128 + exc.signum
     finally:
         sources.close()
+        _cache_notes()
+
+
+def _cache_notes() -> None:
+    """Why the compiled-model cache is off, if it is: one line each under -v."""
+    diskcache = sys.modules.get("fdi.diskcache")
+    for note in getattr(diskcache, "notes", ()):
+        LOG.debug(note)
 
 
 # Commands that only derive and print: run on a deep-stack thread (bondgraph.deep), so that the
