@@ -615,8 +615,10 @@ def test_local_processes_are_no_more_than_files(monkeypatch):
     asked = []
 
     class FakePool:
-        def __init__(self, max_workers=None, **kw):
+        def __init__(self, max_workers=None, initializer=None, initargs=(), **kw):
             asked.append(max_workers)
+            if initializer is not None:          # a worker's set-up, here where the jobs run
+                initializer(*initargs)
 
         def __enter__(self):
             return self
