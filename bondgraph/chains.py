@@ -39,6 +39,19 @@ def chain_yaml(n_elements: int) -> str:
     return "\n".join(lines + junctions + sensors + bonds) + "\n"
 
 
+def _tank_links(i: int, last: bool, bid: int, junctions: list[str], bonds: list[str]) -> int:
+    """Tank i's bonds in a chain of tanks: its 0-junction to its capacitance, then to its valve (the
+    last tank's outlet) or, through a 1-junction, its valve and the next tank. Returns the last
+    bond number used."""
+    bonds.append(f"  {bid + 1}: [J{i}, tank{i}]")
+    if last:
+        bonds.append(f"  {bid + 2}: [J{i}, valve{i}]")
+        return bid + 2
+    junctions.append(f"  V{i}: {{type: '1'}}")
+    bonds += [f"  {bid + 2}: [J{i}, V{i}]", f"  {bid + 3}: [V{i}, valve{i}]", f"  {bid + 4}: [V{i}, J{i + 1}]"]
+    return bid + 4
+
+
 def tank_chain_yaml(n_tanks: int, sensor_faults: bool = True) -> str:
     """``n_tanks`` tanks in series (the three-tank benchmark's build, lengthened): a pump into tank
     1, valve i between tanks i and i+1, a linear outlet on the last tank, and a pressure sensor on
@@ -57,7 +70,6 @@ def tank_chain_yaml(n_tanks: int, sensor_faults: bool = True) -> str:
     faults.append("  f_pump: {kind: source, source: q0}")
     bid = 1
     for i in range(1, n + 1):
-        last = i == n
         lines.append(f"  tank{i}: {{type: C, parameter: CT{i}}}")
         lines.append(f"  valve{i}: {{type: R, parameter: Rv{i}}}")
         junctions.append(f"  J{i}: {{type: '0'}}")
@@ -66,15 +78,7 @@ def tank_chain_yaml(n_tanks: int, sensor_faults: bool = True) -> str:
         faults.append(f"  fV{i}: {{kind: parametric, parameters: [Rv{i}]}}")
         if sensor_faults:
             faults.append(f"  fp{i}: {{kind: sensor, sensor: p{i}}}")
-        bonds.append(f"  {bid + 1}: [J{i}, tank{i}]")
-        bid += 1
-        if last:
-            bonds.append(f"  {bid + 1}: [J{i}, valve{i}]")
-            bid += 1
-        else:
-            junctions.append(f"  V{i}: {{type: '1'}}")
-            bonds += [f"  {bid + 1}: [J{i}, V{i}]", f"  {bid + 2}: [V{i}, valve{i}]", f"  {bid + 3}: [V{i}, J{i + 1}]"]
-            bid += 3
+        bid = _tank_links(i, i == n, bid, junctions, bonds)
     return "\n".join(lines + junctions + sensors + bonds + faults) + "\n"
 
 
@@ -115,15 +119,7 @@ def fault_chain_yaml(n_tanks: int, threshold: float = 3.0e-6) -> str:
         faults.append(f"  fT{i}: {{kind: parametric, parameters: [CT{i}]}}")
         initial.append(f"  tank{i}: {1.0e-5 * (n - i + 1) * 1.0e6 * q0:.6g}")    # q = CT p at the mean flow
         thresholds.append(f"ARR{i}: {threshold:g}")
-        bonds.append(f"  {bid + 1}: [J{i}, tank{i}]")
-        bid += 1
-        if i == n:
-            bonds.append(f"  {bid + 1}: [J{i}, valve{i}]")
-            bid += 1
-        else:
-            junctions.append(f"  V{i}: {{type: '1'}}")
-            bonds += [f"  {bid + 1}: [J{i}, V{i}]", f"  {bid + 2}: [V{i}, valve{i}]", f"  {bid + 3}: [V{i}, J{i + 1}]"]
-            bid += 3
+        bid = _tank_links(i, i == n, bid, junctions, bonds)
     settings = ["thresholds: {" + ", ".join(thresholds) + "}",
                 "diagnosis: {waiting_time: 20.0, derivative_window: 5.0, samples: 400}"]
     return "\n".join(lines + junctions + sensors + bonds + faults + settings + initial) + "\n"

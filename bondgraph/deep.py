@@ -58,8 +58,9 @@ def run_deep(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
     return out.get("value")
 
 
-def nodes(expr):
-    """Every distinct subexpression of ``expr`` (``expr`` first), each once, without recursion.
+def nodes(expr, descend=None):
+    """Every distinct subexpression of ``expr`` (``expr`` first), each once, without recursion;
+    the arguments of a node are visited only where ``descend(node)`` (None: everywhere).
 
     sympy's own walks (``preorder_traversal``, ``has``, ``free_symbols``) treat an expression as a
     tree: a residual of a long chain shares its subexpressions (the flows of a transformer chain
@@ -84,7 +85,8 @@ def nodes(expr):
             continue
         seen.add(key)
         yield node
-        stack.extend(node.args)
+        if descend is None or descend(node):
+            stack.extend(node.args)
 
 
 def has_any(expr, targets) -> bool:
@@ -109,19 +111,11 @@ def free_symbols(expr) -> set:
     >>> sorted(free_symbols(sp.sin(x) * (x + y) + sp.Derivative(sp.Function("w")(x), x)), key=str)
     [x, y]
     """
+    bound = lambda node: getattr(node, "bound_symbols", None)
     out: set = set()
-    seen: set[int] = set()
-    stack = [expr]
-    while stack:
-        node = stack.pop()
-        key = id(node)
-        if key in seen:
-            continue
-        seen.add(key)
+    for node in nodes(expr, descend=lambda node: not bound(node)):
         if node.is_Symbol:
             out.add(node)
-        elif getattr(node, "bound_symbols", None):
+        elif bound(node):
             out |= node.free_symbols
-        else:
-            stack.extend(node.args)
     return out

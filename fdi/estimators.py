@@ -69,22 +69,35 @@ def fit(monitor: "Monitor", job: Job) -> Estimate:
     r = optim.minimize(problem, engine=job.search.engine, pop=job.search.pop, generations=job.search.generations,
                        seed=job.seed, **extra)
     margin = r.extra.get("margin")
-    real = obj.complete(r.real, r.bits)
-    faults = encoding.describe(obj.spaces, real[:-1], r.bits)
+    real, bits, cost = obj.complete(r.real, r.bits), r.bits, r.cost
+    faults = encoding.describe(obj.spaces, real[:-1], bits)
     end = win.t0 + (win.crop.stop - win.crop.start) * win.ts
+    plausible: dict[str, list[dict]] = {}
+    for i, f in enumerate(faults):
+        seeds = [m for known in job.known for k in known if k.get("name") == f["name"]
+                 for m in k.get("other_models") or ()]
+        if f["type"] == "incipient" and job.recheck and f["name"] in job.prognosed:
+            # the final fit of a fault with a prognosis: another degradation model the criterion
+            # prefers takes its place (the polish found what the search left), the plausible ones stay
+            others = other_models(obj, real, bits, cost, i, job.seed, r.extra.get("families", ()), seeds)
+            better = min((o for o in others if o["criterion_difference"] < 0), default=None,
+                         key=lambda o: o["criterion_difference"])
+            if better is not None:
+                real, bits, cost = better["real"], better["bits"], better["cost"]
+                faults = encoding.describe(obj.spaces, real[:-1], bits)
+                f = faults[i]
+                others = other_models(obj, real, bits, cost, i, job.seed, (), seeds + [_entry(o) for o in others])
+            if others:
+                plausible[f["name"]] = [_entry(o) for o in others]
     for i, f in enumerate(faults):
         f["t0"] = float(real[-1])
         if f["type"] == "incipient":
-            f["b_band"], f["t0_band"] = coefficient_band(obj, real, r.bits, r.cost, i, job.seed)
-            seeds = [m for known in job.known for k in known if k.get("name") == f["name"]
-                     for m in k.get("other_models") or ()]
-            if job.recheck and f["name"] in job.prognosed:      # the final fit of a fault with a prognosis
-                others = other_models(obj, real, r.bits, r.cost, i, job.seed, r.extra.get("families", ()), seeds)
-                if others:
-                    f["other_models"] = others
+            f["b_band"], f["t0_band"] = coefficient_band(obj, real, bits, cost, i, job.seed)
+            if f["name"] in plausible:
+                f["other_models"] = plausible[f["name"]]
         elif f["type"] == "intermittent" and f["t0"] + f["period"] / 2 >= end:
             faults[i] = {"name": f["name"], "type": "abrupt", "value": f["value"], "t0": f["t0"]}
-    return Estimate(tuple(job.candidate), r.cost, float(fitness(r.cost)), tuple(float(fitness(c)) for c in r.history),
+    return Estimate(tuple(job.candidate), cost, float(fitness(cost)), tuple(float(fitness(c)) for c in r.history),
                     None if margin is None or not np.isfinite(margin) else float(margin),
                     tuple(faults), r.evaluations, r.wall_s, r.objective_s, r.extra.get("snapshot"))
 
@@ -195,7 +208,9 @@ def other_models(obj: Objective, real: np.ndarray, bits: np.ndarray, cost: float
     its coefficients and the onset,
     and kept when Schwarz's criterion (:func:`fdi.criterion.information`) is within ``MODEL_ODDS``
     of the fit's: posterior odds of at least 1 to 20 against it (BIC approximates twice the log
-    Bayes factor). Returns report entries {model, b, t0, cost}, for the prognosis' band: its
+    Bayes factor). Returns, per plausible model, {model, b, t0, cost} (the report's entry,
+    :func:`_entry`) with its ``criterion_difference`` to the fit and its ``real``/``bits`` row; for
+    the prognosis' band (and the fit's place, when the criterion prefers one): the band's
     corners from one model's coefficient intervals assume that model, and two models that fit a
     window equally can fail far apart (measured on the plant: an R5 drift of eq. (19) from 20 s,
     refitted at 50 % of its life, costs 109.03; eq. (17) from 23.5 s 109.88, RUL 13.8 s for a true
@@ -252,9 +267,16 @@ def other_models(obj: Objective, real: np.ndarray, bits: np.ndarray, cost: float
             x, best = _simplex(obj, x, to, coords, bounds, best)
         entry = encoding.describe(obj.spaces, x[:-1], to)[index]
         others = [e for j, e in enumerate(entries) if j != index] + [entry]
-        if criterion.information(best, others, n_eff) - mine <= MODEL_ODDS:
-            out.append({"model": other, "b": [float(v) for v in entry["b"]], "t0": float(x[-1]), "cost": best})
+        difference = criterion.information(best, others, n_eff) - mine
+        if difference <= MODEL_ODDS:
+            out.append({"model": other, "b": [float(v) for v in entry["b"]], "t0": float(x[-1]), "cost": best,
+                        "criterion_difference": difference, "real": x.copy(), "bits": to})
     return out
+
+
+def _entry(fit: dict) -> dict:
+    """The report's entry of one of :func:`other_models`' fits: model, b, t0, cost."""
+    return {k: fit[k] for k in ("model", "b", "t0", "cost")}
 
 
 MODEL_POLISH = 1.25  # another model's best within this factor of the fit's cost is polished by a simplex (plausible: ~1.05)
