@@ -186,8 +186,30 @@ def fingerprint() -> str:
     h.update(f"python {sys.version}\n".encode())
     for name in ("numpy", "sympy"):
         h.update(f"{name} {_installed(name)}\n".encode())
+    for name in ("networkx", "scipy", "yaml"):     # causality, time scales, the loader: by their installed metadata
+        h.update(f"{name} {_distribution(name)}\n".encode())
     _state["fingerprint"] = out = h.hexdigest()
     return out
+
+
+def _distribution(name: str) -> str:
+    """A library's installed distribution (its ``*.dist-info`` folder's name, with the version)
+    without importing it (importlib.metadata costs 50 ms; networkx's import more): a library
+    upgraded under a cached derivation changes the entry's name."""
+    import importlib.util
+    try:
+        spec = importlib.util.find_spec(name)
+    except (ImportError, ValueError):
+        return "absent"
+    if spec is None or not spec.origin:
+        return "absent"
+    root = Path(spec.origin).resolve().parent.parent
+    prefix = {"yaml": "pyyaml"}.get(name, name).lower() + "-"
+    try:
+        found = sorted(e for e in os.listdir(root) if e.lower().startswith(prefix) and e.endswith(".dist-info"))
+    except OSError:
+        found = []
+    return ",".join(found) or str(spec.origin)
 
 
 def _installed(name: str) -> str:
