@@ -88,11 +88,15 @@ def fit(monitor: "Monitor", job: Job) -> Estimate:
                 f = faults[i]
                 others = other_models(obj, real, bits, cost, i, job.seed, (), seeds + [_entry(o) for o in others])
             if others:
-                plausible[f["name"]] = [_entry(o) for o in others]
+                plausible[f["name"]] = [_entry(o, coefficient_band(obj, o["real"], o["bits"], o["cost"], i, job.seed),
+                                               _of(onset_profile(obj, o["real"], o["bits"], o["cost"], job.seed), i))
+                                        for o in others]
     for i, f in enumerate(faults):
         f["t0"] = float(real[-1])
         if f["type"] == "incipient":
             f["b_band"], f["t0_band"] = coefficient_band(obj, real, bits, cost, i, job.seed)
+            if f["name"] in job.prognosed and job.recheck:
+                f["onset_profile"] = _of(onset_profile(obj, real, bits, cost, job.seed), i)
             if f["name"] in plausible:
                 f["other_models"] = plausible[f["name"]]
         elif f["type"] == "intermittent" and f["t0"] + f["period"] / 2 >= end:
@@ -274,9 +278,65 @@ def other_models(obj: Objective, real: np.ndarray, bits: np.ndarray, cost: float
     return out
 
 
-def _entry(fit: dict) -> dict:
-    """The report's entry of one of :func:`other_models`' fits: model, b, t0, cost."""
-    return {k: fit[k] for k in ("model", "b", "t0", "cost")}
+def onset_profile(obj: Objective, real: np.ndarray, bits: np.ndarray, cost: float, seed: int = 0) -> list[dict]:
+    """The plausible fits along the onset: the fit re-expressed (:func:`fdi.hints.translate`, same
+    degradation models) as drifts that started ``ONSET_STEPS`` seconds earlier or later, kept where
+    the cost is within the likelihood-ratio limit of :func:`coefficient_band`. Returns, per kept
+    point, {t0, b (each fault's coefficients, None for a fault without), cost}.
+
+    Why: a second-order drift leaves its nominal value with zero slope, so an onset seconds
+    earlier with a gentler rate fits a short window almost as well; that valley is long and curved,
+    and the box of :func:`coefficient_band` (sampled around the fit) does not follow it. Measured on
+    the plant: an eq. (18) pressure drift from 20 s (b3 = -8, b4 = -1.1) refitted 3 s after
+    detection, eq. (18) at its best from 21.28 s with b3 = -30.2 (RUL 9.5 s for a true 7.3 s);
+    re-expressed from 20.28, 19.28, 18.28 and 15.28 s it costs 36.76, 37.28, 37.83, 38.31 within
+    the limit 38.62 (RULs 8.2, 7.0, 6.5, 5.6 s); the first-order models (16), (17) leave the
+    limit at once (41.8 at 0.5 s earlier)."""
+    win = obj.win
+    n_eff = criterion.effective_samples(win.crop.stop - win.crop.start, len(obj.residuals), win.ts, obj.window_s)
+    limit = cost * np.exp(CHI2_95 / (2 * n_eff))
+    lo, hi = obj.bounds()[-1]
+    t = win.t[win.crop]
+    onsets = [float(real[-1]) + step for step in ONSET_STEPS if lo <= float(real[-1]) + step <= hi]
+    if not onsets:
+        return []
+    rows = []
+    for onset in onsets:
+        moved = hints.translate(obj.spaces, real[:-1], bits, bits, t, float(real[-1]), seed, t0_to=onset)
+        rows.append(np.append(np.where(np.isnan(moved), real[:-1], moved), onset))
+    rows = np.array(rows)
+    c = obj(rows, np.tile(bits, (len(rows), 1)))
+    out = []
+    for x, ck in zip(rows, c):
+        if np.isfinite(ck) and ck <= limit:
+            entries = encoding.describe(obj.spaces, x[:-1], bits)
+            out.append({"t0": float(x[-1]), "b": [None if e.get("b") is None else [float(v) for v in e["b"]]
+                                                   for e in entries], "cost": float(ck)})
+    return out
+
+
+ONSET_STEPS = (-16.0, -8.0, -4.0, -2.0, -1.0, -0.5, 0.5, 1.0, 2.0)   # s from the fit's onset (:func:`onset_profile`)
+
+
+def _entry(fit: dict, band: tuple[list, list] | None = None, profile: list[dict] | None = None) -> dict:
+    """The report's entry of one of :func:`other_models`' fits: model, b, t0, cost, and with
+    ``band`` (:func:`coefficient_band` of that model at its own best) its ``b_band`` and
+    ``t0_band``: the prognosis' band holds each plausible model's own 95 % region, not only its
+    best point (measured on the plant: an eq. (18) pressure drift from 20 s refitted at 50 % of
+    its life, 3 s after detection: the fit eq. (16), eq. (18) plausible at 36.64 from 21.3 s with
+    b3 = -30; the design, eq. (18) with b3 = -8 from 20 s, costs 36.83, inside that model's region
+    and outside the fit's; the band 11.5-28.0 s missed the true 7.3 s)."""
+    out = {k: fit[k] for k in ("model", "b", "t0", "cost")}
+    if band is not None:
+        out["b_band"], out["t0_band"] = band
+    if profile:
+        out["onset_profile"] = profile
+    return out
+
+
+def _of(profile: list[dict], index: int) -> list[dict]:
+    """:func:`onset_profile`'s points with fault ``index``'s coefficients only (the report's entry)."""
+    return [dict(p, b=p["b"][index]) for p in profile]
 
 
 MODEL_POLISH = 1.25  # another model's best within this factor of the fit's cost is polished by a simplex (plausible: ~1.05)

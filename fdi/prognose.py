@@ -81,13 +81,23 @@ def ends_of_life(model_no: int, bs, nominal: float, failure: float, tfs, now: fl
     return out
 
 
+def _profile_ruls(model_no: int, points, nominal: float, failure: float, now: float) -> list[float]:
+    """The RULs of a model's plausible fits along the onset (``onset_profile``)."""
+    if not points:
+        return []
+    return [float(e) - now for e in ends_of_life(model_no, [list(p["b"]) for p in points], nominal, failure,
+                                                  [p["t0"] for p in points], now)]
+
+
 def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float) -> dict:
     """EOL, RUL at ``now`` = tf + N ts, and the RUL band: the RULs at the corners of the 95 %
     profile-likelihood intervals of the coefficients and the onset (``b_band``, ``t0_band``, from
     the final fit: see ``fdi.estimators.coefficient_band``; the RUL is monotone in each, so the
-    corners bound it over the box), widened to the RUL of each other degradation model the data
-    cannot tell from the fit's (``other_models``, :func:`fdi.estimators.other_models`); without a
-    band, the band is the RUL itself."""
+    corners bound it over the box) and at its plausible fits along the onset (``onset_profile``:
+    a second-order drift that started earlier and grew slower, :func:`fdi.estimators.onset_profile`),
+    widened to the RULs of each other degradation model the data
+    cannot tell from the fit's (``other_models``, :func:`fdi.estimators.other_models`: its best
+    point, the corners of its own intervals and its onset profile); without a band, the band is the RUL itself."""
     eol = end_of_life(fault["model"], fault["b"], nominal, failure, tf, now)
     band = fault.get("b_band") or []
     onsets = list(fault.get("t0_band") or []) or [tf]
@@ -96,8 +106,15 @@ def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float)
     if corners:
         ruls += [float(e) - now for e in ends_of_life(fault["model"], [c for c, _ in corners], nominal, failure,
                                                         [start for _, start in corners], now)]
+    ruls += _profile_ruls(fault["model"], fault.get("onset_profile"), nominal, failure, now)
     for other in fault.get("other_models") or []:      # a degradation model the data cannot tell apart
         ruls.append(end_of_life(other["model"], other["b"], nominal, failure, other["t0"], now) - now)
+        if other.get("b_band"):                         # and that model's own 95 % region
+            box = [(list(c), start) for c in itertools.product(*other["b_band"])
+                   for start in (other.get("t0_band") or [other["t0"]])]
+            ruls += [float(e) - now for e in ends_of_life(other["model"], [c for c, _ in box], nominal, failure,
+                                                            [start for _, start in box], now)]
+        ruls += _profile_ruls(other["model"], other.get("onset_profile"), nominal, failure, now)
     finite = [r for r in ruls if np.isfinite(r)]
     return {"name": fault["name"], "failure": failure, "eol": eol, "rul": eol - now, "at": now,
             "rul_low": min(finite) if finite else float("inf"), "rul_high": max(finite) if finite else float("inf")}

@@ -60,7 +60,8 @@ class Fault:
     ``period`` (s); incipient: degradation ``model`` k (the paper's eq. 15 + k), its ``eta`` bits,
     coefficients ``b`` and their 95 % bands ``b_band`` (the onset's ``t0_band``), and the other
     degradation models the window cannot tell from it (``other_models``: model, b, t0, cost; see
-    :func:`fdi.estimators.other_models`); mode: ``value`` the
+    :func:`fdi.estimators.other_models`), and its plausible fits along the onset (``onset_profile``:
+    t0, b, cost; :func:`fdi.estimators.onset_profile`); mode: ``value`` the
     mode the variable is stuck in. ``t0``: the onset (s)."""
     name: str
     type: str
@@ -73,6 +74,7 @@ class Fault:
     b_band: tuple[tuple[float, float], ...] | None = None
     t0_band: tuple[float, float] | None = None
     other_models: tuple[Mapping, ...] | None = None    # degradation models the window cannot tell apart
+    onset_profile: tuple[Mapping, ...] | None = None   # plausible fits along the onset: t0, b, cost
 
     @classmethod
     def from_dict(cls, d: Mapping) -> "Fault":
@@ -81,15 +83,17 @@ class Fault:
                    None if d.get("eta") is None else tuple(d["eta"]), None if d.get("b") is None else tuple(d["b"]),
                    d.get("t0"), None if band is None else tuple(tuple(x) for x in band),
                    None if d.get("t0_band") is None else tuple(d["t0_band"]),
-                   None if d.get("other_models") is None else tuple(dict(m) for m in d["other_models"]))
+                   None if d.get("other_models") is None else tuple(dict(m) for m in d["other_models"]),
+                   None if d.get("onset_profile") is None else tuple(dict(m) for m in d["onset_profile"]))
 
     def to_dict(self) -> dict:
         """The report's entry: name, type, the type's values, t0, then the bands."""
         out: dict = {"name": self.name, "type": self.type}
-        for key in ("value", "period", "model", "eta", "b", "t0", "b_band", "t0_band", "other_models"):
+        for key in ("value", "period", "model", "eta", "b", "t0", "b_band", "t0_band", "other_models", "onset_profile"):
             v = getattr(self, key)
             if v is not None:
-                out[key] = ([list(x) for x in v] if key == "b_band" else [dict(m) for m in v] if key == "other_models"
+                out[key] = ([list(x) for x in v] if key == "b_band"
+                            else [dict(m) for m in v] if key in ("other_models", "onset_profile")
                             else list(v) if isinstance(v, tuple) else v)
         return out
 

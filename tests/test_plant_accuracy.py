@@ -79,3 +79,44 @@ def test_evaluate_tells_a_search_miss_from_data_that_do_not_prefer_the_design():
     assert same["verdict"] == "data" and same["design_cost"] == pytest.approx(same["answer_cost"])
     wrong = design_check(str(CYCAB), meas, Options(workers=1), report(1e8), events)
     assert wrong["verdict"] == "search" and wrong["design_cost"] < wrong["answer_cost"]
+
+
+def test_the_rul_band_holds_each_plausible_fit_along_the_onset_and_each_other_models_region():
+    # eq. (17) 1/P = 1 - b2 (t - t0) reaches 0.5 when b2 (t - t0) = -1: the fit (-0.03 from 32 s) at
+    # 32 + 100/3 s; a plausible fit along the onset (-0.025 from 30 s) at 70 s; eq. (16) P = exp(b1 (t - t0))
+    # reaches it at t0 + ln 2 / -b1: the other model's region b1 in [-0.021, -0.019] from 31-33 s spans
+    # 31 + ln 2 / 0.021 to 33 + ln 2 / 0.019 s (by hand); RULs at 37 s
+    from fdi.prognose import prognose
+    fault = {"name": "beta", "model": 2, "b": [-0.03], "t0": 32.0,
+             "onset_profile": [{"t0": 30.0, "b": [-0.025], "cost": 1.0}],
+             "other_models": [{"model": 1, "b": [-0.02], "t0": 32.0, "cost": 1.0,
+                               "b_band": [[-0.021, -0.019]], "t0_band": [31.0, 33.0]}]}
+    p = prognose(fault, 1.0, 0.5, tf=32.0, now=37.0)
+    assert p["rul"] == pytest.approx(100 / 3 - 5, abs=1e-9)
+    assert p["rul_low"] == pytest.approx(31 + math.log(2) / 0.021 - 37, abs=1e-9)
+    assert p["rul_high"] == pytest.approx(70.0 - 37.0, abs=1e-9)             # the onset profile's point
+    del fault["onset_profile"]
+    assert prognose(fault, 1.0, 0.5, tf=32.0, now=37.0)["rul_high"] == pytest.approx(
+        33 + math.log(2) / 0.019 - 37, abs=1e-9)                               # the other model's region
+
+
+@pytest.mark.slow
+def test_a_second_order_drift_refitted_seconds_after_detection_has_its_true_rul_in_the_band():
+    """An eq. (18) pressure-sensor drift from 20 s (b3 = -8, b4 = -1.1; beta_dp fails at 0.5, at
+    34.7 s on the plant's own profile), its prognosis refreshed at 50 % of its life, 3 s after
+    detection: the fit is a first-order model and eq. (18) is plausible from 21.3 s with b3 = -30
+    (RUL 9.5 s for a true 7.3 s); the band reaches the truth through that model's plausible fits
+    with earlier onsets (the band was 11.5-28.0 s)."""
+    from fdi.monitor import compiled
+    from fdi.pipeline import refresh_prognosis
+    truth = Event("beta_dp", "incipient", 20.0, model=3, b=(-8.0, -1.1))
+    eol = pc.end_of_life(truth, 0.5)
+    at = 20.0 + 0.5 * (eol - 20.0)
+    meas = _run([truth], seed=327, T=45.0)
+    k = int((meas.t <= at).sum())
+    prefix = Measurements("plant", meas.t[:k], {c: v[:k] for c, v in meas.columns.items()})
+    o = Options(workers=1, failures={"beta_dp": 0.5})
+    d = diagnose(CYCAB, prefix, o)
+    assert [f.name for f in d.faults] == ["beta_dp"] and d.faults[0].type == "incipient"
+    _, (p,) = refresh_prognosis(compiled(CYCAB), prefix, d, o)
+    assert p.rul_low <= eol - p.at <= p.rul_high
