@@ -249,10 +249,11 @@ def nesting_depth(residual) -> int:
     return 1 + max(inner, default=0)
 
 
-def _draws(rng: np.random.Generator, box: np.ndarray) -> np.ndarray:
+def _draws(rng: np.random.Generator, box: np.ndarray, linear: list[bool]) -> np.ndarray:
     """TRANSLATE_DRAWS points in ``box`` (one row per coefficient): uniform, and for a coefficient
-    whose box holds zero, half of them log-uniform in magnitude (five decades below the box's
-    largest, either sign). Why: eq. (19)'s box is [-20, 20] x [-1, 1]^2 and a slow drift's b6, b7 are
+    coded as itself (``linear``; eq. 18's rate is coded as a logarithm already) whose box holds
+    zero, half of them log-uniform in magnitude (five decades below the box's largest, either
+    sign). Why: eq. (19)'s box is [-20, 20] x [-1, 1]^2 and a slow drift's b6, b7 are
     a few thousandths; uniform draws almost never come near them and the halving boxes then close
     on a wrong basin (an encoder drift of eq. 19 with b = [10.4, 0.002, -0.0045] re-expressed from an
     eq. (18) fit: profile error 19.4 uniform, 2.1 with these draws; the engine's cost 7094 for a fit
@@ -260,7 +261,7 @@ def _draws(rng: np.random.Generator, box: np.ndarray) -> np.ndarray:
     lo, hi = box[:, 0], box[:, 1]
     x = lo + rng.random((TRANSLATE_DRAWS, len(box))) * (hi - lo)
     span = np.maximum(np.abs(lo), np.abs(hi))
-    both = (lo < 0) & (hi > 0)
+    both = (lo < 0) & (hi > 0) & np.asarray(linear, dtype=bool)
     if both.any():
         mag = span * 10.0 ** rng.uniform(-TRANSLATE_DECADES, 0.0, x.shape)
         signed = np.clip(np.where(rng.random(x.shape) < 0.5, -mag, mag), lo, hi)
@@ -340,7 +341,7 @@ def translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: np
                            else target[after]).max() + 1e-300
             best_x, best_e = None, np.inf
             for _ in range(TRANSLATE_ROUNDS):
-                x = _draws(rng, box)
+                x = _draws(rng, box, [slot != encoding.RATE_SLOT for slot in encoding.COEFF_SLOTS[model]])
                 if best_x is not None:
                     x[0] = best_x
                 rows = np.tile(real[n_real * j: n_real * (j + 1)], (TRANSLATE_DRAWS, 1))
