@@ -255,8 +255,9 @@ class Monitor:
 
     def diagnose(self, data, options: "Options | None" = None, progress: Callable | None = None,
                  memo: dict | None = None) -> "Diagnosis":
-        """Detect, isolate, identify and prognose (:func:`fdi.pipeline.run`); ``data``: a CSV path
-        or :class:`fdi.data.Measurements`."""
+        """Detect, isolate, identify and prognose (:func:`fdi.pipeline.run`); ``data``: a CSV path,
+        :class:`fdi.data.Measurements`, a pandas DataFrame, a dict of arrays or a structured array
+        (:func:`fdi.ingest.measurements`), as for :func:`fdi.api.diagnose`."""
         from .pipeline import run
         return run(self, data, options, progress, memo)
 

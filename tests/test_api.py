@@ -46,6 +46,23 @@ def test_dicts_and_structured_arrays_and_bad_data():
         measurements(42)
 
 
+def test_a_compiled_monitor_takes_the_data_the_api_takes():
+    """Found by trial3: ``fdi.Monitor(model).diagnose(data)`` (README: "derived once, for many
+    diagnoses") raised a TypeError from os.stat with a dict of arrays, which fdi.api.diagnose takes.
+    Every kind of data gives the report of the CSV file it came from."""
+    import fdi
+    m = read_csv(DATA / "scenario3.csv")
+    monitor = fdi.Monitor(str(CYCAB))
+    reference = monitor.diagnose(str(DATA / "scenario3.csv"), fdi.Options(workers=1)).to_json()
+    rec = np.rec.fromarrays(list(m.columns.values()), names=list(m.columns))
+    for data in (dict(m.columns), FrameLike(dict(m.columns)), rec):
+        d = monitor.diagnose(data, fdi.Options(workers=1))
+        assert [(f.name, f.type) for f in d.faults] == [("a1", "mode")]       # README: scenario3, burnt driver
+        assert d.to_json() == reference                                      # the report names no file
+    with pytest.raises(DataError, match="DataFrame"):
+        monitor.diagnose(42)
+
+
 def test_editing_the_model_file_changes_the_next_diagnosis(tmp_path):
     path = tmp_path / "tank.yaml"
     text = (MODELS / "two_tank_valve.yaml").read_text(encoding="utf-8")
