@@ -164,9 +164,13 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
         return -value if isinstance(node.op, ast.USub) else value
     if isinstance(node, ast.Call):
         if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
-            name = node.func.id if isinstance(node.func, ast.Name) else "this call"
             allowed = ", ".join(sorted(FUNCTIONS))
-            raise ExpressionError(f"function '{name}' is not allowed in '{src}' (allowed: {allowed})")
+            if not isinstance(node.func, ast.Name):     # a call of an attribute, a lambda, a call's result
+                called = ast.unparse(node.func)
+                called = called if len(called) <= 40 else called[:37] + "..."
+                raise ExpressionError(f"calling '{called}' is not allowed in '{src}'; only the functions {allowed} "
+                                      "may be called, by name")
+            raise ExpressionError(f"function '{node.func.id}' is not allowed in '{src}' (allowed: {allowed})")
         if node.keywords:
             raise ExpressionError(f"keyword arguments are not allowed in '{src}'")
         args = [_build(a, symbols, src) for a in node.args]

@@ -13,7 +13,9 @@ from __future__ import annotations
 
 import keyword
 import math
+import os
 import re
+import stat
 import unicodedata
 from collections import ChainMap
 from dataclasses import dataclass
@@ -119,12 +121,23 @@ def model_from_document(doc: Document) -> Model:
     return _build_model(doc.data, doc._ctx)
 
 
+def _named_fifo(path: Path) -> bool:
+    """A FIFO in a file system, not the pipe of a process substitution (``<(cat m.yaml)``, reached
+    through /dev/fd: its open never waits)."""
+    try:
+        return stat.S_ISFIFO(os.stat(path).st_mode) and "pipe:[" not in os.path.realpath(path)
+    except (OSError, ValueError):
+        return False
+
+
 def read_document(path: str | Path) -> Document:
     """Read a model file safely (at most 1 MB of UTF-8 YAML, measured before it is constructed)."""
     p = Path(path)
     try:
         if p.is_dir():
             raise ModelError("is a folder; give the model's YAML file", file=str(path))
+        if _named_fifo(p):                          # open() would wait for a writer that may never come
+            raise ModelError(f"a named FIFO; give the model as a regular file (or as <(cat {path}))", file=str(path))
         with p.open("rb") as fh:
             raw = fh.read(MAX_BYTES + 1)
     except OSError as exc:

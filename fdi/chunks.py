@@ -77,7 +77,7 @@ def chunks(fh, path: str, rows: int, cut: Callable[[str], None] | None = None,
         if table.size:
             yield header, table
     rest = _Joined(head + text, fh)
-    yield from blocks(rest, path, rows, cut)
+    yield from blocks(rest, path, rows, cut, skipped=values // width)
 
 
 GATHER_ROWS = 16384         # rows of a live stream joined at most while more are already waiting

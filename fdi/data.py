@@ -87,7 +87,8 @@ def _open_text(path: str | Path) -> io.TextIOWrapper:
 
 
 def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None = None,
-           on_header: Callable[[list[str]], None] | None = None) -> Iterator[tuple[list[str], np.ndarray]]:
+           on_header: Callable[[list[str]], None] | None = None,
+           skipped: int = 0) -> Iterator[tuple[list[str], np.ndarray]]:
     """(header, block of at most ``rows`` rows as float64) from a CSV text stream, as the rows
     arrive (a file, or standard input for the monitor); the header is checked for a ``t`` column,
     the separator found from it (semicolons: a decimal comma is read as a point). Empty fields are
@@ -97,7 +98,9 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
     cut while a row was written, is dropped and ``cut(message)`` told; a short row anywhere
     else is an error, as it is in a file. ``on_header(header)`` is called once the header is read
     and checked, before any row is waited for (the monitor's first event waits for it); what it
-    raises is its own (a failed write of that event is standard output's error, not this file's)."""
+    raises is its own (a failed write of that event is standard output's error, not this file's).
+    ``skipped``: rows of the file read before this stream's first row (by :func:`fdi.chunks.chunks`,
+    which hands the rest of a recording over with its header again), so a message names the file's line."""
     in_callback = False
     try:
         lines = bounded_lines(fh, path)
@@ -118,7 +121,8 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
             on_header(header)
             in_callback = False
         comma = delimiter == ";"
-        pending, count = [], 0
+        pending: list[tuple[int, list[str]]] = []      # (line in the file, row): messages name the line
+        count, done = 0, 1 + skipped                   # values read; lines of the file read (the header's)
         width = len(header)
         group: list[str] = []
         for line in itertools.chain(lines, [None]):   # plain rows: numpy's C parser, a block at a time
@@ -134,6 +138,7 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
             count += block.size
             if count > MAX_VALUES:
                 raise DataError(f"{path}: more than {MAX_VALUES:.0e} values; split the file")
+            done += len(group)
             group = []
             yield header, block
             if line is None:
@@ -143,19 +148,19 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
         reader = csv.reader(itertools.chain(group, lines), delimiter=delimiter)
         for row in reader:
             if row:
-                pending.append(row)
+                pending.append((done + reader.line_num, row))
             if len(pending) >= rows:
                 count += len(pending) * width
                 if count > MAX_VALUES:
                     raise DataError(f"{path}: more than {MAX_VALUES:.0e} values; split the file")
-                held = [pending.pop()] if cut and len(pending[-1]) < width else []
+                held = [pending.pop()] if cut and len(pending[-1][1]) < width else []
                 if pending:                       # a short last row waits: it may be where the stream ends
                     block, pending = _numbers(path, pending, width, comma), held     # the text freed first
                     yield header, block
                     del block
                 pending = held
-        if cut and pending and len(pending[-1]) < width:
-            short = pending.pop()
+        if cut and pending and len(pending[-1][1]) < width:
+            _, short = pending.pop()
             cut(f"{path}: the last row was cut ({len(short)} of {width} values): dropped")
         if pending:
             block, pending = _numbers(path, pending, width, comma), []
@@ -356,7 +361,7 @@ def checked(path: str, header: list[str], table: np.ndarray) -> Measurements:
         finite &= np.isfinite(column)
     bad = np.flatnonzero(~finite)
     if bad.size:
-        raise DataError(f"{path}: {bad.size} row(s) with NaN or missing values, first at line {bad[0] + 2}; "
+        raise DataError(f"{path}: {bad.size} row(s) with NaN, infinite or missing values, first at line {bad[0] + 2}; "
                         "remove or fill them")
     time = cols["t"]
     largest = max(time.max(), -time.min())                        # max |t|, without an array of |t|
@@ -398,17 +403,34 @@ def _plain(lines: list[str], width: int, comma: bool = False) -> np.ndarray | No
     return values.reshape(len(lines), width)
 
 
-def _numbers(path, rows: list[list[str]], width: int, comma: bool = False) -> np.ndarray:
-    """A block of rows as a (rows, width) float array; empty fields become NaN; with ``comma``
-    (a semicolon-separated file) a decimal comma is read as a point."""
-    if any(len(r) != width for r in rows):
-        raise DataError(f"{path}: rows do not all have {width} values")
+def _numbers(path, numbered: list[tuple[int, list[str]]], width: int, comma: bool = False) -> np.ndarray:
+    """A block of rows, each with its line in the file, as a (rows, width) float array; empty fields
+    become NaN; with ``comma`` (a semicolon-separated file) a decimal comma is read as a point. A
+    row of another width or a value that is no number is refused naming its line."""
+    for line, r in numbered:
+        if len(r) != width:
+            raise DataError(f"{path}: rows do not all have {width} values: line {line} has {len(r)} "
+                            f"({'cut short?' if len(r) < width else 'a separator too many?'}); fix or remove it")
+    rows = [r for _, r in numbered]
+    if comma:
+        rows = [[x.replace(",", ".") for x in r] for r in rows]
     try:
-        if comma:
-            rows = [[x.replace(",", ".") for x in r] for r in rows]
         return np.array([[float(x) if x.strip() else np.nan for x in r] for r in rows], dtype=float).reshape(-1, width)
     except ValueError as exc:
-        raise DataError(f"{path}: a value is not a number ({str(exc)[:80]})") from None
+        line = next((n for n, r in zip((n for n, _ in numbered), rows) if not _floats(r)), None)
+        at = f" at line {line}" if line is not None else ""
+        raise DataError(f"{path}: a value is not a number{at} ({str(exc)[:80]})") from None
+
+
+def _floats(row: list[str]) -> bool:
+    """Every field of ``row`` is a number or empty (what :func:`_numbers` reads)."""
+    try:
+        for x in row:
+            if x.strip():
+                float(x)
+    except ValueError:
+        return False
+    return True
 
 
 def check_against_model(model: Model, data: Measurements) -> None:

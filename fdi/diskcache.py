@@ -124,18 +124,19 @@ def _key(where: Path) -> bytes | None:
     path = where / KEY_FILE
     for _ in range(2):
         try:
-            fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+            got = _read_regular(path, 65)
         except FileNotFoundError:
-            fd = None
+            got = None
         except OSError as exc:
             _note(f"cache off: cannot read the key {path} ({exc.strerror or exc}); remove it")
             return None
-        if fd is not None:
-            with os.fdopen(fd, "rb") as fh:
-                st = os.fstat(fh.fileno())
-                if not stat.S_ISREG(st.st_mode) or not _private(st, "key", path, 0o077 if os.name == "posix" else 0):
-                    return None
-                key = fh.read(65)
+        if got is not None:
+            st, key = got
+            if st is None:
+                _note(f"cache off: the key {path} is not a regular file (a folder, FIFO or device); remove it")
+                return None
+            if not _private(st, "key", path, 0o077 if os.name == "posix" else 0):
+                return None
             if len(key) != 32:
                 _note(f"cache off: the key {path} is not 32 bytes; remove it")
                 return None
@@ -157,6 +158,28 @@ def _key(where: Path) -> bytes | None:
             if os.path.exists(tmp.name):
                 os.unlink(tmp.name)
     return None
+
+
+def _read_regular(path: Path, limit: int) -> tuple[os.stat_result | None, bytes]:
+    """At most ``limit`` bytes of the regular file ``path`` and its status, never through a link
+    (``O_NOFOLLOW``) and never waiting (``O_NONBLOCK``: a FIFO planted under the name would block
+    an ordinary open until a writer came); ``(None, b"")`` for anything but a regular file (a
+    folder, FIFO, socket or device: nothing is read from it); ``(status, b"")`` for a file larger
+    than ``limit`` (not read: a planted giant costs no memory). OSError as ``os.open`` raises it."""
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0))
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            return None, b""
+        if st.st_size > limit:
+            return st, b""
+        chunks, left = [], limit
+        while left > 0 and (chunk := os.read(fd, min(left, 1 << 20))):
+            chunks.append(chunk)
+            left -= len(chunk)
+        return st, b"".join(chunks)
+    finally:
+        os.close(fd)
 
 
 def fingerprint() -> str:
@@ -256,16 +279,13 @@ def fetch(kind: str, source: bytes) -> bytes | None:
     name = entry_name(kind, source)
     path = where / name
     try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+        st, raw = _read_regular(path, MAX_BYTES + 1)
     except OSError:
         return None
-    with os.fdopen(fd, "rb") as fh:
-        st = os.fstat(fh.fileno())
-        if not stat.S_ISREG(st.st_mode) or st.st_size > MAX_BYTES:
-            return None
-        if hasattr(os, "getuid") and st.st_uid != os.getuid():
-            return None
-        raw = fh.read()
+    if st is None or len(raw) > MAX_BYTES:        # not a regular file, or larger than an entry may be
+        return None
+    if hasattr(os, "getuid") and st.st_uid != os.getuid():
+        return None
     head = len(MAGIC) + 32
     if len(raw) < head or not raw.startswith(MAGIC):
         return None

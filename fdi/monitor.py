@@ -29,6 +29,7 @@ from __future__ import annotations
 import hashlib
 import os
 import pickle
+import stat
 from collections import OrderedDict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
@@ -104,46 +105,50 @@ def _source(model: Model | str | Path) -> tuple[Model, MonitorConfig]:
 
 
 def _file(path: str) -> "Monitor":
-    """A model file compiled once per process and file version (path, size, modification time):
-    a model edited between two diagnoses is derived again, never served stale."""
-    try:
-        st = os.stat(path)
-        version = (os.path.realpath(path), st.st_size, st.st_mtime_ns)
-    except OSError:
-        version = None                              # the loader reports the file as missing
+    """A model file compiled once per process and file version (its real path and its bytes): a
+    model edited between two diagnoses is derived again, never served stale, even when the edit
+    kept the file's size and modification time (``touch -r``, or two saves within the clock's
+    tick: a key of size and mtime served the old derivation then)."""
+    source = _disk_source(path)                     # None: the loader reports the file as missing
+    version = None if source is None else hashlib.sha256(source).digest()
     if version is not None and version in _files:
         _files.move_to_end(version)
         return _files[version]
-    m = _from_disk(path, version)
+    m = _from_disk(path, source)
     if m is None:
-        source = _disk_source(path) if version is not None else None
         model, config = load(path)
         m = Monitor(model, config)
         if source is not None and _disk_source(path) == source:    # stored only if the file did not change meanwhile
             _to_disk(m, path, source)
+        else:
+            version = None                          # changed while it was read: not kept under the old bytes
     if version is not None:
         _remember(_files, version, m)
     return m
 
 
 def _disk_source(path: str) -> bytes | None:
-    """What a model file's disk-cache entry is derived from: its real path and its bytes."""
+    """What a model file's compiled monitor is derived from: its real path and its bytes (at most
+    1 MB and one byte: the loader refuses more); None for anything but a regular file (a named
+    FIFO is not opened as a file, which would wait for a writer: the loader says what it is)."""
     try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            return None
         with open(path, "rb") as fh:
             raw = fh.read(1 << 20 | 1)
-    except OSError:
+    except (OSError, ValueError):
         return None
     return os.path.realpath(path).encode("utf-8", "surrogateescape") + b"\0" + raw
 
 
-def _from_disk(path: str, version) -> "Monitor | None":
-    """The compiled monitor of this very file text from the disk cache (:mod:`fdi.diskcache`),
-    or None (absent, stale, foreign, tampered, or the cache off: then it is derived afresh)."""
+def _from_disk(path: str, source: bytes | None) -> "Monitor | None":
+    """The compiled monitor of this very file text (``source``: :func:`_disk_source`) from the disk
+    cache (:mod:`fdi.diskcache`), or None (absent, stale, foreign, tampered, or the cache off: then
+    it is derived afresh)."""
     from . import diskcache
-    if version is None or not diskcache.enabled():
+    if source is None or not diskcache.enabled():
         return None
-    source = _disk_source(path)
-    payload = None if source is None else diskcache.fetch("monitor", source)
+    payload = diskcache.fetch("monitor", source)
     if payload is None:
         return None
     try:
@@ -250,8 +255,9 @@ class Monitor:
 
     def diagnose(self, data, options: "Options | None" = None, progress: Callable | None = None,
                  memo: dict | None = None) -> "Diagnosis":
-        """Detect, isolate, identify and prognose (:func:`fdi.pipeline.run`); ``data``: a CSV path
-        or :class:`fdi.data.Measurements`."""
+        """Detect, isolate, identify and prognose (:func:`fdi.pipeline.run`); ``data``: a CSV path,
+        :class:`fdi.data.Measurements`, a pandas DataFrame, a dict of arrays or a structured array
+        (:func:`fdi.ingest.measurements`), as for :func:`fdi.api.diagnose`."""
         from .pipeline import run
         return run(self, data, options, progress, memo)
 

@@ -18,12 +18,13 @@ import numpy as np
 
 from bondgraph.errors import ModelError
 
-from .data import DataError, Measurements, commanded, read_csv, signals_from_data
+from .data import DataError, Measurements, commanded, signals_from_data
 from .decide import alternatives, effective_samples, information, select_winner, significant
 from .derivatives import DEFAULT_ORDER, window_samples
 from .detect import Detection, detect, settling, thresholds_for
 from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide, since_detection
 from .estimators import Estimators, Search, evidence_onsets, refit_early_onsets
+from .ingest import measurements
 from .isolate import candidate_sets, new_mode_changes, pruned_sets, relaxed_sets, suspected_mode_changes
 from .mode_estimation import estimate_mode, mode_variable
 from .objective import nominal, window
@@ -107,12 +108,13 @@ class Clock:
 
 def run(monitor: "Monitor", data, options: Options | None = None, progress: Callable | None = None,
         memo: dict | None = None) -> Diagnosis:
-    """Detect, isolate, identify and prognose ``data`` (a CSV path or Measurements)."""
+    """Detect, isolate, identify and prognose ``data`` (a CSV path, Measurements, a DataFrame, a
+    dict of arrays or a structured array: :func:`fdi.ingest.measurements`)."""
     o = options or Options()
     o.check()
     clock = Clock()
     monitor = monitor.with_config(o.settings)
-    meas = data if isinstance(data, Measurements) else read_csv(data)
+    meas = measurements(data)
     p = prepare(monitor, meas, o)
     clock.lap("load")
     r = evaluate(p.monitor.model, list(p.monitor.residuals), p.raw, meas.ts, window=p.window_s, values=p.values(p.raw))

@@ -396,7 +396,7 @@ class Stream:
         if not checked:
             bad = np.flatnonzero(~np.isfinite(block).all(axis=1))
             if bad.size:
-                raise DataError(f"{self.source}: a row with NaN or missing values at sample {self.n + bad[0] + 1}")
+                raise DataError(f"{self.source}: a row with NaN, infinite or missing values at sample {self.n + bad[0] + 1}")
         while self.n + block.shape[0] > self.buffer.shape[0]:
             self.buffer = np.concatenate([self.buffer, np.empty_like(self.buffer)])
         self.buffer[self.n:self.n + block.shape[0]] = block

@@ -46,6 +46,23 @@ def test_dicts_and_structured_arrays_and_bad_data():
         measurements(42)
 
 
+def test_a_compiled_monitor_takes_the_data_the_api_takes():
+    """Found by trial3: ``fdi.Monitor(model).diagnose(data)`` (README: "derived once, for many
+    diagnoses") raised a TypeError from os.stat with a dict of arrays, which fdi.api.diagnose takes.
+    Every kind of data gives the report of the CSV file it came from."""
+    import fdi
+    m = read_csv(DATA / "scenario3.csv")
+    monitor = fdi.Monitor(str(CYCAB))
+    reference = monitor.diagnose(str(DATA / "scenario3.csv"), fdi.Options(workers=1)).to_json()
+    rec = np.rec.fromarrays(list(m.columns.values()), names=list(m.columns))
+    for data in (dict(m.columns), FrameLike(dict(m.columns)), rec):
+        d = monitor.diagnose(data, fdi.Options(workers=1))
+        assert [(f.name, f.type) for f in d.faults] == [("a1", "mode")]       # README: scenario3, burnt driver
+        assert d.to_json() == reference                                      # the report names no file
+    with pytest.raises(DataError, match="DataFrame"):
+        monitor.diagnose(42)
+
+
 def test_editing_the_model_file_changes_the_next_diagnosis(tmp_path):
     path = tmp_path / "tank.yaml"
     text = (MODELS / "two_tank_valve.yaml").read_text(encoding="utf-8")
@@ -59,6 +76,57 @@ def test_editing_the_model_file_changes_the_next_diagnosis(tmp_path):
     path.write_text(text.replace("thresholds: {ARR1: 1.0e-4, ARR2: 1.0e-4, ARR3: 1.5e-4}",
                                  "thresholds: {ARR1: 1.0e3, ARR2: 1.0e3, ARR3: 1.0e3}"), encoding="utf-8")
     assert diagnose(str(path), data, workers=1).detection is None   # the new thresholds, not a stale cache
+
+
+def test_an_edit_that_keeps_the_size_and_modification_time_is_not_served_stale(tmp_path):
+    """Found by trial3: an in-process compiled model was keyed by (path, size, mtime), so an edit of
+    the same length with the time put back (``touch -r``, or two saves within one clock tick)
+    diagnosed with the old thresholds. The key is the file's bytes now."""
+    import os
+    path = tmp_path / "tank.yaml"
+    text = (MODELS / "two_tank_valve.yaml").read_text(encoding="utf-8")
+    path.write_text(text, encoding="utf-8")
+    before = os.stat(path)
+    data = {"t": np.arange(0, 200, 0.1)}
+    data["Qin"] = 1e-4 * (1 + 0.5 * np.sin(0.01 * data["t"]))
+    data["p1"] = np.full_like(data["t"], 5000.0)                  # not the model's equilibrium: residuals fire
+    data["p2"] = np.full_like(data["t"], 2000.0)
+    assert diagnose(str(path), data, workers=1).detection is not None
+    edited = text.replace("thresholds: {ARR1: 1.0e-4, ARR2: 1.0e-4, ARR3: 1.5e-4}",
+                          "thresholds: {ARR1: 1.0e+3, ARR2: 1.0e+3, ARR3: 1.5e+3}")
+    assert edited != text and len(edited) == len(text)
+    path.write_text(edited, encoding="utf-8")
+    os.utime(path, ns=(before.st_atime_ns, before.st_mtime_ns))
+    after = os.stat(path)
+    assert (after.st_size, after.st_mtime_ns) == (before.st_size, before.st_mtime_ns)
+    assert diagnose(str(path), data, workers=1).detection is None   # thresholds of 1000: nothing crosses
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "mkfifo"), reason="POSIX FIFOs")
+def test_a_model_given_as_a_named_fifo_is_refused_without_waiting(tmp_path):
+    """Found by trial3: ``diagnose("m.yaml", ...)`` with m.yaml a FIFO nothing writes into waited
+    forever (the command line refused it; the API opened it as a file)."""
+    import os
+    import threading
+
+    from bondgraph.errors import ModelError
+    fifo = tmp_path / "m.yaml"
+    os.mkfifo(fifo)
+    got = []
+
+    def call():
+        try:
+            diagnose(str(fifo), {"t": [0.0, 0.1], "Qin": [0.0, 0.0], "p1": [0.0, 0.0], "p2": [0.0, 0.0]}, workers=1)
+        except ModelError as exc:
+            got.append(str(exc))
+    worker = threading.Thread(target=call, daemon=True)
+    worker.start()
+    worker.join(20)
+    if worker.is_alive():
+        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))     # releases the waiting open
+        worker.join(5)
+        pytest.fail("the model's FIFO was opened as a file: still waiting after 20 s")
+    assert len(got) == 1 and "a named FIFO" in got[0] and "m.yaml" in got[0], got
 
 
 def test_yaml_text_as_the_model():

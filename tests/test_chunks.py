@@ -33,23 +33,25 @@ def test_numbers_are_those_of_python_float_in_whole_blocks(parser):
 
 @pytest.mark.parametrize("parser", PARSERS)
 @pytest.mark.parametrize("damage, message", [
-    (lambda rows: rows[:600] + [rows[600][:9]] + rows[601:], "rows do not all have 5 values"),
-    (lambda rows: rows[:700] + [rows[700] + ",1.0"] + rows[701:], "rows do not all have 5 values"),
-    (lambda rows: rows[:800] + ['"' + rows[800] + '"'] + rows[801:], "rows do not all have 5 values"),
+    (lambda rows: rows[:600] + [rows[600][:9]] + rows[601:], "rows do not all have 5 values: line 602 has "),
+    (lambda rows: rows[:700] + [rows[700] + ",1.0"] + rows[701:], "rows do not all have 5 values: line 702 has 6"),
+    (lambda rows: rows[:800] + ['"' + rows[800] + '"'] + rows[801:], "rows do not all have 5 values: line 802 has 1"),
 ])
 def test_rows_not_plain_give_the_errors_of_blocks(parser, damage, message):
     """A short row, a long row, a quoted row in the middle of a recording: the blocks before it as
-    data.blocks gives them, then its error."""
+    data.blocks gives them, then its error, naming the row's line in the file (the header is line 1)
+    in both, though chunks hands the rest of the file to blocks after rows it parsed itself."""
     text, _ = _text(1000)
     head, *rows = text.splitlines()
     bad = head + "\n" + "\n".join(damage(rows)) + "\n"
     got, want = [], []
-    with pytest.raises(DataError, match=message):
+    with pytest.raises(DataError, match=message) as by_chunks:
         for _, b in chunks(io.StringIO(bad), "x.csv", 50, size=4096, parser=parser):
             got.append(b)
-    with pytest.raises(DataError, match=message):
+    with pytest.raises(DataError, match=message) as by_blocks:
         for _, b in blocks(io.StringIO(bad), "x.csv", 50):
             want.append(b)
+    assert str(by_chunks.value) == str(by_blocks.value)
     assert np.array_equal(np.concatenate(got), np.concatenate(want))
 
 

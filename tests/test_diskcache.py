@@ -73,7 +73,7 @@ def test_a_planted_entry_is_never_unpickled(cache, tmp_path):
         os.chmod(cache / name, 0o600)
         assert diskcache.fetch("monitor", _disk_source(str(CYCAB))) is None
         from fdi.monitor import _from_disk
-        assert _from_disk(str(CYCAB), ("v",)) is None
+        assert _from_disk(str(CYCAB), _disk_source(str(CYCAB))) is None
         assert not marker.exists()
 
 
@@ -110,6 +110,54 @@ def test_another_version_or_source_tree_is_another_entry(cache, monkeypatch):
     monkeypatch.setitem(diskcache._state, "version", diskcache._bgfdi_version())
     monkeypatch.setitem(diskcache._state, "fingerprint", "an edited checkout")
     assert diskcache.fetch("k", b"source") is None
+
+
+def _within(seconds, call, fifos=()):
+    """``call()``'s result, or a failure when it has not returned within ``seconds`` (a FIFO's open
+    waiting for a writer): each FIFO is then opened for writing, which releases the waiting open."""
+    import threading
+    out = []
+    worker = threading.Thread(target=lambda: out.append(call()), daemon=True)
+    worker.start()
+    worker.join(seconds)
+    if worker.is_alive():
+        for f in fifos:
+            os.close(os.open(f, os.O_WRONLY | os.O_NONBLOCK))
+        worker.join(5)
+        pytest.fail(f"still waiting after {seconds} s: a FIFO was opened as a file")
+    return out[0]
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="POSIX FIFOs")
+def test_a_folder_or_fifo_under_an_entry_or_key_name_is_ignored_without_waiting(cache):
+    """Found by trying to break the cache (trial3): a FIFO planted under an entry's or the key's
+    name hung every later process in ``open`` (waiting for a writer), a folder crashed it with
+    IsADirectoryError. Each is now no entry (derived afresh) or, for the key, the cache off with a
+    note, and nothing waits."""
+    assert diskcache.store("k", b"source", b"payload")
+    entry = _entry(cache)
+    entry.unlink()
+    entry.mkdir()
+    assert _within(20, lambda: diskcache.fetch("k", b"source")) is None
+    entry.rmdir()
+    os.mkfifo(entry, 0o600)
+    assert _within(20, lambda: diskcache.fetch("k", b"source"), [entry]) is None
+    assert diskcache.store("k", b"other", b"x") and diskcache.fetch("k", b"other") == b"x"   # the others work on
+    entry.unlink()
+    key = cache / diskcache.KEY_FILE
+    saved = key.read_bytes()
+    for plant in (key.mkdir, lambda: os.mkfifo(key, 0o600)):
+        key.unlink() if key.is_file() or key.is_fifo() else key.rmdir()
+        plant()
+        diskcache._state.pop("ready", None)
+        diskcache.notes.clear()
+        assert _within(20, lambda: diskcache.fetch("k", b"source"), [key] if key.is_fifo() else []) is None
+        assert any("not a regular file" in n for n in diskcache.notes), diskcache.notes
+    key.unlink()
+    key.write_bytes(saved)
+    os.chmod(key, 0o600)
+    diskcache._state.pop("ready", None)
+    assert diskcache.store("k", b"source", b"payload") and diskcache.fetch("k", b"source") == b"payload"
 
 
 @pytest.mark.skipif(os.name != "posix", reason="POSIX permissions")

@@ -18,9 +18,9 @@ def test_numbers_pass_through():
 
 
 @pytest.mark.parametrize("text, fragment", [
-    ("__import__('os').system('true')", "not allowed"),
+    ("__import__('os').system('true')", "calling '__import__('os').system' is not allowed in"),
     ("x.__class__", "not allowed"),
-    ("(lambda: 1)()", "not allowed"),
+    ("(lambda: 1)()", "calling 'lambda: 1' is not allowed in '(lambda: 1)()'; only the functions abs, acos,"),
     ("open('f')", "function 'open' is not allowed"),
     ("x ^ 2", "use ** for powers"),
     ("'abc'", "only numbers"),
