@@ -49,7 +49,7 @@ MAX_ENTRIES = 64                 # least recently used entries beyond these are 
 MAX_BYTES = 64 << 20             # and beyond this total size
 _OFF = {"off", "0", "no", "false"}
 
-notes: list[str] = []            # why the cache is off, if it is (the command line prints them with -v)
+notes: list[str] = []            # why the cache is off, if it is, and where each compiled model came from (-v prints them)
 _state: dict[str, object] = {}
 
 
@@ -72,7 +72,8 @@ def folder() -> Path:
     return Path(base) / "bgfdi"
 
 
-def _note(text: str) -> None:
+def note(text: str) -> None:
+    """Keep a line for -v (once): why the cache is off, where a compiled model came from."""
     if text not in notes:
         notes.append(text)
 
@@ -80,10 +81,10 @@ def _note(text: str) -> None:
 def _private(st: os.stat_result, what: str, path: Path, mask: int) -> bool:
     """``path`` is ours and no one else may use it (``mask``: the forbidden permission bits)."""
     if hasattr(os, "getuid") and st.st_uid != os.getuid():
-        _note(f"cache off: {what} {path} is owned by another user (uid {st.st_uid}); remove it or set {DIR_ENV}")
+        note(f"cache off: {what} {path} is owned by another user (uid {st.st_uid}); remove it or set {DIR_ENV}")
         return False
     if st.st_mode & mask:
-        _note(f"cache off: {what} {path} has mode {stat.S_IMODE(st.st_mode):o}; "
+        note(f"cache off: {what} {path} has mode {stat.S_IMODE(st.st_mode):o}; "
               f"make it {0o700 if what == 'folder' else 0o600:o} (chmod) or set {DIR_ENV}")
         return False
     return True
@@ -107,10 +108,10 @@ def _open(where: Path) -> tuple[Path, bytes] | None:
         where.mkdir(mode=0o700, parents=True, exist_ok=True)
         st = os.lstat(where)
     except OSError as exc:
-        _note(f"cache off: cannot make the folder {where} ({exc.strerror or exc})")
+        note(f"cache off: cannot make the folder {where} ({exc.strerror or exc})")
         return None
     if not stat.S_ISDIR(st.st_mode):
-        _note(f"cache off: {where} is not a folder (a link or a file); remove it or set {DIR_ENV}")
+        note(f"cache off: {where} is not a folder (a link or a file); remove it or set {DIR_ENV}")
         return None
     if not _private(st, "folder", where, 0o077 if os.name == "posix" else 0):
         return None
@@ -128,17 +129,17 @@ def _key(where: Path) -> bytes | None:
         except FileNotFoundError:
             got = None
         except OSError as exc:
-            _note(f"cache off: cannot read the key {path} ({exc.strerror or exc}); remove it")
+            note(f"cache off: cannot read the key {path} ({exc.strerror or exc}); remove it")
             return None
         if got is not None:
             st, key = got
             if st is None:
-                _note(f"cache off: the key {path} is not a regular file (a folder, FIFO or device); remove it")
+                note(f"cache off: the key {path} is not a regular file (a folder, FIFO or device); remove it")
                 return None
             if not _private(st, "key", path, 0o077 if os.name == "posix" else 0):
                 return None
             if len(key) != 32:
-                _note(f"cache off: the key {path} is not 32 bytes; remove it")
+                note(f"cache off: the key {path} is not 32 bytes; remove it")
                 return None
             return key
         tmp = tempfile.NamedTemporaryFile(dir=where, prefix=".key-", delete=False)     # mode 0600
@@ -318,7 +319,7 @@ def store(kind: str, source: bytes, payload: bytes) -> bool:
             if os.path.exists(tmp):
                 os.unlink(tmp)
     except OSError as exc:
-        _note(f"cache: cannot write {where / name} ({exc.strerror or exc})")
+        note(f"cache: cannot write {where / name} ({exc.strerror or exc})")
         return False
     prune(where)
     return True
@@ -365,5 +366,5 @@ def clear() -> int:
     return n
 
 
-__all__ = ["enabled", "disable", "folder", "fetch", "store", "prune", "clear", "fingerprint", "entry_name",
+__all__ = ["enabled", "disable", "note", "folder", "fetch", "store", "prune", "clear", "fingerprint", "entry_name",
            "notes", "ENV", "DIR_ENV"]

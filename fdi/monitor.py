@@ -30,6 +30,7 @@ import hashlib
 import os
 import pickle
 import stat
+import time
 from collections import OrderedDict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
@@ -115,9 +116,15 @@ def _file(path: str) -> "Monitor":
         _files.move_to_end(version)
         return _files[version]
     m = _from_disk(path, source)
-    if m is None:
+    from . import diskcache
+    if m is not None:
+        diskcache.note(f"compiled model of {path}: read from the cache")
+    else:
+        started = time.process_time()
         model, config = load(path)
         m = Monitor(model, config)
+        diskcache.note(f"compiled model of {path}: derived in {time.process_time() - started:.2f} s CPU"
+                               + ("" if diskcache.enabled() else " (cache off)"))
         if source is not None and _disk_source(path) == source:    # stored only if the file did not change meanwhile
             _to_disk(m, path, source)
         else:

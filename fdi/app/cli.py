@@ -1332,7 +1332,7 @@ def _cache_notes() -> None:
     """Why the compiled-model cache is off, if it is: one line each under -v."""
     diskcache = sys.modules.get("fdi.diskcache")
     for note in getattr(diskcache, "notes", ()):
-        LOG.debug(note)
+        LOG.debug(escaped(note))           # a note names a path: control characters escaped
 
 
 # Commands that only derive and print: run on a deep-stack thread (bondgraph.deep), so that the
