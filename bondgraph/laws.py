@@ -122,13 +122,80 @@ def _plain_coefficient(expr: sp.Expr, var: sp.Symbol) -> bool | None:
 
 
 def solve_linear(expr: sp.Expr, var: sp.Symbol) -> sp.Expr | None:
-    """var from expr = 0 when expr is linear in var with a coefficient free of unknowns."""
+    """var from expr = 0 when expr is linear in var with a coefficient free of unknowns:
+    ``-rest / coefficient``. A law's sum with ``var`` a plain factor of one term (junctions,
+    transformers, linear laws: :func:`_split`) is solved without rebuilding the sum
+    (:func:`_solve_split`); anything else by :func:`solve_linear_plain`. Both give the same
+    expression (tests/test_laws.py checks every law of the shipped models both ways)."""
+    if not expr.has(var):
+        return None
+    split = _split(expr, var)
+    if split is not None:
+        return _solve_split(expr, var, *split)
+    return solve_linear_plain(expr, var)
+
+
+def solve_linear_plain(expr: sp.Expr, var: sp.Symbol) -> sp.Expr | None:
+    """:func:`solve_linear` by plain sympy arithmetic: the coefficient, ``var`` replaced by 0,
+    ``-rest / coefficient``."""
     if not expr.has(var):
         return None
     coeff = coefficient(expr, var)
     if coeff.has(var) or coeff == 0:
         return None
     rest = expr.xreplace({var: sp.Integer(0)})
+    return -rest / coeff
+
+
+def _simple(term: sp.Expr) -> bool:
+    """A symbol, or a product of a number and symbols (a law's term)."""
+    return term.is_Symbol or term.is_Mul and all(a.is_Symbol or a.is_Number for a in term.args)
+
+
+def _split(expr: sp.Expr, var: sp.Symbol) -> tuple[sp.Expr | None, list[sp.Expr]] | None:
+    """``(c, others)`` where ``expr`` is a sum whose one term holding ``var`` holds it as a plain
+    factor times symbols and a nonzero number (``c``: that number where the term has no other
+    factor, else None), and ``others`` (the other terms, in their order) are free of ``var`` and
+    :func:`_simple`. None for anything else."""
+    if not expr.is_Add:
+        return None
+    found, c, others = False, None, []
+    for term in expr.args:
+        if term is var or term == var:
+            if found:
+                return None
+            found, c = True, sp.S.One
+        elif term.is_Mul and var in term.args:
+            rest = [a for a in term.args if a != var]
+            if found or len(rest) != len(term.args) - 1 or \
+                    not all(a.is_Symbol or a.is_Number and a != 0 for a in rest):
+                return None
+            found = True
+            c = rest[0] if len(rest) == 1 and rest[0].is_Number else None
+        elif _simple(term) and not (term.is_Mul and var in term.args):
+            others.append(term)
+        else:
+            return None
+    return (c, others) if found else None
+
+
+def _solve_split(expr: sp.Expr, var: sp.Symbol, c: sp.Expr | None, others: list[sp.Expr]) -> sp.Expr:
+    """:func:`solve_linear_plain` of a :func:`_split` sum, with the same operations on the same
+    values where they are not identities: ``rest`` (``expr`` with ``var`` at 0) is the sum of the
+    other terms, which are already in canonical order (a sum's terms minus one need no sorting);
+    a coefficient of 1 divides nothing (``-rest``), and one of -1 negates twice (``rest``: the
+    other terms are numbers times symbols, whose double negation is themselves)."""
+    if not others:
+        rest = sp.S.Zero
+    elif len(others) == 1:
+        rest = others[0]
+    else:
+        rest = sp.Add._from_args(others)
+    if c is sp.S.One:
+        return -rest
+    if c is sp.S.NegativeOne:
+        return rest
+    coeff = c if c is not None else coefficient(expr, var)
     return -rest / coeff
 
 
