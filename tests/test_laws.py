@@ -133,3 +133,26 @@ def test_a_law_is_solved_as_plain_sympy_arithmetic_solves_it():
         for v in (x, y, z, w):
             got, want = solve_linear(expr, v), solve_linear_plain(expr, v)
             assert got == want and sp.srepr(got) == sp.srepr(want), (expr, v)
+
+
+def test_a_signed_sum_is_the_sum_sympy_builds():
+    """signed_sum (a junction's laws, without sympy's general flatten) against sympy.Add itself:
+    every sign pattern of up to five of a mixed set of bond, energy and named symbols, in
+    several orders; a repeated symbol or a sign other than +-1 is sympy's own sum."""
+    import itertools
+    import random
+
+    from bondgraph.laws import signed_sum
+    pool = [*bond_variables(7), *bond_variables(12), *bond_variables("y_1"), sp.Symbol("q[tank]", real=True),
+            sp.Symbol("a", positive=True), sp.Symbol("Z")]
+    rng = random.Random(4)
+    for n in range(1, 6):
+        for _ in range(60):
+            xs = rng.sample(pool, n)
+            for signs in itertools.islice(itertools.product((1, -1), repeat=n), 8):
+                terms = list(zip(signs, xs))
+                got, want = signed_sum(terms), sp.Add(*[s * x for s, x in terms])
+                assert got == want and sp.srepr(got) == sp.srepr(want), terms
+                assert got.is_Atom or sp.srepr(got.func(*got.args)) == sp.srepr(got)   # canonical: rebuilt the same
+    x = pool[0]
+    assert signed_sum([(1, x), (-1, x)]) == 0 and signed_sum([(2, x), (-1, pool[1])]) == 2 * x - pool[1]
