@@ -153,39 +153,42 @@ def _simple(term: sp.Expr) -> bool:
     return term.is_Symbol or term.is_Mul and all(a.is_Symbol or a.is_Number for a in term.args)
 
 
-def _split(expr: sp.Expr, var: sp.Symbol) -> tuple[sp.Expr | None, list[sp.Expr]] | None:
-    """``(c, others)`` where ``expr`` is a sum whose one term holding ``var`` holds it as a plain
-    factor times symbols and a nonzero number (``c``: that number where the term has no other
-    factor, else None), and ``others`` (the other terms, in their order) are free of ``var`` and
-    :func:`_simple`. None for anything else."""
+def _split(expr: sp.Expr, var: sp.Symbol) -> tuple[sp.Expr | None, list[sp.Expr], list[sp.Expr]] | None:
+    """``(c, factors, others)`` where ``expr`` is a sum whose one term holding ``var`` holds it as
+    a plain factor times ``factors``, symbols and nonzero numbers (``c``: the number where it is
+    the only one, else None), and ``others`` (the other terms, in their order) are free of
+    ``var`` and :func:`_simple`. None for anything else."""
     if not expr.is_Add:
         return None
-    found, c, others = False, None, []
+    found, c, factors, others = False, None, [], []
     for term in expr.args:
         if term is var or term == var:
             if found:
                 return None
             found, c = True, sp.S.One
         elif term.is_Mul and var in term.args:
-            rest = [a for a in term.args if a != var]
-            if found or len(rest) != len(term.args) - 1 or \
-                    not all(a.is_Symbol or a.is_Number and a != 0 for a in rest):
+            factors = [a for a in term.args if a != var]
+            if found or len(factors) != len(term.args) - 1 or \
+                    not all(a.is_Symbol or a.is_Number and a != 0 for a in factors):
                 return None
             found = True
-            c = rest[0] if len(rest) == 1 and rest[0].is_Number else None
-        elif _simple(term) and not (term.is_Mul and var in term.args):
+            c = factors[0] if len(factors) == 1 and factors[0].is_Number else None
+        elif _simple(term):
             others.append(term)
         else:
             return None
-    return (c, others) if found else None
+    return (c, factors, others) if found else None
 
 
-def _solve_split(expr: sp.Expr, var: sp.Symbol, c: sp.Expr | None, others: list[sp.Expr]) -> sp.Expr:
+def _solve_split(expr: sp.Expr, var: sp.Symbol, c: sp.Expr | None, factors: list[sp.Expr],
+                 others: list[sp.Expr]) -> sp.Expr:
     """:func:`solve_linear_plain` of a :func:`_split` sum, with the same operations on the same
     values where they are not identities: ``rest`` (``expr`` with ``var`` at 0) is the sum of the
     other terms, which are already in canonical order (a sum's terms minus one need no sorting);
     a coefficient of 1 divides nothing (``-rest``), and one of -1 negates twice (``rest``: the
-    other terms are numbers times symbols, whose double negation is themselves)."""
+    other terms are numbers times symbols, whose double negation is themselves). A single other
+    term over a product of symbols (a transformer's ``e1 - m e2`` for ``e2``) is a monomial, one
+    product: sympy's product of monomials has one canonical form whichever way it is reached."""
     if not others:
         rest = sp.S.Zero
     elif len(others) == 1:
@@ -196,6 +199,14 @@ def _solve_split(expr: sp.Expr, var: sp.Symbol, c: sp.Expr | None, others: list[
         return -rest
     if c is sp.S.NegativeOne:
         return rest
+    if c is None and len(others) == 1:
+        k, inverse = sp.S.NegativeOne, []
+        for f in factors:
+            if f.is_Number:
+                k = k / f
+            else:
+                inverse.append(sp.Pow(f, sp.S.NegativeOne))
+        return sp.Mul(k, rest, *inverse)
     coeff = c if c is not None else coefficient(expr, var)
     return -rest / coeff
 

@@ -129,7 +129,9 @@ def test_a_law_is_solved_as_plain_sympy_arithmetic_solves_it():
     x, y, z, w = sp.symbols("x y z w", real=True)
     a, b = sp.symbols("a b", positive=True)
     for expr in (x - y, y - x, x + y + z, -x - y + 2 * z, 3 * x - a * y, x - a * b * y + z, -2 * x + y - w,
-                 x + 1 - y, x * y - z, x - x * y, a * x + a * y, -x + a * (y + z), x + sp.sin(y) - z):
+                 x + 1 - y, x * y - z, x - x * y, a * x + a * y, -x + a * (y + z), x + sp.sin(y) - z,
+                 a * x - a * y, 2 * x - 3 * a * y, -x + a * y, a * b * x - b * y, x / a - y / b, 2 * a * x - y / 3,
+                 x - a * y - b * z, x ** 2 - a * y):
         for v in (x, y, z, w):
             got, want = solve_linear(expr, v), solve_linear_plain(expr, v)
             assert got == want and sp.srepr(got) == sp.srepr(want), (expr, v)
