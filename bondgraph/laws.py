@@ -281,24 +281,40 @@ def equation(name: str, node: str, expr: sp.Expr, variables: Iterable, solutions
     return Equation(name, node, expr, variables, sol, differential, bool(linear) or is_linear)
 
 
-def signed_sum(terms: Sequence[tuple[int, sp.Symbol]]) -> sp.Expr:
-    """``sum(sign * x)`` for signs +-1 and distinct symbols: the expression ``sympy.Add`` builds
-    (its terms ``x`` and ``-x`` sorted in its canonical order), without its general flatten, which
-    rebuilds every ``-x`` (a junction's laws are such sums: 10 000 of them in a 10 000-element
-    chain). Anything else goes to ``sympy.Add``.
+def _power_of_symbol(x: sp.Expr) -> bool:
+    return x.is_Symbol or x.is_Pow and x.base.is_Symbol and x.exp.is_Integer
+
+
+def _monomial(x: sp.Expr) -> bool:
+    """A symbol, an integer power of one, or a product of these (no number): a law's term."""
+    return _power_of_symbol(x) or x.is_Mul and all(_power_of_symbol(a) for a in x.args)
+
+
+def signed_sum(terms: Sequence[tuple[int, sp.Expr]]) -> sp.Expr:
+    """``sum(sign * x)`` for signs +-1 and distinct :func:`_monomial` terms (bond variables,
+    ``m*e[2]``, ``q/C``): the expression ``sympy.Add`` builds (``x`` and ``-x`` in its canonical
+    order), without its general flatten, which rebuilds every ``-x`` (a 10 000-element chain's
+    laws are 20 000 such sums). Anything else is ``sympy.Add(*(sign * x))``.
 
     >>> x, y, z = sp.symbols("x y z", real=True)
     >>> e = signed_sum([(1, z), (-1, x), (-1, y)])
     >>> e, e == sp.Add(z, -x, -y), sp.srepr(e) == sp.srepr(z - x - y)
     (-x - y + z, True, True)
     """
-    symbols = [x for _, x in terms]
-    if len(symbols) < 2 or len(set(symbols)) != len(symbols) or \
-            not all(s in (1, -1) and x.is_Symbol for s, x in terms):
+    xs = [x for _, x in terms]
+    if len(xs) < 2 or len(set(xs)) != len(xs) or not all(s in (1, -1) and _monomial(x) for s, x in terms):
         return sp.Add(*[s * x for s, x in terms])
-    args = [x if s == 1 else sp.Mul._from_args((sp.S.NegativeOne, x)) for s, x in terms]
+    args = [x if s == 1 else sp.Mul._from_args((sp.S.NegativeOne,) + (x.args if x.is_Mul else (x,)))
+            for s, x in terms]
     _addsort(args)
     return sp.Add._from_args(args)
+
+
+def difference(a: sp.Expr, b: sp.Expr) -> sp.Expr:
+    """``a - b``: by :func:`signed_sum` for two distinct monomials, else sympy's own ``a - b``."""
+    if a is not b and _monomial(a) and _monomial(b) and a != b:
+        return signed_sum([(1, a), (-1, b)])
+    return a - b
 
 
 def junction_equations(model: Model, node: str, ports: Sequence[Port], reference, sub: Sub = _same) -> list[Equation]:
@@ -336,7 +352,7 @@ def junction_equations(model: Model, node: str, ports: Sequence[Port], reference
         if k == reference:
             continue
         x, x0 = var[k][common_i], var[reference][common_i]
-        out.append(equation(f"{node}.{c}{k}", node, signed_sum([(1, x), (-1, x0)]), {x, x0}, linear=[x, x0]))
+        out.append(equation(f"{node}.{c}{k}", node, difference(x, x0), {x, x0}, linear=[x, x0]))
     ys = [var[k][total_i] for k, _, _ in ports]
     expr = signed_sum([(sign[k], var[k][total_i]) for k, _, _ in ports])
     out.append(equation(f"{node}.balance", node, expr, set(ys), linear=ys))
@@ -370,7 +386,7 @@ def resistor_equation(model: Model, el: Element, bond, sub: Sub = _same) -> Equa
         sol[f] = _law(el.laws["flow"], "e", e, sub)
     elif r is not None:
         sol[f] = sub(e / r)
-    expr = (e - sol[e]) if e in sol else (f - sol[f])
+    expr = difference(e, sol[e]) if e in sol else difference(f, sol[f])
     return equation(el.name, el.name, expr, {e, f}, solutions=sol, is_linear=not el.laws)
 
 
@@ -379,16 +395,17 @@ def energy_variable(el: Element) -> sp.Symbol:
     return sp.Symbol(f"{'q' if el.kind == 'C' else 'p'}[{el.name}]", real=True)
 
 
-def storage_equations(model: Model, el: Element, bond, sub: Sub = _same) -> tuple[sp.Symbol, list[Equation]]:
-    """A storage element's energy variable x and its two equations. C: e = phi(q), f = dq/dt;
-    I: f = phi(p), e = dp/dt. The law is solved for the energy variable too where the model gives
-    the inverse (``displacement``/``momentum``) or a parameter."""
+def storage_law(model: Model, el: Element, bond, sub: Sub = _same) -> tuple[sp.Symbol, Equation]:
+    """A storage element's energy variable x and its constitutive law: C: e = phi(q), I:
+    f = phi(p), solved for the energy variable too where the model gives the inverse
+    (``displacement``/``momentum``) or a parameter. (The causal forms need only this; the rate
+    equation is :func:`storage_equations`'.)"""
     e, f = bond_variables(bond)
     x = energy_variable(el)
     if el.kind == "C":
-        out_var, rate, law_key, inv_key, energy, local = e, f, "effort", "displacement", "q", "e"
+        out_var, law_key, inv_key, energy, local = e, "effort", "displacement", "q", "e"
     else:
-        out_var, rate, law_key, inv_key, energy, local = f, e, "flow", "momentum", "p", "f"
+        out_var, law_key, inv_key, energy, local = f, "flow", "momentum", "p", "f"
     sol: dict = {}
     if law_key in el.laws:
         sol[out_var] = _law(el.laws[law_key], energy, x, sub)
@@ -398,8 +415,16 @@ def storage_equations(model: Model, el: Element, bond, sub: Sub = _same) -> tupl
         sol[x] = _law(el.laws[inv_key], local, out_var, sub)
     elif el.parameter is not None and law_key not in el.laws:
         sol[x] = sub(model.symbols[el.parameter] * out_var)
-    expr = out_var - sol[out_var] if out_var in sol else x - sol[x]
-    law = equation(el.name, el.name, expr, {x, out_var}, solutions=sol, is_linear=not el.laws)
+    expr = difference(out_var, sol[out_var]) if out_var in sol else difference(x, sol[x])
+    return x, equation(el.name, el.name, expr, {x, out_var}, solutions=sol, is_linear=not el.laws)
+
+
+def storage_equations(model: Model, el: Element, bond, sub: Sub = _same) -> tuple[sp.Symbol, list[Equation]]:
+    """A storage element's energy variable x and its two equations: its law
+    (:func:`storage_law`) and its rate, C: f = dq/dt; I: e = dp/dt."""
+    e, f = bond_variables(bond)
+    x, law = storage_law(model, el, bond, sub)
+    rate = f if el.kind == "C" else e
     diff = equation(f"{el.name}.d/dt", el.name, rate - sp.Derivative(x, t), {x, rate}, differential=(x, rate))
     return x, [law, diff]
 
@@ -414,10 +439,10 @@ def two_port_equations(el: Element, ports: Sequence[Port], sub: Sub = _same) -> 
     e1, f1 = bond_variables(b1)
     e2, f2 = bond_variables(b2)
     if el.kind in ("TF", "MTF"):
-        return [equation(f"{el.name}.e", el.name, e1 - m * e2, {e1, e2}, linear=[e1, e2]),
-                equation(f"{el.name}.f", el.name, f2 - m * f1, {f1, f2}, linear=[f1, f2])]
-    return [equation(f"{el.name}.e{b1}", el.name, e1 - m * f2, {e1, f2}, linear=[e1, f2]),
-            equation(f"{el.name}.e{b2}", el.name, e2 - m * f1, {e2, f1}, linear=[e2, f1])]
+        return [equation(f"{el.name}.e", el.name, difference(e1, m * e2), {e1, e2}, linear=[e1, e2]),
+                equation(f"{el.name}.f", el.name, difference(f2, m * f1), {f1, f2}, linear=[f1, f2])]
+    return [equation(f"{el.name}.e{b1}", el.name, difference(e1, m * f2), {e1, f2}, linear=[e1, f2]),
+            equation(f"{el.name}.e{b2}", el.name, difference(e2, m * f1), {e2, f1}, linear=[e2, f1])]
 
 
 _LAWS: dict[int, dict] = {}

@@ -138,15 +138,18 @@ def test_a_law_is_solved_as_plain_sympy_arithmetic_solves_it():
 
 
 def test_a_signed_sum_is_the_sum_sympy_builds():
-    """signed_sum (a junction's laws, without sympy's general flatten) against sympy.Add itself:
-    every sign pattern of up to five of a mixed set of bond, energy and named symbols, in
-    several orders; a repeated symbol or a sign other than +-1 is sympy's own sum."""
+    """signed_sum and difference (the laws' sums, without sympy's general flatten) against
+    sympy.Add and subtraction themselves: sign patterns of up to five of a mixed set of bond,
+    energy and named symbols and products and powers of them, in several orders; a repeated
+    term, a sign other than +-1, a number or a sum is sympy's own arithmetic."""
     import itertools
     import random
 
-    from bondgraph.laws import signed_sum
-    pool = [*bond_variables(7), *bond_variables(12), *bond_variables("y_1"), sp.Symbol("q[tank]", real=True),
-            sp.Symbol("a", positive=True), sp.Symbol("Z")]
+    from bondgraph.laws import difference, signed_sum
+    a, c = sp.Symbol("a", positive=True), sp.Symbol("c", positive=True)
+    q = sp.Symbol("q[tank]", real=True)
+    pool = [*bond_variables(7), *bond_variables(12), *bond_variables("y_1"), q, a, sp.Symbol("Z"),
+            a * bond_variables(3)[0], q / c, a * c * bond_variables(4)[1], 1 / a, q ** 2 / a, c * q]
     rng = random.Random(4)
     for n in range(1, 6):
         for _ in range(60):
@@ -156,5 +159,9 @@ def test_a_signed_sum_is_the_sum_sympy_builds():
                 got, want = signed_sum(terms), sp.Add(*[s * x for s, x in terms])
                 assert got == want and sp.srepr(got) == sp.srepr(want), terms
                 assert got.is_Atom or sp.srepr(got.func(*got.args)) == sp.srepr(got)   # canonical: rebuilt the same
+            got, want = difference(xs[0], xs[-1]), xs[0] - xs[-1]
+            assert got == want and sp.srepr(got) == sp.srepr(want), xs
     x = pool[0]
     assert signed_sum([(1, x), (-1, x)]) == 0 and signed_sum([(2, x), (-1, pool[1])]) == 2 * x - pool[1]
+    for b in (x, 2 * pool[1], pool[1] + q, sp.sin(q), sp.Integer(0), -a * q, sp.Float(1.5) * q):
+        assert sp.srepr(difference(pool[2], b)) == sp.srepr(pool[2] - b), b
