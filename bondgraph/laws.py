@@ -281,40 +281,66 @@ def equation(name: str, node: str, expr: sp.Expr, variables: Iterable, solutions
     return Equation(name, node, expr, variables, sol, differential, bool(linear) or is_linear)
 
 
-def _power_of_symbol(x: sp.Expr) -> bool:
-    return x.is_Symbol or x.is_Pow and x.base.is_Symbol and x.exp.is_Integer
+def _factor(x: sp.Expr) -> bool:
+    """A factor a sympy product keeps as it is: a symbol, a rational power of one, or a
+    function or derivative (``sign(f)``, ``u(t)``, ``Derivative(q, t)``) that is its own base."""
+    if x.is_Symbol:
+        return True
+    if x.is_Pow:
+        return x.base.is_Symbol and x.exp.is_Rational
+    return isinstance(x, (sp.Function, sp.Derivative)) and x.as_base_exp() == (x, sp.S.One)
 
 
-def _monomial(x: sp.Expr) -> bool:
-    """A symbol, an integer power of one, or a product of these (no number): a law's term."""
-    return _power_of_symbol(x) or x.is_Mul and all(_power_of_symbol(a) for a in x.args)
+def _term(x: sp.Expr) -> bool:
+    """A law's term: a :func:`_factor` or a product of them, with no number or with -1."""
+    if not x.is_Mul:
+        return _factor(x)
+    args = x.args[1:] if x.args[0] is sp.S.NegativeOne else x.args
+    return all(_factor(a) for a in args)
+
+
+def _negated(x: sp.Expr) -> sp.Expr:
+    """``-x`` of a :func:`_term`, as sympy writes it (a -1 in front, or taken off)."""
+    if x.is_Mul and x.args[0] is sp.S.NegativeOne:
+        rest = x.args[1:]
+        return rest[0] if len(rest) == 1 else sp.Mul._from_args(rest)
+    return sp.Mul._from_args((sp.S.NegativeOne,) + (x.args if x.is_Mul else (x,)))
 
 
 def signed_sum(terms: Sequence[tuple[int, sp.Expr]]) -> sp.Expr:
-    """``sum(sign * x)`` for signs +-1 and distinct :func:`_monomial` terms (bond variables,
-    ``m*e[2]``, ``q/C``): the expression ``sympy.Add`` builds (``x`` and ``-x`` in its canonical
-    order), without its general flatten, which rebuilds every ``-x`` (a 10 000-element chain's
-    laws are 20 000 such sums). Anything else is ``sympy.Add(*(sign * x))``.
+    """``sum(sign * x)`` for signs +-1 and :func:`_term` terms that differ other than in sign
+    (bond variables, ``m*e[2]``, ``q/C``, ``c*sign(f)``): the expression ``sympy.Add`` builds
+    (the signed terms in its canonical order), without its general flatten, which rebuilds every
+    negated term (a 10 000-element chain's laws are 22 500 such sums). Anything else is
+    ``sympy.Add(*(sign * x))``.
 
     >>> x, y, z = sp.symbols("x y z", real=True)
     >>> e = signed_sum([(1, z), (-1, x), (-1, y)])
     >>> e, e == sp.Add(z, -x, -y), sp.srepr(e) == sp.srepr(z - x - y)
     (-x - y + z, True, True)
     """
-    xs = [x for _, x in terms]
-    if len(xs) < 2 or len(set(xs)) != len(xs) or not all(s in (1, -1) and _monomial(x) for s, x in terms):
-        return sp.Add(*[s * x for s, x in terms])
-    args = [x if s == 1 else sp.Mul._from_args((sp.S.NegativeOne,) + (x.args if x.is_Mul else (x,)))
-            for s, x in terms]
+    fast = _signed_sum(terms)
+    return fast if fast is not None else sp.Add(*[s * x for s, x in terms])
+
+
+def _signed_sum(terms: Sequence[tuple[int, sp.Expr]]) -> sp.Expr | None:
+    """:func:`signed_sum` where it applies, else None."""
+    if len(terms) < 2 or not all(s in (1, -1) and _term(x) for s, x in terms):
+        return None
+    args = [x if s == 1 else _negated(x) for s, x in terms]
+    unsigned = {_negated(a) if a.is_Mul and a.args[0] is sp.S.NegativeOne else a for a in args}
+    if len(unsigned) != len(args):          # terms that sympy would collect
+        return None
     _addsort(args)
     return sp.Add._from_args(args)
 
 
 def difference(a: sp.Expr, b: sp.Expr) -> sp.Expr:
-    """``a - b``: by :func:`signed_sum` for two distinct monomials, else sympy's own ``a - b``."""
-    if a is not b and _monomial(a) and _monomial(b) and a != b:
-        return signed_sum([(1, a), (-1, b)])
-    return a - b
+    """``a - b``: as :func:`signed_sum` where ``a`` is a :func:`_term` and ``b`` one or a sum of
+    them (sympy distributes the minus over a sum), else by sympy's own ``a - b``."""
+    bs = b.args if b.is_Add else (b,)
+    fast = _signed_sum([(1, a)] + [(-1, x) for x in bs]) if _term(a) else None
+    return fast if fast is not None else a - b
 
 
 def junction_equations(model: Model, node: str, ports: Sequence[Port], reference, sub: Sub = _same) -> list[Equation]:

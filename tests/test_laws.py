@@ -149,7 +149,9 @@ def test_a_signed_sum_is_the_sum_sympy_builds():
     a, c = sp.Symbol("a", positive=True), sp.Symbol("c", positive=True)
     q = sp.Symbol("q[tank]", real=True)
     pool = [*bond_variables(7), *bond_variables(12), *bond_variables("y_1"), q, a, sp.Symbol("Z"),
-            a * bond_variables(3)[0], q / c, a * c * bond_variables(4)[1], 1 / a, q ** 2 / a, c * q]
+            a * bond_variables(3)[0], q / c, a * c * bond_variables(4)[1], 1 / a, q ** 2 / a, c * q,
+            sp.sign(q), c * sp.sign(bond_variables(3)[1]), sp.Derivative(sp.Function("u")(t), t), -a * q,
+            sp.sqrt(c) * q, sp.Function("p1", real=True)(t) / a, sp.exp(q), a * sp.exp(q), -q, 2 * q]
     rng = random.Random(4)
     for n in range(1, 6):
         for _ in range(60):
@@ -163,5 +165,9 @@ def test_a_signed_sum_is_the_sum_sympy_builds():
             assert got == want and sp.srepr(got) == sp.srepr(want), xs
     x = pool[0]
     assert signed_sum([(1, x), (-1, x)]) == 0 and signed_sum([(2, x), (-1, pool[1])]) == 2 * x - pool[1]
-    for b in (x, 2 * pool[1], pool[1] + q, sp.sin(q), sp.Integer(0), -a * q, sp.Float(1.5) * q):
+    for b in (x, 2 * pool[1], pool[1] + q, sp.sin(q), sp.Integer(0), -a * q, sp.Float(1.5) * q, q + 1,
+              a * pool[1] + c * sp.sign(pool[1]), x - q, -x + a * q - c * sp.sign(q), pool[2] + q, -pool[2] + q,
+              q * (a + c), a * sp.exp(q) - q, 3 * q - a):
         assert sp.srepr(difference(pool[2], b)) == sp.srepr(pool[2] - b), b
+        for i in range(0, len(pool), 3):
+            assert sp.srepr(difference(pool[i], b)) == sp.srepr(pool[i] - b), (pool[i], b)
