@@ -2,8 +2,8 @@
 
 Why: importing ``scipy.optimize`` costs about 0.34 s of CPU (least of 5, after bgfdi's own
 imports) in every process that touches it, and the diagnosis needs only its Nelder-Mead (the
-polish of a degradation model's fit along a curved valley). This is the algorithm of scipy's ``_minimize_neldermead`` (scipy 1.17,
-``scipy/optimize/_optimize.py``) step for step: the same initial simplex (5 % of each nonzero
+polish of a degradation model's fit along a curved valley). This is the algorithm of scipy's
+``_minimize_neldermead`` (scipy 1.17, ``scipy/optimize/_optimize.py``) step for step: the same initial simplex (5 % of each nonzero
 coordinate, 0.00025 for a zero one, or ``initial_simplex``), the same reflection, expansion,
 outside and inside contraction and shrink coefficients (Gao and Han's adaptive ones with
 ``adaptive=True``), the same bounds handling (every trial point clipped; a starting vertex above
