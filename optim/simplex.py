@@ -1,18 +1,18 @@
 """Nelder-Mead: a downhill simplex without ``scipy.optimize``.
 
-Why: importing ``scipy.optimize`` costs about 0.34 s of CPU (least of 5, after bgfdi's own
-imports) in every process that touches it, and the diagnosis needs only its Nelder-Mead (the
-polish of a degradation model's fit along a curved valley). This is the algorithm of scipy's
-``_minimize_neldermead`` (scipy 1.17, ``scipy/optimize/_optimize.py``) step for step: the same initial simplex (5 % of each nonzero
-coordinate, 0.00025 for a zero one, or ``initial_simplex``), the same reflection, expansion,
-outside and inside contraction and shrink coefficients (Gao and Han's adaptive ones with
-``adaptive=True``), the same bounds handling (every trial point clipped; a starting vertex above
-its upper bound reflected inside), the same stopping test (``xatol`` on every vertex's distance
-to the best, ``fatol`` on every value's), the same ``maxiter``/``maxfev`` defaults (200 per
-variable when neither is given) and the same sorts, so it returns the same ``x`` and ``fun`` as
-``scipy.optimize.minimize(func, x0, method="Nelder-Mead", options=..., bounds=...)``
-(``tests/test_simplex.py`` checks it against scipy on smooth, bounded, noisy and
-evaluation-limited problems).
+Why: importing ``scipy.optimize`` costs about 0.34 s of CPU (least of 5, after bgfdi's own imports)
+in every process that touches it, and the diagnosis needs only its Nelder-Mead (the polish of a
+degradation model's fit along a curved valley). This is the algorithm of scipy's
+``_minimize_neldermead`` (scipy 1.17, ``scipy/optimize/_optimize.py``) step for step: the same
+initial simplex (5 % of each nonzero coordinate, 0.00025 for a zero one, or ``initial_simplex``),
+the same reflection, expansion, outside and inside contraction and shrink coefficients (Gao and
+Han's adaptive ones with ``adaptive=True``), the same bounds handling (every trial point clipped; a
+starting vertex above its upper bound reflected inside), the same stopping test (``xatol`` on every
+vertex's distance to the best, ``fatol`` on every value's), the same ``maxiter``/``maxfev`` defaults
+(200 per variable when neither is given) and the same sorts, so it returns the same ``x`` and
+``fun`` as ``scipy.optimize.minimize(func, x0, method="Nelder-Mead", options=..., bounds=...)``
+(``tests/test_simplex.py`` checks it against scipy on smooth, bounded, noisy and evaluation-limited
+problems).
 
 Not carried over: callbacks, ``return_all``, ``disp`` and scipy's warning for a start outside
 the bounds (the start is clipped, as scipy does after warning).
