@@ -39,6 +39,7 @@ def _valley(x: np.ndarray) -> float:
 
 
 EYE = np.eye(3)
+U0 = np.array([0.4, 0.1, 0.3])
 CASES = {
     "rosenbrock, defaults": (rosen, [-1.2, 1.0, 0.5], {}, None),
     "rosenbrock, tight tolerances": (rosen, [1.3, 0.7, 0.8, 1.9, 1.2], {"xatol": 1e-10, "fatol": 1e-12}, None),
@@ -55,10 +56,9 @@ CASES = {
     "maxiter spent": (rosen, [-1.2, 1.0, 0.5], {"maxiter": 25}, None),
     "infinite values": (_cliff, [0.5, 0.0], {"xatol": 1e-8, "fatol": 1e-10}, None),
     # the call fdi.estimators._simplex makes: a 2 % simplex in unit coordinates, 60 evaluations a variable
-    "the diagnosis's polish": (_valley, [0.4, 0.1, 0.3],
-                               {"maxfev": 180, "xatol": 1e-6, "fatol": 1e-9 * 0.7,
-                                "initial_simplex": np.vstack([[0.4, 0.1, 0.3]] + [np.array([0.4, 0.1, 0.3]) + 0.02 * EYE[k]
-                                                                                  for k in range(3)])}, None),
+    "the diagnosis's polish": (_valley, U0, {"maxfev": 180, "xatol": 1e-6, "fatol": 1e-9 * 0.7,
+                                             "initial_simplex": np.vstack([U0] + [U0 + 0.02 * EYE[k] for k in range(3)])},
+                               None),
 }
 
 
