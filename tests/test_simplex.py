@@ -56,8 +56,8 @@ CASES = {
     "maxiter spent": (rosen, [-1.2, 1.0, 0.5], {"maxiter": 25}, None),
     "infinite values": (_cliff, [0.5, 0.0], {"xatol": 1e-8, "fatol": 1e-10}, None),
     # the call fdi.estimators._simplex makes: a 2 % simplex in unit coordinates, 60 evaluations a variable
-    "the diagnosis's polish": (_valley, U0, {"maxfev": 180, "xatol": 1e-6, "fatol": 1e-9 * 0.7,
-                                             "initial_simplex": np.vstack([U0] + [U0 + 0.02 * EYE[k] for k in range(3)])},
+    "the diagnosis's polish": (_valley, U0, {"maxfev": 180, "xatol": 1e-6, "fatol": 7e-10,
+                                             "initial_simplex": np.vstack([U0] + [U0 + 0.02 * e for e in EYE])},
                                None),
 }
 
