@@ -21,7 +21,7 @@ import sympy as sp
 
 from .graph import BondKey, port_table, to_networkx
 from .laws import (Equation, bond_variables, coefficient, energy_variable, junction_equations, model_laws,
-                   resistor_equation, solve_for, source_equation, storage_equations, substitution, two_port_equations)
+                   resistor_equation, solve_for, source_equation, storage_law, substitution, two_port_equations)
 from .linear import combine
 from .model import Element, Model, t
 from .program import Program, line_diff
@@ -194,8 +194,8 @@ def causal_forms(model: Model, causality: Causality, signals: Mapping[sp.Symbol,
             if not solve and not el.laws:            # given by a parameter: no law needed to say what it computes
                 out.append(_storage_shape(el, ps[0][0], causality.storage.get(node)))
                 continue
-            x, (law, _rate) = _laws(model, ("storage", node), _law_symbols(el), signals,
-                                    lambda sub: storage_equations(model, el, ps[0][0], sub))
+            x, law = _laws(model, ("storage law", node), _law_symbols(el), signals,
+                           lambda sub: storage_law(model, el, ps[0][0], sub))
             out.append(_storage(el, ps[0][0], causality.storage.get(node), x, law))
         elif kind in ("De", "Df", "Se", "Sf", "MSe", "MSf"):
             (k, _, _), = ps

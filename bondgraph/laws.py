@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Iterable, Mapping, Sequence
 
 import sympy as sp
+from sympy.core.add import _addsort   # sympy's canonical order of a sum's terms (signed_sum)
 
 from .model import LAW_VARIABLES, Element, Model, t
 
@@ -122,13 +123,91 @@ def _plain_coefficient(expr: sp.Expr, var: sp.Symbol) -> bool | None:
 
 
 def solve_linear(expr: sp.Expr, var: sp.Symbol) -> sp.Expr | None:
-    """var from expr = 0 when expr is linear in var with a coefficient free of unknowns."""
+    """var from expr = 0 when expr is linear in var with a coefficient free of unknowns:
+    ``-rest / coefficient``. A law's sum with ``var`` a plain factor of one term (junctions,
+    transformers, linear laws: :func:`_split`) is solved without rebuilding the sum
+    (:func:`_solve_split`); anything else by :func:`solve_linear_plain`. Both give the same
+    expression (tests/test_laws.py checks every law of the shipped models both ways)."""
+    if not expr.has(var):
+        return None
+    split = _split(expr, var)
+    if split is not None:
+        return _solve_split(expr, var, *split)
+    return solve_linear_plain(expr, var)
+
+
+def solve_linear_plain(expr: sp.Expr, var: sp.Symbol) -> sp.Expr | None:
+    """:func:`solve_linear` by plain sympy arithmetic: the coefficient, ``var`` replaced by 0,
+    ``-rest / coefficient``."""
     if not expr.has(var):
         return None
     coeff = coefficient(expr, var)
     if coeff.has(var) or coeff == 0:
         return None
     rest = expr.xreplace({var: sp.Integer(0)})
+    return -rest / coeff
+
+
+def _simple(term: sp.Expr) -> bool:
+    """A symbol, or a product of a number and symbols (a law's term)."""
+    return term.is_Symbol or term.is_Mul and all(a.is_Symbol or a.is_Number for a in term.args)
+
+
+def _split(expr: sp.Expr, var: sp.Symbol) -> tuple[sp.Expr | None, list[sp.Expr], list[sp.Expr]] | None:
+    """``(c, factors, others)`` where ``expr`` is a sum whose one term holding ``var`` holds it as
+    a plain factor times ``factors``, symbols and nonzero numbers (``c``: the number where it is
+    the only one, else None), and ``others`` (the other terms, in their order) are free of
+    ``var`` and :func:`_simple`. None for anything else."""
+    if not expr.is_Add:
+        return None
+    found, c, factors, others = False, None, [], []
+    for term in expr.args:
+        if term is var or term == var:
+            if found:
+                return None
+            found, c = True, sp.S.One
+        elif term.is_Mul and var in term.args:
+            factors = [a for a in term.args if a != var]
+            if found or len(factors) != len(term.args) - 1 or \
+                    not all(a.is_Symbol or a.is_Number and a != 0 for a in factors):
+                return None
+            found = True
+            c = factors[0] if len(factors) == 1 and factors[0].is_Number else None
+        elif _simple(term):
+            others.append(term)
+        else:
+            return None
+    return (c, factors, others) if found else None
+
+
+def _solve_split(expr: sp.Expr, var: sp.Symbol, c: sp.Expr | None, factors: list[sp.Expr],
+                 others: list[sp.Expr]) -> sp.Expr:
+    """:func:`solve_linear_plain` of a :func:`_split` sum, with the same operations on the same
+    values where they are not identities: ``rest`` (``expr`` with ``var`` at 0) is the sum of the
+    other terms, which are already in canonical order (a sum's terms minus one need no sorting);
+    a coefficient of 1 divides nothing (``-rest``), and one of -1 negates twice (``rest``: the
+    other terms are numbers times symbols, whose double negation is themselves). A single other
+    term over a product of symbols (a transformer's ``e1 - m e2`` for ``e2``) is a monomial, one
+    product: sympy's product of monomials has one canonical form whichever way it is reached."""
+    if not others:
+        rest = sp.S.Zero
+    elif len(others) == 1:
+        rest = others[0]
+    else:
+        rest = sp.Add._from_args(others)
+    if c is sp.S.One:
+        return -rest
+    if c is sp.S.NegativeOne:
+        return rest
+    if c is None and len(others) == 1:
+        k, inverse = sp.S.NegativeOne, []
+        for f in factors:
+            if f.is_Number:
+                k = k / f
+            else:
+                inverse.append(sp.Pow(f, sp.S.NegativeOne))
+        return sp.Mul(k, rest, *inverse)
+    coeff = c if c is not None else coefficient(expr, var)
     return -rest / coeff
 
 
@@ -202,6 +281,68 @@ def equation(name: str, node: str, expr: sp.Expr, variables: Iterable, solutions
     return Equation(name, node, expr, variables, sol, differential, bool(linear) or is_linear)
 
 
+def _factor(x: sp.Expr) -> bool:
+    """A factor a sympy product keeps as it is: a symbol, a rational power of one, or a
+    function or derivative (``sign(f)``, ``u(t)``, ``Derivative(q, t)``) that is its own base."""
+    if x.is_Symbol:
+        return True
+    if x.is_Pow:
+        return x.base.is_Symbol and x.exp.is_Rational
+    return isinstance(x, (sp.Function, sp.Derivative)) and x.as_base_exp() == (x, sp.S.One)
+
+
+def _term(x: sp.Expr) -> bool:
+    """A law's term: a :func:`_factor` or a product of them, with no number or with -1."""
+    if not x.is_Mul:
+        return _factor(x)
+    args = x.args[1:] if x.args[0] is sp.S.NegativeOne else x.args
+    return all(_factor(a) for a in args)
+
+
+def _negated(x: sp.Expr) -> sp.Expr:
+    """``-x`` of a :func:`_term`, as sympy writes it (a -1 in front, or taken off)."""
+    if x.is_Mul and x.args[0] is sp.S.NegativeOne:
+        rest = x.args[1:]
+        return rest[0] if len(rest) == 1 else sp.Mul._from_args(rest)
+    return sp.Mul._from_args((sp.S.NegativeOne,) + (x.args if x.is_Mul else (x,)))
+
+
+def signed_sum(terms: Sequence[tuple[int, sp.Expr]]) -> sp.Expr:
+    """``sum(sign * x)`` for signs +-1 and :func:`_term` terms that differ other than in sign
+    (bond variables, ``m*e[2]``, ``q/C``, ``c*sign(f)``): the expression ``sympy.Add`` builds
+    (the signed terms in its canonical order), without its general flatten, which rebuilds every
+    negated term (a 10 000-element chain's laws are 20 000 such sums). Anything else is
+    ``sympy.Add(*(sign * x))``.
+
+    >>> x, y, z = sp.symbols("x y z", real=True)
+    >>> e = signed_sum([(1, z), (-1, x), (-1, y)])
+    >>> e, e == sp.Add(z, -x, -y), sp.srepr(e) == sp.srepr(z - x - y)
+    (-x - y + z, True, True)
+    """
+    fast = _signed_sum(terms)
+    return fast if fast is not None else sp.Add(*[s * x for s, x in terms])
+
+
+def _signed_sum(terms: Sequence[tuple[int, sp.Expr]]) -> sp.Expr | None:
+    """:func:`signed_sum` where it applies, else None."""
+    if len(terms) < 2 or not all(s in (1, -1) and _term(x) for s, x in terms):
+        return None
+    args = [x if s == 1 else _negated(x) for s, x in terms]
+    unsigned = {_negated(a) if a.is_Mul and a.args[0] is sp.S.NegativeOne else a for a in args}
+    if len(unsigned) != len(args):          # terms that sympy would collect
+        return None
+    _addsort(args)
+    return sp.Add._from_args(args)
+
+
+def difference(a: sp.Expr, b: sp.Expr) -> sp.Expr:
+    """``a - b``: as :func:`signed_sum` where ``a`` is a :func:`_term` and ``b`` one or a sum of
+    them (sympy distributes the minus over a sum), else by sympy's own ``a - b``."""
+    bs = b.args if b.is_Add else (b,)
+    fast = _signed_sum([(1, a)] + [(-1, x) for x in bs]) if _term(a) else None
+    return fast if fast is not None else a - b
+
+
 def junction_equations(model: Model, node: str, ports: Sequence[Port], reference, sub: Sub = _same) -> list[Equation]:
     """A junction's law: its common variable (effort of a 0, flow of a 1) equal on every bond, and
     its balance ``sum(sign * total) = 0``, written against the ``reference`` bond.
@@ -237,9 +378,9 @@ def junction_equations(model: Model, node: str, ports: Sequence[Port], reference
         if k == reference:
             continue
         x, x0 = var[k][common_i], var[reference][common_i]
-        out.append(equation(f"{node}.{c}{k}", node, x - x0, {x, x0}, linear=[x, x0]))
+        out.append(equation(f"{node}.{c}{k}", node, difference(x, x0), {x, x0}, linear=[x, x0]))
     ys = [var[k][total_i] for k, _, _ in ports]
-    expr = sp.Add(*[sign[k] * var[k][total_i] for k, _, _ in ports])
+    expr = signed_sum([(sign[k], var[k][total_i]) for k, _, _ in ports])
     out.append(equation(f"{node}.balance", node, expr, set(ys), linear=ys))
     return out
 
@@ -271,7 +412,7 @@ def resistor_equation(model: Model, el: Element, bond, sub: Sub = _same) -> Equa
         sol[f] = _law(el.laws["flow"], "e", e, sub)
     elif r is not None:
         sol[f] = sub(e / r)
-    expr = (e - sol[e]) if e in sol else (f - sol[f])
+    expr = difference(e, sol[e]) if e in sol else difference(f, sol[f])
     return equation(el.name, el.name, expr, {e, f}, solutions=sol, is_linear=not el.laws)
 
 
@@ -280,16 +421,17 @@ def energy_variable(el: Element) -> sp.Symbol:
     return sp.Symbol(f"{'q' if el.kind == 'C' else 'p'}[{el.name}]", real=True)
 
 
-def storage_equations(model: Model, el: Element, bond, sub: Sub = _same) -> tuple[sp.Symbol, list[Equation]]:
-    """A storage element's energy variable x and its two equations. C: e = phi(q), f = dq/dt;
-    I: f = phi(p), e = dp/dt. The law is solved for the energy variable too where the model gives
-    the inverse (``displacement``/``momentum``) or a parameter."""
+def storage_law(model: Model, el: Element, bond, sub: Sub = _same) -> tuple[sp.Symbol, Equation]:
+    """A storage element's energy variable x and its constitutive law: C: e = phi(q), I:
+    f = phi(p), solved for the energy variable too where the model gives the inverse
+    (``displacement``/``momentum``) or a parameter. (The causal forms need only this; the rate
+    equation is :func:`storage_equations`'.)"""
     e, f = bond_variables(bond)
     x = energy_variable(el)
     if el.kind == "C":
-        out_var, rate, law_key, inv_key, energy, local = e, f, "effort", "displacement", "q", "e"
+        out_var, law_key, inv_key, energy, local = e, "effort", "displacement", "q", "e"
     else:
-        out_var, rate, law_key, inv_key, energy, local = f, e, "flow", "momentum", "p", "f"
+        out_var, law_key, inv_key, energy, local = f, "flow", "momentum", "p", "f"
     sol: dict = {}
     if law_key in el.laws:
         sol[out_var] = _law(el.laws[law_key], energy, x, sub)
@@ -299,8 +441,16 @@ def storage_equations(model: Model, el: Element, bond, sub: Sub = _same) -> tupl
         sol[x] = _law(el.laws[inv_key], local, out_var, sub)
     elif el.parameter is not None and law_key not in el.laws:
         sol[x] = sub(model.symbols[el.parameter] * out_var)
-    expr = out_var - sol[out_var] if out_var in sol else x - sol[x]
-    law = equation(el.name, el.name, expr, {x, out_var}, solutions=sol, is_linear=not el.laws)
+    expr = difference(out_var, sol[out_var]) if out_var in sol else difference(x, sol[x])
+    return x, equation(el.name, el.name, expr, {x, out_var}, solutions=sol, is_linear=not el.laws)
+
+
+def storage_equations(model: Model, el: Element, bond, sub: Sub = _same) -> tuple[sp.Symbol, list[Equation]]:
+    """A storage element's energy variable x and its two equations: its law
+    (:func:`storage_law`) and its rate, C: f = dq/dt; I: e = dp/dt."""
+    e, f = bond_variables(bond)
+    x, law = storage_law(model, el, bond, sub)
+    rate = f if el.kind == "C" else e
     diff = equation(f"{el.name}.d/dt", el.name, rate - sp.Derivative(x, t), {x, rate}, differential=(x, rate))
     return x, [law, diff]
 
@@ -315,10 +465,10 @@ def two_port_equations(el: Element, ports: Sequence[Port], sub: Sub = _same) -> 
     e1, f1 = bond_variables(b1)
     e2, f2 = bond_variables(b2)
     if el.kind in ("TF", "MTF"):
-        return [equation(f"{el.name}.e", el.name, e1 - m * e2, {e1, e2}, linear=[e1, e2]),
-                equation(f"{el.name}.f", el.name, f2 - m * f1, {f1, f2}, linear=[f1, f2])]
-    return [equation(f"{el.name}.e{b1}", el.name, e1 - m * f2, {e1, f2}, linear=[e1, f2]),
-            equation(f"{el.name}.e{b2}", el.name, e2 - m * f1, {e2, f1}, linear=[e2, f1])]
+        return [equation(f"{el.name}.e", el.name, difference(e1, m * e2), {e1, e2}, linear=[e1, e2]),
+                equation(f"{el.name}.f", el.name, difference(f2, m * f1), {f1, f2}, linear=[f1, f2])]
+    return [equation(f"{el.name}.e{b1}", el.name, difference(e1, m * f2), {e1, f2}, linear=[e1, f2]),
+            equation(f"{el.name}.e{b2}", el.name, difference(e2, m * f1), {e2, f1}, linear=[e2, f1])]
 
 
 _LAWS: dict[int, dict] = {}

@@ -344,10 +344,10 @@ MODEL_POLISH = 1.25  # another model's best within this factor of the fit's cost
 
 def _simplex(obj: Objective, x: np.ndarray, bits: np.ndarray, coords: list[int], bounds: np.ndarray,
              best: float) -> tuple[np.ndarray, float]:
-    """Nelder-Mead (scipy) over the reals ``coords`` of ``x`` within their bounds, one row per call:
-    the coefficients of a second-order drift and its onset trade off along a curved valley that a
-    random search crosses but does not follow."""
-    from scipy.optimize import minimize
+    """Nelder-Mead (``optim.simplex``: scipy's, without importing scipy.optimize) over the reals
+    ``coords`` of ``x`` within their bounds, one row per call: the coefficients of a second-order
+    drift and its onset trade off along a curved valley that a random search crosses but does not follow."""
+    from optim.simplex import nelder_mead
     lo, hi = bounds[coords, 0], bounds[coords, 1]
     scale = np.where(hi > lo, hi - lo, 1.0)
 
@@ -357,9 +357,8 @@ def _simplex(obj: Objective, x: np.ndarray, bits: np.ndarray, coords: list[int],
         c = float(obj(row[None, :], bits[None, :])[0])
         return c if np.isfinite(c) else 1e300
     u0 = (x[coords] - lo) / scale
-    r = minimize(f, u0, method="Nelder-Mead", options={"maxfev": 60 * len(coords), "xatol": 1e-6, "fatol": 1e-9 * best,
-                                                        "initial_simplex": np.vstack([u0] + [u0 + 0.02 * np.eye(len(coords))[k]
-                                                                                             for k in range(len(coords))])})
+    r = nelder_mead(f, u0, maxfev=60 * len(coords), xatol=1e-6, fatol=1e-9 * best,
+                    initial_simplex=np.vstack([u0] + [u0 + 0.02 * np.eye(len(coords))[k] for k in range(len(coords))]))
     if r.fun < best:
         out = x.copy()
         out[coords] = np.clip(lo + r.x * scale, lo, hi)
