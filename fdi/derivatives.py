@@ -13,11 +13,14 @@ from one fit, so the signal and its derivatives stay consistent; arrays of any l
 The filter is centred (it looks half a window ahead): no lag, but a sample's derivative is known
 half a window after it. The coefficients depend only on the window, the polynomial order and the
 sampling period, so they are computed once (numpy least squares, the same numbers as scipy's
-``savgol_coeffs``, without importing scipy.signal, which costs 0.4 s at start-up) and every order
-comes from one matrix product over the sliding windows: a convolution, computed block by block
-along the samples so that the windows copied at once stay under :data:`BLOCK_VALUES` numbers
-(memory O(samples), not O(samples x window): 60 s at 10 kHz with a 0.25 s window would otherwise
-copy 600 000 x 2501 values, 12 GB). The edges of ``interp`` take a kernel per position of the
+``savgol_coeffs``, without importing scipy.signal, which costs 0.4 s at start-up), and every order
+comes from one pass over the samples: a FIR filter (:func:`fir`) whose taps are summed in ONE
+fixed order, tap 0 first, each product rounded, then added (``acc = x0 c0; acc += xk ck``). The
+compiled objective (:mod:`fdi._jit`) filters its corrected signals with the same loop, so both
+paths give the same bits: a Coulomb friction's sign of a filtered derivative turns a last-bit
+difference (a matrix product sums in BLAS's order, which differs between builds and CPUs) into a
+whole friction term. The samples are filtered in blocks of :data:`FIR_BLOCK` (memory O(samples),
+temporaries in cache). The edges of ``interp`` take a kernel per position of the
 half-window (n^2 / 2 values, cached) while that is small; for longer windows the polynomial of the
 edge window is fitted once and evaluated (the same fit; numbers equal to round-off).
 """
@@ -27,11 +30,12 @@ from functools import lru_cache
 from math import factorial
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
+
+from . import kernels as _kernels
 
 DEFAULT_WINDOW = None   # no window in s: None is fdi.scales' window of a model with no known time constant
 DEFAULT_ORDER = 3
-BLOCK_VALUES = 1 << 21  # values of sliding windows copied at once (16 MB): rows x samples x window
+FIR_BLOCK = 1 << 13     # values (rows x samples) filtered at a time: 64 kB temporaries, in cache
 EDGE_VALUES = 1 << 18   # edge kernels kept per window (2 MB: windows up to ~360 samples); longer: one fit per edge
 
 
@@ -75,16 +79,14 @@ def estimate(x: np.ndarray, ts: float, orders: int, window: float | None = DEFAU
         out = np.full(x.shape + (orders + 1,), np.nan)
         kernel = kernels(n, p, orders, float(ts), half)
         inner = idx if edges == "mirror" else idx[(idx >= half) & (idx < x.shape[-1] - half)]
-        if inner.size and inner[0] >= half and inner[-1] < x.shape[-1] - half:   # whole windows: no padding
-            view, shift = sliding_window_view(x, n, axis=-1), half     # view[j] is centred on sample j + half
-        else:
-            view, shift = sliding_window_view(np.pad(x, pad, mode="reflect"), n, axis=-1), 0
-        rows = int(np.prod(x.shape[:-1], dtype=np.int64))
-        step = max(1, BLOCK_VALUES // max(1, rows * n))      # windows copied at once, as in _convolve
-        stride = int(inner[1] - inner[0]) if inner.size > 1 else 1
-        for a in range(0, inner.size, step):                 # a slice of the samples: views, not copies
-            first, last = int(inner[a]), int(inner[min(inner.size, a + step) - 1])
-            out[..., first:last + 1:stride, :] = view[..., first - shift:last + 1 - shift:stride, :] @ kernel
+        if inner.size:
+            stride = int(inner[1] - inner[0]) if inner.size > 1 else 1
+            first, last = int(inner[0]), int(inner[-1])
+            if first >= half and last < x.shape[-1] - half:       # whole windows: no padding
+                out[..., first:last + 1:stride, :] = fir(x, kernel, first - half, inner.size, stride)
+            else:                                                 # mirrored about the end samples
+                out[..., first:last + 1:stride, :] = fir(np.pad(x, pad, mode="reflect"), kernel, first, inner.size,
+                                                         stride)
         if edges == "interp" and inner.size < idx.size:       # the edge samples asked for, as without at=
             first, last = idx[idx < half], idx[idx >= x.shape[-1] - half]
             if first.size:
@@ -92,7 +94,7 @@ def estimate(x: np.ndarray, ts: float, orders: int, window: float | None = DEFAU
             if last.size:
                 out[..., last, :] = _edges(x, n, p, orders, float(ts), start=False)[..., last - (x.shape[-1] - half), :]
         return [out[..., k] for k in range(orders + 1)]
-    out = _convolve(np.pad(x, pad, mode="reflect"), kernels(n, p, orders, float(ts), half), x.shape[-1])
+    out = fir(np.pad(x, pad, mode="reflect"), kernels(n, p, orders, float(ts), half), 0, x.shape[-1])
     if edges == "interp":
         out[..., :half, :] = _edges(x, n, p, orders, float(ts), start=True)
         out[..., -half:, :] = _edges(x, n, p, orders, float(ts), start=False)
@@ -127,18 +129,38 @@ def _edge(x: np.ndarray, polyorder: int, orders: int, ts: float, positions: rang
     return out
 
 
-def _convolve(padded: np.ndarray, kernel: np.ndarray, samples: int) -> np.ndarray:
-    """(..., samples, orders + 1): each window of ``padded`` (n samples, along the last axis) times
-    ``kernel`` (n, orders + 1), in blocks of samples whose windows hold at most BLOCK_VALUES
-    numbers (each block is the same matrix product as over all windows at once)."""
-    n = kernel.shape[0]
-    rows = int(np.prod(padded.shape[:-1], dtype=np.int64))
-    out = np.empty(padded.shape[:-1] + (samples, kernel.shape[1]))
-    step = max(1, BLOCK_VALUES // max(1, rows * n))
-    for a in range(0, samples, step):
-        b = min(samples, a + step)
-        out[..., a:b, :] = sliding_window_view(padded[..., a:b + n - 1], n, axis=-1) @ kernel
-    return out
+def fir(x: np.ndarray, kernel: np.ndarray, start: int, count: int, stride: int = 1) -> np.ndarray:
+    """(..., count, orders + 1): output sample i of order k is sum_j x[..., start + i * stride + j] *
+    kernel[j, k], j = 0 .. n - 1 in that order, each product rounded and then added to the sum so
+    far (no matrix product: BLAS sums in an order of its own). :func:`fdi._jit.fir` runs the same
+    loop compiled (used when numba is, :mod:`fdi.kernels`), so the two give the same bits. ``x``
+    holds every sample the windows read.
+
+    >>> fir(np.arange(6.0), np.array([[1.0], [10.0], [100.0]]), 1, 2, 2)[:, 0].tolist()
+    [321.0, 543.0]
+    """
+    x = np.asarray(x, dtype=float)
+    fast = _kernels.jit()
+    if fast is not None and count:
+        flat = np.ascontiguousarray(x).reshape(-1, x.shape[-1])
+        out = fast.fir(flat, np.ascontiguousarray(kernel, dtype=float), int(start), int(count), int(stride))
+        return np.moveaxis(out.reshape(x.shape[:-1] + out.shape[1:]), -2, -1)
+    n, orders = kernel.shape
+    out = np.empty(x.shape[:-1] + (orders, count))
+    rows = int(np.prod(x.shape[:-1], dtype=np.int64))
+    step = max(1, FIR_BLOCK // max(1, rows))
+    tmp = np.empty(x.shape[:-1] + (min(step, count),))
+    for a in range(0, count, step):                 # blocks of samples: the temporaries stay in cache
+        b = min(count, a + step)
+        s0, s1 = start + a * stride, start + (b - 1) * stride + 1
+        part = tmp[..., :b - a]
+        for k in range(orders):
+            acc = out[..., k, a:b]
+            np.multiply(x[..., s0:s1:stride], kernel[0, k], out=acc)
+            for j in range(1, n):
+                np.multiply(x[..., s0 + j:s1 + j:stride], kernel[j, k], out=part)
+                acc += part
+    return np.moveaxis(out, -2, -1)
 
 
 @lru_cache(maxsize=64)

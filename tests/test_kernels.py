@@ -154,3 +154,25 @@ def test_eq17_paths_agree_and_follow_the_closed_form(path):
             den = (0.0 if np.isinf(p0) else 1 / p0) - b2[:, None] * tau
             want = np.where(tau > 0, np.where(den > 0, 1 / den, np.inf), p0)
         assert np.array_equal(p, want)
+
+
+def test_filter_paths_give_the_same_bits_and_scipy_s_numbers():
+    """The Savitzky-Golay filter (fdi.derivatives.fir: each sample's taps summed in one fixed order)
+    gives the same bits on both paths, on a record and on a population, every sample and every
+    4th (the identification's screening); and scipy's savgol_filter (mirrored ends) to round-off."""
+    from scipy.signal import savgol_filter
+
+    from fdi.derivatives import estimate
+
+    rng = np.random.default_rng(19)
+    record = np.cumsum(rng.normal(size=3000)) * 1e-3
+    population = np.cumsum(rng.normal(size=(7, 1050)), axis=1)
+    for x, at in ((record, None), (population, slice(25, 1025)), (population, slice(25, 1025, 4)),
+                  (population, slice(0, 1050, 3))):
+        plain, fast = both(lambda: estimate(x, 0.01, 2, 0.25, edges="mirror", at=at))
+        for p, f in zip(plain, fast):
+            assert np.array_equal(p, f, equal_nan=True)
+        for k, p in enumerate(plain):
+            want = savgol_filter(x, 25, 3, deriv=k, delta=0.01, mode="mirror", axis=-1)[..., at or slice(None)]
+            got = p[..., at or slice(None)]
+            assert np.allclose(got, want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
