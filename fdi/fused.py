@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from . import derivatives, kernels, tape
+from . import derivatives, encoding, kernels, profiles, tape
 from .residuals import mode_breaks
 
 if TYPE_CHECKING:
@@ -122,6 +122,29 @@ class Fused:
                     self.fixed_at[(s, kind)] = len(fixed)
                     fixed.append(np.broadcast_to(np.asarray(table[s], dtype=float), (1, obj.win.t.size))[0])
         self.corr_fixed = np.array(fixed).reshape(len(fixed), obj.win.t.size) if fixed else np.zeros((1, 1))
+        self.beta_fault = np.array([self.beta_of.get(s, -1) for s in self.varying], dtype=np.int64)
+        self.bias_fault = np.array([self.bias_of.get(s, -1) for s in self.varying], dtype=np.int64)
+        self.beta_fixed = np.array([self.fixed_at.get((s, "beta"), -1) for s in self.varying], dtype=np.int64)
+        self.bias_fixed = np.array([self.fixed_at.get((s, "bias"), -1) for s in self.varying], dtype=np.int64)
+        # per candidate fault: nominal value, unit-step value (linear faults), role (0 parameter, 1
+        # efficiency factor, 2 offset)
+        w = obj.win.t.size
+        self.f_nominal = np.array([sp.nominal for sp in obj.spaces], dtype=float)
+        self.f_linear = np.array([j in self.linear for j in range(len(obj.spaces))], dtype=np.bool_)
+        self.f_unit = np.array([_unit(obj, sp) if sp.name in obj.linear else 0.0 for sp in obj.spaces])
+        self.f_role = np.array([2 if model.faults[n].effect == "bias" else 1 if model.faults[n].kind in ("sensor", "source")
+                                else 0 for n in obj.candidate], dtype=np.int64)
+        self.lin_fault = np.array(self.linear, dtype=np.int64)
+        # the parameter slots: the base ones, then each linear fault's stepped copies
+        slots = [(name, j, False) for name, j in self.rows]
+        for jj, j in enumerate(self.linear):
+            slots += [(name, j, True) for name, _ in self.stepped[jj]]
+        self.slot_fault = np.array([j for _, j, _ in slots], dtype=np.int64)
+        self.slot_step = np.array([st for _, _, st in slots], dtype=np.bool_)
+        self.slot_group = np.array([len(model.faults[obj.candidate[j]].targets) > 1 for _, j, _ in slots], dtype=np.bool_)
+        self.tnom = np.array([np.broadcast_to(np.asarray(obj.nominal[name], dtype=float), (1, w))[0]
+                              for name, _, _ in slots]).reshape(len(slots), w)
+        self.t = np.ascontiguousarray(obj.win.t, dtype=float)
         self.plans: dict[int, Plan] = {}
         self.names = {"abs": builtins.abs}
 
@@ -175,56 +198,68 @@ class Fused:
         """:meth:`fdi.objective.Objective.evaluate`'s costs and population, by the compiled kernel."""
         obj = self.obj
         plan = self.plan(stride)
-        real, solve, ps, steps = obj.prepare(real, bits)
-        values, betas, biases, invalid = obj.corrections(ps)
-        n, w = real.shape[0], obj.win.t.size
-        crop = plan.crop
-        P = np.empty((max(1, self.n_p), n, plan.m))
-        for name, k in self.slot.items():
-            P[k] = np.broadcast_to(values[name], (n, w))[:, crop]
-        for jj, j in enumerate(self.linear):
-            if j in solve:
-                for name, k in self.stepped[jj]:
-                    stepped = steps[j] if len(obj.model.faults[obj.candidate[j]].targets) == 1 else \
-                        obj.nominal[name] * steps[j]
-                    P[k] = np.broadcast_to(stepped, (n, w))[:, crop]
-        corr = []
-        beta_at, beta_rows, bias_at, bias_rows = [], [], [], []
-        for s in self.varying:
-            for kind, table, at, rowwise in (("beta", betas, beta_at, beta_rows), ("bias", biases, bias_at, bias_rows)):
-                if s in table:
-                    at.append(len(corr))
-                    rowwise.append(True)
-                    corr.append(np.broadcast_to(table[s], (n, w)))
-                elif (s, kind) in self.fixed_at:
-                    at.append(self.fixed_at[(s, kind)])
-                    rowwise.append(False)
-                else:
-                    at.append(-1)
-                    rowwise.append(False)
-        corr_rows = np.array(corr) if corr else np.zeros((1, 1, 1))
+        real = real.copy()
+        decoded = encoding.decode(obj.spaces, real[:, :-1], bits)
+        n, t = real.shape[0], self.t
+        onset = np.ascontiguousarray(obj.onset(real), dtype=float)
+        kinds = np.array([d.kind for d in decoded], dtype=np.int64).reshape(len(decoded), n)
+        models = np.array([d.model for d in decoded], dtype=np.int64).reshape(len(decoded), n)
+        values = np.array([d.value_ab for d in decoded], dtype=float).reshape(len(decoded), n)
+        periods = np.array([d.period for d in decoded], dtype=float).reshape(len(decoded), n)
+        coeffs = np.array([d.b[:, COEFFS] for d in decoded], dtype=float).reshape(len(decoded), n, len(COEFFS))
+        pre_at = np.full((len(decoded), n), -1, dtype=np.int64)
+        pre, span19, filled = [], np.zeros(len(decoded)), 0
+        for j, (space, d) in enumerate(zip(obj.spaces, decoded)):
+            incipient = d.kind == 2
+            if not incipient.any():
+                continue
+            for model in (1, 3):            # eqs. (16) and (18): numpy's exponentials, as the numpy path
+                rows = incipient & (d.model == model)
+                if rows.any():
+                    cols = [slot - 2 for slot in encoding.COEFF_SLOTS[model]]
+                    pre_at[j, rows] = filled + np.arange(int(rows.sum()))
+                    pre.append(profiles.incipient(t, onset[rows], space.nominal, model, d.b[rows][:, cols]))
+                    filled += pre[-1].shape[0]
+            rows = incipient & (d.model == 4)
+            if rows.any():                  # eq. (19)'s grid step, from the latest onset's span as numpy's
+                late = t[-1] - onset[rows]
+                late = late[~np.isnan(late)]
+                span19[j] = max(0.0, float(late.max())) if late.size else 0.0
+        pre = np.vstack(pre) if pre else np.zeros((1, 1))
+        solve = {j: kinds[j] < 2 for j in self.linear if (kinds[j] < 2).any()}
         active = list(obj.active)
-        entered = [j for j in self.linear if j in solve]
+        entered = list(solve)
         plain = [q for q, i in enumerate(active) if not any(obj.enters[j][i] for j in entered)]
         joint = [q for q in range(len(active)) if q not in plain]
         enters = np.zeros((max(1, len(self.linear)), max(1, len(joint))), dtype=np.bool_)
-        solve_rows = np.zeros((len(self.linear), n), dtype=np.bool_)
         lo = np.zeros(max(1, len(self.linear)))
         hi = np.zeros(max(1, len(self.linear)))
         for jj, j in enumerate(self.linear):
             if j in solve:
-                solve_rows[jj] = solve[j]
                 for q, a in enumerate(joint):
                     enters[jj, q] = obj.enters[j][active[a]]
                 lo[jj], hi[jj] = obj.delta_bounds(j)
         weights = np.asarray(obj.weights, dtype=float)
-        total, d = kernels.jit().fused_cost(
-            n, plan.code, plan.results, plan.registers, plan.consts, plan.fixed, P,
-            self.raw, self.is_source, np.array(beta_at, dtype=np.int64), np.array(beta_rows, dtype=np.bool_),
-            np.array(bias_at, dtype=np.int64), np.array(bias_rows, dtype=np.bool_), corr_rows, self.corr_fixed,
-            self.fk, self.fk_n, self.fk_orders, np.array(self.s_at, dtype=np.int64), self.n_slots, crop.start, stride,
-            plan.m, np.array(plain, dtype=np.int64), weights[[active[q] for q in plain]],
-            np.array(joint, dtype=np.int64), weights[[active[q] for q in joint]], enters, solve_rows, lo, hi,
+        total, d, invalid = kernels.jit().fused_cost(
+            t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
+            self.f_nominal, self.f_unit, self.f_linear, self.f_role, span19, STEP19,
+            self.slot_fault, self.slot_step, self.slot_group, self.tnom,
+            plan.code, plan.results, plan.registers, plan.consts, plan.fixed,
+            self.raw, self.is_source, self.beta_fault, self.beta_fixed, self.bias_fault, self.bias_fixed,
+            self.corr_fixed, self.fk, self.fk_n, self.fk_orders, np.array(self.s_at, dtype=np.int64), self.n_slots,
+            plan.crop.start, stride, plan.m, np.array(plain, dtype=np.int64), weights[[active[q] for q in plain]],
+            np.array(joint, dtype=np.int64), weights[[active[q] for q in joint]], enters, self.lin_fault, lo, hi,
             3 if len(entered) > 1 else 1, plan.gaps, plan.constant, BLOCK)
         deltas = {j: d[jj] for jj, j in enumerate(self.linear) if j in solve} if joint else {}
         return obj.finish(real, solve, deltas, total, invalid, stride)
+
+
+COEFFS = [1, 4, 5, 6]     # the decoded coefficients the kernel reads: b2 (eq. 17), b5, b6, b7 (eq. 19)
+STEP19 = 0.1              # eq. (19)'s RK4 grid (fdi.profiles._model19's step)
+
+
+def _unit(obj: "Objective", space) -> float:
+    """A linear fault's value one unit of u = h(value) from its nominal value (its unit step)."""
+    from .objective import LINEAR
+    to_u, from_u = LINEAR[obj.linear[space.name]]
+    return float(from_u(to_u(space.nominal) + 1.0))
