@@ -31,15 +31,14 @@ from __future__ import annotations
 import builtins
 import inspect
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 
 from . import derivatives, encoding, kernels, profiles, tape
 from .residuals import mode_breaks
 
-if TYPE_CHECKING:
-    from .objective import Objective
+Objective = Any     # fdi.objective.Objective (which imports this module where it is first used)
 
 BLOCK = 256         # samples per block of a tape's registers (registers x 2 kB: in L1/L2)
 SOURCE = "__bgfdi_source__"     # fdi.persist's attribute for a kernel compiled from its source
@@ -131,7 +130,7 @@ class Fused:
         w = obj.win.t.size
         self.f_nominal = np.array([sp.nominal for sp in obj.spaces], dtype=float)
         self.f_linear = np.array([j in self.linear for j in range(len(obj.spaces))], dtype=np.bool_)
-        self.f_unit = np.array([_unit(obj, sp) if sp.name in obj.linear else 0.0 for sp in obj.spaces])
+        self.f_unit = np.array([obj.unit_value(j) if j in self.linear else 0.0 for j in range(len(obj.spaces))])
         self.f_role = np.array([2 if model.faults[n].effect == "bias" else 1 if model.faults[n].kind in ("sensor", "source")
                                 else 0 for n in obj.candidate], dtype=np.int64)
         self.lin_fault = np.array(self.linear, dtype=np.int64)
@@ -256,10 +255,3 @@ class Fused:
 
 COEFFS = [1, 4, 5, 6]     # the decoded coefficients the kernel reads: b2 (eq. 17), b5, b6, b7 (eq. 19)
 STEP19 = 0.1              # eq. (19)'s RK4 grid (fdi.profiles._model19's step)
-
-
-def _unit(obj: "Objective", space) -> float:
-    """A linear fault's value one unit of u = h(value) from its nominal value (its unit step)."""
-    from .objective import LINEAR
-    to_u, from_u = LINEAR[obj.linear[space.name]]
-    return float(from_u(to_u(space.nominal) + 1.0))

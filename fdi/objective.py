@@ -362,6 +362,13 @@ class Objective:
                 deltas[j][rows] = np.clip(delta, lo, hi)
         return deltas
 
+    def unit_value(self, j: int) -> float:
+        """Linear fault j's value one unit of u = h(value) from its nominal value: its unit step
+        (the value :meth:`prepare` gives a solved fault's profile)."""
+        space = self.spaces[j]
+        to_u, from_u = LINEAR[self.linear[space.name]]
+        return float(from_u(to_u(space.nominal) + 1.0))
+
     def delta_bounds(self, j: int) -> tuple[float, float]:
         space = self.spaces[j]
         to_u, _ = LINEAR[self.linear[space.name]]
