@@ -107,7 +107,7 @@ class Carried:
 
 def filtered(x: np.ndarray, ts: float, order: int, window: float, lo: int, hi: int) -> list[np.ndarray]:
     """[x, dx/dt, ..., d^order x/dt^order] at samples [lo, hi) of ``x``, each sample's whole window
-    inside ``x``: the Savitzky-Golay kernels of :func:`fdi.derivatives.kernels` applied by
+    inside ``x``: the Savitzky-Golay kernels of :func:`fdi.derivatives.centred` applied by
     :func:`fdi.derivatives.fir`, as :func:`fdi.derivatives.estimate` does: each sample's taps
     summed in the same fixed order, so the whole record's numbers bit for bit (a Coulomb
     friction's sign(dθ/dt) of an encoder standing still, a derivative of exactly 0 give or take
@@ -123,5 +123,5 @@ def filtered(x: np.ndarray, ts: float, order: int, window: float, lo: int, hi: i
     half = n // 2
     if lo < half or hi + half > x.shape[-1]:
         raise ValueError(f"samples [{lo}, {hi}) need {half} samples either side; {x.shape[-1]} given")
-    out = derivatives.fir(x, derivatives.kernels(n, p, order, float(ts), half), lo - half, hi - lo)
+    out = derivatives.fir(x, derivatives.centred(n, p, order, float(ts)), lo - half, hi - lo)
     return [out[:, k] for k in range(order + 1)]

@@ -93,17 +93,17 @@ class Fused:
             order = obj.orders[s]
             p = max(derivatives.DEFAULT_ORDER, order)
             n = derivatives.window_samples(obj.window_s, obj.win.ts, p)
-            self.filters.append(derivatives.kernels(n, p, order, float(obj.win.ts), n // 2))
+            self.filters.append((n, derivatives.centred(n, p, order, float(obj.win.ts))))
             self.s_at.append(at)
             at += order + 1
         self.n_slots = at
-        nmax = max((k.shape[0] for k in self.filters), default=1)
-        dmax = max((k.shape[1] for k in self.filters), default=1)
-        self.fk = np.zeros((max(1, len(self.filters)), nmax, dmax))
-        for v, k in enumerate(self.filters):
+        nmax = max((n for n, _ in self.filters), default=1)
+        dmax = max((k.shape[1] for _, k in self.filters), default=1)
+        self.fk = np.zeros((max(1, len(self.filters)), nmax // 2 + 1, dmax))     # the half kernels (centred)
+        for v, (_, k) in enumerate(self.filters):
             self.fk[v, :k.shape[0], :k.shape[1]] = k
-        self.fk_n = np.array([k.shape[0] for k in self.filters] or [1], dtype=np.int64)
-        self.fk_orders = np.array([k.shape[1] for k in self.filters] or [1], dtype=np.int64)
+        self.fk_n = np.array([n for n, _ in self.filters] or [1], dtype=np.int64)
+        self.fk_orders = np.array([k.shape[1] for _, k in self.filters] or [1], dtype=np.int64)
         self.raw = np.array([np.asarray(obj.win.raw[s], dtype=float) for s in self.varying]).reshape(
             len(self.varying), obj.win.t.size)
         self.is_source = np.array([s not in model.sensors for s in self.varying], dtype=np.bool_)

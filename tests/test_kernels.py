@@ -265,3 +265,22 @@ def test_an_objective_the_tapes_do_not_cover_keeps_the_numpy_path():
             assert obj.fused() is None, candidate
     finally:
         kernels.use_numba(before)
+
+
+def test_a_signal_standing_still_has_a_derivative_of_exactly_zero(path):
+    """An encoder that stands still over a whole window (a burnt driver: CyCab scenario 3) gives
+    dθ/dt = 0 exactly, not ±1e-16 of round-off whose sign a Coulomb term sign(dθ/dt) would turn
+    into a whole friction torque: the filter pairs x[i+j] - x[i-j] (derivatives.centred, .fir)."""
+    from fdi.derivatives import estimate
+
+    rng = np.random.default_rng(29)
+    level = 0.7318296459873219
+    x = np.concatenate([np.cumsum(rng.normal(size=200)) * 1e-3, np.full(300, level), rng.normal(size=200)])
+    for at in (None, slice(0, 700, 4)):
+        v = estimate(x, 0.01, 2, 0.25, edges="mirror", at=at)[1]
+        still = np.arange(200 + 12, 500 - 12)             # every window wholly on the flat stretch
+        if at is not None:
+            still = still[still % 4 == 0]
+        assert np.all(v[still] == 0.0) and np.all(np.sign(v[still]) == 0.0)
+        rows = estimate(np.vstack([x, 2 * x]), 0.01, 2, 0.25, edges="mirror", at=at)[1]
+        assert np.all(rows[:, still] == 0.0)
