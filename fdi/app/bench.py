@@ -343,7 +343,7 @@ def jit_probe() -> None:
     t0 = clock()
     kernels.jit()
     t1 = clock()
-    derivatives.fir(np.zeros(30), derivatives.kernels(5, 3, 2, 0.01, 2), 0, 26)
+    derivatives.fir(np.zeros(30), derivatives.centred(5, 3, 2, 0.01), 0, 26)
     t2 = clock()
     obj = benchmark_problem("scenario2", 0).objective
     b = obj.bounds()
