@@ -14,11 +14,14 @@ import math
 import numpy as np
 from numba import njit
 
+from .tape import (ABS, ACOS, ADD, ASIN, ATAN, CONST, COS, COSH, DIV, EXP, LOADF, LOADP, LOADS, LOG, MUL, NEG, POW,  # noqa: F401
+                   RECIP, SIGN, SIN, SINH, SQRT, SQUARE, SUB, TAN)
+
 
 @njit(cache=True, nogil=True)
 def rk4_19(tau, p0, b5, b6, b7, step):  # pragma: no cover - compiled
     """Eq. (19) by RK4 on a uniform grid, Hermite-interpolated at ``tau`` (pop, N); see
-    :func:`fdi.profiles._model19`."""
+    :func:`fdi.profiles._model19` (one grid step for all rows, from the largest tau)."""
     pop, n = tau.shape
     span = 0.0
     for r in range(pop):
@@ -30,50 +33,58 @@ def rk4_19(tau, p0, b5, b6, b7, step):  # pragma: no cover - compiled
     grid = np.empty(k + 1)
     slope = np.empty(k + 1)
     out = np.empty((pop, n))
-    h2, h6 = h / 2, h / 6
     for r in range(pop):
-        c5, c6, c7 = b5[r], b6[r], b7[r]
-        p, v = p0, 0.0
-        grid[0], slope[0] = p, v
-        for i in range(1, k + 1):
-            k1p = v
-            k1v = c5 * v * v + c6 * p + c7
-            k2p = v + h2 * k1v
-            q, w = p + h2 * k1p, v + h2 * k1v
-            k2v = c5 * w * w + c6 * q + c7
-            k3p = v + h2 * k2v
-            q, w = p + h2 * k2p, v + h2 * k2v
-            k3v = c5 * w * w + c6 * q + c7
-            k4p = v + h * k3v
-            q, w = p + h * k3p, v + h * k3v
-            k4v = c5 * w * w + c6 * q + c7
-            p = p + h6 * (k1p + 2 * k2p + 2 * k3p + k4p)
-            v = v + h6 * (k1v + 2 * k2v + 2 * k3v + k4v)
-            if math.isfinite(p):
-                grid[i], slope[i] = p, v
-            else:
-                grid[i], slope[i] = np.inf, 0.0
+        _rk4_grid(p0, b5[r], b6[r], b7[r], h, k, grid, slope)
         for j in range(n):
-            x = tau[r, j] / h
-            if x != x:                   # a NaN onset: numpy's path cannot index it either
-                out[r, j] = np.nan
-                continue
-            if x < 0:
-                x = 0.0
-            elif x > k:
-                x = float(k)
-            i0 = min(int(math.floor(x)), k - 1)
-            s = x - i0
-            pa, pb = grid[i0], grid[i0 + 1]
-            if not (math.isfinite(pa) and math.isfinite(pb)):
-                out[r, j] = np.inf
-                continue
-            va, vb = slope[i0] * h, slope[i0 + 1] * h
-            s2 = s * s
-            s3 = s * s * s
-            out[r, j] = ((2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb
-                         + (s3 - s2) * vb)
+            out[r, j] = _hermite(tau[r, j], h, k, grid, slope)
     return out
+
+
+@njit(cache=True, nogil=True)
+def _rk4_grid(p0, c5, c6, c7, h, k, grid, slope):  # pragma: no cover - compiled
+    """Eq. (19)'s P and dP/dt on the grid 0, h, ..., k h by classical RK4 (inf past a blow-up)."""
+    h2, h6 = h / 2, h / 6
+    p, v = p0, 0.0
+    grid[0], slope[0] = p, v
+    for i in range(1, k + 1):
+        k1p = v
+        k1v = c5 * v * v + c6 * p + c7
+        k2p = v + h2 * k1v
+        q, w = p + h2 * k1p, v + h2 * k1v
+        k2v = c5 * w * w + c6 * q + c7
+        k3p = v + h2 * k2v
+        q, w = p + h2 * k2p, v + h2 * k2v
+        k3v = c5 * w * w + c6 * q + c7
+        k4p = v + h * k3v
+        q, w = p + h * k3p, v + h * k3v
+        k4v = c5 * w * w + c6 * q + c7
+        p = p + h6 * (k1p + 2 * k2p + 2 * k3p + k4p)
+        v = v + h6 * (k1v + 2 * k2v + 2 * k3v + k4v)
+        if math.isfinite(p):
+            grid[i], slope[i] = p, v
+        else:
+            grid[i], slope[i] = np.inf, 0.0
+
+
+@njit(cache=True, nogil=True)
+def _hermite(tau, h, k, grid, slope):  # pragma: no cover - compiled
+    """The grid's cubic Hermite interpolant at ``tau`` (NaN at a NaN tau, inf next to a blow-up)."""
+    x = tau / h
+    if x != x:                   # a NaN onset: numpy's path cannot index it either
+        return np.nan
+    if x < 0:
+        x = 0.0
+    elif x > k:
+        x = float(k)
+    i0 = min(int(math.floor(x)), k - 1)
+    s = x - i0
+    pa, pb = grid[i0], grid[i0 + 1]
+    if not (math.isfinite(pa) and math.isfinite(pb)):
+        return np.inf
+    va, vb = slope[i0] * h, slope[i0 + 1] * h
+    s2 = s * s
+    s3 = s * s * s
+    return (2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb + (s3 - s2) * vb
 
 
 @njit(cache=True, nogil=True)
@@ -89,96 +100,509 @@ def weighted_median(points, weights):  # pragma: no cover - compiled
     x = np.empty(m)
     w = np.empty(m)
     for r in range(n):
-        total = 0.0
         for j in range(m):
             wj = weights[r, j]
             x[j] = points[r, j] if wj > 0 else 0.0
             w[j] = wj
-            total += wj
-        if not total > 0:
-            continue
-        half = 0.5 * total
-        below = 0.0                  # weight of the points already known to lie below the answer
-        lo, hi = 0, m                # the candidates: x[lo:hi]
-        while True:
-            a, b, c = x[lo], x[(lo + hi - 1) // 2], x[hi - 1]
-            pivot = max(min(a, b), min(max(a, b), c))     # median of three
-            # three-way partition of x[lo:hi]: [lo, lt) < pivot, [lt, gt) == pivot, [gt, hi) > pivot
-            lt, i, gt = lo, lo, hi
-            wl, we = 0.0, 0.0
-            while i < gt:
-                xi = x[i]
-                if xi < pivot:
-                    wl += w[i]
-                    x[i], x[lt] = x[lt], xi
-                    w[i], w[lt] = w[lt], w[i]
-                    lt += 1
-                    i += 1
-                elif xi > pivot:
-                    gt -= 1
-                    x[i], x[gt] = x[gt], xi
-                    w[i], w[gt] = w[gt], w[i]
-                else:
-                    we += w[i]
-                    i += 1
-            if below + wl >= half and lt > lo:
-                hi = lt
-            elif below + wl + we >= half or gt == hi:
-                out[r] = pivot
-                break
-            else:
-                below += wl + we
-                lo = gt
+        out[r] = _median(x, w, m)
     return out
+
+
+@njit(cache=True, nogil=True)
+def _median(x, w, m):  # pragma: no cover - compiled
+    """The weighted median of x[:m] with weights w[:m] (0 if they weigh nothing), reordering both."""
+    total = 0.0
+    for j in range(m):
+        total += w[j]
+    if not total > 0:
+        return 0.0
+    half = 0.5 * total
+    below = 0.0                  # weight of the points already known to lie below the answer
+    lo, hi = 0, m                # the candidates: x[lo:hi]
+    while True:
+        a, b, c = x[lo], x[(lo + hi - 1) // 2], x[hi - 1]
+        pivot = max(min(a, b), min(max(a, b), c))     # median of three
+        # three-way partition of x[lo:hi]: [lo, lt) < pivot, [lt, gt) == pivot, [gt, hi) > pivot
+        lt, i, gt = lo, lo, hi
+        wl, we = 0.0, 0.0
+        while i < gt:
+            xi = x[i]
+            if xi < pivot:
+                wl += w[i]
+                x[i], x[lt] = x[lt], xi
+                w[i], w[lt] = w[lt], w[i]
+                lt += 1
+                i += 1
+            elif xi > pivot:
+                gt -= 1
+                x[i], x[gt] = x[gt], xi
+                w[i], w[gt] = w[gt], w[i]
+            else:
+                we += w[i]
+                i += 1
+        if below + wl >= half and lt > lo:
+            hi = lt
+        elif below + wl + we >= half or gt == hi:
+            return pivot
+        else:
+            below += wl + we
+            lo = gt
 
 
 @njit(cache=True, nogil=True)
 def intermittent(t, t0, nominal, value, period):  # pragma: no cover - compiled
     """Eq. (15) for every row: :func:`fdi.profiles.intermittent`'s numbers without a sine per
-    sample. The phase x = 2 pi (t - t0) / T is formed by the same operations; sin(x) > 0 exactly
-    when floor(x / pi) is even, which decides every sample farther than 1e-6 of a half-period from
-    a switch; those nearer (and x = 0, where eq. (15) gives the mean) take the sine itself."""
+    sample (:func:`_intermittent`)."""
     rows, n = t0.shape[0], t.shape[0]
     out = np.empty((rows, n))
-    two_pi = 2 * np.pi
     for r in range(rows):
-        a, v, T = t0[r], value[r], period[r]
-        mean = (nominal + v) / 2
         for j in range(n):
-            if not t[j] >= a:
-                out[r, j] = nominal
-                continue
-            x = two_pi * (t[j] - a) / T
-            u = x / np.pi
-            k = math.floor(u)
-            f = u - k
-            if f > 1e-6 and f < 1 - 1e-6:
-                s = 1.0 if k % 2 == 0 else -1.0
-            else:
-                y = math.sin(x)
-                s = 1.0 if y > 0 else (-1.0 if y < 0 else 0.0)    # NaN: neither, the mean (np.sign)
-            out[r, j] = v if s > 0 else (nominal if s < 0 else mean)
+            out[r, j] = _intermittent(t[j], t0[r], nominal, value[r], period[r])
     return out
 
 
 @njit(cache=True, nogil=True)
+def _intermittent(t, a, nominal, v, T):  # pragma: no cover - compiled
+    """Eq. (15) at one time. The phase x = 2 pi (t - t0) / T is formed by numpy's operations;
+    sin(x) > 0 exactly when floor(x / pi) is even, which decides every sample farther than 1e-6 of
+    a half-period from a switch; those nearer (and x = 0, where eq. (15) gives the mean) take the
+    sine itself."""
+    if not t >= a:
+        return nominal
+    x = 2 * np.pi * (t - a) / T
+    u = x / np.pi
+    k = math.floor(u)
+    f = u - k
+    if f > 1e-6 and f < 1 - 1e-6:
+        s = 1.0 if k % 2 == 0 else -1.0
+    else:
+        y = math.sin(x)
+        s = 1.0 if y > 0 else (-1.0 if y < 0 else 0.0)    # NaN: neither, the mean (np.sign)
+    return v if s > 0 else (nominal if s < 0 else (nominal + v) / 2)
+
+
+@njit(cache=True, nogil=True)
 def incipient17(t, t0, nominal, b2):  # pragma: no cover - compiled
-    """Eq. (17) for every row, as :func:`fdi.profiles.incipient` (model 2) computes it: 1/P = 1/P0 -
-    b2 tau from t0 on, infinite past the pole; only subtractions, products and one division per
-    sample, so the numbers are numpy's. ``nominal`` is not 0 (the caller's case)."""
+    """Eq. (17) for every row, as :func:`fdi.profiles.incipient` (model 2) computes it
+    (:func:`_eq17`). ``nominal`` is not 0 (the caller's case)."""
     rows, n = t0.shape[0], t.shape[0]
     out = np.empty((rows, n))
     c = 0.0 if math.isinf(nominal) else 1.0 / nominal
     for r in range(rows):
-        a, b = t0[r], b2[r]
         for j in range(n):
-            if not t[j] >= a:
-                out[r, j] = nominal
-                continue
-            tau = t[j] - a
-            if not tau > 0:
-                out[r, j] = nominal
-                continue
-            den = c - b * tau
-            out[r, j] = 1.0 / den if den > 0 else np.inf
+            out[r, j] = _eq17(t[j], t0[r], nominal, c, b2[r])
     return out
+
+
+@njit(cache=True, nogil=True)
+def _eq17(t, a, nominal, c, b):  # pragma: no cover - compiled
+    """1/P = 1/P0 - b2 tau from t0 on (c = 1/P0), infinite past the pole: only subtractions,
+    products and one division, so the numbers are numpy's."""
+    if not t >= a:
+        return nominal
+    tau = t - a
+    if not tau > 0:
+        return nominal
+    den = c - b * tau
+    return 1.0 / den if den > 0 else np.inf
+
+
+@njit(cache=True, nogil=True)
+def fir(x, half, start, count, stride):  # pragma: no cover - compiled
+    """:func:`fdi.derivatives.fir` for rows of ``x`` (rows, samples): out[r, k, i], the numpy
+    path's operations in its order (the middle sample times tap 0, then the pairs j = 1, 2, ...).
+    The loop over samples is the inner one, on contiguous reads (each phase of a strided row
+    gathered once), so LLVM vectorises it without reordering any sum."""
+    rows = x.shape[0]
+    n = 2 * (half.shape[0] - 1) + 1
+    out = np.empty((rows, half.shape[1], count))
+    length = count + (n - 1) // stride + 1
+    phases = np.empty((min(stride, n), length))
+    pair = np.empty((2, count))
+    for r in range(rows):
+        _fir_row(x[r], half, start, count, stride, out[r], 0, phases, pair)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _fir_row(src, half, start, count, stride, S, at, phases, pair):  # pragma: no cover - compiled
+    """The filter of :func:`fir` on one row ``src`` into S[at + k, :count]."""
+    h = half.shape[0] - 1
+    n = 2 * h + 1
+    length = count + (n - 1) // stride + 1
+    if stride == 1:
+        phases[0, :count + n - 1] = src[start:start + count + n - 1]
+    else:
+        for ph in range(min(stride, n)):
+            for t in range(length):
+                q = start + ph + t * stride
+                phases[ph, t] = src[q] if q < src.shape[0] else 0.0
+    mid = phases[h % stride, h // stride:h // stride + count]
+    for k in range(half.shape[1]):
+        acc = S[at + k]
+        c = half[0, k]
+        for i in range(count):
+            acc[i] = mid[i] * c
+    plus = pair[0]
+    minus = pair[1]
+    for j in range(1, h + 1):
+        up = phases[(h + j) % stride, (h + j) // stride:(h + j) // stride + count]
+        down = phases[(h - j) % stride, (h - j) // stride:(h - j) // stride + count]
+        for i in range(count):
+            plus[i] = up[i] + down[i]
+            minus[i] = up[i] - down[i]
+        for k in range(half.shape[1]):
+            acc = S[at + k]
+            c = half[j, k]
+            v = minus if k % 2 else plus
+            for i in range(count):
+                acc[i] += v[i] * c
+
+
+# ---------------------------------------------------------------- the fused objective (fdi.fused)
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _tape(code, R, L, s0, F, P, S, consts):  # pragma: no cover - compiled
+    """Run a tape (:mod:`fdi.tape`) on samples [s0, s0 + L) of one individual (its parameter
+    slots P and filtered signals S): registers R (registers, block), each operation elementwise,
+    in the generated code's order (numpy's operations, sample by sample)."""
+    for q in range(code.shape[0]):
+        op = code[q, 0]
+        out = R[code[q, 1]]
+        a = code[q, 2]
+        b = code[q, 3]
+        if op == LOADF:
+            for t in range(L):
+                out[t] = F[a, s0 + t]
+        elif op == LOADP:
+            for t in range(L):
+                out[t] = P[a, s0 + t]
+        elif op == LOADS:
+            for t in range(L):
+                out[t] = S[a, s0 + t]
+        elif op == CONST:
+            c = consts[a]
+            for t in range(L):
+                out[t] = c
+        elif op < NEG:
+            u = R[a]
+            v = R[b]
+            if op == ADD:
+                for t in range(L):
+                    out[t] = u[t] + v[t]
+            elif op == SUB:
+                for t in range(L):
+                    out[t] = u[t] - v[t]
+            elif op == MUL:
+                for t in range(L):
+                    out[t] = u[t] * v[t]
+            elif op == DIV:
+                for t in range(L):
+                    out[t] = u[t] / v[t]
+            elif op == POW:
+                for t in range(L):
+                    out[t] = u[t] ** v[t]
+            else:
+                for t in range(L):
+                    out[t] = np.arctan2(u[t], v[t])
+        else:
+            u = R[a]
+            if op == NEG:
+                for t in range(L):
+                    out[t] = -u[t]
+            elif op == ABS:
+                for t in range(L):
+                    out[t] = abs(u[t])
+            elif op == SIGN:
+                for t in range(L):
+                    out[t] = np.sign(u[t])
+            elif op == SQRT:
+                for t in range(L):
+                    out[t] = np.sqrt(u[t])
+            elif op == SQUARE:
+                for t in range(L):
+                    out[t] = u[t] * u[t]
+            elif op == RECIP:
+                for t in range(L):
+                    out[t] = 1.0 / u[t]
+            elif op == EXP:
+                for t in range(L):
+                    out[t] = np.exp(u[t])
+            elif op == LOG:
+                for t in range(L):
+                    out[t] = np.log(u[t])
+            elif op == SIN:
+                for t in range(L):
+                    out[t] = np.sin(u[t])
+            elif op == COS:
+                for t in range(L):
+                    out[t] = np.cos(u[t])
+            elif op == TAN:
+                for t in range(L):
+                    out[t] = np.tan(u[t])
+            elif op == ASIN:
+                for t in range(L):
+                    out[t] = np.arcsin(u[t])
+            elif op == ACOS:
+                for t in range(L):
+                    out[t] = np.arccos(u[t])
+            elif op == ATAN:
+                for t in range(L):
+                    out[t] = np.arctan(u[t])
+            elif op == SINH:
+                for t in range(L):
+                    out[t] = np.sinh(u[t])
+            elif op == COSH:
+                for t in range(L):
+                    out[t] = np.cosh(u[t])
+            else:
+                for t in range(L):
+                    out[t] = np.tanh(u[t])
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _corrected(raw, v, is_source, beta, bias, half, cp):  # pragma: no cover - compiled
+    """Signal v corrected as :func:`fdi.residuals.corrected_signals` does (the offset ``bias``
+    removed, then divided by the sensor's efficiency factor ``beta``, or a source's multiplied;
+    empty arrays: none), into cp[half:half + samples], mirrored about its end samples into the
+    margins (np.pad's ``reflect``, as the numpy path's ``edges="mirror"``)."""
+    n = raw.shape[1]
+    for j in range(n):
+        x = raw[v, j]
+        if bias.shape[0]:
+            x = x + bias[j] if is_source[v] else x - bias[j]
+        if beta.shape[0]:
+            x = x * beta[j] if is_source[v] else x / beta[j]
+        cp[half + j] = x
+    for j in range(1, half + 1):
+        cp[half - j] = cp[half + j]
+        cp[half + n - 1 + j] = cp[half + n - 1 - j]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _profile(t, j, row, onset, kinds, models, values, periods, coeffs, pre, pre_at, nominal, unit, linear, k19, h19,
+             grid, slope, out):  # pragma: no cover - compiled
+    """Fault j's profile for individual ``row`` at every time of ``t`` into ``out``, as
+    :func:`fdi.encoding.profiles` gives it (eq. 14, 15, 17 and 19 here by the numpy path's
+    operations; eqs. 16 and 18, exponentials, from numpy: ``pre``); a linear fault that is
+    abrupt or intermittent at its unit value (its solved magnitude's unit step)."""
+    kind = kinds[j, row]
+    a = onset[row]
+    val = unit if (linear and kind < 2) else values[j, row]
+    n = t.shape[0]
+    if kind == 0:
+        z = 0.0 * val
+        for i in range(n):
+            out[i] = (val if t[i] >= a else nominal) + z
+    elif kind == 1:
+        T = periods[j, row]
+        for i in range(n):
+            out[i] = _intermittent(t[i], a, nominal, val, T)
+    else:
+        model = models[j, row]
+        if model == 2:
+            if nominal == 0:
+                for i in range(n):
+                    out[i] = 0.0
+            else:
+                c = 0.0 if math.isinf(nominal) else 1.0 / nominal
+                b = coeffs[j, row, 0]
+                for i in range(n):
+                    out[i] = _eq17(t[i], a, nominal, c, b)
+        elif model == 4:
+            if math.isinf(nominal):
+                for i in range(n):
+                    out[i] = np.inf if t[i] >= a else nominal
+            else:
+                _rk4_grid(nominal, coeffs[j, row, 1], coeffs[j, row, 2], coeffs[j, row, 3], h19, k19, grid, slope)
+                for i in range(n):
+                    tau = t[i] - a
+                    if tau < 0:                    # np.maximum(t - t0, 0): NaN stays NaN
+                        tau = 0.0
+                    p = _hermite(tau, h19, k19, grid, slope)
+                    out[i] = p if t[i] >= a else nominal
+        else:
+            k = pre_at[j, row]
+            for i in range(n):
+                out[i] = pre[k, i]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
+               f_nominal, f_unit, f_linear, f_role, span19, step19,
+               slot_fault, slot_step, slot_group, tnom,
+               code, results, registers, consts, F,
+               raw, is_source, beta_fault, beta_fixed, bias_fault, bias_fixed, corr_fixed,
+               fk, fk_n, fk_orders, s_at, n_slots, start, stride, m,
+               plain, plain_w, joint, joint_w, enters, lin_fault, lo, hi, passes, gaps, constant,
+               block):  # pragma: no cover - compiled
+    """Eq. (24)'s cost of every individual in one call, as :meth:`fdi.objective.Objective.evaluate`
+    computes it on the numpy path. Per individual: each candidate fault's profile over the
+    window (:func:`_profile`; a solved linear fault at its nominal value, its unit step kept for
+    the gains), the invalid ones marked (a NaN profile; an efficiency factor not finite and
+    positive, an offset not finite: replaced by 1 or 0, as the numpy path does); the parameter
+    slots at the m samples start, start + stride, ... (a group fault's parameters times their
+    nominal values ``tnom``); each corrected signal filtered there (:func:`_corrected`,
+    :func:`_fir_row`); the residuals' tape (:func:`fdi.tape.program`: residual q in register
+    results[q, 0], with linear fault v's parameters at their unit step in results[q, 1 + v]) run
+    on blocks of ``block`` samples (zero at the ``gaps``); the plain residuals' weighted sums of
+    |r|; for the joint ones the base residual and each solved fault's unit-step gain, the
+    magnitudes by weighted medians (``passes`` rounds over the faults, clipped to [lo, hi]),
+    then their weighted sums. Returns (totals with ``constant`` first, each linear fault's
+    magnitude per individual (0 where not solved), the invalid individuals)."""
+    nf, pop = kinds.shape
+    nw = t.shape[0]
+    nlin = lin_fault.shape[0]
+    nj = joint.shape[0]
+    npl = plain.shape[0]
+    nslot = slot_fault.shape[0]
+    total = np.empty(pop)
+    deltas = np.zeros((nlin, pop))
+    invalid = np.zeros(pop, dtype=np.bool_)
+    prof = np.empty((max(1, nf), nw))
+    bad = np.zeros(max(1, nf), dtype=np.bool_)
+    solved = np.zeros(max(1, nf), dtype=np.bool_)
+    k19 = np.empty(max(1, nf), dtype=np.int64)
+    h19 = np.empty(max(1, nf))
+    kmax = 1
+    for j in range(nf):
+        span = span19[j]
+        k19[j] = max(1, int(np.ceil(span / step19)))
+        h19[j] = span / k19[j] if span > 0 else step19
+        kmax = max(kmax, k19[j])
+    grid = np.empty(kmax + 1)
+    slope = np.empty(kmax + 1)
+    ones = np.ones(nw)
+    zeros = np.zeros(nw)
+    empty = np.empty(0)
+    Prow = np.empty((max(1, nslot), m))
+    R = np.empty((max(1, registers), block))
+    S = np.empty((max(1, n_slots), m))
+    base = np.empty((max(1, nj), m))
+    gain = np.zeros((max(1, nlin), max(1, nj), m))
+    pts = np.empty(max(1, nj * m))
+    wts = np.empty(max(1, nj * m))
+    d = np.zeros(max(1, nlin))
+    srow = np.zeros(max(1, nlin), dtype=np.bool_)
+    parts = np.zeros(max(1, npl))
+    nmax = 2 * (fk.shape[1] - 1) + 1     # the longest window (fk holds half kernels)
+    cp = np.empty(nw + nmax)
+    phases = np.empty((max(1, min(stride, nmax)), m + (nmax - 1) // stride + 1))
+    pair = np.empty((2, m))
+    for row in range(pop):
+        inv = False
+        for j in range(nf):
+            _profile(t, j, row, onset, kinds, models, values, periods, coeffs, pre, pre_at, f_nominal[j],
+                     f_unit[j], f_linear[j], k19[j], h19[j], grid, slope, prof[j])
+            solved[j] = f_linear[j] and kinds[j, row] < 2
+            b = False
+            if not solved[j]:                   # a solved fault's profile is its nominal value
+                role = f_role[j]
+                for i in range(nw):
+                    x = prof[j, i]
+                    if x != x or (role == 1 and not (np.isfinite(x) and x > 0)) or (role == 2 and not np.isfinite(x)):
+                        b = True
+                        break
+            bad[j] = b
+            inv = inv or b
+        invalid[row] = inv
+        for k in range(nslot):
+            j = slot_fault[k]
+            dst = Prow[k]
+            if solved[j] and not slot_step[k]:
+                c = f_nominal[j]
+                for s in range(m):
+                    dst[s] = tnom[k, start + s * stride] * c if slot_group[k] else c
+            else:
+                src = prof[j]
+                for s in range(m):
+                    q = start + s * stride
+                    dst[s] = tnom[k, q] * src[q] if slot_group[k] else src[q]
+        for v in range(raw.shape[0]):
+            be = empty
+            if beta_fault[v] >= 0:
+                be = ones if bad[beta_fault[v]] else prof[beta_fault[v]]
+            elif beta_fixed[v] >= 0:
+                be = corr_fixed[beta_fixed[v]]
+            bi = empty
+            if bias_fault[v] >= 0:
+                bi = zeros if bad[bias_fault[v]] else prof[bias_fault[v]]
+            elif bias_fixed[v] >= 0:
+                bi = corr_fixed[bias_fixed[v]]
+            h = fk_n[v] // 2
+            _corrected(raw, v, is_source, be, bi, h, cp)
+            _fir_row(cp[:nw + 2 * h], fk[v, :h + 1, :fk_orders[v]], start, m, stride, S, s_at[v], phases, pair)
+        for jj in range(nlin):
+            srow[jj] = solved[lin_fault[jj]]
+        for pi in range(npl):
+            parts[pi] = 0.0
+        for s0 in range(0, m, block):
+            L = min(block, m - s0)
+            _tape(code, R, L, s0, F, Prow, S, consts)
+            for pi in range(npl):
+                r = R[results[plain[pi], 0]]
+                part = parts[pi]
+                for t_ in range(L):
+                    if not gaps[s0 + t_]:
+                        part += abs(r[t_])
+                parts[pi] = part
+            for ji in range(nj):
+                q = joint[ji]
+                r = R[results[q, 0]]
+                for t_ in range(L):
+                    base[ji, s0 + t_] = 0.0 if gaps[s0 + t_] else r[t_]
+                for jj in range(nlin):
+                    if enters[jj, ji] and srow[jj]:
+                        rv = R[results[q, 1 + jj]]
+                        for t_ in range(L):
+                            gain[jj, ji, s0 + t_] = (0.0 if gaps[s0 + t_] else rv[t_]) - base[ji, s0 + t_]
+        acc = constant
+        for pi in range(npl):
+            acc += plain_w[pi] * parts[pi]
+        if nj:
+            for jj in range(nlin):
+                d[jj] = 0.0
+            for _ in range(passes):
+                for jj in range(nlin):
+                    if not srow[jj]:
+                        d[jj] = 0.0
+                        continue
+                    c = 0
+                    for ji in range(nj):
+                        if not enters[jj, ji]:
+                            continue
+                        w = joint_w[ji]
+                        for s in range(m):
+                            rest = base[ji, s]
+                            others = False
+                            extra = 0.0
+                            for kk in range(nlin):
+                                if kk != jj and enters[kk, ji] and srow[kk]:
+                                    term = d[kk] * gain[kk, ji, s]
+                                    extra = term if not others else extra + term
+                                    others = True
+                            if others:
+                                rest = rest + extra
+                            x = gain[jj, ji, s]
+                            wc = w * abs(x) if (x != 0 and np.isfinite(rest) and np.isfinite(x)) else 0.0
+                            wts[c] = wc
+                            pts[c] = -rest / (x if x != 0 else 1.0) if wc > 0 else 0.0
+                            c += 1
+                    med = _median(pts, wts, c)
+                    d[jj] = min(max(med, lo[jj]), hi[jj])
+            for jj in range(nlin):
+                deltas[jj, row] = d[jj]
+            for ji in range(nj):
+                part = 0.0
+                for s in range(m):
+                    extra = 0.0
+                    others = False
+                    for kk in range(nlin):
+                        if enters[kk, ji] and srow[kk]:
+                            term = d[kk] * gain[kk, ji, s]
+                            extra = term if not others else extra + term
+                            others = True
+                    part += abs(base[ji, s] + extra) if others else abs(base[ji, s])
+                acc += joint_w[ji] * part
+        total[row] = acc
+    return total, deltas, invalid

@@ -40,7 +40,6 @@ import math
 from typing import Mapping
 
 import numpy as np
-from numpy.lib.stride_tricks import as_strided
 
 from bondgraph.model import Model
 
@@ -108,13 +107,11 @@ class Carried:
 
 def filtered(x: np.ndarray, ts: float, order: int, window: float, lo: int, hi: int) -> list[np.ndarray]:
     """[x, dx/dt, ..., d^order x/dt^order] at samples [lo, hi) of ``x``, each sample's whole window
-    inside ``x``: the Savitzky-Golay kernels of :func:`fdi.derivatives.kernels` applied to the
-    sliding windows, as :func:`fdi.derivatives.estimate` does, but FILTER_ROWS windows at a time.
-    numpy's matrix product over a long strided window view copies all its windows first (14 000
-    samples x 25: 4.3 ms for three orders, measured); in cache-sized blocks it takes 0.3 ms. The
-    same product of the same windows: the whole record's numbers (np.correlate, as fast, sums in
-    another order, and a Coulomb friction's sign(dθ/dt) of an encoder standing still, a
-    derivative of exactly 0 give or take round-off, then flips a residual by its full term).
+    inside ``x``: the Savitzky-Golay kernels of :func:`fdi.derivatives.centred` applied by
+    :func:`fdi.derivatives.fir`, as :func:`fdi.derivatives.estimate` does: each sample's taps
+    summed in the same fixed order, so the whole record's numbers bit for bit (a Coulomb
+    friction's sign(dθ/dt) of an encoder standing still, a derivative of exactly 0 give or take
+    round-off, would otherwise flip a residual by its full term).
 
     >>> t = np.arange(0.0, 1.0, 0.01)
     >>> x, v = filtered(t ** 3, 0.01, 1, 0.1, 5, 95)
@@ -126,14 +123,5 @@ def filtered(x: np.ndarray, ts: float, order: int, window: float, lo: int, hi: i
     half = n // 2
     if lo < half or hi + half > x.shape[-1]:
         raise ValueError(f"samples [{lo}, {hi}) need {half} samples either side; {x.shape[-1]} given")
-    kernel = derivatives.kernels(n, p, order, float(ts), half)
-    part = np.ascontiguousarray(x[lo - half:hi + half])
-    step = part.strides[0]                     # the windows of sliding_window_view, without its checks
-    view = as_strided(part, shape=(hi - lo, n), strides=(step, step), writeable=False)
-    out = np.empty((hi - lo, order + 1))
-    for a in range(0, hi - lo, FILTER_ROWS):
-        out[a:a + FILTER_ROWS] = view[a:a + FILTER_ROWS] @ kernel
+    out = derivatives.fir(x, derivatives.centred(n, p, order, float(ts)), lo - half, hi - lo)
     return [out[:, k] for k in range(order + 1)]
-
-
-FILTER_ROWS = 1024      # windows multiplied at a time (200 KB of windows for 25 samples: in cache)

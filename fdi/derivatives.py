@@ -13,11 +13,19 @@ from one fit, so the signal and its derivatives stay consistent; arrays of any l
 The filter is centred (it looks half a window ahead): no lag, but a sample's derivative is known
 half a window after it. The coefficients depend only on the window, the polynomial order and the
 sampling period, so they are computed once (numpy least squares, the same numbers as scipy's
-``savgol_coeffs``, without importing scipy.signal, which costs 0.4 s at start-up) and every order
-comes from one matrix product over the sliding windows: a convolution, computed block by block
-along the samples so that the windows copied at once stay under :data:`BLOCK_VALUES` numbers
-(memory O(samples), not O(samples x window): 60 s at 10 kHz with a 0.25 s window would otherwise
-copy 600 000 x 2501 values, 12 GB). The edges of ``interp`` take a kernel per position of the
+``savgol_coeffs``, without importing scipy.signal, which costs 0.4 s at start-up), and every order
+comes from one pass over the samples: a FIR filter (:func:`fir`) whose taps are summed in ONE
+fixed order, each product rounded, then added. The centred kernel is made exactly symmetric (even
+orders) or antisymmetric (odd orders) about its middle tap (:func:`centred`: each tap averaged
+with its mirror image, a last-bit change), and the samples are paired: the middle sample times
+its weight, then for j = 1, 2, ... (x[i+j] + x[i-j]) or (x[i+j] - x[i-j]) times tap j. So a
+derivative of a signal that stands still over the window is exactly 0 (not +-1e-16 of round-off),
+and a Coulomb friction's sign of it is 0, whatever the summation order of a library: the
+CyCab's burnt driver (scenario 3) left theta1 still, and the sign of BLAS's round-off moved the
+fault-mode estimator's cost from 92 to 438. The compiled objective (:mod:`fdi._jit`) filters
+with the same loop, so both paths give the same bits.
+The samples are filtered in blocks of :data:`FIR_BLOCK` (memory O(samples),
+temporaries in cache). The edges of ``interp`` take a kernel per position of the
 half-window (n^2 / 2 values, cached) while that is small; for longer windows the polynomial of the
 edge window is fitted once and evaluated (the same fit; numbers equal to round-off).
 """
@@ -27,11 +35,12 @@ from functools import lru_cache
 from math import factorial
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
+
+from . import kernels as _kernels
 
 DEFAULT_WINDOW = None   # no window in s: None is fdi.scales' window of a model with no known time constant
 DEFAULT_ORDER = 3
-BLOCK_VALUES = 1 << 21  # values of sliding windows copied at once (16 MB): rows x samples x window
+FIR_BLOCK = 1 << 15     # values (rows x samples) filtered at a time: 256 kB temporaries, in L2 (a 30 x 1 000 population: 3.0 ms, 4.0 ms at 1 << 13)
 EDGE_VALUES = 1 << 18   # edge kernels kept per window (2 MB: windows up to ~360 samples); longer: one fit per edge
 
 
@@ -73,18 +82,16 @@ def estimate(x: np.ndarray, ts: float, orders: int, window: float | None = DEFAU
     if at is not None:
         idx = np.arange(x.shape[-1])[at]
         out = np.full(x.shape + (orders + 1,), np.nan)
-        kernel = kernels(n, p, orders, float(ts), half)
+        kernel = centred(n, p, orders, float(ts))
         inner = idx if edges == "mirror" else idx[(idx >= half) & (idx < x.shape[-1] - half)]
-        if inner.size and inner[0] >= half and inner[-1] < x.shape[-1] - half:   # whole windows: no padding
-            view, shift = sliding_window_view(x, n, axis=-1), half     # view[j] is centred on sample j + half
-        else:
-            view, shift = sliding_window_view(np.pad(x, pad, mode="reflect"), n, axis=-1), 0
-        rows = int(np.prod(x.shape[:-1], dtype=np.int64))
-        step = max(1, BLOCK_VALUES // max(1, rows * n))      # windows copied at once, as in _convolve
-        stride = int(inner[1] - inner[0]) if inner.size > 1 else 1
-        for a in range(0, inner.size, step):                 # a slice of the samples: views, not copies
-            first, last = int(inner[a]), int(inner[min(inner.size, a + step) - 1])
-            out[..., first:last + 1:stride, :] = view[..., first - shift:last + 1 - shift:stride, :] @ kernel
+        if inner.size:
+            stride = int(inner[1] - inner[0]) if inner.size > 1 else 1
+            first, last = int(inner[0]), int(inner[-1])
+            if first >= half and last < x.shape[-1] - half:       # whole windows: no padding
+                out[..., first:last + 1:stride, :] = fir(x, kernel, first - half, inner.size, stride)
+            else:                                                 # mirrored about the end samples
+                out[..., first:last + 1:stride, :] = fir(np.pad(x, pad, mode="reflect"), kernel, first, inner.size,
+                                                         stride)
         if edges == "interp" and inner.size < idx.size:       # the edge samples asked for, as without at=
             first, last = idx[idx < half], idx[idx >= x.shape[-1] - half]
             if first.size:
@@ -92,7 +99,7 @@ def estimate(x: np.ndarray, ts: float, orders: int, window: float | None = DEFAU
             if last.size:
                 out[..., last, :] = _edges(x, n, p, orders, float(ts), start=False)[..., last - (x.shape[-1] - half), :]
         return [out[..., k] for k in range(orders + 1)]
-    out = _convolve(np.pad(x, pad, mode="reflect"), kernels(n, p, orders, float(ts), half), x.shape[-1])
+    out = fir(np.pad(x, pad, mode="reflect"), centred(n, p, orders, float(ts)), 0, x.shape[-1])
     if edges == "interp":
         out[..., :half, :] = _edges(x, n, p, orders, float(ts), start=True)
         out[..., -half:, :] = _edges(x, n, p, orders, float(ts), start=False)
@@ -127,17 +134,59 @@ def _edge(x: np.ndarray, polyorder: int, orders: int, ts: float, positions: rang
     return out
 
 
-def _convolve(padded: np.ndarray, kernel: np.ndarray, samples: int) -> np.ndarray:
-    """(..., samples, orders + 1): each window of ``padded`` (n samples, along the last axis) times
-    ``kernel`` (n, orders + 1), in blocks of samples whose windows hold at most BLOCK_VALUES
-    numbers (each block is the same matrix product as over all windows at once)."""
-    n = kernel.shape[0]
-    rows = int(np.prod(padded.shape[:-1], dtype=np.int64))
-    out = np.empty(padded.shape[:-1] + (samples, kernel.shape[1]))
-    step = max(1, BLOCK_VALUES // max(1, rows * n))
-    for a in range(0, samples, step):
-        b = min(samples, a + step)
-        out[..., a:b, :] = sliding_window_view(padded[..., a:b + n - 1], n, axis=-1) @ kernel
+def fir(x: np.ndarray, half: np.ndarray, start: int, count: int, stride: int = 1) -> np.ndarray:
+    """(..., count, orders + 1): the centred filter of :func:`centred`'s ``half`` (h + 1 taps:
+    the middle, then j = 1..h) at output samples i = 0..count - 1, whose windows start at
+    x[..., start + i * stride] (the middle at + h): order k is x[m] w0 + sum over j = 1, 2, ..., h in
+    that order of (x[m + j] + x[m - j]) wj (even k) or (x[m + j] - x[m - j]) wj (odd k), each
+    product rounded, then added. :func:`fdi._jit.fir` runs the same loop compiled (used when numba
+    is, :mod:`fdi.kernels`): the same bits. ``x`` holds every sample the windows read.
+
+    A filter of three taps (h = 1) with middle weights 1 and 0 and outer ones 10 and 5: x[m] + 10
+    (x[m+1] + x[m-1]), and 5 (x[m+1] - x[m-1]):
+
+    >>> fir(np.arange(6.0), np.array([[1.0, 0.0], [10.0, 5.0]]), 1, 2, 2).tolist()
+    [[42.0, 10.0], [84.0, 10.0]]
+    """
+    x = np.asarray(x, dtype=float)
+    fast = _kernels.jit()
+    if fast is not None and count:
+        flat = np.ascontiguousarray(x).reshape(-1, x.shape[-1])
+        out = fast.fir(flat, np.ascontiguousarray(half, dtype=float), int(start), int(count), int(stride))
+        return np.moveaxis(out.reshape(x.shape[:-1] + out.shape[1:]), -2, -1)
+    h, orders = half.shape[0] - 1, half.shape[1]
+    out = np.empty(x.shape[:-1] + (orders, count))
+    rows = int(np.prod(x.shape[:-1], dtype=np.int64))
+    step = max(1, FIR_BLOCK // max(1, rows))
+    width = min(step, count)
+    pair = np.empty(x.shape[:-1] + (2, width))        # x[m+j] + x[m-j], x[m+j] - x[m-j]
+    part = np.empty(x.shape[:-1] + (width,))
+    for a in range(0, count, step):                 # blocks of samples: the temporaries stay in cache
+        b = min(count, a + step)
+        m0, m1 = start + h + a * stride, start + h + (b - 1) * stride + 1     # the middles
+        plus, minus, prod = pair[..., 0, :b - a], pair[..., 1, :b - a], part[..., :b - a]
+        for k in range(orders):
+            np.multiply(x[..., m0:m1:stride], half[0, k], out=out[..., k, a:b])
+        for j in range(1, h + 1):
+            np.add(x[..., m0 + j:m1 + j:stride], x[..., m0 - j:m1 - j:stride], out=plus)
+            np.subtract(x[..., m0 + j:m1 + j:stride], x[..., m0 - j:m1 - j:stride], out=minus)
+            for k in range(orders):
+                np.multiply(minus if k % 2 else plus, half[j, k], out=prod)
+                out[..., k, a:b] += prod
+    return np.moveaxis(out, -2, -1)
+
+
+@lru_cache(maxsize=64)
+def centred(n: int, polyorder: int, orders: int, ts: float) -> np.ndarray:
+    """(n // 2 + 1, orders + 1): the centred kernels of :func:`kernels` (the middle tap, then the
+    taps j = 1 .. n // 2 after it), each tap averaged with (-1)^k times its mirror image, so that
+    order k is exactly symmetric or antisymmetric (the least-squares fit is, up to round-off; an
+    odd order's middle weight is then exactly 0), as :func:`fir` reads them."""
+    full = kernels(n, polyorder, orders, ts, n // 2)
+    h = n // 2
+    sign = np.array([(-1.0) ** k for k in range(orders + 1)])
+    out = 0.5 * (full[h:] + sign * full[h::-1])
+    out.setflags(write=False)
     return out
 
 

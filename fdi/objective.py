@@ -269,6 +269,35 @@ class Objective:
                 self._rates, self._blocks = {}, {}
 
     def _evaluate(self, real: np.ndarray, bits: np.ndarray, stride: int) -> tuple[np.ndarray, np.ndarray]:
+        fast = self.fused()
+        if fast is not None:                     # the compiled path: one call for the population (fdi.fused)
+            return fast.evaluate(real, bits, stride)
+        real, solve, ps, steps = self.prepare(real, bits)
+        values, signals, invalid = self.inputs(ps, stride=stride)
+        n = real.shape[0]
+        total = np.full(n, self.constant(stride))
+        plain = [i for i in self.active if not any(self.enters[j][i] for j in solve)]
+        for i in plain:
+            total += self.weights[i] * np.abs(self.residual_values(self.residuals[i], signals, values, n, stride)).sum(axis=1)
+        joint = [i for i in self.active if i not in plain]
+        deltas = {}
+        if joint:
+            base = {i: self.residual_values(self.residuals[i], signals, values, n, stride) for i in joint}
+            gains = {}
+            for j in solve:          # a parametric fault: the signals stay, its parameters step
+                stepped = self.inputs([steps[j] if k == j else p for k, p in enumerate(ps)], signals)
+                gains[j] = {i: self.residual_values(self.residuals[i], stepped[1], stepped[0], n, stride) - base[i]
+                            for i in joint if self.enters[j][i]}
+            deltas = self.solve_magnitudes(base, gains, solve)
+            for i in joint:
+                r = base[i] + sum(deltas[j][:, None] * g[i] for j, g in gains.items() if i in g)
+                total += self.weights[i] * np.abs(r).sum(axis=1)
+        return self.finish(real, solve, deltas, total, invalid, stride)
+
+    def prepare(self, real: np.ndarray, bits: np.ndarray) -> tuple[np.ndarray, dict, list, dict]:
+        """A copy of ``real``, the individuals whose linear faults' magnitudes are solved (per fault
+        index: abrupt or intermittent), every fault's profile (a solved fault's at its nominal value)
+        and the solved faults' unit-step profiles."""
         real = real.copy()
         decoded = encoding.decode(self.spaces, real[:, :-1], bits)
         solve = {}
@@ -284,31 +313,29 @@ class Objective:
         steps = {j: ps[j] for j in solve}
         for j, rows in solve.items():
             ps[j] = np.where(rows[:, None], self.spaces[j].nominal, ps[j])
-        values, signals, invalid = self.inputs(ps, stride=stride)
-        n = real.shape[0]
-        total = np.full(n, self.constant(stride))
-        plain = [i for i in self.active if not any(self.enters[j][i] for j in solve)]
-        for i in plain:
-            total += self.weights[i] * np.abs(self.residual_values(self.residuals[i], signals, values, n, stride)).sum(axis=1)
-        joint = [i for i in self.active if i not in plain]
-        if joint:
-            base = {i: self.residual_values(self.residuals[i], signals, values, n, stride) for i in joint}
-            gains = {}
-            for j in solve:          # a parametric fault: the signals stay, its parameters step
-                stepped = self.inputs([steps[j] if k == j else p for k, p in enumerate(ps)], signals)
-                gains[j] = {i: self.residual_values(self.residuals[i], stepped[1], stepped[0], n, stride) - base[i]
-                            for i in joint if self.enters[j][i]}
-            deltas = self.solve_magnitudes(base, gains, solve)
-            for i in joint:
-                r = base[i] + sum(deltas[j][:, None] * g[i] for j, g in gains.items() if i in g)
-                total += self.weights[i] * np.abs(r).sum(axis=1)
-            for j, delta in deltas.items():
-                space = self.spaces[j]
-                to_u, from_u = LINEAR[self.linear[space.name]]
-                v = from_u(to_u(space.nominal) + delta)
-                real[:, encoding.N_REAL * j] = np.where(solve[j], np.log10(v) if space.log else v,
-                                                        real[:, encoding.N_REAL * j])
+        return real, solve, ps, steps
+
+    def finish(self, real: np.ndarray, solve: dict, deltas: dict, total: np.ndarray, invalid: np.ndarray,
+               stride: int) -> tuple[np.ndarray, np.ndarray]:
+        """The costs (``stride`` times the weighted sums; inf where not finite or invalid) and the
+        population with each solved magnitude written in (``deltas``: u - u_nominal per fault)."""
+        for j, delta in deltas.items():
+            space = self.spaces[j]
+            to_u, from_u = LINEAR[self.linear[space.name]]
+            v = from_u(to_u(space.nominal) + delta)
+            real[:, encoding.N_REAL * j] = np.where(solve[j], np.log10(v) if space.log else v,
+                                                    real[:, encoding.N_REAL * j])
         return np.where(np.isfinite(total) & ~invalid, stride * total, np.inf), real
+
+    def fused(self):
+        """The compiled path of this objective (:class:`fdi.fused.Fused`), or None: numba off or
+        not installed, or a residual the tapes do not cover (kept per objective)."""
+        if kernels.jit() is None:
+            return None
+        if not hasattr(self, "_fused"):
+            from .fused import Fused
+            self._fused = Fused.make(self)
+        return self._fused
 
     def solve_magnitudes(self, base: dict, gains: dict, solve: dict) -> dict[int, np.ndarray]:
         """delta (u - u_nominal) per linear fault and individual, within the fault's bounds, that
@@ -335,6 +362,13 @@ class Objective:
                 deltas[j][rows] = np.clip(delta, lo, hi)
         return deltas
 
+    def unit_value(self, j: int) -> float:
+        """Linear fault j's value one unit of u = h(value) from its nominal value: its unit step
+        (the value :meth:`prepare` gives a solved fault's profile)."""
+        space = self.spaces[j]
+        to_u, from_u = LINEAR[self.linear[space.name]]
+        return float(from_u(to_u(space.nominal) + 1.0))
+
     def delta_bounds(self, j: int) -> tuple[float, float]:
         space = self.spaces[j]
         to_u, _ = LINEAR[self.linear[space.name]]
@@ -347,6 +381,23 @@ class Objective:
         ``signals`` given when only parameters changed (the sensor corrections are then known).
         Corrected signals are filtered on the samples of ``crop(stride)`` only, unless a residual
         differentiates a stored quantity (which reads them over the whole window)."""
+        values, betas, biases, invalid = self.corrections(ps)
+        if signals is not None:
+            return values, signals, invalid
+        signals = dict(self.base_signals)
+        if betas or biases:
+            changed = set(betas) | set(biases)
+            signals.update(corrected_signals(self.model, self.win.raw, self.win.ts,
+                                             {k: self.orders[k] for k in changed if k in self.orders},
+                                             {**self.fixed_betas, **betas}, self.window_s, edges="mirror",
+                                             biases={**self.fixed_biases, **biases},
+                                             at=None if self.composites else self.crop(stride)))
+        return values, signals, invalid
+
+    def corrections(self, ps: list[np.ndarray]) -> tuple[dict, dict, dict, np.ndarray]:
+        """Parameter values, the sensors' and sources' efficiency factors and offsets per
+        individual, and the invalid individuals, for the profiles ``ps`` (:meth:`inputs` without
+        the filtering)."""
         n = ps[0].shape[0] if ps else 1
         values = dict(self.nominal)
         betas: dict[str, np.ndarray] = {}
@@ -368,17 +419,7 @@ class Objective:
             else:
                 for target in f.targets:
                     values[target] = self.nominal[target] * p
-        if signals is not None:
-            return values, signals, invalid
-        signals = dict(self.base_signals)
-        if betas or biases:
-            changed = set(betas) | set(biases)
-            signals.update(corrected_signals(self.model, self.win.raw, self.win.ts,
-                                             {k: self.orders[k] for k in changed if k in self.orders},
-                                             {**self.fixed_betas, **betas}, self.window_s, edges="mirror",
-                                             biases={**self.fixed_biases, **biases},
-                                             at=None if self.composites else self.crop(stride)))
-        return values, signals, invalid
+        return values, betas, biases, invalid
 
     def residual_values(self, residual: Residual, signals: dict, values: dict, n: int, stride: int = 1) -> np.ndarray:
         """(n, window samples): the kernel run on blocks of rows whose temporaries stay in the cache

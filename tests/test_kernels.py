@@ -154,3 +154,133 @@ def test_eq17_paths_agree_and_follow_the_closed_form(path):
             den = (0.0 if np.isinf(p0) else 1 / p0) - b2[:, None] * tau
             want = np.where(tau > 0, np.where(den > 0, 1 / den, np.inf), p0)
         assert np.array_equal(p, want)
+
+
+def test_filter_paths_give_the_same_bits_and_scipy_s_numbers():
+    """The Savitzky-Golay filter (fdi.derivatives.fir: each sample's taps summed in one fixed order)
+    gives the same bits on both paths, on a record and on a population, every sample and every
+    4th (the identification's screening); and scipy's savgol_filter (mirrored ends) to round-off."""
+    from scipy.signal import savgol_filter
+
+    from fdi.derivatives import estimate
+
+    rng = np.random.default_rng(19)
+    record = np.cumsum(rng.normal(size=3000)) * 1e-3
+    population = np.cumsum(rng.normal(size=(7, 1050)), axis=1)
+    for x, at in ((record, None), (population, slice(25, 1025)), (population, slice(25, 1025, 4)),
+                  (population, slice(0, 1050, 3))):
+        plain, fast = both(lambda: estimate(x, 0.01, 2, 0.25, edges="mirror", at=at))
+        for p, f in zip(plain, fast):
+            assert np.array_equal(p, f, equal_nan=True)
+        for k, p in enumerate(plain):
+            want = savgol_filter(x, 25, 3, deriv=k, delta=0.01, mode="mirror", axis=-1)[..., at or slice(None)]
+            got = p[..., at or slice(None)]
+            assert np.allclose(got, want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
+
+
+def _objective(model_path, columns: dict, t0: float, candidate: tuple, fixed=(), thresholds=None):
+    """The identification objective of ``candidate`` on the window from ``t0`` of the data
+    ``columns`` (the estimators' own construction, fdi.estimators.fit)."""
+    from fdi.data import Measurements, signals_from_data
+    from fdi.monitor import compiled
+    from fdi.objective import Objective, window
+
+    c = compiled(str(model_path))
+    t = columns["t"]
+    raw = signals_from_data(c.model, Measurements("x", t, columns))
+    win = window(t, raw, t0, c.config.samples, c.config.derivative_window)
+    th = thresholds or c.config.thresholds
+    weights = 1.0 / np.array([th[a.name] for a in c.arrs])
+    return Objective(c.model, c.residuals, win, candidate, weights, c.config.derivative_window, fixed=list(fixed),
+                     config=c.config)
+
+
+def _cycab(name: str) -> dict:
+    from fdi.data import read_csv
+    from .conftest import ROOT
+    d = read_csv(ROOT / "models" / "data" / "cycab" / name)
+    return d.columns
+
+
+@pytest.mark.parametrize("case", ["group+two linear+sensor", "sensor, a fault held", "intermittent sensor", "offset"])
+def test_fused_objective_is_the_numpy_path_s(case):
+    """The compiled objective (fdi.fused: one call per population, residual tapes) against the
+    numpy path on random populations of every type and model, full and coarse: costs and solved
+    magnitudes to 1e-9, the same individuals finite. Cases: the CyCab's R4 (a reciprocal linear
+    fault), R5 (a group factor, linear) and beta_theta2 (a sensor) at once; beta_theta2 with R4
+    held at an earlier fit (a fixed fault's profile folded into the nominal values); scenario 1's
+    intermittent encoder fault beta_theta1 with R4; an RC circuit's voltage-sensor offset."""
+    pytest.importorskip("numba")
+    from .conftest import ROOT
+    from .test_sensor_faults import MODEL, circuit
+    cycab = ROOT / "models" / "cycab_steering.yaml"
+    if case == "group+two linear+sensor":
+        obj = _objective(cycab, _cycab("scenario2.csv"), 32.0, ("R4", "R5", "beta_theta2"))
+    elif case == "sensor, a fault held":
+        obj = _objective(cycab, _cycab("scenario2.csv"), 32.0, ("beta_theta2",),
+                         fixed=[{"name": "R4", "type": "abrupt", "value": 2.5e7, "t0": 32.0}])
+    elif case == "intermittent sensor":
+        obj = _objective(cycab, _cycab("scenario1.csv"), 32.0, ("R4", "beta_theta1"))
+    else:
+        data = circuit(6.0, seed=1, bias=(3.0, 0.3))
+        obj = _objective(MODEL, data, 3.0, ("bias_v", "RL"), thresholds={"ARR1": 0.05, "ARR2": 0.01})
+    before = kernels.use_numba(True)
+    try:
+        assert obj.fused() is not None
+    finally:
+        kernels.use_numba(before)
+    real, bits = random_population(obj, 60, np.random.default_rng(23))
+    for stride in (1, obj.stride):
+        (c0, r0), (c1, r1) = both(lambda: obj.evaluate(real, bits, stride))
+        assert np.array_equal(np.isfinite(c0), np.isfinite(c1))
+        ok = np.isfinite(c0)
+        assert ok.sum() >= 20
+        assert np.allclose(c1[ok], c0[ok], rtol=1e-9, atol=0.0)
+        assert np.allclose(r1, r0, rtol=1e-9, atol=0.0)
+
+
+def test_an_objective_the_tapes_do_not_cover_keeps_the_numpy_path():
+    """A residual that differentiates a stored quantity (the hydraulic actuator's ARR2 and ARR3:
+    the chamber's stored volume, its rate filtered per individual) has no tape: an objective whose
+    candidate enters one (each of these does) evaluates on numpy."""
+    pytest.importorskip("numba")
+    import gzip
+
+    from fdi.data import read_csv
+    from .conftest import ROOT
+    with gzip.open(ROOT / "tests" / "golden" / "hydraulic_clog.csv.gz", "rt") as fh:
+        text = fh.read()
+    path = ROOT / "tests" / "golden" / "_hydraulic_clog_kernels.csv"
+    try:
+        path.write_text(text)
+        columns = read_csv(path).columns
+    finally:
+        path.unlink()
+    model = ROOT / "models" / "hydraulic_actuator.yaml"
+    before = kernels.use_numba(True)
+    try:
+        for candidate in (("Cc",), ("Kv",), ("beta_pc",)):
+            obj = _objective(model, columns, float(columns["t"][len(columns["t"]) // 2]), candidate)
+            assert any(obj.residuals[i].composites for i in obj.active), candidate
+            assert obj.fused() is None, candidate
+    finally:
+        kernels.use_numba(before)
+
+
+def test_a_signal_standing_still_has_a_derivative_of_exactly_zero(path):
+    """An encoder that stands still over a whole window (a burnt driver: CyCab scenario 3) gives
+    dθ/dt = 0 exactly, not ±1e-16 of round-off whose sign a Coulomb term sign(dθ/dt) would turn
+    into a whole friction torque: the filter pairs x[i+j] - x[i-j] (derivatives.centred, .fir)."""
+    from fdi.derivatives import estimate
+
+    rng = np.random.default_rng(29)
+    level = 0.7318296459873219
+    x = np.concatenate([np.cumsum(rng.normal(size=200)) * 1e-3, np.full(300, level), rng.normal(size=200)])
+    for at in (None, slice(0, 700, 4)):
+        v = estimate(x, 0.01, 2, 0.25, edges="mirror", at=at)[1]
+        still = np.arange(200 + 12, 500 - 12)             # every window wholly on the flat stretch
+        if at is not None:
+            still = still[still % 4 == 0]
+        assert np.all(v[still] == 0.0) and np.all(np.sign(v[still]) == 0.0)
+        rows = estimate(np.vstack([x, 2 * x]), 0.01, 2, 0.25, edges="mirror", at=at)[1]
+        assert np.all(rows[:, still] == 0.0)

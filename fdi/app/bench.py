@@ -311,7 +311,51 @@ def diagnose_rows(data_path: Path, workers: int = 1) -> dict:
     return {"stages": dict(d.timings), "total_s": total, "cpu_s": cpu, "estimators": len(est), "workers": workers,
             "objective_s": sum(e.objective_s for e in est), "estimator_s": sum(e.wall_s for e in est),
             "evaluations": sum(e.evaluations for e in est), "kernels": "numba" if kernels.enabled() else "numpy",
-            "objective": objective_costs()}
+            "objective": objective_costs(), "jit": jit_costs() if kernels.enabled() else None}
+
+
+def jit_costs() -> dict | None:
+    """CPU seconds a fresh process pays for the compiled kernels, numba's disk cache warm (this
+    process has just used them): importing numba, then the first objective call, which loads every
+    kernel it runs from the cache (:func:`jit_probe` in a subprocess). None if it fails."""
+    import json
+    import subprocess
+    import sys
+    out = subprocess.run([sys.executable, "-c", "from fdi.app.bench import jit_probe; jit_probe()"],
+                         capture_output=True, text=True)
+    try:
+        return json.loads(out.stdout.strip().splitlines()[-1])
+    except (ValueError, IndexError):
+        return None
+
+
+def jit_probe() -> None:
+    """Print (JSON) this process's CPU seconds to import numba and its kernels' module, for the
+    first compiled calls (the filter, then an objective call on scenario 2's problem: every
+    kernel loaded from numba's cache) and for a second objective call."""
+    import json
+
+    import numpy as np
+
+    from .. import derivatives, kernels
+    from ..encoding import N_BITS
+    clock = time.process_time
+    t0 = clock()
+    kernels.jit()
+    t1 = clock()
+    derivatives.fir(np.zeros(30), derivatives.centred(5, 3, 2, 0.01), 0, 26)
+    t2 = clock()
+    obj = benchmark_problem("scenario2", 0).objective
+    b = obj.bounds()
+    real = np.tile(b.mean(axis=1), (3, 1))
+    bits = np.zeros((3, N_BITS * len(obj.spaces)), dtype=bool)
+    bits[np.arange(3), np.arange(3)] = True
+    t3 = clock()
+    obj.coarse(real, bits)
+    t4 = clock()
+    obj.coarse(real, bits)
+    t5 = clock()
+    print(json.dumps({"import_s": t1 - t0, "first_call_s": (t2 - t1) + (t4 - t3), "second_call_s": t5 - t4}))
 
 
 def objective_costs(rows: int = 100, repeat: int = 5, seed: int = 0) -> dict:
@@ -362,6 +406,11 @@ def format_diagnose(row: dict) -> str:
     o = row["objective"]
     out.append(f"objective ({row['kernels']} kernels; R4 & beta_theta2, random rows of every structure, CPU, "
                f"min of 5):")
+    if row.get("jit"):
+        j = row["jit"]
+        out.insert(len(out) - 1, f"compiled kernels in a fresh process (numba's disk cache warm, CPU): import numba "
+                                 f"{j['import_s']:.2f} s, first objective call {j['first_call_s']:.2f} s (kernels "
+                                 f"loaded), second {1e3 * j['second_call_s']:.1f} ms")
     for name in ("full", "coarse"):
         c, key = o[name], f"call_{o['rows']}_s"
         out.append(f"  {name:<7} 1 row {1e6 * c['call_1_s']:>7.0f} us, {o['rows']} rows {1e3 * c[key]:>6.2f} ms: "
@@ -375,7 +424,7 @@ def diagnose_json(row: dict) -> dict:
             "workers": row["workers"], "estimators": row["estimators"], "stages_s": dict(row["stages"]),
             "total_s": row["total_s"], "cpu_s": row["cpu_s"], "estimator_s": row["estimator_s"],
             "objective_s": row["objective_s"], "evaluations": row["evaluations"], "kernels": row["kernels"],
-            "objective": row["objective"]}
+            "objective": row["objective"], "jit": row.get("jit")}
 
 
 def benchmark_problem(name: str, seed: int):

@@ -1,0 +1,257 @@
+"""The identification objective compiled: a population's eq. (24) costs in one call.
+
+:meth:`fdi.objective.Objective.evaluate` on the numpy path makes, per call, some forty numpy calls
+per residual, each over (population, samples) arrays: the corrected signals filtered, every
+residual kernel run on the parameter profiles (twice more per linear fault: its unit step), the
+magnitudes solved, the sums taken. Here the same computation runs in one compiled call
+(:func:`fdi._jit.fused_cost`), individual by individual, on blocks of samples that stay in cache:
+
+- the profiles and the solved faults' unit steps are the numpy path's (:meth:`Objective.prepare`),
+  as are the corrections (:meth:`Objective.corrections`);
+- a corrected signal is formed and filtered in the kernel by the same operations in the same
+  order (:func:`fdi.derivatives.fir`), so its derivatives are the numpy path's bits (a Coulomb
+  friction's sign of a derivative then agrees);
+- each active residual is a :mod:`fdi.tape`: the part of its generated code that no individual
+  changes is evaluated once per objective and sampling stride, by numpy, on the very arrays the
+  numpy path uses (constants folded, the individual-free signals' terms hoisted); the rest runs
+  in the kernel;
+- a linear fault's magnitude is the weighted median of the same points with the same weights
+  (:func:`fdi._jit._median`, the numba path's own), three passes when several are solved.
+
+The numbers are the numpy path's to round-off: the sums of |r| are taken one sample after
+another (numpy sums pairwise) and the transcendental functions are libm's (numpy's are SIMD code),
+a last-bit difference (tests/test_kernels.py: 1e-9 relative on random populations of every fault
+type and model). The kernel is generic (no model-specific code is compiled): numba keeps it on
+disk, and a model costs no compilation. An objective the tapes do not cover (a stored quantity
+differentiated, a mode switch inside the window, a residual whose code has a comparison or a
+Piecewise) keeps the numpy path (:meth:`Fused.make` gives None).
+"""
+from __future__ import annotations
+
+import builtins
+import inspect
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from . import derivatives, encoding, kernels, profiles, tape
+from .residuals import mode_breaks
+
+Objective = Any     # fdi.objective.Objective (which imports this module where it is first used)
+
+BLOCK = 256         # samples per block of a tape's registers (registers x 2 kB: in L1/L2)
+SOURCE = "__bgfdi_source__"     # fdi.persist's attribute for a kernel compiled from its source
+
+
+@dataclass
+class Plan:
+    """What one sampling stride's calls share: the residual tapes, concatenated, with their
+    hoisted arrays and constants; the slots of per-individual parameters and filtered signals."""
+    crop: slice
+    m: int
+    code: np.ndarray
+    results: np.ndarray
+    registers: int
+    consts: np.ndarray
+    fixed: np.ndarray
+    gaps: np.ndarray
+    constant: float
+
+
+class Fused:
+    """The compiled path of one :class:`fdi.objective.Objective`."""
+
+    def __init__(self, obj: "Objective") -> None:
+        self.obj = obj
+        model = obj.model
+        self.rows = []                      # parameters that differ per individual: (name, fault index)
+        for j, name in enumerate(obj.candidate):
+            f = model.faults[name]
+            if f.kind not in ("sensor", "source"):
+                self.rows += [(t, j) for t in f.targets]
+        self.slot = {name: k for k, (name, _) in enumerate(self.rows)}
+        self.linear = [j for j, s in enumerate(obj.spaces) if s.name in obj.linear]
+        # the stepped copies of each linear fault's parameters: slots after the base ones
+        extra = len(self.rows)
+        self.variants: list[dict[int, int]] = []
+        self.stepped: list[list[tuple[str, int]]] = []
+        for j in self.linear:
+            mine = []
+            for name, owner in self.rows:
+                if owner == j:
+                    mine.append((name, extra))
+                    extra += 1
+            self.stepped.append(mine)
+            self.variants.append({self.slot[name]: k for name, k in mine})
+        self.n_p = extra
+        # the signals corrected per individual, their filters and slots
+        self.varying = sorted(s for s in obj.varying_signals if s in obj.orders)
+        self.s_at, at = [], 0
+        self.filters = []
+        for s in self.varying:
+            order = obj.orders[s]
+            p = max(derivatives.DEFAULT_ORDER, order)
+            n = derivatives.window_samples(obj.window_s, obj.win.ts, p)
+            self.filters.append((n, derivatives.centred(n, p, order, float(obj.win.ts))))
+            self.s_at.append(at)
+            at += order + 1
+        self.n_slots = at
+        nmax = max((n for n, _ in self.filters), default=1)
+        dmax = max((k.shape[1] for _, k in self.filters), default=1)
+        self.fk = np.zeros((max(1, len(self.filters)), nmax // 2 + 1, dmax))     # the half kernels (centred)
+        for v, (_, k) in enumerate(self.filters):
+            self.fk[v, :k.shape[0], :k.shape[1]] = k
+        self.fk_n = np.array([n for n, _ in self.filters] or [1], dtype=np.int64)
+        self.fk_orders = np.array([k.shape[1] for _, k in self.filters] or [1], dtype=np.int64)
+        self.raw = np.array([np.asarray(obj.win.raw[s], dtype=float) for s in self.varying]).reshape(
+            len(self.varying), obj.win.t.size)
+        self.is_source = np.array([s not in model.sensors for s in self.varying], dtype=np.bool_)
+        # which candidate fault corrects which signal (efficiency factor or offset), else a fixed fault's
+        self.beta_of, self.bias_of = {}, {}
+        for j, name in enumerate(obj.candidate):
+            f = model.faults[name]
+            if f.kind in ("sensor", "source") and f.targets[0] in self.varying:
+                (self.bias_of if f.effect == "bias" else self.beta_of)[f.targets[0]] = j
+        fixed = []
+        self.fixed_at = {}
+        for s in self.varying:
+            for kind, table in (("beta", obj.fixed_betas), ("bias", obj.fixed_biases)):
+                if s in table and s not in (self.beta_of if kind == "beta" else self.bias_of):
+                    self.fixed_at[(s, kind)] = len(fixed)
+                    fixed.append(np.broadcast_to(np.asarray(table[s], dtype=float), (1, obj.win.t.size))[0])
+        self.corr_fixed = np.array(fixed).reshape(len(fixed), obj.win.t.size) if fixed else np.zeros((1, 1))
+        self.beta_fault = np.array([self.beta_of.get(s, -1) for s in self.varying], dtype=np.int64)
+        self.bias_fault = np.array([self.bias_of.get(s, -1) for s in self.varying], dtype=np.int64)
+        self.beta_fixed = np.array([self.fixed_at.get((s, "beta"), -1) for s in self.varying], dtype=np.int64)
+        self.bias_fixed = np.array([self.fixed_at.get((s, "bias"), -1) for s in self.varying], dtype=np.int64)
+        # per candidate fault: nominal value, unit-step value (linear faults), role (0 parameter, 1
+        # efficiency factor, 2 offset)
+        w = obj.win.t.size
+        self.f_nominal = np.array([sp.nominal for sp in obj.spaces], dtype=float)
+        self.f_linear = np.array([j in self.linear for j in range(len(obj.spaces))], dtype=np.bool_)
+        self.f_unit = np.array([obj.unit_value(j) if j in self.linear else 0.0 for j in range(len(obj.spaces))])
+        self.f_role = np.array([2 if model.faults[n].effect == "bias" else 1 if model.faults[n].kind in ("sensor", "source")
+                                else 0 for n in obj.candidate], dtype=np.int64)
+        self.lin_fault = np.array(self.linear, dtype=np.int64)
+        # the parameter slots: the base ones, then each linear fault's stepped copies
+        slots = [(name, j, False) for name, j in self.rows]
+        for jj, j in enumerate(self.linear):
+            slots += [(name, j, True) for name, _ in self.stepped[jj]]
+        self.slot_fault = np.array([j for _, j, _ in slots], dtype=np.int64)
+        self.slot_step = np.array([st for _, _, st in slots], dtype=np.bool_)
+        self.slot_group = np.array([len(model.faults[obj.candidate[j]].targets) > 1 for _, j, _ in slots], dtype=np.bool_)
+        self.tnom = np.array([np.broadcast_to(np.asarray(obj.nominal[name], dtype=float), (1, w))[0]
+                              for name, _, _ in slots]).reshape(len(slots), w)
+        self.t = np.ascontiguousarray(obj.win.t, dtype=float)
+        self.plans: dict[int, Plan] = {}
+        self.names = {"abs": builtins.abs}
+
+    @classmethod
+    def make(cls, obj: "Objective") -> "Fused | None":
+        """The compiled path of ``obj``, or None where the numpy path must stay."""
+        if any(obj.residuals[i].composites for i in obj.active) or len(mode_breaks(obj.model, obj.win.raw)):
+            return None
+        try:
+            out = cls(obj)
+            out.plan(1)
+            out.plan(obj.stride)
+        except tape.Unsupported:
+            return None
+        return out
+
+    def plan(self, stride: int) -> Plan:
+        """The tapes of the active residuals on the samples of ``crop(stride)`` (built once)."""
+        got = self.plans.get(stride)
+        if got is not None:
+            return got
+        obj = self.obj
+        crop = obj.crop(stride)
+        m = len(range(crop.start, crop.stop, stride))
+
+        def cut(a):      # as fdi.residuals.Residual.arguments cuts an argument
+            return a[..., crop] if isinstance(a, np.ndarray) and a.ndim and a.shape[-1] > 1 else a
+        entries = []
+        for i in obj.active:
+            r = obj.residuals[i]
+            if r.composites:
+                raise tape.Unsupported("a stored quantity")
+            args = []
+            for s, k in r.signals:
+                if s in self.varying:
+                    args.append(tape.Row(tape.LOADS, self.s_at[self.varying.index(s)] + k))
+                else:
+                    args.append(cut(obj.base_signals[s][k]))
+            for name in r.symbols:
+                args.append(tape.Row(tape.LOADP, self.slot[name]) if name in self.slot else cut(obj.nominal[name]))
+            source = getattr(r.func, SOURCE, None) or inspect.getsource(r.func)
+            entries.append((source, {**self.names, **r.func.__globals__}, args))
+        t = tape.program(entries, self.variants, m)
+        out = Plan(crop, m, t.code, t.results, t.registers, t.consts,
+                   np.array(t.fixed).reshape(len(t.fixed), m) if t.fixed else np.zeros((1, m)),
+                   np.ascontiguousarray(obj.gaps[crop]), obj.constant(stride))
+        self.plans[stride] = out
+        return out
+
+    def evaluate(self, real: np.ndarray, bits: np.ndarray, stride: int) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`fdi.objective.Objective.evaluate`'s costs and population, by the compiled kernel."""
+        obj = self.obj
+        plan = self.plan(stride)
+        real = real.copy()
+        decoded = encoding.decode(obj.spaces, real[:, :-1], bits)
+        n, t = real.shape[0], self.t
+        onset = np.ascontiguousarray(obj.onset(real), dtype=float)
+        kinds = np.array([d.kind for d in decoded], dtype=np.int64).reshape(len(decoded), n)
+        models = np.array([d.model for d in decoded], dtype=np.int64).reshape(len(decoded), n)
+        values = np.array([d.value_ab for d in decoded], dtype=float).reshape(len(decoded), n)
+        periods = np.array([d.period for d in decoded], dtype=float).reshape(len(decoded), n)
+        coeffs = np.array([d.b[:, COEFFS] for d in decoded], dtype=float).reshape(len(decoded), n, len(COEFFS))
+        pre_at = np.full((len(decoded), n), -1, dtype=np.int64)
+        pre, span19, filled = [], np.zeros(len(decoded)), 0
+        for j, (space, d) in enumerate(zip(obj.spaces, decoded)):
+            incipient = d.kind == 2
+            if not incipient.any():
+                continue
+            for model in (1, 3):            # eqs. (16) and (18): numpy's exponentials, as the numpy path
+                rows = incipient & (d.model == model)
+                if rows.any():
+                    cols = [slot - 2 for slot in encoding.COEFF_SLOTS[model]]
+                    pre_at[j, rows] = filled + np.arange(int(rows.sum()))
+                    pre.append(profiles.incipient(t, onset[rows], space.nominal, model, d.b[rows][:, cols]))
+                    filled += pre[-1].shape[0]
+            rows = incipient & (d.model == 4)
+            if rows.any():                  # eq. (19)'s grid step, from the latest onset's span as numpy's
+                late = t[-1] - onset[rows]
+                late = late[~np.isnan(late)]
+                span19[j] = max(0.0, float(late.max())) if late.size else 0.0
+        pre = np.vstack(pre) if pre else np.zeros((1, 1))
+        solve = {j: kinds[j] < 2 for j in self.linear if (kinds[j] < 2).any()}
+        active = list(obj.active)
+        entered = list(solve)
+        plain = [q for q, i in enumerate(active) if not any(obj.enters[j][i] for j in entered)]
+        joint = [q for q in range(len(active)) if q not in plain]
+        enters = np.zeros((max(1, len(self.linear)), max(1, len(joint))), dtype=np.bool_)
+        lo = np.zeros(max(1, len(self.linear)))
+        hi = np.zeros(max(1, len(self.linear)))
+        for jj, j in enumerate(self.linear):
+            if j in solve:
+                for q, a in enumerate(joint):
+                    enters[jj, q] = obj.enters[j][active[a]]
+                lo[jj], hi[jj] = obj.delta_bounds(j)
+        weights = np.asarray(obj.weights, dtype=float)
+        total, d, invalid = kernels.jit().fused_cost(
+            t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
+            self.f_nominal, self.f_unit, self.f_linear, self.f_role, span19, STEP19,
+            self.slot_fault, self.slot_step, self.slot_group, self.tnom,
+            plan.code, plan.results, plan.registers, plan.consts, plan.fixed,
+            self.raw, self.is_source, self.beta_fault, self.beta_fixed, self.bias_fault, self.bias_fixed,
+            self.corr_fixed, self.fk, self.fk_n, self.fk_orders, np.array(self.s_at, dtype=np.int64), self.n_slots,
+            plan.crop.start, stride, plan.m, np.array(plain, dtype=np.int64), weights[[active[q] for q in plain]],
+            np.array(joint, dtype=np.int64), weights[[active[q] for q in joint]], enters, self.lin_fault, lo, hi,
+            3 if len(entered) > 1 else 1, plan.gaps, plan.constant, BLOCK)
+        deltas = {j: d[jj] for jj, j in enumerate(self.linear) if j in solve} if joint else {}
+        return obj.finish(real, solve, deltas, total, invalid, stride)
+
+
+COEFFS = [1, 4, 5, 6]     # the decoded coefficients the kernel reads: b2 (eq. 17), b5, b6, b7 (eq. 19)
+STEP19 = 0.1              # eq. (19)'s RK4 grid (fdi.profiles._model19's step)
