@@ -19,8 +19,10 @@ def parse(t):
     except json.JSONDecodeError: return [json.loads(l) for l in t.splitlines()]
 def walk(g, w, where, out):
     if isinstance(w, dict):
-        if not isinstance(g, dict) or list(g) != list(w): out.append((where, "keys", None)); return
-        for k in w: walk(g[k], w[k], where + "." + k, out)
+        if not isinstance(g, dict): out.append((where, "keys", None)); return
+        if list(g) != list(w): out.append((where, "keys", sorted(set(g) ^ set(w))))   # keys added or removed
+        for k in w:
+            if k in g: walk(g[k], w[k], where + "." + k, out)                        # and the common ones compared
     elif isinstance(w, list):
         if not isinstance(g, list) or len(g) != len(w): out.append((where, "len", None)); return
         for i, (a, b) in enumerate(zip(g, w)): walk(a, b, f"{where}[{i}]", out)
