@@ -194,6 +194,8 @@ def nominal_sensitivities(model: Model, residuals: list[Residual], thresholds: M
         enters = [j for j, r in enumerate(residuals) if effect[j] > 0 and np.isfinite(effect[j])]
         if not enters:
             continue
-        size = min(thresholds[names[j]] / effect[j] for j in enters)
-        out.append(NominalSensitivity(fault, {names[j]: float(size * effect[j] / thresholds[names[j]]) for j in enters}))
+        sets = min(enters, key=lambda j: thresholds[names[j]] / effect[j])     # the residual that sets the size
+        size = thresholds[names[sets]] / effect[sets]
+        out.append(NominalSensitivity(fault, {names[j]: 1.0 if j == sets else float(size * effect[j] / thresholds[names[j]])
+                                              for j in enters}))     # exactly 1 there, not 1 - 1e-16 (weak below 1)
     return out

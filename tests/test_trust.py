@@ -405,7 +405,7 @@ def test_calibrating_on_constant_data_is_refused_with_the_reason(tmp_path, capsy
 
 @pytest.mark.parametrize("shape, window", [((5000,), 0.4001), ((3, 4000), 0.1001), ((2, 2, 3000), 0.0501)])
 def test_the_derivative_filter_in_blocks_gives_the_same_numbers(monkeypatch, shape, window):
-    """Blocks of a few windows (BLOCK_VALUES made tiny: hundreds of blocks) give the numbers of
+    """Blocks of a few windows (FIR_BLOCK made tiny: hundreds of blocks) give the numbers of
     one product over all the windows to 1e-12 of the largest value, every order and both edge
     rules, for one signal, a population and a population of populations; and on a cubic (which
     the cubic fit reproduces exactly) the analytic derivatives."""
@@ -415,9 +415,9 @@ def test_the_derivative_filter_in_blocks_gives_the_same_numbers(monkeypatch, sha
     cubic = 1e3 + 2 * t - 5 * t ** 2 + 7 * t ** 3
     exact = [cubic, 2 - 10 * t + 21 * t ** 2, -10 + 42 * t, 42 + 0 * t]
     for edges in ("interp", "mirror"):
-        monkeypatch.setattr(derivatives, "BLOCK_VALUES", 1 << 40)
+        monkeypatch.setattr(derivatives, "FIR_BLOCK", 1 << 40)
         whole = derivatives.estimate(x, 1e-4, 3, window=window, polyorder=3, edges=edges)
-        monkeypatch.setattr(derivatives, "BLOCK_VALUES", 5000)
+        monkeypatch.setattr(derivatives, "FIR_BLOCK", 5000)
         ours = derivatives.estimate(x, 1e-4, 3, window=window, polyorder=3, edges=edges)
         for k in range(4):
             assert np.max(np.abs(ours[k] - whole[k])) <= 1e-12 * np.abs(whole[k]).max(), (edges, k)
