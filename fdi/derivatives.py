@@ -40,6 +40,11 @@ from . import kernels as _kernels
 
 DEFAULT_WINDOW = None   # no window in s: None is fdi.scales' window of a model with no known time constant
 DEFAULT_ORDER = 3
+# Below this many products the numpy loop runs (the same bits), unless the compiled filter already
+# ran in this process: numba's import and first compiled call cost 0.6 s of a short diagnosis's start
+# (scenario 3, warm cache: 1.47 s process, of which 0.45 s in the residuals' first filter)
+FIR_JIT_WORK = 1 << 21
+_fir_warm = False
 FIR_BLOCK = 1 << 15     # values (rows x samples) filtered at a time: 256 kB temporaries, in L2 (a 30 x 1 000 population: 3.0 ms, 4.0 ms at 1 << 13)
 EDGE_VALUES = 1 << 18   # edge kernels kept per window (2 MB: windows up to ~360 samples); longer: one fit per edge
 
@@ -148,11 +153,14 @@ def fir(x: np.ndarray, half: np.ndarray, start: int, count: int, stride: int = 1
     >>> fir(np.arange(6.0), np.array([[1.0, 0.0], [10.0, 5.0]]), 1, 2, 2).tolist()
     [[42.0, 10.0], [84.0, 10.0]]
     """
+    global _fir_warm
     x = np.asarray(x, dtype=float)
-    fast = _kernels.jit()
-    if fast is not None and count:
+    work = int(np.prod(x.shape[:-1], dtype=np.int64)) * count * half.shape[0] * half.shape[1]
+    fast = _kernels.jit() if count and (_fir_warm or work >= FIR_JIT_WORK) else None
+    if fast is not None:
         flat = np.ascontiguousarray(x).reshape(-1, x.shape[-1])
         out = fast.fir(flat, np.ascontiguousarray(half, dtype=float), int(start), int(count), int(stride))
+        _fir_warm = True
         return np.moveaxis(out.reshape(x.shape[:-1] + out.shape[1:]), -2, -1)
     h, orders = half.shape[0] - 1, half.shape[1]
     out = np.empty(x.shape[:-1] + (orders, count))
