@@ -1333,6 +1333,8 @@ def _cache_notes() -> None:
     diskcache = sys.modules.get("fdi.diskcache")
     for note in getattr(diskcache, "notes", ()):
         LOG.debug(escaped(note))           # a note names a path: control characters escaped
+    if diskcache is not None:
+        diskcache.notes.clear()            # said once: a second command in this process says its own
 
 
 # Commands that only derive and print: run on a deep-stack thread (bondgraph.deep), so that the
