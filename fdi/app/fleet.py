@@ -205,29 +205,14 @@ def _on_dask(client, monitor, files: list[str], options, timings: bool, progress
     cluster the client reads each file (errors as for local processes: the same reader on the same
     path) and sends it. The monitor, compiled, is scattered to every worker once; the workers
     diagnose."""
-    from distributed import as_completed
-
     model_ref = client.scatter(monitor, broadcast=True, hash=False)
     out: list[dict | None] = [None] * len(files)
-    pending = {}
-    done = 0
     if same_machine(client):            # the workers read the files: only the paths travel, a batch per task
         n = min(len(files), max(1, workers_of(client)) * BATCHES_PER_WORKER)
-        batches = {client.submit(diagnose_files, model_ref, files[k::n], options, timings, pure=False): k
-                   for k in range(n)}
-        try:
-            for future in as_completed(list(batches)):
-                k = batches[future]
-                for j, result in zip(range(k, len(files), n), future.result()):
-                    out[j] = result
-                done += len(files[k::n])
-                if progress:
-                    progress(done, len(files))
-        finally:
-            for future in batches:
-                future.release()
-            model_ref.release()
-        return out
+        batches = {client.submit(diagnose_files, model_ref, files[k::n], options, timings, pure=False):
+                   list(range(k, len(files), n)) for k in range(n)}
+        return _collect(batches, out, 0, progress, model_ref)
+    pending, done = {}, 0
     for i, path in enumerate(files):
         try:
             data = read_file(path, options, monitor)
@@ -237,15 +222,24 @@ def _on_dask(client, monitor, files: list[str], options, timings: bool, progress
             if progress:
                 progress(done, len(files))
             continue
-        pending[client.submit(diagnose_data, model_ref, path, data, options, timings, pure=False)] = i
+        pending[client.submit(diagnose_data, model_ref, path, data, options, timings, pure=False)] = [i]
+    return _collect(pending, out, done, progress, model_ref)
+
+
+def _collect(futures: dict, out: list, done: int, progress, model_ref) -> list:
+    """``out`` filled from dask futures as they complete: each future gives the lines of its list of
+    file indices (one line, or a batch's list); every future and the scattered monitor released."""
+    from distributed import as_completed
     try:
-        for future in as_completed(list(pending)):
-            out[pending[future]] = future.result()
-            done += 1
+        for future in as_completed(list(futures)):
+            got = future.result()
+            for j, result in zip(futures[future], got if isinstance(got, list) else [got]):
+                out[j] = result
+            done += len(futures[future])
             if progress:
-                progress(done, len(files))
+                progress(done, len(out))
     finally:
-        for future in pending:
+        for future in futures:
             future.release()
         model_ref.release()
     return out
