@@ -81,12 +81,16 @@ def ends_of_life(model_no: int, bs, nominal: float, failure: float, tfs, now: fl
     return out
 
 
-def _profile_ruls(model_no: int, points, nominal: float, failure: float, now: float) -> list[float]:
-    """The RULs of a model's plausible fits along the onset (``onset_profile``)."""
+def _region_ruls(model_no: int, b_band, onsets: list[float], profile, nominal: float, failure: float,
+                 now: float) -> list[float]:
+    """The RULs at the corners of a model's 95 % intervals (``b_band`` times ``onsets``) and at its
+    plausible fits along the onset (``profile``: t0, b)."""
+    points = [(list(c), start) for c in itertools.product(*b_band) for start in onsets] if b_band else []
+    points += [(list(p["b"]), p["t0"]) for p in profile or ()]
     if not points:
         return []
-    return [float(e) - now for e in ends_of_life(model_no, [list(p["b"]) for p in points], nominal, failure,
-                                                  [p["t0"] for p in points], now)]
+    return [float(e) - now for e in ends_of_life(model_no, [c for c, _ in points], nominal, failure,
+                                                  [start for _, start in points], now)]
 
 
 def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float) -> dict:
@@ -99,22 +103,12 @@ def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float)
     cannot tell from the fit's (``other_models``, :func:`fdi.estimators.other_models`: its best
     point, the corners of its own intervals and its onset profile); without a band, the band is the RUL itself."""
     eol = end_of_life(fault["model"], fault["b"], nominal, failure, tf, now)
-    band = fault.get("b_band") or []
-    onsets = list(fault.get("t0_band") or []) or [tf]
-    corners = [(list(c), start) for c in itertools.product(*band) for start in onsets] if band else []
-    ruls = [eol - now]
-    if corners:
-        ruls += [float(e) - now for e in ends_of_life(fault["model"], [c for c, _ in corners], nominal, failure,
-                                                        [start for _, start in corners], now)]
-    ruls += _profile_ruls(fault["model"], fault.get("onset_profile"), nominal, failure, now)
+    ruls = [eol - now] + _region_ruls(fault["model"], fault.get("b_band"), list(fault.get("t0_band") or []) or [tf],
+                                      fault.get("onset_profile"), nominal, failure, now)
     for other in fault.get("other_models") or []:      # a degradation model the data cannot tell apart
         ruls.append(end_of_life(other["model"], other["b"], nominal, failure, other["t0"], now) - now)
-        if other.get("b_band"):                         # and that model's own 95 % region
-            box = [(list(c), start) for c in itertools.product(*other["b_band"])
-                   for start in (other.get("t0_band") or [other["t0"]])]
-            ruls += [float(e) - now for e in ends_of_life(other["model"], [c for c, _ in box], nominal, failure,
-                                                            [start for _, start in box], now)]
-        ruls += _profile_ruls(other["model"], other.get("onset_profile"), nominal, failure, now)
+        ruls += _region_ruls(other["model"], other.get("b_band"), list(other.get("t0_band") or []) or [other["t0"]],
+                             other.get("onset_profile"), nominal, failure, now)
     finite = [r for r in ruls if np.isfinite(r)]
     return {"name": fault["name"], "failure": failure, "eol": eol, "rul": eol - now, "at": now,
             "rul_low": min(finite) if finite else float("inf"), "rul_high": max(finite) if finite else float("inf")}
