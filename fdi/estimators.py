@@ -140,6 +140,14 @@ def has_recheck(engine: str) -> bool:
     return "recheck" in optim.ENGINES[engine].options.names()
 
 
+def plausible_limit(obj: Objective, cost: float) -> float:
+    """The cost within which a point is as plausible as the best (``cost``) at 95 %: with Laplace
+    residuals of common scale, 2 ln L ratio = 2 N_eff ln(C / C*) against chi2_1(0.95)."""
+    win = obj.win
+    n_eff = criterion.effective_samples(win.crop.stop - win.crop.start, len(obj.residuals), win.ts, obj.window_s)
+    return cost * float(np.exp(CHI2_95 / (2 * n_eff)))
+
+
 def coefficient_band(obj: Objective, real: np.ndarray, bits: np.ndarray, cost: float, index: int,
                      seed: int = 0) -> tuple[list[list[float]], list[float]]:
     """95 % profile-likelihood intervals of each degradation coefficient of fault ``index`` and of
@@ -156,9 +164,7 @@ def coefficient_band(obj: Objective, real: np.ndarray, bits: np.ndarray, cost: f
     band in 12 of 24 checkpoints of the plant suite. The region is sampled on a Latin hypercube
     (``BAND_SAMPLES``) in a box three times the conditional intervals, widened where plausible
     points reach its edge."""
-    win = obj.win
-    n_eff = criterion.effective_samples(win.crop.stop - win.crop.start, len(obj.residuals), win.ts, obj.window_s)
-    limit = cost * np.exp(CHI2_95 / (2 * n_eff))
+    limit = plausible_limit(obj, cost)
     model = encoding.describe(obj.spaces, real[:-1], bits)[index]["model"]
     bounds = obj.bounds()
     coords = [encoding.N_REAL * index + slot for slot in encoding.COEFF_SLOTS[model]] + [real.size - 1]
@@ -293,8 +299,7 @@ def onset_profile(obj: Objective, real: np.ndarray, bits: np.ndarray, cost: floa
     the limit 38.62 (RULs 8.2, 7.0, 6.5, 5.6 s); the first-order models (16), (17) leave the
     limit at once (41.8 at 0.5 s earlier)."""
     win = obj.win
-    n_eff = criterion.effective_samples(win.crop.stop - win.crop.start, len(obj.residuals), win.ts, obj.window_s)
-    limit = cost * np.exp(CHI2_95 / (2 * n_eff))
+    limit = plausible_limit(obj, cost)
     lo, hi = obj.bounds()[-1]
     t = win.t[win.crop]
     onsets = [float(real[-1]) + step for step in ONSET_STEPS if lo <= float(real[-1]) + step <= hi]
