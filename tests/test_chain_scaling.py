@@ -143,17 +143,21 @@ def test_a_fault_chain_residual_is_its_tank_mass_balance():
 
 
 def test_a_tank_chain_capacitance_fault_is_isolated_and_identified():
-    """10 tanks, tank 5's capacitance 1e-5 -> 8e-6 m^3/Pa from 100 s, simulated independently:
-    the diagnosis isolates fT5 alone and finds an abrupt fault of about that value."""
-    n, middle, value = 10, 5, 0.8e-5
+    """50 tanks, tank 25's capacitance 1e-5 -> 8e-6 m^3/Pa from 100 s, simulated independently:
+    the pressure jumps by 25 % (the stored volume is continuous) and the jump also lights the two
+    neighbours' residuals (the derivative filter's transient). The set of three, started from
+    each fault fitted alone (fdi.estimators.separable), gives tank 25 its design and the
+    neighbours at most a 1 % change (before: a neighbour alone was the diagnosis, tank 25 dropped)."""
+    n, middle, value = 50, 25, 0.8e-5
     cols = tank_chain.simulate(n, (Fault(f"CT{middle}", "abrupt", 100.0, value),), T=300.0, seed=0)
     report = diagnose(fault_chain_yaml(n), Measurements("tanks", cols["t"], cols),
-                      Options(workers=1, seed=0, max_set=1)).to_dict()
-    assert 90.0 <= report["detection"]["time"] <= 110.0           # the derivative window sees the jump early
-    faults = report["diagnosis"]["faults"]
-    assert [f["name"] for f in faults] == [f"fT{middle}"]
-    assert faults[0]["type"] == "abrupt"
-    assert faults[0]["value"] == pytest.approx(value, rel=0.06)
+                      Options(workers=1, seed=0)).to_dict()
+    assert 90.0 <= report["detection"]["time"] <= 100.0          # the derivative window sees the jump early
+    faults = {f["name"]: f for f in report["diagnosis"]["faults"]}
+    assert faults[f"fT{middle}"]["type"] == "abrupt"
+    assert faults[f"fT{middle}"]["value"] == pytest.approx(value, rel=0.05)
+    assert faults[f"fT{middle}"]["t0"] == pytest.approx(100.0, abs=1.0)
+    assert all(abs(f["value"] / 1e-5 - 1) < 0.01 for name, f in faults.items() if name != f"fT{middle}")
 
 
 def test_the_independent_tank_chain_rests_at_the_hand_equilibrium():
