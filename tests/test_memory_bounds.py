@@ -115,6 +115,9 @@ def test_long_record_residuals_hold_one_block_of_derivatives(monkeypatch):
     noisy = dict(cols, p2=1000.0 + rng.normal(size=n))
     for table, hand in ((cols, True), (noisy, False)):
         raw = signals_from_data(m.model, checked("x", list(table), np.column_stack(list(table.values()))))
+        # once untraced first: a process's first long filter loads the compiled kernels (numba's
+        # import and cache: 17-34 MiB of Python objects, once per process, not per record)
+        R.evaluate(m.model, list(m.residuals), raw, 0.1, window=5.0)
         tracemalloc.start()
         try:
             blocked = R.evaluate(m.model, list(m.residuals), raw, 0.1, window=5.0)
