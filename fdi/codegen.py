@@ -333,6 +333,18 @@ class _Builder:
         load = f"const double {local} = v[{c.out + order}];   /* {comment(what + name, 60)} ({comment(unit, 30)}) */"
         return self._symbol(key, local, load, channel)
 
+    def sample_symbol(self, name: str) -> sp.Symbol:
+        """Signal ``name`` as sampled (a stored quantity's input): the runtime gathers it after the
+        modes, in channel order, for the stored quantities' kernels only; it waits for no filter."""
+        key = ("sample", name)
+        if key in self.symbols:
+            return self.symbols[key]
+        c = self.channels[self.by_signal[name]]
+        local = identifier(f"x_{identifier(name)}", self.locals)
+        load = (f"const double {local} = v[OUTPUTS + MODES_N + {self.by_signal[name]}];   "
+                f"/* {comment(name, 60)} as sampled ({comment(c.unit, 30)}) */")
+        return self._symbol(key, local, load)
+
     def mode_symbol(self, name: str) -> sp.Symbol:
         key = ("mode", name)
         if key in self.symbols:
@@ -360,9 +372,11 @@ class _Builder:
         load = f"const double {local} = v[{c.out + order}];   /* {rate} of {comment(label, 70)} */"
         return self._symbol(key, local, load, channel)
 
-    def numeric(self, r: Residual, label: str) -> sp.Expr:
+    def numeric(self, r: Residual, label: str, measured: bool = False) -> sp.Expr:
         """The kernel of ``r`` with every signal, derivative, stored rate, mode and parameter as a
-        symbol of this builder (the arguments :func:`fdi.residuals._compile` lambdifies over)."""
+        symbol of this builder (the arguments :func:`fdi.residuals._compile` lambdifies over);
+        ``measured``: a stored quantity's, whose signals are read as sampled, not smoothed
+        (:class:`fdi.residuals.Estimates`)."""
         expr = r.expr
         stored = {}
         for i, (order, inner) in enumerate(r.composites):
@@ -375,7 +389,8 @@ class _Builder:
                 raise CodegenError(f"{label}: cannot evaluate the derivative {sp.sstr(d)} numerically")
             order = sum(c for v, c in d.variable_count if v == TIME)
             replace[d] = self.signal_symbol(d.expr.func.__name__, order)
-        plain = {fn: self.signal_symbol(fn.func.__name__, 0) for fn in expr.atoms(sp.core.function.AppliedUndef)
+        read = self.sample_symbol if measured else (lambda name: self.signal_symbol(name, 0))
+        plain = {fn: read(fn.func.__name__) for fn in expr.atoms(sp.core.function.AppliedUndef)
                  if fn.func.__name__ in self.by_signal}
         # derivatives first, so that theta1(t) inside Derivative(theta1(t), t) is not replaced
         expr = expr.xreplace(replace).xreplace(plain).xreplace(stored)
@@ -396,7 +411,7 @@ class _Builder:
         key = (_structure(inner), order)
         if key in self.by_stored:
             return self.by_stored[key]
-        body = _body(self.numeric(inner, label), self, label)
+        body = _body(self.numeric(inner, label, measured=True), self, label)
         inputs = sorted({self.channel_of[s] for s in body.reads if s in self.channel_of})
         index = self._channel(label, "stored", order, "", body, tuple(inputs))
         self.by_stored[key] = index

@@ -482,7 +482,7 @@ static void judge(${P}_state *s, int64_t k, int at_end)
 /* Stored quantities, then residuals and detection, as far as the filtered values are final. */
 static int advance(${P}_state *s, int at_end)
 {
-    double v[OUTPUTS + MODES_N + 1];
+    double v[OUTPUTS + MODES_N + SIGNALS_N + 1];
     int64_t ready, k;
     int c, i, count = 0;
 #if STORED_N > 0
@@ -495,6 +495,8 @@ static int advance(${P}_state *s, int at_end)
         while (s->priv.computed[c] < ready) {
             k = s->priv.computed[c];
             gather(s, k, v);
+            for (i = 0; i < SIGNALS_N; i++)     /* a stored quantity reads its signals as sampled */
+                v[OUTPUTS + MODES_N + i] = s->priv.x[i][SLOT(k)];
             s->priv.x[c][SLOT(k)] = STORED[c - SIGNALS_N](v, &s->params);
             s->priv.computed[c] = k + 1;
             arrive(s, c, 0, k);

@@ -244,9 +244,17 @@ def intermittent_rows(spaces: list, bits: np.ndarray, seeds: list[list[tuple[flo
 
 def nesting_depth(residual) -> int:
     """How many derivative filters a residual's samples pass through in series: one for its signals,
-    one more per level of stored quantities it differentiates (``composites``)."""
-    inner = [nesting_depth(kernel) for _, kernel in getattr(residual, "composites", ())]
-    return 1 + max(inner, default=0)
+    and for a stored quantity it differentiates (``composites``), one for the rate plus those of the
+    quantity's own inputs: none where it reads measured samples (C e of the measured e,
+    :class:`fdi.residuals.Estimates`), one where it reads a derivative, more for a stored quantity
+    inside it (the three tanks' d(C1 p1)/dt inside d(C2 (...))/dt: two)."""
+    return max([1] + [1 + _inside(kernel) for _, kernel in getattr(residual, "composites", ())])
+
+
+def _inside(kernel) -> int:
+    """The filters in series inside a stored quantity's expression (see :func:`nesting_depth`)."""
+    reads = 1 if any(k >= 1 for _, k in kernel.signals) else 0
+    return max([reads] + [1 + _inside(inner) for _, inner in getattr(kernel, "composites", ())])
 
 
 def _draws(rng: np.random.Generator, box: np.ndarray, linear: list[bool]) -> np.ndarray:

@@ -35,7 +35,7 @@ from . import criterion, encoding, hints, kernels, scales
 from .config import MonitorConfig
 from .data import commanded
 from .encoding import FaultSpace
-from .residuals import Residual, corrected_signals, derivative_orders, parameter_values
+from .residuals import Estimates, Residual, corrected_signals, derivative_orders, parameter_values, samples_of
 
 ROWS = 256             # individuals per objective block (bounds memory on wide screening calls)
 WINDOW_VALUES = 1 << 18  # ... and at most this many individual-samples per block: a 10 kHz window of 5 000
@@ -451,7 +451,8 @@ class Objective:
             return held[1]
         for a in range(0, n, step):
             rows = slice(a, min(n, a + step))
-            part = signals if n <= step else {k: [block(x, rows) for x in v] for k, v in signals.items()}
+            part = signals if n <= step else {k: Estimates([block(x, rows) for x in v], block(samples_of(v), rows),
+                                                           getattr(v, "breaks", None)) for k, v in signals.items()}
             vals = values if n <= step else {k: block(v, rows) for k, v in values.items()}
             out[rows] = residual(part, vals, self.win.ts, self.window_s, crop, rates=self._rates)
         if self.gaps.any():

@@ -77,10 +77,40 @@ def test_onsets_the_evidence_allows():
 
 
 def test_nesting_depth_counts_filters_in_series():
-    plain = SimpleNamespace(composites=())
-    stored = SimpleNamespace(composites=((1, plain),))
-    assert hints.nesting_depth(plain) == 1 and hints.nesting_depth(stored) == 2
-    assert hints.nesting_depth(SimpleNamespace(composites=((1, stored), (2, plain)))) == 3
+    """A stored quantity formed from measured samples adds only its rate's filter (in parallel with
+    the signals'); one reading a derivative adds that filter in series; one inside another, two."""
+    measured = SimpleNamespace(signals=(("p", 0),), composites=())
+    derived = SimpleNamespace(signals=(("x", 1),), composites=())
+    assert hints.nesting_depth(SimpleNamespace(signals=(("p", 1),), composites=())) == 1
+    assert hints.nesting_depth(SimpleNamespace(signals=(), composites=((1, measured),))) == 1
+    assert hints.nesting_depth(SimpleNamespace(signals=(), composites=((1, derived),))) == 2
+    nested = SimpleNamespace(signals=(("p", 0),), composites=((1, measured),))
+    assert hints.nesting_depth(SimpleNamespace(signals=(), composites=((1, nested),))) == 2
+
+
+def test_a_stored_volume_jump_reaches_half_a_window_ahead():
+    """One tank (CT = 1e-5 m^3/Pa, outlet Rv = 1e6 Pa s/m^3, pump 1e-5 m^3/s) at rest at 10 Pa; its
+    capacitance drops to 8e-6 at 100 s: the volume V is continuous, so p jumps to 12.5 Pa and
+    V relaxes to 8e-5 with tau = 8 s, written out by hand. The ARR reads d(CT p)/dt: at the design
+    it stays at the derivative filter's error away from the kink's half window, and at the
+    nominal CT it first moves 2.5 s (half the 5 s window) before the jump, not 5 s (the rate's
+    filter after a smoothing filter)."""
+    from bondgraph.chains import fault_chain_yaml
+    from fdi.monitor import Monitor
+    from fdi.residuals import evaluate
+
+    m = Monitor(fault_chain_yaml(1))
+    ts, t = 0.5, np.arange(0.0, 200.0, 0.5)
+    q0 = 1e-5 * np.ones_like(t)
+    ct = np.where(t >= 100.0, 0.8e-5, 1e-5)
+    volume = np.where(t >= 100.0, 0.8e-4 + 0.2e-4 * np.exp(-(t - 100.0) / 8.0), 1e-4)
+    p = volume / ct
+    r_design = evaluate(m.model, list(m.residuals), {"q0": q0, "p1": p}, ts, window=5.0, values={"CT1": ct})[0]
+    r_nominal = evaluate(m.model, list(m.residuals), {"q0": q0, "p1": p}, ts, window=5.0)[0]
+    moved = t[(t > 10) & (np.abs(r_nominal) > 1e-12)]
+    assert moved.min() == 97.5
+    away = (t > 10) & (t < 190) & (np.abs(t - 100.0) > 2.6)
+    assert np.abs(r_design[away]).max() < 0.01 * 2.5e-6      # 1 % of the outflow's step
 
 
 def test_aligned_onsets_switch_on_inside_the_interval():
