@@ -515,7 +515,8 @@ def diagnose_chain_row(tanks: int, workers: int = 1) -> dict:
     faults = result["report"]["diagnosis"]["faults"]
     return {"case": f"diagnose tanks N={tanks}", "elements": len(model.elements) + len(model.junctions),
             "tanks": tanks, "seconds": seconds, "found": [f.get("name") for f in faults],
-            "expected": f"fT{middle}"}
+            "ratios": [f["value"] / 1.0e-5 if f.get("type") == "abrupt" else None for f in faults],
+            "expected": f"fT{middle}", "expected_ratio": 0.8}
 
 
 def chain_rows(check_sizes=CHECK_CHAINS, tank_sizes=DIAGNOSE_CHAINS, echo=None) -> list[dict]:
@@ -545,7 +546,9 @@ def format_chain(rows: list[dict]) -> str:
     for r in rows:
         result = ""
         if "found" in r:
-            result = f"found {', '.join(map(str, r['found'])) or 'nothing'} (designed {r['expected']})"
+            found = [name if ratio is None else f"{name} x{ratio:.3f}"
+                     for name, ratio in zip(r["found"], r.get("ratios") or [None] * len(r["found"]))]
+            result = f"found {', '.join(found) or 'nothing'} (designed {r['expected']} x{r.get('expected_ratio', 0.8):g})"
         out.append(f"{r['case']:<28}{r['elements']:>9}{r['seconds']:>10.2f}{r['seconds'] / r['elements']:>12.2e}  {result}")
     for label, group, key in (("check", [r for r in rows if r["case"].startswith("check")], "elements"),
                               ("diagnose", [r for r in rows if r["case"].startswith("diagnose")], "tanks")):
@@ -562,5 +565,6 @@ def chain_json(rows: list[dict]) -> dict:
             "check": [{"elements": r["elements"], "cpu_s": r["seconds"]} for r in check],
             "check_exponent": growth_exponent(check),
             "diagnose": [{"tanks": r["tanks"], "elements": r["elements"], "cpu_s": r["seconds"], "found": r["found"],
-                          "expected": r["expected"]} for r in diag],
+                          "ratios": r["ratios"], "expected": r["expected"], "expected_ratio": r["expected_ratio"]}
+                         for r in diag],
             "diagnose_exponent": growth_exponent(diag, "tanks")}
