@@ -140,6 +140,11 @@ def _reference_bond(g, junction, strong) -> int:
 Incidence = list[frozenset]
 
 
+def _name(v) -> str:
+    """A variable's name: the order :func:`_match` tries variables in, the same in every process."""
+    return v.name if isinstance(v, sp.Symbol) else str(v)
+
+
 def _match(incidence: Incidence, eqs: Iterable[int], allowed=None) -> dict[int, object]:
     """A maximum matching equation -> variable (augmenting paths, iterative). ``allowed(e, v)``
     restricts which edges may be matched."""
@@ -154,7 +159,7 @@ def _match(incidence: Incidence, eqs: Iterable[int], allowed=None) -> dict[int, 
         found = None
         while stack and found is None:
             e = stack.pop()
-            for v in incidence[e]:
+            for v in sorted(incidence[e], key=_name):      # a set's order follows the hash seed
                 if allowed is not None and not allowed(e, v):
                     continue
                 if v in parent:
