@@ -87,7 +87,7 @@ from bondgraph.timescales import mode_combinations, time_scales
 
 from . import derivatives
 from .scaph import ARR
-from .residuals import Residual, compile_residual, parameter_values
+from .residuals import Estimates, Residual, compile_residual, parameter_values
 
 THRESHOLD = 1e-4         # relative violation above which an ARR fails
 RUNS = 3                 # simulations per mode combination: the model's initial state and two random ones
@@ -351,8 +351,10 @@ def _raw(traj: Trajectory, model: Model, inputs: Mapping[str, sp.Expr]) -> dict[
 
 
 def _derivatives(raw: Mapping[str, np.ndarray], orders: Mapping[str, int], ts: float) -> dict[str, list[np.ndarray]]:
-    """Every signal and its derivatives: Savitzky-Golay of order POLYORDER over POLYORDER + 2 samples."""
-    return {name: derivatives.estimate(raw[name], ts, max(order, 1), (POLYORDER + 2) * ts, polyorder=POLYORDER)
+    """Every signal and its derivatives: Savitzky-Golay of order POLYORDER over POLYORDER + 2 samples
+    (with the samples themselves, which stored quantities are formed from)."""
+    return {name: Estimates(derivatives.estimate(raw[name], ts, max(order, 1), (POLYORDER + 2) * ts,
+                                                 polyorder=POLYORDER), raw[name])
             for name, order in orders.items()}
 
 
