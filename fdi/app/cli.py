@@ -978,6 +978,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
         row = startup_row(shipped_model("cycab_steering"), reference_data("scenario3.csv"))
         sys.stdout.write(_json_text(startup_json(row)) if args.json else format_startup(row))
         return 0
+    if args.what == "csv":
+        from .bench_csv import csv_json, csv_rows, format_csv
+        row = csv_rows(args.megabytes, echo=LOG.info if args.json else lambda line: _note(line, None))
+        sys.stdout.write(_json_text(csv_json(row)) if args.json else format_csv(row))
+        return 0
     if args.what == "diagnose":
         from .resources import reference_data
         row = bench.diagnose_rows(reference_data("scenario2.csv"), args.workers)
@@ -1192,7 +1197,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", help="benchmarks, printed as tables")
     b.add_argument("what", choices=("derive", "chain", "simulate", "optim", "diagnose", "accuracy", "monitor", "fleet",
-                                          "startup"))
+                                          "startup", "csv"))
+    b.add_argument("--megabytes", type=real(1.0, high=4000.0), default=250.0,
+                   help="csv: size of the file written and read (default 250)")
     b.add_argument("--hours", type=real(0.05, high=24.0), default=1.0,
                    help="monitor: hours of 100 Hz data streamed (default 1; 4 reads the memory at 4 h too)")
     b.add_argument("--block", type=whole(1, 1_000_000), default=50, help="monitor: rows per block (default 50)")
