@@ -145,6 +145,10 @@ class Fused:
                               for name, _, _ in slots]).reshape(len(slots), w)
         self.t = np.ascontiguousarray(obj.win.t, dtype=float)
         self.plans: dict[int, Plan] = {}
+        self.patterns: dict[tuple[bool, ...], Pattern] = {}
+        self.s_at_array = np.array(self.s_at, dtype=np.int64)
+        self.no_span19 = np.zeros(len(obj.spaces))         # no eq. (19) individual (read only)
+        self.no_pre = np.zeros((1, 1))
         self.names = {"abs": builtins.abs}
 
     @classmethod
@@ -194,63 +198,98 @@ class Fused:
         return out
 
     def evaluate(self, real: np.ndarray, bits: np.ndarray, stride: int) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`fdi.objective.Objective.evaluate`'s costs and population, by the compiled kernel."""
+        """:meth:`fdi.objective.Objective.evaluate`'s costs and population, by the compiled kernel.
+        The population is decoded in one pass (:func:`fdi.encoding.decode_table`) and what depends
+        only on which linear faults are solved is built once (:meth:`pattern`): a call's Python
+        costs a few tens of microseconds before the kernel."""
         obj = self.obj
         plan = self.plan(stride)
         real = real.copy()
-        decoded = encoding.decode(obj.spaces, real[:, :-1], bits)
+        table = encoding.decode_table(obj.spaces, real[:, :-1], bits)
         n, t = real.shape[0], self.t
         onset = np.ascontiguousarray(obj.onset(real), dtype=float)
-        kinds = np.array([d.kind for d in decoded], dtype=np.int64).reshape(len(decoded), n)
-        models = np.array([d.model for d in decoded], dtype=np.int64).reshape(len(decoded), n)
-        values = np.array([d.value_ab for d in decoded], dtype=float).reshape(len(decoded), n)
-        periods = np.array([d.period for d in decoded], dtype=float).reshape(len(decoded), n)
-        coeffs = np.array([d.b[:, COEFFS] for d in decoded], dtype=float).reshape(len(decoded), n, len(COEFFS))
-        pre_at = np.full((len(decoded), n), -1, dtype=np.int64)
-        pre, span19, filled = [], np.zeros(len(decoded)), 0
-        for j, (space, d) in enumerate(zip(obj.spaces, decoded)):
-            incipient = d.kind == 2
-            if not incipient.any():
-                continue
-            for model in (1, 3):            # eqs. (16) and (18): numpy's exponentials, as the numpy path
-                rows = incipient & (d.model == model)
-                if rows.any():
-                    cols = [slot - 2 for slot in encoding.COEFF_SLOTS[model]]
-                    pre_at[j, rows] = filled + np.arange(int(rows.sum()))
-                    pre.append(profiles.incipient(t, onset[rows], space.nominal, model, d.b[rows][:, cols]))
-                    filled += pre[-1].shape[0]
-            rows = incipient & (d.model == 4)
-            if rows.any():                  # eq. (19)'s grid step, from the latest onset's span as numpy's
-                late = t[-1] - onset[rows]
-                late = late[~np.isnan(late)]
-                span19[j] = max(0.0, float(late.max())) if late.size else 0.0
-        pre = np.vstack(pre) if pre else np.zeros((1, 1))
-        solve = {j: kinds[j] < 2 for j in self.linear if (kinds[j] < 2).any()}
-        active = list(obj.active)
-        entered = list(solve)
-        plain = [q for q, i in enumerate(active) if not any(obj.enters[j][i] for j in entered)]
-        joint = [q for q in range(len(active)) if q not in plain]
-        enters = np.zeros((max(1, len(self.linear)), max(1, len(joint))), dtype=np.bool_)
-        lo = np.zeros(max(1, len(self.linear)))
-        hi = np.zeros(max(1, len(self.linear)))
-        for jj, j in enumerate(self.linear):
-            if j in solve:
-                for q, a in enumerate(joint):
-                    enters[jj, q] = obj.enters[j][active[a]]
-                lo[jj], hi[jj] = obj.delta_bounds(j)
-        weights = np.asarray(obj.weights, dtype=float)
+        kinds = np.ascontiguousarray(table.kind, dtype=np.int64)
+        models = np.ascontiguousarray(table.model, dtype=np.int64)
+        values = np.ascontiguousarray(table.value, dtype=float)
+        periods = np.ascontiguousarray(table.period, dtype=float)
+        coeffs = np.ascontiguousarray(table.b[:, :, COEFFS], dtype=float)
+        incipient = kinds == 2
+        pre_at = np.full(kinds.shape, -1, dtype=np.int64)
+        pre, span19, filled = [], self.no_span19, 0
+        if incipient.any():
+            for j, space in enumerate(obj.spaces):
+                if not incipient[j].any():
+                    continue
+                for model in (1, 3):            # eqs. (16) and (18): numpy's exponentials, as the numpy path
+                    rows = incipient[j] & (models[j] == model)
+                    if rows.any():
+                        cols = [slot - 2 for slot in encoding.COEFF_SLOTS[model]]
+                        pre_at[j, rows] = filled + np.arange(int(rows.sum()))
+                        pre.append(profiles.incipient(t, onset[rows], space.nominal, model, table.b[j][rows][:, cols]))
+                        filled += pre[-1].shape[0]
+                rows = incipient[j] & (models[j] == 4)
+                if rows.any():                  # eq. (19)'s grid step, from the latest onset's span as numpy's
+                    late = t[-1] - onset[rows]
+                    late = late[~np.isnan(late)]
+                    if span19 is self.no_span19:
+                        span19 = np.zeros(len(obj.spaces))
+                    span19[j] = max(0.0, float(late.max())) if late.size else 0.0
+        pre = (pre[0] if len(pre) == 1 else np.vstack(pre)) if pre else self.no_pre
+        solved = kinds[self.lin_fault] < 2 if self.linear else None
+        solving = tuple(bool(x) for x in solved.any(axis=1)) if self.linear else ()
+        p = self.pattern(solving)
         total, d, invalid = kernels.jit().fused_cost(
             t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
             self.f_nominal, self.f_unit, self.f_linear, self.f_role, span19, STEP19,
             self.slot_fault, self.slot_step, self.slot_group, self.tnom,
             plan.code, plan.results, plan.registers, plan.consts, plan.fixed,
             self.raw, self.is_source, self.beta_fault, self.beta_fixed, self.bias_fault, self.bias_fixed,
-            self.corr_fixed, self.fk, self.fk_n, self.fk_orders, np.array(self.s_at, dtype=np.int64), self.n_slots,
-            plan.crop.start, stride, plan.m, np.array(plain, dtype=np.int64), weights[[active[q] for q in plain]],
-            np.array(joint, dtype=np.int64), weights[[active[q] for q in joint]], enters, self.lin_fault, lo, hi,
-            3 if len(entered) > 1 else 1, plan.gaps, plan.constant, BLOCK)
-        deltas = {j: d[jj] for jj, j in enumerate(self.linear) if j in solve} if joint else {}
+            self.corr_fixed, self.fk, self.fk_n, self.fk_orders, self.s_at_array, self.n_slots,
+            plan.crop.start, stride, plan.m, p.plain, p.plain_w, p.joint, p.joint_w, p.enters, self.lin_fault,
+            p.lo, p.hi, p.passes, plan.gaps, plan.constant, BLOCK)
+        solve = {j: solved[jj] for jj, j in enumerate(self.linear) if solving[jj]}
+        deltas = {j: d[jj] for jj, j in enumerate(self.linear) if solving[jj]} if p.joint.size else {}
         return obj.finish(real, solve, deltas, total, invalid, stride)
+
+    def pattern(self, solving: tuple[bool, ...]) -> "Pattern":
+        """The kernel's residual split for one set of solved linear faults (``solving``: per linear
+        fault, whether any individual solves its magnitude): the residuals no solved fault enters
+        (summed as they are) and the others (magnitudes solved on them), their weights, which
+        fault enters which, the magnitudes' bounds; built once per set."""
+        got = self.patterns.get(solving)
+        if got is not None:
+            return got
+        obj = self.obj
+        entered = [j for jj, j in enumerate(self.linear) if solving[jj]]
+        active = list(obj.active)
+        plain = [q for q, i in enumerate(active) if not any(obj.enters[j][i] for j in entered)]
+        joint = [q for q in range(len(active)) if q not in plain]
+        enters = np.zeros((max(1, len(self.linear)), max(1, len(joint))), dtype=np.bool_)
+        lo = np.zeros(max(1, len(self.linear)))
+        hi = np.zeros(max(1, len(self.linear)))
+        for jj, j in enumerate(self.linear):
+            if solving[jj]:
+                for q, a in enumerate(joint):
+                    enters[jj, q] = obj.enters[j][active[a]]
+                lo[jj], hi[jj] = obj.delta_bounds(j)
+        weights = np.asarray(obj.weights, dtype=float)
+        got = self.patterns[solving] = Pattern(
+            np.array(plain, dtype=np.int64), weights[[active[q] for q in plain]], np.array(joint, dtype=np.int64),
+            weights[[active[q] for q in joint]], enters, lo, hi, 3 if len(entered) > 1 else 1)
+        return got
+
+
+@dataclass
+class Pattern:
+    """What :meth:`Fused.pattern` builds for one set of solved linear faults."""
+    plain: np.ndarray
+    plain_w: np.ndarray
+    joint: np.ndarray
+    joint_w: np.ndarray
+    enters: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    passes: int
 
 
 COEFFS = [1, 4, 5, 6]     # the decoded coefficients the kernel reads: b2 (eq. 17), b5, b6, b7 (eq. 19)
