@@ -208,6 +208,59 @@ def _eq17(t, a, nominal, c, b):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
+def _eq18_roots(b3):  # pragma: no cover - compiled
+    """Eq. (18)'s rates r1, r2 as :func:`fdi.profiles._model18` forms them (b3 ** 2 is numpy's square)."""
+    root = np.sqrt(b3 * b3 + 4.0)
+    return (b3 + root) / 2, (b3 - root) / 2
+
+
+@njit(cache=True, nogil=True)
+def exp_arguments(t, t0, model, b):  # pragma: no cover - compiled
+    """The arguments of eq. (16)'s exponential (model 1: b1 tau) or eq. (18)'s two (model 3: r1 tau,
+    r2 tau) for every row of ``b`` and time: (1 or 2, rows, samples), tau = max(t - t0, 0) (NaN
+    stays NaN), as :func:`fdi.profiles.incipient` forms them (one product each, so numpy's bits);
+    numpy then takes the exponentials, in place, and :func:`incipient_exp` reads them."""
+    rows, n = b.shape[0], t.shape[0]
+    k = 1 if model == 1 else 2
+    out = np.empty((k, rows, n))
+    for r in range(rows):
+        a = t0[r]
+        if model == 1:
+            r1, r2 = b[r, 0], 0.0
+        else:
+            r1, r2 = _eq18_roots(b[r, 0])
+        for i in range(n):
+            x = t[i] - a
+            tau = 0.0 if x < 0 else x
+            out[0, r, i] = r1 * tau
+            if k == 2:
+                out[1, r, i] = r2 * tau
+    return out
+
+
+@njit(cache=True, nogil=True)
+def incipient_exp(t, t0, nominal, model, b, e):  # pragma: no cover - compiled
+    """Eq. (16) (model 1: P0 e1) or eq. (18) (model 3, finite P0: -b4 + a e1 + c e2) from t0 on, the
+    nominal value before, from the exponentials ``e`` of :func:`exp_arguments`: the products,
+    quotients and sums of :func:`fdi.profiles.incipient` in its order, so its numbers."""
+    rows, n = b.shape[0], t.shape[0]
+    out = np.empty((rows, n))
+    for r in range(rows):
+        t0r = t0[r]
+        if model == 1:
+            for i in range(n):
+                out[r, i] = nominal * e[0, r, i] if t[i] >= t0r else nominal
+        else:
+            b4 = b[r, 1]
+            r1, r2 = _eq18_roots(b[r, 0])
+            a = -r2 * (nominal + b4) / (r1 - r2)
+            c = r1 * (nominal + b4) / (r1 - r2)
+            for i in range(n):
+                out[r, i] = (-b4 + a * e[0, r, i]) + c * e[1, r, i] if t[i] >= t0r else nominal
+    return out
+
+
+@njit(cache=True, nogil=True)
 def fir(x, half, start, count, stride):  # pragma: no cover - compiled
     """:func:`fdi.derivatives.fir` for rows of ``x`` (rows, samples): out[r, k, i], the numpy
     path's operations in its order (the middle sample times tap 0, then the pairs j = 1, 2, ...).
