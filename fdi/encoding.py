@@ -163,15 +163,17 @@ def decode_table(spaces: list[FaultSpace], real: np.ndarray, bits: np.ndarray) -
     nf = len(spaces)
     log, scale, any_log = _layout(spaces)
     r = real[:, :N_REAL * nf].reshape(real.shape[0], nf, N_REAL).transpose(1, 0, 2)     # (faults, pop, 9)
-    z = bits[:, :N_BITS * nf].reshape(bits.shape[0], nf, N_BITS).transpose(1, 0, 2).astype(np.int64)
+    z = bits[:, :N_BITS * nf].reshape(bits.shape[0], nf, N_BITS).transpose(1, 0, 2)
+    zeta = z[:, :, :3].astype(bool).astype(np.int64)        # as repair_zeta and model_index read them
+    eta = z[:, :, 3:].astype(int)
     value = r[:, :, 0].copy()
     if any_log:
         value[log] = 10 ** value[log]
     coeff = r[:, :, 2:] * scale[:, None, :]
     rate = 10.0 ** r[:, :, RATE_SLOT]
     coeff[:, :, RATE_SLOT - 2] = rate - 1.0 / rate
-    kind = _ZETA[4 * z[:, :, 0] + 2 * z[:, :, 1] + z[:, :, 2]]
-    model = 1 + 2 * z[:, :, 3] + z[:, :, 4]
+    kind = _ZETA[4 * zeta[:, :, 0] + 2 * zeta[:, :, 1] + zeta[:, :, 2]]
+    model = 1 + 2 * eta[:, :, 0] + eta[:, :, 1]
     return Table(kind, model, value, r[:, :, 1].copy(), coeff)
 
 
@@ -230,10 +232,21 @@ def profiles(spaces: list[FaultSpace], decoded: list[Decoded], t: np.ndarray, t0
     return out
 
 
+_ZETA_LIST = [int(k) for k in _ZETA]
+
+
+def _decisions(spaces: list[FaultSpace], bits: np.ndarray) -> list[tuple[int, int]]:
+    """Per fault of one individual, its type index and degradation model, read as :func:`decode`
+    reads them (zeta as booleans, repaired; eta as integers), without the reals: the engine asks
+    for the structure of a bit pattern thousands of times."""
+    v = np.asarray(bits).reshape(-1)[:N_BITS * len(spaces)].tolist()
+    return [(_ZETA_LIST[4 * bool(v[k]) + 2 * bool(v[k + 1]) + bool(v[k + 2])], 1 + 2 * int(v[k + 3]) + int(v[k + 4]))
+            for k in range(0, N_BITS * len(spaces), N_BITS)]
+
+
 def structure(spaces: list[FaultSpace], bits: np.ndarray) -> tuple:
     """The discrete decision of one individual: per fault its type and (incipient) model."""
-    ds = decode(spaces, np.zeros((1, N_REAL * len(spaces))), np.asarray(bits)[None, :])
-    return tuple((TYPES[int(d.kind[0])], int(d.model[0]) if d.kind[0] == 2 else None) for d in ds)
+    return tuple((TYPES[kind], model if kind == 2 else None) for kind, model in _decisions(spaces, bits))
 
 
 def family(spaces: list[FaultSpace], bits: np.ndarray) -> frozenset:
@@ -249,9 +262,9 @@ def free(spaces: list[FaultSpace], bits: np.ndarray) -> np.ndarray:
     """The reals one individual's structure reads (bool, 9 per fault): an abrupt fault its value, an
     intermittent one its value and period, an incipient one the coefficients of its model."""
     mask = np.zeros(N_REAL * len(spaces), dtype=bool)
-    for i, d in enumerate(decode(spaces, np.zeros((1, N_REAL * len(spaces))), np.asarray(bits)[None, :])):
-        kind, base = int(d.kind[0]), N_REAL * i
-        slots = [0] if kind == 0 else [0, 1] if kind == 1 else COEFF_SLOTS[int(d.model[0])]
+    for i, (kind, model) in enumerate(_decisions(spaces, bits)):
+        base = N_REAL * i
+        slots = [0] if kind == 0 else [0, 1] if kind == 1 else COEFF_SLOTS[model]
         mask[[base + s for s in slots]] = True
     return mask
 

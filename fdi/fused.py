@@ -147,8 +147,17 @@ class Fused:
         self.plans: dict[int, Plan] = {}
         self.patterns: dict[tuple[bool, ...], Pattern] = {}
         self.s_at_array = np.array(self.s_at, dtype=np.int64)
-        self.no_span19 = np.zeros(len(obj.spaces))         # no eq. (19) individual (read only)
         self.no_pre = np.zeros((1, 1))
+        # the decoding's constants (fdi._jit.decode_rows): logarithmic values, coefficient scales, and
+        # the reals numpy raises 10 to (every rate slot, then each logarithmic value)
+        self.log = np.array([sp.log for sp in obj.spaces], dtype=np.bool_)
+        self.scale = np.array([[1, 1 / sp.reference, 1, sp.reference, 1 / sp.reference, 1, sp.reference]
+                               for sp in obj.spaces], dtype=float).reshape(len(obj.spaces), encoding.N_REAL - 2)
+        logs = [j for j, sp in enumerate(obj.spaces) if sp.log]
+        self.power_cols = np.array([encoding.N_REAL * j + encoding.RATE_SLOT for j in range(len(obj.spaces))]
+                                   + [encoding.N_REAL * j for j in logs], dtype=np.int64)
+        self.vpow = np.full(len(obj.spaces), -1, dtype=np.int64)
+        self.vpow[logs] = len(obj.spaces) + np.arange(len(logs))
         self.names = {"abs": builtins.abs}
 
     @classmethod
@@ -199,47 +208,37 @@ class Fused:
 
     def evaluate(self, real: np.ndarray, bits: np.ndarray, stride: int) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`fdi.objective.Objective.evaluate`'s costs and population, by the compiled kernel.
-        The population is decoded in one pass (:func:`fdi.encoding.decode_table`) and what depends
+        The population is decoded in one compiled pass around numpy's powers
+        (:func:`fdi._jit.decode_rows`, :func:`fdi.encoding.decode_table`'s numbers) and what depends
         only on which linear faults are solved is built once (:meth:`pattern`): a call's Python
         costs a few tens of microseconds before the kernel."""
         obj = self.obj
         plan = self.plan(stride)
-        real = real.copy()
-        table = encoding.decode_table(obj.spaces, real[:, :-1], bits)
-        n, t = real.shape[0], self.t
-        onset = np.ascontiguousarray(obj.onset(real), dtype=float)
-        kinds = np.ascontiguousarray(table.kind, dtype=np.int64)
-        models = np.ascontiguousarray(table.model, dtype=np.int64)
-        values = np.ascontiguousarray(table.value, dtype=float)
-        periods = np.ascontiguousarray(table.period, dtype=float)
-        coeffs = np.ascontiguousarray(table.b[:, :, COEFFS], dtype=float)
-        incipient = kinds == 2
-        pre_at = np.full(kinds.shape, -1, dtype=np.int64)
-        pre, span19, filled = [], self.no_span19, 0
-        if incipient.any():
-            for j, space in enumerate(obj.spaces):
-                if not incipient[j].any():
-                    continue
-                for model in (1, 3):            # eqs. (16) and (18): numpy's exponentials, as the numpy path
-                    rows = incipient[j] & (models[j] == model)
-                    if rows.any():
+        fast = kernels.jit()
+        real = np.array(real, dtype=float)         # a copy: finish writes the solved magnitudes in
+        t = self.t
+        onset = real[:, -1].copy()
+        bits = np.asarray(bits)
+        flags = bits if bits.dtype == np.bool_ else bits.astype(bool) if ((bits == 0) | (bits == 1)).all() else None
+        if flags is not None and flags.ndim == 2 and flags.shape[0] == real.shape[0]:
+            kinds, models, values, periods, b, pre_at, counts, span19, level = fast.decode_rows(
+                real, np.ascontiguousarray(flags), self.log, self.scale, 10.0 ** real[:, self.power_cols],
+                self.vpow, ZETA, float(t[-1]))
+        else:                                       # bits other than 0/1: decode_table's reading of them
+            kinds, models, values, periods, b, pre_at, counts, span19, level = self.decode_numpy(real, bits)
+        pre = []
+        if counts.any():                            # eqs. (16) and (18): numpy's exponentials, as the numpy path
+            for j, (n1, n3) in enumerate(counts.tolist()):
+                for count, model in ((n1, 1), (n3, 3)):
+                    if count:
+                        rows = (kinds[j] == 2) & (models[j] == model)
                         cols = [slot - 2 for slot in encoding.COEFF_SLOTS[model]]
-                        pre_at[j, rows] = filled + np.arange(int(rows.sum()))
-                        pre.append(profiles.incipient(t, onset[rows], space.nominal, model, table.b[j][rows][:, cols]))
-                        filled += pre[-1].shape[0]
-                rows = incipient[j] & (models[j] == 4)
-                if rows.any():                  # eq. (19)'s grid step, from the latest onset's span as numpy's
-                    late = t[-1] - onset[rows]
-                    late = late[~np.isnan(late)]
-                    if span19 is self.no_span19:
-                        span19 = np.zeros(len(obj.spaces))
-                    span19[j] = max(0.0, float(late.max())) if late.size else 0.0
+                        pre.append(profiles.incipient(t, onset[rows], obj.spaces[j].nominal, model, b[j][rows][:, cols]))
         pre = (pre[0] if len(pre) == 1 else np.vstack(pre)) if pre else self.no_pre
-        solved = kinds[self.lin_fault] < 2 if self.linear else None
-        solving = tuple(bool(x) for x in solved.any(axis=1)) if self.linear else ()
+        solving = tuple(level[self.lin_fault].tolist())
         p = self.pattern(solving)
-        total, d, invalid = kernels.jit().fused_cost(
-            t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
+        total, d, invalid = fast.fused_cost(
+            t, onset, kinds, models, values, periods, np.ascontiguousarray(b[:, :, COEFFS]), pre, pre_at,
             self.f_nominal, self.f_unit, self.f_linear, self.f_role, span19, STEP19,
             self.slot_fault, self.slot_step, self.slot_group, self.tnom,
             plan.code, plan.results, plan.registers, plan.consts, plan.fixed,
@@ -247,9 +246,35 @@ class Fused:
             self.corr_fixed, self.fk, self.fk_n, self.fk_orders, self.s_at_array, self.n_slots,
             plan.crop.start, stride, plan.m, p.plain, p.plain_w, p.joint, p.joint_w, p.enters, self.lin_fault,
             p.lo, p.hi, p.passes, plan.gaps, plan.constant, BLOCK)
-        solve = {j: solved[jj] for jj, j in enumerate(self.linear) if solving[jj]}
+        solve = {j: kinds[j] < 2 for jj, j in enumerate(self.linear) if solving[jj]}
         deltas = {j: d[jj] for jj, j in enumerate(self.linear) if solving[jj]} if p.joint.size else {}
         return obj.finish(real, solve, deltas, total, invalid, stride)
+
+    def decode_numpy(self, real: np.ndarray, bits: np.ndarray) -> tuple:
+        """What :func:`fdi._jit.decode_rows` returns, by :func:`fdi.encoding.decode_table`."""
+        obj = self.obj
+        table = encoding.decode_table(obj.spaces, real[:, :-1], bits)
+        kinds = np.ascontiguousarray(table.kind, dtype=np.int64)
+        models = np.ascontiguousarray(table.model, dtype=np.int64)
+        incipient = kinds == 2
+        counts = np.stack([(incipient & (models == 1)).sum(axis=1), (incipient & (models == 3)).sum(axis=1)], axis=1)
+        pre_at = np.full(kinds.shape, -1, dtype=np.int64)
+        filled = 0
+        for j in range(len(obj.spaces)):
+            for k, model in enumerate((1, 3)):
+                rows = incipient[j] & (models[j] == model)
+                pre_at[j, rows] = filled + np.arange(int(counts[j, k]))
+                filled += int(counts[j, k])
+        span19 = np.zeros(len(obj.spaces))
+        onset = real[:, -1]
+        for j in range(len(obj.spaces)):
+            rows = incipient[j] & (models[j] == 4)
+            late = self.t[-1] - onset[rows]
+            late = late[~np.isnan(late)]
+            span19[j] = max(0.0, float(late.max())) if late.size else 0.0
+        return (kinds, models, np.ascontiguousarray(table.value, dtype=float),
+                np.ascontiguousarray(table.period, dtype=float), np.ascontiguousarray(table.b, dtype=float),
+                pre_at, counts, span19, (kinds < 2).any(axis=1))
 
     def pattern(self, solving: tuple[bool, ...]) -> "Pattern":
         """The kernel's residual split for one set of solved linear faults (``solving``: per linear
@@ -292,5 +317,7 @@ class Pattern:
     passes: int
 
 
+ZETA = np.asarray(encoding.repair_zeta(np.array([[(c >> 2) & 1, (c >> 1) & 1, c & 1] for c in range(8)], dtype=bool)),
+                  dtype=np.int64)    # the type of each zeta code 4 z0 + 2 z1 + z2
 COEFFS = [1, 4, 5, 6]     # the decoded coefficients the kernel reads: b2 (eq. 17), b5, b6, b7 (eq. 19)
 STEP19 = 0.1              # eq. (19)'s RK4 grid (fdi.profiles._model19's step)

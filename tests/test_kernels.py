@@ -271,6 +271,13 @@ def test_fused_objective_is_the_numpy_path_s(case):
         assert ok.sum() >= 20
         assert np.allclose(c1[ok], c0[ok], rtol=1e-9, atol=0.0)
         assert np.allclose(r1, r0, rtol=1e-9, atol=0.0)
+    # bits as 0/1 integers and as other numbers (zeta read as booleans, eta as integers): the compiled
+    # decoding and its numpy fallback read them as fdi.encoding.decode does
+    for given in (bits.astype(np.int64), bits * np.where(np.random.default_rng(2).random(bits.shape) < 0.5, 1.0, 1.6)):
+        (c0, r0), (c1, r1) = both(lambda: obj.evaluate(real, given, obj.stride))
+        ok = np.isfinite(c0)
+        assert np.array_equal(ok, np.isfinite(c1)) and ok.sum() >= 20
+        assert np.allclose(c1[ok], c0[ok], rtol=1e-9, atol=0.0) and np.allclose(r1, r0, rtol=1e-9, atol=0.0)
 
 
 def test_an_objective_the_tapes_do_not_cover_keeps_the_numpy_path():
