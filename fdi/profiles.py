@@ -101,8 +101,9 @@ def _exponential(fast, t: np.ndarray, t0: np.ndarray, nominal: float, model: int
     one temporary instead of five (a fresh temporary of that size costs its page faults)."""
     rows = max(b.shape[0], t0.shape[0])
     t = np.ascontiguousarray(t)
-    t0 = np.ascontiguousarray(np.broadcast_to(t0, (rows,)))
-    b = np.ascontiguousarray(np.broadcast_to(b[:, :1] if model == 1 else b[:, :2], (rows, 1 if model == 1 else 2)))
+    t0 = np.ascontiguousarray(t0 if t0.shape[0] == rows else np.broadcast_to(t0, (rows,)))
+    b = b[:, :1] if model == 1 else b[:, :2]
+    b = np.ascontiguousarray(b if b.shape[0] == rows else np.broadcast_to(b, (rows, b.shape[1])))
     e = fast.exp_arguments(t, t0, model, b)
     with np.errstate(over="ignore", invalid="ignore"):
         np.exp(e, out=e)
