@@ -76,8 +76,10 @@ class Branch:
         return float(self.f.min())
 
     def converged(self, tol: float, patience: int) -> bool:
-        spread = float(self.f.max() - self.f.min())
-        return spread <= tol * max(abs(self.best), 1e-300) or self.stale >= patience
+        if self.stale >= patience:
+            return True
+        low = self.f.min()
+        return float(self.f.max() - low) <= tol * max(abs(float(low)), 1e-300)
 
 
 @dataclass(frozen=True)
