@@ -208,6 +208,124 @@ def _eq17(t, a, nominal, c, b):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
+def decode_rows(real, bits, log, scale, powers, vpow, zeta, t_last):  # pragma: no cover - compiled
+    """:func:`fdi.encoding.decode_table` for the fused objective, with what it reads next: per fault
+    and individual the type, model, value, period and coefficients (faults, pop[, 7]), the
+    eq. (16)/(18) rows numbered fault by fault (``pre_at``: eq. 16's of fault 0, its eq. 18's, then
+    fault 1's...; -1 elsewhere; ``counts`` per fault and model), eq. (19)'s span per fault (the
+    latest onset's t_last - t0, NaN onsets left out, at least 0) and, per fault, whether an
+    individual makes it abrupt or intermittent. ``powers`` holds numpy's 10 ** x of each rate
+    slot (fault j's at column j) and of each logarithmic value (fault j's at ``vpow[j]``): numpy's
+    power is SIMD code, so it stays numpy's; the rest are products, a quotient and a difference,
+    the same operations. ``bits`` are booleans; ``zeta`` is :func:`fdi.encoding.repair_zeta` of
+    each zeta code."""
+    pop = real.shape[0]
+    nf = log.shape[0]
+    kinds = np.empty((nf, pop), dtype=np.int64)
+    models = np.empty((nf, pop), dtype=np.int64)
+    values = np.empty((nf, pop))
+    periods = np.empty((nf, pop))
+    b = np.empty((nf, pop, 7))
+    counts = np.zeros((nf, 2), dtype=np.int64)
+    span19 = np.zeros(nf)
+    level = np.zeros(nf, dtype=np.bool_)
+    for j in range(nf):
+        c0 = 9 * j
+        z0 = 5 * j
+        late_max = -np.inf
+        seen = False
+        for r in range(pop):
+            kind = zeta[4 * bits[r, z0] + 2 * bits[r, z0 + 1] + bits[r, z0 + 2]]
+            model = 1 + 2 * np.int64(bits[r, z0 + 3]) + np.int64(bits[r, z0 + 4])
+            kinds[j, r] = kind
+            models[j, r] = model
+            values[j, r] = powers[r, vpow[j]] if log[j] else real[r, c0]
+            periods[j, r] = real[r, c0 + 1]
+            for q in range(7):
+                b[j, r, q] = real[r, c0 + 2 + q] * scale[j, q]
+            rate = powers[r, j]
+            b[j, r, 2] = rate - 1.0 / rate
+            if kind < 2:
+                level[j] = True
+            elif model == 1:
+                counts[j, 0] += 1
+            elif model == 3:
+                counts[j, 1] += 1
+            elif model == 4:
+                late = t_last - real[r, real.shape[1] - 1]
+                if late == late:
+                    seen = True
+                    if late > late_max:
+                        late_max = late
+        if seen and late_max > 0.0:
+            span19[j] = late_max
+    pre_at = np.full((nf, pop), -1, dtype=np.int64)
+    filled = 0
+    for j in range(nf):
+        for k in range(2):
+            if counts[j, k]:
+                want = 1 if k == 0 else 3
+                for r in range(pop):
+                    if kinds[j, r] == 2 and models[j, r] == want:
+                        pre_at[j, r] = filled
+                        filled += 1
+    return kinds, models, values, periods, b, pre_at, counts, span19, level
+
+
+@njit(cache=True, nogil=True)
+def _eq18_roots(b3):  # pragma: no cover - compiled
+    """Eq. (18)'s rates r1, r2 as :func:`fdi.profiles._model18` forms them (b3 ** 2 is numpy's square)."""
+    root = np.sqrt(b3 * b3 + 4.0)
+    return (b3 + root) / 2, (b3 - root) / 2
+
+
+@njit(cache=True, nogil=True)
+def exp_arguments(t, t0, model, b):  # pragma: no cover - compiled
+    """The arguments of eq. (16)'s exponential (model 1: b1 tau) or eq. (18)'s two (model 3: r1 tau,
+    r2 tau) for every row of ``b`` and time: (1 or 2, rows, samples), tau = max(t - t0, 0) (NaN
+    stays NaN), as :func:`fdi.profiles.incipient` forms them (one product each, so numpy's bits);
+    numpy then takes the exponentials, in place, and :func:`incipient_exp` reads them."""
+    rows, n = b.shape[0], t.shape[0]
+    k = 1 if model == 1 else 2
+    out = np.empty((k, rows, n))
+    for r in range(rows):
+        a = t0[r]
+        if model == 1:
+            r1, r2 = b[r, 0], 0.0
+        else:
+            r1, r2 = _eq18_roots(b[r, 0])
+        for i in range(n):
+            x = t[i] - a
+            tau = 0.0 if x < 0 else x
+            out[0, r, i] = r1 * tau
+            if k == 2:
+                out[1, r, i] = r2 * tau
+    return out
+
+
+@njit(cache=True, nogil=True)
+def incipient_exp(t, t0, nominal, model, b, e):  # pragma: no cover - compiled
+    """Eq. (16) (model 1: P0 e1) or eq. (18) (model 3, finite P0: -b4 + a e1 + c e2) from t0 on, the
+    nominal value before, from the exponentials ``e`` of :func:`exp_arguments`: the products,
+    quotients and sums of :func:`fdi.profiles.incipient` in its order, so its numbers."""
+    rows, n = b.shape[0], t.shape[0]
+    out = np.empty((rows, n))
+    for r in range(rows):
+        t0r = t0[r]
+        if model == 1:
+            for i in range(n):
+                out[r, i] = nominal * e[0, r, i] if t[i] >= t0r else nominal
+        else:
+            b4 = b[r, 1]
+            r1, r2 = _eq18_roots(b[r, 0])
+            a = -r2 * (nominal + b4) / (r1 - r2)
+            c = r1 * (nominal + b4) / (r1 - r2)
+            for i in range(n):
+                out[r, i] = (-b4 + a * e[0, r, i]) + c * e[1, r, i] if t[i] >= t0r else nominal
+    return out
+
+
+@njit(cache=True, nogil=True)
 def fir(x, half, start, count, stride):  # pragma: no cover - compiled
     """:func:`fdi.derivatives.fir` for rows of ``x`` (rows, samples): out[r, k, i], the numpy
     path's operations in its order (the middle sample times tap 0, then the pairs j = 1, 2, ...).

@@ -110,21 +110,77 @@ class Decoded:
     b: np.ndarray             # (pop, 7) coefficients in the paper's units
 
 
-def decode(spaces: list[FaultSpace], real: np.ndarray, bits: np.ndarray) -> list[Decoded]:
+@dataclass(frozen=True)
+class Table:
+    """Every fault's decision for every individual, as arrays: ``kind`` and ``model`` (faults,
+    pop), ``value`` and ``period`` (faults, pop), ``b`` (faults, pop, 7) in the paper's units.
+    What the compiled objective reads (:mod:`fdi.fused`); :func:`decode` gives its rows."""
+    kind: np.ndarray
+    model: np.ndarray
+    value: np.ndarray
+    period: np.ndarray
+    b: np.ndarray
+
+
+# repair_zeta of each zeta code z0 z1 z2 (index 4 z0 + 2 z1 + z2): the table decode looks types up in
+_ZETA = repair_zeta(np.array([[(c >> 2) & 1, (c >> 1) & 1, c & 1] for c in range(8)], dtype=bool))
+_LAYOUTS: dict = {}
+
+
+def _layout(spaces: list[FaultSpace]) -> tuple[np.ndarray, np.ndarray, bool]:
+    """Per fault of ``spaces``: searched as log10 (bool), the coefficients' scales (faults, 7), and
+    whether any fault is logarithmic; kept per tuple of spaces (a search decodes thousands of times)."""
+    key = tuple(spaces)
+    try:
+        got = _LAYOUTS.get(key)
+    except TypeError:                      # an unhashable space: nothing kept
+        got, key = None, None
+    if got is None:
+        log = np.array([s.log for s in spaces], dtype=bool)
+        scale = np.array([[1, 1 / s.reference, 1, s.reference, 1 / s.reference, 1, s.reference] for s in spaces],
+                         dtype=float).reshape(len(spaces), N_REAL - 2)
+        got = (log, scale, bool(log.any()))
+        if key is not None:
+            if len(_LAYOUTS) > 256:
+                _LAYOUTS.clear()
+            _LAYOUTS[key] = got
+    return got
+
+
+def decode_table(spaces: list[FaultSpace], real: np.ndarray, bits: np.ndarray) -> Table:
+    """The decision of every fault for every individual, in one pass (no loop over faults): the
+    same operations on the same values as a fault at a time, so the same numbers (numpy's
+    elementwise functions give an element the same result wherever it lies in an array).
+
+    >>> s = [FaultSpace.make("R", np.inf, (1e6, 1e9)), FaultSpace("b", 1.0, (0.05, 1.5))]
+    >>> t = decode_table(s, np.array([[7.0, 1, 0, 0, 0, 0, 0, 0, 0, 0.5, 2, 0.1, 0, 0, 0, 0, 0, 0]]),
+    ...                  np.array([[1, 0, 0, 0, 0, 0, 0, 1, 1, 0]], dtype=bool))
+    >>> t.kind.tolist(), t.model.tolist(), t.value.tolist(), float(t.b[1, 0, 0])
+    ([[0], [2]], [[1], [3]], [[10000000.0], [0.5]], 0.1)
+    """
     real = np.atleast_2d(real)
     bits = np.atleast_2d(bits)
-    out = []
-    for i, s in enumerate(spaces):
-        r = real[:, N_REAL * i: N_REAL * (i + 1)]
-        z = bits[:, N_BITS * i: N_BITS * (i + 1)]
-        value = 10 ** r[:, 0] if s.log else r[:, 0].copy()
-        ref = s.reference
-        scale = np.array([1, 1 / ref, 1, ref, 1 / ref, 1, ref])
-        coeff = r[:, 2:] * scale
-        rate = 10.0 ** r[:, RATE_SLOT]
-        coeff[:, RATE_SLOT - 2] = rate - 1.0 / rate
-        out.append(Decoded(repair_zeta(z[:, :3]), model_index(z[:, 3:5]), value, value, r[:, 1].copy(), coeff))
-    return out
+    nf = len(spaces)
+    log, scale, any_log = _layout(spaces)
+    r = real[:, :N_REAL * nf].reshape(real.shape[0], nf, N_REAL).transpose(1, 0, 2)     # (faults, pop, 9)
+    z = bits[:, :N_BITS * nf].reshape(bits.shape[0], nf, N_BITS).transpose(1, 0, 2)
+    zeta = z[:, :, :3].astype(bool).astype(np.int64)        # as repair_zeta and model_index read them
+    eta = z[:, :, 3:].astype(int)
+    value = r[:, :, 0].copy()
+    if any_log:
+        value[log] = 10 ** value[log]
+    coeff = r[:, :, 2:] * scale[:, None, :]
+    rate = 10.0 ** r[:, :, RATE_SLOT]
+    coeff[:, :, RATE_SLOT - 2] = rate - 1.0 / rate
+    kind = _ZETA[4 * zeta[:, :, 0] + 2 * zeta[:, :, 1] + zeta[:, :, 2]]
+    model = 1 + 2 * eta[:, :, 0] + eta[:, :, 1]
+    return Table(kind, model, value, r[:, :, 1].copy(), coeff)
+
+
+def decode(spaces: list[FaultSpace], real: np.ndarray, bits: np.ndarray) -> list[Decoded]:
+    """Each fault's decision for every individual (the rows of :func:`decode_table`)."""
+    t = decode_table(spaces, real, bits)
+    return [Decoded(t.kind[i], t.model[i], t.value[i], t.value[i], t.period[i], t.b[i]) for i in range(len(spaces))]
 
 
 def encode(spaces: list[FaultSpace], faults: list[dict]) -> tuple[np.ndarray, np.ndarray]:
@@ -176,10 +232,21 @@ def profiles(spaces: list[FaultSpace], decoded: list[Decoded], t: np.ndarray, t0
     return out
 
 
+_ZETA_LIST = [int(k) for k in _ZETA]
+
+
+def _decisions(spaces: list[FaultSpace], bits: np.ndarray) -> list[tuple[int, int]]:
+    """Per fault of one individual, its type index and degradation model, read as :func:`decode`
+    reads them (zeta as booleans, repaired; eta as integers), without the reals: the engine asks
+    for the structure of a bit pattern thousands of times."""
+    v = np.asarray(bits).reshape(-1)[:N_BITS * len(spaces)].tolist()
+    return [(_ZETA_LIST[4 * bool(v[k]) + 2 * bool(v[k + 1]) + bool(v[k + 2])], 1 + 2 * int(v[k + 3]) + int(v[k + 4]))
+            for k in range(0, N_BITS * len(spaces), N_BITS)]
+
+
 def structure(spaces: list[FaultSpace], bits: np.ndarray) -> tuple:
     """The discrete decision of one individual: per fault its type and (incipient) model."""
-    ds = decode(spaces, np.zeros((1, N_REAL * len(spaces))), np.asarray(bits)[None, :])
-    return tuple((TYPES[int(d.kind[0])], int(d.model[0]) if d.kind[0] == 2 else None) for d in ds)
+    return tuple((TYPES[kind], model if kind == 2 else None) for kind, model in _decisions(spaces, bits))
 
 
 def family(spaces: list[FaultSpace], bits: np.ndarray) -> frozenset:
@@ -195,9 +262,9 @@ def free(spaces: list[FaultSpace], bits: np.ndarray) -> np.ndarray:
     """The reals one individual's structure reads (bool, 9 per fault): an abrupt fault its value, an
     intermittent one its value and period, an incipient one the coefficients of its model."""
     mask = np.zeros(N_REAL * len(spaces), dtype=bool)
-    for i, d in enumerate(decode(spaces, np.zeros((1, N_REAL * len(spaces))), np.asarray(bits)[None, :])):
-        kind, base = int(d.kind[0]), N_REAL * i
-        slots = [0] if kind == 0 else [0, 1] if kind == 1 else COEFF_SLOTS[int(d.model[0])]
+    for i, (kind, model) in enumerate(_decisions(spaces, bits)):
+        base = N_REAL * i
+        slots = [0] if kind == 0 else [0, 1] if kind == 1 else COEFF_SLOTS[model]
         mask[[base + s for s in slots]] = True
     return mask
 

@@ -8,6 +8,10 @@ magnitudes solved, the sums taken. Here the same computation runs in one compile
 
 - the profiles and the solved faults' unit steps are the numpy path's (:meth:`Objective.prepare`),
   as are the corrections (:meth:`Objective.corrections`);
+- the population is decoded in one compiled pass (:func:`fdi._jit.decode_rows`) around numpy's
+  powers 10 ** x (SIMD code: numpy's bits), eqs. (16) and (18) by compiled passes around numpy's
+  exponentials (:func:`fdi.profiles.incipient`), and what depends only on which linear faults are
+  solved is built once (:meth:`Fused.pattern`): a call's Python is ~40 us before the kernel;
 - a corrected signal is formed and filtered in the kernel by the same operations in the same
   order (:func:`fdi.derivatives.fir`), so its derivatives are the numpy path's bits (a Coulomb
   friction's sign of a derivative then agrees);
@@ -145,6 +149,19 @@ class Fused:
                               for name, _, _ in slots]).reshape(len(slots), w)
         self.t = np.ascontiguousarray(obj.win.t, dtype=float)
         self.plans: dict[int, Plan] = {}
+        self.patterns: dict[tuple[bool, ...], Pattern] = {}
+        self.s_at_array = np.array(self.s_at, dtype=np.int64)
+        self.no_pre = np.zeros((1, 1))
+        # the decoding's constants (fdi._jit.decode_rows): logarithmic values, coefficient scales, and
+        # the reals numpy raises 10 to (every rate slot, then each logarithmic value)
+        self.log = np.array([sp.log for sp in obj.spaces], dtype=np.bool_)
+        self.scale = np.array([[1, 1 / sp.reference, 1, sp.reference, 1 / sp.reference, 1, sp.reference]
+                               for sp in obj.spaces], dtype=float).reshape(len(obj.spaces), encoding.N_REAL - 2)
+        logs = [j for j, sp in enumerate(obj.spaces) if sp.log]
+        self.power_cols = np.array([encoding.N_REAL * j + encoding.RATE_SLOT for j in range(len(obj.spaces))]
+                                   + [encoding.N_REAL * j for j in logs], dtype=np.int64)
+        self.vpow = np.full(len(obj.spaces), -1, dtype=np.int64)
+        self.vpow[logs] = len(obj.spaces) + np.arange(len(logs))
         self.names = {"abs": builtins.abs}
 
     @classmethod
@@ -194,64 +211,117 @@ class Fused:
         return out
 
     def evaluate(self, real: np.ndarray, bits: np.ndarray, stride: int) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`fdi.objective.Objective.evaluate`'s costs and population, by the compiled kernel."""
+        """:meth:`fdi.objective.Objective.evaluate`'s costs and population, by the compiled kernel.
+        The population is decoded in one compiled pass around numpy's powers
+        (:func:`fdi._jit.decode_rows`, :func:`fdi.encoding.decode_table`'s numbers) and what depends
+        only on which linear faults are solved is built once (:meth:`pattern`): a call's Python
+        costs a few tens of microseconds before the kernel."""
         obj = self.obj
         plan = self.plan(stride)
-        real = real.copy()
-        decoded = encoding.decode(obj.spaces, real[:, :-1], bits)
-        n, t = real.shape[0], self.t
-        onset = np.ascontiguousarray(obj.onset(real), dtype=float)
-        kinds = np.array([d.kind for d in decoded], dtype=np.int64).reshape(len(decoded), n)
-        models = np.array([d.model for d in decoded], dtype=np.int64).reshape(len(decoded), n)
-        values = np.array([d.value_ab for d in decoded], dtype=float).reshape(len(decoded), n)
-        periods = np.array([d.period for d in decoded], dtype=float).reshape(len(decoded), n)
-        coeffs = np.array([d.b[:, COEFFS] for d in decoded], dtype=float).reshape(len(decoded), n, len(COEFFS))
-        pre_at = np.full((len(decoded), n), -1, dtype=np.int64)
-        pre, span19, filled = [], np.zeros(len(decoded)), 0
-        for j, (space, d) in enumerate(zip(obj.spaces, decoded)):
-            incipient = d.kind == 2
-            if not incipient.any():
-                continue
-            for model in (1, 3):            # eqs. (16) and (18): numpy's exponentials, as the numpy path
-                rows = incipient & (d.model == model)
-                if rows.any():
-                    cols = [slot - 2 for slot in encoding.COEFF_SLOTS[model]]
-                    pre_at[j, rows] = filled + np.arange(int(rows.sum()))
-                    pre.append(profiles.incipient(t, onset[rows], space.nominal, model, d.b[rows][:, cols]))
-                    filled += pre[-1].shape[0]
-            rows = incipient & (d.model == 4)
-            if rows.any():                  # eq. (19)'s grid step, from the latest onset's span as numpy's
-                late = t[-1] - onset[rows]
-                late = late[~np.isnan(late)]
-                span19[j] = max(0.0, float(late.max())) if late.size else 0.0
-        pre = np.vstack(pre) if pre else np.zeros((1, 1))
-        solve = {j: kinds[j] < 2 for j in self.linear if (kinds[j] < 2).any()}
+        fast = kernels.jit()
+        real = np.array(real, dtype=float)         # a copy: finish writes the solved magnitudes in
+        t = self.t
+        onset = real[:, -1].copy()
+        bits = np.asarray(bits)
+        flags = bits if bits.dtype == np.bool_ else bits.astype(bool) if ((bits == 0) | (bits == 1)).all() else None
+        if flags is not None and flags.ndim == 2 and flags.shape[0] == real.shape[0]:
+            kinds, models, values, periods, b, pre_at, counts, span19, level = fast.decode_rows(
+                real, np.ascontiguousarray(flags), self.log, self.scale, 10.0 ** real[:, self.power_cols],
+                self.vpow, ZETA, float(t[-1]))
+        else:                                       # bits other than 0/1: decode_table's reading of them
+            kinds, models, values, periods, b, pre_at, counts, span19, level = self.decode_numpy(real, bits)
+        pre = []
+        if counts.any():                            # eqs. (16) and (18): numpy's exponentials, as the numpy path
+            for j, (n1, n3) in enumerate(counts.tolist()):
+                for count, model in ((n1, 1), (n3, 3)):
+                    if count:
+                        rows = (kinds[j] == 2) & (models[j] == model)
+                        cols = [slot - 2 for slot in encoding.COEFF_SLOTS[model]]
+                        pre.append(profiles.incipient(t, onset[rows], obj.spaces[j].nominal, model, b[j][rows][:, cols]))
+        pre = (pre[0] if len(pre) == 1 else np.vstack(pre)) if pre else self.no_pre
+        solving = tuple(level[self.lin_fault].tolist())
+        p = self.pattern(solving)
+        total, d, invalid = fast.fused_cost(
+            t, onset, kinds, models, values, periods, np.ascontiguousarray(b[:, :, COEFFS]), pre, pre_at,
+            self.f_nominal, self.f_unit, self.f_linear, self.f_role, span19, STEP19,
+            self.slot_fault, self.slot_step, self.slot_group, self.tnom,
+            plan.code, plan.results, plan.registers, plan.consts, plan.fixed,
+            self.raw, self.is_source, self.beta_fault, self.beta_fixed, self.bias_fault, self.bias_fixed,
+            self.corr_fixed, self.fk, self.fk_n, self.fk_orders, self.s_at_array, self.n_slots,
+            plan.crop.start, stride, plan.m, p.plain, p.plain_w, p.joint, p.joint_w, p.enters, self.lin_fault,
+            p.lo, p.hi, p.passes, plan.gaps, plan.constant, BLOCK)
+        solve = {j: kinds[j] < 2 for jj, j in enumerate(self.linear) if solving[jj]}
+        deltas = {j: d[jj] for jj, j in enumerate(self.linear) if solving[jj]} if p.joint.size else {}
+        return obj.finish(real, solve, deltas, total, invalid, stride)
+
+    def decode_numpy(self, real: np.ndarray, bits: np.ndarray) -> tuple:
+        """What :func:`fdi._jit.decode_rows` returns, by :func:`fdi.encoding.decode_table`."""
+        obj = self.obj
+        table = encoding.decode_table(obj.spaces, real[:, :-1], bits)
+        kinds = np.ascontiguousarray(table.kind, dtype=np.int64)
+        models = np.ascontiguousarray(table.model, dtype=np.int64)
+        incipient = kinds == 2
+        counts = np.stack([(incipient & (models == 1)).sum(axis=1), (incipient & (models == 3)).sum(axis=1)], axis=1)
+        pre_at = np.full(kinds.shape, -1, dtype=np.int64)
+        filled = 0
+        for j in range(len(obj.spaces)):
+            for k, model in enumerate((1, 3)):
+                rows = incipient[j] & (models[j] == model)
+                pre_at[j, rows] = filled + np.arange(int(counts[j, k]))
+                filled += int(counts[j, k])
+        span19 = np.zeros(len(obj.spaces))
+        onset = real[:, -1]
+        for j in range(len(obj.spaces)):
+            rows = incipient[j] & (models[j] == 4)
+            late = self.t[-1] - onset[rows]
+            late = late[~np.isnan(late)]
+            span19[j] = max(0.0, float(late.max())) if late.size else 0.0
+        return (kinds, models, np.ascontiguousarray(table.value, dtype=float),
+                np.ascontiguousarray(table.period, dtype=float), np.ascontiguousarray(table.b, dtype=float),
+                pre_at, counts, span19, (kinds < 2).any(axis=1))
+
+    def pattern(self, solving: tuple[bool, ...]) -> "Pattern":
+        """The kernel's residual split for one set of solved linear faults (``solving``: per linear
+        fault, whether any individual solves its magnitude): the residuals no solved fault enters
+        (summed as they are) and the others (magnitudes solved on them), their weights, which
+        fault enters which, the magnitudes' bounds; built once per set."""
+        got = self.patterns.get(solving)
+        if got is not None:
+            return got
+        obj = self.obj
+        entered = [j for jj, j in enumerate(self.linear) if solving[jj]]
         active = list(obj.active)
-        entered = list(solve)
         plain = [q for q, i in enumerate(active) if not any(obj.enters[j][i] for j in entered)]
         joint = [q for q in range(len(active)) if q not in plain]
         enters = np.zeros((max(1, len(self.linear)), max(1, len(joint))), dtype=np.bool_)
         lo = np.zeros(max(1, len(self.linear)))
         hi = np.zeros(max(1, len(self.linear)))
         for jj, j in enumerate(self.linear):
-            if j in solve:
+            if solving[jj]:
                 for q, a in enumerate(joint):
                     enters[jj, q] = obj.enters[j][active[a]]
                 lo[jj], hi[jj] = obj.delta_bounds(j)
         weights = np.asarray(obj.weights, dtype=float)
-        total, d, invalid = kernels.jit().fused_cost(
-            t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
-            self.f_nominal, self.f_unit, self.f_linear, self.f_role, span19, STEP19,
-            self.slot_fault, self.slot_step, self.slot_group, self.tnom,
-            plan.code, plan.results, plan.registers, plan.consts, plan.fixed,
-            self.raw, self.is_source, self.beta_fault, self.beta_fixed, self.bias_fault, self.bias_fixed,
-            self.corr_fixed, self.fk, self.fk_n, self.fk_orders, np.array(self.s_at, dtype=np.int64), self.n_slots,
-            plan.crop.start, stride, plan.m, np.array(plain, dtype=np.int64), weights[[active[q] for q in plain]],
-            np.array(joint, dtype=np.int64), weights[[active[q] for q in joint]], enters, self.lin_fault, lo, hi,
-            3 if len(entered) > 1 else 1, plan.gaps, plan.constant, BLOCK)
-        deltas = {j: d[jj] for jj, j in enumerate(self.linear) if j in solve} if joint else {}
-        return obj.finish(real, solve, deltas, total, invalid, stride)
+        got = self.patterns[solving] = Pattern(
+            np.array(plain, dtype=np.int64), weights[[active[q] for q in plain]], np.array(joint, dtype=np.int64),
+            weights[[active[q] for q in joint]], enters, lo, hi, 3 if len(entered) > 1 else 1)
+        return got
 
 
+@dataclass
+class Pattern:
+    """What :meth:`Fused.pattern` builds for one set of solved linear faults."""
+    plain: np.ndarray
+    plain_w: np.ndarray
+    joint: np.ndarray
+    joint_w: np.ndarray
+    enters: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    passes: int
+
+
+ZETA = np.asarray(encoding.repair_zeta(np.array([[(c >> 2) & 1, (c >> 1) & 1, c & 1] for c in range(8)], dtype=bool)),
+                  dtype=np.int64)    # the type of each zeta code 4 z0 + 2 z1 + z2
 COEFFS = [1, 4, 5, 6]     # the decoded coefficients the kernel reads: b2 (eq. 17), b5, b6, b7 (eq. 19)
 STEP19 = 0.1              # eq. (19)'s RK4 grid (fdi.profiles._model19's step)

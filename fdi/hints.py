@@ -39,6 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 SIGNIFICANCE = 25.0   # a peak of the periodogram of |r| this many times its median (of white noise: max/median ~ 10)
+REFINE_VALUES = 1 << 18   # positions per block of periods in refine (2 MB per temporary)
 REFINE = 0.04         # periods searched within 4 % of the periodogram's peak (its bin at 14 periods per window: 7 %)
 LOCAL = 2.0           # the median a peak is compared with: over frequencies from f / 2 to 2 f
 PAD = 8               # zero padding of the periodogram: peaks located to an eighth of a bin before the refinement
@@ -99,31 +100,61 @@ def refine(y: np.ndarray, ts: float, period: float, low: float, high: float,
 
     The score of a phase, sum(y where the wave is high) - sum(y where it is low), is read off the
     prefix sums of y sorted by each sample's position within the period (O(n log n) per period,
-    not O(n x phases))."""
+    not O(n x phases)). The periods are taken a block at a time (sorts, prefix sums and scores in
+    one pass per block, at most ``REFINE_VALUES`` positions): the same operations per period as
+    one at a time, so the same numbers, without a dozen numpy calls per period.
+
+    >>> ts = 0.01
+    >>> t = ts * np.arange(2000)
+    >>> y = np.where(np.mod(t - 0.3, 0.7) < 0.35, 1.0, 0.0)
+    >>> T, phase = refine(y - y.mean(), ts, 0.69, 0.5, 1.0)
+    >>> round(T, 3), round(phase, 2)       # high on (phase, phase + T/2): the sample before 0.3 s
+    (0.7, 0.29)
+    """
     y = np.asarray(y, dtype=float)
-    t = ts * np.arange(y.size)
+    n = y.size
+    t = ts * np.arange(n)
     total = float(y.sum())
     best = (-np.inf, period, 0.0)
     if reach is None:
-        reach = max(REFINE, period / (ts * y.size))      # a periodogram bin, as a share of the period: T / span
-    for T in np.unique(np.clip(period * (1 + np.linspace(-reach, reach, steps)), low, high)):
-        phases = np.arange(0.0, T, max(ts, T / 200))
-        pos = np.mod(t, T)
-        order = np.argsort(pos, kind="stable")
-        pos, cum = pos[order], np.concatenate(([0.0], np.cumsum(y[order])))
+        reach = max(REFINE, period / (ts * n))      # a periodogram bin, as a share of the period: T / span
+    periods = np.unique(np.clip(period * (1 + np.linspace(-reach, reach, steps)), low, high))
+    rows = max(1, REFINE_VALUES // max(1, n))
+    for first in range(0, periods.size, rows):
+        Ts = periods[first:first + rows]
+        pos = np.mod(t[None, :], Ts[:, None])                   # each period's np.mod(t, T)
+        order = np.argsort(pos, axis=1, kind="stable")
+        pos = np.take_along_axis(pos, order, axis=1)
+        cum = np.zeros((Ts.size, n + 1))
+        np.cumsum(y[order], axis=1, out=cum[:, 1:])             # each row summed in order, as one at a time
+        phases = [np.arange(0.0, T, max(ts, T / 200)) for T in Ts]
+        counts = [p.size for p in phases]
+        ph = np.concatenate(phases)
+        T_of = np.repeat(Ts, counts)
+        row = np.repeat(np.arange(Ts.size), counts)
         # high on ((t - phase) mod T) in (0, T/2): positions in (phase, phase + T/2), wrapping past T
-        a = np.searchsorted(pos, phases, side="right")
-        end = phases + T / 2
-        inside = end < T
-        b = np.where(inside, np.searchsorted(pos, np.minimum(end, T), side="left"), pos.size)
-        high_sum = cum[b] - cum[a]
-        wrap = ~inside
-        b2 = np.searchsorted(pos, np.where(wrap, end - T, 0.0), side="left")
-        high_sum = high_sum + np.where(wrap, cum[b2], 0.0)
+        end = ph + T_of / 2
+        inside = end < T_of
+        upto = np.minimum(end, T_of)
+        wrapped = np.where(~inside, end - T_of, 0.0)
+        a, b, b2 = np.empty(ph.size, dtype=np.intp), np.empty(ph.size, dtype=np.intp), np.empty(ph.size, dtype=np.intp)
+        at = 0
+        for r, count in enumerate(counts):
+            part = slice(at, at + count)
+            a[part] = np.searchsorted(pos[r], ph[part], side="right")
+            b[part] = np.searchsorted(pos[r], upto[part], side="left")
+            b2[part] = np.searchsorted(pos[r], wrapped[part], side="left")
+            at += count
+        b = np.where(inside, b, n)
+        high_sum = cum[row, b] - cum[row, a]
+        high_sum = high_sum + np.where(~inside, cum[row, b2], 0.0)
         score = 2.0 * high_sum - total
-        i = int(np.argmax(score))
-        if score[i] > best[0]:
-            best = (float(score[i]), float(T), float(phases[i]))
+        at = 0
+        for r, count in enumerate(counts):
+            i = int(np.argmax(score[at:at + count]))
+            if score[at + i] > best[0]:
+                best = (float(score[at + i]), float(Ts[r]), float(phases[r][i]))
+            at += count
     return best[1], best[2]
 
 

@@ -4,7 +4,8 @@
 The parts are the ones a profile of identification names and that do not depend on the model:
 eq. (19)'s RK4 over the population (a Python loop of ~100 steps of ~40 numpy calls on (pop,)
 arrays, ~4 ms per call), eq. (17) and eq. (15)'s profiles (one pass instead of ten over
-(pop, samples) arrays; eq. 15's sign of a sine read from the phase's half-period), and the
+(pop, samples) arrays; eq. 15's sign of a sine read from the phase's half-period), eqs. (16) and
+(18) but their exponentials (numpy's, taken in place between two compiled passes), and the
 weighted median that solves a linear fault's magnitude. Both paths give the same numbers
 (tests/test_kernels.py: equal arrays, and 1e-9 relative on the objective's costs on random
 populations); nothing whose last bits would differ is compiled: the filter's sums (numpy's are

@@ -534,8 +534,8 @@ class Objective:
         """The reals a structure leaves to the search: its faults' (``encoding.free``) but the
         magnitudes the objective solves, and the onset."""
         mask = encoding.free(self.spaces, bits)
-        for j, d in enumerate(encoding.decode(self.spaces, np.zeros((1, mask.size)), np.asarray(bits)[None, :])):
-            if self.spaces[j].name in self.linear and d.kind[0] < 2:
+        for j, (kind, _) in enumerate(encoding.structure(self.spaces, bits)):
+            if self.spaces[j].name in self.linear and kind != "incipient":
                 mask[encoding.N_REAL * j] = False
         return np.append(mask, True)
 

@@ -73,6 +73,8 @@ def incipient(t: np.ndarray, t0, nominal: float, model: int, b) -> np.ndarray:
         rows = max(b.shape[0], t0.shape[0])
         return fast.incipient17(t, np.ascontiguousarray(np.broadcast_to(t0[:, 0], (rows,))), float(nominal),
                                 np.ascontiguousarray(np.broadcast_to(b[:, 0], (rows,))))
+    if model in (1, 3) and fast is not None and t.size and not (model == 3 and np.isinf(nominal)):
+        return _exponential(fast, t, t0[:, 0], nominal, model, b)
     tau = np.maximum(t[None, :] - t0, 0.0)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         if model == 1:
@@ -90,6 +92,22 @@ def incipient(t: np.ndarray, t0, nominal: float, model: int, b) -> np.ndarray:
         else:
             raise ValueError(f"degradation model must be 1..4 (eqs. 16-19), got {model}")
     return np.where(t[None, :] >= t0, p, nominal)
+
+
+def _exponential(fast, t: np.ndarray, t0: np.ndarray, nominal: float, model: int, b: np.ndarray) -> np.ndarray:
+    """Eq. (16) or (18) (finite P0) by the compiled kernels (fdi.kernels), all but the exponentials,
+    which numpy takes as on its own path (its exponential is SIMD code whose last bits libm's need
+    not share): the same numbers in three passes over (pop, samples) instead of six to ten, and
+    one temporary instead of five (a fresh temporary of that size costs its page faults)."""
+    rows = max(b.shape[0], t0.shape[0])
+    t = np.ascontiguousarray(t)
+    t0 = np.ascontiguousarray(t0 if t0.shape[0] == rows else np.broadcast_to(t0, (rows,)))
+    b = b[:, :1] if model == 1 else b[:, :2]
+    b = np.ascontiguousarray(b if b.shape[0] == rows else np.broadcast_to(b, (rows, b.shape[1])))
+    e = fast.exp_arguments(t, t0, model, b)
+    with np.errstate(over="ignore", invalid="ignore"):
+        np.exp(e, out=e)
+    return fast.incipient_exp(t, t0, float(nominal), model, b, e)
 
 
 def _model18(tau: np.ndarray, p0: float, b3: np.ndarray, b4: np.ndarray) -> np.ndarray:

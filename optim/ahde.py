@@ -50,6 +50,7 @@ about a sixth of it (``bgfdi bench diagnose``).
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
 from numbers import Integral
 from typing import Hashable
@@ -75,8 +76,10 @@ class Branch:
         return float(self.f.min())
 
     def converged(self, tol: float, patience: int) -> bool:
-        spread = float(self.f.max() - self.f.min())
-        return spread <= tol * max(abs(self.best), 1e-300) or self.stale >= patience
+        if self.stale >= patience:
+            return True
+        low = self.f.min()
+        return float(self.f.max() - low) <= tol * max(abs(float(low)), 1e-300)
 
 
 @dataclass(frozen=True)
@@ -186,6 +189,8 @@ class AHDE(GenerationalSolver):
         self.branches: dict[Hashable, Branch] = {}
         self.final: list[Branch] = []                      # the finalists, once the race is over
         self.stop = "converged"
+        self._aranges: dict[int, np.ndarray] = {}
+        self._bounds_of: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
     # ------------------------------------------------------------------ structures
     def patterns(self) -> tuple[list[np.ndarray], bool]:
@@ -308,23 +313,46 @@ class AHDE(GenerationalSolver):
         rng, n = self.rng, b.x.shape[0]
         F = np.where(rng.random(n) < 0.1, rng.uniform(0.1, 1.0, n), b.F)
         CR = np.where(rng.random(n) < 0.1, rng.random(n), b.CR)
-        top = max(2, int(np.ceil(0.2 * n)))
-        pbest = np.argsort(b.f)[rng.integers(0, top, n)]
-        r1 = (np.arange(n) + rng.integers(1, n, n)) % n
+        top = max(2, math.ceil(0.2 * n))
+        pbest = b.f.argsort()[rng.integers(0, top, n)]
+        rows = self._rows(n)
+        r1 = (rows + rng.integers(1, n, n)) % n
         r2 = (r1 + rng.integers(1, n - 1, n)) % n
-        r2 = np.where(r2 == np.arange(n), (r2 + 1) % n, r2)
+        same = r2 == rows
+        if same.any():
+            r2[same] = (r2[same] + 1) % n
         cols = b.free
         xf = b.x[:, cols]
-        v = xf + F[:, None] * (xf[pbest] - xf) + F[:, None] * (xf[r1] - xf[r2])
+        Fc = F[:, None]
+        v = xf + Fc * (xf[pbest] - xf) + Fc * (xf[r1] - xf[r2])
         take = rng.random(v.shape) <= CR[:, None]
-        take[np.arange(n), rng.integers(0, cols.size, n)] = True
+        take[rows, rng.integers(0, cols.size, n)] = True
         u = np.where(take, v, xf)
-        lo, hi = self.bounds[cols, 0], self.bounds[cols, 1]
-        u = np.where(u < lo, (lo + xf) / 2, u)
-        u = np.where(u > hi, (hi + xf) / 2, u)
+        lo, hi = self._limits(cols)
+        low = u < lo
+        if low.any():
+            u = np.where(low, (lo + xf) / 2, u)
+        high = u > hi
+        if high.any():
+            u = np.where(high, (hi + xf) / 2, u)
         trial = b.x.copy()
         trial[:, cols] = u
         return trial, F, CR
+
+    def _rows(self, n: int) -> np.ndarray:
+        """0..n-1 (kept: read-only)."""
+        got = self._aranges.get(n)
+        if got is None:
+            got = self._aranges[n] = np.arange(n)
+        return got
+
+    def _limits(self, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The bounds of the reals ``cols`` (kept per set of columns: read-only)."""
+        key = cols.tobytes()
+        got = self._bounds_of.get(key)
+        if got is None:
+            got = self._bounds_of[key] = (self.bounds[cols, 0], self.bounds[cols, 1])
+        return got
 
     def advance(self, branches: list[Branch], generations: int, until_converged: bool = False) -> None:
         """``generations`` DE generations of every branch, all evaluated together; with
@@ -339,19 +367,29 @@ class AHDE(GenerationalSolver):
                 return
             made = [self.trials(b) for b in live]
             costs = self.evaluate([m[0] for m in made], live)
+            # each branch's best once per generation (record's minimum over the pool, kept up to date)
+            pool = {id(b): b.best for b in (self.final or self.branches.values())}
             for b, (trial, F, CR), c in zip(live, made, costs):
                 before = b.best
                 better = c < b.f
-                b.x[better], b.f[better] = trial[better], c[better]
-                b.F[better], b.CR[better] = F[better], CR[better]
-                b.stale = 0 if b.best < before * (1 - self.options.tol) else b.stale + 1
-                self.record()
+                if better.any():
+                    b.x[better], b.f[better] = trial[better], c[better]
+                    b.F[better], b.CR[better] = F[better], CR[better]
+                    after = b.best
+                else:
+                    after = before
+                b.stale = 0 if after < before * (1 - self.options.tol) else b.stale + 1
+                if id(b) in pool:
+                    pool[id(b)] = after
+                self.record(min(pool.values()))
             if self.options.target is not None and self.history[-1] <= self.options.target:
                 self.stop = "target"
                 return
 
-    def record(self) -> None:
-        self.history.append(min(b.best for b in (self.final or self.branches.values())))
+    def record(self, best: float | None = None) -> None:
+        """The best cost of the pool (the finalists once the race is over, else every branch) after
+        a change, ``best`` when the caller knows it."""
+        self.history.append(min(b.best for b in (self.final or self.branches.values())) if best is None else best)
         if self.options.callback:
             self.options.callback(len(self.history) - 1, self.history[-1])
 

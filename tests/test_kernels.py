@@ -156,6 +156,40 @@ def test_eq17_paths_agree_and_follow_the_closed_form(path):
         assert np.array_equal(p, want)
 
 
+def test_eq16_eq18_paths_give_the_same_bits_and_solve_their_equations():
+    """Eqs. (16) and (18): the compiled passes around numpy's exponentials (fdi.profiles._exponential)
+    give the numpy path's numbers bit for bit (NaN where it has NaN), for onsets off and on the
+    grid, NaN onsets, infinite and NaN coefficients, one or many rows; and the profile solves its
+    equation: (16) P' = b1 P, (18) P'' = b3 P' + P + b4 with P(t0) = P0, P'(t0) = 0 (central
+    differences)."""
+    rng = np.random.default_rng(1618)
+    t = np.arange(0.0, 12.0, 0.01)
+    t0 = np.concatenate([rng.uniform(-1, 10, 40), [np.nan, 3.0, 0.0]])
+    b = rng.normal(0, 1, (t0.size, 2)) * 10 ** rng.uniform(-2, 1, (t0.size, 1))
+    b[5, 0], b[6, 1], b[7, 0] = np.inf, -np.inf, np.nan
+    for p0 in (2.0, np.inf, -3.0, 0.0):
+        for model in (1, 3):
+            for rows in (slice(0, 1), slice(None)):
+                plain, fast = both(lambda: incipient(t, t0[rows], p0, model, b[rows]))
+                nan = np.isnan(plain)
+                assert np.array_equal(nan, np.isnan(fast))
+                assert np.array_equal(plain[~nan].view(np.uint64), fast[~nan].view(np.uint64))
+    h, p0 = 1e-3, 2.0
+    tt = np.arange(0.0, 3.0, h)
+    b1 = np.array([[0.3], [-0.2]])
+    p = incipient(tt, 1.0, p0, 1, b1)
+    after = tt[1:-1] > 1.0 + h
+    dp = (p[:, 2:] - p[:, :-2]) / (2 * h)
+    assert np.allclose(dp[:, after], (b1 * p[:, 1:-1])[:, after], rtol=1e-5)
+    coef = np.array([[0.4, 0.5], [-1.0, -2.5]])
+    p = incipient(tt, 1.0, p0, 3, coef)
+    d1 = (p[:, 2:] - p[:, :-2]) / (2 * h)
+    d2 = (p[:, 2:] - 2 * p[:, 1:-1] + p[:, :-2]) / h ** 2
+    rhs = coef[:, :1] * d1 + p[:, 1:-1] + coef[:, 1:]
+    assert np.allclose(d2[:, after], rhs[:, after], rtol=1e-4, atol=1e-4)
+    assert np.allclose(p[:, tt <= 1.0], p0) and np.allclose(d1[:, np.searchsorted(tt, 1.0 + 2 * h)], 0.0, atol=0.02)
+
+
 def test_filter_paths_give_the_same_bits_and_scipy_s_numbers():
     """The Savitzky-Golay filter (fdi.derivatives.fir: each sample's taps summed in one fixed order)
     gives the same bits on both paths, on a record and on a population, every sample and every
@@ -237,6 +271,13 @@ def test_fused_objective_is_the_numpy_path_s(case):
         assert ok.sum() >= 20
         assert np.allclose(c1[ok], c0[ok], rtol=1e-9, atol=0.0)
         assert np.allclose(r1, r0, rtol=1e-9, atol=0.0)
+    # bits as 0/1 integers and as other numbers (zeta read as booleans, eta as integers): the compiled
+    # decoding and its numpy fallback read them as fdi.encoding.decode does
+    for given in (bits.astype(np.int64), bits * np.where(np.random.default_rng(2).random(bits.shape) < 0.5, 1.0, 1.6)):
+        (c0, r0), (c1, r1) = both(lambda: obj.evaluate(real, given, obj.stride))
+        ok = np.isfinite(c0)
+        assert np.array_equal(ok, np.isfinite(c1)) and ok.sum() >= 20
+        assert np.allclose(c1[ok], c0[ok], rtol=1e-9, atol=0.0) and np.allclose(r1, r0, rtol=1e-9, atol=0.0)
 
 
 def test_an_objective_the_tapes_do_not_cover_keeps_the_numpy_path():
