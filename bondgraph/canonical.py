@@ -96,8 +96,9 @@ def substitute(expr: sp.Expr, rule: Mapping) -> sp.Expr:
 
     >>> x, y = sp.symbols("x y", real=True)
     >>> n = sp.Symbol("n", positive=True)
-    >>> substitute(x / n + sp.sign(x), {x: 2 * y})
-    2*y/n + sign(y)
+    >>> e = x / n + sp.sign(x)
+    >>> substitute(e, {x: 2 * y}), sp.srepr(substitute(e, {x: 2 * y})) == sp.srepr(e.xreplace({x: 2 * y}))
+    (sign(y) + 2*y/n, True)
     """
     return _substitute(expr, rule)[0] if rule else expr
 
