@@ -18,7 +18,9 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, Mapping
 
 import sympy as sp
+from sympy.core.assumptions import StdFactKB
 
+from .canonical import product, substitute
 from .graph import BondKey, port_table, to_networkx
 from .laws import (Equation, bond_variables, coefficient, energy_variable, junction_equations, model_laws,
                    resistor_equation, solve_for, source_equation, storage_law, substitution, two_port_equations)
@@ -85,7 +87,17 @@ def _compact(expr: sp.Expr) -> sp.Expr:
         (group if _is_parameter_factor(f) else rest).append(f)
     if len(group) <= PRODUCT_LIMIT:
         return expr
-    return sp.Mul(ParameterProduct(sp.Mul(*group)), *rest)
+    return product([_positive_product(group), *rest])
+
+
+def _positive_product(factors: list[sp.Expr]) -> ParameterProduct:
+    """The :class:`ParameterProduct` of ``factors``, each positive (:func:`_is_parameter_factor`),
+    created knowing so: sympy would otherwise deduce it, through its general assumption machinery,
+    the first time anything asks (every product that takes it in: a tenth of a long chain's
+    derivation). The facts are those ``_eval_is_positive`` gives; the expression is unchanged."""
+    grouped = ParameterProduct(product(factors))
+    grouped._assumptions = StdFactKB({"positive": True, "commutative": True})
+    return grouped
 
 
 def signal(name: str) -> sp.Expr:
@@ -275,7 +287,7 @@ def _solved(node: str, eqs: list[Equation], outputs: list[sp.Symbol], ps, solve:
             expr = solve_for(eq, v) if solve else None
             inner = [w for w in eq.variables if w in done]
             if expr is not None and inner:
-                expr = expr.xreplace({w: done[w][0] for w in inner}) if all(done[w][0] is not None for w in inner) \
+                expr = substitute(expr, {w: done[w][0] for w in inner}) if all(done[w][0] is not None for w in inner) \
                     else None
             inputs = frozenset(eq.variables - wanted).union(*(done[w][1] for w in inner))
             linear = eq.linear and all(done[w][2] for w in inner)
@@ -321,7 +333,7 @@ def _relation(form: CausalForm, states: Mapping[str, sp.Expr]) -> Relation:
     if form.kind in ("source", "sensor", "detector"):
         return Relation(form.output, (), lambda v=form.expr: v)
     if form.kind == "state":
-        value = form.expr.xreplace({form.symbols[0]: states[form.node]})
+        value = substitute(form.expr, {form.symbols[0]: states[form.node]})
         return Relation(form.output, (), lambda v=value: v)
     if form.expr is None:
         raise ValueError(f"{form.node} gives {form.output[0]}{form.output[1]} in no closed form (see its causality)")
@@ -332,7 +344,7 @@ def _relation(form: CausalForm, states: Mapping[str, sp.Expr]) -> Relation:
     if expr in symbols:         # an input passed on as it is (a junction's common variable)
         i = symbols.index(expr)
         return Relation(form.output, form.inputs, lambda *xs: xs[i], linear_coefficients=coefficients)
-    return Relation(form.output, form.inputs, lambda *xs: expr.xreplace(dict(zip(symbols, xs))),
+    return Relation(form.output, form.inputs, lambda *xs: substitute(expr, dict(zip(symbols, xs))),
                     linear_coefficients=coefficients)
 
 
@@ -340,16 +352,16 @@ def _rate_relation(form: CausalForm) -> Relation:
     """A storage element in derivative causality: ``out = d/dt Q(x)``, Q its energy variable as a
     function of its input x, as ``dQ/dx x'`` (plus ``dQ/dt`` where the law is modulated: Q(x, t))."""
     u = sp.Dummy("u", real=True)
-    q = form.expr.xreplace({form.symbols[0]: u})
+    q = substitute(form.expr, {form.symbols[0]: u})
     slope = coefficient(q, u)   # dQ/du
     coefficients = (lambda: (slope,)) if form.linear else None
     if q.has(t):            # modulated: q(u, t), its rate dQ/du u' + dQ/dt
         drift = ddt(q)
-        return Relation(form.output, form.inputs, lambda x, dx: slope.xreplace({u: x}) * dx + drift.xreplace({u: x}),
-                        derivative=True, energy=lambda x: q.xreplace({u: x}),
+        return Relation(form.output, form.inputs, lambda x, dx: product([substitute(slope, {u: x}), dx]) + substitute(drift, {u: x}),
+                        derivative=True, energy=lambda x: substitute(q, {u: x}),
                         parameters=frozenset(q.free_symbols - {u, t}), linear_coefficients=coefficients)
-    return Relation(form.output, form.inputs, lambda x, dx: slope.xreplace({u: x}) * dx, derivative=True,
-                    energy=lambda x: q.xreplace({u: x}), parameters=frozenset(q.free_symbols - {u}),
+    return Relation(form.output, form.inputs, lambda x, dx: product([substitute(slope, {u: x}), dx]), derivative=True,
+                    energy=lambda x: substitute(q, {u: x}), parameters=frozenset(q.free_symbols - {u}),
                     linear_coefficients=coefficients)
 def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozenset = frozenset(),
             program: Program | None = None) -> dict[Var, sp.Expr]:
@@ -418,7 +430,7 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
         if not r.derivative and _nonsmooth_in(law, [u[0] for u in local]):
             # a nonsmooth law (orifice, Coulomb friction, saturation): its rates are left to be
             # estimated on data (bondgraph.rates), never differentiated into DiracDelta terms
-            value = _compact(law.xreplace({u[0]: series[i][0] for u, i in zip(local, r.inputs)}))
+            value = _compact(substitute(law, {u[0]: series[i][0] for u, i in zip(local, r.inputs)}))
             series[v] = [value] + [ddt(value, j) for j in range(1, k + 1)]
             if program is not None:
                 series[v] = [program.name(expr) for expr in series[v]]
@@ -433,7 +445,7 @@ def resolve(rels: list[Relation], wanted: list[Var] | None = None, whole: frozen
                         step += line_diff(prev, u[j]) * u[j + 1]
             laws.append(step)
         subs = {u[j]: series[i][j] for u, i in zip(local, r.inputs) for j in range(len(u)) if j < len(series[i])}
-        series[v] = [_compact(expr.xreplace(subs)) for expr in laws]
+        series[v] = [_compact(substitute(expr, subs)) for expr in laws]
         if program is not None:
             series[v] = [program.name(expr) for expr in series[v]]
     return {v: series[v][0] for v in order}

@@ -40,6 +40,7 @@ from typing import Callable, Iterable, Mapping, Sequence
 import sympy as sp
 from sympy.core.add import _addsort   # sympy's canonical order of a sum's terms (signed_sum)
 
+from .canonical import product, quotient, substitute
 from .model import LAW_VARIABLES, Element, Model, t
 
 Port = tuple  # (bond key, neighbour, sign): sign +1 where power flows into the node (bondgraph.graph)
@@ -206,7 +207,7 @@ def _solve_split(expr: sp.Expr, var: sp.Symbol, c: sp.Expr | None, factors: list
                 k = k / f
             else:
                 inverse.append(sp.Pow(f, sp.S.NegativeOne))
-        return sp.Mul(k, rest, *inverse)
+        return product([k, rest, *inverse])
     coeff = c if c is not None else coefficient(expr, var)
     return -rest / coeff
 
@@ -394,7 +395,7 @@ def source_equation(node: str, kind: str, bond, value: sp.Expr, sub: Sub = _same
 
 
 def _law(law: sp.Expr, local: str, value: sp.Expr, sub: Sub) -> sp.Expr:
-    return sub(law.xreplace({LAW_VARIABLES[local]: value}))
+    return sub(substitute(law, {LAW_VARIABLES[local]: value}))
 
 
 def resistor_equation(model: Model, el: Element, bond, sub: Sub = _same) -> Equation:
@@ -407,11 +408,11 @@ def resistor_equation(model: Model, el: Element, bond, sub: Sub = _same) -> Equa
     if "effort" in el.laws:
         sol[e] = _law(el.laws["effort"], "f", f, sub)
     elif r is not None:
-        sol[e] = sub(r * f)
+        sol[e] = sub(product([r, f]))
     if "flow" in el.laws:
         sol[f] = _law(el.laws["flow"], "e", e, sub)
     elif r is not None:
-        sol[f] = sub(e / r)
+        sol[f] = sub(quotient(e, r))
     expr = difference(e, sol[e]) if e in sol else difference(f, sol[f])
     return equation(el.name, el.name, expr, {e, f}, solutions=sol, is_linear=not el.laws)
 
@@ -436,11 +437,11 @@ def storage_law(model: Model, el: Element, bond, sub: Sub = _same) -> tuple[sp.S
     if law_key in el.laws:
         sol[out_var] = _law(el.laws[law_key], energy, x, sub)
     elif el.parameter is not None:
-        sol[out_var] = sub(x / model.symbols[el.parameter])
+        sol[out_var] = sub(quotient(x, model.symbols[el.parameter]))
     if inv_key in el.laws:
         sol[x] = _law(el.laws[inv_key], local, out_var, sub)
     elif el.parameter is not None and law_key not in el.laws:
-        sol[x] = sub(model.symbols[el.parameter] * out_var)
+        sol[x] = sub(product([model.symbols[el.parameter], out_var]))
     expr = difference(out_var, sol[out_var]) if out_var in sol else difference(x, sol[x])
     return x, equation(el.name, el.name, expr, {x, out_var}, solutions=sol, is_linear=not el.laws)
 
@@ -465,10 +466,10 @@ def two_port_equations(el: Element, ports: Sequence[Port], sub: Sub = _same) -> 
     e1, f1 = bond_variables(b1)
     e2, f2 = bond_variables(b2)
     if el.kind in ("TF", "MTF"):
-        return [equation(f"{el.name}.e", el.name, difference(e1, m * e2), {e1, e2}, linear=[e1, e2]),
-                equation(f"{el.name}.f", el.name, difference(f2, m * f1), {f1, f2}, linear=[f1, f2])]
-    return [equation(f"{el.name}.e{b1}", el.name, difference(e1, m * f2), {e1, f2}, linear=[e1, f2]),
-            equation(f"{el.name}.e{b2}", el.name, difference(e2, m * f1), {e2, f1}, linear=[e2, f1])]
+        return [equation(f"{el.name}.e", el.name, difference(e1, product([m, e2])), {e1, e2}, linear=[e1, e2]),
+                equation(f"{el.name}.f", el.name, difference(f2, product([m, f1])), {f1, f2}, linear=[f1, f2])]
+    return [equation(f"{el.name}.e{b1}", el.name, difference(e1, product([m, f2])), {e1, f2}, linear=[e1, f2]),
+            equation(f"{el.name}.e{b2}", el.name, difference(e2, product([m, f1])), {e2, f1}, linear=[e2, f1])]
 
 
 _LAWS: dict[int, dict] = {}

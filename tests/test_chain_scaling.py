@@ -123,6 +123,26 @@ def test_walks_of_shared_expressions_agree_with_sympy():
         assert free_symbols(e) == e.free_symbols
 
 
+def test_a_derivation_runs_with_the_collector_paused_and_restores_it():
+    """run_deep pauses Python's cyclic collector while the derivation runs (gc.isenabled seen from
+    inside) and restores it as it was: on after a value and after an error, off if it was off."""
+    import gc
+
+    assert gc.isenabled()
+    assert run_deep(gc.isenabled) is False and gc.isenabled()
+
+    def fails():
+        raise ValueError("inside")
+    with pytest.raises(ValueError, match="inside"):
+        run_deep(fails)
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        assert run_deep(gc.isenabled) is False and not gc.isenabled()
+    finally:
+        gc.enable()
+
+
 def test_a_fault_chain_residual_is_its_tank_mass_balance():
     """ARR i of fault_chain_yaml: q_{i-1} - CT_i dp_i/dt - (p_i - p_{i+1})/Rv_i (Samantaray &
     Ould Bouamama ch. 5), with the measurements divided by their beta."""
