@@ -96,7 +96,7 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
         from .estimators import refit_early_onsets
         refits = refit_early_onsets(est, meas.t, raw, start, span, [plan[i][0] for i in fresh],
                                     [results[i] for i in fresh], weights, o.seed + 7919 * episode, onsets, earliest,
-                                    [[[f for f in known if f["name"] in plan[i][0]]] for i in fresh])
+                                    [[[f for f in known if f["name"] in plan[i][0]]] for i in fresh], pinned=False)
         results = list(results)
         for i, r in zip(fresh, refits):
             results[i] = r

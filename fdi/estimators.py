@@ -579,7 +579,7 @@ def within(results: list[Estimate], i: int) -> list[list[dict]]:
 def refit_early_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t_d: float, samples: int,
                        candidates: list, results: list[Estimate], weights: np.ndarray, seed: int,
                        onsets: tuple[float, float], earliest: float | None = None,
-                       seeds: list[list[list[dict]]] | None = None) -> list[Estimate]:
+                       seeds: list[list[list[dict]]] | None = None, pinned: bool = True) -> list[Estimate]:
     """Estimators fitted with their onset at t_D, the earliest the first search allows, refitted from
     their fit (and the structures one decision away: an abrupt fault may be a drift seen late) with
     the onset free over ``onsets``, the interval the evidence allows (:func:`evidence_onsets`); the
@@ -597,28 +597,33 @@ def refit_early_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndar
     fit took a spurious R4 and an end of life already past; from the start of the data, onset
     25.0 s and b within 1 %). Each refit also starts from the better fits of the sets containing
     it (:func:`within`) and from ``seeds`` (per set: fits to start from, a re-decision's earlier
-    diagnosis: its onset may lie outside the first search's interval, where that search clipped it)."""
+    diagnosis: its onset may lie outside the first search's interval, where that search clipped it).
+    A set seeded with a drift is refitted from ``earliest`` at once, as a drift fitted at first is.
+    ``pinned``: a drift whose refitted onset stays at the evidence's bound is refitted once more from
+    ``earliest`` (a re-decision, whose sets are seeded with the earlier diagnosis, passes False)."""
     ts = float(t[1] - t[0])
     best = min(e.cost for e in results)
     redo = [i for i, e in enumerate(results) if e.faults and min(f["t0"] for f in e.faults) <= t_d + 1.5 * ts
             and e.cost <= REFIT_REACH * best]
+    seeds = seeds or [[] for _ in candidates]
     growing = lambda e: earliest is not None and any(f["type"] == "incipient" for f in e.faults)
-    spans = [(min(earliest, onsets[0]), onsets[1]) if growing(results[i]) else tuple(onsets) for i in redo]
+    seeded = lambda i: earliest is not None and any(f["type"] == "incipient" for s in seeds[i] for f in s)
+    spans = [(min(earliest, onsets[0]), onsets[1]) if growing(results[i]) or seeded(i) else tuple(onsets)
+             for i in redo]
     redo = [i for i, s in zip(redo, spans) if s[0] < t_d - ts]
     spans = [s for s in spans if s[0] < t_d - ts]
     if not redo:
         return results
-    seeds = seeds or [[] for _ in candidates]
     out = _refit(est, t, raw, t_d, samples, candidates, list(results), weights, seed + 15485863, redo, spans, seeds)
     # a drift found by the refit of an abrupt fit with its onset pinned at the evidence's bound:
     # refitted from the start of the trusted data, as a drift fitted at first is (measured: the
     # tutorial's capacitor ageing from 5 s refitted as eq. (17) from the bound, 8.04 s, at 1696
     # while the design costs 1675)
-    pinned = [i for i in redo if earliest is not None and growing(out[i]) and onsets[0] > earliest + ts
-              and min(f["t0"] for f in out[i].faults) <= onsets[0] + 1.5 * ts]
-    if pinned:
-        out = _refit(est, t, raw, t_d, samples, candidates, out, weights, seed + 32452843, pinned,
-                     [(earliest, onsets[1])] * len(pinned), seeds)
+    again = [i for i in redo if pinned and earliest is not None and growing(out[i]) and onsets[0] > earliest + ts
+             and min(f["t0"] for f in out[i].faults) <= onsets[0] + 1.5 * ts]
+    if again:
+        out = _refit(est, t, raw, t_d, samples, candidates, out, weights, seed + 32452843, again,
+                     [(earliest, onsets[1])] * len(again), seeds)
     return out
 
 
