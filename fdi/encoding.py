@@ -94,9 +94,9 @@ def repair_zeta(zeta: np.ndarray) -> np.ndarray:
 
 
 def model_index(eta: np.ndarray) -> np.ndarray:
-    """eta bits (pop, 2) -> degradation model 1..4 (eqs. 16-19)."""
+    """eta bits (..., 2) -> degradation model 1..4 (eqs. 16-19)."""
     e = np.asarray(eta, dtype=int)
-    return 1 + 2 * e[:, 0] + e[:, 1]
+    return 1 + 2 * e[..., 0] + e[..., 1]
 
 
 @dataclass
@@ -122,8 +122,9 @@ class Table:
     b: np.ndarray
 
 
-# repair_zeta of each zeta code z0 z1 z2 (index 4 z0 + 2 z1 + z2): the table decode looks types up in
-_ZETA = repair_zeta(np.array([[(c >> 2) & 1, (c >> 1) & 1, c & 1] for c in range(8)], dtype=bool))
+# repair_zeta of each zeta code z0 z1 z2 (index 4 z0 + 2 z1 + z2): the table every decoder looks types up
+# in (decode_table here, the compiled one of fdi.fused)
+ZETA_TYPES = repair_zeta(np.array([[(c >> 2) & 1, (c >> 1) & 1, c & 1] for c in range(8)], dtype=bool)).astype(np.int64)
 _LAYOUTS: dict = {}
 
 
@@ -164,17 +165,15 @@ def decode_table(spaces: list[FaultSpace], real: np.ndarray, bits: np.ndarray) -
     log, scale, any_log = _layout(spaces)
     r = real[:, :N_REAL * nf].reshape(real.shape[0], nf, N_REAL).transpose(1, 0, 2)     # (faults, pop, 9)
     z = bits[:, :N_BITS * nf].reshape(bits.shape[0], nf, N_BITS).transpose(1, 0, 2)
-    zeta = z[:, :, :3].astype(bool).astype(np.int64)        # as repair_zeta and model_index read them
-    eta = z[:, :, 3:].astype(int)
+    zeta = z[:, :, :3].astype(bool).astype(np.int64)        # as repair_zeta reads them
     value = r[:, :, 0].copy()
     if any_log:
         value[log] = 10 ** value[log]
     coeff = r[:, :, 2:] * scale[:, None, :]
     rate = 10.0 ** r[:, :, RATE_SLOT]
     coeff[:, :, RATE_SLOT - 2] = rate - 1.0 / rate
-    kind = _ZETA[4 * zeta[:, :, 0] + 2 * zeta[:, :, 1] + zeta[:, :, 2]]
-    model = 1 + 2 * eta[:, :, 0] + eta[:, :, 1]
-    return Table(kind, model, value, r[:, :, 1].copy(), coeff)
+    kind = ZETA_TYPES[4 * zeta[:, :, 0] + 2 * zeta[:, :, 1] + zeta[:, :, 2]]
+    return Table(kind, model_index(z[:, :, 3:]), value, r[:, :, 1].copy(), coeff)
 
 
 def decode(spaces: list[FaultSpace], real: np.ndarray, bits: np.ndarray) -> list[Decoded]:
@@ -232,7 +231,7 @@ def profiles(spaces: list[FaultSpace], decoded: list[Decoded], t: np.ndarray, t0
     return out
 
 
-_ZETA_LIST = [int(k) for k in _ZETA]
+_ZETA_LIST = ZETA_TYPES.tolist()
 
 
 def _decisions(spaces: list[FaultSpace], bits: np.ndarray) -> list[tuple[int, int]]:

@@ -19,7 +19,7 @@ import optim
 from optim.core import fitness
 
 from . import criterion, encoding, hints, profiles
-from .objective import Objective, Window, linear_transform, window
+from .objective import Objective, Window, acted_on, linear_transform, window
 from .results import Estimate
 
 if TYPE_CHECKING:
@@ -448,13 +448,20 @@ class Estimators:
         Per candidate set, optionally: ``fixed`` faults held at an earlier fit (each with its
         onset), the ``onsets`` interval its own onset is searched in, and ``known`` fits to start
         from. With a ``memo`` (the streaming monitor's, across decisions on a growing stream), a
-        job whose settings and data window are unchanged is not run again."""
+        job whose settings and data window are unchanged is not run again. A set whose faults are
+        :func:`separable` also starts from each of its faults fitted alone (fitted first, not returned)."""
         fixed = fixed or [[] for _ in candidates]
         onsets = onsets or [None for _ in candidates]
         known = known or [[] for _ in candidates]
         asked = len(candidates)
-        parts = [(i, (name,)) for i, c in enumerate(candidates) if separable(self.monitor, c) for name in c]
-        parts = [(i, c) for k, (i, c) in enumerate(parts) if c not in candidates and (i, c) not in parts[:k]]
+        asked_sets = {tuple(c) for c in candidates}
+        alone: dict[tuple[str, ...], int] = {}      # each fault alone, once, with the settings of its first set
+        for i, c in enumerate(candidates):
+            if separable(self.monitor, tuple(c)):
+                for name in c:
+                    if (name,) not in asked_sets:
+                        alone.setdefault((name,), i)
+        parts = [(i, c) for c, i in alone.items()]
         candidates = list(candidates) + [c for _, c in parts]
         fixed, onsets = list(fixed) + [fixed[i] for i, _ in parts], list(onsets) + [onsets[i] for i, _ in parts]
         known = list(known) + [[] for _ in parts]
@@ -529,22 +536,12 @@ def separable(monitor: "Monitor", candidate: tuple[str, ...]) -> bool:
     seen: set[int] = set()
     searched = False
     for name in candidate:
-        mine = touched(monitor.model, monitor.residuals, name)
+        mine = acted_on(monitor.model, monitor.residuals, name)
         if mine & seen:
             return False
         seen |= mine
         searched = searched or linear_transform(monitor.model, monitor.residuals, name, sorted(mine)) is None
     return searched
-
-
-def touched(model, residuals, name: str) -> set[int]:
-    """The residuals fault ``name`` acts on: those reading one of its parameters, or the signal
-    its sensor or source fault corrects."""
-    f = model.faults[name]
-    symbols = set(f.symbols)
-    signal = f.targets[0] if f.kind in ("sensor", "source") else None
-    return {i for i, r in enumerate(residuals)
-            if symbols & r.parameter_names() or (signal is not None and signal in {s for s, _ in r.signal_orders()})}
 
 
 RECHECK_REACH = 1.0  # the engine's final check reruns the candidate sets within twice the best cost: the

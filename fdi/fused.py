@@ -227,7 +227,7 @@ class Fused:
         if flags is not None and flags.ndim == 2 and flags.shape[0] == real.shape[0]:
             kinds, models, values, periods, b, pre_at, counts, span19, level = fast.decode_rows(
                 real, np.ascontiguousarray(flags), self.log, self.scale, 10.0 ** real[:, self.power_cols],
-                self.vpow, ZETA, float(t[-1]))
+                self.vpow, encoding.ZETA_TYPES, float(t[-1]))
         else:                                       # bits other than 0/1: decode_table's reading of them
             kinds, models, values, periods, b, pre_at, counts, span19, level = self.decode_numpy(real, bits)
         pre = []
@@ -321,7 +321,5 @@ class Pattern:
     passes: int
 
 
-ZETA = np.asarray(encoding.repair_zeta(np.array([[(c >> 2) & 1, (c >> 1) & 1, c & 1] for c in range(8)], dtype=bool)),
-                  dtype=np.int64)    # the type of each zeta code 4 z0 + 2 z1 + z2
 COEFFS = [1, 4, 5, 6]     # the decoded coefficients the kernel reads: b2 (eq. 17), b5, b6, b7 (eq. 19)
 STEP19 = 0.1              # eq. (19)'s RK4 grid (fdi.profiles._model19's step)

@@ -92,6 +92,16 @@ LINEAR = {"identity": (lambda v: v, lambda u: u),
           "reciprocal": (lambda v: 1.0 / np.asarray(v, dtype=float), lambda u: 1.0 / np.asarray(u, dtype=float))}
 
 
+def acted_on(model: Model, residuals: tuple[Residual, ...], name: str) -> set[int]:
+    """The residuals fault ``name`` acts on: those reading one of its parameters, or the signal its
+    sensor or source fault corrects."""
+    f = model.faults[name]
+    symbols = set(f.symbols)
+    signal = f.targets[0] if f.kind in ("sensor", "source") else None
+    return {i for i, r in enumerate(residuals)
+            if symbols & r.parameter_names() or (signal is not None and signal in {s for s, _ in r.signal_orders()})}
+
+
 def linear_transform(model: Model, residuals: tuple[Residual, ...], name: str, active: list[int]) -> str | None:
     """How fault ``name``'s magnitude enters the residuals it touches, when affinely: through its
     value (``identity``) or its inverse (``reciprocal``: a resistance in a flow law, R4's leak
@@ -164,12 +174,8 @@ class Objective:
         fixed_betas, fixed_biases = self._fix(span)
         self.fixed_betas, self.fixed_biases = fixed_betas, fixed_biases
         self.orders = derivative_orders(list(residuals))
-        touched = set()
-        for f in candidate:
-            touched |= set(model.faults[f].symbols)
         self.varying_signals = {model.faults[f].targets[0] for f in candidate if model.faults[f].kind in ("sensor", "source")}
-        self.active = [i for i, r in enumerate(residuals)
-                       if touched & r.parameter_names() or self.varying_signals & {s for s, _ in r.signal_orders()}]
+        self.active = sorted(set().union(*(acted_on(model, residuals, f) for f in candidate)))
         self.linear = {f: h for f in candidate if (h := linear_transform(model, residuals, f, self.active))}
         self.enters = {j: {i: bool(set(model.faults[f].symbols) & residuals[i].parameter_names()) for i in self.active}
                        for j, f in enumerate(candidate)}
