@@ -553,7 +553,8 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
                raw, is_source, beta_fault, beta_fixed, bias_fault, bias_fixed, corr_fixed,
                fk, fk_n, fk_orders, s_at, n_slots, start, stride, m,
                plain, plain_w, joint, joint_w, enters, lin_fault, lo, hi, passes, gaps, constant,
-               block):  # pragma: no cover - compiled
+               block, n_comp, icode, iresults, iregisters, iconsts, ifixed, full_of, n_full, comp_at, comp_order,
+               ck, ck_n):  # pragma: no cover - compiled
     """Eq. (24)'s cost of every individual in one call, as :meth:`fdi.objective.Objective.evaluate`
     computes it on the numpy path. Per individual: each candidate fault's profile over the
     window (:func:`_profile`; a solved linear fault at its nominal value, its unit step kept for
@@ -567,7 +568,14 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
     |r|; for the joint ones the base residual and each solved fault's unit-step gain, the
     magnitudes by weighted medians (``passes`` rounds over the faults, clipped to [lo, hi]),
     then their weighted sums. Returns (totals with ``constant`` first, each linear fault's
-    magnitude per individual (0 where not solved), the invalid individuals)."""
+    magnitude per individual (0 where not solved), the invalid individuals).
+
+    Stored quantities an individual changes (``n_comp`` of them, :meth:`fdi.fused.Fused._stored_quantities`):
+    their tape ``icode`` run on every sample of the window (the parameter slots over the whole
+    window, the corrected signals' samples ``full_of``), each quantity checked finite (else the
+    individual is invalid, its samples read as 0), then filtered at the samples evaluated (``ck``:
+    the centred kernels of order ``comp_order``) into its filtered-signal slots from
+    ``comp_at``, before the residuals' tape reads them."""
     nf, pop = kinds.shape
     nw = t.shape[0]
     nlin = lin_fault.shape[0]
@@ -603,8 +611,12 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
     d = np.zeros(max(1, nlin))
     srow = np.zeros(max(1, nlin), dtype=np.bool_)
     parts = np.zeros(max(1, npl))
-    nmax = 2 * (fk.shape[1] - 1) + 1     # the longest window (fk holds half kernels)
+    nmax = 2 * (max(fk.shape[1], ck.shape[1]) - 1) + 1     # the longest window (fk, ck hold half kernels)
     cp = np.empty(nw + nmax)
+    Pfull = np.empty((max(1, nslot) if n_comp else 1, nw))
+    Sfull = np.empty((n_full if n_comp else 1, nw))
+    Ri = np.empty((max(1, iregisters) if n_comp else 1, block))
+    X = np.empty((max(1, n_comp), nw))
     phases = np.empty((max(1, min(stride, nmax)), m + (nmax - 1) // stride + 1))
     pair = np.empty((2, m))
     for row in range(pop):
@@ -650,6 +662,37 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
             h = fk_n[v] // 2
             _corrected(raw, v, is_source, be, bi, h, cp)
             _fir_row(cp[:nw + 2 * h], fk[v, :h + 1, :fk_orders[v]], start, m, stride, S, s_at[v], phases, pair)
+            if n_comp and full_of[v] >= 0:
+                Sfull[full_of[v], :] = cp[h:h + nw]
+        if n_comp:                   # the stored quantities, on every sample, then their rates
+            for k in range(nslot):
+                j = slot_fault[k]
+                dst = Pfull[k]
+                if solved[j] and not slot_step[k]:
+                    c = f_nominal[j]
+                    for i in range(nw):
+                        dst[i] = tnom[k, i] * c if slot_group[k] else c
+                else:
+                    src = prof[j]
+                    for i in range(nw):
+                        dst[i] = tnom[k, i] * src[i] if slot_group[k] else src[i]
+            for s0 in range(0, nw, block):
+                L = min(block, nw - s0)
+                _tape(icode, Ri, L, s0, ifixed, Pfull, Sfull, iconsts)
+                for c in range(n_comp):
+                    reg = Ri[iresults[c, 0]]
+                    dst = X[c]
+                    for t_ in range(L):
+                        dst[s0 + t_] = reg[t_]
+            for c in range(n_comp):
+                h = ck_n[c] // 2
+                x = X[c]
+                for i in range(nw):
+                    if not np.isfinite(x[i]):
+                        x[i] = 0.0
+                        inv = True
+                _fir_row(x, ck[c, :h + 1, :comp_order[c] + 1], start - h, m, stride, S, comp_at[c], phases, pair)
+            invalid[row] = inv
         for jj in range(nlin):
             srow[jj] = solved[lin_fault[jj]]
         for pi in range(npl):

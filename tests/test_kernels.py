@@ -224,7 +224,7 @@ def _objective(model_path, columns: dict, t0: float, candidate: tuple, fixed=(),
     raw = signals_from_data(c.model, Measurements("x", t, columns))
     win = window(t, raw, t0, c.config.samples, c.config.derivative_window)
     th = thresholds or c.config.thresholds
-    weights = 1.0 / np.array([th[a.name] for a in c.arrs])
+    weights = 1.0 / np.array([th.get(a.name, 1.0) for a in c.arrs])     # a model without thresholds: 1
     return Objective(c.model, c.residuals, win, candidate, weights, c.config.derivative_window, fixed=list(fixed),
                      config=c.config)
 
@@ -280,11 +280,7 @@ def test_fused_objective_is_the_numpy_path_s(case):
         assert np.allclose(c1[ok], c0[ok], rtol=1e-9, atol=0.0) and np.allclose(r1, r0, rtol=1e-9, atol=0.0)
 
 
-def test_an_objective_the_tapes_do_not_cover_keeps_the_numpy_path():
-    """A residual that differentiates a stored quantity (the hydraulic actuator's ARR2 and ARR3:
-    the chamber's stored volume, its rate filtered per individual) has no tape: an objective whose
-    candidate enters one (each of these does) evaluates on numpy."""
-    pytest.importorskip("numba")
+def _hydraulic_clog() -> dict:
     import gzip
 
     from fdi.data import read_csv
@@ -294,15 +290,75 @@ def test_an_objective_the_tapes_do_not_cover_keeps_the_numpy_path():
     path = ROOT / "tests" / "golden" / "_hydraulic_clog_kernels.csv"
     try:
         path.write_text(text)
-        columns = read_csv(path).columns
+        return read_csv(path).columns
     finally:
         path.unlink()
-    model = ROOT / "models" / "hydraulic_actuator.yaml"
+
+
+def _assert_same_costs(obj) -> None:
+    """The compiled objective against the numpy path on a random population, full and coarse:
+    the same individuals finite, costs and population to 1e-9."""
+    real, bits = random_population(obj, 60, np.random.default_rng(23))
+    for stride in (1, obj.stride):
+        (c0, r0), (c1, r1) = both(lambda: obj.evaluate(real, bits, stride))
+        ok = np.isfinite(c0)
+        assert np.array_equal(ok, np.isfinite(c1)) and ok.sum() >= 20
+        assert np.allclose(c1[ok], c0[ok], rtol=1e-9, atol=0.0)
+        assert np.allclose(r1, r0, rtol=1e-9, atol=0.0)
+
+
+@pytest.mark.parametrize("case", ["chamber capacitance", "chamber transducer", "capacitance and valve",
+                                  "air vessel", "orifice"])
+def test_stored_quantities_compiled_are_the_numpy_path_s(case):
+    """A residual that differentiates a stored quantity a candidate changes, d(C p)/dt with C the
+    fault's parameter or p a faulty transducer's corrected reading, is compiled too (q formed per
+    individual on every sample, its rate filtered at the samples evaluated): the hydraulic
+    actuator's chamber (its capacitance Cc; its pressure transducer beta_pc, a corrected signal
+    inside the stored quantity; Cc with the valve Kv, whose residual reads a stored quantity no
+    individual changes), the compressed-air vessels' bladder intrusion (an independent simulator's
+    data), and the orifice tanks' clog (a derivative inside the stored quantity)."""
+    pytest.importorskip("numba")
+    from .conftest import ROOT
+    from .independent import air_vessels
+    from .test_nonsmooth import MODEL as ORIFICE, P as ORIFICE_P, simulate as orifice_data
+    if case == "air vessel":
+        cols = air_vessels.simulate(3, t0=600.0, factor=0.7)
+        obj = _objective(ROOT / "tests" / "data" / "air_vessels.yaml", cols, 600.0, ("intrusion",))
+    elif case == "orifice":
+        cols = orifice_data(4.0, seed=3, kv_after=(2.0, 0.7 * ORIFICE_P["Kv"]))
+        obj = _objective(ORIFICE, cols, 2.0, ("Kv",))
+    else:
+        cols = _hydraulic_clog()
+        candidate = {"chamber capacitance": ("Cc",), "chamber transducer": ("beta_pc",),
+                     "capacitance and valve": ("Cc", "Kv")}[case]
+        obj = _objective(ROOT / "models" / "hydraulic_actuator.yaml", cols, float(cols["t"][len(cols["t"]) // 2]),
+                         candidate)
+    assert any(obj.residuals[i].composites for i in obj.active)
     before = kernels.use_numba(True)
     try:
-        for candidate in (("Cc",), ("Kv",), ("beta_pc",)):
-            obj = _objective(model, columns, float(columns["t"][len(columns["t"]) // 2]), candidate)
-            assert any(obj.residuals[i].composites for i in obj.active), candidate
+        fast = obj.fused()
+        assert fast is not None and fast.stored
+    finally:
+        kernels.use_numba(before)
+    _assert_same_costs(obj)
+
+
+def test_an_objective_the_tapes_do_not_cover_keeps_the_numpy_path():
+    """A stored quantity inside another (the three tanks: d(CT2 (...))/dt holds d(CT1 p1)/dt, whose
+    whole-window rate the numpy path estimates with fitted edges) has no tape: an objective whose
+    candidate enters one evaluates on numpy."""
+    pytest.importorskip("numba")
+    from bondgraph.loader import load_model
+    from fdi.app.scenario import parse_scenario, simulate_scenario
+    from .conftest import ROOT
+    path = ROOT / "models" / "three_tank.yaml"
+    model = load_model(path)
+    cols = simulate_scenario(model, parse_scenario({"seed": 1, "T": 40.0, "fs": 10.0}, model))
+    before = kernels.use_numba(True)
+    try:
+        for candidate in (("fT1",), ("fT2",)):
+            obj = _objective(path, cols, 20.0, candidate)
+            assert any(inner.composites for i in obj.active for _, inner in obj.residuals[i].composites), candidate
             assert obj.fused() is None, candidate
     finally:
         kernels.use_numba(before)
