@@ -420,7 +420,7 @@ class AHDE(GenerationalSolver):
         family's best for the first ``protect`` rungs) go on with twice the generations."""
         o = self.options
         survivors = self.survivors
-        self.advance(survivors, self.rung_generations)
+        self.advance(survivors, self.rung_generations, until_converged=True)
         pool = list(survivors)
         if not self.complete:                               # a partial start: let the leader's neighbours in
             pool += self.spawn(self.neighbours(self.ranked()[0].bits))
