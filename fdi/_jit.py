@@ -553,8 +553,8 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
                raw, is_source, beta_fault, beta_fixed, bias_fault, bias_fixed, corr_fixed,
                fk, fk_n, fk_orders, s_at, n_slots, start, stride, m,
                plain, plain_w, joint, joint_w, enters, lin_fault, lo, hi, passes, gaps, constant,
-               block, n_comp, icode, iresults, iregisters, iconsts, ifixed, full_of, n_full, comp_at, comp_order,
-               ck, ck_n):  # pragma: no cover - compiled
+               block, n_comp, icode, level_at, level_members, members, result_of, iregisters, iconsts, ifixed,
+               full_of, n_full, comp_at, full_at, comp_order, ck, ck_n, edge):  # pragma: no cover - compiled
     """Eq. (24)'s cost of every individual in one call, as :meth:`fdi.objective.Objective.evaluate`
     computes it on the numpy path. Per individual: each candidate fault's profile over the
     window (:func:`_profile`; a solved linear fault at its nominal value, its unit step kept for
@@ -570,12 +570,16 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
     then their weighted sums. Returns (totals with ``constant`` first, each linear fault's
     magnitude per individual (0 where not solved), the invalid individuals).
 
-    Stored quantities an individual changes (``n_comp`` of them, :meth:`fdi.fused.Fused._stored_quantities`):
-    their tape ``icode`` run on every sample of the window (the parameter slots over the whole
-    window, the corrected signals' samples ``full_of``), each quantity checked finite (else the
-    individual is invalid, its samples read as 0), then filtered at the samples evaluated (``ck``:
-    the centred kernels of order ``comp_order``) into its filtered-signal slots from
-    ``comp_at``, before the residuals' tape reads them."""
+    Stored quantities an individual changes (``n_comp`` of them, :meth:`fdi.fused.Fused._stored_quantities`),
+    one level of nesting after another (level l: instructions ``level_at[l]:level_at[l + 1]`` of
+    ``icode``, quantities ``members[level_members[l]:level_members[l + 1]]``, each in register
+    ``result_of``): the tape run on every sample of the window (the parameter slots over the whole
+    window, the corrected signals' samples ``full_of``, inner quantities' rates), each quantity
+    checked finite (else the individual is invalid, its samples read as 0), then filtered (``ck``:
+    the centred kernels of order ``comp_order``) at the samples evaluated into the
+    filtered-signal slots ``comp_at``, and on every sample into the whole-window slots ``full_at``
+    (the edge half-windows by ``edge``'s kernels, the polynomial of the edge window), before the
+    residuals' tape reads them."""
     nf, pop = kinds.shape
     nw = t.shape[0]
     nlin = lin_fault.shape[0]
@@ -616,7 +620,10 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
     Pfull = np.empty((max(1, nslot) if n_comp else 1, nw))
     Sfull = np.empty((n_full if n_comp else 1, nw))
     Ri = np.empty((max(1, iregisters) if n_comp else 1, block))
-    X = np.empty((max(1, n_comp), nw))
+    X = np.empty((max(1, n_comp), nw if n_comp else 1))
+    T = np.empty((ck.shape[2], nw if n_comp else 1))                  # a whole-window rate's orders
+    phases_full = np.empty((1, nw + nmax if n_comp else 1))
+    pair_full = np.empty((2, nw if n_comp else 1))
     phases = np.empty((max(1, min(stride, nmax)), m + (nmax - 1) // stride + 1))
     pair = np.empty((2, m))
     for row in range(pop):
@@ -676,22 +683,42 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
                     src = prof[j]
                     for i in range(nw):
                         dst[i] = tnom[k, i] * src[i] if slot_group[k] else src[i]
-            for s0 in range(0, nw, block):
-                L = min(block, nw - s0)
-                _tape(icode, Ri, L, s0, ifixed, Pfull, Sfull, iconsts)
-                for c in range(n_comp):
-                    reg = Ri[iresults[c, 0]]
-                    dst = X[c]
-                    for t_ in range(L):
-                        dst[s0 + t_] = reg[t_]
-            for c in range(n_comp):
-                h = ck_n[c] // 2
-                x = X[c]
-                for i in range(nw):
-                    if not np.isfinite(x[i]):
-                        x[i] = 0.0
-                        inv = True
-                _fir_row(x, ck[c, :h + 1, :comp_order[c] + 1], start - h, m, stride, S, comp_at[c], phases, pair)
+            for lev in range(level_at.shape[0] - 1):
+                code_l = icode[level_at[lev]:level_at[lev + 1]]
+                for s0 in range(0, nw, block):
+                    L = min(block, nw - s0)
+                    _tape(code_l, Ri, L, s0, ifixed, Pfull, Sfull, iconsts)
+                    for k in range(level_members[lev], level_members[lev + 1]):
+                        c = members[k]
+                        reg = Ri[result_of[c]]
+                        dst = X[c]
+                        for t_ in range(L):
+                            dst[s0 + t_] = reg[t_]
+                for k in range(level_members[lev], level_members[lev + 1]):
+                    c = members[k]
+                    n = ck_n[c]
+                    h = n // 2
+                    o = comp_order[c]
+                    x = X[c]
+                    for i in range(nw):
+                        if not np.isfinite(x[i]):
+                            x[i] = 0.0
+                            inv = True
+                    if comp_at[c] >= 0:
+                        _fir_row(x, ck[c, :h + 1, :o + 1], start - h, m, stride, S, comp_at[c], phases, pair)
+                    if full_at[c] >= 0:          # every sample: the middle filtered, the edges fitted
+                        dst = Sfull[full_at[c]]
+                        _fir_row(x, ck[c, :h + 1, :o + 1], 0, nw - 2 * h, 1, T, 0, phases_full, pair_full)
+                        for i in range(nw - 2 * h):
+                            dst[h + i] = T[o, i]
+                        for q in range(h):
+                            a0 = 0.0
+                            a1 = 0.0
+                            for i in range(n):
+                                a0 += x[i] * edge[c, 0, i, q]
+                                a1 += x[nw - n + i] * edge[c, 1, i, q]
+                            dst[q] = a0
+                            dst[nw - h + q] = a1
             invalid[row] = inv
         for jj in range(nlin):
             srow[jj] = solved[lin_fault[jj]]

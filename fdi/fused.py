@@ -29,13 +29,13 @@ type and model). The kernel is generic (no model-specific code is compiled): num
 disk, and a model costs no compilation.
 
 A stored quantity a candidate changes (d(C p)/dt with C faulty, or p a faulty sensor's corrected
-reading) is formed per individual on every sample of the window by a tape of its own and its
-rate filtered at the samples evaluated (:meth:`Fused._stored_quantities`); measured on the RC
-filter of docs/tutorial.md (5 000-sample windows) 416 -> 106 us per full row, and its whole
-diagnosis 14.6 -> 10.3 s CPU, the same answer. An objective the tapes do not cover (a stored
-quantity inside another, or of a corrected signal's derivative; a mode switch inside the window;
-a residual whose code has a comparison or a Piecewise) keeps the numpy path (:meth:`Fused.make`
-gives None).
+reading; nested ones, the three tanks', level by level) is formed per individual on every sample
+of the window by a tape of its own and its rate filtered at the samples evaluated
+(:meth:`Fused._stored_quantities`); measured on the RC filter of docs/tutorial.md (5 000-sample
+windows) 416 -> 106 us per full row, and its whole diagnosis 14.6 -> 10.3 s CPU, the same answer;
+the three tanks, two-mass and probe models 5-13x per row. An objective the tapes do not cover (a
+stored quantity of a corrected signal's derivative; a mode switch inside the window; a residual
+whose code has a comparison or a Piecewise) keeps the numpy path (:meth:`Fused.make` gives None).
 """
 from __future__ import annotations
 
@@ -174,65 +174,121 @@ class Fused:
 
     def _stored_quantities(self) -> None:
         """The stored quantities an individual changes (a candidate fault's parameter or corrected
-        signal inside d^k q/dt^k, :attr:`fdi.residuals.Residual.composites`): q formed per individual
-        on every sample of the window by a tape of its own (:attr:`inner`: the parameter slots over
-        the whole window, the corrected signals' samples, a derivative no individual changes as the
-        numpy path estimated it), and its rate filtered at the samples evaluated into the
-        filtered-signal slots from ``comp_at``, as :meth:`fdi.residuals.Residual._rate` does (q from
-        the samples, not their smoothed values; an individual whose q is not finite somewhere is
-        invalid). A stored quantity no individual changes is filtered once per sampling stride
-        (:meth:`plan`); one inside another, or of a corrected signal's derivative, keeps the numpy path."""
+        signal inside d^k q/dt^k, :attr:`fdi.residuals.Residual.composites`, or such a quantity's
+        rate inside another's, the three tanks' d(C2 (... d(C1 p1)/dt ...))/dt): q formed per
+        individual on every sample of the window by tapes of their own, one level of nesting after
+        another (the parameter slots over the whole window, the corrected signals' samples, a
+        derivative no individual changes as the numpy path estimated it, an inner quantity's rate
+        over the whole window), then its rate filtered as :meth:`fdi.residuals.Residual._rate` does:
+        at the samples evaluated into the filtered-signal slots ``comp_at`` for a residual, on every
+        sample into ``full_at`` for an enclosing quantity (the edge half-windows by the polynomial of
+        the edge window, as ``derivatives.estimate``'s ``interp``). q comes from the samples, not
+        their smoothed values; an individual whose q is not finite somewhere is invalid. A stored
+        quantity no individual changes is filtered by the numpy path once (:meth:`plan`); one of a
+        corrected signal's derivative keeps the numpy path."""
         obj = self.obj
-        w = obj.win.t.size
-        self.stored: dict = {}                    # (inner expression, order) -> index
-        inners: list[tuple[int, Residual]] = []
-        for i in obj.active:
-            for order, inner in obj.residuals[i].composites:
-                if inner.composites:
-                    raise tape.Unsupported("a stored quantity inside another")
-                key = (inner.expr, order)
-                if key not in self.stored and (any(n in self.slot for n in inner.symbols)
-                                               or any(sig in self.varying for sig, _ in inner.signals)):
-                    self.stored[key] = len(inners)
-                    inners.append((order, inner))
+        w, ts = obj.win.t.size, float(obj.win.ts)
+        self.stored: dict = {}                    # (inner expression, order) -> index (children first)
+        found: list[tuple[int, Residual, int]] = []          # (order, inner, level)
+        read_whole: set[int] = set()              # quantities whose whole-window rate an enclosing one reads
+
+        def changed(order: int, inner: Residual) -> int | None:
+            key = (inner.expr, order)
+            if key in self.stored:
+                return self.stored[key]
+            children = [changed(o, q) for o, q in inner.composites]
+            if not (any(c is not None for c in children) or any(n in self.slot for n in inner.symbols)
+                    or any(sig in self.varying for sig, _ in inner.signals)):
+                return None
+            read_whole.update(c for c in children if c is not None)
+            level = 1 + max((found[c][2] for c in children if c is not None), default=-1)
+            self.stored[key] = len(found)
+            found.append((order, inner, level))
+            return self.stored[key]
+        read_cut = {c for i in obj.active for o, q in obj.residuals[i].composites if (c := changed(o, q)) is not None}
         self.full_of = np.full(max(1, len(self.varying)), -1, dtype=np.int64)   # corrected samples kept, per signal
-        entries = []
-        for order, inner in inners:
-            args = []
+        for _, inner, _ in found:
             for sig, k in inner.signals:
-                if k:          # a derivative inside: the numpy path's (whole-window) estimate, where no individual corrects it
-                    if sig in self.varying:
+                if sig in self.varying:
+                    if k:
                         raise tape.Unsupported("a stored quantity of a corrected signal's derivative")
-                    args.append(np.asarray(obj.base_signals[sig][k], dtype=float))
-                elif sig in self.varying:
                     v = self.varying.index(sig)
                     if self.full_of[v] < 0:
                         self.full_of[v] = int(self.full_of.max()) + 1
-                    args.append(tape.Row(tape.LOADS, int(self.full_of[v])))
-                else:
-                    args.append(np.asarray(samples_of(obj.base_signals[sig]), dtype=float))
-            for name in inner.symbols:
-                args.append(tape.Row(tape.LOADP, self.slot[name]) if name in self.slot else obj.nominal[name])
-            source = getattr(inner.func, SOURCE, None) or inspect.getsource(inner.func)
-            entries.append((source, {**self.names, **inner.func.__globals__}, args))
-        self.n_full = int(self.full_of.max()) + 1
-        # no unit-step variants: a fault whose magnitude is solved never enters a stored quantity
-        # (fdi.objective.linear_transform), so its unit step leaves every q as it is
-        self.inner = tape.program(entries, [], w) if entries else None
-        self.comp_at = np.zeros(max(1, len(inners)), dtype=np.int64)
+        n_samples = int(self.full_of.max()) + 1
+        self.full_at = np.full(max(1, len(found)), -1, dtype=np.int64)
+        for k, c in enumerate(sorted(read_whole)):
+            self.full_at[c] = n_samples + k
+        self.n_full = n_samples + len(read_whole)
+        self.comp_at = np.full(max(1, len(found)), -1, dtype=np.int64)
         filters = []
-        for c, (order, _) in enumerate(inners):
+        for c, (order, _, _) in enumerate(found):
             p = max(derivatives.DEFAULT_ORDER, order)
-            n = derivatives.window_samples(obj.window_s, obj.win.ts, p)
-            filters.append((n, derivatives.centred(n, p, order, float(obj.win.ts))))
-            self.comp_at[c] = self.n_slots
-            self.n_slots += order + 1
-        self.comp_order = np.array([order for order, _ in inners] or [0], dtype=np.int64)
-        nmax = max((n for n, _ in filters), default=1)
+            n = derivatives.window_samples(obj.window_s, ts, p)
+            filters.append((n, p, derivatives.centred(n, p, order, ts)))
+            if c in read_cut:
+                self.comp_at[c] = self.n_slots
+                self.n_slots += order + 1
+        # one tape per level of nesting (no unit-step variants: a fault whose magnitude is solved never
+        # enters a stored quantity, fdi.objective.linear_transform), concatenated: constants and fixed
+        # arrays renumbered
+        levels = sorted({lev for _, _, lev in found})
+        self.level_at = np.zeros(len(levels) + 1, dtype=np.int64)     # each level's first instruction
+        self.level_members = np.zeros(len(levels) + 1, dtype=np.int64)
+        self.members = np.zeros(max(1, len(found)), dtype=np.int64)   # the quantities, level by level
+        self.result_of = np.zeros(max(1, len(found)), dtype=np.int64)  # the register holding each q
+        codes, consts, fixed, registers, at = [], [], [], 1, 0
+        for li, lev in enumerate(levels):
+            mine = [c for c, (_, _, l) in enumerate(found) if l == lev]
+            t = tape.program([self._stored_entry(found[c][1]) for c in mine], [], w)
+            code = t.code.copy()
+            code[code[:, 0] == tape.CONST, 2] += len(consts)
+            code[code[:, 0] == tape.LOADF, 2] += len(fixed)
+            consts += t.consts.tolist()
+            fixed += list(t.fixed)
+            codes.append(code)
+            registers = max(registers, t.registers)
+            self.level_at[li + 1] = self.level_at[li] + code.shape[0]
+            self.members[at:at + len(mine)] = mine
+            self.result_of[mine] = t.results[:, 0]
+            at += len(mine)
+            self.level_members[li + 1] = at
+        self.inner = (np.vstack(codes) if codes else np.zeros((1, 4), dtype=np.int64), np.array(consts or [0.0]),
+                      np.array(fixed).reshape(len(fixed), w) if fixed else np.zeros((1, w)), registers)
+        self.comp_order = np.array([order for order, _, _ in found] or [0], dtype=np.int64)
+        nmax = max((n for n, _, _ in filters), default=1)
         self.ck = np.zeros((max(1, len(filters)), nmax // 2 + 1, int(self.comp_order.max()) + 1))
-        for c, (_, k) in enumerate(filters):
+        self.edge = np.zeros((max(1, len(filters)), 2, nmax, nmax // 2))    # the edge half-windows' kernels
+        for c, (n, p, k) in enumerate(filters):
             self.ck[c, :k.shape[0], :k.shape[1]] = k
-        self.ck_n = np.array([n for n, _ in filters] or [1], dtype=np.int64)
+            if self.full_at[c] >= 0:
+                order, h = int(self.comp_order[c]), n // 2
+                if n * h * (order + 1) > derivatives.EDGE_VALUES:
+                    raise tape.Unsupported("a stored quantity inside another, filtered over a long window")
+                self.edge[c, 0, :n, :h] = derivatives.kernels_at(n, p, order, ts, 0, h)[:, :, order]
+                self.edge[c, 1, :n, :h] = derivatives.kernels_at(n, p, order, ts, h + 1, n)[:, :, order]
+        self.ck_n = np.array([n for n, _, _ in filters] or [1], dtype=np.int64)
+
+    def _stored_entry(self, inner: Residual) -> tuple:
+        """A stored quantity's tape entry: its generated code with each argument on every sample of
+        the window (a signal's samples or a corrected one's slot, a derivative as the numpy path
+        estimated it, an inner quantity's whole-window rate, a parameter's slot or value)."""
+        obj = self.obj
+        args = []
+        for sig, k in inner.signals:
+            if sig in self.varying:
+                args.append(tape.Row(tape.LOADS, int(self.full_of[self.varying.index(sig)])))
+            else:
+                base = obj.base_signals[sig]
+                args.append(np.asarray(base[k] if k else samples_of(base), dtype=float))
+        for o, q in inner.composites:
+            c = self.stored.get((q.expr, o))
+            args.append(tape.Row(tape.LOADS, int(self.full_at[c])) if c is not None else
+                        Residual._rate(o, q, obj.base_signals, obj.nominal, obj.win.ts, obj.window_s, None, None))
+        for name in inner.symbols:
+            args.append(tape.Row(tape.LOADP, self.slot[name]) if name in self.slot else obj.nominal[name])
+        source = getattr(inner.func, SOURCE, None) or inspect.getsource(inner.func)
+        return source, {**self.names, **inner.func.__globals__}, args
 
     @classmethod
     def make(cls, obj: "Objective") -> "Fused | None":
@@ -259,7 +315,7 @@ class Fused:
         def cut(a):      # as fdi.residuals.Residual.arguments cuts an argument
             return a[..., crop] if isinstance(a, np.ndarray) and a.ndim and a.shape[-1] > 1 else a
         for c, n in enumerate(self.ck_n[:len(self.stored)]):      # a stored quantity's rate reads whole windows
-            if crop.start < n // 2 or crop.start + (m - 1) * stride + n // 2 >= obj.win.t.size:
+            if self.comp_at[c] >= 0 and (crop.start < n // 2 or crop.start + (m - 1) * stride + n // 2 >= obj.win.t.size):
                 raise tape.Unsupported("a stored quantity's rate at the window's edge")
         entries = []
         for i in obj.active:
@@ -335,18 +391,10 @@ class Fused:
 
     def stored_arguments(self) -> tuple:
         """The kernel's arguments for the stored quantities (:meth:`_stored_quantities`)."""
-        got = getattr(self, "_stored_args", None)
-        if got is None:
-            inner, w = self.inner, self.obj.win.t.size
-            if inner is None:
-                got = (0, np.zeros((1, 4), dtype=np.int64), np.zeros((1, 1), dtype=np.int64), 1, np.zeros(1),
-                       np.zeros((1, 1)))
-            else:
-                got = (len(self.stored), inner.code, inner.results, inner.registers, inner.consts,
-                       np.array(inner.fixed).reshape(len(inner.fixed), w) if inner.fixed else np.zeros((1, w)))
-            got += (self.full_of, max(1, self.n_full), self.comp_at, self.comp_order, self.ck, self.ck_n)
-            self._stored_args = got
-        return got
+        code, consts, fixed, registers = self.inner
+        return (len(self.stored), code, self.level_at, self.level_members, self.members, self.result_of, registers,
+                consts, fixed, self.full_of, max(1, self.n_full), self.comp_at, self.full_at, self.comp_order, self.ck,
+                self.ck_n, self.edge)
 
     def decode_numpy(self, real: np.ndarray, bits: np.ndarray) -> tuple:
         """What :func:`fdi._jit.decode_rows` returns, by :func:`fdi.encoding.decode_table`."""
