@@ -482,8 +482,7 @@ class Objective:
                 mine = [i for i in self.active if set(f.symbols) & self.residuals[i].parameter_names()
                         or f.targets[0] in {s for s, _ in self.residuals[i].signal_orders()}]
                 x = sum((mags[i] for i in mine), np.zeros(c.stop - c.start))
-                waves = hints.square_waves(x, self.win.ts, *space.period) if mine else ()
-                out.append(hints.candidate_periods(x, self.win.ts, waves, *space.period))
+                out.append(hints.periods(x, self.win.ts, *space.period) if mine else [])
             self._seeds = out
         return self._seeds
 
