@@ -258,7 +258,8 @@ class Fused:
         self.comp_order = np.array([order for order, _, _ in found] or [0], dtype=np.int64)
         nmax = max((n for n, _, _ in filters), default=1)
         self.ck = np.zeros((max(1, len(filters)), nmax // 2 + 1, int(self.comp_order.max()) + 1))
-        self.edge = np.zeros((max(1, len(filters)), 2, nmax, nmax // 2))    # the edge half-windows' kernels
+        whole = max((n for c, (n, _, _) in enumerate(filters) if self.full_at[c] >= 0), default=1)
+        self.edge = np.zeros((max(1, len(filters)), 2, whole, whole // 2))  # the edge half-windows' kernels
         for c, (n, p, k) in enumerate(filters):
             self.ck[c, :k.shape[0], :k.shape[1]] = k
             if self.full_at[c] >= 0:
