@@ -81,6 +81,36 @@ def test_evaluate_tells_a_search_miss_from_data_that_do_not_prefer_the_design():
     assert wrong["verdict"] == "search" and wrong["design_cost"] < wrong["answer_cost"]
 
 
+def test_a_degradation_model_graded_on_its_refit_carries_the_refit_s_check():
+    """The grade of an incipient fault's model is made on its refit at 90 % of life: when that grade
+    fails, the scenario's refit_check is the check made on the refit's data (not the decision's), and
+    the totals' line names its verdict. An eq. (19) design refitted as eq. (18), and as eq. (19)."""
+    from bondgraph.loader import load_model
+    from fdi.app.evaluate import Score, format_scores, regrade, summary
+    from fdi.app.scenario import FaultEvent
+    model = load_model(CYCAB)
+    events = [FaultEvent("beta_dp", "incipient", 15.0, model=4, b=(10.0, 0.002, -0.0034), failure=0.5)]
+    report = {"detection": {"time": 27.5}, "window": [27.5, 32.5],
+              "diagnosis": {"faults": [{"name": "beta_dp", "type": "incipient", "model": 3, "b": [-45.0, -1.4],
+                                        "t0": 18.7}]}}
+    check = {"design_cost": 332.5, "answer_cost": 333.3, "criterion_difference": 4.3, "verdict": "data"}
+    for refit_model, typed in ((3, False), (4, True)):
+        s = Score("dp_incipient19", ["beta_dp"], ["beta_dp"], 27.5, 12.5, False, True, False)
+        b = [-95.6, -2.0] if refit_model == 3 else [20.0, 0.0042, -0.0067]
+        s.rul = [{"fault": "beta_dp", "fraction": 0.9, "t": 54.4, "true_rul": 4.4, "rul": 4.1, "error": -0.07,
+                  "alpha_ok": True, "rul_low": 2.6, "rul_high": 5.7, "covered": True, "ra": None, "onset": 15.0,
+                  "eol": 58.8, "model": refit_model, "b": b, "refit_t0": 19.7,
+                  "refit_check": check if refit_model != 4 else None}]
+        regrade(s, events, report, {}, 0.9, model)
+        assert s.typed is typed and s.typed_at_decision is False
+        assert s.refit_check == (None if typed else check)
+    other = Score("other", ["R4"], ["R5"], 1.0, 0.1, False, False, False, design_check={**check, "verdict": "search"})
+    assert "missed by the search" in format_scores([other], summary([other]))
+    s.typed, s.refit_check = False, check
+    assert "the data do not prefer the design" in format_scores([s], summary([s]))
+    assert summary([s])["wrong"] == ["dp_incipient19"]
+
+
 def test_the_rul_band_holds_each_plausible_fit_along_the_onset_and_each_other_models_region():
     # eq. (17) 1/P = 1 - b2 (t - t0) reaches 0.5 when b2 (t - t0) = -1: the fit (-0.03 from 32 s) at
     # 32 + 100/3 s; a plausible fit along the onset (-0.025 from 30 s) at 70 s; eq. (16) P = exp(b1 (t - t0))

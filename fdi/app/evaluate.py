@@ -47,7 +47,8 @@ import numpy as np
 from ..errors import UsageError
 from ..data import DataError, Measurements
 from ..options import Options
-from ..pipeline import refresh_prognosis
+from ..episodes import since_detection
+from ..pipeline import MAX_REFIT, refresh_prognosis
 from ..monitor import compiled
 from ..objective import nominal
 from ..prognose import end_of_life
@@ -80,6 +81,7 @@ class Score:
     duration: float | None = None         # s, the run's length
     prognostics: list[dict] = field(default_factory=list)  # per incipient fault: PH, CRA, convergence
     design_check: dict | None = None      # a miss: the design's cost and the answer's on the same data
+    refit_check: dict | None = None       # a degradation model graded wrong on its refit: the same check there
     typed_at_decision: bool | None = None  # the types and degradation models of the decision itself
     models_at_decision: dict[str, int | None] = field(default_factory=dict)   # incipient fault -> model then
     design_models: dict[str, int | None] = field(default_factory=dict)        # incipient fault -> the design's
@@ -232,6 +234,8 @@ def regrade(s: Score, events: list[FaultEvent], report: dict, mode_names: dict[s
     if refits:
         s.typed = score(s.name, events, {**report, "diagnosis": {**report["diagnosis"], "faults": faults}},
                         mode_names).typed
+        if not s.typed:
+            s.refit_check = next((r["refit_check"] for r in refits.values() if r.get("refit_check")), None)
     s.coefficient_errors = identification_errors(events, faults)
     s.errors = identification_errors(events, faults, {e.target: nominal(model, e.target) for e in events
                                                       if e.type == "incipient" and e.target in model.faults}, ends)
@@ -245,19 +249,30 @@ def design_check(model_path: str, meas: Measurements, o: Options, report: dict,
     more than 2 (Kass & Raftery: the data hold the truth and the search missed it), else "data"
     (the data do not prefer the design: no search could have found it there). None without a
     detection or with a mode fault on either side (its switch time is not a design value)."""
+    from ..episodes import MAX_GROWTH
+    det, faults = report.get("detection"), report["diagnosis"]["faults"]
+    if det is None:
+        return None
+    t_d, now = report.get("window") or (det["time"], det["time"])
+    return held_check(model_path, meas, o, since_detection(meas.t, t_d, now, _samples(model_path, meas, o), MAX_GROWTH),
+                      events, list(faults))
+
+
+def held_check(model_path: str, meas: Measurements, o: Options, span: tuple[float, int],
+               events: list[FaultEvent], faults: list[dict]) -> dict | None:
+    """:func:`design_check` on the samples ``span`` (start, count) with the answer ``faults``: the
+    refit at a checkpoint is checked on the data it was fitted on (``refit_check``). None with a mode
+    fault on either side."""
     from ..criterion import information
-    from ..episodes import MAX_GROWTH, since_detection
     from ..objective import Objective, window
     from ..pipeline import prepare
-    det, faults = report.get("detection"), report["diagnosis"]["faults"]
-    if det is None or any(e.type == "mode" for e in events) or any(f["type"] == "mode" for f in faults):
+    if any(e.type == "mode" for e in events) or any(f["type"] == "mode" for f in faults):
         return None
     c = compiled(model_path)
     p = prepare(c.with_config(o.settings), meas, o)
-    t_d, now = report.get("window") or (det["time"], det["time"])
-    start, span = since_detection(meas.t, t_d, now, p.samples, MAX_GROWTH)
-    win = window(meas.t, p.raw, start, span, p.window_s)
-    n_eff = effective_samples(span, len(c.residuals), meas.ts, p.window_s)
+    start, count = span
+    win = window(meas.t, p.raw, start, count, p.window_s)
+    n_eff = effective_samples(count, len(c.residuals), meas.ts, p.window_s)
     design = [{k: v for k, v in (("name", e.target), ("type", e.type), ("value", e.value), ("period", e.period),
                                  ("model", e.model), ("b", list(e.b) if e.b else None), ("t0", e.t0)) if v is not None}
               for e in events]
@@ -269,6 +284,12 @@ def design_check(model_path: str, meas: Measurements, o: Options, report: dict,
     ic_design, ic_answer = information(ours, design, n_eff), information(theirs, list(faults), n_eff)
     return {"design_cost": ours, "answer_cost": theirs, "criterion_difference": ic_design - ic_answer,
             "verdict": "search" if ic_design < ic_answer - 2.0 else "data"}
+
+
+def _samples(model_path: str, meas: Measurements, o: Options) -> int:
+    """The identification window's samples N the diagnosis of ``meas`` used."""
+    from ..pipeline import prepare
+    return prepare(compiled(model_path).with_config(o.settings), meas, o).samples
 
 
 def trajectory_metrics(checkpoints: list[dict], alpha: float = ALPHA) -> list[dict]:
@@ -339,6 +360,11 @@ def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements
                 f = next((f for f in refit if f["name"] == e.target and f["type"] == "incipient"), None)
                 if f is not None:
                     entry["model"], entry["b"], entry["refit_t0"] = f["model"], list(f["b"]), f["t0"]
+                    if f["model"] != e.model:       # the data the refit saw: would they prefer the design?
+                        span = since_detection(prefix.t, d.detection.time, float(prefix.t[-1]), _samples(model_path, prefix, o),
+                                               MAX_REFIT)
+                        entry["refit_check"] = held_check(model_path, prefix, o, span, list(scenario.faults),
+                                                          [dict(g) for g in refit])
                 p = next((p for p in prognosis if p.name == e.target), None)
                 if p is not None and math.isfinite(p.rul):
                     entry["rul"] = p.rul
@@ -540,7 +566,7 @@ def format_scores(scores: list[Score], totals: dict) -> str:
                  f"longest nominal run {longest['name']} ({longest['duration_s']:g} s): "
                  + ("false alarm" if longest["false_alarm"] else "quiet"))]
     if t.get("wrong"):
-        checks = {s.name: s.design_check for s in scores if s.design_check}
+        checks = {s.name: s.refit_check or s.design_check for s in scores if s.refit_check or s.design_check}
         lines.append("not isolated and typed: " + ", ".join(
             name + (f" (design {checks[name]['design_cost']:.4g}, answer {checks[name]['answer_cost']:.4g}: "
                     f"{'missed by the search' if checks[name]['verdict'] == 'search' else 'the data do not prefer the design'})"
