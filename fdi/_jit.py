@@ -574,7 +574,8 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
     one level of nesting after another (level l: instructions ``level_at[l]:level_at[l + 1]`` of
     ``icode``, quantities ``members[level_members[l]:level_members[l + 1]]``, each in register
     ``result_of``): the tape run on every sample of the window (the parameter slots over the whole
-    window, the corrected signals' samples ``full_of``, inner quantities' rates), each quantity
+    window, the corrected signals' samples and derivatives ``full_of[signal, order]``, inner
+    quantities' rates), each quantity
     checked finite (else the individual is invalid, its samples read as 0), then filtered (``ck``:
     the centred kernels of order ``comp_order``) at the samples evaluated into the
     filtered-signal slots ``comp_at``, and on every sample into the whole-window slots ``full_at``
@@ -624,6 +625,7 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
     T = np.empty((ck.shape[2], nw if n_comp else 1))                  # a whole-window rate's orders
     phases_full = np.empty((1, nw + nmax if n_comp else 1))
     pair_full = np.empty((2, nw if n_comp else 1))
+    D = np.empty((fk.shape[2], nw if n_comp else 1))               # a corrected signal's orders on every sample
     phases = np.empty((max(1, min(stride, nmax)), m + (nmax - 1) // stride + 1))
     pair = np.empty((2, m))
     for row in range(pop):
@@ -669,8 +671,17 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
             h = fk_n[v] // 2
             _corrected(raw, v, is_source, be, bi, h, cp)
             _fir_row(cp[:nw + 2 * h], fk[v, :h + 1, :fk_orders[v]], start, m, stride, S, s_at[v], phases, pair)
-            if n_comp and full_of[v] >= 0:
-                Sfull[full_of[v], :] = cp[h:h + nw]
+            if n_comp:
+                if full_of[v, 0] >= 0:
+                    Sfull[full_of[v, 0], :] = cp[h:h + nw]
+                deriv = False
+                for k in range(1, full_of.shape[1]):
+                    deriv = deriv or full_of[v, k] >= 0
+                if deriv:                    # its derivatives on every sample (the mirrored ends: the numpy path's)
+                    _fir_row(cp[:nw + 2 * h], fk[v, :h + 1, :fk_orders[v]], 0, nw, 1, D, 0, phases_full, pair_full)
+                    for k in range(1, full_of.shape[1]):
+                        if full_of[v, k] >= 0:
+                            Sfull[full_of[v, k], :] = D[k, :nw]
         if n_comp:                   # the stored quantities, on every sample, then their rates
             for k in range(nslot):
                 j = slot_fault[k]

@@ -34,8 +34,8 @@ of the window by a tape of its own and its rate filtered at the samples evaluate
 (:meth:`Fused._stored_quantities`); measured on the RC filter of docs/tutorial.md (5 000-sample
 windows) 416 -> 106 us per full row, and its whole diagnosis 14.6 -> 10.3 s CPU, the same answer;
 the three tanks, two-mass and probe models 5-13x per row. An objective the tapes do not cover (a
-stored quantity of a corrected signal's derivative; a mode switch inside the window; a residual
-whose code has a comparison or a Piecewise) keeps the numpy path (:meth:`Fused.make` gives None).
+mode switch inside the window; a residual whose code has a comparison or a Piecewise) keeps the
+numpy path (:meth:`Fused.make` gives None).
 """
 from __future__ import annotations
 
@@ -178,14 +178,14 @@ class Fused:
         rate inside another's, the three tanks' d(C2 (... d(C1 p1)/dt ...))/dt): q formed per
         individual on every sample of the window by tapes of their own, one level of nesting after
         another (the parameter slots over the whole window, the corrected signals' samples, a
-        derivative no individual changes as the numpy path estimated it, an inner quantity's rate
-        over the whole window), then its rate filtered as :meth:`fdi.residuals.Residual._rate` does:
+        derivative no individual changes as the numpy path estimated it, a corrected signal's
+        derivative filtered on every sample, its ends mirrored as the numpy path's, an inner quantity's
+        rate over the whole window), then its rate filtered as :meth:`fdi.residuals.Residual._rate` does:
         at the samples evaluated into the filtered-signal slots ``comp_at`` for a residual, on every
         sample into ``full_at`` for an enclosing quantity (the edge half-windows by the polynomial of
         the edge window, as ``derivatives.estimate``'s ``interp``). q comes from the samples, not
         their smoothed values; an individual whose q is not finite somewhere is invalid. A stored
-        quantity no individual changes is filtered by the numpy path once (:meth:`plan`); one of a
-        corrected signal's derivative keeps the numpy path."""
+        quantity no individual changes is filtered by the numpy path once (:meth:`plan`)."""
         obj = self.obj
         w, ts = obj.win.t.size, float(obj.win.ts)
         self.stored: dict = {}                    # (inner expression, order) -> index (children first)
@@ -206,15 +206,14 @@ class Fused:
             found.append((order, inner, level))
             return self.stored[key]
         read_cut = {c for i in obj.active for o, q in obj.residuals[i].composites if (c := changed(o, q)) is not None}
-        self.full_of = np.full(max(1, len(self.varying)), -1, dtype=np.int64)   # corrected samples kept, per signal
+        # a corrected signal's samples (order 0) or derivative on every sample, kept per (signal, order)
+        self.full_of = np.full((max(1, len(self.varying)), int(self.fk_orders.max())), -1, dtype=np.int64)
         for _, inner, _ in found:
             for sig, k in inner.signals:
                 if sig in self.varying:
-                    if k:
-                        raise tape.Unsupported("a stored quantity of a corrected signal's derivative")
                     v = self.varying.index(sig)
-                    if self.full_of[v] < 0:
-                        self.full_of[v] = int(self.full_of.max()) + 1
+                    if self.full_of[v, k] < 0:
+                        self.full_of[v, k] = int(self.full_of.max()) + 1
         n_samples = int(self.full_of.max()) + 1
         self.full_at = np.full(max(1, len(found)), -1, dtype=np.int64)
         for k, c in enumerate(sorted(read_whole)):
@@ -278,7 +277,7 @@ class Fused:
         args = []
         for sig, k in inner.signals:
             if sig in self.varying:
-                args.append(tape.Row(tape.LOADS, int(self.full_of[self.varying.index(sig)])))
+                args.append(tape.Row(tape.LOADS, int(self.full_of[self.varying.index(sig), k])))
             else:
                 base = obj.base_signals[sig]
                 args.append(np.asarray(base[k] if k else samples_of(base), dtype=float))

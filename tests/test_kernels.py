@@ -354,11 +354,14 @@ def _simulated(name: str, T: float, fs: float) -> dict:
 
 
 @pytest.mark.parametrize("model, candidate", [("three_tank.yaml", ("fT1",)), ("three_tank.yaml", ("fT1", "fV2")),
-                                              ("two_mass_positions.yaml", ("m1",))])
+                                              ("two_mass_positions.yaml", ("m1",)),
+                                              ("two_mass_positions.yaml", ("beta_x1", "m1"))])
 def test_stored_quantities_inside_stored_quantities_compiled_are_the_numpy_path_s(model, candidate):
     """A stored quantity whose rate enters another (the three tanks' d(CT2 (q1 - d(CT1 p1)/dt ...))/dt:
     tank 1's rate over the whole window, its edge half-windows fitted, inside tank 2's quantity;
-    the two-mass positions' momenta) is compiled level by level: costs equal the numpy path's."""
+    the two-mass positions' momenta, m1 dx1/dt with the position sensor's efficiency factor a
+    candidate too: its corrected derivative filtered on every sample) is compiled level by level:
+    costs equal the numpy path's."""
     pytest.importorskip("numba")
     from .conftest import ROOT
     fs = 10.0 if model == "three_tank.yaml" else 100.0
@@ -374,16 +377,25 @@ def test_stored_quantities_inside_stored_quantities_compiled_are_the_numpy_path_
 
 
 def test_an_objective_the_tapes_do_not_cover_keeps_the_numpy_path():
-    """A stored quantity of a corrected signal's derivative (the two-mass positions: p1 = m1 dx1/dt
-    with the position sensor's efficiency factor a candidate, its derivative filtered per
-    individual over the whole window) has no tape: the objective evaluates on numpy."""
+    """A mode switch inside the window (the boost converter's commanded switch: its residuals and
+    derivatives are broken at each switch) has no tape: the objective evaluates on numpy."""
     pytest.importorskip("numba")
+    import gzip
+
+    from fdi.data import read_csv
+    from fdi.monitor import compiled
     from .conftest import ROOT
-    cols = _simulated("two_mass_positions.yaml", 30.0, 100.0)
+    path = ROOT / "tests" / "golden" / "_boost_kernels.csv"
+    try:
+        path.write_text(gzip.open(ROOT / "tests" / "golden" / "boost_rL.csv.gz", "rt").read())
+        cols = read_csv(path).columns
+    finally:
+        path.unlink()
+    model = ROOT / "models" / "boost_converter.yaml"
     before = kernels.use_numba(True)
     try:
-        obj = _objective(ROOT / "models" / "two_mass_positions.yaml", cols, 10.0, ("beta_x1",))
-        assert any(obj.residuals[i].composites for i in obj.active)
+        obj = _objective(model, cols, float(cols["t"][len(cols["t"]) // 2]),
+                         (next(iter(compiled(str(model)).model.faults)),))
         assert obj.fused() is None
     finally:
         kernels.use_numba(before)
