@@ -159,3 +159,19 @@ def test_a_slow_eq18_drift_alone_is_isolated_and_typed():
     s = score("i18", list(scenario.faults), report, {}, early=0.13)
     assert s.found == ["beta_theta2"] and s.isolated and s.typed and not s.false_alarm
     assert s.errors["beta_theta2"] < 0.05
+
+
+def test_scenarios_evaluated_at_once_score_as_one_at_a_time(capsys):
+    """`bgfdi evaluate --jobs 2` (two scenarios at once, one process each) prints the very report of
+    `--jobs 1`: each scenario is seeded by its own file, and a diagnosis does not depend on the
+    processes it runs in."""
+    from fdi.app.cli import main
+    from .conftest import ROOT
+    suite = scenarios_dir() / "suite_two_tank_valve"
+    files = [str(suite / "pump_weak.json"), str(suite / "valve_clogged.json")]
+    model = str(ROOT / "models" / "two_tank_valve.yaml")
+    reports = []
+    for jobs in ("1", "2"):
+        assert main(["evaluate", model, *files, "--jobs", jobs, "--json", "-q"]) == 0
+        reports.append(capsys.readouterr().out)
+    assert reports[0] == reports[1] and '"pump_weak"' in reports[0]

@@ -735,7 +735,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         raise UsageError(f"no scenario files in {', '.join(args.scenarios)}")
     # every file checked before the first simulation; each weighs its samples in the ETA
     costs = [scenario_cost(load_scenario(f, model)) for f in files]
-    scores = _evaluate_files(args.model, files, options, costs)
+    scores = _evaluate_files(args.model, files, options, costs, args.jobs)
     totals = summary(scores)
     if args.json:
         text = _json_text({"model": model.name, "summary": totals, "scenarios": [s.to_dict() for s in scores]})
@@ -751,11 +751,13 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _evaluate_files(model_path: str, files: list, options, costs: list[float] | None = None) -> list:
+def _evaluate_files(model_path: str, files: list, options, costs: list[float] | None = None, jobs: int = 1) -> list:
     """Each scenario simulated, diagnosed and scored, with progress (one line each with -v). The
     progress counts each scenario's samples (``costs``, :func:`fdi.app.evaluate.scenario_cost`):
     simulating and diagnosing take time in proportion to them, so the ETA of a suite of unequal
-    scenarios is not the optimistic one of a uniform rate per scenario."""
+    scenarios is not the optimistic one of a uniform rate per scenario. ``jobs`` > 1: that many
+    scenarios at once, one process each, their estimators in that process (the scores are the
+    same: each scenario is seeded by its own file, and results do not depend on workers)."""
     import time
 
     from .evaluate import evaluate_scenario, scenario_cost
@@ -763,6 +765,15 @@ def _evaluate_files(model_path: str, files: list, options, costs: list[float] | 
         from .scenario import load_scenario
         model = load_model(model_path)
         costs = [scenario_cost(load_scenario(f, model)) for f in files]
+    if jobs > 1 and len(files) > 1:
+        from dataclasses import replace
+        from functools import partial
+
+        from .parallel import map_in_order
+        with Progress(sum(costs), f"evaluating {model_path} ({len(files)} scenarios, {jobs} at once)",
+                      "samples") as bar:
+            return map_in_order(partial(evaluate_scenario, model_path, options=replace(options, workers=1)), files,
+                                jobs, progress=lambda done, total: bar(sum(costs) * done / total))
     scores = []
     with Progress(sum(costs), f"evaluating {model_path} ({len(files)} scenarios)", "samples") as bar:
         for f, cost in zip(files, costs):
@@ -1157,6 +1168,9 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("model")
     ev.add_argument("scenarios", nargs="+", help="scenario files or folders of them (a suite), - for standard "
                     "input, or a shipped suite's name (suite_cycab_steering)")
+    ev.add_argument("--jobs", type=whole(1, MAX_WORKERS), default=1,
+                    help="scenarios evaluated at once, one process each, their estimators in it (default 1); "
+                         "the scores are the same")
     diagnosis_options(ev)
     ev.set_defaults(func=cmd_evaluate)
 
