@@ -546,6 +546,26 @@ def _profile(t, j, row, onset, kinds, models, values, periods, coeffs, pre, pre_
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _slots(prof, solved, slot_fault, slot_step, slot_group, f_nominal, tnom, start, count, stride,
+           out):  # pragma: no cover - compiled
+    """The parameter slots of one individual at samples start, start + stride, ... (``count`` of
+    them) into ``out``: each slot's fault profile (a group fault's times its target's nominal value
+    ``tnom``), a solved fault's base slots at its nominal value (its stepped slots keep the unit step)."""
+    for k in range(slot_fault.shape[0]):
+        j = slot_fault[k]
+        dst = out[k]
+        if solved[j] and not slot_step[k]:
+            c = f_nominal[j]
+            for s in range(count):
+                dst[s] = tnom[k, start + s * stride] * c if slot_group[k] else c
+        else:
+            src = prof[j]
+            for s in range(count):
+                q = start + s * stride
+                dst[s] = tnom[k, q] * src[q] if slot_group[k] else src[q]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
                f_nominal, f_unit, f_linear, f_role, span19, step19,
                slot_fault, slot_step, slot_group, tnom,
@@ -622,10 +642,9 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
     Sfull = np.empty((n_full if n_comp else 1, nw))
     Ri = np.empty((max(1, iregisters) if n_comp else 1, block))
     X = np.empty((max(1, n_comp), nw if n_comp else 1))
-    T = np.empty((ck.shape[2], nw if n_comp else 1))                  # a whole-window rate's orders
+    T = np.empty((max(ck.shape[2], fk.shape[2]), nw if n_comp else 1))   # a filter's orders on every sample
     phases_full = np.empty((1, nw + nmax if n_comp else 1))
     pair_full = np.empty((2, nw if n_comp else 1))
-    D = np.empty((fk.shape[2], nw if n_comp else 1))               # a corrected signal's orders on every sample
     phases = np.empty((max(1, min(stride, nmax)), m + (nmax - 1) // stride + 1))
     pair = np.empty((2, m))
     for row in range(pop):
@@ -644,19 +663,7 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
                         break
             bad[j] = b
             inv = inv or b
-        invalid[row] = inv
-        for k in range(nslot):
-            j = slot_fault[k]
-            dst = Prow[k]
-            if solved[j] and not slot_step[k]:
-                c = f_nominal[j]
-                for s in range(m):
-                    dst[s] = tnom[k, start + s * stride] * c if slot_group[k] else c
-            else:
-                src = prof[j]
-                for s in range(m):
-                    q = start + s * stride
-                    dst[s] = tnom[k, q] * src[q] if slot_group[k] else src[q]
+        _slots(prof, solved, slot_fault, slot_step, slot_group, f_nominal, tnom, start, m, stride, Prow)
         for v in range(raw.shape[0]):
             be = empty
             if beta_fault[v] >= 0:
@@ -678,22 +685,12 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
                 for k in range(1, full_of.shape[1]):
                     deriv = deriv or full_of[v, k] >= 0
                 if deriv:                    # its derivatives on every sample (the mirrored ends: the numpy path's)
-                    _fir_row(cp[:nw + 2 * h], fk[v, :h + 1, :fk_orders[v]], 0, nw, 1, D, 0, phases_full, pair_full)
+                    _fir_row(cp[:nw + 2 * h], fk[v, :h + 1, :fk_orders[v]], 0, nw, 1, T, 0, phases_full, pair_full)
                     for k in range(1, full_of.shape[1]):
                         if full_of[v, k] >= 0:
-                            Sfull[full_of[v, k], :] = D[k, :nw]
+                            Sfull[full_of[v, k], :] = T[k, :nw]
         if n_comp:                   # the stored quantities, on every sample, then their rates
-            for k in range(nslot):
-                j = slot_fault[k]
-                dst = Pfull[k]
-                if solved[j] and not slot_step[k]:
-                    c = f_nominal[j]
-                    for i in range(nw):
-                        dst[i] = tnom[k, i] * c if slot_group[k] else c
-                else:
-                    src = prof[j]
-                    for i in range(nw):
-                        dst[i] = tnom[k, i] * src[i] if slot_group[k] else src[i]
+            _slots(prof, solved, slot_fault, slot_step, slot_group, f_nominal, tnom, 0, nw, 1, Pfull)
             for lev in range(level_at.shape[0] - 1):
                 code_l = icode[level_at[lev]:level_at[lev + 1]]
                 for s0 in range(0, nw, block):
@@ -730,7 +727,7 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
                                 a1 += x[nw - n + i] * edge[c, 1, i, q]
                             dst[q] = a0
                             dst[nw - h + q] = a1
-            invalid[row] = inv
+        invalid[row] = inv
         for jj in range(nlin):
             srow[jj] = solved[lin_fault[jj]]
         for pi in range(npl):

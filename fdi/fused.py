@@ -187,7 +187,7 @@ class Fused:
         their smoothed values; an individual whose q is not finite somewhere is invalid. A stored
         quantity no individual changes is filtered by the numpy path once (:meth:`plan`)."""
         obj = self.obj
-        w, ts = obj.win.t.size, float(obj.win.ts)
+        ts = float(obj.win.ts)
         self.stored: dict = {}                    # (inner expression, order) -> index (children first)
         found: list[tuple[int, Residual, int]] = []          # (order, inner, level)
         read_whole: set[int] = set()              # quantities whose whole-window rate an enclosing one reads
@@ -228,14 +228,23 @@ class Fused:
             if c in read_cut:
                 self.comp_at[c] = self.n_slots
                 self.n_slots += order + 1
-        # one tape per level of nesting (no unit-step variants: a fault whose magnitude is solved never
-        # enters a stored quantity, fdi.objective.linear_transform), concatenated: constants and fixed
-        # arrays renumbered
+        self.comp_order = np.array([order for order, _, _ in found] or [0], dtype=np.int64)
+        self._stored_tapes(found)
+        self._stored_filters(filters)
+
+    def _stored_tapes(self, found: list) -> None:
+        """One tape per level of nesting of the stored quantities ``found`` (order, inner, level),
+        concatenated, their constants and fixed arrays renumbered: ``inner`` (code, constants,
+        fixed arrays, registers), each level's first instruction ``level_at``, the quantities level
+        by level ``members`` (from ``level_members``), the register holding each ``result_of``. No
+        unit-step variants: a fault whose magnitude is solved never enters a stored quantity
+        (:func:`fdi.objective.linear_transform`)."""
+        w = self.obj.win.t.size
         levels = sorted({lev for _, _, lev in found})
-        self.level_at = np.zeros(len(levels) + 1, dtype=np.int64)     # each level's first instruction
+        self.level_at = np.zeros(len(levels) + 1, dtype=np.int64)
         self.level_members = np.zeros(len(levels) + 1, dtype=np.int64)
-        self.members = np.zeros(max(1, len(found)), dtype=np.int64)   # the quantities, level by level
-        self.result_of = np.zeros(max(1, len(found)), dtype=np.int64)  # the register holding each q
+        self.members = np.zeros(max(1, len(found)), dtype=np.int64)
+        self.result_of = np.zeros(max(1, len(found)), dtype=np.int64)
         codes, consts, fixed, registers, at = [], [], [], 1, 0
         for li, lev in enumerate(levels):
             mine = [c for c, (_, _, l) in enumerate(found) if l == lev]
@@ -254,11 +263,16 @@ class Fused:
             self.level_members[li + 1] = at
         self.inner = (np.vstack(codes) if codes else np.zeros((1, 4), dtype=np.int64), np.array(consts or [0.0]),
                       np.array(fixed).reshape(len(fixed), w) if fixed else np.zeros((1, w)), registers)
-        self.comp_order = np.array([order for order, _, _ in found] or [0], dtype=np.int64)
+
+    def _stored_filters(self, filters: list) -> None:
+        """The stored quantities' rate filters (window n, polynomial order p, centred half kernel) as
+        the kernel reads them: ``ck`` and ``ck_n``, and for a rate read on every sample the edge
+        half-windows' kernels ``edge`` (the polynomial of the edge window)."""
+        ts = float(self.obj.win.ts)
         nmax = max((n for n, _, _ in filters), default=1)
         self.ck = np.zeros((max(1, len(filters)), nmax // 2 + 1, int(self.comp_order.max()) + 1))
         whole = max((n for c, (n, _, _) in enumerate(filters) if self.full_at[c] >= 0), default=1)
-        self.edge = np.zeros((max(1, len(filters)), 2, whole, whole // 2))  # the edge half-windows' kernels
+        self.edge = np.zeros((max(1, len(filters)), 2, whole, whole // 2))
         for c, (n, p, k) in enumerate(filters):
             self.ck[c, :k.shape[0], :k.shape[1]] = k
             if self.full_at[c] >= 0:

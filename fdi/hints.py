@@ -184,10 +184,12 @@ def periods(x: np.ndarray, ts: float, low: float, high: float) -> list[tuple[flo
     if got is None:
         waves = square_waves(x, ts, low, high) if x.size else ()
         got = _PERIODS[key] = tuple(candidate_periods(x, ts, waves, low, high))
-        if len(_PERIODS) > PERIODS_KEPT:
-            _PERIODS.popitem(last=False)
-    else:
+    try:                                 # threads may share the cache: an entry another one dropped is no error
         _PERIODS.move_to_end(key)
+        while len(_PERIODS) > PERIODS_KEPT:
+            _PERIODS.popitem(last=False)
+    except KeyError:
+        pass
     return list(got)
 
 

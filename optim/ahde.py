@@ -415,9 +415,11 @@ class AHDE(GenerationalSolver):
         self.rung_generations, self.rung_spare, self.rung = o.first_rung, o.spare, 0
 
     def step(self) -> None:
-        """One rung of successive halving: the survivors advance, the leader's neighbours join a
-        partial start, migrants cross, and the best third (and those close to the leader, and each
-        family's best for the first ``protect`` rungs) go on with twice the generations."""
+        """One rung of successive halving: the survivors advance (a converged one stands: it needs no
+        more generations to be ranked, and structures that tie, every type of a fault that explains
+        nothing, kept all but one per rung while the generations doubled), the leader's neighbours
+        join a partial start, migrants cross, and the best third (and those close to the leader, and
+        each family's best for the first ``protect`` rungs) go on with twice the generations."""
         o = self.options
         survivors = self.survivors
         self.advance(survivors, self.rung_generations, until_converged=True)

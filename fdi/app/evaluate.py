@@ -192,7 +192,7 @@ def evaluate_scenario(model_path: str, scenario_path: str | Path, options: Optio
     meas = Measurements(str(scenario_path), cols["t"], cols)
     # one memo for the scenario's diagnoses: a checkpoint diagnoses a prefix of the same record, and
     # an estimator whose window and settings its full diagnosis already saw is not run again
-    # (fdi.estimators.Estimators._key; the tutorial's ageing capacitor: 29.3 -> 21.6 s CPU)
+    # (fdi.estimators.Estimators._key; the tutorial's ageing capacitor: 29.3 -> 22.1 s CPU)
     o.check()
     memo: dict = {}
     report = c.diagnose(meas, o, None, memo).to_dict()
@@ -254,15 +254,15 @@ def design_check(model_path: str, meas: Measurements, o: Options, report: dict,
     if det is None:
         return None
     t_d, now = report.get("window") or (det["time"], det["time"])
-    return held_check(model_path, meas, o, since_detection(meas.t, t_d, now, _samples(model_path, meas, o), MAX_GROWTH),
-                      events, list(faults))
+    return held_check(model_path, meas, o, events, list(faults), t_d, now, MAX_GROWTH)
 
 
-def held_check(model_path: str, meas: Measurements, o: Options, span: tuple[float, int],
-               events: list[FaultEvent], faults: list[dict]) -> dict | None:
-    """:func:`design_check` on the samples ``span`` (start, count) with the answer ``faults``: the
-    refit at a checkpoint is checked on the data it was fitted on (``refit_check``). None with a mode
-    fault on either side."""
+def held_check(model_path: str, meas: Measurements, o: Options, events: list[FaultEvent], faults: list[dict],
+               since: float, until: float, windows: int) -> dict | None:
+    """:func:`design_check` with the answer ``faults`` on the data from the detection ``since`` to
+    ``until`` (at most ``windows`` identification windows, as the diagnosis took them): a refit at a
+    checkpoint is checked on the data it was fitted on (``refit_check``). None with a mode fault on
+    either side."""
     from ..criterion import information
     from ..objective import Objective, window
     from ..pipeline import prepare
@@ -270,7 +270,7 @@ def held_check(model_path: str, meas: Measurements, o: Options, span: tuple[floa
         return None
     c = compiled(model_path)
     p = prepare(c.with_config(o.settings), meas, o)
-    start, count = span
+    start, count = since_detection(meas.t, since, until, p.samples, windows)
     win = window(meas.t, p.raw, start, count, p.window_s)
     n_eff = effective_samples(count, len(c.residuals), meas.ts, p.window_s)
     design = [{k: v for k, v in (("name", e.target), ("type", e.type), ("value", e.value), ("period", e.period),
@@ -284,12 +284,6 @@ def held_check(model_path: str, meas: Measurements, o: Options, span: tuple[floa
     ic_design, ic_answer = information(ours, design, n_eff), information(theirs, list(faults), n_eff)
     return {"design_cost": ours, "answer_cost": theirs, "criterion_difference": ic_design - ic_answer,
             "verdict": "search" if ic_design < ic_answer - 2.0 else "data"}
-
-
-def _samples(model_path: str, meas: Measurements, o: Options) -> int:
-    """The identification window's samples N the diagnosis of ``meas`` used."""
-    from ..pipeline import prepare
-    return prepare(compiled(model_path).with_config(o.settings), meas, o).samples
 
 
 def trajectory_metrics(checkpoints: list[dict], alpha: float = ALPHA) -> list[dict]:
@@ -361,10 +355,9 @@ def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements
                 if f is not None:
                     entry["model"], entry["b"], entry["refit_t0"] = f["model"], list(f["b"]), f["t0"]
                     if f["model"] != e.model:       # the data the refit saw: would they prefer the design?
-                        span = since_detection(prefix.t, d.detection.time, float(prefix.t[-1]), _samples(model_path, prefix, o),
-                                               MAX_REFIT)
-                        entry["refit_check"] = held_check(model_path, prefix, o, span, list(scenario.faults),
-                                                          [dict(g) for g in refit])
+                        entry["refit_check"] = held_check(model_path, prefix, o, list(scenario.faults),
+                                                          [dict(g) for g in refit], d.detection.time,
+                                                          float(prefix.t[-1]), MAX_REFIT)
                 p = next((p for p in prognosis if p.name == e.target), None)
                 if p is not None and math.isfinite(p.rul):
                     entry["rul"] = p.rul
