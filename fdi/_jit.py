@@ -567,7 +567,7 @@ def _slots(prof, solved, slot_fault, slot_step, slot_group, f_nominal, tnom, sta
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
-               f_nominal, f_unit, f_linear, f_role, span19, step19,
+               f_nominal, f_unit, f_linear, f_role, f_lo, f_hi, span19, step19,
                slot_fault, slot_step, slot_group, tnom,
                code, results, registers, consts, F,
                raw, is_source, beta_fault, beta_fixed, bias_fault, bias_fixed, corr_fixed,
@@ -658,7 +658,8 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
                 role = f_role[j]
                 for i in range(nw):
                     x = prof[j, i]
-                    if x != x or (role == 1 and not (np.isfinite(x) and x > 0)) or (role == 2 and not np.isfinite(x)):
+                    if x != x or (role == 1 and not (np.isfinite(x) and x > 0 and f_lo[j] <= x <= f_hi[j])) or \
+                            (role == 2 and not (np.isfinite(x) and f_lo[j] <= x <= f_hi[j])):
                         b = True
                         break
             bad[j] = b

@@ -144,6 +144,8 @@ class Fused:
         self.f_unit = np.array([obj.unit_value(j) if j in self.linear else 0.0 for j in range(len(obj.spaces))])
         self.f_role = np.array([2 if model.faults[n].effect == "bias" else 1 if model.faults[n].kind in ("sensor", "source")
                                 else 0 for n in obj.candidate], dtype=np.int64)
+        self.f_lo = np.array([sp.bounds[0] for sp in obj.spaces], dtype=float)    # a correction's plausible range
+        self.f_hi = np.array([sp.bounds[1] for sp in obj.spaces], dtype=float)
         self.lin_fault = np.array(self.linear, dtype=np.int64)
         # the parameter slots: the base ones, then each linear fault's stepped copies
         slots = [(name, j, False) for name, j in self.rows]
@@ -391,7 +393,7 @@ class Fused:
         p = self.pattern(solving)
         total, d, invalid = fast.fused_cost(
             t, onset, kinds, models, values, periods, np.ascontiguousarray(b[:, :, COEFFS]), pre, pre_at,
-            self.f_nominal, self.f_unit, self.f_linear, self.f_role, span19, STEP19,
+            self.f_nominal, self.f_unit, self.f_linear, self.f_role, self.f_lo, self.f_hi, span19, STEP19,
             self.slot_fault, self.slot_step, self.slot_group, self.tnom,
             plan.code, plan.results, plan.registers, plan.consts, plan.fixed,
             self.raw, self.is_source, self.beta_fault, self.beta_fixed, self.bias_fault, self.bias_fixed,

@@ -409,15 +409,17 @@ class Objective:
         betas: dict[str, np.ndarray] = {}
         biases: dict[str, np.ndarray] = {}
         invalid = np.zeros(n, dtype=bool)
-        for name, p in zip(self.candidate, ps):
+        for name, p, space in zip(self.candidate, ps, self.spaces):
             f = self.model.faults[name]
             invalid |= np.isnan(p).any(axis=1)
+            lo, hi = space.bounds           # a sensor's or source's correction stays within its search bounds:
+            # gains drifting to 1e-50 and 1e+50 together scaled every signal of a homogeneous ARR to zero
             if f.effect == "bias":
-                bad = ~np.isfinite(p).all(axis=1)
+                bad = ~(np.isfinite(p) & (p >= lo) & (p <= hi)).all(axis=1)
                 invalid |= bad
                 biases[f.targets[0]] = np.where(bad[:, None], 0.0, p)
             elif f.kind in ("sensor", "source"):
-                bad = ~(np.isfinite(p) & (p > 0)).all(axis=1)    # a profile past its pole, or through zero
+                bad = ~(np.isfinite(p) & (p > 0) & (p >= lo) & (p <= hi)).all(axis=1)   # past a pole, through zero
                 invalid |= bad
                 betas[f.targets[0]] = np.where(bad[:, None], 1.0, p)
             elif len(f.targets) == 1:

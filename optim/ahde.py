@@ -79,6 +79,8 @@ class Branch:
         if self.stale >= patience:
             return True
         low = self.f.min()
+        if not np.isfinite(low):          # every point invalid: no spread to judge (inf - inf)
+            return False
         return float(self.f.max() - low) <= tol * max(abs(float(low)), 1e-300)
 
 
