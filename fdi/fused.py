@@ -20,7 +20,9 @@ magnitudes solved, the sums taken. Here the same computation runs in one compile
   numpy path uses (constants folded, the individual-free signals' terms hoisted); the rest runs
   in the kernel;
 - a linear fault's magnitude is the weighted median of the same points with the same weights
-  (:func:`fdi._jit._median`, the numba path's own), three passes when several are solved.
+  (:func:`fdi._jit._median`, the numba path's own), three passes when several are solved (a
+  fault's median is not taken again while the others' magnitudes are those it last saw: the
+  same points, the same median; an individual that solves one of them takes one median, not three).
 
 The numbers are the numpy path's to round-off: the sums of |r| are taken one sample after
 another (numpy sums pairwise) and the transcendental functions are libm's (numpy's are SIMD code),
