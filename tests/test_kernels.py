@@ -425,3 +425,40 @@ def test_a_signal_standing_still_has_a_derivative_of_exactly_zero(path):
         assert np.all(v[still] == 0.0) and np.all(np.sign(v[still]) == 0.0)
         rows = estimate(np.vstack([x, 2 * x]), 0.01, 2, 0.25, edges="mirror", at=at)[1]
         assert np.all(rows[:, still] == 0.0)
+
+
+def test_tape_registers_never_write_over_an_operand_and_compute_the_expression():
+    """The register allocator reuses a register once its last reader is past, but never for that
+    reader's own result (an operation in place makes the kernel's loops fall back from SIMD to
+    scalar code): checked on a residual-like expression with shared subexpressions, whose tape,
+    run by a plain Python interpreter of the instructions, gives numpy's value of the expression."""
+    from fdi import tape
+    rng = np.random.default_rng(5)
+    n = 64
+    sig, p, q = rng.normal(size=n), rng.uniform(0.5, 2.0, n), rng.uniform(0.5, 2.0, n)
+    source = ("def f(_a0, _a1, _a2, _a3):\n    x0 = _a1 * _a0\n    x1 = cos(x0 + _a3) * _a2\n"
+              "    return (x0 - x1) * (x0 + x1) / (_a2 ** 2 + 1) - sin(x1) * 3.0\n")
+    t = tape.build(source, {"cos": np.cos, "sin": np.sin},
+                   [sig, tape.Row(tape.LOADP, 0), tape.Row(tape.LOADP, 1), 0.25], n)
+    unary = {tape.NEG: np.negative, tape.SQUARE: np.square, tape.RECIP: np.reciprocal, tape.COS: np.cos,
+             tape.SIN: np.sin, tape.SQRT: np.sqrt}
+    binary = {tape.ADD: np.add, tape.SUB: np.subtract, tape.MUL: np.multiply, tape.DIV: np.divide}
+    R = np.zeros((t.registers, n))
+    P = np.stack([p, q])
+    for op, dst, a, b in t.code:
+        if op >= tape.ADD:
+            assert dst not in (a, b)
+        if op == tape.LOADP:
+            R[dst] = P[a]
+        elif op == tape.LOADF:
+            R[dst] = t.fixed[a]
+        elif op == tape.CONST:
+            R[dst] = t.consts[a]
+        elif op in binary:
+            R[dst] = binary[op](R[a], R[b])
+        else:
+            R[dst] = unary[op](R[a])
+    x0 = p * sig
+    x1 = np.cos(x0 + 0.25) * q
+    expected = (x0 - x1) * (x0 + x1) / (q ** 2 + 1) - np.sin(x1) * 3.0
+    assert np.allclose(R[t.results[0, 0]], expected, rtol=1e-13, atol=0.0)
