@@ -589,6 +589,43 @@ def _profile(t, j, row, onset, kinds, models, values, periods, coeffs, pre, pre_
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _others(d, gain, enters, srow, jj, ji, m, extra):  # pragma: no cover - compiled
+    """Into ``extra``, the sum over the solved linear faults but ``jj`` that enter joint residual
+    ``ji`` of magnitude times unit-step gain, taken in the faults' order (the first term, then each
+    next added); returns whether there was any. One pass per fault over the samples (SIMD code),
+    not a loop over the faults inside each sample's."""
+    others = False
+    for kk in range(d.shape[0]):
+        if kk != jj and enters[kk, ji] and srow[kk]:
+            dk = d[kk]
+            g = gain[kk, ji]
+            if others:
+                for s in range(m):
+                    extra[s] = extra[s] + dk * g[s]
+            else:
+                for s in range(m):
+                    extra[s] = dk * g[s]
+            others = True
+    return others
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _points(base, extra, others, x, w, m, pts, wts):  # pragma: no cover - compiled
+    """A solved magnitude's weighted-median points on one joint residual: -rest / x with weight
+    w |x|, rest the residual with the other faults' terms (``extra`` when ``others``), x the fault's
+    unit-step gain; a sample where x is 0 or either is not finite weighs nothing (its point 0).
+    Written without branches, so that the division is SIMD code."""
+    for s in range(m):
+        rest = base[s] + extra[s] if others else base[s]
+        xs = x[s]
+        ok = (xs != 0) & (abs(rest) < np.inf) & (abs(xs) < np.inf)
+        wc = w * abs(xs) if ok else 0.0
+        q = -rest / (xs if xs != 0 else 1.0)
+        wts[s] = wc
+        pts[s] = q if wc > 0 else 0.0
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def _slots(prof, solved, slot_fault, slot_step, slot_group, f_nominal, tnom, start, count, stride,
            out):  # pragma: no cover - compiled
     """The parameter slots of one individual at samples start, start + stride, ... (``count`` of
@@ -677,6 +714,7 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
     pts = np.empty(max(1, nj * m))
     wts = np.empty(max(1, nj * m))
     d = np.zeros(max(1, nlin))
+    extra = np.empty(m)
     fresh = np.zeros(max(1, nlin), dtype=np.bool_)    # a fault's median taken, with the others at seen[fault]
     seen = np.zeros((max(1, nlin), max(1, nlin)))
     srow = np.zeros(max(1, nlin), dtype=np.bool_)
@@ -820,23 +858,9 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
                     for ji in range(nj):
                         if not enters[jj, ji]:
                             continue
-                        w = joint_w[ji]
-                        for s in range(m):
-                            rest = base[ji, s]
-                            others = False
-                            extra = 0.0
-                            for kk in range(nlin):
-                                if kk != jj and enters[kk, ji] and srow[kk]:
-                                    term = d[kk] * gain[kk, ji, s]
-                                    extra = term if not others else extra + term
-                                    others = True
-                            if others:
-                                rest = rest + extra
-                            x = gain[jj, ji, s]
-                            wc = w * abs(x) if (x != 0 and np.isfinite(rest) and np.isfinite(x)) else 0.0
-                            wts[c] = wc
-                            pts[c] = -rest / (x if x != 0 else 1.0) if wc > 0 else 0.0
-                            c += 1
+                        others = _others(d, gain, enters, srow, jj, ji, m, extra)
+                        _points(base[ji], extra, others, gain[jj, ji], joint_w[ji], m, pts[c:c + m], wts[c:c + m])
+                        c += m
                     med = _median(pts, wts, c)
                     d[jj] = min(max(med, lo[jj]), hi[jj])
                     fresh[jj] = True
@@ -845,16 +869,17 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
             for jj in range(nlin):
                 deltas[jj, row] = d[jj]
             for ji in range(nj):
+                others = _others(d, gain, enters, srow, -1, ji, m, extra)
+                b_ = base[ji]
+                if others:
+                    for s in range(m):
+                        extra[s] = abs(b_[s] + extra[s])
+                else:
+                    for s in range(m):
+                        extra[s] = abs(b_[s])
                 part = 0.0
-                for s in range(m):
-                    extra = 0.0
-                    others = False
-                    for kk in range(nlin):
-                        if enters[kk, ji] and srow[kk]:
-                            term = d[kk] * gain[kk, ji, s]
-                            extra = term if not others else extra + term
-                            others = True
-                    part += abs(base[ji, s] + extra) if others else abs(base[ji, s])
+                for s in range(m):           # sample after sample, as before
+                    part += extra[s]
                 acc += joint_w[ji] * part
         total[row] = acc
     return total, deltas, invalid
