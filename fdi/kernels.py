@@ -37,8 +37,10 @@ _tried = False
 def use_numba(on: bool) -> bool:
     """Switch the numba path on or off (for this process); returns whether it was in use before."""
     global _wanted
+    from optim import kernels as engine_kernels      # the engines' DE arithmetic follows the same switch
     before = enabled()
     _wanted = bool(on)
+    engine_kernels.use_numba(on)
     return before
 
 

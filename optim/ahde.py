@@ -57,6 +57,7 @@ from typing import Hashable
 
 import numpy as np
 
+from . import kernels
 from .core import Counter, Engine, Options, Posed, Result, GenerationalSolver
 
 @dataclass
@@ -313,6 +314,17 @@ class AHDE(GenerationalSolver):
     def trials(self, b: Branch) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """DE/current-to-pbest/1/bin over the free reals, jDE-adapted F and CR."""
         rng, n = self.rng, b.x.shape[0]
+        fast = kernels.jit()
+        if fast is not None:               # the same draws in the same order, the arithmetic compiled
+            redraw_F, new_F, redraw_CR, new_CR = rng.random(n), rng.uniform(0.1, 1.0, n), rng.random(n), rng.random(n)
+            order = b.f.argsort()
+            pick = rng.integers(0, max(2, math.ceil(0.2 * n)), n)
+            hop1, hop2 = rng.integers(1, n, n), rng.integers(1, n - 1, n)
+            cross = rng.random((n, b.free.size))
+            forced = rng.integers(0, b.free.size, n)
+            lo, hi = self._limits(b.free)
+            return fast.trials(b.x, b.free, b.F, b.CR, redraw_F, new_F, redraw_CR, new_CR, order, pick, hop1, hop2,
+                               cross, forced, lo, hi)
         F = np.where(rng.random(n) < 0.1, rng.uniform(0.1, 1.0, n), b.F)
         CR = np.where(rng.random(n) < 0.1, rng.random(n), b.CR)
         top = max(2, math.ceil(0.2 * n))

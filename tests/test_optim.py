@@ -360,3 +360,30 @@ def test_a_run_without_its_check_resumed_finds_the_second_order_drift():
     # (without the translation the eq. (19) family started at its rim and was dropped on the way down
     # while eq. (19)'s b5 was searched in [-5, 5]; searched in [-20, 20] the untranslated family comes
     # back on this seed too, so that contrast is no longer a test)
+
+
+def test_compiled_de_trials_are_numpys_to_the_bit():
+    """AHDE's DE/current-to-pbest/1/bin generation, on numpy and compiled (optim._jit): the same
+    random draws in the same order, the same trial points, F and CR bit for bit (ties in the
+    costs, points pushed out of bounds, one free real and several), and the generator left in the
+    same state."""
+    pytest.importorskip("numba")
+    from optim import kernels
+    draws = np.random.default_rng(9)
+    for n, d, free in ((6, 3, [1]), (12, 5, [0, 2, 3, 4]), (30, 9, list(range(9)))):
+        x = draws.uniform(-1.5, 1.5, (n, d))
+        f = np.round(draws.random(n), 1)                            # ties: argsort's order decides pbest
+        b = Branch("k", np.zeros(2, dtype=bool), np.array(free), x, f, draws.uniform(0.1, 1.0, n), draws.random(n))
+        got = []
+        for on in (False, True):
+            before = kernels.use_numba(on)
+            try:
+                e = AHDE(optim.pose(lambda r, bits: r.sum(axis=1), bounds=[[-1, 1]] * d, n_bits=2),
+                         AHDEOptions(seed=4))
+                got.append((e.trials(b), e.rng.bit_generator.state["state"]))
+            finally:
+                kernels.use_numba(before)
+        (plain, state_plain), (fast, state_fast) = got
+        for a, c in zip(plain, fast):
+            assert np.array_equal(a, c)
+        assert state_plain == state_fast
