@@ -309,6 +309,8 @@ def diagnose_rows(data_path: Path, workers: int = 1) -> dict:
     d = diagnose(model, data_path, options)
     total, cpu = time.perf_counter() - t0, time.process_time() - cpu0
     est = d.estimates
+    from .. import hints
+    hints.forget()                       # the answers kept by content: a new record would find none
     cpu1 = time.process_time()           # again in this process: what a notebook or a monitor pays per decision
     diagnose(model, data_path, options)
     later = time.process_time() - cpu1
