@@ -180,17 +180,23 @@ def periods(x: np.ndarray, ts: float, low: float, high: float) -> list[tuple[flo
     """
     x = np.ascontiguousarray(x, dtype=float)
     key = (hashlib.blake2b(x.tobytes(), digest_size=16).digest(), x.size, float(ts), float(low), float(high))
-    got = _PERIODS.get(key)
+    return list(_kept(_PERIODS, PERIODS_KEPT, key, lambda: tuple(
+        candidate_periods(x, ts, square_waves(x, ts, low, high) if x.size else (), low, high))))
+
+
+def _kept(cache: OrderedDict, size: int, key, compute):
+    """``cache[key]``, computed by ``compute()`` when absent; the ``size`` latest answers are kept.
+    Threads may share a cache: an entry another one dropped meanwhile is no error."""
+    got = cache.get(key)
     if got is None:
-        waves = square_waves(x, ts, low, high) if x.size else ()
-        got = _PERIODS[key] = tuple(candidate_periods(x, ts, waves, low, high))
-    try:                                 # threads may share the cache: an entry another one dropped is no error
-        _PERIODS.move_to_end(key)
-        while len(_PERIODS) > PERIODS_KEPT:
-            _PERIODS.popitem(last=False)
+        got = cache[key] = compute()
+    try:
+        cache.move_to_end(key)
+        while len(cache) > size:
+            cache.popitem(last=False)
     except KeyError:
         pass
-    return list(got)
+    return got
 
 
 def candidate_periods(x: np.ndarray, ts: float, waves: tuple[SquareWave, ...], low: float,
@@ -398,16 +404,8 @@ def translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: np
            np.asarray(bits_to, dtype=bool).tobytes(),
            hashlib.blake2b(np.ascontiguousarray(t, dtype=float).tobytes(), digest_size=16).digest(),
            float(t0), int(seed), None if t0_to is None else float(t0_to))
-    got = _TRANSLATED.get(key)
-    if got is None:
-        got = _TRANSLATED[key] = _translate(spaces, real, bits_from, bits_to, t, t0, seed, t0_to)
-    try:                                 # threads may share the cache: an entry another one dropped is no error
-        _TRANSLATED.move_to_end(key)
-        while len(_TRANSLATED) > TRANSLATIONS_KEPT:
-            _TRANSLATED.popitem(last=False)
-    except KeyError:
-        pass
-    return got.copy()
+    return _kept(_TRANSLATED, TRANSLATIONS_KEPT, key,
+                 lambda: _translate(spaces, real, bits_from, bits_to, t, t0, seed, t0_to)).copy()
 
 
 def _translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: np.ndarray, t: np.ndarray,

@@ -26,37 +26,30 @@ False
 """
 from __future__ import annotations
 
-import os
 from types import ModuleType
 
-_wanted = os.environ.get("BGFDI_NUMBA", "1") not in ("0", "false", "no", "")
-_module: ModuleType | None = None
-_tried = False
+
+def _switch() -> ModuleType:
+    """:mod:`optim.kernels`, which holds the one switch for both packages' compiled code (imported
+    when first asked: the optim package brings its engines)."""
+    from optim import kernels
+    return kernels
 
 
 def use_numba(on: bool) -> bool:
-    """Switch the numba path on or off (for this process); returns whether it was in use before."""
-    global _wanted
-    from optim import kernels as engine_kernels      # the engines' DE arithmetic follows the same switch
+    """Switch the numba path on or off (for this process, the engines' DE arithmetic too);
+    returns whether it was in use before."""
     before = enabled()
-    _wanted = bool(on)
-    engine_kernels.use_numba(on)
+    _switch().use_numba(on)
     return before
 
 
 def enabled() -> bool:
     """True when the compiled kernels run (numba importable and not switched off)."""
-    return _wanted and jit() is not None
+    return jit() is not None
 
 
 def jit() -> ModuleType | None:
-    """:mod:`fdi._jit` (numba imported on first use, not at start-up), or None without numba."""
-    global _module, _tried
-    if _wanted and not _tried:          # switched off: numba is not even imported
-        _tried = True
-        try:
-            from . import _jit
-            _module = _jit
-        except ImportError:
-            _module = None
-    return _module if _wanted else None
+    """:mod:`fdi._jit` (numba imported on first use, not at start-up), or None without numba or
+    switched off (then numba is not even imported)."""
+    return _switch().compiled("fdi._jit")
