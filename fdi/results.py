@@ -155,13 +155,16 @@ class Estimate:
     resume: object = field(default=None, repr=False, compare=False)
     """The engine's state when it ran without its final check (``optim.ahde.Snapshot``): what a
     second pass continues from. Not reported."""
+    raced_out: bool = False
+    """Stopped in the race of the candidate sets of its size (``fdi.estimators``): after its screen
+    and first rung its best fit cost over 4x the best of them; the fit is that race leader's."""
 
     def to_dict(self, history: bool = True) -> dict:
         out: dict = {"candidate": list(self.candidate), "fitness": self.fitness}
         if history:
             out["history"] = list(self.history)
         out.update({"margin": self.margin, "cost": self.cost, "faults": [dict(f) for f in self.faults],
-                    "evaluations": self.evaluations, "wall_s": self.wall_s, "objective_s": self.objective_s})
+                    "raced_out": self.raced_out, "evaluations": self.evaluations, "wall_s": self.wall_s, "objective_s": self.objective_s})
         return out
 
 

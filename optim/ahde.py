@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from numbers import Integral
 from typing import Hashable
 
@@ -95,6 +95,12 @@ class Snapshot:
     evaluations: int
     history: tuple
     rng: dict
+    race: tuple | None = None              # stopped inside the race (``pause``): survivors' keys, rung state
+
+    @property
+    def paused(self) -> bool:
+        """Whether the run stopped inside the race (``pause``), not before its final check."""
+        return self.race is not None
 
 
 @dataclass(frozen=True)
@@ -152,7 +158,14 @@ class AHDEOptions(Options):
     resume: Snapshot | None = None
     """Continue a run made with ``recheck=False`` (its result's ``extra["snapshot"]``) at its final
     check, the race and the polish not run again: a caller that needs the check on few of many
-    problems (the diagnosis: the candidate sets that may win) runs them all without it first."""
+    problems (the diagnosis: the candidate sets that may win) runs them all without it first.
+    A snapshot of a ``pause``d run continues its race where it stopped: the run ends exactly as
+    one never paused would."""
+    pause: int | None = None
+    """Stop the race after this many rungs (0: right after the screen) and return its leader, costed
+    on the objective itself, with the run's state (``extra["snapshot"]``) for ``resume``: a caller
+    racing several problems on one scale drops those far behind before they cost more
+    (successive halving across problems; the diagnosis races the candidate sets of one size)."""
     protect: int = 3
     """During the first ``protect`` rungs each ``family``'s best structure stays while within
     ``spare`` of the leader (CyCab scenario 1: beta_theta1's intermittent fault found in 3 of 8 seeds
@@ -165,6 +178,9 @@ class AHDEOptions(Options):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, Integral) or value < low:
                 raise ValueError(f"AHDEOptions.{name} must be a whole number >= {low}, not {value!r}")
+        if self.pause is not None and (isinstance(self.pause, bool) or not isinstance(self.pause, Integral)
+                                       or self.pause < 0):
+            raise ValueError(f"AHDEOptions.pause must be None or a whole number >= 0, not {self.pause!r}")
         for name in ("tol", "spare", "finest", "reach"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"AHDEOptions.{name} must be > 0, not {getattr(self, name)!r}")
@@ -191,6 +207,7 @@ class AHDE(GenerationalSolver):
         self.counter = Counter(self.cheap)                 # the screen and race run on ``coarse`` when given
         self.branches: dict[Hashable, Branch] = {}
         self.final: list[Branch] = []                      # the finalists, once the race is over
+        self.finalists: list[Branch] | None = None         # set by ``polish`` (or a restored final check)
         self.stop = "converged"
         self._aranges: dict[int, np.ndarray] = {}
         self._bounds_of: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
@@ -705,32 +722,65 @@ class AHDE(GenerationalSolver):
             self.settle([back])
 
     def solve(self) -> Result:
-        if self.options.resume is None:
-            return super().solve()
-        self.restore(self.options.resume)
-        self.recheck(self.finalists)
-        for _ in range(self.options.revivals):
-            if self.stop != "converged":
-                break
-            back = self.revive(self.finalists)
-            if back is None:
-                break
-            self.settle([back])
+        snap = self.options.resume
+        if snap is not None and not snap.paused:        # the final check of a run made without it
+            self.restore(snap)
+            self.recheck(self.finalists)
+            for _ in range(self.options.revivals):
+                if self.stop != "converged":
+                    break
+                back = self.revive(self.finalists)
+                if back is None:
+                    break
+                self.settle([back])
+            return self.result()
+        if snap is None:
+            self.init_population()
+        else:
+            self.restore(snap)
+        while not self.converged():
+            if snap is None and self.options.pause is not None and self.rung >= self.options.pause:
+                return self.paused()
+            self.step()
+        self.polish()
         return self.result()
+
+    def paused(self) -> Result:
+        """The race stopped at ``pause``: its leader, costed on the objective itself (one evaluation,
+        counted in the result but not in the state ``resume`` continues, so that the continued run
+        is the run never paused)."""
+        snap = self.snapshot()
+        lead = self.ranked()[0]
+        x = lead.x[int(np.argmin(lead.f))].copy()
+        cost = lead.best
+        if self.cheap is not self.objective:
+            cost = float(Counter(self.objective)(x[None, :], lead.bits[None, :])[0])
+        r = self.make_result(x, lead.bits.copy(), cost, {"snapshot": snap, "raced": len(self.branches)})
+        return replace(r, evaluations=r.evaluations + (self.cheap is not self.objective), stop="paused")
 
     def snapshot(self) -> Snapshot:
         """The run's state for ``resume``."""
+        final = self.finalists
+        race = None if final is not None else (tuple(b.key for b in self.survivors), self.rung, self.rung_generations,
+                                               self.rung_spare, self.complete, self.stop)
         return Snapshot(tuple((b.key, b.bits.copy(), b.free.copy(), b.x.copy(), b.f.copy(), b.F.copy(), b.CR.copy(),
                                b.stale) for b in self.branches.values()),
-                        tuple(b.key for b in self.finalists), self.counter.evaluations, tuple(self.history),
-                        self.rng.bit_generator.state)
+                        tuple(b.key for b in final or ()), self.counter.evaluations, tuple(self.history),
+                        self.rng.bit_generator.state, race)
 
     def restore(self, snap: Snapshot) -> None:
-        """The state of ``snap``, on the objective itself (where a run's polish leaves it)."""
+        """The state of ``snap``: inside the race on the race's fidelity, or on the objective itself
+        (where a run's polish leaves it)."""
         self.branches = {key: Branch(key, bits.copy(), free.copy(), x.copy(), f.copy(), F.copy(), CR.copy(), stale)
                          for key, bits, free, x, f, F, CR, stale in snap.branches}
-        self.finalists = self.final = [self.branches[k] for k in snap.finalists]
-        self.counter.objective = self.objective
+        if snap.paused:
+            keys, self.rung, self.rung_generations, self.rung_spare, self.complete, self.stop = snap.race
+            self.survivors = [self.branches[k] for k in keys]
+            self.final, self.finalists = [], None
+            self.counter.objective = self.cheap
+        else:
+            self.finalists = self.final = [self.branches[k] for k in snap.finalists]
+            self.counter.objective = self.objective
         self.counter.evaluations = snap.evaluations
         self.history = list(snap.history)
         self.rng.bit_generator.state = snap.rng
@@ -752,7 +802,7 @@ class AHDE(GenerationalSolver):
         margin = self.rank(finalists[1]) / max(self.rank(win), 1e-300) if len(finalists) > 1 else float("inf")
         extra = {"margin": margin, "structures": [(b.key, b.best) for b in finalists],
                  "raced": len(self.branches), "families": list(getattr(self, "checked", []))}
-        if not self.options.recheck and self.options.resume is None:
+        if not self.options.recheck and (self.options.resume is None or self.options.resume.paused):
             extra["snapshot"] = self.snapshot()
         return self.make_result(win.x[i].copy(), win.bits.copy(), win.best, extra)
 

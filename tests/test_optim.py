@@ -362,6 +362,34 @@ def test_a_run_without_its_check_resumed_finds_the_second_order_drift():
     # back on this seed too, so that contrast is no longer a test)
 
 
+def test_a_paused_race_resumed_ends_as_the_run_never_paused():
+    """Designed truth: pausing is bookkeeping. A run paused after its first rung (``pause``) and
+    continued from its snapshot ends with the point, cost, history and count of the run never
+    paused, with or without its final check; the paused result is the race's leader costed on the
+    fine objective (the race runs on the coarse one, offset by 100), one evaluation more."""
+    p = synthetic.problem("abrupt+intermittent", 0)
+
+    def coarse(real, bits):
+        return p.cost(real, bits) + 100.0
+
+    posed = optim.pose(p.cost, bounds=p.bounds(), n_bits=p.n_bits, onehot=p.onehot, structure=p.structure,
+                       coarse=coarse)
+    for recheck in (True, False):
+        whole = optim.minimize(posed, seed=4, recheck=recheck)
+        paused = optim.minimize(posed, seed=4, recheck=recheck, pause=1)
+        snap = paused.extra["snapshot"]
+        assert paused.stop == "paused" and snap.paused and paused.evaluations == snap.evaluations + 1
+        assert paused.cost == pytest.approx(float(p.cost(paused.real[None, :], paused.bits[None, :])[0]))
+        assert paused.evaluations < whole.evaluations
+        done = optim.minimize(posed, seed=4, recheck=recheck, resume=snap)
+        assert np.array_equal(done.real, whole.real) and np.array_equal(done.bits, whole.bits)
+        assert done.cost == whole.cost and list(done.history) == list(whole.history)
+        assert done.evaluations == whole.evaluations
+        assert ("snapshot" in done.extra) == (not recheck)      # a first pass still leaves its final check
+    with pytest.raises(ValueError, match="pause must be None or a whole number"):
+        optim.minimize(posed, pause=-1)
+
+
 def test_compiled_de_trials_are_numpys_to_the_bit():
     """AHDE's DE/current-to-pbest/1/bin generation, on numpy and compiled (optim._jit): the same
     random draws in the same order, the same trial points, F and CR bit for bit (ties in the
