@@ -156,8 +156,9 @@ class Estimate:
     """The engine's state when it ran without its final check (``optim.ahde.Snapshot``): what a
     second pass continues from. Not reported."""
     raced_out: bool = False
-    """Stopped in the race of the candidate sets of its size (``fdi.estimators``): after its screen
-    and first rung its best fit cost over 4x the best of them; the fit is that race leader's."""
+    """Stopped in the race of the candidate sets of its size (``fdi.estimators``): after its first or
+    second rung its best fit cost over 6x the best of them and its race had stalled; the fit is
+    that race leader's, not settled."""
 
     def to_dict(self, history: bool = True) -> dict:
         out: dict = {"candidate": list(self.candidate), "fitness": self.fitness}

@@ -96,6 +96,7 @@ class Snapshot:
     history: tuple
     rng: dict
     race: tuple | None = None              # stopped inside the race (``pause``): survivors' keys, rung state
+    gain: float | None = None              # paused: the race's best, relative improvement over the last rung
 
     @property
     def paused(self) -> bool:
@@ -162,10 +163,12 @@ class AHDEOptions(Options):
     A snapshot of a ``pause``d run continues its race where it stopped: the run ends exactly as
     one never paused would."""
     pause: int | None = None
-    """Stop the race after this many rungs (0: right after the screen) and return its leader, costed
-    on the objective itself, with the run's state (``extra["snapshot"]``) for ``resume``: a caller
-    racing several problems on one scale drops those far behind before they cost more
-    (successive halving across problems; the diagnosis races the candidate sets of one size)."""
+    """Stop the race once this many rungs are run (0: right after the screen) and return its leader,
+    costed on the objective itself, with the run's state (``extra["snapshot"]``, with the race's
+    ``gain`` over its last rung) for ``resume``, which pauses again at a later rung if asked: a
+    caller racing several problems on one scale drops those far behind and stalled before they
+    cost more (successive halving across problems; the diagnosis races its candidate sets of one
+    size)."""
     protect: int = 3
     """During the first ``protect`` rungs each ``family``'s best structure stays while within
     ``spare`` of the leader (CyCab scenario 1: beta_theta1's intermittent fault found in 3 of 8 seeds
@@ -738,18 +741,25 @@ class AHDE(GenerationalSolver):
             self.init_population()
         else:
             self.restore(snap)
+        pause = self.options.pause
+        if pause is not None and snap is not None and pause <= self.rung:
+            pause = None                                # already there: continue to the end
+        gain = None
         while not self.converged():
-            if snap is None and self.options.pause is not None and self.rung >= self.options.pause:
-                return self.paused()
+            if pause is not None and self.rung >= pause:
+                return self.paused(gain)
+            before = min(b.best for b in self.branches.values())
             self.step()
+            after = min(b.best for b in self.branches.values())
+            gain = (before - after) / before if np.isfinite(before) and before > 0 else 1.0
         self.polish()
         return self.result()
 
-    def paused(self) -> Result:
+    def paused(self, gain: float | None) -> Result:
         """The race stopped at ``pause``: its leader, costed on the objective itself (one evaluation,
         counted in the result but not in the state ``resume`` continues, so that the continued run
-        is the run never paused)."""
-        snap = self.snapshot()
+        is the run never paused), and the race's ``gain`` over its last rung in the snapshot."""
+        snap = replace(self.snapshot(), gain=gain)
         lead = self.ranked()[0]
         x = lead.x[int(np.argmin(lead.f))].copy()
         cost = lead.best

@@ -54,3 +54,22 @@ def test_catalyst_deactivation_is_typed_sized_and_its_end_of_life_predicted(thre
     (p,) = report["prognosis"]
     assert p["eol"] == pytest.approx(T0 + math.log(2) / B, abs=3.0)
     assert p["rul_low"] <= p["eol"] - p["at"] <= p["rul_high"]
+
+
+def test_the_race_of_candidate_sets_is_bookkeeping_until_it_stops_one(thresholds, monkeypatch):
+    """Designed truth: with its reach infinite, the race of the candidate sets of one size
+    (``fdi.estimators``: each set paused after its first and second rungs, compared, continued) stops
+    nothing and changes nothing: every estimator is the one of a diagnosis without the race. (Here
+    the sets' races end at different rungs: the larger sets must still start from the smaller sets'
+    fits in the candidates' order, or their fits move.)"""
+    import fdi.estimators as E
+
+    def report() -> list:
+        r = diagnose(MODEL, _data("deactivation", 4, t0=T0, b=B), Options(workers=1, seed=0, thresholds=thresholds))
+        return [(e.candidate, e.cost, e.evaluations, e.faults, e.raced_out) for e in r.estimates]
+
+    monkeypatch.setattr(E, "SET_REACH", float("inf"))
+    raced = report()
+    monkeypatch.setattr(E.Estimators, "_race", lambda self, wave, jobs, fixed, asked, t, t0, samples: dict(
+        zip(wave, self._run([jobs[i] for i in wave], t, t0, samples))))
+    assert raced == report()

@@ -381,11 +381,15 @@ def test_a_paused_race_resumed_ends_as_the_run_never_paused():
         assert paused.stop == "paused" and snap.paused and paused.evaluations == snap.evaluations + 1
         assert paused.cost == pytest.approx(float(p.cost(paused.real[None, :], paused.bits[None, :])[0]))
         assert paused.evaluations < whole.evaluations
-        done = optim.minimize(posed, seed=4, recheck=recheck, resume=snap)
-        assert np.array_equal(done.real, whole.real) and np.array_equal(done.bits, whole.bits)
-        assert done.cost == whole.cost and list(done.history) == list(whole.history)
-        assert done.evaluations == whole.evaluations
-        assert ("snapshot" in done.extra) == (not recheck)      # a first pass still leaves its final check
+        assert 0.0 <= snap.gain <= 1.0                          # the race's best, gained over its last rung
+        again = optim.minimize(posed, seed=4, recheck=recheck, resume=snap, pause=2)   # paused once more
+        assert again.stop == "paused" and again.extra["snapshot"].race[1] == 2
+        for done in (optim.minimize(posed, seed=4, recheck=recheck, resume=snap),
+                     optim.minimize(posed, seed=4, recheck=recheck, resume=again.extra["snapshot"])):
+            assert np.array_equal(done.real, whole.real) and np.array_equal(done.bits, whole.bits)
+            assert done.cost == whole.cost and list(done.history) == list(whole.history)
+            assert done.evaluations == whole.evaluations
+            assert ("snapshot" in done.extra) == (not recheck)  # a first pass still leaves its final check
     with pytest.raises(ValueError, match="pause must be None or a whole number"):
         optim.minimize(posed, pause=-1)
 

@@ -50,7 +50,7 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
         winner = report.get("winner")
         for e in sorted(report["estimators"], key=lambda e: -e["fitness"]):
             mark = "*" if e["candidate"] == winner and not report.get("episodes") else " "
-            how = ("raced out: after its first rung it cost over 4x the best set of its size" if e.get("raced_out")
+            how = ("raced out: it cost over 6x the best set of its size and had stopped improving" if e.get("raced_out")
                    else _confidence(e["margin"]))
             out.append(f" {mark} {{{', '.join(e['candidate'])}}}: fitness {e['fitness']:.4g}; {how}")
         out.append("  (* the winner: the smallest information criterion, 2 N_eff ln(cost) + ln(N_eff) per identified "
