@@ -63,9 +63,12 @@ def fit(monitor: "Monitor", job: Job) -> Estimate:
     win = job.win
     obj = Objective(monitor.model, monitor.residuals, win, job.candidate, np.asarray(job.weights), w,
                     fixed=list(job.fixed), onset=job.onset, config=config, modes=dict(job.modes))
-    init = [obj.encode(list(faults)) for faults in job.known]
+    init = []
+    if job.resume is None:                       # a continued run reads its starting points from its state
+        init = [obj.encode(list(faults)) for faults in job.known]
+        init += earlier_onsets(obj, init, job.seed)
     problem = optim.pose(obj, n_bits=encoding.N_BITS * len(obj.spaces), onehot=encoding.onehot_groups(obj.spaces),
-                         init=init + earlier_onsets(obj, init, job.seed))
+                         init=init)
     extra = {"recheck": job.recheck, "resume": job.resume, "pause": job.pause} if has_recheck(job.search.engine) else {}
     r = optim.minimize(problem, engine=job.search.engine, pop=job.search.pop, generations=job.search.generations,
                        seed=job.seed, **extra)

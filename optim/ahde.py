@@ -97,6 +97,7 @@ class Snapshot:
     rng: dict
     race: tuple | None = None              # stopped inside the race (``pause``): survivors' keys, rung state
     gain: float | None = None              # paused: the race's best, relative improvement over the last rung
+    init: tuple = ()                       # the starting points it was posed with: a continued run reads them here
 
     @property
     def paused(self) -> bool:
@@ -776,13 +777,15 @@ class AHDE(GenerationalSolver):
         return Snapshot(tuple((b.key, b.bits.copy(), b.free.copy(), b.x.copy(), b.f.copy(), b.F.copy(), b.CR.copy(),
                                b.stale) for b in self.branches.values()),
                         tuple(b.key for b in final or ()), self.counter.evaluations, tuple(self.history),
-                        self.rng.bit_generator.state, race)
+                        self.rng.bit_generator.state, race, init=tuple(self.init))
 
     def restore(self, snap: Snapshot) -> None:
         """The state of ``snap``: inside the race on the race's fidelity, or on the objective itself
         (where a run's polish leaves it)."""
         self.branches = {key: Branch(key, bits.copy(), free.copy(), x.copy(), f.copy(), F.copy(), CR.copy(), stale)
                          for key, bits, free, x, f, F, CR, stale in snap.branches}
+        if snap.init:
+            self.init = list(snap.init)              # its caller need not pose them again
         if snap.paused:
             keys, self.rung, self.rung_generations, self.rung_spare, self.complete, self.stop = snap.race
             self.survivors = [self.branches[k] for k in keys]
