@@ -156,16 +156,17 @@ class Estimate:
     """The engine's state when it ran without its final check (``optim.ahde.Snapshot``): what a
     second pass continues from. Not reported."""
     raced_out: bool = False
-    """Stopped in the race of the candidate sets of its size (``fdi.estimators``): after its first or
-    second rung its best fit cost over 6x the best of them and its race had stalled; the fit is
-    that race leader's, not settled."""
+    """Stopped in the race of the candidate sets of its size, two faults or more
+    (``fdi.estimators``): after its first or second rung its best fit cost over 6x the best of
+    them and its race had stalled; the fit is that race leader's, not settled."""
 
     def to_dict(self, history: bool = True) -> dict:
         out: dict = {"candidate": list(self.candidate), "fitness": self.fitness}
         if history:
             out["history"] = list(self.history)
         out.update({"margin": self.margin, "cost": self.cost, "faults": [dict(f) for f in self.faults],
-                    "raced_out": self.raced_out, "evaluations": self.evaluations, "wall_s": self.wall_s, "objective_s": self.objective_s})
+                    "raced_out": self.raced_out, "evaluations": self.evaluations, "wall_s": self.wall_s,
+                    "objective_s": self.objective_s})
         return out
 
 
