@@ -218,11 +218,13 @@ def candidate_periods(x: np.ndarray, ts: float, waves: tuple[SquareWave, ...], l
     return out
 
 
-def aligned_onsets(period: float, phase: float, origin: float, low: float, high: float) -> list[float]:
+def aligned_onsets(period: float, phase: float, origin: float, low: float, high: float,
+                   limit: int = 64) -> list[float]:
     """The onsets in [low, high] (s) at which a square wave of ``period`` and ``phase`` (relative to
-    ``origin``, s) switches on; the switch nearest the interval when none falls inside."""
+    ``origin``, s) switches on, the first ``limit`` of them; the switch nearest the interval when
+    none falls inside."""
     k0 = int(np.ceil((low - origin - phase) / period - 1e-9))
-    out = [origin + phase + k * period for k in range(k0, k0 + 64) if origin + phase + k * period <= high + 1e-9]
+    out = [origin + phase + k * period for k in range(k0, k0 + limit) if origin + phase + k * period <= high + 1e-9]
     if out:
         return out
     return [float(np.clip(origin + phase + (k0 - 1) * period, low, high))]
@@ -296,7 +298,7 @@ def intermittent_rows(spaces: list, bits: np.ndarray, seeds: list[list[tuple[flo
     structure has no intermittent fault with a seed."""
     from . import encoding
     d = encoding.N_REAL * len(spaces) + (1 if onsets is not None else 0)
-    rows = []
+    blocks = []
     decoded = encoding.decode(spaces, np.zeros((1, encoding.N_REAL * len(spaces))), np.asarray(bits)[None, :])
     for j, (space, dec) in enumerate(zip(spaces, decoded)):
         if int(dec.kind[0]) != 1 or not seeds[j]:
@@ -304,14 +306,14 @@ def intermittent_rows(spaces: list, bits: np.ndarray, seeds: list[list[tuple[flo
         lo, hi = encoding.bounds([space])[0]
         values = lo + (np.arange(levels) + 0.5) / levels * (hi - lo)
         for period, phase in seeds[j]:
-            for t0 in (onsets(period, phase) if onsets is not None else [None]):
-                for v in values:
-                    row = np.full(d, np.nan)
-                    row[encoding.N_REAL * j], row[encoding.N_REAL * j + 1] = v, period
-                    if t0 is not None:
-                        row[-1] = t0
-                    rows.append(row)
-    return np.asarray(rows).reshape(-1, d)
+            starts = onsets(period, phase) if onsets is not None else [np.nan]
+            block = np.full((len(starts) * levels, d), np.nan)     # each onset, each value (values inner)
+            block[:, encoding.N_REAL * j] = np.tile(values, len(starts))
+            block[:, encoding.N_REAL * j + 1] = period
+            if onsets is not None:
+                block[:, -1] = np.repeat(np.asarray(starts, dtype=float), levels)
+            blocks.append(block)
+    return np.vstack(blocks) if blocks else np.empty((0, d))
 
 
 def nesting_depth(residual) -> int:

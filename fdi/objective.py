@@ -504,7 +504,8 @@ class Objective:
         def onsets(T: float, phase: float) -> list[float]:
             # the phase's own switch first, then PHASES evenly over the period: the phase of |r| is
             # biased by the spikes a gain's switching leaves at both edges (measured: 70 ms on 0.7 s)
-            return [hints.aligned_onsets(T, phase + k * T / PHASES, self.win.t0, lo, hi)[0] for k in range(PHASES)]
+            return [hints.aligned_onsets(T, phase + k * T / PHASES, self.win.t0, lo, hi, limit=1)[0]
+                    for k in range(PHASES)]
         return hints.intermittent_rows(self.spaces, bits, self.seeds(), onsets, levels=3)
 
     def structure(self, bits: np.ndarray):
