@@ -511,12 +511,13 @@ class Estimators:
     def _race(self, wave: list[int], jobs: dict[int, Job], fixed: list, asked: int, t: np.ndarray, t0: float,
               samples: int) -> dict[int, Estimate]:
         """The candidate sets of one size (two faults or more) raced like the engine's structures:
-        each runs its screen and first rung, and after each of the rungs ``SET_RUNGS`` (``Job.pause``) a set stops there
-        when its leader costs more than ``1 + SET_REACH`` times the best set of its wave (the same
-        faults held) and its race gained less than ``SET_STALL`` over its last rung; the others
-        continue exactly where they stopped (the run never paused). On the objective itself every
-        set's cost is on one scale: the same window, weights and residuals. Sets that only seed
-        larger ones (a separable set's faults alone, past ``asked``) are never stopped."""
+        each runs its screen and first rung, and after each of the rungs ``SET_RUNGS``
+        (``Job.pause``) a set stops there when its leader costs more than ``1 + SET_REACH`` times
+        the best set of its wave (the same faults held) and its race gained less than ``SET_STALL``
+        over its last rung; the others continue exactly where they stopped (the run never paused).
+        On the objective itself every set's cost is on one scale: the same window, weights and
+        residuals. Sets that only seed larger ones (a separable set's faults alone, past ``asked``)
+        are never stopped; a stopped set seeds no larger one (``run``)."""
         out: dict[int, Estimate] = {}
         state: dict[int, Estimate] = {}
         live = list(wave)
