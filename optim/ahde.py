@@ -717,6 +717,11 @@ class AHDE(GenerationalSolver):
         self.settle(finalists)
         if self.options.recheck:
             self.recheck(finalists)
+        self.revive_and_settle(finalists)
+
+    def revive_and_settle(self, finalists: list[Branch]) -> None:
+        """Structures left behind revived (``revive``) and settled, one at a time, while one comes
+        back (at most ``revivals`` times)."""
         for _ in range(self.options.revivals):
             if self.stop != "converged":
                 break
@@ -730,13 +735,7 @@ class AHDE(GenerationalSolver):
         if snap is not None and not snap.paused:        # the final check of a run made without it
             self.restore(snap)
             self.recheck(self.finalists)
-            for _ in range(self.options.revivals):
-                if self.stop != "converged":
-                    break
-                back = self.revive(self.finalists)
-                if back is None:
-                    break
-                self.settle([back])
+            self.revive_and_settle(self.finalists)
             return self.result()
         if snap is None:
             self.init_population()

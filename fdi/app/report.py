@@ -16,6 +16,12 @@ def _confidence(margin) -> str:
     return f"type decision margin {margin:.3f} (runner-up / best, each cost charged for its parameters; {word})"
 
 
+def _raced_out() -> str:
+    from ..estimators import SET_REACH, SET_STALL      # the rule itself (imported only when a set was raced out)
+    return (f"raced out: it cost over {1 + SET_REACH:g}x the best set of its size and gained under "
+            f"{100 * SET_STALL:g} % in its last rung")
+
+
 def to_text(report: dict, model_name: str, data_name: str) -> str:
     out = [f"bgfdi diagnosis of {data_name} with model {model_name}"]
     det = report.get("detection")
@@ -50,8 +56,7 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
         winner = report.get("winner")
         for e in sorted(report["estimators"], key=lambda e: -e["fitness"]):
             mark = "*" if e["candidate"] == winner and not report.get("episodes") else " "
-            how = ("raced out: it cost over 6x the best set of its size and had stopped improving" if e.get("raced_out")
-                   else _confidence(e["margin"]))
+            how = _raced_out() if e.get("raced_out") else _confidence(e["margin"])
             out.append(f" {mark} {{{', '.join(e['candidate'])}}}: fitness {e['fitness']:.4g}; {how}")
         out.append("  (* the winner: the smallest information criterion, 2 N_eff ln(cost) + ln(N_eff) per identified "
                    "parameter)")
