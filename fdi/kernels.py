@@ -1,23 +1,24 @@
-"""Which implementation runs the objective's generic heavy parts: numba's, when it is installed
-(the ``fast`` extra) and not switched off, else numpy's.
+"""Which implementation runs the objective's generic heavy parts: C built once per machine
+(:mod:`optim.native`, ``fdi/kernels.c``), numba's (the ``fast`` extra), or numpy's; the one switch
+is :mod:`optim.kernels` (``BGFDI_KERNELS``: auto, c, numba, numpy).
 
 The parts are the ones a profile of identification names and that do not depend on the model:
 eq. (19)'s RK4 over the population (a Python loop of ~100 steps of ~40 numpy calls on (pop,)
 arrays, ~4 ms per call), eq. (17) and eq. (15)'s profiles (one pass instead of ten over
 (pop, samples) arrays; eq. 15's sign of a sine read from the phase's half-period), eqs. (16) and
-(18) but their exponentials (numpy's, taken in place between two compiled passes), and the
-weighted median that solves a linear fault's magnitude. Both paths give the same numbers
-(tests/test_kernels.py: equal arrays, and 1e-9 relative on the objective's costs on random
-populations); nothing whose last bits would differ is compiled: the filter's sums (numpy's are
-BLAS's) and the exponentials and sines of eqs. (16), (18) and of the ARRs (numpy's are SIMD
-code), since the Coulomb terms' sign of a filtered derivative turns 1e-15 into 3e-5 of a cost. The
-model-specific part, the ARR expressions, stays in numpy (a JIT per model would cost each process
-seconds: CI runs ~1000 tests in many processes).
+(18) but their exponentials (numpy's, taken in place between two compiled passes), the weighted
+median that solves a linear fault's magnitude, and the fused objective (:mod:`fdi.fused`). All
+paths give the same numbers (tests/test_kernels.py: equal arrays, and 1e-9 relative on the
+objective's costs on random populations); nothing whose last bits would differ is compiled: the
+filter's sums (numpy's are BLAS's) and the exponentials and sines of eqs. (16), (18) (numpy's
+are SIMD code), since the Coulomb terms' sign of a filtered derivative turns 1e-15 into 3e-5 of a
+cost. The model-specific part, the ARR expressions, runs as tapes (:mod:`fdi.tape`) in the
+generic kernel: no compilation per model.
 
-``BGFDI_NUMBA=0`` in the environment, or ``use_numba(False)``, selects the numpy path (the
-reference the tests compare with). The compiled code is cached on disk by numba (``cache=True``;
-``NUMBA_CACHE_DIR`` where the package directory is read-only): the first process on a machine
-compiles (about 2 s), later ones load it.
+Built C libraries are kept in bgfdi's disk cache (:mod:`fdi.diskcache`: signed entries in a
+private folder), so only the first process on a machine runs the compiler (about a second);
+numba keeps its machine code on disk too (``NUMBA_CACHE_DIR`` where the package directory is
+read-only).
 
 >>> before = use_numba(False)
 >>> enabled()
@@ -29,10 +30,29 @@ from __future__ import annotations
 from types import ModuleType
 
 
+class _Store:
+    """:mod:`fdi.diskcache` as :mod:`optim.native`'s store of built libraries."""
+
+    def fetch(self, kind: str, source: bytes) -> bytes | None:
+        from . import diskcache
+        return diskcache.fetch(kind, source)
+
+    def store(self, kind: str, source: bytes, payload: bytes) -> bool:
+        from . import diskcache
+        return diskcache.store(kind, source, payload)
+
+    def ready(self) -> bool:
+        from . import diskcache
+        return diskcache._ready() is not None
+
+
 def _switch() -> ModuleType:
     """:mod:`optim.kernels`, which holds the one switch for both packages' compiled code (imported
-    when first asked: the optim package brings its engines)."""
-    from optim import kernels
+    when first asked: the optim package brings its engines), with the disk cache as the store of
+    built C libraries."""
+    from optim import kernels, native
+    if native._store is None:
+        native.use_store(_Store())
     return kernels
 
 
@@ -45,11 +65,23 @@ def use_numba(on: bool) -> bool:
 
 
 def enabled() -> bool:
-    """True when the compiled kernels run (numba importable and not switched off)."""
+    """True when compiled kernels run (C or numba)."""
     return jit() is not None
 
 
 def jit() -> ModuleType | None:
-    """:mod:`fdi._jit` (numba imported on first use, not at start-up), or None without numba or
-    switched off (then numba is not even imported)."""
-    return _switch().compiled("fdi._jit")
+    """:mod:`fdi._native` (C) or :mod:`fdi._jit` (numba, imported on first use, not at start-up), or
+    None on the numpy path (then neither is loaded)."""
+    return _switch().compiled("fdi")
+
+
+def use(path: str) -> str:
+    """Choose the kernels' path for this process (``auto``, ``c``, ``numba``, ``numpy``); returns
+    the one chosen before (:func:`optim.kernels.use`)."""
+    return _switch().use(path)
+
+
+def path() -> str:
+    """The path that runs: ``c``, ``numba`` or ``numpy``."""
+    jit()
+    return _switch().path()

@@ -1,11 +1,22 @@
-"""The one switch for compiled code, the engines' (:mod:`optim._jit`: a DE generation's arithmetic)
-and the objective's (``fdi._jit``, through ``fdi.kernels``): numba's when it is installed (the ``fast``
-extra) and not switched off (``BGFDI_NUMBA=0`` in the environment, or :func:`use_numba`), else numpy's.
+"""The one switch for compiled code, the engines' (a DE generation's arithmetic) and the objective's
+(through ``fdi.kernels``). Three paths give the same numbers:
 
->>> before = use_numba(False)
+- ``c``: C built once per machine by its C compiler and loaded with ctypes (:mod:`optim.native`;
+  ``optim._native``, ``fdi._native``): no JIT, a millisecond to load;
+- ``numba``: numba's, when it is installed (the ``fast`` extra; ``optim._jit``, ``fdi._jit``):
+  cached on disk by numba, 0.65 s to start in each process;
+- ``numpy``: the reference the others are tested against.
+
+``auto`` (the default) takes C when built libraries outlive the process (a store is set,
+:func:`optim.native.use_store`: bgfdi's disk cache) and a compiler or a built library is at hand,
+else numba, else C built for this process, else numpy. ``BGFDI_KERNELS`` in the environment
+(``auto``, ``c``, ``numba``, ``numpy``) or :func:`use` chooses; ``BGFDI_NUMBA=0`` (older) means
+numpy.
+
+>>> before = use("numpy")
 >>> jit() is None
 True
->>> _ = use_numba(before)
+>>> _ = use(before)
 """
 from __future__ import annotations
 
@@ -13,30 +24,78 @@ import importlib
 import os
 from types import ModuleType
 
-_wanted = os.environ.get("BGFDI_NUMBA", "1") not in ("0", "false", "no", "")
+PATHS = ("auto", "c", "numba", "numpy")
+
+
+def _from_environment() -> str:
+    chosen = os.environ.get("BGFDI_KERNELS", "").strip().lower()
+    if chosen in PATHS:
+        return chosen
+    if os.environ.get("BGFDI_NUMBA", "1") in ("0", "false", "no", ""):
+        return "numpy"
+    return "auto"
+
+
+_wanted = _from_environment()
 _loaded: dict[str, ModuleType | None] = {}
 
 
-def use_numba(on: bool) -> bool:
-    """Switch compiled code on or off (for this process); returns whether it was wanted before."""
+def use(path: str) -> str:
+    """Choose the path for this process (one of :data:`PATHS`); returns the one chosen before."""
     global _wanted
+    if path not in PATHS:
+        raise ValueError(f"kernels path {path!r}: expected one of {', '.join(PATHS)}")
     before = _wanted
-    _wanted = bool(on)
+    _wanted = path
     return before
 
 
-def compiled(module: str) -> ModuleType | None:
-    """The numba module ``module``, imported on first use; None without numba or switched off."""
-    if not _wanted:
-        return None
-    if module not in _loaded:
+def use_numba(on: bool) -> bool:
+    """Compiled code on (``auto``) or off (``numpy``); returns whether it was on before."""
+    return use("auto" if on else "numpy") != "numpy"
+
+
+def wanted() -> str:
+    """The path asked for (:data:`PATHS`)."""
+    return _wanted
+
+
+def _module(name: str) -> ModuleType | None:
+    if name not in _loaded:
         try:
-            _loaded[module] = importlib.import_module(module)
+            _loaded[name] = importlib.import_module(name)
         except ImportError:
-            _loaded[module] = None
-    return _loaded[module]
+            _loaded[name] = None
+    return _loaded[name]
+
+
+def _numba_installed() -> bool:
+    import importlib.util
+    return importlib.util.find_spec("numba") is not None
+
+
+def compiled(package: str) -> ModuleType | None:
+    """The compiled module of ``package`` (``optim`` or ``fdi``) on the path in use: its
+    ``_native`` (C) or ``_jit`` (numba) module, imported on first use; None on the numpy path."""
+    path = _wanted
+    if path == "numpy":
+        return None
+    if path == "c":
+        return _module(package + "._native")
+    if path == "numba":
+        return _module(package + "._jit")
+    from . import native
+    if native.has_store() or not _numba_installed():
+        return _module(package + "._native") or _module(package + "._jit")
+    return _module(package + "._jit") or _module(package + "._native")
 
 
 def jit() -> ModuleType | None:
-    """:mod:`optim._jit`, or None (see :func:`compiled`)."""
-    return compiled("optim._jit")
+    """The engines' compiled module (``optim._native`` or ``optim._jit``), or None (see :func:`compiled`)."""
+    return compiled("optim")
+
+
+def path() -> str:
+    """The path that runs: ``c``, ``numba`` or ``numpy``."""
+    mod = jit()
+    return "numpy" if mod is None else ("c" if mod.__name__.endswith("_native") else "numba")

@@ -177,13 +177,14 @@ def test_bench_diagnose_json(capsys):
     assert d["estimators"] == 5 and d["evaluations"] > 5 * 100
     assert {"load", "residuals", "isolation", "identification"} <= set(d["stages_s"])
     assert all(_seconds(d[k]) for k in ("total_s", "estimator_s", "objective_s", "cpu_s"))
-    assert d["kernels"] in ("numba", "numpy")            # fdi.kernels: compiled where numba is installed
+    assert d["kernels"] in ("c", "numba", "numpy")       # fdi.kernels: C or numba where the machine has them
     for name in ("full", "coarse"):                       # one objective call on 1 and on 100 rows
         c = d["objective"][name]
         assert c["call_100_s"] > c["call_1_s"] > 0 and c["per_row_s"] > 0
         assert abs(c["overhead_s"] + c["per_row_s"] - c["call_1_s"]) < 1e-12
-    if d["kernels"] == "numba":                           # a fresh process loads the kernels from numba's cache
-        assert _seconds(d["jit"]["import_s"]) and d["jit"]["first_call_s"] > d["jit"]["second_call_s"] > 0
+    for path, j in (d["jit"] or {}).items():             # a fresh process loads the kept kernels of each path
+        assert path in ("c", "numba")
+        assert _seconds(j["import_s"]) and j["first_call_s"] > 0 and j["second_call_s"] > 0 and j["path"] == path
 
 
 def test_bench_accuracy_json(capsys, monkeypatch, tmp_path):

@@ -13,27 +13,56 @@ from fdi.objective import weighted_median
 from fdi.profiles import incipient
 
 
-@pytest.fixture(params=["numpy", "numba"])
+def compiled_paths() -> list[str]:
+    """The compiled paths this machine has: numba's (where it is installed), C (where a compiler is)."""
+    import importlib.util
+
+    from optim import native
+    return [p for p, ok in (("numba", importlib.util.find_spec("numba") is not None),
+                            ("c", native.compiler() is not None)) if ok]
+
+
+@pytest.fixture(params=["numpy", "numba", "c"])
 def path(request):
-    """Run the test on each path (the numba one only where numba is installed)."""
-    if request.param == "numba":
-        pytest.importorskip("numba")
-    before = kernels.use_numba(request.param == "numba")
+    """Run the test on each path (the compiled ones only where this machine has them)."""
+    if request.param != "numpy" and request.param not in compiled_paths():
+        pytest.skip(f"no {request.param} path here")
+    before = kernels.use(request.param)
+    assert kernels.enabled() == (request.param != "numpy")
     yield request.param
-    kernels.use_numba(before)
+    kernels.use(before)
+
+
+def same(a, b) -> None:
+    """a and b equal to the bit (arrays, or tuples and lists of them); NaNs in the same places."""
+    if isinstance(a, (tuple, list)):
+        assert len(a) == len(b)
+        for x, y in zip(a, b):
+            same(x, y)
+    else:
+        assert np.array_equal(np.asarray(a), np.asarray(b), equal_nan=np.asarray(a).dtype.kind == "f")
 
 
 def both(fn):
-    """fn() on the numpy path, then on the numba path (numba required)."""
-    pytest.importorskip("numba")
-    before = kernels.use_numba(False)
+    """fn() on the numpy path, then on each compiled path (numba, C) this machine has, which must
+    agree with each other to the bit (the C is numba's operations in numba's order); returns
+    (numpy's, the first compiled path's)."""
+    paths = compiled_paths()
+    if not paths:
+        pytest.skip("no compiled path (numba or a C compiler)")
+    before = kernels.use("numpy")
     try:
         plain = fn()
-        kernels.use_numba(True)
-        assert kernels.enabled()
-        return plain, fn()
+        got = []
+        for p in paths:
+            kernels.use(p)
+            assert kernels.enabled()
+            got.append(fn())
+        for other in got[1:]:
+            same(got[0], other)
+        return plain, got[0]
     finally:
-        kernels.use_numba(before)
+        kernels.use(before)
 
 
 def test_eq19_harmonic_case_is_a_cosine(path):

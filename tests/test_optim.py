@@ -398,24 +398,31 @@ def test_compiled_de_trials_are_numpys_to_the_bit():
     """AHDE's DE/current-to-pbest/1/bin generation, on numpy and compiled (optim._jit): the same
     random draws in the same order, the same trial points, F and CR bit for bit (ties in the
     costs, points pushed out of bounds, one free real and several), and the generator left in the
-    same state."""
-    pytest.importorskip("numba")
-    from optim import kernels
+    same state; on each compiled path this machine has (numba's, C's)."""
+    import importlib.util
+
+    from optim import kernels, native
+    paths = [p for p, ok in (("numba", importlib.util.find_spec("numba") is not None),
+                             ("c", native.compiler() is not None)) if ok]
+    if not paths:
+        pytest.skip("no compiled path (numba or a C compiler)")
     draws = np.random.default_rng(9)
     for n, d, free in ((6, 3, [1]), (12, 5, [0, 2, 3, 4]), (30, 9, list(range(9)))):
         x = draws.uniform(-1.5, 1.5, (n, d))
         f = np.round(draws.random(n), 1)                            # ties: argsort's order decides pbest
         b = Branch("k", np.zeros(2, dtype=bool), np.array(free), x, f, draws.uniform(0.1, 1.0, n), draws.random(n))
         got = []
-        for on in (False, True):
-            before = kernels.use_numba(on)
+        for path in ["numpy", *paths]:
+            before = kernels.use(path)
             try:
+                assert kernels.path() == path
                 e = AHDE(optim.pose(lambda r, bits: r.sum(axis=1), bounds=[[-1, 1]] * d, n_bits=2),
                          AHDEOptions(seed=4))
                 got.append((e.trials(b), e.rng.bit_generator.state["state"]))
             finally:
-                kernels.use_numba(before)
-        (plain, state_plain), (fast, state_fast) = got
-        for a, c in zip(plain, fast):
-            assert np.array_equal(a, c)
-        assert state_plain == state_fast
+                kernels.use(before)
+        (plain, state_plain), *compiled = got
+        for fast, state_fast in compiled:
+            for a, c in zip(plain, fast):
+                assert np.array_equal(a, c)
+            assert state_plain == state_fast

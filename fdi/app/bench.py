@@ -317,29 +317,44 @@ def diagnose_rows(data_path: Path, workers: int = 1) -> dict:
     return {"stages": dict(d.timings), "total_s": total, "cpu_s": cpu, "later_cpu_s": later, "estimators": len(est),
             "workers": workers,
             "objective_s": sum(e.objective_s for e in est), "estimator_s": sum(e.wall_s for e in est),
-            "evaluations": sum(e.evaluations for e in est), "kernels": "numba" if kernels.enabled() else "numpy",
-            "objective": objective_costs(), "jit": jit_costs() if kernels.enabled() else None}
+            "evaluations": sum(e.evaluations for e in est), "kernels": kernels.path(),
+            "objective": objective_costs(), "jit": {p: jit_costs(p) for p in compiled_paths()} or None}
 
 
-def jit_costs() -> dict | None:
-    """CPU seconds a fresh process pays for the compiled kernels, numba's disk cache warm (this
-    process has just used them): importing numba, then the first objective call, which loads every
-    kernel it runs from the cache (:func:`jit_probe` in a subprocess). None if it fails."""
+def compiled_paths() -> list[str]:
+    """The compiled kernels' paths this machine has: C (a compiler, or a library kept), numba."""
+    import importlib.util
+
+    from optim import native
+    return [p for p, ok in (("c", native.compiler() is not None or native.has_store()),
+                            ("numba", importlib.util.find_spec("numba") is not None)) if ok]
+
+
+def jit_costs(path: str) -> dict | None:
+    """CPU seconds a fresh process pays for the compiled kernels of ``path`` (``c``: the library
+    built once and kept in the disk cache; ``numba``: numba's disk cache), warm: loading them (for
+    numba its import), then the first objective call (numba loads every kernel it runs there), then
+    a second (:func:`jit_probe` in a subprocess, run twice: the first may build). None if it fails."""
     import json
+    import os
     import subprocess
     import sys
-    out = subprocess.run([sys.executable, "-c", "from fdi.app.bench import jit_probe; jit_probe()"],
-                         capture_output=True, text=True)
+    env = {**os.environ, "BGFDI_KERNELS": path}
+    for _ in range(2):
+        out = subprocess.run([sys.executable, "-c", "from fdi.app.bench import jit_probe; jit_probe()"],
+                             capture_output=True, text=True, env=env)
     try:
-        return json.loads(out.stdout.strip().splitlines()[-1])
+        got = json.loads(out.stdout.strip().splitlines()[-1])
     except (ValueError, IndexError):
         return None
+    return got if got.get("path") == path else None
 
 
 def jit_probe() -> None:
-    """Print (JSON) this process's CPU seconds to import numba and its kernels' module, for the
-    first compiled calls (the filter, then an objective call on scenario 2's problem: every
-    kernel loaded from numba's cache) and for a second objective call."""
+    """Print (JSON) this process's CPU seconds to load the compiled kernels (numba's import and its
+    kernels' module, or the C library), for the first compiled calls (the filter, then an objective
+    call on scenario 2's problem: numba loads every kernel from its cache there) and for a second
+    objective call; and the path that ran."""
     import json
 
     import numpy as np
@@ -362,7 +377,8 @@ def jit_probe() -> None:
     t4 = clock()
     obj.coarse(real, bits)
     t5 = clock()
-    print(json.dumps({"import_s": t1 - t0, "first_call_s": (t2 - t1) + (t4 - t3), "second_call_s": t5 - t4}))
+    print(json.dumps({"import_s": t1 - t0, "first_call_s": (t2 - t1) + (t4 - t3), "second_call_s": t5 - t4,
+                      "path": kernels.path()}))
 
 
 def objective_costs(rows: int = 100, repeat: int = 5, seed: int = 0) -> dict:
@@ -414,11 +430,12 @@ def format_diagnose(row: dict) -> str:
     o = row["objective"]
     out.append(f"objective ({row['kernels']} kernels; R4 & beta_theta2, random rows of every structure, CPU, "
                f"min of 5):")
-    if row.get("jit"):
-        j = row["jit"]
-        out.insert(len(out) - 1, f"compiled kernels in a fresh process (numba's disk cache warm, CPU): import numba "
-                                 f"{j['import_s']:.2f} s, first objective call {j['first_call_s']:.2f} s (kernels "
-                                 f"loaded), second {1e3 * j['second_call_s']:.1f} ms")
+    for path, j in (row.get("jit") or {}).items():
+        if j:
+            what = "the C library kept in the disk cache" if path == "c" else "numba's disk cache warm"
+            out.insert(len(out) - 1, f"{path} kernels in a fresh process ({what}, CPU): load "
+                                     f"{j['import_s']:.2f} s, first objective call {j['first_call_s']:.2f} s, "
+                                     f"second {1e3 * j['second_call_s']:.1f} ms")
     for name in ("full", "coarse"):
         c, key = o[name], f"call_{o['rows']}_s"
         out.append(f"  {name:<7} 1 row {1e6 * c['call_1_s']:>7.0f} us, {o['rows']} rows {1e3 * c[key]:>6.2f} ms: "

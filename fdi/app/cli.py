@@ -1350,12 +1350,14 @@ def _run(argv: list[str] | None) -> int:
 
 
 def _cache_notes() -> None:
-    """Why the compiled-model cache is off, if it is: one line each under -v."""
-    diskcache = sys.modules.get("fdi.diskcache")
-    for note in getattr(diskcache, "notes", ()):
-        LOG.debug(escaped(note))           # a note names a path: control characters escaped
-    if diskcache is not None:
-        diskcache.notes.clear()            # said once: a second command in this process says its own
+    """Why the compiled-model cache is off, or the C kernels could not be built, if so: one line
+    each under -v."""
+    for name in ("fdi.diskcache", "optim.native"):
+        module = sys.modules.get(name)
+        for note in getattr(module, "notes", ()):
+            LOG.debug(escaped(note))       # a note names a path: control characters escaped
+        if module is not None:
+            module.notes.clear()           # said once: a second command in this process says its own
 
 
 # Commands that only derive and print: run on a deep-stack thread (bondgraph.deep), so that the

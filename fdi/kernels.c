@@ -1,0 +1,831 @@
+/* The identification objective's generic heavy parts in C99: fdi._jit's functions, line for line.
+ *
+ * Each function does the floating-point operations of its numba twin (fdi/_jit.py), in the same
+ * order, on the same IEEE doubles, calling the same libm for the transcendental functions: the
+ * numbers are the numba path's, and the numpy path's to round-off (tests/test_kernels.py, 1e-9
+ * relative). Built by optim.native with -O2 and -ffp-contract=off (no fused multiply-adds: they
+ * would change the last bits) and no fast-math (it would reorder sums). Arrays are C-contiguous;
+ * bool arrays are numpy's one byte per element. fdi/_native.py loads it with ctypes and gives it
+ * fdi._jit's signatures. */
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef int64_t I;
+typedef uint8_t B;
+
+/* the tape's operations (fdi.tape) */
+enum { LOADF = 0, LOADP = 1, LOADS = 2, CONST = 3,
+       ADD = 10, SUB = 11, MUL = 12, DIV = 13, POW = 14, ATAN2 = 15,
+       NEG = 20, ABS, SIGN, SQRT, SQUARE, RECIP, EXP, LOG, SIN, COS, TAN, ASIN, ACOS, ATAN, SINH, COSH, TANH };
+
+#define PI 3.141592653589793     /* numpy's pi, the same double */
+#define BRACKET_FROM 256
+#define BRACKET_SAMPLE 256
+
+static I imax(I a, I b) { return a > b ? a : b; }
+static I imin(I a, I b) { return a < b ? a : b; }
+/* Python's max(a, b) and min(a, b) on floats: the first unless the second compares greater (less) */
+static double pmax(double a, double b) { return b > a ? b : a; }
+static double pmin(double a, double b) { return b < a ? b : a; }
+
+/* ------------------------------------------------------------------ eq. (19), RK4 and Hermite */
+
+static void rk4_grid(double p0, double c5, double c6, double c7, double h, I k, double *grid, double *slope)
+{
+    double h2 = h / 2, h6 = h / 6;
+    double p = p0, v = 0.0;
+    grid[0] = p; slope[0] = v;
+    for (I i = 1; i <= k; i++) {
+        double k1p = v;
+        double k1v = c5 * v * v + c6 * p + c7;
+        double k2p = v + h2 * k1v;
+        double q = p + h2 * k1p, w = v + h2 * k1v;
+        double k2v = c5 * w * w + c6 * q + c7;
+        double k3p = v + h2 * k2v;
+        q = p + h2 * k2p; w = v + h2 * k2v;
+        double k3v = c5 * w * w + c6 * q + c7;
+        double k4p = v + h * k3v;
+        q = p + h * k3p; w = v + h * k3v;
+        double k4v = c5 * w * w + c6 * q + c7;
+        p = p + h6 * (k1p + 2 * k2p + 2 * k3p + k4p);
+        v = v + h6 * (k1v + 2 * k2v + 2 * k3v + k4v);
+        if (isfinite(p)) { grid[i] = p; slope[i] = v; }
+        else { grid[i] = INFINITY; slope[i] = 0.0; }
+    }
+}
+
+static double hermite(double tau, double h, I k, const double *grid, const double *slope)
+{
+    double x = tau / h;
+    if (x != x)
+        return NAN;
+    if (x < 0) x = 0.0;
+    else if (x > k) x = (double)k;
+    I i0 = imin((I)floor(x), k - 1);
+    double s = x - i0;
+    double pa = grid[i0], pb = grid[i0 + 1];
+    if (!(isfinite(pa) && isfinite(pb)))
+        return INFINITY;
+    double va = slope[i0] * h, vb = slope[i0 + 1] * h;
+    double s2 = s * s;
+    double s3 = s * s * s;
+    return (2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb + (s3 - s2) * vb;
+}
+
+static I steps19(double span, double step) { return imax(1, (I)ceil(span / step)); }
+
+/* rk4_19: tau (pop, n) -> out (pop, n); scratch of k + 1 */
+int rk4_19(const double *tau, I pop, I n, double p0, const double *b5, const double *b6, const double *b7,
+           double step, double *out)
+{
+    double span = 0.0;
+    for (I r = 0; r < pop; r++)
+        for (I j = 0; j < n; j++)
+            if (tau[r * n + j] > span) span = tau[r * n + j];
+    I k = steps19(span, step);
+    double h = span > 0 ? span / k : step;
+    double *grid = malloc(sizeof(double) * (k + 1)), *slope = malloc(sizeof(double) * (k + 1));
+    if (!grid || !slope) { free(grid); free(slope); return -1; }
+    for (I r = 0; r < pop; r++) {
+        rk4_grid(p0, b5[r], b6[r], b7[r], h, k, grid, slope);
+        for (I j = 0; j < n; j++)
+            out[r * n + j] = hermite(tau[r * n + j], h, k, grid, slope);
+    }
+    free(grid); free(slope);
+    return 0;
+}
+
+/* ------------------------------------------------------------------ the weighted median */
+
+static double select_w(double *x, double *w, I lo, I hi, double below, double half)
+{
+    for (;;) {
+        double a = x[lo], b = x[(lo + hi - 1) / 2], c = x[hi - 1];
+        double pivot = pmax(pmin(a, b), pmin(pmax(a, b), c));
+        I lt = lo, i = lo, gt = hi;
+        double wl = 0.0, we = 0.0;
+        while (i < gt) {
+            double xi = x[i];
+            if (xi < pivot) {
+                wl += w[i];
+                x[i] = x[lt]; x[lt] = xi;
+                double t = w[i]; w[i] = w[lt]; w[lt] = t;
+                lt++; i++;
+            } else if (xi > pivot) {
+                gt--;
+                x[i] = x[gt]; x[gt] = xi;
+                double t = w[i]; w[i] = w[gt]; w[gt] = t;
+            } else {
+                we += w[i];
+                i++;
+            }
+        }
+        if (below + wl >= half && lt > lo)
+            hi = lt;
+        else if (below + wl + we >= half || gt == hi)
+            return pivot;
+        else {
+            below += wl + we;
+            lo = gt;
+        }
+    }
+}
+
+/* scratch: 2 * BRACKET_SAMPLE + 2 * m doubles */
+static double median_w(double *x, double *w, I m, double *scratch)
+{
+    double total = 0.0;
+    for (I j = 0; j < m; j++) total += w[j];
+    if (!(total > 0)) return 0.0;
+    double half = 0.5 * total;
+    if (m >= BRACKET_FROM) {
+        I s = imin(BRACKET_SAMPLE, (I)(4.0 * sqrt((double)m)));
+        double delta = 1.5 / sqrt((double)s);
+        I step = m / s;
+        double *xs = scratch, *ws = scratch + BRACKET_SAMPLE;
+        double sw = 0.0;
+        for (I k = 0; k < s; k++) {
+            xs[k] = x[k * step];
+            ws[k] = w[k * step];
+            sw += ws[k];
+        }
+        if (sw > 0) {
+            double a = select_w(xs, ws, 0, s, 0.0, sw * (0.5 - delta));
+            double b = select_w(xs, ws, 0, s, 0.0, sw * (0.5 + delta));
+            double *xm = scratch + 2 * BRACKET_SAMPLE, *wm = xm + m;
+            double below = 0.0, above = 0.0;
+            I k = 0;
+            for (I j = 0; j < m; j++) {
+                double xj = x[j];
+                if (xj < a) below += w[j];
+                else if (xj > b) above += w[j];
+                else { xm[k] = xj; wm[k] = w[j]; k++; }
+            }
+            if (below < half && total - above >= half && k > 0)
+                return select_w(xm, wm, 0, k, below, half);
+        }
+    }
+    return select_w(x, w, 0, m, 0.0, half);
+}
+
+int weighted_median(const double *points, const double *weights, I n, I m, double *out)
+{
+    double *x = malloc(sizeof(double) * (m + 1)), *w = malloc(sizeof(double) * (m + 1));
+    double *scratch = malloc(sizeof(double) * (2 * BRACKET_SAMPLE + 2 * m + 2));
+    if (!x || !w || !scratch) { free(x); free(w); free(scratch); return -1; }
+    for (I r = 0; r < n; r++) {
+        for (I j = 0; j < m; j++) {
+            double wj = weights[r * m + j];
+            x[j] = wj > 0 ? points[r * m + j] : 0.0;
+            w[j] = wj;
+        }
+        out[r] = median_w(x, w, m, scratch);
+    }
+    free(x); free(w); free(scratch);
+    return 0;
+}
+
+/* ------------------------------------------------------------------ eqs. (15) and (17) */
+
+static double intermittent1(double t, double a, double nominal, double v, double T)
+{
+    if (!(t >= a)) return nominal;
+    double x = 2 * PI * (t - a) / T;
+    double u = x / PI;
+    double kf = floor(u);
+    double f = u - kf;
+    double s;
+    if (f > 1e-6 && f < 1 - 1e-6)
+        s = ((I)kf & 1) == 0 ? 1.0 : -1.0;          /* Python's k % 2 == 0, negative k too */
+    else {
+        double y = sin(x);
+        s = y > 0 ? 1.0 : (y < 0 ? -1.0 : 0.0);
+    }
+    return s > 0 ? v : (s < 0 ? nominal : (nominal + v) / 2);
+}
+
+int intermittent(const double *t, I n, const double *t0, I rows, double nominal, const double *value,
+                 const double *period, double *out)
+{
+    for (I r = 0; r < rows; r++)
+        for (I j = 0; j < n; j++)
+            out[r * n + j] = intermittent1(t[j], t0[r], nominal, value[r], period[r]);
+    return 0;
+}
+
+static double eq17(double t, double a, double nominal, double c, double b)
+{
+    if (!(t >= a)) return nominal;
+    double tau = t - a;
+    if (!(tau > 0)) return nominal;
+    double den = c - b * tau;
+    return den > 0 ? 1.0 / den : INFINITY;
+}
+
+int incipient17(const double *t, I n, const double *t0, I rows, double nominal, const double *b2, double *out)
+{
+    double c = isinf(nominal) ? 0.0 : 1.0 / nominal;
+    for (I r = 0; r < rows; r++)
+        for (I j = 0; j < n; j++)
+            out[r * n + j] = eq17(t[j], t0[r], nominal, c, b2[r]);
+    return 0;
+}
+
+/* ------------------------------------------------------------------ eqs. (16) and (18) */
+
+static void eq18_roots(double b3, double *r1, double *r2)
+{
+    double root = sqrt(b3 * b3 + 4.0);
+    *r1 = (b3 + root) / 2;
+    *r2 = (b3 - root) / 2;
+}
+
+/* b (rows, bc) -> out (k, rows, n) */
+int exp_arguments(const double *t, I n, const double *t0, I model, const double *b, I rows, I bc, double *out)
+{
+    I k = model == 1 ? 1 : 2;
+    for (I r = 0; r < rows; r++) {
+        double a = t0[r], r1, r2;
+        if (model == 1) { r1 = b[r * bc]; r2 = 0.0; }
+        else eq18_roots(b[r * bc], &r1, &r2);
+        for (I i = 0; i < n; i++) {
+            double x = t[i] - a;
+            double tau = x < 0 ? 0.0 : x;
+            out[r * n + i] = r1 * tau;
+            if (k == 2) out[rows * n + r * n + i] = r2 * tau;
+        }
+    }
+    return 0;
+}
+
+int incipient_exp(const double *t, I n, const double *t0, double nominal, I model, const double *b, I rows, I bc,
+                  const double *e, double *out)
+{
+    for (I r = 0; r < rows; r++) {
+        double t0r = t0[r];
+        if (model == 1) {
+            for (I i = 0; i < n; i++)
+                out[r * n + i] = t[i] >= t0r ? nominal * e[r * n + i] : nominal;
+        } else {
+            double b4 = b[r * bc + 1], r1, r2;
+            eq18_roots(b[r * bc], &r1, &r2);
+            double a = -r2 * (nominal + b4) / (r1 - r2);
+            double c = r1 * (nominal + b4) / (r1 - r2);
+            for (I i = 0; i < n; i++)
+                out[r * n + i] = t[i] >= t0r ? (-b4 + a * e[r * n + i]) + c * e[rows * n + r * n + i] : nominal;
+        }
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------ the filter */
+
+/* fdi._jit._fir_row: src (nsrc), half (hrows, hcols) with row stride hs; into S[(at + k) * ss + i];
+ * phases: min(stride, n) rows of pw; plus, minus: count each */
+static void fir_row(const double *src, I nsrc, const double *half, I hrows, I hcols, I hs, I start, I count,
+                    I stride, double *S, I ss, I at, double *phases, I pw, double *plus, double *minus)
+{
+    I h = hrows - 1;
+    I n = 2 * h + 1;
+    I length = count + (n - 1) / stride + 1;
+    if (stride == 1) {
+        I stop = imin(start + count + n - 1, nsrc);
+        if (stop > start) memcpy(phases, src + start, sizeof(double) * (stop - start));
+    } else {
+        I nph = imin(stride, n);
+        for (I ph = 0; ph < nph; ph++)
+            for (I t = 0; t < length; t++) {
+                I q = start + ph + t * stride;
+                phases[ph * pw + t] = q < nsrc ? src[q] : 0.0;
+            }
+    }
+    const double *mid = phases + (h % stride) * pw + h / stride;
+    for (I k = 0; k < hcols; k++) {
+        double *acc = S + (at + k) * ss;
+        double c = half[k];
+        for (I i = 0; i < count; i++) acc[i] = mid[i] * c;
+    }
+    for (I j = 1; j <= h; j++) {
+        const double *up = phases + ((h + j) % stride) * pw + (h + j) / stride;
+        const double *down = phases + ((h - j) % stride) * pw + (h - j) / stride;
+        for (I i = 0; i < count; i++) {
+            plus[i] = up[i] + down[i];
+            minus[i] = up[i] - down[i];
+        }
+        for (I k = 0; k < hcols; k++) {
+            double *acc = S + (at + k) * ss;
+            double c = half[j * hs + k];
+            const double *v = (k % 2) ? minus : plus;
+            for (I i = 0; i < count; i++) acc[i] += v[i] * c;
+        }
+    }
+}
+
+/* x (rows, nx), half (hrows, hcols) -> out (rows, hcols, count) */
+int fir(const double *x, I rows, I nx, const double *half, I hrows, I hcols, I start, I count, I stride, double *out)
+{
+    I n = 2 * (hrows - 1) + 1;
+    I length = count + (n - 1) / stride + 1;
+    I nph = imin(stride, n);
+    double *phases = malloc(sizeof(double) * (nph * length + count + n));
+    double *pair = malloc(sizeof(double) * (2 * count + 2));
+    if (!phases || !pair) { free(phases); free(pair); return -1; }
+    for (I r = 0; r < rows; r++)
+        fir_row(x + r * nx, nx, half, hrows, hcols, hcols, start, count, stride, out + r * hcols * count, count, 0,
+                phases, length, pair, pair + count);
+    free(phases); free(pair);
+    return 0;
+}
+
+/* ------------------------------------------------------------------ decoding */
+
+int decode_rows(const double *real, I pop, I nr, const B *bits, I nb, const B *log_, const double *scale,
+                const double *powers, I npw, const I *vpow, const I *zeta, double t_last, I nf,
+                I *kinds, I *models, double *values, double *periods, double *b, I *pre_at, I *counts,
+                double *span19, B *level)
+{
+    for (I j = 0; j < nf; j++) {
+        counts[2 * j] = counts[2 * j + 1] = 0;
+        span19[j] = 0.0;
+        level[j] = 0;
+    }
+    for (I j = 0; j < nf; j++) {
+        I c0 = 9 * j, z0 = 5 * j;
+        double late_max = -INFINITY;
+        int seen = 0;
+        for (I r = 0; r < pop; r++) {
+            const B *br = bits + r * nb;
+            I kind = zeta[4 * br[z0] + 2 * br[z0 + 1] + br[z0 + 2]];
+            I model = 1 + 2 * (I)br[z0 + 3] + (I)br[z0 + 4];
+            kinds[j * pop + r] = kind;
+            models[j * pop + r] = model;
+            const double *rr = real + r * nr;
+            values[j * pop + r] = log_[j] ? powers[r * npw + vpow[j]] : rr[c0];
+            periods[j * pop + r] = rr[c0 + 1];
+            double *bb = b + (j * pop + r) * 7;
+            for (I q = 0; q < 7; q++) bb[q] = rr[c0 + 2 + q] * scale[j * 7 + q];
+            double rate = powers[r * npw + j];
+            bb[2] = rate - 1.0 / rate;
+            if (kind < 2) level[j] = 1;
+            else if (model == 1) counts[2 * j]++;
+            else if (model == 3) counts[2 * j + 1]++;
+            else if (model == 4) {
+                double late = t_last - rr[nr - 1];
+                if (late == late) {
+                    seen = 1;
+                    if (late > late_max) late_max = late;
+                }
+            }
+        }
+        if (seen && late_max > 0.0) span19[j] = late_max;
+    }
+    I filled = 0;
+    for (I q = 0; q < nf * pop; q++) pre_at[q] = -1;
+    for (I j = 0; j < nf; j++)
+        for (I k = 0; k < 2; k++)
+            if (counts[2 * j + k]) {
+                I want = k == 0 ? 1 : 3;
+                for (I r = 0; r < pop; r++)
+                    if (kinds[j * pop + r] == 2 && models[j * pop + r] == want) pre_at[j * pop + r] = filled++;
+            }
+    return 0;
+}
+
+/* ------------------------------------------------------------------ the fused objective */
+
+static double sign1(double x) { return x > 0 ? 1.0 : (x < 0 ? -1.0 : x); }
+
+/* a tape on samples [s0, s0 + L) of one individual: R (registers, block) */
+static void run_tape(const I *code, I ncode, double *R, I block, I L, I s0, const double *F, I fw, const double *P,
+                     I pw, const double *S, I sw, const double *consts)
+{
+    for (I q = 0; q < ncode; q++) {
+        I op = code[4 * q], a = code[4 * q + 2], bb = code[4 * q + 3];
+        double *restrict out = R + code[4 * q + 1] * block;     /* never an operand (fdi.tape) */
+        if (op == LOADF) { const double *src = F + a * fw + s0; for (I t = 0; t < L; t++) out[t] = src[t]; }
+        else if (op == LOADP) { const double *src = P + a * pw + s0; for (I t = 0; t < L; t++) out[t] = src[t]; }
+        else if (op == LOADS) { const double *src = S + a * sw + s0; for (I t = 0; t < L; t++) out[t] = src[t]; }
+        else if (op == CONST) { double c = consts[a]; for (I t = 0; t < L; t++) out[t] = c; }
+        else if (op < NEG) {
+            const double *restrict u = R + a * block, *restrict v = R + bb * block;
+            switch (op) {
+            case ADD: for (I t = 0; t < L; t++) out[t] = u[t] + v[t]; break;
+            case SUB: for (I t = 0; t < L; t++) out[t] = u[t] - v[t]; break;
+            case MUL: for (I t = 0; t < L; t++) out[t] = u[t] * v[t]; break;
+            case DIV: for (I t = 0; t < L; t++) out[t] = u[t] / v[t]; break;
+            case POW: for (I t = 0; t < L; t++) out[t] = pow(u[t], v[t]); break;
+            default: for (I t = 0; t < L; t++) out[t] = atan2(u[t], v[t]); break;
+            }
+        } else {
+            const double *restrict u = R + a * block;
+            switch (op) {
+            case NEG: for (I t = 0; t < L; t++) out[t] = -u[t]; break;
+            case ABS: for (I t = 0; t < L; t++) out[t] = fabs(u[t]); break;
+            case SIGN: for (I t = 0; t < L; t++) out[t] = sign1(u[t]); break;
+            case SQRT: for (I t = 0; t < L; t++) out[t] = sqrt(u[t]); break;
+            case SQUARE: for (I t = 0; t < L; t++) out[t] = u[t] * u[t]; break;
+            case RECIP: for (I t = 0; t < L; t++) out[t] = 1.0 / u[t]; break;
+            case EXP: for (I t = 0; t < L; t++) out[t] = exp(u[t]); break;
+            case LOG: for (I t = 0; t < L; t++) out[t] = log(u[t]); break;
+            case SIN: for (I t = 0; t < L; t++) out[t] = sin(u[t]); break;
+            case COS: for (I t = 0; t < L; t++) out[t] = cos(u[t]); break;
+            case TAN: for (I t = 0; t < L; t++) out[t] = tan(u[t]); break;
+            case ASIN: for (I t = 0; t < L; t++) out[t] = asin(u[t]); break;
+            case ACOS: for (I t = 0; t < L; t++) out[t] = acos(u[t]); break;
+            case ATAN: for (I t = 0; t < L; t++) out[t] = atan(u[t]); break;
+            case SINH: for (I t = 0; t < L; t++) out[t] = sinh(u[t]); break;
+            case COSH: for (I t = 0; t < L; t++) out[t] = cosh(u[t]); break;
+            default: for (I t = 0; t < L; t++) out[t] = tanh(u[t]); break;
+            }
+        }
+    }
+}
+
+/* signal v corrected (fdi._jit._corrected): be / bi NULL for none */
+static void corrected(const double *raw, I n, I v, const B *is_source, const double *be, const double *bi, I half,
+                      double *cp)
+{
+    const double *restrict x0 = raw + v * n;
+    double *restrict out = cp + half;
+    int src = is_source[v];
+    /* the branches taken once, outside the loops (each loop vectorises) */
+    if (bi && src) for (I j = 0; j < n; j++) out[j] = x0[j] + bi[j];
+    else if (bi) for (I j = 0; j < n; j++) out[j] = x0[j] - bi[j];
+    else for (I j = 0; j < n; j++) out[j] = x0[j];
+    if (be && src) for (I j = 0; j < n; j++) out[j] = out[j] * be[j];
+    else if (be) for (I j = 0; j < n; j++) out[j] = out[j] / be[j];
+    for (I j = 1; j <= half; j++) {
+        cp[half - j] = cp[half + j];
+        cp[half + n - 1 + j] = cp[half + n - 1 - j];
+    }
+}
+
+/* the arguments of fused_cost: an int64 descriptor of five words per argument (an array's address
+ * and its first four dimensions; an integer in the first word) and a double per argument (a float) */
+enum { A_T, A_ONSET, A_KINDS, A_MODELS, A_VALUES, A_PERIODS, A_COEFFS, A_PRE, A_PRE_AT,
+       A_F_NOMINAL, A_F_UNIT, A_F_LINEAR, A_F_ROLE, A_F_LO, A_F_HI, A_SPAN19, A_STEP19,
+       A_SLOT_FAULT, A_SLOT_STEP, A_SLOT_GROUP, A_TNOM,
+       A_CODE, A_RESULTS, A_REGISTERS, A_CONSTS, A_F,
+       A_RAW, A_IS_SOURCE, A_BETA_FAULT, A_BETA_FIXED, A_BIAS_FAULT, A_BIAS_FIXED, A_CORR_FIXED,
+       A_FK, A_FK_N, A_FK_ORDERS, A_S_AT, A_N_SLOTS, A_START, A_STRIDE, A_M,
+       A_PLAIN, A_PLAIN_W, A_JOINT, A_JOINT_W, A_ENTERS, A_LIN_FAULT, A_LO, A_HI, A_PASSES, A_GAPS, A_CONSTANT,
+       A_BLOCK, A_N_COMP, A_ICODE, A_LEVEL_AT, A_LEVEL_MEMBERS, A_MEMBERS, A_RESULT_OF, A_IREGISTERS, A_ICONSTS,
+       A_IFIXED, A_FULL_OF, A_N_FULL, A_COMP_AT, A_FULL_AT, A_COMP_ORDER, A_CK, A_CK_N, A_EDGE, A_COUNT };
+
+#define ADDR(i) ((void *)(intptr_t)D[5 * (i)])
+#define DIM(i, k) (D[5 * (i) + 1 + (k)])
+#define INT(i) (D[5 * (i)])
+
+int fused_arity(void) { return A_COUNT; }
+
+/* the profile of fault j for individual row (fdi._jit._profile) */
+static void profile(const double *t, I nw, I j, I row, I pop, const double *onset, const I *kinds, const I *models,
+                    const double *values, const double *periods, const double *coeffs, const double *pre, I prew,
+                    const I *pre_at, double nominal, double unit, int linear, I k19, double h19, double *grid,
+                    double *slope, double *out)
+{
+    I kind = kinds[j * pop + row];
+    double a = onset[row];
+    double val = (linear && kind < 2) ? unit : values[j * pop + row];
+    if (kind == 0) {
+        double z = 0.0 * val;
+        for (I i = 0; i < nw; i++) out[i] = (t[i] >= a ? val : nominal) + z;
+    } else if (kind == 1) {
+        double T = periods[j * pop + row];
+        for (I i = 0; i < nw; i++) out[i] = intermittent1(t[i], a, nominal, val, T);
+    } else {
+        I model = models[j * pop + row];
+        const double *cf = coeffs + (j * pop + row) * 4;
+        if (model == 2) {
+            if (nominal == 0) {
+                for (I i = 0; i < nw; i++) out[i] = 0.0;
+            } else {
+                double c = isinf(nominal) ? 0.0 : 1.0 / nominal;
+                double b = cf[0];
+                for (I i = 0; i < nw; i++) out[i] = eq17(t[i], a, nominal, c, b);
+            }
+        } else if (model == 4) {
+            if (isinf(nominal)) {
+                for (I i = 0; i < nw; i++) out[i] = t[i] >= a ? INFINITY : nominal;
+            } else {
+                rk4_grid(nominal, cf[1], cf[2], cf[3], h19, k19, grid, slope);
+                for (I i = 0; i < nw; i++) {
+                    double tau = t[i] - a;
+                    if (tau < 0) tau = 0.0;
+                    double p = hermite(tau, h19, k19, grid, slope);
+                    out[i] = t[i] >= a ? p : nominal;
+                }
+            }
+        } else {
+            const double *src = pre + pre_at[j * pop + row] * prew;
+            for (I i = 0; i < nw; i++) out[i] = src[i];
+        }
+    }
+}
+
+/* the parameter slots of one individual at start, start + stride, ... (fdi._jit._slots) */
+static void slots(const double *prof, I nw, const B *solved, const I *slot_fault, const B *slot_step,
+                  const B *slot_group, I nslot, const double *f_nominal, const double *tnom, I start, I count, I stride,
+                  double *out, I ow)
+{
+    for (I k = 0; k < nslot; k++) {
+        I j = slot_fault[k];
+        double *dst = out + k * ow;
+        const double *tn = tnom + k * nw;
+        if (solved[j] && !slot_step[k]) {
+            double c = f_nominal[j];
+            for (I s = 0; s < count; s++) dst[s] = slot_group[k] ? tn[start + s * stride] * c : c;
+        } else {
+            const double *src = prof + j * nw;
+            for (I s = 0; s < count; s++) {
+                I q = start + s * stride;
+                dst[s] = slot_group[k] ? tn[q] * src[q] : src[q];
+            }
+        }
+    }
+}
+
+static int others_sum(const double *d, const double *gain, const B *enters, I ne1, const B *srow, I nlin, I jj,
+                      I ji, I nj1, I m, double *extra)
+{
+    int others = 0;
+    for (I kk = 0; kk < nlin; kk++) {
+        if (kk != jj && enters[kk * ne1 + ji] && srow[kk]) {
+            double dk = d[kk];
+            const double *g = gain + (kk * nj1 + ji) * m;
+            if (others) for (I s = 0; s < m; s++) extra[s] = extra[s] + dk * g[s];
+            else for (I s = 0; s < m; s++) extra[s] = dk * g[s];
+            others = 1;
+        }
+    }
+    return others;
+}
+
+static void points(const double *base, const double *extra, int others, const double *x, double w, I m, double *pts,
+                   double *wts)
+{
+    for (I s = 0; s < m; s++) {
+        double rest = others ? base[s] + extra[s] : base[s];
+        double xs = x[s];
+        int ok = (xs != 0) & (fabs(rest) < INFINITY) & (fabs(xs) < INFINITY);
+        double wc = ok ? w * fabs(xs) : 0.0;
+        double q = -rest / (xs != 0 ? xs : 1.0);
+        wts[s] = wc;
+        pts[s] = wc > 0 ? q : 0.0;
+    }
+}
+
+#define NEW(p, n) do { (p) = calloc((size_t)((n) > 0 ? (n) : 1), sizeof(*(p))); if (!(p)) goto fail; } while (0)
+
+int fused_cost(const I *D, const double *X, double *total, double *deltas, B *invalid)
+{
+    const double *t = ADDR(A_T), *onset = ADDR(A_ONSET), *values = ADDR(A_VALUES), *periods = ADDR(A_PERIODS);
+    const double *coeffs = ADDR(A_COEFFS), *pre = ADDR(A_PRE);
+    const I *kinds = ADDR(A_KINDS), *models = ADDR(A_MODELS), *pre_at = ADDR(A_PRE_AT);
+    const double *f_nominal = ADDR(A_F_NOMINAL), *f_unit = ADDR(A_F_UNIT), *f_lo = ADDR(A_F_LO), *f_hi = ADDR(A_F_HI);
+    const B *f_linear = ADDR(A_F_LINEAR);
+    const I *f_role = ADDR(A_F_ROLE);
+    const double *span19 = ADDR(A_SPAN19);
+    double step19 = X[A_STEP19];
+    const I *slot_fault = ADDR(A_SLOT_FAULT);
+    const B *slot_step = ADDR(A_SLOT_STEP), *slot_group = ADDR(A_SLOT_GROUP);
+    const double *tnom = ADDR(A_TNOM);
+    const I *code = ADDR(A_CODE), *results = ADDR(A_RESULTS);
+    I registers = INT(A_REGISTERS);
+    const double *consts = ADDR(A_CONSTS), *F = ADDR(A_F);
+    const double *raw = ADDR(A_RAW), *corr_fixed = ADDR(A_CORR_FIXED);
+    const B *is_source = ADDR(A_IS_SOURCE);
+    const I *beta_fault = ADDR(A_BETA_FAULT), *beta_fixed = ADDR(A_BETA_FIXED);
+    const I *bias_fault = ADDR(A_BIAS_FAULT), *bias_fixed = ADDR(A_BIAS_FIXED);
+    const double *fk = ADDR(A_FK);
+    const I *fk_n = ADDR(A_FK_N), *fk_orders = ADDR(A_FK_ORDERS), *s_at = ADDR(A_S_AT);
+    I n_slots = INT(A_N_SLOTS), start = INT(A_START), stride = INT(A_STRIDE), m = INT(A_M);
+    const I *plain = ADDR(A_PLAIN), *joint = ADDR(A_JOINT), *lin_fault = ADDR(A_LIN_FAULT);
+    const double *plain_w = ADDR(A_PLAIN_W), *joint_w = ADDR(A_JOINT_W), *lo = ADDR(A_LO), *hi = ADDR(A_HI);
+    const B *enters = ADDR(A_ENTERS), *gaps = ADDR(A_GAPS);
+    I passes = INT(A_PASSES), block = INT(A_BLOCK), n_comp = INT(A_N_COMP);
+    double constant = X[A_CONSTANT];
+    const I *icode = ADDR(A_ICODE), *level_at = ADDR(A_LEVEL_AT), *level_members = ADDR(A_LEVEL_MEMBERS);
+    const I *members = ADDR(A_MEMBERS), *result_of = ADDR(A_RESULT_OF);
+    I iregisters = INT(A_IREGISTERS), n_full = INT(A_N_FULL);
+    const double *iconsts = ADDR(A_ICONSTS), *ifixed = ADDR(A_IFIXED), *ck = ADDR(A_CK), *edge = ADDR(A_EDGE);
+    const I *full_of = ADDR(A_FULL_OF), *comp_at = ADDR(A_COMP_AT), *full_at = ADDR(A_FULL_AT);
+    const I *comp_order = ADDR(A_COMP_ORDER), *ck_n = ADDR(A_CK_N);
+
+    I nf = DIM(A_KINDS, 0), pop = DIM(A_KINDS, 1);
+    I nw = DIM(A_T, 0);
+    I nlin = DIM(A_LIN_FAULT, 0), nj = DIM(A_JOINT, 0), npl = DIM(A_PLAIN, 0), nslot = DIM(A_SLOT_FAULT, 0);
+    I prew = DIM(A_PRE, 1), rc = DIM(A_RESULTS, 1), ncode = DIM(A_CODE, 0), fw = DIM(A_F, 1);
+    I ne1 = DIM(A_ENTERS, 1), nv = DIM(A_RAW, 0), cfw = DIM(A_CORR_FIXED, 1);
+    I fk1 = DIM(A_FK, 1), fk2 = DIM(A_FK, 2), ck1 = DIM(A_CK, 1), ck2 = DIM(A_CK, 2);
+    I fo1 = DIM(A_FULL_OF, 1), ifw = DIM(A_IFIXED, 1), nlev = DIM(A_LEVEL_AT, 0) - 1;
+    I e1 = DIM(A_EDGE, 1), e2 = DIM(A_EDGE, 2), e3 = DIM(A_EDGE, 3);
+    (void)cfw;
+    I nlin1 = imax(1, nlin), nj1 = imax(1, nj), nf1 = imax(1, nf);
+    int rc_ = -1;
+
+    double *prof = NULL, *h19 = NULL, *grid = NULL, *slope = NULL, *ones = NULL, *zeros = NULL, *Prow = NULL;
+    double *R = NULL, *S = NULL, *base = NULL, *gain = NULL, *pts = NULL, *wts = NULL, *d = NULL, *extra = NULL;
+    double *seen = NULL, *parts = NULL, *cp = NULL, *Pfull = NULL, *Sfull = NULL, *Ri = NULL, *Xq = NULL;
+    double *T = NULL, *phases_full = NULL, *pair_full = NULL, *phases = NULL, *pair = NULL, *scratch = NULL;
+    B *bad = NULL, *solved = NULL, *fresh = NULL, *srow = NULL;
+    I *k19 = NULL;
+
+    NEW(prof, nf1 * nw); NEW(bad, nf1); NEW(solved, nf1); NEW(k19, nf1); NEW(h19, nf1);
+    I kmax = 1;
+    for (I j = 0; j < nf; j++) {
+        double span = span19[j];
+        k19[j] = steps19(span, step19);
+        h19[j] = span > 0 ? span / k19[j] : step19;
+        kmax = imax(kmax, k19[j]);
+    }
+    NEW(grid, kmax + 1); NEW(slope, kmax + 1); NEW(ones, nw); NEW(zeros, nw);
+    for (I i = 0; i < nw; i++) ones[i] = 1.0;
+    I nslot1 = imax(1, nslot);
+    NEW(Prow, nslot1 * m);
+    NEW(R, imax(1, registers) * block);
+    NEW(S, imax(1, n_slots) * m);
+    NEW(base, nj1 * m);
+    NEW(gain, nlin1 * nj1 * m);
+    NEW(pts, nj1 * m); NEW(wts, nj1 * m);
+    NEW(d, nlin1); NEW(extra, m); NEW(fresh, nlin1); NEW(seen, nlin1 * nlin1); NEW(srow, nlin1);
+    NEW(parts, imax(1, npl));
+    I nmax = 2 * (imax(fk1, ck1) - 1) + 1;
+    NEW(cp, nw + nmax);
+    NEW(Pfull, (n_comp ? nslot1 : 1) * nw);
+    NEW(Sfull, (n_comp ? n_full : 1) * nw);
+    NEW(Ri, (n_comp ? imax(1, iregisters) : 1) * block);
+    I xw = n_comp ? nw : 1;
+    NEW(Xq, imax(1, n_comp) * xw);
+    I tr = imax(ck2, fk2);
+    NEW(T, tr * xw);
+    I pfw = n_comp ? nw + nmax : 1;
+    NEW(phases_full, pfw);
+    NEW(pair_full, 2 * xw);
+    I nph = imax(1, imin(stride, nmax)), phw = m + (nmax - 1) / stride + 1;
+    NEW(phases, nph * phw);
+    NEW(pair, 2 * m);
+    NEW(scratch, 2 * BRACKET_SAMPLE + 2 * nj1 * m + 2);
+
+    for (I row = 0; row < pop; row++) {
+        int inv = 0;
+        for (I j = 0; j < nf; j++) {
+            double *pj = prof + j * nw;
+            profile(t, nw, j, row, pop, onset, kinds, models, values, periods, coeffs, pre, prew, pre_at, f_nominal[j],
+                    f_unit[j], f_linear[j], k19[j], h19[j], grid, slope, pj);
+            solved[j] = f_linear[j] && kinds[j * pop + row] < 2;
+            int b = 0;
+            if (!solved[j]) {
+                I role = f_role[j];
+                for (I i = 0; i < nw; i++) {
+                    double x = pj[i];
+                    if (x != x || (role == 1 && !(isfinite(x) && x > 0 && f_lo[j] <= x && x <= f_hi[j])) ||
+                        (role == 2 && !(isfinite(x) && f_lo[j] <= x && x <= f_hi[j]))) {
+                        b = 1;
+                        break;
+                    }
+                }
+            }
+            bad[j] = b;
+            inv = inv || b;
+        }
+        slots(prof, nw, solved, slot_fault, slot_step, slot_group, nslot, f_nominal, tnom, start, m, stride, Prow, m);
+        for (I v = 0; v < nv; v++) {
+            const double *be = NULL, *bi = NULL;
+            if (beta_fault[v] >= 0) be = bad[beta_fault[v]] ? ones : prof + beta_fault[v] * nw;
+            else if (beta_fixed[v] >= 0) be = corr_fixed + beta_fixed[v] * nw;
+            if (bias_fault[v] >= 0) bi = bad[bias_fault[v]] ? zeros : prof + bias_fault[v] * nw;
+            else if (bias_fixed[v] >= 0) bi = corr_fixed + bias_fixed[v] * nw;
+            I h = fk_n[v] / 2;
+            corrected(raw, nw, v, is_source, be, bi, h, cp);
+            const double *half = fk + v * fk1 * fk2;
+            fir_row(cp, nw + 2 * h, half, h + 1, fk_orders[v], fk2, start, m, stride, S, m, s_at[v], phases, phw,
+                    pair, pair + m);
+            if (n_comp) {
+                if (full_of[v * fo1] >= 0) memcpy(Sfull + full_of[v * fo1] * nw, cp + h, sizeof(double) * nw);
+                int deriv = 0;
+                for (I k = 1; k < fo1; k++) deriv = deriv || full_of[v * fo1 + k] >= 0;
+                if (deriv) {
+                    fir_row(cp, nw + 2 * h, half, h + 1, fk_orders[v], fk2, 0, nw, 1, T, nw, 0, phases_full, pfw,
+                            pair_full, pair_full + nw);
+                    for (I k = 1; k < fo1; k++)
+                        if (full_of[v * fo1 + k] >= 0)
+                            memcpy(Sfull + full_of[v * fo1 + k] * nw, T + k * nw, sizeof(double) * nw);
+                }
+            }
+        }
+        if (n_comp) {
+            slots(prof, nw, solved, slot_fault, slot_step, slot_group, nslot, f_nominal, tnom, 0, nw, 1, Pfull, nw);
+            for (I lev = 0; lev < nlev; lev++) {
+                const I *code_l = icode + 4 * level_at[lev];
+                I ncl = level_at[lev + 1] - level_at[lev];
+                for (I s0 = 0; s0 < nw; s0 += block) {
+                    I L = imin(block, nw - s0);
+                    run_tape(code_l, ncl, Ri, block, L, s0, ifixed, ifw, Pfull, nw, Sfull, nw, iconsts);
+                    for (I k = level_members[lev]; k < level_members[lev + 1]; k++) {
+                        I c = members[k];
+                        memcpy(Xq + c * xw + s0, Ri + result_of[c] * block, sizeof(double) * L);
+                    }
+                }
+                for (I k = level_members[lev]; k < level_members[lev + 1]; k++) {
+                    I c = members[k];
+                    I n = ck_n[c], h = n / 2, o = comp_order[c];
+                    double *x = Xq + c * xw;
+                    for (I i = 0; i < nw; i++)
+                        if (!isfinite(x[i])) { x[i] = 0.0; inv = 1; }
+                    const double *half = ck + c * ck1 * ck2;
+                    if (comp_at[c] >= 0)
+                        fir_row(x, nw, half, h + 1, o + 1, ck2, start - h, m, stride, S, m, comp_at[c], phases, phw,
+                                pair, pair + m);
+                    if (full_at[c] >= 0) {
+                        double *dst = Sfull + full_at[c] * nw;
+                        fir_row(x, nw, half, h + 1, o + 1, ck2, 0, nw - 2 * h, 1, T, nw, 0, phases_full, pfw,
+                                pair_full, pair_full + nw);
+                        for (I i = 0; i < nw - 2 * h; i++) dst[h + i] = T[o * nw + i];
+                        const double *e0 = edge + c * e1 * e2 * e3, *e1p = e0 + e2 * e3;
+                        for (I q = 0; q < h; q++) {
+                            double a0 = 0.0, a1 = 0.0;
+                            for (I i = 0; i < n; i++) {
+                                a0 += x[i] * e0[i * e3 + q];
+                                a1 += x[nw - n + i] * e1p[i * e3 + q];
+                            }
+                            dst[q] = a0;
+                            dst[nw - h + q] = a1;
+                        }
+                    }
+                }
+            }
+        }
+        invalid[row] = (B)inv;
+        for (I jj = 0; jj < nlin; jj++) srow[jj] = solved[lin_fault[jj]];
+        for (I pi = 0; pi < npl; pi++) parts[pi] = 0.0;
+        for (I s0 = 0; s0 < m; s0 += block) {
+            I L = imin(block, m - s0);
+            run_tape(code, ncode, R, block, L, s0, F, fw, Prow, m, S, m, consts);
+            for (I pi = 0; pi < npl; pi++) {
+                const double *r = R + results[plain[pi] * rc] * block;
+                double part = parts[pi];
+                for (I u = 0; u < L; u++)
+                    if (!gaps[s0 + u]) part += fabs(r[u]);
+                parts[pi] = part;
+            }
+            for (I ji = 0; ji < nj; ji++) {
+                I q = joint[ji];
+                const double *r = R + results[q * rc] * block;
+                double *bj = base + ji * m;
+                for (I u = 0; u < L; u++) bj[s0 + u] = gaps[s0 + u] ? 0.0 : r[u];
+                for (I jj = 0; jj < nlin; jj++)
+                    if (enters[jj * ne1 + ji] && srow[jj]) {
+                        const double *rv = R + results[q * rc + 1 + jj] * block;
+                        double *g = gain + (jj * nj1 + ji) * m;
+                        for (I u = 0; u < L; u++) g[s0 + u] = (gaps[s0 + u] ? 0.0 : rv[u]) - bj[s0 + u];
+                    }
+            }
+        }
+        double acc = constant;
+        for (I pi = 0; pi < npl; pi++) acc += plain_w[pi] * parts[pi];
+        if (nj) {
+            for (I jj = 0; jj < nlin; jj++) { d[jj] = 0.0; fresh[jj] = 0; }
+            for (I pass = 0; pass < passes; pass++) {
+                for (I jj = 0; jj < nlin; jj++) {
+                    if (!srow[jj]) { d[jj] = 0.0; continue; }
+                    int same = fresh[jj];
+                    for (I kk = 0; kk < nlin; kk++)
+                        if (same && kk != jj && seen[jj * nlin1 + kk] != d[kk]) same = 0;
+                    if (same) continue;
+                    I c = 0;
+                    for (I ji = 0; ji < nj; ji++) {
+                        if (!enters[jj * ne1 + ji]) continue;
+                        int oth = others_sum(d, gain, enters, ne1, srow, nlin, jj, ji, nj1, m, extra);
+                        points(base + ji * m, extra, oth, gain + (jj * nj1 + ji) * m, joint_w[ji], m, pts + c, wts + c);
+                        c += m;
+                    }
+                    double med = median_w(pts, wts, c, scratch);
+                    d[jj] = pmin(pmax(med, lo[jj]), hi[jj]);
+                    fresh[jj] = 1;
+                    for (I kk = 0; kk < nlin; kk++) seen[jj * nlin1 + kk] = d[kk];
+                }
+            }
+            for (I jj = 0; jj < nlin; jj++) deltas[jj * pop + row] = d[jj];
+            for (I ji = 0; ji < nj; ji++) {
+                int oth = others_sum(d, gain, enters, ne1, srow, nlin, -1, ji, nj1, m, extra);
+                const double *b_ = base + ji * m;
+                if (oth) for (I s = 0; s < m; s++) extra[s] = fabs(b_[s] + extra[s]);
+                else for (I s = 0; s < m; s++) extra[s] = fabs(b_[s]);
+                double part = 0.0;
+                for (I s = 0; s < m; s++) part += extra[s];
+                acc += joint_w[ji] * part;
+            }
+        }
+        total[row] = acc;
+    }
+    rc_ = 0;
+fail:
+    free(prof); free(bad); free(solved); free(k19); free(h19); free(grid); free(slope); free(ones); free(zeros);
+    free(Prow); free(R); free(S); free(base); free(gain); free(pts); free(wts); free(d); free(extra); free(fresh);
+    free(seen); free(srow); free(parts); free(cp); free(Pfull); free(Sfull); free(Ri); free(Xq); free(T);
+    free(phases_full); free(pair_full); free(phases); free(pair); free(scratch);
+    return rc_;
+}

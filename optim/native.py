@@ -1,0 +1,182 @@
+"""C sources built into shared libraries by the machine's C compiler and loaded with ctypes.
+
+Why: numba's compiled kernels cost every process 0.65 s before their first result (numba's import
+and the first call's loading of its lowering registries, measured on a one-line function), more than
+a whole short diagnosis computes. A library built from C once per machine loads in about a
+millisecond, and needs neither numba nor a JIT. The kernels' C (``optim/trials.c``,
+``fdi/kernels.c``) does the numba functions' operations in their order, so the numbers are the
+same (tests/test_kernels.py, tests/test_optim.py).
+
+The compiler is ``$CC``, else ``cc``, ``gcc`` or ``clang`` on the PATH; the flags keep IEEE
+arithmetic as written (:data:`FLAGS`: no fast-math, no contraction into fused multiply-adds). A
+built library is kept by a *store* (:func:`use_store`; bgfdi gives its disk cache,
+:mod:`fdi.diskcache`: a private folder, entries signed with a key only the user can read, so a
+planted or stale file is never loaded) and loaded from a private temporary copy. Without a store
+each process builds its own (about a second).
+
+>>> lib = load("doctest", b"double twice(double x) { return 2 * x; }", {"twice": ("d", "d")})
+>>> lib is None or lib.twice(1.5) == 3.0
+True
+"""
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import tempfile
+from typing import Protocol
+
+# IEEE arithmetic as written: no fast-math (it reorders sums), no contraction into fused
+# multiply-adds (they change last bits); errno and traps ignored (numba's assumptions too: the
+# loops over samples then vectorise; the values are the same)
+FLAGS = ("-O3", "-std=c99", "-fPIC", "-shared", "-ffp-contract=off", "-fno-math-errno", "-fno-trapping-math",
+         "-fno-fast-math")
+NATIVE = ("-march=native",)     # this machine's vector units (its CPU is in the library's key); dropped if refused
+TIMEOUT_S = 120.0       # a build that takes longer is abandoned (the callers fall back)
+
+_TYPES = {"d": ctypes.c_double, "i": ctypes.c_int64, "p": ctypes.c_void_p, "r": ctypes.c_int}
+
+
+class Store(Protocol):
+    """Where built libraries are kept between processes (:func:`use_store`)."""
+
+    def fetch(self, kind: str, source: bytes) -> bytes | None: ...
+    def store(self, kind: str, source: bytes, payload: bytes) -> bool: ...
+    def ready(self) -> bool: ...
+
+
+_store: Store | None = None
+_loaded: dict[str, object] = {}
+notes: list[str] = []          # why a library could not be built (for -v and the benches)
+
+
+def use_store(store: Store | None) -> None:
+    """Keep built libraries in ``store`` (None: build in each process)."""
+    global _store
+    _store = store
+
+
+def has_store() -> bool:
+    """True when built libraries outlive the process (a store is set and can be written)."""
+    return _store is not None and _store.ready()
+
+
+def compiler() -> str | None:
+    """The C compiler's path: ``$CC`` (its first word), else cc, gcc or clang on the PATH; None without one."""
+    given = os.environ.get("CC", "").split()
+    for name in ([given[0]] if given else []) + ["cc", "gcc", "clang"]:
+        found = shutil.which(name)
+        if found:
+            return found
+    return None
+
+
+def cpu() -> str:
+    """This machine's processor as a library built with :data:`NATIVE` depends on it: the model and
+    feature flags the kernel reports (Linux), else what :mod:`platform` says. A home folder shared
+    by machines of different processors then keeps one library per processor."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
+            lines = fh.read(1 << 16).splitlines()
+        keep = [line for line in lines if line.split(":")[0].strip() in ("model name", "flags", "Features", "CPU part")]
+        if keep:
+            return hashlib.sha256("\n".join(sorted(set(keep))).encode()).hexdigest()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def _identity(source: bytes) -> bytes:
+    """What a built library depends on: the source, the flags and the machine (not which compiler
+    built it: any gives the arithmetic as written, and a library kept loads without one)."""
+    return b"\0".join([source, " ".join(FLAGS + NATIVE).encode(), platform.machine().encode(),
+                       sys.platform.encode(), cpu().encode()])
+
+
+def load(name: str, source: bytes, signatures: dict[str, tuple[str, str]]) -> object | None:
+    """The library built from C ``source`` with its functions typed by ``signatures`` (name ->
+    (result code, argument codes): ``d`` double, ``i`` int64, ``p`` a pointer, ``r`` int), once per
+    process; None when there is no compiler or the build fails (a note in :data:`notes` says why)."""
+    key = name + ":" + hashlib.sha256(source).hexdigest()
+    if key in _loaded:
+        return _loaded[key]
+    lib = _load(name, source)
+    if lib is not None:
+        for fn, (res, args) in signatures.items():
+            f = getattr(lib, fn)
+            f.restype = _TYPES[res]
+            f.argtypes = [_TYPES[c] for c in args]
+    _loaded[key] = lib
+    return lib
+
+
+def _load(name: str, source: bytes) -> ctypes.CDLL | None:
+    cc = compiler()
+    ident = _identity(source)
+    kind = "clib-" + name
+    payload = _store.fetch(kind, ident) if _store is not None else None
+    if payload is None:
+        if cc is None:
+            notes.append(f"{name}: no C compiler (set CC or install cc)")
+            return None
+        payload = _build(name, source, cc)
+        if payload is None:
+            return None
+        if _store is not None:
+            _store.store(kind, ident, payload)
+    return _open(name, payload)
+
+
+def _build(name: str, source: bytes, cc: str) -> bytes | None:
+    """The shared library's bytes, built in a private temporary folder."""
+    with tempfile.TemporaryDirectory(prefix="bgfdi-cc-") as tmp:
+        src, out = os.path.join(tmp, name + ".c"), os.path.join(tmp, name + ".so")
+        with open(src, "wb") as fh:
+            fh.write(source)
+        for native in (NATIVE, ()):
+            try:
+                done = subprocess.run([cc, *FLAGS, *native, "-o", out, src, "-lm"], capture_output=True,
+                                      timeout=TIMEOUT_S, stdin=subprocess.DEVNULL)
+            except (OSError, subprocess.TimeoutExpired) as exc:
+                notes.append(f"{name}: the C compiler {cc} failed to run ({exc})")
+                return None
+            if done.returncode == 0 and os.path.exists(out):
+                break
+        if done.returncode != 0 or not os.path.exists(out):
+            lines = done.stderr.decode(errors="replace").strip().splitlines() or ["no message"]
+            first = next((line for line in lines if "error" in line), lines[0])
+            notes.append(f"{name}: {cc} could not build it ({first})")
+            return None
+        with open(out, "rb") as fh:
+            return fh.read()
+
+
+def _open(name: str, payload: bytes) -> ctypes.CDLL | None:
+    """Load library bytes from a private temporary copy (removed once loaded, where the system allows)."""
+    tmp = tempfile.mkdtemp(prefix="bgfdi-lib-")          # 0700
+    path = os.path.join(tmp, name + ".so")
+    try:
+        with open(path, "wb") as fh:
+            fh.write(payload)
+        try:
+            return ctypes.CDLL(path)
+        except OSError as exc:
+            notes.append(f"{name}: the built library does not load ({exc})")
+            return None
+    finally:
+        try:
+            os.unlink(path)
+            os.rmdir(tmp)
+        except OSError:
+            pass
+
+
+def source(package_file: str, name: str) -> bytes:
+    """The C source ``name`` beside the module file ``package_file``."""
+    with open(os.path.join(os.path.dirname(os.path.abspath(package_file)), name), "rb") as fh:
+        return fh.read()
+

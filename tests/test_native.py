@@ -1,0 +1,119 @@
+"""The C kernels' builder and loader (optim.native): a library is built by the machine's compiler,
+kept by a store and loaded again without a compiler; a build that fails, a missing compiler and a
+planted or damaged entry of bgfdi's disk cache each leave a note and a working process (the
+kernels fall back to numba or numpy), never a crash or a foreign library loaded."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from optim import native
+
+pytestmark = pytest.mark.skipif(native.compiler() is None, reason="no C compiler on this machine")
+
+SOURCE = b"#include <stdint.h>\nint64_t add3(int64_t a) { return a + 3; }\n"
+SIG = {"add3": ("i", "i")}
+
+
+class DictStore:
+    """A store in memory, counting what it was asked."""
+
+    def __init__(self) -> None:
+        self.entries: dict = {}
+        self.fetches = 0
+
+    def fetch(self, kind, source):
+        self.fetches += 1
+        return self.entries.get((kind, source))
+
+    def store(self, kind, source, payload):
+        self.entries[(kind, source)] = payload
+        return True
+
+    def ready(self):
+        return True
+
+
+@pytest.fixture
+def fresh(monkeypatch):
+    """No library loaded in this process, no store: each test sets its own."""
+    monkeypatch.setattr(native, "_loaded", {})
+    monkeypatch.setattr(native, "_store", None)
+    monkeypatch.setattr(native, "notes", [])
+
+
+def test_a_built_library_is_kept_and_loaded_again_without_a_compiler(fresh, monkeypatch):
+    store = DictStore()
+    native.use_store(store)
+    lib = native.load("t_add", SOURCE, SIG)
+    assert lib.add3(4) == 7
+    assert len(store.entries) == 1 and next(iter(store.entries))[0] == "clib-t_add"
+    monkeypatch.setattr(native, "_loaded", {})
+    monkeypatch.setattr(native, "compiler", lambda: None)      # the build cannot run: the store serves
+    monkeypatch.setattr(native, "_build", lambda *a: pytest.fail("built again"))
+    again = native.load("t_add", SOURCE, SIG)
+    assert again.add3(-10) == -7
+
+
+def test_no_compiler_and_a_failed_build_leave_a_note_and_none(fresh, monkeypatch):
+    assert native.load("t_bad", b"int broken( { return ; }\n", {}) is None
+    assert "t_bad:" in native.notes[-1] and "error" in native.notes[-1]
+    monkeypatch.setattr(native, "compiler", lambda: None)
+    assert native.load("t_none", SOURCE, SIG) is None
+    assert "no C compiler" in native.notes[-1]
+
+
+def test_the_library_depends_on_source_flags_and_processor(monkeypatch):
+    a = native._identity(SOURCE)
+    assert a != native._identity(SOURCE + b"\n")
+    monkeypatch.setattr(native, "FLAGS", native.FLAGS + ("-O0",))
+    assert a != native._identity(SOURCE)
+    monkeypatch.undo()
+    monkeypatch.setattr(native, "cpu", lambda: "another processor")
+    assert a != native._identity(SOURCE)
+
+
+def test_a_planted_or_damaged_cache_entry_is_never_loaded(fresh, tmp_path, monkeypatch):
+    """bgfdi's disk cache as the store: an entry written by someone without the folder's key (a
+    library of theirs), or a kept library cut short, is refused and the library built again."""
+    from fdi import diskcache, kernels
+    monkeypatch.setenv("BGFDI_CACHE", "on")
+    monkeypatch.setenv("BGFDI_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(diskcache, "_state", {})
+    native.use_store(kernels._Store())
+    assert native.has_store()
+    assert native.load("t_add", SOURCE, SIG).add3(1) == 4
+    entry = tmp_path / "cache" / diskcache.entry_name("clib-t_add", native._identity(SOURCE))
+    good = entry.read_bytes()
+    other = SOURCE.replace(b"a + 3", b"a + 1000")
+    for planted in (good[:len(good) // 2], good[:len(diskcache.MAGIC)] + b"\0" * 32 + native._build("x", other,
+                                                                                                    native.compiler())):
+        entry.write_bytes(planted)
+        monkeypatch.setattr(native, "_loaded", {})
+        assert native.load("t_add", SOURCE, SIG).add3(1) == 4          # built again: theirs not loaded
+        assert entry.read_bytes() != planted                            # and the entry stored anew
+
+
+def test_auto_takes_c_when_libraries_are_kept_and_the_numbers_do_not_change(fresh):
+    """With a store, ``auto`` runs C; the objective's kernels give numba's numbers (test_kernels
+    compares every function): here eq. (17) on one row, against its closed form."""
+    from fdi import kernels as fk
+    from optim import kernels
+    native.use_store(DictStore())
+    before = kernels.use("auto")
+    try:
+        assert kernels.path() == "c"
+        jit = fk.jit()
+        assert jit.__name__ == "fdi._native"
+        t = np.linspace(0.0, 2.0, 5)
+        got = jit.incipient17(t, np.array([0.5]), 2.0, np.array([0.1]))
+        tau = np.maximum(t - 0.5, 0.0)
+        assert np.allclose(got[0], np.where(t >= 0.5, 1.0 / (0.5 - 0.1 * tau), 2.0), rtol=1e-15)
+    finally:
+        kernels.use(before)
+
+
+def test_kernels_paths_are_checked():
+    from optim import kernels
+    with pytest.raises(ValueError, match="expected one of auto, c, numba, numpy"):
+        kernels.use("fortran")
