@@ -159,9 +159,9 @@ def _words(a: np.ndarray, code: str, keep: list, shared: bool) -> list[int]:
         raise ValueError("fused_cost: an argument of more than four dimensions")
     words = [c.ctypes.data, *c.shape, *([0] * (4 - c.ndim))]
     if shared and c is a:
-        if len(_kept) >= KEPT:
-            for k in [k for k, v in _kept.items() if v[0]() is None] or list(_kept):
-                del _kept[k]
+        if len(_kept) >= KEPT:          # the dead first, else all (threads may prune at once)
+            for k in [k for k, v in list(_kept.items()) if v[0]() is None] or list(_kept):
+                _kept.pop(k, None)
         _kept[id(a)] = (weakref.ref(a), words, a.shape)
     else:
         keep.append(c)                  # alive until the call returns

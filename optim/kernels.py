@@ -47,6 +47,8 @@ def use(path: str) -> str:
         raise ValueError(f"kernels path {path!r}: expected one of {', '.join(PATHS)}")
     before = _wanted
     _wanted = path
+    for key in [k for k in _loaded if k.startswith("auto:")]:
+        del _loaded[key]                     # auto decides again
     return before
 
 
@@ -84,10 +86,14 @@ def compiled(package: str) -> ModuleType | None:
         return _module(package + "._native")
     if path == "numba":
         return _module(package + "._jit")
-    from . import native
-    if native.has_store() or not _numba_installed():
-        return _module(package + "._native") or _module(package + "._jit")
-    return _module(package + "._jit") or _module(package + "._native")
+    key = "auto:" + package                  # decided once per process (a store's check reads the disk)
+    if key not in _loaded:
+        from . import native
+        if native.has_store() or not _numba_installed():
+            _loaded[key] = _module(package + "._native") or _module(package + "._jit")
+        else:
+            _loaded[key] = _module(package + "._jit") or _module(package + "._native")
+    return _loaded[key]
 
 
 def jit() -> ModuleType | None:
