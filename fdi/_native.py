@@ -5,15 +5,17 @@ their signatures and numbers, for processes that should not pay numba's start (0
 Each wrapper hands C-contiguous arrays of the C function's types and allocates the results. The
 fused objective's seventy arguments travel as one descriptor (five int64 words per argument: an
 array's address and dimensions, or an integer) and one double per argument; the words of the
-arrays an objective's calls share are kept by identity (behind weak references), so a call
-describes only its own population's arrays."""
+arrays an objective's calls share are described once (found by identity, behind weak
+references), so a call describes only its own population's arrays (20 us a call, not 130)."""
 from __future__ import annotations
 
 import weakref
+from dataclasses import dataclass
 
 import numpy as np
 
 from optim import native
+from optim.native import address as _at
 
 _SIGNATURES = {
     "rk4_19": ("r", "piidpppdp"),
@@ -35,9 +37,11 @@ if _lib is None:
 FUSED_TYPES = "ffiiffffi" "ffbifffx" "ibbf" "iinff" "fbiiiif" "fiiinnnn" "ififbiffnbxn" "niiiiinffiniiifif"
 assert len(FUSED_TYPES) == _lib.fused_arity() == 70
 _DTYPES = {"f": np.float64, "i": np.int64, "b": np.bool_}
-FRESH = {1, 2, 3, 4, 5, 6, 7, 8, 15}      # the population's arrays (onsets, decoded structure, eq. 16/18, span)
-_kept: dict[int, tuple[weakref.ref, list[int], tuple]] = {}
-KEPT = 4096
+FRESH = (1, 2, 3, 4, 5, 6, 7, 8, 15)      # the population's arrays (onsets, decoded structure, eq. 16/18, span)
+SHARED = [k for k, c in enumerate(FUSED_TYPES) if c in "fib" and k not in FRESH]
+NUMBERS = [k for k, c in enumerate(FUSED_TYPES) if c in "nx"]
+_templates: dict[tuple, "_Template"] = {}
+TEMPLATES = 256
 
 
 def _check(code: int) -> None:
@@ -59,8 +63,8 @@ def rk4_19(tau, p0, b5, b6, b7, step):
     pop, n = tau.shape
     out = np.empty((pop, n))
     b5, b6, b7 = _f(b5), _f(b6), _f(b7)
-    _check(_lib.rk4_19(tau.ctypes.data, pop, n, float(p0), b5.ctypes.data, b6.ctypes.data, b7.ctypes.data,
-                       float(step), out.ctypes.data))
+    _check(_lib.rk4_19(_at(tau), pop, n, float(p0), _at(b5), _at(b6), _at(b7),
+                       float(step), _at(out)))
     return out
 
 
@@ -69,7 +73,7 @@ def weighted_median(points, weights):
     points, weights = _f(points), _f(weights)
     n, m = points.shape
     out = np.zeros(n)
-    _check(_lib.weighted_median(points.ctypes.data, weights.ctypes.data, n, m, out.ctypes.data))
+    _check(_lib.weighted_median(_at(points), _at(weights), n, m, _at(out)))
     return out
 
 
@@ -77,8 +81,8 @@ def intermittent(t, t0, nominal, value, period):
     """:func:`fdi._jit.intermittent`."""
     t, t0, value, period = _f(t), _f(t0), _f(value), _f(period)
     out = np.empty((t0.shape[0], t.shape[0]))
-    _check(_lib.intermittent(t.ctypes.data, t.shape[0], t0.ctypes.data, t0.shape[0], float(nominal),
-                             value.ctypes.data, period.ctypes.data, out.ctypes.data))
+    _check(_lib.intermittent(_at(t), t.shape[0], _at(t0), t0.shape[0], float(nominal),
+                             _at(value), _at(period), _at(out)))
     return out
 
 
@@ -86,8 +90,8 @@ def incipient17(t, t0, nominal, b2):
     """:func:`fdi._jit.incipient17`."""
     t, t0, b2 = _f(t), _f(t0), _f(b2)
     out = np.empty((t0.shape[0], t.shape[0]))
-    _check(_lib.incipient17(t.ctypes.data, t.shape[0], t0.ctypes.data, t0.shape[0], float(nominal), b2.ctypes.data,
-                            out.ctypes.data))
+    _check(_lib.incipient17(_at(t), t.shape[0], _at(t0), t0.shape[0], float(nominal), _at(b2),
+                            _at(out)))
     return out
 
 
@@ -96,8 +100,8 @@ def exp_arguments(t, t0, model, b):
     t, t0, b = _f(t), _f(t0), _f(b)
     rows, n = b.shape[0], t.shape[0]
     out = np.empty((1 if model == 1 else 2, rows, n))
-    _check(_lib.exp_arguments(t.ctypes.data, n, t0.ctypes.data, int(model), b.ctypes.data, rows, b.shape[1],
-                              out.ctypes.data))
+    _check(_lib.exp_arguments(_at(t), n, _at(t0), int(model), _at(b), rows, b.shape[1],
+                              _at(out)))
     return out
 
 
@@ -106,8 +110,8 @@ def incipient_exp(t, t0, nominal, model, b, e):
     t, t0, b, e = _f(t), _f(t0), _f(b), _f(e)
     rows, n = b.shape[0], t.shape[0]
     out = np.empty((rows, n))
-    _check(_lib.incipient_exp(t.ctypes.data, n, t0.ctypes.data, float(nominal), int(model), b.ctypes.data, rows,
-                              b.shape[1], e.ctypes.data, out.ctypes.data))
+    _check(_lib.incipient_exp(_at(t), n, _at(t0), float(nominal), int(model), _at(b), rows,
+                              b.shape[1], _at(e), _at(out)))
     return out
 
 
@@ -116,8 +120,8 @@ def fir(x, half, start, count, stride):
     x, half = _f(x), _f(half)
     rows = x.shape[0]
     out = np.empty((rows, half.shape[1], count))
-    _check(_lib.fir(x.ctypes.data, rows, x.shape[1], half.ctypes.data, half.shape[0], half.shape[1], int(start),
-                    int(count), int(stride), out.ctypes.data))
+    _check(_lib.fir(_at(x), rows, x.shape[1], _at(half), half.shape[0], half.shape[1], int(start),
+                    int(count), int(stride), _at(out)))
     return out
 
 
@@ -137,57 +141,98 @@ def decode_rows(real, bits, log, scale, powers, vpow, zeta, t_last):
     counts = np.zeros((nf, 2), dtype=np.int64)
     span19 = np.zeros(nf)
     level = np.zeros(nf, dtype=np.bool_)
-    _check(_lib.decode_rows(real.ctypes.data, pop, real.shape[1], bits.ctypes.data, bits.shape[1], log.ctypes.data,
-                            scale.ctypes.data, powers.ctypes.data, powers.shape[1], vpow.ctypes.data, zeta.ctypes.data,
-                            float(t_last), nf, kinds.ctypes.data, models.ctypes.data, values.ctypes.data,
-                            periods.ctypes.data, b.ctypes.data, pre_at.ctypes.data, counts.ctypes.data,
-                            span19.ctypes.data, level.ctypes.data))
+    _check(_lib.decode_rows(_at(real), pop, real.shape[1], _at(bits), bits.shape[1], _at(log),
+                            _at(scale), _at(powers), powers.shape[1], _at(vpow), _at(zeta),
+                            float(t_last), nf, _at(kinds), _at(models), _at(values),
+                            _at(periods), _at(b), _at(pre_at), _at(counts),
+                            _at(span19), _at(level)))
     return kinds, models, values, periods, b, pre_at, counts, span19, level
 
 
-def _words(a: np.ndarray, code: str, keep: list, shared: bool) -> list[int]:
-    """An array argument's five words (address, four dimensions). A ``shared`` argument's (one the
-    calls of an objective share) are kept by identity, behind a weak reference: an array's address
-    never changes, and its shape and type are checked again."""
-    if shared:
-        got = _kept.get(id(a))
-        if got is not None and got[0]() is a and a.shape == got[2] and a.dtype == _DTYPES[code] \
-                and a.flags.c_contiguous:
-            return got[1]
+def _words(a, code: str, keep: list) -> list[int]:
+    """An array argument's five words (address, four dimensions), converted to its C type if need be
+    (the converted copy kept alive in ``keep`` until the call returns)."""
     c = np.ascontiguousarray(a, dtype=_DTYPES[code])
     if c.ndim > 4:
         raise ValueError("fused_cost: an argument of more than four dimensions")
-    words = [c.ctypes.data, *c.shape, *([0] * (4 - c.ndim))]
-    if shared and c is a:
-        if len(_kept) >= KEPT:          # the dead first, else all (threads may prune at once)
-            for k in [k for k, v in list(_kept.items()) if v[0]() is None] or list(_kept):
-                _kept.pop(k, None)
-        _kept[id(a)] = (weakref.ref(a), words, a.shape)
-    else:
-        keep.append(c)                  # alive until the call returns
-    return words
+    if c is not a:                          # a copy, or a view of a: alive until the call returns
+        keep.append(c)
+    return [_at(c), *c.shape, *([0] * (4 - c.ndim))]
+
+
+@dataclass
+class _Template:
+    """The descriptor of one objective's shared arguments (:data:`SHARED`), and what checks that
+    a call passes the very same arrays: weak references to them, their shapes and type codes."""
+    refs: list
+    shapes: list
+    chars: list
+    words: np.ndarray
+    numbers: np.ndarray
+
+    def matches(self, shared: list) -> bool:
+        return all(r() is x and x.shape == s and x.dtype.char == c
+                   for r, x, s, c in zip(self.refs, shared, self.shapes, self.chars))
+
+
+def _template(args: tuple, shared: list) -> _Template:
+    keep: list = []
+    words = np.zeros(5 * len(FUSED_TYPES), dtype=np.int64)
+    numbers = np.zeros(len(FUSED_TYPES))
+    refs, shapes, chars = [], [], []
+    for k, (a, code) in enumerate(zip(args, FUSED_TYPES)):
+        if code == "n":
+            words[5 * k] = int(a)
+        elif code == "x":
+            numbers[k] = float(a)
+        elif k not in FRESH:
+            c = np.ascontiguousarray(a, dtype=_DTYPES[code])
+            if c is not a and c.base is not a:      # a converted copy: converted on every call instead
+                return None
+            words[5 * k:5 * k + 5] = _words(a, code, keep)
+    for a in shared:
+        refs.append(weakref.ref(a))
+        shapes.append(a.shape)
+        chars.append(a.dtype.char)
+    return _Template(refs, shapes, chars, words, numbers)
 
 
 def fused_cost(*args):
-    """:func:`fdi._jit.fused_cost` (the same seventy arguments and three results)."""
+    """:func:`fdi._jit.fused_cost` (the same seventy arguments and three results). The arguments an
+    objective's calls share are described once (:class:`_Template`, found by their identities and
+    checked to be the same arrays); a call describes its population's (:data:`FRESH`)."""
     if len(args) != len(FUSED_TYPES):
         raise TypeError(f"fused_cost takes {len(FUSED_TYPES)} arguments ({len(args)} given)")
-    D: list[int] = []
-    X = np.zeros(len(args))
+    shared = [args[k] for k in SHARED]
+    key = tuple(map(id, shared)) + tuple(args[k] for k in NUMBERS)
+    t = _templates.get(key)
+    if t is None or not t.matches(shared):
+        if not all(isinstance(a, np.ndarray) for a in shared):
+            shared = [np.asarray(a) for a in shared]
+        t = _template(args, shared)
+        if t is not None:
+            if len(_templates) >= TEMPLATES:
+                _templates.clear()
+            _templates[key] = t
     keep: list = []
-    for k, (a, code) in enumerate(zip(args, FUSED_TYPES)):
-        if code == "n":
-            D += [int(a), 0, 0, 0, 0]
-        elif code == "x":
-            X[k] = float(a)
-            D += [0, 0, 0, 0, 0]
-        else:
-            D += _words(a, code, keep, k not in FRESH)
-    d = np.array(D, dtype=np.int64)
-    nf, pop = args[2].shape
+    if t is None:                           # a shared argument of another type: every word this call
+        d = np.zeros(5 * len(FUSED_TYPES), dtype=np.int64)
+        X = np.zeros(len(FUSED_TYPES))
+        for k, (a, code) in enumerate(zip(args, FUSED_TYPES)):
+            if code == "n":
+                d[5 * k] = int(a)
+            elif code == "x":
+                X[k] = float(a)
+            else:
+                d[5 * k:5 * k + 5] = _words(a, code, keep)
+    else:
+        d, X = t.words.copy(), t.numbers
+        for k in FRESH:
+            d[5 * k:5 * k + 5] = _words(args[k], FUSED_TYPES[k], keep)
+    pop = args[2].shape[1]
     nlin = args[46].shape[0]
     total = np.empty(pop)
     deltas = np.zeros((nlin, pop))
     invalid = np.zeros(pop, dtype=np.bool_)
-    _check(_lib.fused_cost(d.ctypes.data, X.ctypes.data, total.ctypes.data, deltas.ctypes.data, invalid.ctypes.data))
+    _check(_lib.fused_cost(_at(d), _at(X), _at(total), _at(deltas), _at(invalid)))
     return total, deltas, invalid

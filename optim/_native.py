@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import native
+from .native import address as _at
 
 _lib = native.load("bgfdi_trials", native.source(__file__, "trials.c"), {"trials": ("r", "piipi" + "p" * 14 + "ppp")})
 if _lib is None:
@@ -30,6 +31,6 @@ def trials(x, cols, F_old, CR_old, redraw_F, new_F, redraw_CR, new_CR, order, pi
     F, CR = np.empty(n), np.empty(n)
     keep = [x, cols, _f(F_old), _f(CR_old), _f(redraw_F), _f(new_F), _f(redraw_CR), _f(new_CR), _i(order), _i(pick),
             _i(hop1), _i(hop2), _f(cross), _i(forced), _f(lo), _f(hi)]
-    a = [k.ctypes.data for k in keep]
-    _lib.trials(a[0], n, D, a[1], m, *a[2:], trial.ctypes.data, F.ctypes.data, CR.ctypes.data)
+    a = [_at(k) for k in keep]
+    _lib.trials(a[0], n, D, a[1], m, *a[2:], _at(trial), _at(F), _at(CR))
     return trial, F, CR

@@ -175,6 +175,18 @@ def _open(name: str, payload: bytes) -> ctypes.CDLL | None:
             pass
 
 
+_buffer = ctypes.c_char.from_buffer
+
+
+def address(a) -> int:
+    """The address of a C-contiguous numpy array's first element: 0.3 us by the buffer protocol
+    where ``a.ctypes.data`` takes 0.9 us (a read-only or empty array takes that way)."""
+    try:
+        return ctypes.addressof(_buffer(a))
+    except (TypeError, ValueError):
+        return a.ctypes.data
+
+
 def source(package_file: str, name: str) -> bytes:
     """The C source ``name`` beside the module file ``package_file``."""
     with open(os.path.join(os.path.dirname(os.path.abspath(package_file)), name), "rb") as fh:
