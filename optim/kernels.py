@@ -9,7 +9,8 @@
 
 ``auto`` (the default) takes C when built libraries outlive the process (a store is set,
 :func:`optim.native.use_store`: bgfdi's disk cache) and a compiler or a built library is at hand,
-else numba, else C built for this process, else numpy. ``BGFDI_KERNELS`` in the environment
+else numba, else numpy (a library built for one process alone costs it about 1.5 s: asked for
+with ``c``). ``BGFDI_KERNELS`` in the environment
 (``auto``, ``c``, ``numba``, ``numpy``) or :func:`use` chooses; ``BGFDI_NUMBA=0`` (older) means
 numpy.
 
@@ -71,11 +72,6 @@ def _module(name: str) -> ModuleType | None:
     return _loaded[name]
 
 
-def _numba_installed() -> bool:
-    import importlib.util
-    return importlib.util.find_spec("numba") is not None
-
-
 def compiled(package: str) -> ModuleType | None:
     """The compiled module of ``package`` (``optim`` or ``fdi``) on the path in use: its
     ``_native`` (C) or ``_jit`` (numba) module, imported on first use; None on the numpy path."""
@@ -89,10 +85,10 @@ def compiled(package: str) -> ModuleType | None:
     key = "auto:" + package                  # decided once per process (a store's check reads the disk)
     if key not in _loaded:
         from . import native
-        if native.has_store() or not _numba_installed():
+        if native.has_store():
             _loaded[key] = _module(package + "._native") or _module(package + "._jit")
         else:
-            _loaded[key] = _module(package + "._jit") or _module(package + "._native")
+            _loaded[key] = _module(package + "._jit")
     return _loaded[key]
 
 

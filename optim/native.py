@@ -36,7 +36,7 @@ from typing import Protocol
 FLAGS = ("-O3", "-std=c99", "-fPIC", "-shared", "-ffp-contract=off", "-fno-math-errno", "-fno-trapping-math",
          "-fno-fast-math")
 NATIVE = ("-march=native",)     # this machine's vector units (its CPU is in the library's key); dropped if refused
-TIMEOUT_S = 120.0       # a build that takes longer is abandoned (the callers fall back)
+TIMEOUT_S = 60.0        # a build that takes longer is abandoned (the callers fall back); it takes 1-2 s
 
 _TYPES = {"d": ctypes.c_double, "i": ctypes.c_int64, "p": ctypes.c_void_p, "r": ctypes.c_int}
 
