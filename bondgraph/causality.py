@@ -183,9 +183,14 @@ class _Assigner:
                 self.propagate()
                 storage[e.name] = want
             if storage[e.name] != want:
+                twin = self._twin_storage(e.name, other) if diag else None
                 self.problems.append(
                     f"storage {e.name} ({e.kind}) is forced into {storage[e.name]} causality "
-                    + ("(its state is unknown to the diagnosis: measure a variable next to it)" if diag else
+                    + (f"(its state follows {twin}'s: both on {other}, whose common "
+                       f"{'flow' if e.kind == 'C' else 'effort'} is the rate of both; write them as one "
+                       f"{e.kind} whose {'effort law in q' if e.kind == 'C' else 'flow law in p'} sums theirs, "
+                       f"docs/model-format.md)" if twin else
+                       "(its state is unknown to the diagnosis: measure a variable next to it)" if diag else
                        "(a dependent storage element: the simulator reduces it, see bondgraph.simulation)"))
         self._free_controlled_junctions()
         resistors = self._resistors()
@@ -198,6 +203,20 @@ class _Assigner:
                                      f"from it and none gives it (its {what} is undetermined)")
         return Causality(self.purpose, dict(self.effort_to), storage, resistors, strong, tuple(self.problems),
                          detectors=frozenset(self.detectors))
+
+    def _twin_storage(self, name: str, junction: str) -> str | None:
+        """Another storage element of ``name``'s kind on the same junction when that junction makes
+        their states dependent (two C on a 1-junction share their flow, the rate of each charge; two
+        I on a 0-junction share their effort): e.g. a core and an air gap in series in a magnetic
+        circuit, two springs in series. None otherwise."""
+        kind = self.model.elements[name].kind
+        if self.kind.get(junction) != ("1" if kind == "C" else "0"):
+            return None
+        for _, o, _ in self.ports[junction]:
+            e = self.model.elements.get(o)
+            if o != name and e is not None and e.kind == kind:
+                return o
+        return None
 
     def _free_controlled_junctions(self) -> None:
         for j in self.model.junctions.values():
