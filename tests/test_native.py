@@ -117,3 +117,23 @@ def test_kernels_paths_are_checked():
     from optim import kernels
     with pytest.raises(ValueError, match="expected one of auto, c, numba, numpy"):
         kernels.use("fortran")
+
+
+def test_a_misspelt_kernels_setting_is_refused_by_the_cli(monkeypatch, capsys):
+    from fdi.app.cli import main
+    monkeypatch.setenv("BGFDI_KERNELS", "fortran")
+    assert main(["check", "cycab_steering"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["bgfdi: error: BGFDI_KERNELS=fortran: expected one of auto, c, numba, numpy (or unset it: auto)"]
+
+
+def test_a_compiler_that_fails_leaves_the_numbers_to_another_path(fresh, monkeypatch, tmp_path):
+    """$CC naming a program that exits 1 (here /bin/false's kind): no library, a note, and the
+    kernels' switch takes numba or numpy; the diagnosis does not notice."""
+    fake = tmp_path / "cc"
+    fake.write_text("#!/bin/sh\nexit 1\n")
+    fake.chmod(0o755)
+    monkeypatch.setenv("CC", str(fake))
+    assert native.load("t_fails", SOURCE, SIG) is None
+    assert native.notes[-1].startswith(f"t_fails: {fake} could not build it")
+

@@ -1311,6 +1311,7 @@ def _run(argv: list[str] | None) -> int:
     try:
         if args.quiet and args.verbose:
             raise UsageError("-q and -v: give one of them")
+        check_kernels_setting()
         if args.command == "monitor":
             check_monitor_options(args)
         if args.command == "diagnose":
@@ -1347,6 +1348,16 @@ def _run(argv: list[str] | None) -> int:
     finally:
         sources.close()
         _cache_notes()
+
+
+def check_kernels_setting() -> None:
+    """``BGFDI_KERNELS``, when set, names a path (optim.kernels.PATHS): a typo would otherwise run
+    another path than the one asked for, silently."""
+    import os
+    given = os.environ.get("BGFDI_KERNELS")
+    if given is not None and given.strip().lower() not in ("auto", "c", "numba", "numpy"):
+        raise UsageError(f"BGFDI_KERNELS={escaped(given[:40])}: expected one of auto, c, numba, numpy "
+                         f"(or unset it: auto)")
 
 
 def _cache_notes() -> None:
