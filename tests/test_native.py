@@ -137,3 +137,28 @@ def test_a_compiler_that_fails_leaves_the_numbers_to_another_path(fresh, monkeyp
     assert native.load("t_fails", SOURCE, SIG) is None
     assert native.notes[-1].startswith(f"t_fails: {fake} could not build it")
 
+
+
+def test_a_diagnosis_on_the_c_path_is_numba_s_to_the_bit():
+    """CyCab scenario 2 diagnosed end to end (a small search: population 30, 20 generations) on the
+    C kernels and on numba's: the same report, every number (the trials, the objective, the
+    profiles and the medians agree to the bit; tests/test_kernels.py compares them one by one)."""
+    import importlib.util
+
+    from fdi.api import Options, diagnose
+    from fdi.app.resources import reference_data, shipped_model
+    from optim import kernels
+    if importlib.util.find_spec("numba") is None:
+        pytest.skip("numba is not installed")
+    got = {}
+    for path in ("c", "numba"):
+        before = kernels.use(path)
+        try:
+            assert kernels.path() == path
+            report = diagnose(shipped_model("cycab_steering"), reference_data("scenario2.csv"),
+                              Options(pop=30, generations=20, workers=1, seed=2)).to_dict()
+        finally:
+            kernels.use(before)
+        report.pop("timings", None)
+        got[path] = report
+    assert got["c"]["diagnosis"]["faults"] and got["c"] == got["numba"]
