@@ -104,7 +104,11 @@ def load(name: str, source: bytes, signatures: dict[str, tuple[str, str]]) -> ob
     key = name + ":" + hashlib.sha256(source).hexdigest()
     if key in _loaded:
         return _loaded[key]
-    lib = _load(name, source)
+    try:
+        lib = _load(name, source)
+    except OSError as exc:                  # no temporary folder, a full disk: the other paths run
+        notes.append(f"{name}: cannot build or load it here ({exc.strerror or exc})")
+        lib = None
     if lib is not None:
         for fn, (res, args) in signatures.items():
             f = getattr(lib, fn)

@@ -162,3 +162,15 @@ def test_a_diagnosis_on_the_c_path_is_numba_s_to_the_bit():
         report.pop("timings", None)
         got[path] = report
     assert got["c"]["diagnosis"]["faults"] and got["c"] == got["numba"]
+
+
+def test_no_room_for_the_build_leaves_a_note_not_a_crash(fresh, monkeypatch, tmp_path):
+    """A temporary folder that cannot be used (here a file where the folder should be; a full disk,
+    a read-only TMPDIR alike): no library, a note naming why, and no exception out of the loader
+    (the kernels' switch then takes numba or numpy)."""
+    import tempfile
+    blocked = tmp_path / "not_a_folder"
+    blocked.write_text("")
+    monkeypatch.setattr(tempfile, "tempdir", str(blocked))
+    assert native.load("t_noroom", SOURCE, SIG) is None
+    assert native.notes[-1].startswith("t_noroom: cannot build or load it here")
