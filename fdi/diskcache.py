@@ -90,6 +90,11 @@ def _private(st: os.stat_result, what: str, path: Path, mask: int) -> bool:
     return True
 
 
+def ready() -> bool:
+    """True when entries can be read and written here (the cache on, its folder and key checked)."""
+    return _ready() is not None
+
+
 def _ready() -> tuple[Path, bytes] | None:
     """The checked folder and the HMAC key, or None (cache off, with a note)."""
     if not enabled():

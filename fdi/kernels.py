@@ -30,29 +30,15 @@ from __future__ import annotations
 from types import ModuleType
 
 
-class _Store:
-    """:mod:`fdi.diskcache` as :mod:`optim.native`'s store of built libraries."""
-
-    def fetch(self, kind: str, source: bytes) -> bytes | None:
-        from . import diskcache
-        return diskcache.fetch(kind, source)
-
-    def store(self, kind: str, source: bytes, payload: bytes) -> bool:
-        from . import diskcache
-        return diskcache.store(kind, source, payload)
-
-    def ready(self) -> bool:
-        from . import diskcache
-        return diskcache._ready() is not None
-
-
 def _switch() -> ModuleType:
     """:mod:`optim.kernels`, which holds the one switch for both packages' compiled code (imported
     when first asked: the optim package brings its engines), with the disk cache as the store of
     built C libraries."""
     from optim import kernels, native
+
+    from . import diskcache
     if native._store is None:
-        native.use_store(_Store())
+        native.use_store(diskcache)         # fetch, store, ready: optim.native.Store's protocol
     return kernels
 
 
@@ -85,3 +71,8 @@ def path() -> str:
     """The path that runs: ``c``, ``numba`` or ``numpy``."""
     jit()
     return _switch().path()
+
+
+def available() -> list[str]:
+    """The compiled paths this machine can run (:func:`optim.kernels.available`)."""
+    return _switch().available()

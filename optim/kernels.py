@@ -37,6 +37,25 @@ def _from_environment() -> str:
     return "auto"
 
 
+def environment_problem() -> str | None:
+    """What is wrong with ``BGFDI_KERNELS`` in the environment, if it is set to no path (read as
+    ``auto``, which would run another path than the one asked for): for a front door to refuse."""
+    given = os.environ.get("BGFDI_KERNELS")
+    if given is None or given.strip().lower() in PATHS:
+        return None
+    return f"BGFDI_KERNELS={given[:40]}: expected one of {', '.join(PATHS)} (or unset it: auto)"
+
+
+def available() -> list[str]:
+    """The compiled paths this machine can run: ``c`` (a C compiler, or a built library kept),
+    ``numba`` (installed)."""
+    import importlib.util
+
+    from . import native
+    return [p for p, ok in (("c", native.compiler() is not None or native.has_store()),
+                            ("numba", importlib.util.find_spec("numba") is not None)) if ok]
+
+
 _wanted = _from_environment()
 _loaded: dict[str, ModuleType | None] = {}
 

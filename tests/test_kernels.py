@@ -13,19 +13,10 @@ from fdi.objective import weighted_median
 from fdi.profiles import incipient
 
 
-def compiled_paths() -> list[str]:
-    """The compiled paths this machine has: numba's (where it is installed), C (where a compiler is)."""
-    import importlib.util
-
-    from optim import native
-    return [p for p, ok in (("numba", importlib.util.find_spec("numba") is not None),
-                            ("c", native.compiler() is not None)) if ok]
-
-
 @pytest.fixture(params=["numpy", "numba", "c"])
 def path(request):
     """Run the test on each path (the compiled ones only where this machine has them)."""
-    if request.param != "numpy" and request.param not in compiled_paths():
+    if request.param != "numpy" and request.param not in kernels.available():
         pytest.skip(f"no {request.param} path here")
     before = kernels.use(request.param)
     assert kernels.enabled() == (request.param != "numpy")
@@ -47,7 +38,7 @@ def both(fn):
     """fn() on the numpy path, then on each compiled path (numba, C) this machine has, which must
     agree with each other to the bit (the C is numba's operations in numba's order); returns
     (numpy's, the first compiled path's)."""
-    paths = compiled_paths()
+    paths = kernels.available()
     if not paths:
         pytest.skip("no compiled path (numba or a C compiler)")
     before = kernels.use("numpy")

@@ -76,11 +76,11 @@ def test_the_library_depends_on_source_flags_and_processor(monkeypatch):
 def test_a_planted_or_damaged_cache_entry_is_never_loaded(fresh, tmp_path, monkeypatch):
     """bgfdi's disk cache as the store: an entry written by someone without the folder's key (a
     library of theirs), or a kept library cut short, is refused and the library built again."""
-    from fdi import diskcache, kernels
+    from fdi import diskcache
     monkeypatch.setenv("BGFDI_CACHE", "on")
     monkeypatch.setenv("BGFDI_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setattr(diskcache, "_state", {})
-    native.use_store(kernels._Store())
+    native.use_store(diskcache)
     assert native.has_store()
     assert native.load("t_add", SOURCE, SIG).add3(1) == 4
     entry = tmp_path / "cache" / diskcache.entry_name("clib-t_add", native._identity(SOURCE))
@@ -143,12 +143,10 @@ def test_a_diagnosis_on_the_c_path_is_numba_s_to_the_bit():
     """CyCab scenario 2 diagnosed end to end (a small search: population 30, 20 generations) on the
     C kernels and on numba's: the same report, every number (the trials, the objective, the
     profiles and the medians agree to the bit; tests/test_kernels.py compares them one by one)."""
-    import importlib.util
-
     from fdi.api import Options, diagnose
     from fdi.app.resources import reference_data, shipped_model
     from optim import kernels
-    if importlib.util.find_spec("numba") is None:
+    if "numba" not in kernels.available():
         pytest.skip("numba is not installed")
     got = {}
     for path in ("c", "numba"):

@@ -399,11 +399,8 @@ def test_compiled_de_trials_are_numpys_to_the_bit():
     random draws in the same order, the same trial points, F and CR bit for bit (ties in the
     costs, points pushed out of bounds, one free real and several), and the generator left in the
     same state; on each compiled path this machine has (numba's, C's)."""
-    import importlib.util
-
-    from optim import kernels, native
-    paths = [p for p, ok in (("numba", importlib.util.find_spec("numba") is not None),
-                             ("c", native.compiler() is not None)) if ok]
+    from optim import kernels
+    paths = kernels.available()
     if not paths:
         pytest.skip("no compiled path (numba or a C compiler)")
     draws = np.random.default_rng(9)

@@ -318,7 +318,7 @@ def diagnose_rows(data_path: Path, workers: int = 1) -> dict:
             "workers": workers,
             "objective_s": sum(e.objective_s for e in est), "estimator_s": sum(e.wall_s for e in est),
             "evaluations": sum(e.evaluations for e in est), "kernels": kernels.path(),
-            "objective": objective_costs(), "jit": {p: jit_costs(p) for p in compiled_paths()} or None,
+            "objective": objective_costs(), "jit": {p: jit_costs(p) for p in kernels.available()} or None,
             "process": process_costs(model, data_path, workers)}
 
 
@@ -327,38 +327,18 @@ def process_costs(model: Path, data_path: Path, workers: int, repeat: int = 3) -
     that fills the caches (the compiled model and the C kernels, where the disk cache is on), the
     least wall and CPU seconds (user + system of the child, ``getrusage``) of ``repeat`` runs; and
     whether the cache was on. None if a run fails."""
-    import resource
-    import subprocess
     import sys
 
     from .. import diskcache
+    from .bench_startup import process_times
     cmd = [sys.executable, "-m", "fdi", "diagnose", str(model), str(data_path), "--workers", str(workers), "-q"]
-
-    def once() -> tuple[float, float] | None:
-        r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-        w0 = time.perf_counter()
-        done = subprocess.run(cmd, capture_output=True)
-        wall = time.perf_counter() - w0
-        r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-        if done.returncode not in (0, 3):
-            return None
-        return wall, (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
-    if once() is None:
-        return None
-    runs = [once() for _ in range(repeat)]
-    if any(r is None for r in runs):
+    try:
+        process_times(cmd)
+        runs = [process_times(cmd) for _ in range(repeat)]
+    except RuntimeError:
         return None
     return {"wall_s": min(w for w, _ in runs), "cpu_s": min(c for _, c in runs), "runs": repeat,
             "cache": diskcache.enabled()}
-
-
-def compiled_paths() -> list[str]:
-    """The compiled kernels' paths this machine has: C (a compiler, or a library kept), numba."""
-    import importlib.util
-
-    from optim import native
-    return [p for p, ok in (("c", native.compiler() is not None or native.has_store()),
-                            ("numba", importlib.util.find_spec("numba") is not None)) if ok]
 
 
 def jit_costs(path: str) -> dict | None:

@@ -25,13 +25,20 @@ def _children_cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def process_cpu(args: list[str], env: dict) -> float:
+def process_cpu(args: list[str], env: dict | None = None) -> float:
     """CPU seconds (user + system) of one child process running ``args``."""
-    before = _children_cpu()
+    return process_times(args, env)[1]
+
+
+def process_times(args: list[str], env: dict | None = None) -> tuple[float, float]:
+    """Wall and CPU seconds (user + system) of one child process running ``args`` (exit 0, or 3:
+    a fault found); a RuntimeError naming its exit otherwise."""
+    before, start = _children_cpu(), time.perf_counter()
     out = subprocess.run(args, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - start
     if out.returncode not in (0, 3):
         raise RuntimeError(f"{' '.join(args)}: exit {out.returncode}: {out.stderr.strip()[-300:]}")
-    return _children_cpu() - before
+    return wall, _children_cpu() - before
 
 
 def startup_row(model: Path, data: Path, repeat: int = 3) -> dict:

@@ -1351,13 +1351,14 @@ def _run(argv: list[str] | None) -> int:
 
 
 def check_kernels_setting() -> None:
-    """``BGFDI_KERNELS``, when set, names a path (optim.kernels.PATHS): a typo would otherwise run
-    another path than the one asked for, silently."""
+    """``BGFDI_KERNELS``, when set, names a path (:func:`optim.kernels.environment_problem`): a typo
+    would otherwise run another path than the one asked for, silently."""
     import os
-    given = os.environ.get("BGFDI_KERNELS")
-    if given is not None and given.strip().lower() not in ("auto", "c", "numba", "numpy"):
-        raise UsageError(f"BGFDI_KERNELS={escaped(given[:40])}: expected one of auto, c, numba, numpy "
-                         f"(or unset it: auto)")
+    if "BGFDI_KERNELS" in os.environ:
+        from optim.kernels import environment_problem
+        problem = environment_problem()
+        if problem:
+            raise UsageError(escaped(problem))
 
 
 def _cache_notes() -> None:
