@@ -6,27 +6,21 @@ The designed truth: the reaction's resistance 1/(k V) grows as dR/dt = 0.004 R f
 so it doubles, the failure value 200 s/m^3, at 400 + ln 2 / 0.004 = 573.3 s."""
 from __future__ import annotations
 
+
 import math
+from functools import partial
 
 import pytest
 
 from fdi.api import Options, diagnose
-from fdi.data import Measurements
 
-from .independent import cstr, measurements
-from .independent import thresholds as calibrated
+from .independent import by_hand, cstr, measurements, thresholds_fixture
 
 MODEL = str(__import__("pathlib").Path(__file__).resolve().parent / "data" / "cstr.yaml")
 B, T0 = 0.004, 400.0
 
-
-def _data(name: str, seed: int, **kw) -> Measurements:
-    return measurements(cstr.simulate, name, seed, **kw)
-
-
-@pytest.fixture(scope="module")
-def thresholds() -> dict:
-    return calibrated(MODEL, cstr.simulate)    # two nominal runs; a third asserted quiet
+_data = partial(measurements, cstr.simulate)    # (name, seed, **the simulator's keywords)
+thresholds = thresholds_fixture(MODEL, cstr.simulate)    # two nominal runs; a third asserted quiet
 
 
 def test_the_residual_is_the_mole_balance():
@@ -36,10 +30,8 @@ def test_the_residual_is_the_mole_balance():
     from bondgraph.model import t
     from fdi.monitor import compiled
     (arr,) = compiled(MODEL).arrs
-    syms = {s.name: s for s in arr.expr.free_symbols}
+    expr, syms, fn = by_hand(arr.expr)
     V, Rrx, Rout = (syms[n] for n in ("V", "Rrx", "Rout"))
-    expr = arr.expr.subs({s: 1 for n, s in syms.items() if n.startswith("beta")})
-    fn = {f.func.__name__: f for f in expr.atoms(sp.core.function.AppliedUndef)}
     hand = fn["F"] - V * sp.Derivative(fn["c"], t) - fn["c"] / Rrx - fn["c"] / Rout
     assert sp.simplify(expr - hand) == 0 or sp.simplify(expr + hand) == 0
 

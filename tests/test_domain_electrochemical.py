@@ -7,27 +7,20 @@ window is 10 s: the residual reads C1 dV/dt with C1 = 1000 F, and over a 1 s win
 alone gave 9.5 A of residual against the fault's 2 A."""
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 
 import pytest
 
 from fdi.api import Options, diagnose
-from fdi.data import Measurements
 
-from .independent import cell, measurements
-from .independent import thresholds as calibrated
+from .independent import by_hand, cell, measurements, thresholds_fixture
 
 MODEL = str(Path(__file__).resolve().parent / "data" / "li_ion_cell.yaml")
 T0 = 300.0
 
-
-def _data(name: str, seed: int, **kw) -> Measurements:
-    return measurements(cell.simulate, name, seed, **kw)
-
-
-@pytest.fixture(scope="module")
-def thresholds() -> dict:
-    return calibrated(MODEL, cell.simulate)    # two nominal runs; a third asserted quiet
+_data = partial(measurements, cell.simulate)    # (name, seed, **the simulator's keywords)
+thresholds = thresholds_fixture(MODEL, cell.simulate)    # two nominal runs; a third asserted quiet
 
 
 def test_the_residual_is_the_polarisation_pair_s_balance():
@@ -38,9 +31,7 @@ def test_the_residual_is_the_polarisation_pair_s_balance():
     from bondgraph.model import t
     from fdi.monitor import compiled
     (arr,) = compiled(MODEL).arrs
-    syms = {s.name: s for s in arr.expr.free_symbols}
-    expr = arr.expr.subs({s: 1 for n, s in syms.items() if n.startswith("beta")})
-    fn = {f.func.__name__: f for f in expr.atoms(sp.core.function.AppliedUndef)}
+    expr, syms, fn = by_hand(arr.expr)
     R0, R1, C1 = (syms[n] for n in ("R0", "R1", "C1"))
     u1 = fn["E"] - R0 * fn["I"] - fn["V"]
     hand = C1 * sp.diff(u1, t) - fn["I"] + u1 / R1

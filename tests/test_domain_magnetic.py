@@ -9,27 +9,20 @@ in integral causality and no residual; ``bgfdi check`` now names the pair and th
 MMF law sums theirs), which this model takes."""
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 
 import pytest
 
 from fdi.api import Options, diagnose
-from fdi.data import Measurements
 
-from .independent import measurements, solenoid
-from .independent import thresholds as calibrated
+from .independent import by_hand, measurements, solenoid, thresholds_fixture
 
 MODEL = str(Path(__file__).resolve().parent / "data" / "solenoid.yaml")
 T0 = 1.0
 
-
-def _data(name: str, seed: int, **kw) -> Measurements:
-    return measurements(solenoid.simulate, name, seed, **kw)
-
-
-@pytest.fixture(scope="module")
-def thresholds() -> dict:
-    return calibrated(MODEL, solenoid.simulate)    # two nominal runs; a third asserted quiet
+_data = partial(measurements, solenoid.simulate)    # (name, seed, **the simulator's keywords)
+thresholds = thresholds_fixture(MODEL, solenoid.simulate)    # two nominal runs; a third asserted quiet
 
 
 def test_the_residual_is_the_coil_s_voltage_balance():
@@ -39,9 +32,7 @@ def test_the_residual_is_the_coil_s_voltage_balance():
     from bondgraph.model import t
     from fdi.monitor import compiled
     (arr,) = compiled(MODEL).arrs
-    syms = {s.name: s for s in arr.expr.free_symbols}
-    expr = arr.expr.subs({s: 1 for n, s in syms.items() if n.startswith("beta")})
-    fn = {f.func.__name__: f for f in expr.atoms(sp.core.function.AppliedUndef)}
+    expr, syms, fn = by_hand(arr.expr)
     Rc, N, Pc, Pg = (syms[n] for n in ("Rc", "N", "Pc", "Pg"))
     hand = fn["V"] - Rc * fn["i"] - N ** 2 * Pc * Pg / (Pc + Pg) * sp.diff(fn["i"], t)
     assert sp.simplify(expr - hand) == 0 or sp.simplify(expr + hand) == 0

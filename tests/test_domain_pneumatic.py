@@ -7,24 +7,18 @@ with the smoothing saw the fault a whole 20 s window early (detection at 580 s f
 intrusion came out 6 % off (8.83e-8 kg/Pa for 8.33e-8); now half a window early and within 1 %."""
 from __future__ import annotations
 
+from functools import partial
+
 import pytest
 
 from fdi.api import Options, diagnose
-from fdi.data import Measurements
 
-from .independent import air_vessels, measurements
-from .independent import thresholds as calibrated
+from .independent import air_vessels, measurements, thresholds_fixture
 
 MODEL = str(__import__("pathlib").Path(__file__).resolve().parent / "data" / "air_vessels.yaml")
 
-
-def _data(name: str, seed: int, **kw) -> Measurements:
-    return measurements(air_vessels.simulate, name, seed, **kw)
-
-
-@pytest.fixture(scope="module")
-def thresholds() -> dict:
-    return calibrated(MODEL, air_vessels.simulate)    # two nominal runs; a third asserted quiet
+_data = partial(measurements, air_vessels.simulate)    # (name, seed, **the simulator's keywords)
+thresholds = thresholds_fixture(MODEL, air_vessels.simulate)    # two nominal runs; a third asserted quiet
 
 
 def test_a_bladder_intrusion_is_found_with_its_size(thresholds):

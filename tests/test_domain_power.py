@@ -6,6 +6,7 @@ Designed truths: the load resistance steps 2.0 -> 1.4 Ohm at 1.2 s (it enters th
 only); shorted turns take the ratio 10 -> 9.5 at 1.2 s (both relations)."""
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 
 import pytest
@@ -13,20 +14,13 @@ import pytest
 from fdi.api import Options, diagnose
 from fdi.data import Measurements
 
-from .independent import transformer, measurements
-from .independent import thresholds as calibrated
+from .independent import by_hand, measurements, thresholds_fixture, transformer
 
 MODEL = str(Path(__file__).resolve().parent / "data" / "transformer.yaml")
 T0 = 1.2
 
-
-def _data(name: str, seed: int, **kw) -> Measurements:
-    return measurements(transformer.simulate, name, seed, **kw)
-
-
-@pytest.fixture(scope="module")
-def thresholds() -> dict:
-    return calibrated(MODEL, transformer.simulate)    # two nominal runs; a third asserted quiet
+_data = partial(measurements, transformer.simulate)    # (name, seed, **the simulator's keywords)
+thresholds = thresholds_fixture(MODEL, transformer.simulate)    # two nominal runs; a third asserted quiet
 
 
 def test_the_residuals_are_the_ratio_and_the_effort_balance():
@@ -39,9 +33,7 @@ def test_the_residuals_are_the_ratio_and_the_effort_balance():
     arrs = compiled(MODEL).arrs
     hands = []
     for arr in arrs:
-        syms = {s.name: s for s in arr.expr.free_symbols}
-        expr = arr.expr.subs({s: 1 for n, s in syms.items() if n.startswith("beta")})
-        fn = {f.func.__name__: f for f in expr.atoms(sp.core.function.AppliedUndef)}
+        expr, syms, fn = by_hand(arr.expr)
         N, R1, R2, L2 = (sp.Symbol(n, positive=True) for n in ("N", "R1", "R2", "L2"))
         expr = expr.subs({syms[n]: s for n, s in zip(("N", "R1", "R2", "L2"), (N, R1, R2, L2)) if n in syms})
         i1 = fn["i1"]

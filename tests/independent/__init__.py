@@ -1,6 +1,7 @@
-"""Simulators written apart from bgfdi (scipy, the physics typed by hand), and the two steps every
-domain test takes with them: their columns as measurements, and thresholds calibrated on two nominal
-runs and checked quiet on a third."""
+"""Simulators written apart from bgfdi (scipy, the physics typed by hand), and the steps every
+domain test takes with them: their columns as measurements, thresholds calibrated on two nominal
+runs and checked quiet on a third (as a module's fixture), and an ARR in the terms a hand
+derivation is written in."""
 from __future__ import annotations
 
 from typing import Callable
@@ -23,3 +24,19 @@ def thresholds(model: str, simulate: Callable[..., dict]) -> dict:
     held_out = nominal_residuals(model, measurements(simulate, "nominal3", 3))
     assert (held_out.max(axis=1) < np.asarray(cal.thresholds)).all()
     return dict(zip(cal.names, cal.thresholds))
+
+
+def thresholds_fixture(model: str, simulate: Callable[..., dict]):
+    """A module-scoped pytest fixture named ``thresholds``: :func:`thresholds` of ``model`` on
+    ``simulate`` (``thresholds = thresholds_fixture(MODEL, cstr.simulate)`` in a test module)."""
+    import pytest
+    return pytest.fixture(scope="module", name="thresholds")(lambda: thresholds(model, simulate))
+
+
+def by_hand(expr) -> tuple:
+    """An ARR's expression as a hand derivation writes it: its sensor, input and source factors
+    (``beta_*``) at 1; with its symbols by name and its signals (functions of t) by name."""
+    import sympy as sp
+    syms = {s.name: s for s in expr.free_symbols}
+    plain = expr.subs({s: 1 for n, s in syms.items() if n.startswith("beta")})
+    return plain, syms, {f.func.__name__: f for f in plain.atoms(sp.core.function.AppliedUndef)}
