@@ -159,13 +159,17 @@ class Estimate:
     """Stopped in the race of the candidate sets of its size, two faults or more
     (``fdi.estimators``): after its first or second rung its best fit cost over 6x the best of
     them and its race had stalled; the fit is that race leader's, not settled."""
+    outdone_by: tuple[str, ...] = ()
+    """Raced out for another reason: its race stalled with its leader no better than this subset of
+    it (fitted before it; within ``fdi.estimators.SUBSET_GAIN``), which the criterion prefers."""
 
     def to_dict(self, history: bool = True) -> dict:
         out: dict = {"candidate": list(self.candidate), "fitness": self.fitness}
         if history:
             out["history"] = list(self.history)
         out.update({"margin": self.margin, "cost": self.cost, "faults": [dict(f) for f in self.faults],
-                    "raced_out": self.raced_out, "evaluations": self.evaluations, "wall_s": self.wall_s,
+                    "raced_out": self.raced_out, "outdone_by": list(self.outdone_by) or None,
+                    "evaluations": self.evaluations, "wall_s": self.wall_s,
                     "objective_s": self.objective_s})
         return out
 

@@ -61,22 +61,22 @@ def test_scenario2_abrupt_leak_incipient_encoder_and_rul():
     assert all(e["margin"] is None or e["margin"] >= 1.0 for e in r["estimators"])
     assert all(len(e["history"]) > 10 and e["history"][-1] >= e["history"][0] for e in r["estimators"])
     # the candidate sets of one size race (fdi.estimators): a set holding both true faults is settled,
-    # sets missing one may stop after their first rung (here both pairs without one of them)
-    raced = {tuple(e["candidate"]) for e in r["estimators"] if e["raced_out"]}
-    assert raced == {("R4", "R5"), ("R5", "beta_theta2")}
+    # sets missing one may stop after their first rung (here both pairs without one of them), and
+    # the set of three, whose R5 explains nothing, stops no better than the true pair
+    raced = {tuple(e["candidate"]): e["outdone_by"] for e in r["estimators"] if e["raced_out"]}
+    assert raced == {("R4", "R5"): None, ("R5", "beta_theta2"): None, ("R4", "R5", "beta_theta2"): ["R4", "beta_theta2"]}
 
 
-def test_the_race_of_candidate_sets_is_worker_independent_and_settles_the_winner_as_unraced():
+def test_the_race_of_candidate_sets_is_worker_independent_and_settles_the_winner_as_unraced(monkeypatch):
     """The race only stops sets: the winner's fit is the fit it gets with the race off (every set
-    settled, ``SET_REACH`` infinite), and one or two workers give the same report."""
+    settled: ``SET_REACH`` infinite, no set outdone by a subset), and one or two workers give the
+    same report."""
     import fdi.estimators as E
     raced = report("scenario2", workers=2)
     assert _results_only(report("scenario2", workers=1)) == _results_only(raced)
-    reach, E.SET_REACH = E.SET_REACH, float("inf")
-    try:
-        full = diagnose(CYCAB, DATA / "scenario2.csv", Options(workers=1, seed=0)).to_dict()
-    finally:
-        E.SET_REACH = reach
+    monkeypatch.setattr(E, "SET_REACH", float("inf"))
+    monkeypatch.setattr(E, "_preferred_subset", lambda *args: None)
+    full = diagnose(CYCAB, DATA / "scenario2.csv", Options(workers=1, seed=0)).to_dict()
     assert not any(e["raced_out"] for e in full["estimators"])
     assert full["winner"] == raced["winner"] and full["diagnosis"] == raced["diagnosis"]
     assert full["prognosis"] == raced["prognosis"]
