@@ -12,7 +12,9 @@ arithmetic as written (:data:`FLAGS`: no fast-math, no contraction into fused mu
 built library is kept by a *store* (:func:`use_store`; bgfdi gives its disk cache,
 :mod:`fdi.diskcache`: a private folder, entries signed with a key only the user can read, so a
 planted or stale file is never loaded) and loaded from a private temporary copy. Without a store
-each process builds its own (about a second).
+each process builds its own (about a second). A build that fails is remembered by the store with
+the compiler it failed with (path, size, modification time), so later processes go straight to
+the other kernels' path until the compiler or ``CC`` changes.
 
 >>> lib = load("doctest", b"double twice(double x) { return 2 * x; }", {"twice": ("d", "d")})
 >>> lib is None or lib.twice(1.5) == 3.0
@@ -127,12 +129,29 @@ def _load(name: str, source: bytes) -> ctypes.CDLL | None:
         if cc is None:
             notes.append(f"{name}: no C compiler (set CC or install cc)")
             return None
+        failed = ident + b"\0" + _tool(cc)
+        if _store is not None and (why := _store.fetch("clib-failed-" + name, failed)) is not None:
+            notes.append(why.decode(errors="replace") + " (not tried again with this compiler: change CC or "
+                         "update it to try again)")
+            return None
         payload = _build(name, source, cc)
         if payload is None:
+            if _store is not None and notes:             # each later process skips the failing build
+                _store.store("clib-failed-" + name, failed, notes[-1].encode())
             return None
         if _store is not None:
             _store.store(kind, ident, payload)
     return _open(name, payload)
+
+
+def _tool(cc: str) -> bytes:
+    """Which compiler a failed build was tried with: its path, size and modification time (an
+    updated or another compiler is tried again)."""
+    try:
+        st = os.stat(cc)
+        return f"{os.path.realpath(cc)}:{st.st_size}:{st.st_mtime_ns}".encode()
+    except OSError:
+        return cc.encode()
 
 
 def _build(name: str, source: bytes, cc: str) -> bytes | None:

@@ -13,6 +13,7 @@ pytestmark = pytest.mark.skipif(native.compiler() is None, reason="no C compiler
 
 SOURCE = b"#include <stdint.h>\nint64_t add3(int64_t a) { return a + 3; }\n"
 SIG = {"add3": ("i", "i")}
+BUILD = native._build
 
 
 class DictStore:
@@ -136,6 +137,30 @@ def test_a_compiler_that_fails_leaves_the_numbers_to_another_path(fresh, monkeyp
     monkeypatch.setenv("CC", str(fake))
     assert native.load("t_fails", SOURCE, SIG) is None
     assert native.notes[-1].startswith(f"t_fails: {fake} could not build it")
+
+
+def test_a_failed_build_is_not_tried_again_until_the_compiler_changes(fresh, monkeypatch, tmp_path):
+    """Designed: a compiler that fails once is remembered by the store (every later process would
+    pay its failed attempt); the note says why, and another compiler (or this one updated) is tried."""
+    store = DictStore()
+    native.use_store(store)
+    fake = tmp_path / "cc"
+    fake.write_text("#!/bin/sh\necho 'error: no headers' >&2\nexit 1\n")
+    fake.chmod(0o755)
+    monkeypatch.setenv("CC", str(fake))
+    assert native.load("t_once", SOURCE, SIG) is None
+    runs = []
+    monkeypatch.setattr(native, "_loaded", {})
+    monkeypatch.setattr(native, "_build", lambda *a: runs.append(a) or None)
+    assert native.load("t_once", SOURCE, SIG) is None and runs == []          # a later process: not tried
+    assert "could not build it (error: no headers)" in native.notes[-1] and "not tried again" in native.notes[-1]
+    fake.write_text("#!/bin/sh\nexit 1\n\n")                                # the compiler updated
+    monkeypatch.setattr(native, "_loaded", {})
+    assert native.load("t_once", SOURCE, SIG) is None and len(runs) == 1
+    monkeypatch.setattr(native, "_loaded", {})
+    monkeypatch.setattr(native, "_build", BUILD)
+    monkeypatch.delenv("CC")                                                   # the machine's own compiler
+    assert native.load("t_once", SOURCE, SIG).add3(1) == 4
 
 
 
