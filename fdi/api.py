@@ -30,7 +30,7 @@ from bondgraph.model import Model
 
 from .config import MonitorConfig
 from .ingest import measurements
-from .monitor import Monitor, monitor_of
+from .monitor import Monitor, monitor_of, persist
 from .options import Options
 from .results import Diagnosis
 
@@ -46,7 +46,9 @@ def diagnose(model: Monitor | Model | str | Path, data: Any, config: MonitorConf
     o = replace(config or Options(), **options) if options else (config or Options())
     o.check()                                       # the options, then the model, then the data
     monitor = monitor_of(model)
-    return monitor.diagnose(measurements(data), o)
+    out = monitor.diagnose(measurements(data), o)
+    persist(monitor)            # what it derived (the time scales, FSMs) kept for the next process, as the CLI does
+    return out
 
 
 __all__ = ["diagnose", "measurements", "Diagnosis", "Options"]

@@ -284,6 +284,30 @@ def test_a_warm_diagnose_process_imports_no_networkx_and_no_derivation(cache):
     assert not derivation & warm, sorted(derivation & warm)
 
 
+def test_the_api_keeps_what_a_diagnosis_derived_for_the_next_process(cache):
+    """``fdi.api.diagnose`` twice, in two processes: the first derives the model's time scales (a
+    simulation system per mode, their eigenvalues) and keeps them with the compiled model, as the
+    CLI does; the second derives none (they cost every API process 0.27 s of its first diagnosis)."""
+    script = textwrap.dedent(f"""
+        import json, sys
+        import bondgraph.timescales as T
+        calls = []
+        inner = T.time_scales
+        T.time_scales = lambda *a, **k: calls.append(1) or inner(*a, **k)
+        from fdi.api import diagnose
+        d = diagnose({str(CYCAB)!r}, {str(DATA / 'scenario2.csv')!r}, workers=1, pop=12, generations=5)
+        print(json.dumps([len(calls), d.to_dict()["detection"]["time"]]))
+    """)
+    seen = []
+    for _ in range(2):
+        out = subprocess.run(PY + ["-c", script], cwd=ROOT, env=_env(cache), capture_output=True, text=True,
+                             timeout=300)
+        assert out.returncode == 0, out.stderr[-2000:]
+        seen.append(json.loads(out.stdout.splitlines()[-1]))
+    (first, t1), (second, t2) = seen
+    assert first > 0 and second == 0 and t1 == t2
+
+
 def test_no_cache_option_derives_afresh(cache):
     out = subprocess.run(PY + ["-m", "fdi", "diagnose", str(CYCAB), str(DATA / "scenario3.csv"), "-q", "--no-cache"],
                          cwd=ROOT, env=_env(cache), capture_output=True, text=True, timeout=300)
