@@ -518,10 +518,10 @@ class Estimators:
         each runs its screen and first rung, and after each of the rungs ``SET_RUNGS``
         (``Job.pause``) a set stops there when its leader costs more than ``1 + SET_REACH`` times
         the best set of its wave (the same faults held) and its race gained less than ``SET_STALL``
-        over its last rung, or when its race gained less than that where the information criterion
-        prefers one of its fitted subsets to its leader (:func:`_preferred_subset`; a set alone in
-        its size races for this rule alone); the others continue exactly where they stopped (the
-        run never paused).
+        over its last rung, or when its race gained less than that with its leader no better than
+        the fit of one of its subsets (within ``SUBSET_GAIN``), which the information criterion
+        prefers (:func:`_preferred_subset`; a set alone in its size races for this rule alone); the
+        others continue exactly where they stopped (the run never paused).
         On the objective itself every set's cost is on one scale: the same window, weights and
         residuals. Sets that only seed larger ones (a separable set's faults alone, past ``asked``)
         are never stopped; a stopped set seeds no larger one (``run``)."""
