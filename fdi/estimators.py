@@ -52,6 +52,7 @@ class Job:
     recheck: bool = True                           # the engine's final check (where it has one)
     resume: object = None                          # the engine's state: the run continues from it
     pause: int | None = None                       # stop the race after this many rungs (``AHDEOptions.pause``)
+    settle_later: bool = False                     # the finalists' restarts wait for the check (``AHDEOptions``)
     prognosed: tuple[str, ...] = ()                # faults with a failure value: their RUL band's other models
 
 
@@ -69,7 +70,8 @@ def fit(monitor: "Monitor", job: Job) -> Estimate:
         init += earlier_onsets(obj, init, job.seed)
     problem = optim.pose(obj, n_bits=encoding.N_BITS * len(obj.spaces), onehot=encoding.onehot_groups(obj.spaces),
                          init=init)
-    extra = {"recheck": job.recheck, "resume": job.resume, "pause": job.pause} if has_recheck(job.search.engine) else {}
+    extra = ({"recheck": job.recheck, "resume": job.resume, "pause": job.pause, "settle_later": job.settle_later}
+             if has_recheck(job.search.engine) else {})
     r = optim.minimize(problem, engine=job.search.engine, pop=job.search.pop, generations=job.search.generations,
                        seed=job.seed, **extra)
     margin = r.extra.get("margin")
@@ -492,7 +494,8 @@ class Estimators:
                               tuple(known[i]) + tuple(list(r.faults) for j, r in done.items()
                                                       if set(r.candidate) < set(candidates[i]) and fixed[j] == fixed[i]
                                                       and not r.raced_out),
-                              tuple(fixed[i]), onsets[i], self.modes, recheck=not two_phase, prognosed=self.prognosed)
+                              tuple(fixed[i]), onsets[i], self.modes, recheck=not two_phase,
+                              settle_later=two_phase and size == 1, prognosed=self.prognosed)
             if two_phase and size > 1 and any(i < asked for i in wave):   # single faults seed every set: settled
                 done.update(self._race(wave, jobs, fixed, asked, t, t0, samples, done, candidates, n_eff))
             else:
@@ -508,8 +511,8 @@ class Estimators:
                      and not any(set(candidates[j]) < set(candidates[i]) and fixed[j] == fixed[i]
                                  and score[j] <= score[i] for j in done)]
             again = [i for i in again if i < asked]
-            done.update(zip(again, self._run([replace(jobs[i], recheck=True, resume=done[i].resume) for i in again],
-                                             t, t0, samples)))
+            done.update(zip(again, self._run([replace(jobs[i], recheck=True, settle_later=False, resume=done[i].resume)
+                                              for i in again], t, t0, samples)))
         return [done[i] for i in range(asked)]
 
     def _race(self, wave: list[int], jobs: dict[int, Job], fixed: list, asked: int, t: np.ndarray, t0: float,
@@ -573,7 +576,8 @@ class Estimators:
         end = min(t.size, i0 + samples + margin)
         return json.dumps([self.monitor.key, repr(self.monitor.config), t0, samples, end, list(job.candidate),
                            list(map(float, job.weights)), repr(job.search), job.seed, job.known, job.fixed,
-                           job.onset, job.modes, job.recheck, job.pause, job.prognosed], default=float, sort_keys=True)
+                           job.onset, job.modes, job.recheck, job.pause, job.settle_later, job.prognosed],
+                          default=float, sort_keys=True)
 
 
 def _preferred_subset(r: Estimate, i: int, done: dict[int, Estimate], candidates: list, fixed: list,

@@ -98,6 +98,7 @@ class Snapshot:
     race: tuple | None = None              # stopped inside the race (``pause``): survivors' keys, rung state
     gain: float | None = None              # paused: the race's best, relative improvement over the last rung
     init: tuple = ()                       # the starting points it was posed with: a continued run reads them here
+    settled: bool = True                   # False: the finalists converged, their restarts and revivals still to run
 
     @property
     def paused(self) -> bool:
@@ -163,6 +164,11 @@ class AHDEOptions(Options):
     problems (the diagnosis: the candidate sets that may win) runs them all without it first.
     A snapshot of a ``pause``d run continues its race where it stopped: the run ends exactly as
     one never paused would."""
+    settle_later: bool = False
+    """With ``recheck=False``: the finalists run to convergence on the objective, and their restarts
+    and revivals wait for ``resume`` with the final check (the snapshot's ``settled`` False): a
+    caller that needs the settled fit of few of many problems (the diagnosis: its single faults,
+    settled only where they may win)."""
     pause: int | None = None
     """Stop the race once this many rungs are run (0: right after the screen) and return its leader,
     costed on the objective itself, with the run's state (``extra["snapshot"]``, with the race's
@@ -655,6 +661,10 @@ class AHDE(GenerationalSolver):
         ``finest``, and is spent on the leader alone (the runner-up only sets the margin)."""
         if self.stop == "converged":
             self.advance(branches, self.budget, until_converged=True)
+        self.restart_rounds(branches)
+
+    def restart_rounds(self, branches: list[Branch]) -> None:
+        """``settle``'s rounds of restarts around the converged branches' best points."""
         scale, running = 0.1, branches
         for _ in range(self.options.restarts):
             before = [b.best for b in running]
@@ -714,6 +724,11 @@ class AHDE(GenerationalSolver):
         finalists = self.finalists = self.survivors[:2]
         self.refine(finalists)
         self.migrate(sorted(finalists, key=lambda b: b.best))
+        if self.options.settle_later and not self.options.recheck:
+            if self.stop == "converged":
+                self.advance(finalists, self.budget, until_converged=True)
+            self.settled = False                        # the restarts and revivals wait for ``resume``
+            return
         self.settle(finalists)
         if self.options.recheck:
             self.recheck(finalists)
@@ -734,6 +749,9 @@ class AHDE(GenerationalSolver):
         snap = self.options.resume
         if snap is not None and not snap.paused:        # the final check of a run made without it
             self.restore(snap)
+            if not snap.settled:                        # converged only: the first pass's settling first
+                self.restart_rounds(self.finalists)
+                self.revive_and_settle(self.finalists)
             self.recheck(self.finalists)
             self.revive_and_settle(self.finalists)
             return self.result()
@@ -776,7 +794,8 @@ class AHDE(GenerationalSolver):
         return Snapshot(tuple((b.key, b.bits.copy(), b.free.copy(), b.x.copy(), b.f.copy(), b.F.copy(), b.CR.copy(),
                                b.stale) for b in self.branches.values()),
                         tuple(b.key for b in final or ()), self.counter.evaluations, tuple(self.history),
-                        self.rng.bit_generator.state, race, init=tuple(self.init))
+                        self.rng.bit_generator.state, race, init=tuple(self.init),
+                        settled=getattr(self, "settled", True))
 
     def restore(self, snap: Snapshot) -> None:
         """The state of ``snap``: inside the race on the race's fidelity, or on the objective itself

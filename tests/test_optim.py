@@ -394,6 +394,24 @@ def test_a_paused_race_resumed_ends_as_the_run_never_paused():
         optim.minimize(posed, pause=-1)
 
 
+def test_settling_left_for_later_is_done_by_the_check():
+    """Designed: a first pass with ``settle_later`` converges its finalists but leaves their restarts
+    (and revivals) to the continued run; its snapshot says so, it costs fewer evaluations than a
+    settled first pass, and continued with the final check it ends settled, at least as well as the
+    converged point and as the settled first pass continued."""
+    p = synthetic.problem("abrupt+intermittent", 0)
+    posed = optim.pose(p.cost, bounds=p.bounds(), n_bits=p.n_bits, onehot=p.onehot, structure=p.structure)
+    settled = optim.minimize(posed, seed=4, recheck=False)
+    later = optim.minimize(posed, seed=4, recheck=False, settle_later=True)
+    assert settled.extra["snapshot"].settled and not later.extra["snapshot"].settled
+    assert later.evaluations < settled.evaluations
+    done = optim.minimize(posed, seed=4, resume=later.extra["snapshot"])
+    whole = optim.minimize(posed, seed=4, resume=settled.extra["snapshot"])
+    assert "snapshot" not in done.extra and done.evaluations > later.evaluations
+    assert done.cost <= later.cost and done.cost <= whole.cost * (1 + 1e-3)
+    assert synthetic.recovered(p.spaces, p.truth, p.finish(done.real, done.bits), done.bits, p.t, p.t0)
+
+
 def test_compiled_de_trials_are_numpys_to_the_bit():
     """AHDE's DE/current-to-pbest/1/bin generation, on numpy and compiled (optim._jit): the same
     random draws in the same order, the same trial points, F and CR bit for bit (ties in the
