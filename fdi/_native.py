@@ -16,6 +16,8 @@ import numpy as np
 
 from optim import native
 from optim.native import address as _at
+from optim.native import floats as _f
+from optim.native import ints as _i
 
 _SIGNATURES = {
     "rk4_19": ("r", "piidpppdp"),
@@ -29,9 +31,7 @@ _SIGNATURES = {
     "fused_cost": ("r", "ppppp"),
     "fused_arity": ("r", ""),
 }
-_lib = native.load("bgfdi_kernels", native.source(__file__, "kernels.c"), _SIGNATURES)
-if _lib is None:
-    raise ImportError("the C kernels could not be built: " + "; ".join(native.notes[-1:]))
+_lib = native.require("bgfdi_kernels", __file__, "kernels.c", _SIGNATURES)
 
 # fused_cost's arguments, in order: f float64 array, i int64 array, b bool array, n integer, x float
 FUSED_TYPES = "ffiiffffi" "ffbifffx" "ibbf" "iinff" "fbiiiif" "fiiinnnn" "ififbiffnbxn" "niiiiinffiniiifif"
@@ -47,14 +47,6 @@ TEMPLATES = 256
 def _check(code: int) -> None:
     if code != 0:
         raise MemoryError("the C kernels could not allocate their scratch arrays")
-
-
-def _f(a) -> np.ndarray:
-    return np.ascontiguousarray(a, dtype=np.float64)
-
-
-def _i(a) -> np.ndarray:
-    return np.ascontiguousarray(a, dtype=np.int64)
 
 
 def rk4_19(tau, p0, b5, b6, b7, step):
@@ -175,26 +167,30 @@ class _Template:
                    for r, x, s, c in zip(self.refs, shared, self.shapes, self.chars))
 
 
-def _template(args: tuple, shared: list) -> _Template:
-    keep: list = []
-    words = np.zeros(5 * len(FUSED_TYPES), dtype=np.int64)
-    numbers = np.zeros(len(FUSED_TYPES))
-    refs, shapes, chars = [], [], []
-    for k, (a, code) in enumerate(zip(args, FUSED_TYPES)):
+def _describe(args: tuple, indices, words: np.ndarray, numbers: np.ndarray, keep: list) -> None:
+    """The descriptor's entries of the arguments ``indices``: an integer's word, a float's number,
+    an array's five words (:func:`_words`)."""
+    for k in indices:
+        a, code = args[k], FUSED_TYPES[k]
         if code == "n":
             words[5 * k] = int(a)
         elif code == "x":
             numbers[k] = float(a)
-        elif k not in FRESH:
-            c = np.ascontiguousarray(a, dtype=_DTYPES[code])
-            if c is not a and c.base is not a:      # a converted copy: converted on every call instead
-                return None
+        else:
             words[5 * k:5 * k + 5] = _words(a, code, keep)
-    for a in shared:
-        refs.append(weakref.ref(a))
-        shapes.append(a.shape)
-        chars.append(a.dtype.char)
-    return _Template(refs, shapes, chars, words, numbers)
+
+
+def _template(args: tuple, shared: list) -> _Template | None:
+    """The descriptor of every argument but the population's (:data:`FRESH`); None when a shared
+    array is not of its C type (converted on every call instead)."""
+    for k in SHARED:
+        c = np.ascontiguousarray(args[k], dtype=_DTYPES[FUSED_TYPES[k]])
+        if c is not args[k] and c.base is not args[k]:
+            return None
+    words, numbers = np.zeros(5 * len(FUSED_TYPES), dtype=np.int64), np.zeros(len(FUSED_TYPES))
+    _describe(args, [k for k in range(len(FUSED_TYPES)) if k not in FRESH], words, numbers, [])
+    return _Template([weakref.ref(a) for a in shared], [a.shape for a in shared], [a.dtype.char for a in shared],
+                     words, numbers)
 
 
 def fused_cost(*args):
@@ -216,19 +212,11 @@ def fused_cost(*args):
             _templates[key] = t
     keep: list = []
     if t is None:                           # a shared argument of another type: every word this call
-        d = np.zeros(5 * len(FUSED_TYPES), dtype=np.int64)
-        X = np.zeros(len(FUSED_TYPES))
-        for k, (a, code) in enumerate(zip(args, FUSED_TYPES)):
-            if code == "n":
-                d[5 * k] = int(a)
-            elif code == "x":
-                X[k] = float(a)
-            else:
-                d[5 * k:5 * k + 5] = _words(a, code, keep)
+        d, X = np.zeros(5 * len(FUSED_TYPES), dtype=np.int64), np.zeros(len(FUSED_TYPES))
+        _describe(args, range(len(FUSED_TYPES)), d, X, keep)
     else:
         d, X = t.words.copy(), t.numbers
-        for k in FRESH:
-            d[5 * k:5 * k + 5] = _words(args[k], FUSED_TYPES[k], keep)
+        _describe(args, FRESH, d, X, keep)
     pop = args[2].shape[1]
     nlin = args[46].shape[0]
     total = np.empty(pop)

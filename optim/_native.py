@@ -7,18 +7,10 @@ import numpy as np
 
 from . import native
 from .native import address as _at
+from .native import floats as _f
+from .native import ints as _i
 
-_lib = native.load("bgfdi_trials", native.source(__file__, "trials.c"), {"trials": ("r", "piipi" + "p" * 14 + "ppp")})
-if _lib is None:
-    raise ImportError("the C kernels could not be built: " + "; ".join(native.notes[-1:]))
-
-
-def _f(a) -> np.ndarray:
-    return np.ascontiguousarray(a, dtype=float)
-
-
-def _i(a) -> np.ndarray:
-    return np.ascontiguousarray(a, dtype=np.int64)
+_lib = native.require("bgfdi_trials", __file__, "trials.c", {"trials": ("r", "piipi" + "p" * 14 + "ppp")})
 
 
 def trials(x, cols, F_old, CR_old, redraw_F, new_F, redraw_CR, new_CR, order, pick, hop1, hop2, cross, forced,

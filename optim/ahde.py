@@ -219,6 +219,7 @@ class AHDE(GenerationalSolver):
         self.final: list[Branch] = []                      # the finalists, once the race is over
         self.finalists: list[Branch] | None = None         # set by ``polish`` (or a restored final check)
         self.stop = "converged"
+        self.settled = True                                # False: the finalists converged, not yet restarted
         self._aranges: dict[int, np.ndarray] = {}
         self._bounds_of: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
@@ -749,9 +750,10 @@ class AHDE(GenerationalSolver):
         snap = self.options.resume
         if snap is not None and not snap.paused:        # the final check of a run made without it
             self.restore(snap)
-            if not snap.settled:                        # converged only: the first pass's settling first
+            if not self.settled:                        # converged only: the first pass's settling first
                 self.restart_rounds(self.finalists)
                 self.revive_and_settle(self.finalists)
+                self.settled = True
             self.recheck(self.finalists)
             self.revive_and_settle(self.finalists)
             return self.result()
@@ -795,7 +797,7 @@ class AHDE(GenerationalSolver):
                                b.stale) for b in self.branches.values()),
                         tuple(b.key for b in final or ()), self.counter.evaluations, tuple(self.history),
                         self.rng.bit_generator.state, race, init=tuple(self.init),
-                        settled=getattr(self, "settled", True))
+                        settled=self.settled)
 
     def restore(self, snap: Snapshot) -> None:
         """The state of ``snap``: inside the race on the race's fidelity, or on the objective itself
@@ -804,6 +806,7 @@ class AHDE(GenerationalSolver):
                          for key, bits, free, x, f, F, CR, stale in snap.branches}
         if snap.init:
             self.init = list(snap.init)              # its caller need not pose them again
+        self.settled = snap.settled
         if snap.paused:
             keys, self.rung, self.rung_generations, self.rung_spare, self.complete, self.stop = snap.race
             self.survivors = [self.branches[k] for k in keys]

@@ -32,6 +32,8 @@ import sys
 import tempfile
 from typing import Protocol
 
+import numpy as np
+
 # IEEE arithmetic as written: no fast-math (it reorders sums), no contraction into fused
 # multiply-adds (they change last bits); errno and traps ignored (numba's assumptions too: the
 # loops over samples then vectorise; the values are the same)
@@ -118,6 +120,25 @@ def load(name: str, source: bytes, signatures: dict[str, tuple[str, str]]) -> ob
             f.argtypes = [_TYPES[c] for c in args]
     _loaded[key] = lib
     return lib
+
+
+def require(name: str, package_file: str, c_file: str, signatures: dict[str, tuple[str, str]]) -> ctypes.CDLL:
+    """:func:`load` of the C source ``c_file`` beside ``package_file``, or ImportError with the note
+    why (a kernels module that cannot be built is not importable: the switch takes another path)."""
+    lib = load(name, source(package_file, c_file), signatures)
+    if lib is None:
+        raise ImportError("the C kernels could not be built: " + "; ".join(notes[-1:]))
+    return lib
+
+
+def floats(a) -> np.ndarray:
+    """``a`` as a C-contiguous float64 array (no copy when it is one)."""
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def ints(a) -> np.ndarray:
+    """``a`` as a C-contiguous int64 array (no copy when it is one)."""
+    return np.ascontiguousarray(a, dtype=np.int64)
 
 
 def _load(name: str, source: bytes) -> ctypes.CDLL | None:
