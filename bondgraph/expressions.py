@@ -33,6 +33,8 @@ from collections.abc import Mapping
 
 import sympy as sp
 
+from .names import same_name
+
 FUNCTIONS: dict[str, object] = {
     "sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "asin": sp.asin, "acos": sp.acos,
     "atan": sp.atan, "atan2": sp.atan2, "sinh": sp.sinh, "cosh": sp.cosh, "tanh": sp.tanh,
@@ -110,25 +112,6 @@ def _power(base: sp.Expr, exponent: sp.Expr, src: str) -> sp.Expr:
         raise ExpressionError(f"exponent {_short(str(exponent), 20)} too large in '{src}' "
                               f"(numeric exponents must be within +-{MAX_EXPONENT})")
     return base ** exponent
-
-
-def same_name(names) -> tuple[int, int] | None:
-    """The first pair (i, j), i < j, of ``names`` that are one name as expressions read them:
-    equal, or equal once Unicode-normalised (NFKC: 'µ' is 'μ', 'ﬁx' is 'fix', as Python's parser
-    reads identifiers); None when every name is its own.
-
-    >>> same_name(["t", "µ", "x", "μ"])
-    (1, 3)
-    >>> same_name(["t", "x"]) is None
-    True
-    """
-    seen: dict[str, int] = {}
-    for j, name in enumerate(names):
-        key = unicodedata.normalize("NFKC", name)
-        if key in seen:
-            return seen[key], j
-        seen[key] = j
-    return None
 
 
 def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:

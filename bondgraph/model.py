@@ -24,9 +24,12 @@ R4 is infinite (a healthy cylinder leaks nothing):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
-import sympy as sp
+from .deferred import deferred
+
+if TYPE_CHECKING:           # sympy is imported where an expression is built or read (bondgraph.deferred)
+    import sympy as sp
 
 SOURCE_KINDS = ("Se", "Sf", "MSe", "MSf")
 STORAGE_KINDS = ("C", "I")
@@ -36,11 +39,18 @@ SENSOR_KINDS = ("De", "Df")
 JUNCTION_KINDS = ("0", "1", "0c", "1c")
 FAULT_KINDS = ("parametric", "sensor", "source", "mode")
 
-t = sp.Symbol("t", real=True)
-# The local variable of a constitutive law as written in a model file (``f`` in an R's effort law,
-# ``q`` in a C's effort law). The symbols' names are no identifiers, so a user's parameter named
-# e, f, q or p never meets them.
-LAW_VARIABLES = {name: sp.Symbol(f"{name}~", real=True) for name in ("e", "f", "q", "p")}
+
+def __getattr__(name: str) -> Any:
+    """The module's sympy constants, made on first use (a compiled model is read without sympy):
+    ``t``, time; ``LAW_VARIABLES``, the local variable of a constitutive law as written in a model
+    file (``f`` in an R's effort law, ``q`` in a C's effort law), whose names are no identifiers, so
+    a user's parameter named e, f, q or p never meets them."""
+    if name not in ("t", "LAW_VARIABLES"):
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import sympy as sp
+    globals()["t"] = sp.Symbol("t", real=True)
+    globals()["LAW_VARIABLES"] = {n: sp.Symbol(f"{n}~", real=True) for n in ("e", "f", "q", "p")}
+    return globals()[name]
 
 
 @dataclass(frozen=True)
@@ -51,6 +61,7 @@ class Parameter:
     description: str = ""
 
 
+@deferred("expr")
 @dataclass(frozen=True)
 class Input:
     """A named input signal: a data column, an expression of t (for simulation), or both."""
@@ -61,6 +72,7 @@ class Input:
     description: str = ""
 
 
+@deferred("expr", "positive")
 @dataclass(frozen=True)
 class Mode:
     """A mode variable (0 or 1) of controlled junctions. A *commanded* mode follows a data column
@@ -81,6 +93,7 @@ class Mode:
         return self.positive is not None
 
 
+@deferred("laws", "modulus", "value")
 @dataclass(frozen=True)
 class Element:
     """A bond-graph element. ``laws`` holds nonlinear constitutive laws by the variable they give
@@ -121,6 +134,7 @@ class Junction:
         return self.kind[0]
 
 
+@deferred("signal", "columns")
 @dataclass(frozen=True)
 class Sensor:
     """A De/Df detector on a junction. ``name`` is the signal it measures (``dp``, ``theta1``);
@@ -145,6 +159,7 @@ class Sensor:
         cols = sorted(str(s) for s in self.signal.free_symbols)
         if self.columns:
             return {c: self.columns[c] for c in cols}
+        import sympy as sp
         if len(cols) == 1 and self.signal == sp.Symbol(cols[0], real=True):
             return {cols[0]: sp.Symbol(self.name, real=True)}
         return None
@@ -183,6 +198,7 @@ class Fault:
         return self.targets
 
 
+@deferred("definitions", "symbols")
 @dataclass(frozen=True)
 class Model:
     name: str
@@ -231,11 +247,16 @@ class Model:
 
     def nominal_values(self) -> dict[sp.Symbol, float]:
         """Every parameter, efficiency factor and mode variable at its nominal value."""
-        values: dict[sp.Symbol, float] = {self.symbols[p]: v.value for p, v in self.parameters.items()}
+        return {self.symbols[name]: v for name, v in self.nominal_by_name().items()}
+
+    def nominal_by_name(self) -> dict[str, float]:
+        """:meth:`nominal_values` keyed by the symbols' names (``R4``, ``beta_theta1``, ``a1``): no
+        sympy needed, what a diagnosis of a compiled model reads."""
+        values: dict[str, float] = {p: v.value for p, v in self.parameters.items()}
         for name in list(self.sensors) + [e.input or e.name for e in self.sources()]:
-            values[self.beta_symbol(name)] = 1.0
+            values[f"beta_{name}"] = 1.0
         for m in self.modes.values():
-            values[self.symbols[m.name]] = m.nominal
+            values[m.name] = m.nominal
         return values
 
     def sources(self) -> list[Element]:

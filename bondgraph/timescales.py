@@ -73,7 +73,7 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
     from .errors import CausalityError
     from .simulation import SimulationError, _initial_state, _jacobian, build_system
 
-    base = {s.name: float(v) for s, v in model.nominal_values().items()}
+    base = {k: float(v) for k, v in model.nominal_by_name().items()}
     base.update(values or {})
     eigs: list[complex] = []
     notes: list[str] = []

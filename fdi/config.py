@@ -34,10 +34,12 @@ import math
 import re
 from dataclasses import dataclass, field, replace as _replace
 from pathlib import Path
-from typing import Mapping
+from typing import TYPE_CHECKING, Mapping
 
-from bondgraph.loader import Document, model_from_document, read_document, read_document_text
 from bondgraph.model import Model
+
+if TYPE_CHECKING:           # the loader (sympy's parser) is imported where a file is read, not for a compiled model
+    from bondgraph.loader import Document
 
 MAX_TIME = 1.0e6             # s: a derivative window or waiting time beyond 11 days is a typing error
 EXONERATIONS = ("sensitivity", "structural")   # how a quiet residual exonerates a fault
@@ -154,6 +156,7 @@ def _fault_settings(doc: Document, model: Model) -> dict[str, FaultSettings]:
 
 def load(path: str | Path) -> tuple[Model, MonitorConfig]:
     """The bond graph and the monitor settings of a model file, read once."""
+    from bondgraph.loader import model_from_document, read_document
     doc = read_document(path)
     model = model_from_document(doc)
     return model, read_config(doc, model)
@@ -161,6 +164,7 @@ def load(path: str | Path) -> tuple[Model, MonitorConfig]:
 
 def load_text(text: str, path: str = "<model>") -> tuple[Model, MonitorConfig]:
     """As :func:`load`, from YAML text (``path`` names it in messages)."""
+    from bondgraph.loader import model_from_document, read_document_text
     doc = read_document_text(text, path)
     model = model_from_document(doc)
     return model, read_config(doc, model)

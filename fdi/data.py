@@ -42,10 +42,9 @@ from pathlib import Path
 from typing import Callable, Iterator, Mapping
 
 import numpy as np
-import sympy as sp
 
-from bondgraph.expressions import same_name
 from bondgraph.model import Model
+from bondgraph.names import same_name
 
 from .inputs import NoWriter, open_binary
 
@@ -451,9 +450,10 @@ def _floats(row: list[str]) -> bool:
 
 def check_against_model(model: Model, data: Measurements) -> None:
     """Every column the model reads must be there."""
+    functions = _signal_functions(model)
     needed = set()
-    for s in model.sensors.values():
-        needed |= {str(x) for x in s.signal.free_symbols}
+    for s in model.sensors:
+        needed |= set(functions[s][0])
     for i in model.inputs.values():
         if i.column:
             needed.add(i.column)
@@ -467,14 +467,17 @@ def check_against_model(model: Model, data: Measurements) -> None:
 
 
 _SIGNALS: dict[int, tuple[Model, dict]] = {}     # lambdified sensor and input expressions per model
+MODE = "mode "                                     # the key prefix of an autonomous mode's condition
 
 
 def _signal_functions(model: Model) -> dict:
-    """(argument names, function) of each sensor's signal and each input without a column,
-    lambdified once per model (the monitor asks for them on every block of rows)."""
+    """(argument names, function) of each sensor's signal, each input without a column and each
+    autonomous mode's condition (key ``"mode <name>"``), lambdified once per model (the monitor
+    asks for them on every block of rows; a compiled model carries them: :mod:`fdi.persist`)."""
     hit = _SIGNALS.get(id(model))
     if hit is not None and hit[0] is model:
         return hit[1]
+    import sympy as sp
     out = {}
     for s in model.sensors.values():
         syms = sorted(s.signal.free_symbols, key=lambda x: x.name)
@@ -483,6 +486,10 @@ def _signal_functions(model: Model) -> dict:
     for i in model.inputs.values():
         if i.expr is not None:
             out[i.name] = (["t"], sp.lambdify([sp.Symbol("t", real=True)], i.expr.xreplace(nominal), modules="numpy"))
+    for m in model.modes.values():
+        if m.positive is not None:
+            syms = sorted(m.positive.free_symbols, key=lambda x: x.name)
+            out[MODE + m.name] = ([x.name for x in syms], sp.lambdify(syms, m.positive, modules="numpy"))
     if len(_SIGNALS) > 16:
         _SIGNALS.clear()
     _SIGNALS[id(model)] = (model, out)
@@ -518,13 +525,13 @@ def signals_from_data(model: Model, data: Measurements) -> dict[str, np.ndarray]
 def autonomous_modes(model: Model, signals: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Each autonomous mode, sample by sample: 1 where its condition (``positive``) is above zero."""
     out = {}
+    functions = _signal_functions(model)
+    nominal = model.nominal_by_name()
     for m in model.modes.values():
         if m.positive is None:
             continue
-        syms = sorted(m.positive.free_symbols, key=lambda x: x.name)
-        nominal = {k.name: float(v) for k, v in model.nominal_values().items()}
-        args = [signals[x.name] if x.name in signals else nominal[x.name] for x in syms]
-        value = sp.lambdify(syms, m.positive, modules="numpy")(*args)
+        names, fn = functions[MODE + m.name]
+        value = fn(*[signals[x] if x in signals else float(nominal[x]) for x in names])
         n = len(next(iter(signals.values()))) if signals else 1
         out[m.name] = (np.asarray(value, dtype=float) > 0).astype(float) * np.ones(n)
     return out

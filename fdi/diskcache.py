@@ -213,10 +213,9 @@ def fingerprint() -> str:
                     st = os.stat(base / "app" / name)
                     h.update(f"fdi/app/{name}:{st.st_size}:{st.st_mtime_ns}\n".encode())
     h.update(f"python {sys.version}\n".encode())
-    for name in ("numpy", "sympy"):
-        h.update(f"{name} {_installed(name)}\n".encode())
-    for name in ("networkx", "scipy", "yaml"):     # causality, time scales, the loader: by their installed metadata
-        h.update(f"{name} {_distribution(name)}\n".encode())
+    h.update(f"numpy {_installed('numpy')}\n".encode())
+    for name in ("sympy", "networkx", "scipy", "yaml"):   # expressions, causality, time scales, the loader: by their
+        h.update(f"{name} {_distribution(name)}\n".encode())   # installed metadata (a warm start imports none of them)
     _state["fingerprint"] = out = h.hexdigest()
     return out
 
@@ -242,8 +241,8 @@ def _distribution(name: str) -> str:
 
 
 def _installed(name: str) -> str:
-    """A library's version as imported (numpy and sympy are imported by whoever reads a compiled
-    model anyway: one way of reading it, so every process names an entry alike)."""
+    """A library's version as imported (numpy is imported by whoever reads a compiled model anyway:
+    one way of reading it, so every process names an entry alike)."""
     import importlib
     return str(getattr(importlib.import_module(name), "__version__", "?"))
 

@@ -197,7 +197,7 @@ class Fused:
         read_whole: set[int] = set()              # quantities whose whole-window rate an enclosing one reads
 
         def changed(order: int, inner: Residual) -> int | None:
-            key = (inner.expr, order)
+            key = (inner.key, order)
             if key in self.stored:
                 return self.stored[key]
             children = [changed(o, q) for o, q in inner.composites]
@@ -300,7 +300,7 @@ class Fused:
                 base = obj.base_signals[sig]
                 args.append(np.asarray(base[k] if k else samples_of(base), dtype=float))
         for o, q in inner.composites:
-            c = self.stored.get((q.expr, o))
+            c = self.stored.get((q.key, o))
             args.append(tape.Row(tape.LOADS, int(self.full_at[c])) if c is not None else
                         Residual._rate(o, q, obj.base_signals, obj.nominal, obj.win.ts, obj.window_s, None, None))
         for name in inner.symbols:
@@ -345,7 +345,7 @@ class Fused:
                 else:
                     args.append(cut(obj.base_signals[s][k]))
             for order, inner in r.composites:
-                c = self.stored.get((inner.expr, order))
+                c = self.stored.get((inner.key, order))
                 if c is not None:
                     args.append(tape.Row(tape.LOADS, int(self.comp_at[c]) + order))
                 else:            # no individual changes it: the numpy path's rate, once per stride

@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, Any, Callable
 from bondgraph.model import Model
 
 from .config import MonitorConfig, load, load_text
+from .persist import Pickled
 
 if TYPE_CHECKING:                   # the derivation's modules are imported where a model is derived, not on a warm start
     from .arrs import ARR
@@ -53,6 +54,10 @@ LOG_ENV = "BGFDI_DERIVATION_LOG"   # a file each derivation appends its process 
 _derived: OrderedDict[str, tuple[tuple[ARR, ...], tuple[Residual, ...]]] = OrderedDict()
 _files: OrderedDict[tuple, "Monitor"] = OrderedDict()
 _unpacked: OrderedDict[bytes, "Monitor"] = OrderedDict()     # monitors received pickled, by their bytes' digest
+
+
+def _value(x: Any) -> Any:
+    return x.get() if isinstance(x, Pickled) else x
 
 
 def _remember(cache: OrderedDict, key, value) -> None:
@@ -74,7 +79,8 @@ def derive(model: Model, key: str | None = None) -> tuple[tuple[ARR, ...], tuple
     key = key or model_key(model)
     if key in _derived:
         _derived.move_to_end(key)
-        return _derived[key]
+        arrs, residuals = _derived[key]
+        return _value(arrs), residuals
     from .arrs import select_arrs
     from .residuals import compile_residuals
     arrs = tuple(select_arrs(model).arrs)
@@ -163,7 +169,7 @@ def _from_disk(path: str, source: bytes | None) -> "Monitor | None":
     except Exception:                               # noqa: BLE001 - an unreadable entry is rebuilt, never trusted
         return None
     m._disk = (path, source, _persisted_size(m), m.config)
-    _derived[m.key] = (m.arrs, m.residuals)
+    _derived[m.key] = (m._arrs, m.residuals)
     return m
 
 
@@ -213,8 +219,19 @@ class Monitor:
         self._matrices: dict[tuple, Any] = {}
 
     @property
+    def arrs(self) -> tuple[ARR, ...]:
+        """The AGARRs the residual selection kept (sympy; unpickled on first read when the monitor
+        was read back compiled: :class:`Pickled`)."""
+        return _value(self._arrs)
+
+    @arrs.setter
+    def arrs(self, value: tuple[ARR, ...]) -> None:
+        self._arrs = value
+
+    @property
     def names(self) -> tuple[str, ...]:
-        return tuple(a.name for a in self.arrs)
+        """The residuals' names (ARR1, ARR2, ...): each residual is its AGARR's."""
+        return tuple(r.name for r in self.residuals)
 
     @property
     def units(self) -> tuple[str, ...]:
@@ -299,9 +316,9 @@ def _unpack(payload: bytes) -> Monitor:
     _remember(_unpacked, digest, m)
     if m.key in _derived:
         _derived.move_to_end(m.key)
-        m.arrs, m.residuals = _derived[m.key]
+        m._arrs, m.residuals = _derived[m.key]
     else:
-        _remember(_derived, m.key, (m.arrs, m.residuals))
+        _remember(_derived, m.key, (m._arrs, m.residuals))
     return m
 
 

@@ -26,7 +26,6 @@ from dataclasses import dataclass
 from typing import Mapping
 
 import numpy as np
-import sympy as sp
 
 from bondgraph.errors import ModelError
 from bondgraph.model import Model
@@ -102,16 +101,43 @@ def acted_on(model: Model, residuals: tuple[Residual, ...], name: str) -> set[in
             if symbols & r.parameter_names() or (signal is not None and signal in {s for s, _ in r.signal_orders()})}
 
 
+_LINEAR: dict[int, tuple[Model, tuple, dict[str, str | None]]] = {}   # linear_transform's answers per residual set
+
+
 def linear_transform(model: Model, residuals: tuple[Residual, ...], name: str, active: list[int]) -> str | None:
     """How fault ``name``'s magnitude enters the residuals it touches, when affinely: through its
     value (``identity``) or its inverse (``reciprocal``: a resistance in a flow law, R4's leak
     sqrt|dp|/R4). None for sensor and source faults (they act on the signals before the
-    derivatives), stored quantities, or any other dependence."""
-    f = model.faults[name]
-    if f.kind not in ("parametric",) or not active:
+    derivatives), stored quantities, or any other dependence, or when no residual is ``active``.
+    Answered once per model, residual set and fault (sympy's derivatives; a compiled model carries
+    the answers: :func:`linear_transforms`)."""
+    if not active:
         return None
+    return linear_transforms(model, residuals, (name,))[name]
+
+
+def linear_transforms(model: Model, residuals: tuple[Residual, ...], names=None) -> dict[str, str | None]:
+    """:func:`linear_transform` of the faults ``names`` (all the model's by default), kept per
+    residual set (by identity, the set and its model held)."""
+    hit = _LINEAR.get(id(residuals))
+    if hit is None or hit[0] is not model or hit[1] is not residuals:
+        if len(_LINEAR) > 16:
+            _LINEAR.clear()
+        hit = _LINEAR[id(residuals)] = (model, residuals, {})
+    known = hit[2]
+    for name in model.faults if names is None else names:
+        if name not in known:
+            known[name] = _transform(model, residuals, name)
+    return {name: known[name] for name in (model.faults if names is None else names)}
+
+
+def _transform(model: Model, residuals: tuple[Residual, ...], name: str) -> str | None:
+    f = model.faults[name]
+    if f.kind not in ("parametric",):
+        return None
+    import sympy as sp
     u = sp.Symbol("__u", positive=True)
-    touched = [residuals[i] for i in active if set(f.symbols) & residuals[i].parameter_names()]
+    touched = [r for r in residuals if set(f.symbols) & r.parameter_names()]
     if not touched or any(r.composites for r in touched):
         return None
     for kind in ("identity", "reciprocal"):

@@ -11,7 +11,7 @@ authenticates them (an HMAC under this user's private key) before anything is un
 >>> from fdi.monitor import Monitor
 >>> m = Monitor("models/two_tank_valve.yaml")
 >>> back = restore(pack(m))
->>> back["arrs"] == m.arrs and back["residuals"][0].expr == m.residuals[0].expr
+>>> back["_arrs"].get() == m.arrs and back["residuals"][0].expr == m.residuals[0].expr
 True
 """
 from __future__ import annotations
@@ -21,10 +21,12 @@ import inspect
 import pickle
 from typing import TYPE_CHECKING, Any
 
+from bondgraph import deferred
+
 if TYPE_CHECKING:
     from .residuals import Residual
 
-FORMAT = 2
+FORMAT = 3
 
 
 SOURCE = "__bgfdi_source__"       # the attribute a kernel compiled from its source keeps it in
@@ -66,16 +68,35 @@ def _kernel_source(func) -> tuple[str, tuple[str, ...]]:
 
 
 def _spec(r: "Residual") -> tuple:
-    return (r.name, r.sensor, *_kernel_source(r.func), r.signals, r.symbols, r.expr,
-            tuple((order, _spec(inner)) for order, inner in r.composites))
+    """A residual's kernel as its source, its plain fields, and its expression as bytes of its own
+    (unpickled, with sympy, only where a diagnosis reads it: :mod:`bondgraph.deferred`)."""
+    _, blob = deferred.pickled(r)
+    return (r.name, r.sensor, *_kernel_source(r.func), r.signals, r.symbols, blob,
+            tuple((order, _spec(inner)) for order, inner in r.composites), r.ident)
 
 
 def _residual(spec: tuple) -> "Residual":
     from .residuals import Residual
-    name, sensor, source, reads, signals, symbols, expr, composites = spec
+    name, sensor, source, reads, signals, symbols, blob, composites, ident = spec
     func = _function(name, source, reads)
-    return Residual(name, sensor, func, signals, symbols, expr,
-                    tuple((order, _residual(inner)) for order, inner in composites))
+    state = {"name": name, "sensor": sensor, "func": func, "signals": signals, "symbols": symbols,
+             "composites": tuple((order, _residual(inner)) for order, inner in composites), "ident": ident}
+    return deferred.rebuilt(Residual, state, blob)
+
+
+class Pickled:
+    """Bytes unpickled on first use, then kept: a compiled model's AGARRs read back from the disk
+    cache or received by a worker (sympy objects: a diagnosis reads its residual kernels, not them,
+    and starts without importing sympy)."""
+    __slots__ = ("blob", "value")
+
+    def __init__(self, blob: bytes) -> None:
+        self.blob, self.value = blob, None
+
+    def get(self) -> Any:
+        if self.value is None:
+            self.value = pickle.loads(self.blob)        # authenticated or our own pickle (:func:`restore`)
+        return self.value
 
 
 def pack(monitor: Any, config=None) -> bytes | None:
@@ -97,9 +118,11 @@ def pack(monitor: Any, config=None) -> bytes | None:
         signals = _signal_specs(monitor.model)
     except (NotPortable, OSError, TypeError):
         return None
+    arrs = monitor.__dict__.get("_arrs")
+    arrs = arrs.blob if isinstance(arrs, Pickled) else pickle.dumps(tuple(arrs), protocol=pickle.HIGHEST_PROTOCOL)
     record = {"format": FORMAT, "model": monitor.model, "config": config, "key": monitor.key,
-              "arrs": monitor.arrs, "residuals": residuals, "time_scales": scales, "signals": signals,
-              "matrices": dict(monitor._matrices)}
+              "arrs": arrs, "residuals": residuals, "time_scales": scales, "signals": signals,
+              "matrices": dict(monitor._matrices), "linear": _linear_of(monitor)}
     try:
         out = pickle.dumps(record, protocol=pickle.HIGHEST_PROTOCOL)
     except (pickle.PicklingError, TypeError, AttributeError):
@@ -113,9 +136,11 @@ def warm(monitor: Any) -> None:
     units, the sensors' and inputs' signal functions, the FSM and MCSM of the nominal mode (a
     worker that receives it then derives nothing before its first file)."""
     from .data import _signal_functions
+    from .objective import linear_transforms
     from .signatures import nominal_mode
     monitor.units
     _signal_functions(monitor.model)
+    linear_transforms(monitor.model, monitor.residuals)
     mode = nominal_mode(monitor.model)
     monitor.fsm(mode)
     monitor.mcsm(mode)
@@ -123,7 +148,7 @@ def warm(monitor: Any) -> None:
 
 def restore(payload: bytes) -> dict[str, Any]:
     """What :func:`pack` stored, as the monitor's attributes (``model``, ``config``, ``key``,
-    ``arrs``, ``residuals``, ``_matrices``), the model's time scales and signal functions given
+    ``_arrs``: :class:`Pickled`, ``residuals``, ``_matrices``), the model's time scales and signal functions given
     back to the caches that keep them (raises on anything else: the caller derives it afresh).
     The payload comes from :func:`fdi.diskcache.fetch` (authenticated) or from this user's own
     pickle stream (:meth:`fdi.monitor.Monitor.__reduce__`)."""
@@ -131,13 +156,18 @@ def restore(payload: bytes) -> dict[str, Any]:
     if not isinstance(record, dict) or record.get("format") != FORMAT:
         raise ValueError("not a compiled monitor of this format")
     model = record["model"]
-    out = {"model": model, "config": record["config"], "key": record["key"], "arrs": tuple(record["arrs"]),
+    out = {"model": model, "config": record["config"], "key": record["key"], "_arrs": Pickled(record["arrs"]),
            "residuals": tuple(_residual(s) for s in record["residuals"]), "_matrices": dict(record["matrices"])}
     if record["time_scales"] is not None:
         from bondgraph import timescales
         if len(timescales._CACHE) > 32:
             timescales._CACHE.clear()
         timescales._CACHE[id(model)] = (model, record["time_scales"])   # what model_time_scales keeps
+    if record["linear"] is not None:
+        from . import objective
+        if len(objective._LINEAR) > 16:
+            objective._LINEAR.clear()
+        objective._LINEAR[id(out["residuals"])] = (model, out["residuals"], dict(record["linear"]))
     if record["signals"] is not None:
         from . import data
         if len(data._SIGNALS) > 16:
@@ -164,6 +194,13 @@ def _function(name: str, source: str, reads: tuple[str, ...]):
     return func
 
 
+def _linear_of(monitor: Any) -> dict | None:
+    """How each fault's magnitude enters the monitor's residuals (:func:`fdi.objective.linear_transforms`), if answered."""
+    from . import objective
+    hit = objective._LINEAR.get(id(monitor.residuals))
+    return dict(hit[2]) if hit is not None and hit[0] is monitor.model and hit[1] is monitor.residuals else None
+
+
 def _signals_of(model):
     """The lambdified sensor and input expressions :mod:`fdi.data` keeps for ``model``, if made."""
     from . import data
@@ -186,4 +223,4 @@ def size(monitor: Any) -> int:
             + (_signals_of(monitor.model) is not None))
 
 
-__all__ = ["pack", "restore", "size", "NotPortable"]
+__all__ = ["pack", "restore", "size", "NotPortable", "Pickled"]

@@ -32,16 +32,19 @@ True
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Mapping
+from typing import TYPE_CHECKING, Callable, Mapping
 
 import numpy as np
-import sympy as sp
 
-from bondgraph.equations import is_signal
-from bondgraph.model import Model, t
+from bondgraph.deferred import deferred
+from bondgraph.model import Model
 
 from . import derivatives
-from .scaph import ARR
+
+if TYPE_CHECKING:           # sympy and the derivation: imported where a residual is compiled, not where one runs
+    import sympy as sp
+
+    from .scaph import ARR
 
 
 class Estimates(list):
@@ -70,6 +73,7 @@ def samples_of(series) -> np.ndarray:
     return series.raw if isinstance(series, Estimates) else series[0]
 
 
+@deferred("expr")
 @dataclass(frozen=True)
 class Residual:
     name: str
@@ -79,6 +83,8 @@ class Residual:
     symbols: tuple[str, ...]                 # parameters, remaining efficiency factors, modes
     expr: sp.Expr                            # the numeric form that was lambdified
     composites: tuple = ()                   # (derivative order, inner kernel): d^k/dt^k of a stored quantity
+    ident: str = ""                          # the expression exactly (sympy's srepr), as plain text: two residuals
+                                             # that store one quantity share its rate (no sympy read to compare)
 
     def __call__(self, signals: Mapping[str, list[np.ndarray]], values: Mapping[str, object],
                  ts: float | None = None, window: float = derivatives.DEFAULT_WINDOW,
@@ -117,7 +123,7 @@ class Residual:
         identity, and held by the entry, so an id is never reused while it is compared)."""
         reads = tuple(signals[s][k] for s, k in inner.signal_orders()) + \
             tuple(values[n] for n in sorted(inner.parameter_names()))
-        key = (inner.expr, order, None if crop is None else (crop.start, crop.stop, crop.step))
+        key = (inner.key, order, None if crop is None else (crop.start, crop.stop, crop.step))
         if rates is not None:
             for held, rate in rates.get(key, ()):
                 if len(held) == len(reads) and all(a is b for a, b in zip(held, reads)):
@@ -136,6 +142,12 @@ class Residual:
             rates.setdefault(key, []).append((reads, rate))
         return rate
 
+    @property
+    def key(self) -> object:
+        """What identifies the quantity this kernel computes among residuals (two ARRs that store
+        one quantity share its rate): its exact expression as text, without reading sympy."""
+        return self.ident or self.expr
+
     def parameter_names(self) -> set[str]:
         """Every parameter, efficiency factor and mode this kernel reads, its stored quantities' included."""
         return set(self.symbols).union(*(inner.parameter_names() for _, inner in self.composites))
@@ -150,6 +162,7 @@ class Residual:
 
 def numeric_form(model: Model, expr: sp.Expr) -> sp.Expr:
     """Sensor and input efficiency factors set to 1: the caller passes corrected signals."""
+    import sympy as sp
     ones = {model.beta_symbol(s): sp.Integer(1) for s in model.sensors}
     ones.update({model.beta_symbol(e.input): sp.Integer(1) for e in model.sources() if e.input})
     return expr.xreplace(ones)
@@ -168,6 +181,10 @@ def compile_residual(model: Model, arr: ARR) -> Residual:
 
 
 def _compile(model: Model, expr: sp.Expr, name: str, sensor: str | None) -> Residual:
+    import sympy as sp
+
+    from bondgraph.equations import is_signal
+    from bondgraph.model import t
     names = list(model.sensors) + list(model.inputs)
     composite_syms: list[sp.Symbol] = []
     stored: list[tuple[int, Residual]] = []
@@ -202,7 +219,7 @@ def _compile(model: Model, expr: sp.Expr, name: str, sensor: str | None) -> Resi
     others = sorted((s for s in numeric.free_symbols if s not in set(signal_syms) and s not in set(composite_syms)),
                     key=lambda s: s.name)
     func = _kernel(signal_syms + composite_syms + others, numeric)
-    return Residual(name, sensor, func, tuple(used), tuple(s.name for s in others), expr, composites)
+    return Residual(name, sensor, func, tuple(used), tuple(s.name for s in others), expr, composites, sp.srepr(expr))
 
 
 def _kernel(args: list[sp.Symbol], expr: sp.Expr):
@@ -211,6 +228,7 @@ def _kernel(args: list[sp.Symbol], expr: sp.Expr):
     order of every product and sum, hence the last bits of every residual) depends on the
     arguments' positions only. sympy's own ``dummify`` names arguments by a process-wide counter
     that sorts as text: a model derived a second time in one process gave residuals 6e-14 apart."""
+    import sympy as sp
     width = len(str(max(len(args) - 1, 0)))
     names = [sp.Symbol(f"_a{i:0{width}d}", real=True) for i in range(len(args))]
     return sp.lambdify(names, expr.xreplace(dict(zip(args, names))), modules="numpy", cse=True)
@@ -293,7 +311,7 @@ def _piecewise(x: np.ndarray, ts: float, order: int, window: float, breaks: np.n
 
 def parameter_values(model: Model, overrides: Mapping[str, object] | None = None) -> dict[str, object]:
     """Nominal parameter, efficiency factor and mode values by name, with overrides applied."""
-    values: dict[str, object] = {s.name: v for s, v in model.nominal_values().items()}
+    values: dict[str, object] = dict(model.nominal_by_name())
     values.update(overrides or {})
     return values
 

@@ -92,7 +92,7 @@ def weak_entries(model: Model, residuals: list[Residual], raw: Mapping[str, np.n
     ``raw``: the signals of the decision window, ``crop`` the samples judged; ``values``: mode
     values (commanded modes)."""
     c = [int(x) for x in coherence]
-    nominal = {s.name: float(v) for s, v in model.nominal_values().items()}
+    nominal = {k: float(v) for k, v in model.nominal_by_name().items()}
     base_values = dict(values or {})
     r0 = evaluate(model, residuals, raw, ts, window=window, values=base_values)[:, crop]
     out: list[Weakness] = []
@@ -171,7 +171,7 @@ def nominal_sensitivities(model: Model, residuals: list[Residual], thresholds: M
     ts = model.sampling_time or scales.fastest / 10
     span = min(20 * scales.slowest, 2000 * scales.fastest) if np.isfinite(scales.slowest) else 2000 * scales.fastest
     t = np.arange(int(span / ts) + 1) * ts
-    nominal = {s.name: float(v) for s, v in model.nominal_values().items()}
+    nominal = {k: float(v) for k, v in model.nominal_by_name().items()}
     missing = [r.name for r in residuals if r.name not in thresholds]
     if missing:
         raise ValueError(f"no threshold for {', '.join(missing)} in the model (bgfdi calibrate gives them)")

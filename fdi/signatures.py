@@ -25,13 +25,14 @@ from __future__ import annotations
 import html
 from dataclasses import dataclass
 from itertools import product
-from typing import Mapping
-
-import sympy as sp
+from typing import TYPE_CHECKING, Mapping
 
 from bondgraph.model import Model
 
-from .scaph import ARR
+if TYPE_CHECKING:           # sympy and the derivation: imported where a matrix is derived, not where one is read
+    import sympy as sp
+
+    from .scaph import ARR
 
 
 @dataclass(frozen=True)
@@ -90,11 +91,13 @@ def nominal_mode(model: Model) -> dict[str, int]:
 
 
 def _in_mode(model: Model, expr: sp.Expr, mode: Mapping[str, int]) -> sp.Expr:
+    import sympy as sp
     return expr.xreplace({model.symbols[m]: sp.Integer(v) for m, v in mode.items()})
 
 
 def fault_signature_matrix(model: Model, arrs: list[ARR], mode: Mapping[str, int] | None = None) -> FSM:
     """MD-FSM in one mode (the nominal mode by default) for every non-mode candidate fault."""
+    import sympy as sp
     mode = dict(mode or nominal_mode(model))
     exprs = [_in_mode(model, a.expr, mode) for a in arrs]
     nominal = {s: sp.oo if v == float("inf") else sp.Float(v) if v != int(v) else sp.Integer(int(v))

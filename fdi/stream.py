@@ -181,8 +181,8 @@ class Stream:
         self.options.check()
         self.monitor = self.monitor.with_config(self.options.settings)
         c = self.monitor
-        self.model, self.config, self.arrs, self.compiled = c.model, c.config, c.arrs, c.residuals
-        self.names = [a.name for a in self.arrs]
+        self.model, self.config, self.compiled = c.model, c.config, c.residuals
+        self.names = list(c.names)
         self.thresholds = thresholds_for(self.config.thresholds, self.names, self.options.thresholds)
         self.wait = self.config.waiting_time if self.options.waiting_time is None else self.options.waiting_time
         self.samples = self.options.samples or self.config.samples

@@ -567,7 +567,7 @@ class _Runner:
     def __init__(self, model: Model, mode: Mapping[str, int], grid: np.ndarray, tau: float, finest: float,
                  rng: np.random.Generator):
         self.model, self.mode, self.grid, self.tau, self.finest, self.rng = model, mode, grid, tau, finest, rng
-        self.vals = {s.name: float(v) for s, v in model.nominal_values().items()}
+        self.vals = {k: float(v) for k, v in model.nominal_by_name().items()}
         self.vals.update({k: float(v) for k, v in mode.items()})
         self.atol: object = 1e-9
 

@@ -107,7 +107,7 @@ def chain_row(size: int, echo=None) -> dict:
     row["seconds"] = _best_of(lambda: derive_arrs(model, assign(model, DIAGNOSIS)))
     if echo:
         echo(f"chain N={size}: ARRs {row['seconds']:.3f} s")
-    values = {s.name: v for s, v in model.nominal_values().items()}
+    values = dict(model.nominal_by_name())
     row["state_seconds"] = _best_of(lambda: build_system(model, values))
     if echo:
         echo(f"chain N={size}: state equations {row['state_seconds']:.3f} s")

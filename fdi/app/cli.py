@@ -28,6 +28,8 @@ if TYPE_CHECKING:                      # networkx (causality) and sympy (model) 
     from bondgraph.causality import Causality
     from bondgraph.model import Model
 
+    from ..monitor import Monitor
+
 from ..errors import UsageError
 from ..data import DataError
 from ..options import DEFAULT_WORKERS, MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
@@ -559,16 +561,16 @@ def _named(pairs: list[tuple[str, float]] | None, option: str, known: list[str],
     return out
 
 
-def _options(args: argparse.Namespace, model: Model):
+def _options(args: argparse.Namespace, monitor: "Monitor"):
     """The diagnosis Options from the command line; the names in --threshold and --failure are
     checked against the model here, every value was checked while parsing."""
     from optim import ENGINES
 
     from ..options import Options
-    from ..monitor import monitor_of
     if args.engine not in ENGINES:
         raise UsageError(f"--engine: unknown engine '{args.engine}' (use {', '.join(ENGINES)})")
-    names = list(monitor_of(model).names)
+    model = monitor.model
+    names = list(monitor.names)
     thresholds = _named(args.threshold, "--threshold", names, f"residual of {model.name}")
     failures = _named(args.failure, "--failure", list(model.faults), f"fault of {model.name}")
     options = Options(thresholds=thresholds, waiting_time=args.wait, persistence=args.persistence,
@@ -616,7 +618,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
     _check_fleet_options(args)
     model = compiled(args.model).model
-    options = _options(args, model)
+    options = _options(args, compiled(args.model))
     if len(args.data) > 1 or (args.jobs or 1) > 1 or args.scheduler or is_parquet(args.output):
         return _diagnose_batch(args, options)
     data = read_csv(args.data[0])
@@ -729,7 +731,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from .scenario import load_scenario
 
     model = compiled(args.model).model
-    options = _options(args, model)
+    options = _options(args, compiled(args.model))
     files = suite_files(args.scenarios, skipped=LOG.warning)
     if not files:
         raise UsageError(f"no scenario files in {', '.join(args.scenarios)}")
@@ -805,7 +807,7 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     from ..results import deterministic
 
     model = compiled(args.model).model
-    options = _options(args, model)
+    options = _options(args, compiled(args.model))
     lines: list[str] = []
     held: list[dict] | None = []            # events before the header is read and checked: held
 
@@ -904,7 +906,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
     path = str(shipped_model("cycab_steering"))
     model = compiled(path).model
-    options = _options(args, model)                          # bad options refused before simulating
+    options = _options(args, compiled(path))                 # bad options refused before simulating
     scenario = load_scenario(scenarios_dir() / f"cycab_{args.scenario}.json", model)
     check_samples(options.samples, 1.0 / scenario.fs, "--samples")
     LOG.info(f"simulating CyCab {args.scenario} ({scenario.T:g} s; faults: "

@@ -379,7 +379,7 @@ def breakpoints(scenario: Scenario) -> list[float]:
 def time_functions(model: Model, scenario: Scenario):
     """values(t) for the simulator (vectorised: t may be an array), each sensor's beta(t) for the
     measurement (its offset b(t) under ``~bias_<sensor>``), and the onset of each stuck sensor."""
-    nominal = {s.name: v for s, v in model.nominal_values().items()}
+    nominal = dict(model.nominal_by_name())
     param_fns: dict[str, Callable] = {}
     beta_sensors: dict[str, Callable] = {}
     stuck: dict[str, float] = {}
