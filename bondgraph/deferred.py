@@ -35,18 +35,24 @@ T = TypeVar("T")
 
 
 def _load(obj: Any) -> None:
-    """Unpickle the object's deferred fields into its ``__dict__`` (once)."""
-    blob = obj.__dict__.pop(BUNDLE, None)
+    """Unpickle the object's deferred fields into its ``__dict__``. The fields are set before the
+    bytes are dropped, so a thread that reads one meanwhile finds either the bytes or the field
+    (two threads may both unpickle: the same values, set twice)."""
+    blob = obj.__dict__.get(BUNDLE)
     if blob is not None:
         for name, value in pickle.loads(blob).items():   # bytes this program pickled itself
             object.__setattr__(obj, name, value)
+        obj.__dict__.pop(BUNDLE, None)
 
 
 def _getattr(self: Any, name: str) -> Any:
     """Called only for an attribute the instance lacks: a deferred field not loaded yet."""
-    if name in type(self)._deferred_fields and BUNDLE in self.__dict__:
-        _load(self)
-        return self.__dict__[name]
+    if name in type(self)._deferred_fields:
+        d = self.__dict__
+        if BUNDLE in d:
+            _load(self)
+        if name in d:
+            return d[name]
     raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
 

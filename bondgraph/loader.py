@@ -18,7 +18,7 @@ import re
 import stat
 import unicodedata
 from collections import ChainMap
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import product
 from pathlib import Path
 from typing import Any, Mapping
@@ -726,7 +726,7 @@ def _elements(ctx, data, symbols, claim, inputs, sensors) -> dict[str, Element]:
             else:
                 need = "input: <input name>" if kind.startswith("M") else "value: <number or expression of t>"
                 raise ctx.error(where, f"source '{name}' needs {need}")
-        out[name] = Element(**{**element.__dict__, **fields})
+        out[name] = replace(element, **fields)
     return out
 
 

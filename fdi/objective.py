@@ -101,7 +101,8 @@ def acted_on(model: Model, residuals: tuple[Residual, ...], name: str) -> set[in
             if symbols & r.parameter_names() or (signal is not None and signal in {s for s, _ in r.signal_orders()})}
 
 
-_LINEAR: dict[int, tuple[Model, tuple, dict[str, str | None]]] = {}   # linear_transform's answers per residual set
+_LINEAR: dict[tuple, str | None] = {}   # linear_transform's answers, by what they depend on (_linear_key)
+LINEAR_KEPT = 4096
 
 
 def linear_transform(model: Model, residuals: tuple[Residual, ...], name: str, active: list[int]) -> str | None:
@@ -109,37 +110,49 @@ def linear_transform(model: Model, residuals: tuple[Residual, ...], name: str, a
     value (``identity``) or its inverse (``reciprocal``: a resistance in a flow law, R4's leak
     sqrt|dp|/R4). None for sensor and source faults (they act on the signals before the
     derivatives), stored quantities, or any other dependence, or when no residual is ``active``.
-    Answered once per model, residual set and fault (sympy's derivatives; a compiled model carries
+    Answered once per fault and residuals it touches (sympy's derivatives; a compiled model carries
     the answers: :func:`linear_transforms`)."""
     if not active:
         return None
-    return linear_transforms(model, residuals, (name,))[name]
-
-
-def linear_transforms(model: Model, residuals: tuple[Residual, ...], names=None) -> dict[str, str | None]:
-    """:func:`linear_transform` of the faults ``names`` (all the model's by default), kept per
-    residual set (by identity, the set and its model held)."""
-    hit = _LINEAR.get(id(residuals))
-    if hit is None or hit[0] is not model or hit[1] is not residuals:
-        if len(_LINEAR) > 16:
+    key = _linear_key(model, residuals, name)
+    if key not in _LINEAR:
+        if len(_LINEAR) >= LINEAR_KEPT:
             _LINEAR.clear()
-        hit = _LINEAR[id(residuals)] = (model, residuals, {})
-    known = hit[2]
-    for name in model.faults if names is None else names:
-        if name not in known:
-            known[name] = _transform(model, residuals, name)
-    return {name: known[name] for name in (model.faults if names is None else names)}
+        _LINEAR[key] = _transform(model, residuals, name)
+    return _LINEAR[key]
+
+
+def linear_transforms(model: Model, residuals: tuple[Residual, ...]) -> dict[tuple, str | None]:
+    """:func:`linear_transform`'s answers for every fault of the model, by what each depends on
+    (:func:`_linear_key`: the fault's kind, targets and their values, and the exact expressions of
+    the residuals it touches, as text), so any copy of the same residuals finds them: one read back
+    from the disk cache, or received by a worker."""
+    every = list(range(len(residuals)))
+    for name in model.faults:
+        linear_transform(model, residuals, name, every)
+    return {key: _LINEAR[key] for key in (_linear_key(model, residuals, name) for name in model.faults)}
+
+
+def _touched(model: Model, residuals: tuple[Residual, ...], name: str) -> list[Residual]:
+    symbols = set(model.faults[name].symbols)
+    return [r for r in residuals if symbols & r.parameter_names()]
+
+
+def _linear_key(model: Model, residuals: tuple[Residual, ...], name: str) -> tuple:
+    f = model.faults[name]
+    values = tuple(float(model.parameters[t].value) if t in model.parameters else None for t in f.targets)
+    return (f.kind, tuple(f.targets), values, tuple(r.key for r in _touched(model, residuals, name)))
 
 
 def _transform(model: Model, residuals: tuple[Residual, ...], name: str) -> str | None:
     f = model.faults[name]
     if f.kind not in ("parametric",):
         return None
-    import sympy as sp
-    u = sp.Symbol("__u", positive=True)
-    touched = [r for r in residuals if set(f.symbols) & r.parameter_names()]
+    touched = _touched(model, residuals, name)
     if not touched or any(r.composites for r in touched):
         return None
+    import sympy as sp
+    u = sp.Symbol("__u", positive=True)
     for kind in ("identity", "reciprocal"):
         if len(f.targets) > 1 and kind != "identity":
             break

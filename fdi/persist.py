@@ -165,9 +165,9 @@ def restore(payload: bytes) -> dict[str, Any]:
         timescales._CACHE[id(model)] = (model, record["time_scales"])   # what model_time_scales keeps
     if record["linear"] is not None:
         from . import objective
-        if len(objective._LINEAR) > 16:
+        if len(objective._LINEAR) + len(record["linear"]) > objective.LINEAR_KEPT:
             objective._LINEAR.clear()
-        objective._LINEAR[id(out["residuals"])] = (model, out["residuals"], dict(record["linear"]))
+        objective._LINEAR.update(record["linear"])
     if record["signals"] is not None:
         from . import data
         if len(data._SIGNALS) > 16:
@@ -195,10 +195,19 @@ def _function(name: str, source: str, reads: tuple[str, ...]):
 
 
 def _linear_of(monitor: Any) -> dict | None:
-    """How each fault's magnitude enters the monitor's residuals (:func:`fdi.objective.linear_transforms`), if answered."""
+    """How each fault's magnitude enters the monitor's residuals (:func:`fdi.objective.linear_transforms`,
+    by what each answer depends on), where answered (:func:`warm` asks)."""
     from . import objective
-    hit = objective._LINEAR.get(id(monitor.residuals))
-    return dict(hit[2]) if hit is not None and hit[0] is monitor.model and hit[1] is monitor.residuals else None
+    try:
+        return objective.linear_transforms(monitor.model, monitor.residuals) if _answered(monitor) else None
+    except Exception:                       # noqa: BLE001 - not kept: a diagnosis asks again and reports
+        return None
+
+
+def _answered(monitor: Any) -> bool:
+    from . import objective
+    return all(objective._linear_key(monitor.model, monitor.residuals, name) in objective._LINEAR
+               for name in monitor.model.faults)
 
 
 def _signals_of(model):

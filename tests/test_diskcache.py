@@ -298,6 +298,31 @@ def test_a_warm_diagnose_process_imports_neither_sympy_nor_networkx(cache, tmp_p
     assert json.loads(warm_report)["diagnosis"]["faults"]
 
 
+def test_a_worker_that_receives_a_compiled_monitor_imports_no_sympy(tmp_path):
+    """A monitor pickled as a pool or a dask cluster sends it (fdi.persist) and unpickled in a fresh
+    process with the cache off: the worker diagnoses without importing sympy, as the process that
+    derived it does, report for report (the faults' linear transforms travel with it)."""
+    from fdi.monitor import compiled
+    from fdi.options import Options
+    m = compiled(str(CYCAB))
+    options = Options(workers=1, pop=12, generations=5, seed=3)
+    here = m.diagnose(str(DATA / "scenario2.csv"), options).to_dict()
+    (tmp_path / "m.pickle").write_bytes(pickle.dumps((m, options)))
+    script = textwrap.dedent(f"""
+        import json, pickle, sys
+        m, options = pickle.loads(open({str(tmp_path / 'm.pickle')!r}, "rb").read())
+        d = m.diagnose({str(DATA / 'scenario2.csv')!r}, options)
+        print(json.dumps([d.to_dict(), "sympy" in sys.modules]))
+    """)
+    env = {**os.environ, diskcache.ENV: "off", "PYTHONPATH": str(ROOT)}
+    out = subprocess.run(PY + ["-c", script], cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    there, imported = json.loads(out.stdout.splitlines()[-1])
+    assert not imported
+    assert there == json.loads(json.dumps(here))
+    assert [f["name"] for f in there["diagnosis"]["faults"]] == ["R4", "beta_theta2"]    # the paper's scenario 2
+
+
 def test_the_api_keeps_what_a_diagnosis_derived_for_the_next_process(cache):
     """``fdi.api.diagnose`` twice, in two processes: the first derives the model's time scales (a
     simulation system per mode, their eigenvalues) and keeps them with the compiled model, as the

@@ -5,8 +5,9 @@ process is almost all start-up) as a child process, with the compiled-model cach
 model derived) and on (warm: a private cache folder, filled by one run before), the least CPU time
 (user + system, ``getrusage`` of the children) of ``repeat`` runs; the diagnosis itself in this
 process (the monitor compiled, ``time.process_time``, least of ``repeat``) is subtracted:
-start-up = process - in-process diagnosis. The floor of the design, ``python -c "import numpy,
-sympy"``, is measured beside it. Every figure is of this run; no stored reference.
+start-up = process - in-process diagnosis. The floor of the design, ``python -c "import numpy"``
+(a warm process imports numpy and no sympy: :mod:`bondgraph.deferred`), is measured beside it.
+Every figure is of this run; no stored reference.
 """
 from __future__ import annotations
 
@@ -43,7 +44,7 @@ def process_times(args: list[str], env: dict | None = None) -> tuple[float, floa
 
 def startup_row(model: Path, data: Path, repeat: int = 3) -> dict:
     """Whole-process CPU of ``bgfdi diagnose`` cold and warm, the in-process diagnosis, their
-    differences (start-up) and the floor (Python with numpy and sympy imported)."""
+    differences (start-up) and the floor (Python with numpy imported)."""
     from ..monitor import compiled
     from ..options import Options
     folder = Path(tempfile.mkdtemp(prefix="bgfdi-bench-cache-"))
@@ -53,7 +54,7 @@ def startup_row(model: Path, data: Path, repeat: int = 3) -> dict:
         cold = min(process_cpu(cmd, {**base, "BGFDI_CACHE": "off"}) for _ in range(repeat))
         process_cpu(cmd, {**base, "BGFDI_CACHE": "on"})                   # fills the cache
         warm = min(process_cpu(cmd, {**base, "BGFDI_CACHE": "on"}) for _ in range(repeat))
-        floor = min(process_cpu([sys.executable, "-c", "import numpy, sympy"], base) for _ in range(repeat))
+        floor = min(process_cpu([sys.executable, "-c", "import numpy"], base) for _ in range(repeat))
     finally:
         shutil.rmtree(folder, ignore_errors=True)
     monitor = compiled(model)
@@ -73,7 +74,7 @@ def format_startup(row: dict) -> str:
             f"{row['diagnosis_s']:.3f} s):\n"
             f"  cold (cache off): {row['cold_process_s']:.3f} s, start-up {row['cold_startup_s']:.3f} s\n"
             f"  warm (cache on):  {row['warm_process_s']:.3f} s, start-up {row['warm_startup_s']:.3f} s\n"
-            f"  floor (python -c 'import numpy, sympy'): {row['floor_s']:.3f} s\n")
+            f"  floor (python -c 'import numpy'): {row['floor_s']:.3f} s\n")
 
 
 def startup_json(row: dict) -> dict:
