@@ -733,7 +733,9 @@ def _elements(ctx, data, symbols, claim, inputs, sensors) -> dict[str, Element]:
 def _check_inverse(ctx, where, law: sp.Expr, law_var: str, inverse: sp.Expr, inverse_var: str,
                    law_key: str, inverse_key: str) -> None:
     """A declared law pair must be one relation: inverse(law(x)) = x at sample points (parameters at
-    sample values too, so a pair that only agrees at the nominal values is still caught)."""
+    sample values too, so a pair that only agrees at the nominal values is still caught), or, where
+    the law is not one-to-one, another x with the same law(x): the inverse is then one branch of it
+    (a pendulum's gravity torque mgl sin(q) and its displacement asin(e / mgl) on |q| < pi/2)."""
     x = LAW_VARIABLES[law_var]
     params = sorted((law.free_symbols | inverse.free_symbols) - set(LAW_VARIABLES.values()), key=str)
     rng = [0.37, 1.9, 0.83, 2.6, 1.3]
@@ -746,11 +748,21 @@ def _check_inverse(ctx, where, law: sp.Expr, law_var: str, inverse: sp.Expr, inv
             continue
         if not back.is_number or not back.is_finite:
             continue
-        if abs(complex(back) - v) > 1e-6 * max(1.0, abs(v)):
+        if abs(complex(back) - v) > 1e-6 * max(1.0, abs(v)) and not _same_image(law, values, x, back, out):
             raise ctx.error(where + (inverse_key,),
                             f"'{inverse_key}' is not the inverse of '{law_key}' ({law_key} at {law_var} = {v} gives "
                             f"{sp.N(out, 6)}, and {inverse_key} of that gives {law_var} = {sp.N(back, 6)}, not {v}); "
                             "give one relation in both forms, or only one of them")
+
+
+def _same_image(law: sp.Expr, values: dict, x: sp.Symbol, back: sp.Expr, out: sp.Expr) -> bool:
+    """law(back) = out: ``back`` is another point the law maps where ``out`` came from."""
+    try:
+        again = complex(sp.N(law.xreplace({**values, x: back})))
+        out = complex(sp.N(out))
+    except (TypeError, ValueError, ZeroDivisionError):          # pragma: no cover - sympy edge cases
+        return False
+    return abs(again - out) <= 1e-6 * max(1.0, abs(out))
 
 
 def _storage_laws(ctx, where, kind: str, laws: dict, parameter: str | None) -> dict:
