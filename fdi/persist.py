@@ -5,7 +5,11 @@ and MCSM of each mode asked so far) is pickled with its model and settings. A re
 function sympy's ``lambdify`` generated from an expression this program derived; it is stored as
 that generated source and compiled again on load in the namespace ``lambdify`` gives it (numpy's
 functions), after checking, when it is stored, that every global name it reads means the same
-object there. The bytes are only ever read back through :func:`fdi.diskcache.fetch`, which
+object there. The sympy parts (the model's expressions, each residual's expression, the AGARRs)
+are nested pickles of their own, unpickled only when something reads them
+(:mod:`bondgraph.deferred`, :class:`Pickled`): a diagnosis of a monitor read back imports no
+sympy. The faults' linear transforms (:func:`fdi.objective.linear_transforms`) travel with it. The
+bytes are only ever read back through :func:`fdi.diskcache.fetch`, which
 authenticates them (an HMAC under this user's private key) before anything is unpickled.
 
 >>> from fdi.monitor import Monitor
@@ -133,8 +137,9 @@ def pack(monitor: Any, config=None) -> bytes | None:
 
 def warm(monitor: Any) -> None:
     """Derive what every diagnosis asks for first, so the packed monitor carries it: the residuals'
-    units, the sensors' and inputs' signal functions, the FSM and MCSM of the nominal mode (a
-    worker that receives it then derives nothing before its first file)."""
+    units, the sensors', inputs' and autonomous modes' functions, the faults' linear transforms,
+    the FSM and MCSM of the nominal mode (a worker that receives it then derives nothing before
+    its first file)."""
     from .data import _signal_functions
     from .objective import linear_transforms
     from .signatures import nominal_mode

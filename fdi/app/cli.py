@@ -617,8 +617,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..monitor import compiled
 
     _check_fleet_options(args)
-    model = compiled(args.model).model
-    options = _options(args, compiled(args.model))
+    monitor = compiled(args.model)
+    model = monitor.model
+    options = _options(args, monitor)
     if len(args.data) > 1 or (args.jobs or 1) > 1 or args.scheduler or is_parquet(args.output):
         return _diagnose_batch(args, options)
     data = read_csv(args.data[0])
@@ -730,8 +731,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from ..monitor import compiled
     from .scenario import load_scenario
 
-    model = compiled(args.model).model
-    options = _options(args, compiled(args.model))
+    monitor = compiled(args.model)
+    model = monitor.model
+    options = _options(args, monitor)
     files = suite_files(args.scenarios, skipped=LOG.warning)
     if not files:
         raise UsageError(f"no scenario files in {', '.join(args.scenarios)}")
@@ -806,8 +808,9 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     from ..monitor import compiled
     from ..results import deterministic
 
-    model = compiled(args.model).model
-    options = _options(args, compiled(args.model))
+    compiled_model = compiled(args.model)
+    model = compiled_model.model
+    options = _options(args, compiled_model)
     lines: list[str] = []
     held: list[dict] | None = []            # events before the header is read and checked: held
 
@@ -905,8 +908,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from .scenario import load_scenario, run
 
     path = str(shipped_model("cycab_steering"))
-    model = compiled(path).model
-    options = _options(args, compiled(path))                 # bad options refused before simulating
+    monitor = compiled(path)
+    model = monitor.model
+    options = _options(args, monitor)                 # bad options refused before simulating
     scenario = load_scenario(scenarios_dir() / f"cycab_{args.scenario}.json", model)
     check_samples(options.samples, 1.0 / scenario.fs, "--samples")
     LOG.info(f"simulating CyCab {args.scenario} ({scenario.T:g} s; faults: "
