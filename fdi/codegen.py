@@ -384,18 +384,18 @@ class _Builder:
             channel = self.stored(inner, order, f"stored quantity {shown}")
             stored[sp.Symbol(f"__stored{i}", real=True)] = self.stored_symbol(order, channel, shown)
         replace: dict[sp.Expr, sp.Expr] = {}
-        for d in expr.atoms(sp.Derivative):
+        for d in sorted(expr.atoms(sp.Derivative), key=sp.srepr):     # in one order: the same C every run
             if not is_signal(d.expr) or d.expr.func.__name__ not in self.by_signal:
                 raise CodegenError(f"{label}: cannot evaluate the derivative {sp.sstr(d)} numerically")
             order = sum(c for v, c in d.variable_count if v == TIME)
             replace[d] = self.signal_symbol(d.expr.func.__name__, order)
         read = self.sample_symbol if measured else (lambda name: self.signal_symbol(name, 0))
-        plain = {fn: read(fn.func.__name__) for fn in expr.atoms(sp.core.function.AppliedUndef)
+        plain = {fn: read(fn.func.__name__) for fn in sorted(expr.atoms(sp.core.function.AppliedUndef), key=sp.srepr)
                  if fn.func.__name__ in self.by_signal}
         # derivatives first, so that theta1(t) inside Derivative(theta1(t), t) is not replaced
         expr = expr.xreplace(replace).xreplace(plain).xreplace(stored)
         rest = {}
-        for s in expr.free_symbols:
+        for s in sorted(expr.free_symbols, key=lambda x: x.name):
             if s in self.names:
                 continue
             if s.name in self.varying:
@@ -474,7 +474,7 @@ def _take(model: Model, index: dict[str, int], builder: _Builder,
 
     def of_columns(expr: sp.Expr) -> dict[sp.Symbol, str]:
         out = {}
-        for s in expr.free_symbols:
+        for s in sorted(expr.free_symbols, key=lambda x: x.name):
             if s.name not in index:
                 raise CodegenError(f"{where}: {s.name} is no column of the data; the generated code cannot read it")
             out[s] = f"col[{index[s.name]}]"
@@ -482,7 +482,7 @@ def _take(model: Model, index: dict[str, int], builder: _Builder,
 
     def of_signals(expr: sp.Expr) -> dict[sp.Symbol, str]:
         out = {}
-        for s in expr.free_symbols:
+        for s in sorted(expr.free_symbols, key=lambda x: x.name):
             if s.name in local:
                 out[s] = local[s.name]
             elif s.name in builder.values:

@@ -347,6 +347,25 @@ def test_the_command_writes_a_folder_and_refuses_outputs_that_are_inputs(tmp_pat
     assert main(["codegen", "--help"]) == 0
 
 
+@pytest.mark.parametrize("name", ["cycab_steering", "hydraulic_actuator"])
+def test_the_generated_files_are_the_same_bytes_in_every_process(tmp_path, name):
+    """A reproducible build: two processes with other string hashes (the order sympy's sets give
+    their symbols) write the same files, byte for byte (the parameters' struct and the channels
+    were in set order: each run a different header)."""
+    import os
+    import sys
+    root = Path(__file__).resolve().parents[1]
+    outs = []
+    for seed in ("1", "2"):
+        out = tmp_path / f"run{seed}"
+        env = {**os.environ, "PYTHONHASHSEED": seed, "BGFDI_CACHE": "off", "PYTHONPATH": str(root)}
+        done = subprocess.run([sys.executable, "-m", "fdi", "codegen", str(MODELS / f"{name}.yaml"), "-o", str(out)],
+                              cwd=root, env=env, capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr[-2000:]
+        outs.append({p.name: p.read_bytes() for p in sorted(out.iterdir())})
+    assert outs[0] == outs[1]
+
+
 def test_the_driver_refuses_data_it_cannot_use(cycab_monitor, tmp_path):
     _, _, exe = cycab_monitor
     lines = (DATA / "nominal.csv").read_text().splitlines()[:200]
