@@ -410,6 +410,23 @@ def translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: np
                  lambda: _translate(spaces, real, bits_from, bits_to, t, t0, seed, t0_to)).copy()
 
 
+def _distance(q: np.ndarray, target: np.ndarray, first: int, inverse: bool) -> np.ndarray:
+    """Each row's sum over the samples ``first:`` of |scale(q) - target| (``scale``: the reciprocal
+    when ``inverse``), in one buffer laid out samples-major: each row's terms are added sample by
+    sample, in the order (and to the bits) of the boolean-indexed copy this replaced, in a third
+    of its time (three passes over the population's profiles instead of six)."""
+    qt = q.T[first:]
+    d = np.empty(qt.shape)
+    with np.errstate(all="ignore"):
+        if inverse:
+            np.divide(1.0, qt, out=d)
+        else:
+            d[...] = qt
+        d -= target[first:, None]
+        np.abs(d, out=d)
+    return d.sum(axis=0)
+
+
 def _translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: np.ndarray, t: np.ndarray,
                t0: float, seed: int, t0_to: float | None) -> np.ndarray:
     """:func:`translate`, computed."""
@@ -423,6 +440,7 @@ def _translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: n
     after = t >= t0
     if not after.any():
         return out
+    first = int(np.argmax(after))           # t ascends: the samples after the onset are t[first:]
     shift = t0_to is not None and t0_to != t0
     onset = t0 if t0_to is None else t0_to
     src = encoding.decode(spaces, real[None, :], np.asarray(bits_from)[None, :])
@@ -435,7 +453,8 @@ def _translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: n
         p = encoding.profiles([space], [a], t, t0)[0][0]
         if not np.isfinite(p[after]).all():
             continue
-        scale = (lambda v: 1.0 / v) if not np.isfinite(space.nominal) else (lambda v: v)
+        inverse = not np.isfinite(space.nominal)
+        scale = (lambda v: 1.0 / v) if inverse else (lambda v: v)
         target = scale(p)
         if kb == 0:
             value = float(np.median(p[after]))
@@ -457,8 +476,7 @@ def _translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: n
                 rows[:, [c - n_real * j for c in cols]] = x
                 bits_j = np.tile(np.asarray(bits_to)[encoding.N_BITS * j: encoding.N_BITS * (j + 1)], (TRANSLATE_DRAWS, 1))
                 (q,) = encoding.profiles([space], encoding.decode([space], rows, bits_j), t, onset)
-                with np.errstate(all="ignore"):
-                    e = np.abs(scale(q) - target[None, :])[:, after].sum(axis=1) / width
+                e = _distance(q, target, first, inverse) / width
                 e = np.where(np.isfinite(e), e, np.inf)
                 i = int(np.argmin(e))
                 if e[i] < best_e:
