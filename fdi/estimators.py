@@ -9,7 +9,6 @@ than one worker, one process pool for the whole diagnosis: each worker receives 
 from __future__ import annotations
 
 import json
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Callable, Mapping
 
@@ -23,6 +22,8 @@ from .objective import Objective, Window, acted_on, linear_transform, window
 from .results import Estimate
 
 if TYPE_CHECKING:
+    from concurrent.futures import ProcessPoolExecutor
+
     from .monitor import Monitor
 
 CHI2_95 = 3.841458820694124      # 95 % quantile of chi-square with one degree of freedom
@@ -444,6 +445,7 @@ class Estimators:
     def _map(self, jobs: list[Job]) -> list[Estimate]:
         if self.workers > 1 and len(jobs) > 1:
             if self._pool is None:
+                from concurrent.futures import ProcessPoolExecutor     # (20 ms of imports a one-worker run skips)
                 self._pool = ProcessPoolExecutor(min(self.workers, len(jobs)), initializer=_install,
                                                  initargs=(self.monitor,))
             return list(self._pool.map(_fit_in_worker, jobs))
