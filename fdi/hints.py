@@ -476,7 +476,8 @@ def _translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: n
                 rows[:, [c - n_real * j for c in cols]] = x
                 bits_j = np.tile(np.asarray(bits_to)[encoding.N_BITS * j: encoding.N_BITS * (j + 1)], (TRANSLATE_DRAWS, 1))
                 (q,) = encoding.profiles([space], encoding.decode([space], rows, bits_j), t, onset)
-                e = _distance(q, target, first, inverse) / width
+                with np.errstate(all="ignore"):
+                    e = _distance(q, target, first, inverse) / width
                 e = np.where(np.isfinite(e), e, np.inf)
                 i = int(np.argmin(e))
                 if e[i] < best_e:
