@@ -201,18 +201,12 @@ def _function(name: str, source: str, reads: tuple[str, ...]):
 
 def _linear_of(monitor: Any) -> dict | None:
     """How each fault's magnitude enters the monitor's residuals (:func:`fdi.objective.linear_transforms`,
-    by what each answer depends on), where answered (:func:`warm` asks)."""
+    by what each answer depends on; :func:`warm` answered them), or None where that failed."""
     from . import objective
     try:
-        return objective.linear_transforms(monitor.model, monitor.residuals) if _answered(monitor) else None
+        return objective.linear_transforms(monitor.model, monitor.residuals)
     except Exception:                       # noqa: BLE001 - not kept: a diagnosis asks again and reports
         return None
-
-
-def _answered(monitor: Any) -> bool:
-    from . import objective
-    return all(objective._linear_key(monitor.model, monitor.residuals, name) in objective._LINEAR
-               for name in monitor.model.faults)
 
 
 def _signals_of(model):

@@ -660,9 +660,13 @@ class AHDE(GenerationalSolver):
         """Run ``branches`` to convergence, then restart them around their best points (``restart``)
         until a round improves none; each such round shrinks the radius tenfold, down to
         ``finest``, and is spent on the leader alone (the runner-up only sets the margin)."""
+        self.converge(branches)
+        self.restart_rounds(branches)
+
+    def converge(self, branches: list[Branch]) -> None:
+        """Run ``branches`` to convergence on the current fidelity, while the run may go on."""
         if self.stop == "converged":
             self.advance(branches, self.budget, until_converged=True)
-        self.restart_rounds(branches)
 
     def restart_rounds(self, branches: list[Branch]) -> None:
         """``settle``'s rounds of restarts around the converged branches' best points."""
@@ -726,8 +730,7 @@ class AHDE(GenerationalSolver):
         self.refine(finalists)
         self.migrate(sorted(finalists, key=lambda b: b.best))
         if self.options.settle_later and not self.options.recheck:
-            if self.stop == "converged":
-                self.advance(finalists, self.budget, until_converged=True)
+            self.converge(finalists)
             self.settled = False                        # the restarts and revivals wait for ``resume``
             return
         self.settle(finalists)

@@ -37,6 +37,25 @@ def test_a_law_that_is_not_one_to_one_is_given_by_one_branch_and_a_wrong_branch_
         load_model_text(wrong, str(MODEL))
 
 
+def test_the_residuals_are_the_differentiated_momentum_balance_and_the_sensors_agreement():
+    """By hand (factors at 1): gravity's angle from the momentum balance, q = asin((tau - J w' - b w)
+    / mgl), whose rate must be the tachometer's w (ARR1); and the encoder's rate against the
+    tachometer, theta' - w (ARR2); up to their signs."""
+    import sympy as sp
+
+    from bondgraph.model import t
+    from fdi.monitor import compiled
+
+    from .independent import by_hand
+    got = {arr.name: by_hand(arr.expr) for arr in compiled(str(MODEL)).arrs}
+    (e1, s1, f1), (e2, _, f2) = got["ARR1"], got["ARR2"]
+    J, b, mgl = (s1[n] for n in ("J", "b", "mgl"))
+    tau, w, theta = f1["tau"], f1["omega"], f2["theta"]
+    angle = sp.asin((tau - J * sp.diff(w, t) - b * w) / mgl)
+    for expr, want in ((e1, w - sp.diff(angle, t)), (e2, sp.diff(theta, t) - w)):
+        assert sp.simplify(expr - want) == 0 or sp.simplify(expr + want) == 0
+
+
 @pytest.mark.parametrize("keywords, name, value, rel", [
     ({"b": 0.08}, "friction", 0.08, 0.06),
     ({"g": 0.8}, "beta_omega", 0.8, 0.01),

@@ -708,7 +708,7 @@ class _VersionAction(argparse.Action):
                          help=help or "show the program's version number and exit")
 
     def __call__(self, parser, namespace, values, option_string=None):
-        parser._print_message(f"bgfdi {_version()}\n", sys.stdout)
+        sys.stdout.write(f"bgfdi {_version()}\n")
         parser.exit()
 
 
