@@ -948,11 +948,23 @@ def _initial_state(system: System, initial: Mapping[str, float], t0: float, vals
         dx = system.rates(t0, xx, p)
         out = system.outputs(t0, xx, p, dx)
         return (out[idx] - want) / np.maximum(1.0, np.abs(want))
-    sol = least_squares(gap, x[free], xtol=1e-14, ftol=1e-14, gtol=1e-14)
+    # from zero first; then from larger magnitudes: a state of a large scale (the heat of 150 l of
+    # water, 2e8 J, read as a temperature) moves its output by less than round-off over the
+    # finite-difference step taken at zero, so the solver sees a flat gap and stops there
+    sol = None
+    for k, start in enumerate([x[free]] + [np.full(len(free), 10.0 ** k) for k in START_DECADES]):
+        got = least_squares(gap, start, xtol=1e-14, ftol=1e-14, gtol=1e-14, **({"x_scale": "jac"} if k else {}))
+        if sol is None or np.max(np.abs(got.fun)) < np.max(np.abs(sol.fun)):
+            sol = got
+        if np.max(np.abs(sol.fun)) <= 1e-6:
+            break
     if np.max(np.abs(sol.fun)) > 1e-6:
         raise SimulationError(f"cannot meet the initial values of {', '.join(targets)}")
     x[free] = sol.x
     return x
+
+
+START_DECADES = (0, 3, 6, 9, 12, -3)    # _initial_state's further starting magnitudes, in turn
 
 
 def _carry_over(old: System, new: System, x: np.ndarray, t0: float, vals: Mapping[str, float]) -> np.ndarray:

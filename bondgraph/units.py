@@ -1,8 +1,12 @@
-"""Validation of SI unit strings such as ``N*m*s/rad`` or ``Pa^0.5*s/m^3``.
+"""Validation of SI unit strings such as ``N*m*s/rad``, ``Pa^0.5*s/m^3`` or ``J/(kg*K)``.
 
 bgfdi works in SI throughout, so a unit string is checked, not converted: it must be a product
 and quotient of unprefixed SI symbols (``kg`` is the one prefixed base unit) with optional
-rational exponents. ``-`` or ``1`` mark a dimensionless quantity.
+rational exponents, grouped by parentheses as the SI brochure writes them (``W/(m^2*K)``, and a
+space for a product: ``J/(kg K)``). ``-`` or ``1`` mark a dimensionless quantity.
+
+>>> dimension("J/(kg K)") == dimension("m^2/(s^2*K)") == {"m": 2, "s": -2, "K": -1}
+True
 """
 from __future__ import annotations
 
@@ -12,11 +16,88 @@ SI_UNITS = frozenset({
     "m", "kg", "s", "A", "K", "mol", "cd",
     "N", "Pa", "J", "W", "V", "Ohm", "Ω", "F", "H", "C", "S", "T", "Wb", "Hz", "rad", "sr",
 })
-_TOKEN = re.compile(r"^(?P<unit>[A-Za-zΩ]+)(?:(?:\^|\*\*)(?P<exp>-?\d+(?:\.\d+)?|\(-?\d+/\d+\)))?$")
+_EXP = r"(?:\^|\*\*)(?P<exp>-?\d+(?:\.\d+)?|\(-?\d+/\d+\))"
+_LEX = re.compile(r"\s*(?:(?P<sym>[A-Za-zΩ]+|1(?![\d.]))(?:" + _EXP.replace("exp", "sexp") + r")?|(?P<op>[*/()])"
+                  r"(?:(?<=\))" + _EXP.replace("exp", "gexp") + r")?)")
+_MAX_LENGTH = 200       # a unit is a few symbols; a longer string is a mistake, not a unit
+HINT = "write SI symbols joined by * and /, with ^ for powers, e.g. Pa^0.5*s/m^3 or J/(kg*K)"
 
 
 class UnitError(ValueError):
     """A unit string that is not made of SI symbols."""
+
+
+def _parse(unit: str) -> dict[str, float]:
+    """The exponents of the SI symbols in ``unit`` (not yet reduced to base units), or UnitError
+    naming where it stops. Grammar: product := factor (('*' | '/' | space) factor)*, factor :=
+    symbol [^exp] | '1' | '(' product ')' [^exp]; a '/' divides by the factor after it."""
+    body = unit.replace("·", "*").replace("⋅", "*")
+    if len(body) > _MAX_LENGTH:
+        raise UnitError(f"unit '{unit[:40]}...' is {len(body)} characters long ({HINT})")
+    tokens: list[tuple[str, str, float]] = []       # (kind, text, exponent)
+    pos = 0
+    while pos < len(body):
+        if body[pos:].strip() == "":
+            break
+        m = _LEX.match(body, pos)
+        if not m or m.end() == pos:
+            rest = body[pos:].strip()
+            raise UnitError(f"cannot read unit '{unit}' at '{rest.split()[0] if rest else rest}' ({HINT})")
+        if m.group("sym"):
+            tokens.append(("sym", m.group("sym"), eval_fraction(m.group("sexp") or "1")))
+        else:
+            tokens.append(("op", m.group("op"), eval_fraction(m.group("gexp") or "1")))
+        pos = m.end()
+
+    def fail(at: int) -> UnitError:
+        what = tokens[at][1] if at < len(tokens) else "its end"
+        return UnitError(f"cannot read unit '{unit}' at '{what}' ({HINT})")
+
+    def product(i: int) -> tuple[dict[str, float], int]:
+        out: dict[str, float] = {}
+        sign, first = 1.0, True
+        while i < len(tokens):
+            kind, text, _ = tokens[i]
+            if kind == "op" and text == ")":
+                break
+            if not first:
+                if kind == "op" and text in "*/":
+                    sign = 1.0 if text == "*" else -1.0
+                    i += 1
+                elif kind == "op" and text != "(":
+                    raise fail(i)
+                else:
+                    sign = 1.0                   # a space between two factors: a product
+            part, i = factor(i)
+            for k, v in part.items():
+                out[k] = out.get(k, 0.0) + sign * v
+            first = False
+        if first:
+            raise fail(i)
+        return out, i
+
+    def factor(i: int) -> tuple[dict[str, float], int]:
+        if i >= len(tokens):
+            raise fail(i)
+        kind, text, exp = tokens[i]
+        if kind == "sym":
+            if text == "1":
+                return {}, i + 1
+            if text not in SI_UNITS:
+                raise UnitError(f"unknown unit '{text}' in '{unit}' (SI symbols only: {', '.join(sorted(SI_UNITS))})")
+            return {text: exp}, i + 1
+        if text != "(":
+            raise fail(i)
+        inner, j = product(i + 1)
+        if j >= len(tokens) or tokens[j][1] != ")":
+            raise fail(j)
+        power = tokens[j][2]
+        return {k: v * power for k, v in inner.items()}, j + 1
+
+    out, end = product(0)
+    if end != len(tokens):
+        raise fail(end)
+    return out
 
 
 def check_unit(text: object) -> str:
@@ -28,18 +109,7 @@ def check_unit(text: object) -> str:
     unit = text.strip()
     if unit in ("", "-", "1"):
         return "-"
-    body = unit.replace("·", "*").replace(" ", "")
-    parts = re.split(r"[*/]", body)
-    for part in parts:
-        if part in ("1",):
-            continue
-        match = _TOKEN.match(part)
-        if not match:
-            raise UnitError(f"cannot read unit '{unit}' at '{part}' "
-                            "(write SI symbols joined by * and /, with ^ for powers, e.g. Pa^0.5*s/m^3)")
-        if match.group("unit") not in SI_UNITS:
-            raise UnitError(f"unknown unit '{match.group('unit')}' in '{unit}' "
-                            f"(SI symbols only: {', '.join(sorted(SI_UNITS))})")
+    _parse(unit)
     return unit
 
 
@@ -71,19 +141,9 @@ def dimension(unit: str) -> dict[str, float]:
     out: dict[str, float] = {}
     if unit == "-":
         return out
-    body = unit.replace("·", "*").replace(" ", "")
-    sign = 1
-    for token in re.split(r"([*/])", body):
-        if token in ("*", "/"):
-            sign = 1 if token == "*" else -1
-            continue
-        if token == "1":
-            continue
-        m = _TOKEN.match(token)
-        exp_text = m.group("exp") or "1"
-        exp = float(eval_fraction(exp_text))
-        for base, e in DERIVED[m.group("unit")].items():
-            out[base] = out.get(base, 0) + sign * exp * e
+    for symbol, exp in _parse(unit).items():
+        for base, e in DERIVED[symbol].items():
+            out[base] = out.get(base, 0) + exp * e
     return {k: v for k, v in out.items() if abs(v) > 1e-12}
 
 

@@ -76,7 +76,12 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
                    f"criterion {f['criterion_without']:+.2f} without it)")
     if report.get("note"):
         out.append(f"note: {report['note']}")
-    out.append("diagnosis:" + ("" if faults else " no fault explains the coherence vector"))
+    if faults:
+        out.append("diagnosis:")
+    elif cands and not report.get("estimators") and report.get("note"):    # identification did not run
+        out.append("diagnosis: none: the candidate sets were not identified (the note says why)")
+    else:
+        out.append("diagnosis: no fault explains the coherence vector")
     for f in faults:
         out.append(f"  {describe_fault(f)}")
     for p in report.get("prognosis") or []:

@@ -22,7 +22,8 @@ def thresholds(model: str, simulate: Callable[..., dict]) -> dict:
     from fdi.calibrate import calibrate, nominal_residuals
     cal = calibrate(model, [measurements(simulate, "nominal1", 1), measurements(simulate, "nominal2", 2)])
     held_out = nominal_residuals(model, measurements(simulate, "nominal3", 3))
-    assert (held_out.max(axis=1) < np.asarray(cal.thresholds)).all()
+    # NaN where no derivative is estimated (a stretch between switches shorter than the window)
+    assert (np.nanmax(np.abs(held_out), axis=1) < np.asarray(cal.thresholds)).all()
     return dict(zip(cal.names, cal.thresholds))
 
 
