@@ -60,8 +60,9 @@ def test_the_arr_is_the_tanks_energy_balance():
 
 
 def test_the_element_is_found_and_sized(thresholds):
+    """Single faults only (``max_set=1``), as below: the designs are single faults."""
     report = diagnose(str(MODEL), _data("element", 4, T=5000.0, t0=T0, beta=0.6),
-                      Options(workers=1, seed=0, thresholds=thresholds)).to_dict()
+                      Options(workers=1, seed=0, thresholds=thresholds, max_set=1)).to_dict()
     assert T0 - HALF_WINDOW <= report["detection"]["time"] < T0 + 600.0     # the derivative window is centred
     (found,) = report["diagnosis"]["faults"]
     assert (found["name"], found["type"]) == ("element", "abrupt")
