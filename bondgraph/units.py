@@ -152,6 +152,8 @@ def eval_fraction(text: str) -> float:
     text = text.strip("()")
     if "/" in text:
         a, b = text.split("/")
+        if float(b) == 0:
+            raise UnitError(f"a power of ({text}) divides by zero; write a number such as (1/2)")
         return float(a) / float(b)
     return float(text)
 

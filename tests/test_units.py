@@ -36,6 +36,7 @@ def test_other_units(text, expected):
     ("m^", "at '^'"),
     ("2*m", "at '2*m'"),
     ("kcal/K", "unknown unit 'kcal'"),
+    ("m^(1/0)", "divides by zero"),
     ("m" * 300, "300 characters long"),
 ])
 def test_what_is_not_a_unit_is_refused_with_where_it_stops(text, message):
