@@ -952,7 +952,7 @@ def _initial_state(system: System, initial: Mapping[str, float], t0: float, vals
     # water, 2e8 J, read as a temperature) moves its output by less than round-off over the
     # finite-difference step taken at zero, so the solver sees a flat gap and stops there
     sol = None
-    for k, start in enumerate([x[free]] + [np.full(len(free), 10.0 ** k) for k in START_DECADES]):
+    for k, start in enumerate([x[free]] + [np.full(len(free), 10.0 ** d) for d in START_DECADES]):
         got = least_squares(gap, start, xtol=1e-14, ftol=1e-14, gtol=1e-14, **({"x_scale": "jac"} if k else {}))
         if sol is None or np.max(np.abs(got.fun)) < np.max(np.abs(sol.fun)):
             sol = got
