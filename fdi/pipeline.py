@@ -196,12 +196,7 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
     try:
         check_window(p.meas, d.detection.time, p.samples, p.scales.min_period)
     except DataError as exc:                  # detected at the end of the data: reported, not identified
-        note = str(exc).split(": ", 1)[-1]
-        mf = d.mode_fault
-        if mf is not None and mf.faults:      # a fault mode needs no identification: it is the answer so far
-            return replace(d, mode=dict(mf.mode), faults=mf.faults,
-                           note=note + "; the fault mode found is reported, the candidate sets were not identified")
-        return replace(d, note=note)
+        return replace(d, note=str(exc).split(": ", 1)[-1])
     search = Search(p.options.engine, p.options.pop, p.options.generations)
     with Estimators(p.monitor, search, p.options.workers, memo, p.modes, p.prognosed) as est:
         return identify(p, d, fsm, r, est, clock, progress)
