@@ -92,3 +92,16 @@ def test_a_relay_stuck_open_is_the_mode_fault(thresholds):
                       Options(workers=1, seed=0, thresholds=thresholds, max_set=1)).to_dict()
     assert 7172.0 - HALF_WINDOW <= report["detection"]["time"] < 7172.0 + 1000.0
     assert [f["name"] for f in report["diagnosis"]["faults"]] == ["relay_off"]
+
+
+def test_a_record_that_ends_before_identification_says_so(thresholds):
+    """The same relay, the record ending at 9 000 s, 950 s after the detection (identification
+    needs two derivative windows): nothing is identified and the report says why, not that no
+    fault explains the coherence vector. The fault-mode estimator's answer is not reported alone:
+    on 0.21 s of the CyCab's scenario 1 it names a2 for an encoder fault (test_cli_hardening)."""
+    from fdi.app.report import to_text
+    report = diagnose(str(MODEL), _data("relay", 5, T=9000.0, t0=6000.0, stuck_off=True),
+                      Options(workers=1, seed=0, thresholds=thresholds, max_set=1)).to_dict()
+    assert report["diagnosis"]["faults"] == [] and "record longer" in report["note"]
+    text = to_text(report, "water_heater", "relay")
+    assert "diagnosis: none: the candidate sets were not identified (the note says why)" in text
