@@ -33,7 +33,6 @@ from collections.abc import Mapping
 
 import sympy as sp
 
-from .names import same_name
 
 FUNCTIONS: dict[str, object] = {
     "sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "asin": sp.asin, "acos": sp.acos,

@@ -27,10 +27,11 @@ import sympy as sp
 import yaml
 
 from .errors import ModelError
-from .expressions import ExpressionError, parse_expression, same_name
+from .expressions import ExpressionError, parse_expression
 from .model import (LAW_VARIABLES, ELEMENT_KINDS, FAULT_KINDS, JUNCTION_KINDS, SENSOR_KINDS, SOURCE_KINDS,
                     TWO_PORT_KINDS, Bond, Element, Fault, Input, Junction, Model, Mode, Parameter,
                     Sensor, t)
+from .names import same_name
 from .units import UnitError, check_unit
 
 MONITOR_KEYS = {"thresholds", "diagnosis"}      # read by fdi.config, not by the bond graph
@@ -217,7 +218,10 @@ _FLOW_TOKENS = re.compile(r'"(?:[^"\\\n]|\\.)*"|\'(?:[^\'\n]|\'\')*\'|(?:^|(?<=\
 def _deep_line(text: str) -> int | None:
     """The line where ``[`` and ``{`` nest deeper than MAX_NESTING, quoted strings and comments
     skipped; None when they do not. A flow collection nested 5 000 deep took the pure parser 2 s
-    (12 s through the command) to refuse; this scan takes milliseconds."""
+    (12 s through the command) to refuse; this scan takes milliseconds. It is not
+    :func:`_flow_depth`, which answers another question: whether libyaml's unchecked recursion is
+    safe, by a bound that counts quoted brackets too (a quote this scan misreads must not send a
+    deep text to C)."""
     depth, line = 0, 1
     for m in _FLOW_TOKENS.finditer(text):
         c = m.group()

@@ -618,12 +618,11 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
     _check_fleet_options(args)
     monitor = compiled(args.model)
-    model = monitor.model
     options = _options(args, monitor)
     if len(args.data) > 1 or (args.jobs or 1) > 1 or args.scheduler or is_parquet(args.output):
         return _diagnose_batch(args, options)
     data = read_csv(args.data[0])
-    check_samples(options.samples, data.ts, "--samples", compiled(args.model).min_period(options, data.ts))
+    check_samples(options.samples, data.ts, "--samples", monitor.min_period(options, data.ts))
     return _diagnose_and_print(args.model, data, options, args, shown(args.data[0]))
 
 
@@ -821,9 +820,9 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     from ..monitor import compiled
     from ..results import deterministic
 
-    compiled_model = compiled(args.model)
-    model = compiled_model.model
-    options = _options(args, compiled_model)
+    compiled_monitor = compiled(args.model)
+    model = compiled_monitor.model
+    options = _options(args, compiled_monitor)
     lines: list[str] = []
     held: list[dict] | None = []            # events before the header is read and checked: held
 
@@ -854,8 +853,8 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     try:
         with _terminated_raises():
             live = _live(fh)
-            monitor = compiled(args.model).stream(emit, options, source=source, refresh=args.refresh,
-                                                  history=args.history, live=live)
+            monitor = compiled_monitor.stream(emit, options, source=source, refresh=args.refresh,
+                                              history=args.history, live=live)
             # a live source block by block as its rows arrive; a recording a megabyte at a time,
             # parsed in C (fdi.chunks) and fed as blocks of --block rows: the same events
             if live:                        # joined while more rows are already waiting
@@ -866,7 +865,7 @@ def cmd_monitor(args: argparse.Namespace) -> int:
                 monitor.feed(header, block, rows=args.block)
             monitor.close()
         from ..monitor import persist
-        persist(compiled(args.model))
+        persist(compiled_monitor)
     finally:
         if monitor is not None:
             monitor.stop(now=True)          # after an error, Ctrl-C or SIGTERM: no worker left running
