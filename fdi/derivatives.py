@@ -41,10 +41,17 @@ from . import kernels as _kernels
 DEFAULT_WINDOW = None   # no window in s: None is fdi.scales' window of a model with no known time constant
 DEFAULT_ORDER = 3
 # Below this many products the numpy loop runs (the same bits), unless the compiled filter already
-# ran in this process: numba's import and first compiled call cost 0.6 s of a short diagnosis's start
-# (scenario 3, warm cache: 1.47 s process, of which 0.45 s in the residuals' first filter)
+# ran in this process or is C (a millisecond to load): numba's import and first compiled call cost
+# 0.6 s of a short diagnosis's start (scenario 3, warm cache: 1.47 s process, of which 0.45 s in the
+# residuals' first filter). A long stream's blocks are each below it (58 ns a sample by numpy, 20
+# by C, order 2 and 25 taps): once the numpy loop has filtered FIR_RENT products in this process
+# (~50 ms), about what reaching the C kernels costs (75 ms: optim's import and the library's
+# load), they run compiled when that path is C (not numba: 0.65 s). A short file never pays the
+# load; an endless stream pays it once (rent, then buy: never more than twice the better choice)
 FIR_JIT_WORK = 1 << 21
+FIR_RENT = 1 << 25
 _fir_warm = False
+_fir_spent = 0
 FIR_BLOCK = 1 << 15     # values (rows x samples) filtered at a time: 256 kB temporaries, in L2 (a 30 x 1 000 population: 3.0 ms, 4.0 ms at 1 << 13)
 EDGE_VALUES = 1 << 18   # edge kernels kept per window (2 MB: windows up to ~360 samples); longer: one fit per edge
 
@@ -153,11 +160,14 @@ def fir(x: np.ndarray, half: np.ndarray, start: int, count: int, stride: int = 1
     >>> fir(np.arange(6.0), np.array([[1.0, 0.0], [10.0, 5.0]]), 1, 2, 2).tolist()
     [[42.0, 10.0], [84.0, 10.0]]
     """
-    global _fir_warm
+    global _fir_warm, _fir_spent
     x = np.asarray(x, dtype=float)
     work = int(np.prod(x.shape[:-1], dtype=np.int64)) * count * half.shape[0] * half.shape[1]
-    fast = _kernels.jit() if count and (_fir_warm or work >= FIR_JIT_WORK) else None
-    if fast is not None:
+    fast = _kernels.jit() if count and (_fir_warm or work >= FIR_JIT_WORK or
+                                        (_fir_spent >= FIR_RENT and _kernels.cheap())) else None
+    if fast is None:
+        _fir_spent += work
+    else:
         flat = np.ascontiguousarray(x).reshape(-1, x.shape[-1])
         out = fast.fir(flat, np.ascontiguousarray(half, dtype=float), int(start), int(count), int(stride))
         _fir_warm = True

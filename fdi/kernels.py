@@ -61,6 +61,12 @@ def jit() -> ModuleType | None:
     return _switch().compiled("fdi")
 
 
+def cheap() -> bool:
+    """Whether :func:`jit` costs this process no more than about a millisecond (loaded already, or
+    C): small work may then run compiled (:func:`optim.kernels.cheap`)."""
+    return _switch().cheap("fdi")
+
+
 def use(path: str) -> str:
     """Choose the kernels' path for this process (``auto``, ``c``, ``numba``, ``numpy``); returns
     the one chosen before (:func:`optim.kernels.use`)."""

@@ -111,6 +111,25 @@ def compiled(package: str) -> ModuleType | None:
     return _loaded[key]
 
 
+def cheap(package: str) -> bool:
+    """Whether :func:`compiled` costs this process about a millisecond: the module is loaded, or
+    the path is C (a library built once per machine and kept by the store, or built now by the
+    compiler at hand), not numba's 0.65 s start. For callers that run small work compiled only
+    when that is cheap (:func:`fdi.derivatives.fir`)."""
+    path = _wanted
+    if path == "numpy":
+        return False
+    key = {"c": package + "._native", "numba": package + "._jit"}.get(path, "auto:" + package)
+    if _loaded.get(key) is not None:
+        return True
+    if path == "c":
+        return True
+    if path == "auto":
+        from . import native
+        return native.has_store() and native.compiler() is not None
+    return False
+
+
 def jit() -> ModuleType | None:
     """The engines' compiled module (``optim._native`` or ``optim._jit``), or None (see :func:`compiled`)."""
     return compiled("optim")
