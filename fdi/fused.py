@@ -390,8 +390,16 @@ class Fused:
                         rows = (kinds[j] == 2) & (models[j] == model)
                         cols = [slot - 2 for slot in encoding.COEFF_SLOTS[model]]
                         pre.append(profiles.incipient(t, onset[rows], obj.spaces[j].nominal, model, b[j][rows][:, cols]))
-        pre = (pre[0] if len(pre) == 1 else np.vstack(pre)) if pre else self.no_pre
         solving = tuple(level[self.lin_fault].tolist())
+        filled = int(counts.sum())
+        for jj, j in enumerate(self.linear):          # a solved abrupt step as the filtered residuals see it
+            if solving[jj]:
+                rows = np.flatnonzero(kinds[j] == 0)
+                if rows.size:
+                    pre.append(obj.seen_steps(j, onset[rows]))
+                    pre_at[j, rows] = filled + np.arange(rows.size)
+                    filled += rows.size
+        pre = (pre[0] if len(pre) == 1 else np.vstack(pre)) if pre else self.no_pre
         p = self.pattern(solving)
         total, d, invalid = fast.fused_cost(
             t, onset, kinds, models, values, periods, np.ascontiguousarray(b[:, :, COEFFS]), pre, pre_at,

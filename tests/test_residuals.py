@@ -119,3 +119,35 @@ def test_savitzky_golay_at_some_samples_matches_scipy(edges, at):
         ref = savgol_filter(x, 25, 3, deriv=k, delta=0.01, axis=-1, mode=edges)
         assert np.allclose(ours[k][:, asked], ref[:, asked], rtol=1e-9, atol=1e-9 * np.abs(ref).max())
         assert np.isnan(ours[k][:, ~asked]).all()
+
+
+@pytest.mark.parametrize("order", [0, 1, 2, 3])
+@pytest.mark.parametrize("onset", [0.5, 0.5037, 0.2])
+def test_a_step_as_the_filter_sees_it_matches_scipy(order, onset):
+    """step_seen (a closed form over the filter's taps) against scipy's savgol_filter of the signal
+    whose order-th derivative steps at the onset, (t - onset)_+^order / order!: the same numbers away
+    from the record's edges, exactly 0 and 1 where the window lies wholly before or after it."""
+    from math import factorial
+
+    from scipy.signal import savgol_filter
+    ts, window = 0.01, 0.25
+    t = np.arange(0.0, 1.0, ts)
+    y = (t >= onset).astype(float) if order == 0 else np.maximum(t - onset, 0.0) ** order / factorial(order)
+    n = derivatives.window_samples(window, ts, 3)
+    want = savgol_filter(y, n, 3, deriv=order, delta=ts)
+    got = derivatives.step_seen(t, np.array([onset]), order, window, ts)[0]
+    inner = slice(n // 2, t.size - n // 2)
+    assert np.allclose(got[inner], want[inner], rtol=0, atol=1e-9)
+    away = np.abs(t - onset) > (n // 2 + 1) * ts
+    assert set(got[away]) <= {0.0, 1.0}
+
+
+def test_a_blended_step_of_a_resistance_is_blended_in_its_conductance():
+    """seen_profile of a reciprocal fault (R through 1/R): 1/R is the straight blend of 1/R0 and 1/R1,
+    R itself exactly R0 and R1 where the filter sees no blend."""
+    from fdi.objective import seen_profile
+    seen = np.array([0.0, 0.25, 0.5, 1.0, 1.05])
+    r = seen_profile("reciprocal", 2.0, 0.5, seen)
+    assert r[0] == 2.0 and r[3] == 0.5
+    assert np.allclose(1.0 / r, 0.5 + seen * (2.0 - 0.5))
+    assert np.allclose(seen_profile("identity", 1.0, 0.6, seen), 1.0 - 0.4 * seen)
