@@ -253,16 +253,23 @@ def _step_table(n: int, polyorder: int, order: int, ts: float) -> np.ndarray:
     h = n // 2
     half = centred(n, polyorder, order, ts)[:, order]
     taps = np.concatenate([half[:0:-1] * (-1.0) ** order, half])        # on x[m - h] .. x[m + h]
-    k = np.arange(-h, h + 1)
-    o = np.arange(-h, h)[:, None]
-    reach = (o + k[None, :]).astype(float)                               # (2 h, n): sample offsets from q
-    after = reach >= 0
     out = np.empty((2 * h, order + 1))
-    for m in range(order + 1):
-        terms = np.where(after, reach ** (order - m), 0.0) * taps[None, :]
-        out[:, m] = comb(order, m) * ts ** order / factorial(order) * terms.sum(axis=1)
+    if order == 0:                                                       # the taps at or after the onset
+        out[:, 0] = np.cumsum(taps[::-1])[::-1][2 * h:0:-1]                # offset o: the taps k >= -o
+    else:
+        k = np.arange(-h, h + 1)
+        for lo in range(0, 2 * h, STEP_TABLE_ROWS):                      # blocks of offsets: memory ~ rows x n
+            o = np.arange(lo - h, min(2 * h, lo + STEP_TABLE_ROWS) - h)[:, None]
+            reach = (o + k[None, :]).astype(float)                       # sample offsets from q
+            after = reach >= 0
+            for m in range(order + 1):
+                terms = np.where(after, reach ** (order - m), 0.0) * taps[None, :]
+                out[lo:lo + o.shape[0], m] = comb(order, m) * ts ** order / factorial(order) * terms.sum(axis=1)
     out.setflags(write=False)
     return out
+
+
+STEP_TABLE_ROWS = 256       # offsets of _step_table computed at a time (a 10 kHz, 1 s window: 256 x 10 001 values)
 
 
 @lru_cache(maxsize=64)
