@@ -62,8 +62,9 @@ def jit() -> ModuleType | None:
 
 
 def cheap() -> bool:
-    """Whether :func:`jit` costs this process no more than about a millisecond (loaded already, or
-    C): small work may then run compiled (:func:`optim.kernels.cheap`)."""
+    """Whether :func:`jit` spares this process numba's start (loaded already, or C: ~75 ms the
+    first time), so that small work may run compiled once it has cost that much
+    (:func:`optim.kernels.cheap`)."""
     return _switch().cheap("fdi")
 
 

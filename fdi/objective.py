@@ -397,6 +397,7 @@ class Objective:
         for j, rows in solve.items():            # an abrupt step as the filtered residuals see it
             abrupt = rows & (decoded[j].kind == 0)
             if abrupt.any():
+                steps[j] = np.array(steps[j], dtype=float)
                 steps[j][abrupt] = self.seen_steps(j, real[abrupt, -1])
         for j, rows in solve.items():
             ps[j] = np.where(rows[:, None], self.spaces[j].nominal, ps[j])

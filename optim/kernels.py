@@ -112,10 +112,10 @@ def compiled(package: str) -> ModuleType | None:
 
 
 def cheap(package: str) -> bool:
-    """Whether :func:`compiled` costs this process about a millisecond: the module is loaded, or
-    the path is C (a library built once per machine and kept by the store, or built now by the
-    compiler at hand), not numba's 0.65 s start. For callers that run small work compiled only
-    when that is cheap (:func:`fdi.derivatives.fir`)."""
+    """Whether :func:`compiled` spares this process numba's 0.65 s start: the module is loaded,
+    or the path is C (a library built once per machine and kept by the store, or built now by the
+    compiler at hand: the first call costs ~75 ms, optim's import and the library's load). For
+    callers that run small work compiled once they have spent that much (:func:`fdi.derivatives.fir`)."""
     path = _wanted
     if path == "numpy":
         return False
