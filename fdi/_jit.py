@@ -546,13 +546,13 @@ def _profile(t, j, row, onset, kinds, models, values, periods, coeffs, pre, pre_
     """Fault j's profile for individual ``row`` at every time of ``t`` into ``out``, as
     :func:`fdi.encoding.profiles` gives it (eq. 14, 15, 17 and 19 here by the numpy path's
     operations; eqs. 16 and 18, exponentials, from numpy: ``pre``); a linear fault that is
-    abrupt or intermittent at its unit value (its solved magnitude's unit step; an abrupt one's
-    from ``pre`` when given there: the step as the filtered residuals see it)."""
+    abrupt or intermittent at its unit value (its solved magnitude's unit step; from ``pre``
+    when given there: the step or square wave as the filtered residuals see it)."""
     kind = kinds[j, row]
     a = onset[row]
     val = unit if (linear and kind < 2) else values[j, row]
     n = t.shape[0]
-    if kind == 0 and linear and pre_at[j, row] >= 0:      # its step as the filters see it (numpy's)
+    if kind < 2 and linear and pre_at[j, row] >= 0:       # its step or square wave as the filters see it (numpy's)
         k = pre_at[j, row]
         for i in range(n):
             out[i] = pre[k, i]

@@ -244,6 +244,46 @@ def step_seen(t: np.ndarray, onsets: np.ndarray, order: int, window: float | Non
     return out
 
 
+def edges_seen(t: np.ndarray, edges: np.ndarray, signs: np.ndarray, order: int, window: float | None,
+               ts: float) -> np.ndarray:
+    """(rows, t.size): the sum over each row's ``edges`` (NaN: none) of ``signs`` times a unit step
+    there, as :func:`step_seen` sees each: a square wave's rises (+1) and falls (-1), an
+    intermittent fault's profile. Exactly the sum of the sharp steps where no edge is within half
+    a window; within it, each edge's blend added (the filter is linear).
+
+    >>> t = np.arange(0.0, 2.0, 0.01)
+    >>> s = edges_seen(t, np.array([[0.5, 1.2]]), np.array([[1.0, -1.0]]), 0, 0.1, 0.01)[0]
+    >>> float(s[40]), float(s[80]), float(s[150]), bool(0.3 < s[50] < 0.7)
+    (0.0, 1.0, 0.0, True)
+    """
+    t = np.asarray(t, dtype=float)
+    edges = np.atleast_2d(np.asarray(edges, dtype=float))
+    signs = np.broadcast_to(np.asarray(signs, dtype=float), edges.shape)
+    rows, nw = edges.shape[0], t.size
+    r, e = np.nonzero(np.isfinite(edges))
+    at_edge, sign = edges[r, e], signs[r, e]
+    q = np.searchsorted(t, at_edge, side="left")
+    jumps = np.zeros((rows, nw + 1))
+    np.add.at(jumps, (r, q), sign)
+    out = np.cumsum(jumps[:, :nw], axis=1)                               # the sharp steps
+    p = max(DEFAULT_ORDER, order)
+    n = window_samples(window, ts, p)
+    h = n // 2
+    if not r.size or nw < n:
+        return out
+    table = _step_table(n, p, order, float(ts))
+    inside = q < nw
+    frac = np.zeros(r.size)
+    frac[inside] = (t[q[inside]] - at_edge[inside]) / ts
+    seen = (frac[:, None] ** np.arange(order + 1)[None, :]) @ table.T    # (edges, 2 h): samples q - h .. q + h - 1
+    offsets = np.arange(-h, h)[None, :]
+    at = q[:, None] + offsets
+    valid = inside[:, None] & (at >= h) & (at < nw - h)
+    k, c = np.nonzero(valid)
+    np.add.at(out, (r[k], at[k, c]), sign[k] * (seen[k, c] - (offsets[0, c] >= 0)))
+    return out
+
+
 @lru_cache(maxsize=16)
 def _step_table(n: int, polyorder: int, order: int, ts: float) -> np.ndarray:
     """(n - 1, order + 1): :func:`step_seen` at the samples q + o, o = -h .. h - 1 (q the first

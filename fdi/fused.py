@@ -392,13 +392,14 @@ class Fused:
                         pre.append(profiles.incipient(t, onset[rows], obj.spaces[j].nominal, model, b[j][rows][:, cols]))
         solving = tuple(level[self.lin_fault].tolist())
         filled = int(counts.sum())
-        for jj, j in enumerate(self.linear):          # a solved abrupt step as the filtered residuals see it
+        for jj, j in enumerate(self.linear):          # a solved step or square wave as the filtered residuals see it
             if solving[jj]:
-                rows = np.flatnonzero(kinds[j] == 0)
-                if rows.size:
-                    pre.append(obj.seen_steps(j, onset[rows]))
-                    pre_at[j, rows] = filled + np.arange(rows.size)
-                    filled += rows.size
+                for kind in (0, 1):
+                    rows = np.flatnonzero(kinds[j] == kind)
+                    if rows.size:
+                        pre.append(obj.seen_steps(j, onset[rows], periods[j, rows] if kind else None))
+                        pre_at[j, rows] = filled + np.arange(rows.size)
+                        filled += rows.size
         pre = (pre[0] if len(pre) == 1 else np.vstack(pre)) if pre else self.no_pre
         p = self.pattern(solving)
         total, d, invalid = fast.fused_cost(

@@ -489,7 +489,7 @@ static void profile(const double *t, I nw, I j, I row, I pop, const double *onse
     I kind = kinds[j * pop + row];
     double a = onset[row];
     double val = (linear && kind < 2) ? unit : values[j * pop + row];
-    if (kind == 0 && linear && pre_at[j * pop + row] >= 0) {     /* its step as the filters see it (numpy's) */
+    if (kind < 2 && linear && pre_at[j * pop + row] >= 0) {      /* its step or square wave as the filters see it (numpy's) */
         const double *src = pre + pre_at[j * pop + row] * prew;
         for (I i = 0; i < nw; i++) out[i] = src[i];
     } else if (kind == 0) {

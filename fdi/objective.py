@@ -168,8 +168,9 @@ def _transform(model: Model, residuals: tuple[Residual, ...], name: str) -> str 
     return None
 
 
-# A linear fault's abrupt step is seen through the filter of this derivative order: 0, the smoothing
-# filter every signal's value goes through, so that a parameter's step and a source's or a sensor's
+# A linear fault's abrupt step (each edge of an intermittent one) is seen through the filter of this
+# derivative order: 0, the smoothing filter every signal's value goes through, so that a
+# parameter's step and a source's or a sensor's
 # (applied to the signal before the filters) are seen alike. Before, it stepped sharply against
 # filtered signals and paid the mismatch for half a window each side of its onset: a water
 # heater's insulation (901 s window) lost to an element fault, its onset found 386 s late. The
@@ -394,11 +395,14 @@ class Objective:
                     solve[j] = rows
         ps = encoding.profiles(self.spaces, decoded, self.win.t, self.onset(real))
         steps = {j: ps[j] for j in solve}
-        for j, rows in solve.items():            # an abrupt step as the filtered residuals see it
-            abrupt = rows & (decoded[j].kind == 0)
-            if abrupt.any():
+        for j, rows in solve.items():            # a step and a square wave as the filtered residuals see them
+            abrupt, wave = rows & (decoded[j].kind == 0), rows & (decoded[j].kind == 1)
+            if abrupt.any() or wave.any():
                 steps[j] = np.array(steps[j], dtype=float)
+            if abrupt.any():
                 steps[j][abrupt] = self.seen_steps(j, real[abrupt, -1])
+            if wave.any():
+                steps[j][wave] = self.seen_steps(j, real[wave, -1], decoded[j].period[wave])
         for j, rows in solve.items():
             ps[j] = np.where(rows[:, None], self.spaces[j].nominal, ps[j])
         return real, solve, ps, steps
@@ -450,14 +454,29 @@ class Objective:
                 deltas[j][rows] = np.clip(delta, lo, hi)
         return deltas
 
-    def seen_steps(self, j: int, onsets: np.ndarray) -> np.ndarray:
+    def seen_steps(self, j: int, onsets: np.ndarray, periods: np.ndarray | None = None) -> np.ndarray:
         """(onsets, window samples): linear fault j's unit step (one unit of u = h(value) from its
         nominal value) at each onset through the smoothing filter (:data:`STEP_ORDER`,
         :func:`seen_profile`): the nominal value and the unit value exactly where the filter's
-        window lies wholly before or after the onset, a blend of the two within half a window."""
+        window lies wholly before or after the onset, a blend of the two within half a window.
+        With ``periods``, eq. (15)'s square wave from each onset (on for the first half of each
+        period), each of its edges seen so."""
         space = self.spaces[j]
-        return seen_profile(self.linear[space.name], space.nominal, self.unit_value(j),
-                            derivatives.step_seen(self.win.t, onsets, STEP_ORDER, self.window_s, self.win.ts))
+        t = self.win.t
+        if periods is None:
+            seen = derivatives.step_seen(t, onsets, STEP_ORDER, self.window_s, self.win.ts)
+        else:
+            onsets, periods = np.asarray(onsets, dtype=float), np.asarray(periods, dtype=float)
+            ok = np.isfinite(onsets) & np.isfinite(periods) & (periods > 0)
+            span = float(t[-1] - np.min(np.where(ok, onsets, np.inf))) if ok.any() else 0.0
+            shortest = float(np.min(periods[ok])) if ok.any() else 1.0
+            m = np.arange(max(1, int(np.ceil(span / shortest)) + 1))[None, :]
+            rises = np.where(ok[:, None], onsets[:, None] + m * periods[:, None], np.nan)
+            edges = np.hstack([rises, rises + periods[:, None] / 2])
+            edges[edges > t[-1]] = np.nan            # (edges after the window: NaN, none)
+            signs = np.hstack([np.ones(m.size), -np.ones(m.size)])[None, :]
+            seen = derivatives.edges_seen(t, edges, signs, STEP_ORDER, self.window_s, self.win.ts)
+        return seen_profile(self.linear[space.name], space.nominal, self.unit_value(j), seen)
 
     def unit_value(self, j: int) -> float:
         """Linear fault j's value one unit of u = h(value) from its nominal value: its unit step

@@ -151,3 +151,19 @@ def test_a_blended_step_of_a_resistance_is_blended_in_its_conductance():
     assert r[0] == 2.0 and r[3] == 0.5
     assert np.allclose(1.0 / r, 0.5 + seen * (2.0 - 0.5))
     assert np.allclose(seen_profile("identity", 1.0, 0.6, seen), 1.0 - 0.4 * seen)
+
+
+def test_a_square_wave_as_the_filter_sees_it_matches_scipy():
+    """edges_seen (each edge's closed form, summed) against scipy's savgol_filter of the square wave
+    itself: an intermittent fault's on-off profile from 0.3 s, period 0.7 s."""
+    from scipy.signal import savgol_filter
+    ts, window = 0.01, 0.25
+    t = np.arange(0.0, 3.0, ts)
+    rises = 0.3 + 0.7 * np.arange(5)
+    edges = np.concatenate([rises, rises + 0.35])
+    wave = np.sum([(t >= e) * s for e, s in zip(edges, [1.0] * 5 + [-1.0] * 5)], axis=0)
+    n = derivatives.window_samples(window, ts, 3)
+    want = savgol_filter(wave, n, 3)
+    got = derivatives.edges_seen(t, edges[None, :], np.array([[1.0] * 5 + [-1.0] * 5]), 0, window, ts)[0]
+    inner = slice(n // 2, t.size - n // 2)
+    assert np.allclose(got[inner], want[inner], rtol=0, atol=1e-12)
