@@ -41,7 +41,7 @@ from . import kernels as _kernels
 DEFAULT_WINDOW = None   # no window in s: None is fdi.scales' window of a model with no known time constant
 DEFAULT_ORDER = 3
 # Below this many products the numpy loop runs (the same bits), unless the compiled filter already
-# ran in this process or is C (a millisecond to load): numba's import and first compiled call cost
+# ran in this process: numba's import and first compiled call cost
 # 0.6 s of a short diagnosis's start (scenario 3, warm cache: 1.47 s process, of which 0.45 s in the
 # residuals' first filter). A long stream's blocks are each below it (58 ns a sample by numpy, 20
 # by C, order 2 and 25 taps): once the numpy loop has filtered FIR_RENT products in this process
@@ -223,25 +223,33 @@ def step_seen(t: np.ndarray, onsets: np.ndarray, order: int, window: float | Non
     """
     t = np.asarray(t, dtype=float)
     onsets = np.atleast_1d(np.asarray(onsets, dtype=float))
-    rows, nw = onsets.size, t.size
     out = (t[None, :] >= onsets[:, None]).astype(float)
+    blends = _blends(t, onsets, order, window, ts)
+    if blends is not None:
+        at, seen, (r, c) = blends
+        out[r, at[r, c]] = seen[r, c]
+    return out
+
+
+def _blends(t: np.ndarray, steps: np.ndarray, order: int, window: float | None, ts: float) -> tuple | None:
+    """For each step time of ``steps`` (1-D), the samples whose filter window holds it (``at``: q - h
+    .. q + h - 1, q the first sample at or after it), the step as the filter sees it there
+    (``seen``), and the (step, offset) pairs whose window lies inside ``t``; None when no window fits."""
+    nw = t.size
     p = max(DEFAULT_ORDER, order)
     n = window_samples(window, ts, p)
     h = n // 2
-    if not rows or nw < n:
-        return out
+    if not steps.size or nw < n:
+        return None
     table = _step_table(n, p, order, float(ts))                          # (2 h, order + 1)
-    q = np.searchsorted(t, onsets, side="left")                          # first sample at or after each onset
+    q = np.searchsorted(t, steps, side="left")
     inside = q < nw
-    frac = np.zeros(rows)
-    frac[inside] = (t[q[inside]] - onsets[inside]) / ts                  # where the onset falls before it, in samples
-    powers = frac[:, None] ** np.arange(order + 1)[None, :]              # (rows, order + 1)
-    seen = powers @ table.T                                              # (rows, 2 h): samples q - h .. q + h - 1
+    frac = np.zeros(steps.size)
+    frac[inside] = (t[q[inside]] - steps[inside]) / ts                   # where the step falls before q, in samples
+    seen = (frac[:, None] ** np.arange(order + 1)[None, :]) @ table.T    # (steps, 2 h)
     at = q[:, None] + np.arange(-h, h)[None, :]
     valid = inside[:, None] & (at >= h) & (at < nw - h)
-    r, c = np.nonzero(valid)
-    out[r, at[r, c]] = seen[r, c]
-    return out
+    return at, seen, np.nonzero(valid)
 
 
 def edges_seen(t: np.ndarray, edges: np.ndarray, signs: np.ndarray, order: int, window: float | None,
@@ -262,25 +270,14 @@ def edges_seen(t: np.ndarray, edges: np.ndarray, signs: np.ndarray, order: int, 
     rows, nw = edges.shape[0], t.size
     r, e = np.nonzero(np.isfinite(edges))
     at_edge, sign = edges[r, e], signs[r, e]
-    q = np.searchsorted(t, at_edge, side="left")
     jumps = np.zeros((rows, nw + 1))
-    np.add.at(jumps, (r, q), sign)
+    np.add.at(jumps, (r, np.searchsorted(t, at_edge, side="left")), sign)
     out = np.cumsum(jumps[:, :nw], axis=1)                               # the sharp steps
-    p = max(DEFAULT_ORDER, order)
-    n = window_samples(window, ts, p)
-    h = n // 2
-    if not r.size or nw < n:
-        return out
-    table = _step_table(n, p, order, float(ts))
-    inside = q < nw
-    frac = np.zeros(r.size)
-    frac[inside] = (t[q[inside]] - at_edge[inside]) / ts
-    seen = (frac[:, None] ** np.arange(order + 1)[None, :]) @ table.T    # (edges, 2 h): samples q - h .. q + h - 1
-    offsets = np.arange(-h, h)[None, :]
-    at = q[:, None] + offsets
-    valid = inside[:, None] & (at >= h) & (at < nw - h)
-    k, c = np.nonzero(valid)
-    np.add.at(out, (r[k], at[k, c]), sign[k] * (seen[k, c] - (offsets[0, c] >= 0)))
+    blends = _blends(t, at_edge, order, window, ts)
+    if blends is not None:                                               # each edge's blend for its sharp step
+        at, seen, (k, c) = blends
+        h = at.shape[1] // 2
+        np.add.at(out, (r[k], at[k, c]), sign[k] * (seen[k, c] - (c >= h)))
     return out
 
 
