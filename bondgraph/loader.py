@@ -340,7 +340,10 @@ def _spec(ctx: _Ctx, data: Any, where: tuple, allowed: set[str]) -> dict:
         raise ctx.error(where, "must be a mapping of settings (for example {type: R, parameter: R1})")
     for key in data:
         if key not in allowed:
-            raise ctx.error(where + (key,), f"unknown key '{key}' (allowed: {', '.join(sorted(allowed))})")
+            split = data[key] is None and any(isinstance(v, str) for v in data.values())
+            hint = ("; a comma inside unquoted text in { } starts a new key: quote the text "
+                    "(description: \"a, b\")" if split else "")
+            raise ctx.error(where + (key,), f"unknown key '{key}' (allowed: {', '.join(sorted(allowed))}){hint}")
     return data
 
 

@@ -86,6 +86,9 @@ def _err(text: str) -> ModelError:
     ("  j0: {type: \"0\"}", "  j0: {type: \"0c\"}", ["needs mode"]),
     ("src: {type: MSe, input: u}", "src: {type: MSe, input: uu}", ["undefined input 'uu'"]),
     ("cap: {type: C, parameter: C1}", "cap: {type: C, parameter: C2}", ["undefined parameter 'C2'"]),
+    ("  R: {value: 100.0, unit: Ohm}", "  R: {value: 100.0, unit: Ohm, description: leak (wet, aged)}",
+     ["unknown key 'aged)'", "quote the text"]),
+    ("  R: {value: 100.0, unit: Ohm}", "  R: {value: 100.0, unti: Ohm}", ["unknown key 'unti'", "allowed: "]),
 ])
 def test_bad_input_is_one_clear_error(old, new, fragments):
     assert old in BASE
