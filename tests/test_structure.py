@@ -118,6 +118,7 @@ def test_isolability_command_prints_both_causalities(capsys):
     assert "best, derivative causality:     {fV1, fT1} {fV2, fV3, fT3} {fT2}" in out
     assert "best, mixed causality:          {fV1} {fV2, fV3, fT3} {fT1} {fT2}" in out
     assert "Df on bond 11 (J3 -> outlet)" in out
+    assert "a 1-junction for a flow, Df" in out          # where such a sensor goes in a model file
     assert main(["isolability", "models/three_tank.yaml", "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["sensor_placement"]["full"] and data["modes"][0]["chosen"]["classes"]

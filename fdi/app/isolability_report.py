@@ -108,6 +108,9 @@ def to_text(a: Analysis) -> str:
             for s in p.sets:
                 lines.append("  " + " + ".join(c.label for c in s))
             lines.append("  classes then: " + _classes(p.target))
+            if any(c.bond is not None for s in p.sets for c in s):
+                lines.append("  (a sensor on a bond goes on a junction inserted there in the model file: a 0-junction "
+                             "for an effort, De; a 1-junction for a flow, Df)")
     lines += ["", f"MSO sets: {a.mso_count} (search {a.mso_seconds:.3f} s); analysis {a.seconds:.2f} s"]
     return "\n".join(lines) + "\n"
 
