@@ -190,7 +190,8 @@ class _Assigner:
                        f"{'flow' if e.kind == 'C' else 'effort'} is the rate of both; write them as one "
                        f"{e.kind} whose {'effort law in q' if e.kind == 'C' else 'flow law in p'} sums theirs, "
                        f"docs/model-format.md)" if twin else
-                       "(its state is unknown to the diagnosis: measure a variable next to it)" if diag else
+                       "(its state is not measured: residuals that eliminate it come from structural analysis, below; a "
+                       "sensor next to it would let SCAPH derive one)" if diag else
                        "(a dependent storage element: the simulator reduces it, see bondgraph.simulation)"))
         self._free_controlled_junctions()
         resistors = self._resistors()
