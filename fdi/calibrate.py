@@ -36,7 +36,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from . import scales
+from . import derivatives, scales
 from .arrs import arr_unit
 from .data import DataError, Measurements, commanded, read_csv, signals_from_data
 from .monitor import compiled
@@ -60,6 +60,10 @@ class Calibration:
     runs: list[str]
     worst: list[tuple[str, float]] | None = None   # per run left out: its residual nearest (or furthest
                                                     # past) the others' threshold, and |r| / that threshold
+    window: float | None = None         # the derivative window (s) the residuals were filtered with
+    window_samples: int | None = None   # ... in samples of the first run
+    window_given: bool = True           # from diagnosis.derivative_window (else the rule's, fdi.scales)
+    highest_order: int = 0              # the highest derivative the residuals take
 
     @property
     def false_alarm_rate(self) -> float | None:
@@ -121,10 +125,23 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
             ratio = np.nanmax(left, axis=1) / others
             false_alarms.append(bool((left > others[:, None]).any()))
             worst.append((names[int(np.argmax(ratio))], float(ratio.max())))
+    sc = scales.for_model(model, c.config, data[0].ts)
     return Calibration(model.name, names, [arr_unit(model, a) for a in arrs],
                        [[float(x) for x in np.nanmax(s, axis=1)] for s in samples], [float(x) for x in thresholds],
                        "peak" if quantile is None else f"quantile {quantile:g}", margin, false_alarms,
-                       [m.path for m in data], worst)
+                       [m.path for m in data], worst, float(sc.window),
+                       int(derivatives.window_samples(sc.window, data[0].ts, derivatives.DEFAULT_ORDER)),
+                       c.config.derivative_window is not None,
+                       highest_order(c.residuals))
+
+
+def highest_order(residuals) -> int:
+    """The highest derivative of a measured signal the residuals take, a stored quantity's rate
+    counting its own (d/dt of ms vs' is a second derivative of vs)."""
+    def inner(q) -> int:
+        return max((k for _, k in q.signals), default=0)
+    return max((max([k for _, k in r.signals] + [order + inner(q) for order, q in r.composites], default=0)
+                for r in residuals), default=0)
 
 
 def format_calibration(c: Calibration) -> str:
@@ -145,6 +162,13 @@ def format_calibration(c: Calibration) -> str:
         for run, alarmed, (name, ratio) in zip(c.runs, c.false_alarms, c.worst or ()):
             lines.append(f"  {run}: {name} reaches {ratio:.2f} x the others' threshold"
                          + (" (an alarm)" if alarmed else ""))
+    if c.window is not None:
+        lines.append(f"derivative window: {c.window:.4g} s ({c.window_samples} samples), "
+                     + ("diagnosis.derivative_window" if c.window_given else
+                        "the rule's (half the model's fastest time constant, docs/diagnosis.md)"
+                        + (": the residuals take second derivatives, whose noise falls as the window's "
+                           "length to the power 2.5; if faults go undetected, a longer diagnosis.derivative_window"
+                           if c.highest_order >= 2 else "")))
     lines.append("thresholds: {" + ", ".join(f"{n}: {t:.4g}" for n, t in zip(c.names, c.thresholds)) + "}")
     return "\n".join(lines) + "\n"
 

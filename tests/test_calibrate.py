@@ -136,3 +136,26 @@ def test_the_leave_one_out_figure_is_explained():
     text = format_calibration(c)
     assert "chance that a new fault-free run as long as these alarms" in text
     assert "in steps of 1/3" in text and text.count("x the others' threshold") == 3
+
+
+def test_the_report_says_which_derivative_window_filtered_the_residuals(tmp_path):
+    """The quarter car (tests/data/quarter_car.yaml) without its diagnosis section: the rule's
+    window is half the 11 Hz wheel hop's time constant, 0.0071 s, raised to the 9-sample floor at
+    1 ms (docs/diagnosis.md), and the residuals take d/dt(ms vs'), a second derivative: the report
+    says so. With the file's 0.06 s, it names the file's setting."""
+    from pathlib import Path
+
+    from fdi.calibrate import format_calibration
+
+    from .independent import measurements, quarter_car
+    model = Path(__file__).resolve().parent / "data" / "quarter_car.yaml"
+    text = model.read_text()
+    rule = tmp_path / "rule.yaml"
+    rule.write_text(text[:text.index("\ndiagnosis:")] + "\n")
+    runs = [measurements(quarter_car.simulate, "nominal1", 1, T=4.0)]
+    c = calibrate(str(rule), runs)
+    assert (c.window, c.window_samples, c.window_given, c.highest_order) == (pytest.approx(0.009), 9, False, 2)
+    assert "second derivatives" in format_calibration(c)
+    c = calibrate(str(model), runs)
+    assert (c.window, c.window_samples, c.window_given) == (pytest.approx(0.06), 61, True)
+    assert "0.06 s (61 samples), diagnosis.derivative_window" in format_calibration(c)
