@@ -112,8 +112,8 @@ def test_a_sagging_spring_is_dated_at_its_onset(thresholds):
     "bgfdi: without diagnosis.derivative_window the rule's window is tau/2 of the fastest mode (the "
     "11 Hz wheel hop, tau = 0.0142 s), clipped to 9 samples at 1 ms; ARR1 holds ms*vs''/ks, and "
     "calibrated on nominal runs its threshold is 3.65 m/s against velocities of 0.1-0.2 m/s: the "
-    "damper's 60 % loss (0.06 m/s in ARR1) is never detected, and neither calibrate nor diagnose "
-    "says the residual is noise-dominated"))
+    "damper's 60 % loss (0.06 m/s in ARR1) is never detected (calibrate now names the rule's 9-sample "
+    "window and that second derivatives may need a longer one; the rule itself is for the next round)"))
 def test_the_damper_is_detected_with_the_rules_derivative_window(tmp_path):
     from .independent import thresholds as calibrated
     text = MODEL.read_text()
