@@ -132,16 +132,7 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                        [m.path for m in data], worst, float(sc.window),
                        int(derivatives.window_samples(sc.window, data[0].ts, derivatives.DEFAULT_ORDER)),
                        c.config.derivative_window is not None,
-                       highest_order(c.residuals))
-
-
-def highest_order(residuals) -> int:
-    """The highest derivative of a measured signal the residuals take, a stored quantity's rate
-    counting its own (d/dt of ms vs' is a second derivative of vs)."""
-    def inner(q) -> int:
-        return max((k for _, k in q.signals), default=0)
-    return max((max([k for _, k in r.signals] + [order + inner(q) for order, q in r.composites], default=0)
-                for r in residuals), default=0)
+                       max((r.highest_order() for r in c.residuals), default=0))
 
 
 def format_calibration(c: Calibration) -> str:

@@ -30,7 +30,7 @@ import numpy as np
 from bondgraph.errors import ModelError
 from bondgraph.model import Model
 
-from . import criterion, derivatives, encoding, hints, kernels, scales
+from . import criterion, derivatives, encoding, hints, kernels, profiles, scales
 from .config import MonitorConfig
 from .data import commanded
 from .encoding import FaultSpace
@@ -170,8 +170,8 @@ def _transform(model: Model, residuals: tuple[Residual, ...], name: str) -> str 
 
 # A linear fault's abrupt step (each edge of an intermittent one) is seen through the filter of this
 # derivative order: 0, the smoothing filter every signal's value goes through, so that a
-# parameter's step and a source's or a sensor's
-# (applied to the signal before the filters) are seen alike. Before, it stepped sharply against
+# parameter's step and a source's or a sensor's (applied to the signal before the filters) are
+# seen alike. Before, it stepped sharply against
 # filtered signals and paid the mismatch for half a window each side of its onset: a water
 # heater's insulation (901 s window) lost to an element fault, its onset found 386 s late. The
 # slope's filter (1, the derivative that jumps in the tank's balance) fits a parameter's step
@@ -466,15 +466,7 @@ class Objective:
         if periods is None:
             seen = derivatives.step_seen(t, onsets, STEP_ORDER, self.window_s, self.win.ts)
         else:
-            onsets, periods = np.asarray(onsets, dtype=float), np.asarray(periods, dtype=float)
-            ok = np.isfinite(onsets) & np.isfinite(periods) & (periods > 0)
-            span = float(t[-1] - np.min(np.where(ok, onsets, np.inf))) if ok.any() else 0.0
-            shortest = float(np.min(periods[ok])) if ok.any() else 1.0
-            m = np.arange(max(1, int(np.ceil(span / shortest)) + 1))[None, :]
-            rises = np.where(ok[:, None], onsets[:, None] + m * periods[:, None], np.nan)
-            edges = np.hstack([rises, rises + periods[:, None] / 2])
-            edges[edges > t[-1]] = np.nan            # (edges after the window: NaN, none)
-            signs = np.hstack([np.ones(m.size), -np.ones(m.size)])[None, :]
+            edges, signs = profiles.intermittent_edges(float(t[-1]), onsets, periods)
             seen = derivatives.edges_seen(t, edges, signs, STEP_ORDER, self.window_s, self.win.ts)
         return seen_profile(self.linear[space.name], space.nominal, self.unit_value(j), seen)
 

@@ -63,6 +63,29 @@ def intermittent(t: np.ndarray, t0, nominal: float, value, period) -> np.ndarray
     return np.where(t >= t0, out, nominal)
 
 
+def intermittent_edges(t_end: float, t0: np.ndarray, period: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. (15)'s square waves as edges up to ``t_end``: per row (one per onset and period), the
+    rises at t0 + m T and the falls half a period later, NaN where none (after ``t_end``, or an
+    onset or period that is not a finite positive number), and their signs, +1 and -1 (for
+    :func:`fdi.derivatives.edges_seen`).
+
+    On from 0.5 s with a 1 s period, up to 2 s: on over [0.5, 1) and [1.5, 2):
+
+    >>> edges, signs = intermittent_edges(2.0, np.array([0.5]), np.array([1.0]))
+    >>> edges.tolist(), signs.tolist()
+    ([[0.5, 1.5, nan, 1.0, 2.0, nan]], [[1.0, 1.0, 1.0, -1.0, -1.0, -1.0]])
+    """
+    t0, period = np.asarray(t0, dtype=float), np.asarray(period, dtype=float)
+    ok = np.isfinite(t0) & np.isfinite(period) & (period > 0)
+    span = float(t_end - np.min(np.where(ok, t0, np.inf))) if ok.any() else 0.0
+    shortest = float(np.min(period[ok])) if ok.any() else 1.0
+    m = np.arange(max(1, int(np.ceil(span / shortest)) + 1))[None, :]
+    rises = np.where(ok[:, None], t0[:, None] + m * period[:, None], np.nan)
+    edges = np.hstack([rises, rises + period[:, None] / 2])
+    edges[edges > t_end] = np.nan
+    return edges, np.hstack([np.ones(m.size), -np.ones(m.size)])[None, :]
+
+
 def incipient(t: np.ndarray, t0, nominal: float, model: int, b) -> np.ndarray:
     """One degradation model for the whole population; ``b`` of shape (pop, n_coefficients)."""
     t = np.asarray(t, dtype=float)

@@ -159,6 +159,12 @@ class Residual:
             out += inner.signal_orders()
         return out
 
+    def highest_order(self) -> int:
+        """The highest derivative of a measured signal this kernel takes, a stored quantity's rate
+        counting its own (d/dt of m v' is a second derivative of v)."""
+        return max([k for _, k in self.signals] + [order + inner.highest_order() for order, inner in self.composites],
+                   default=0)
+
 
 def numeric_form(model: Model, expr: sp.Expr) -> sp.Expr:
     """Sensor and input efficiency factors set to 1: the caller passes corrected signals."""
