@@ -176,6 +176,10 @@ def test_bench_diagnose_json(capsys, monkeypatch):
     import fdi.app.bench as bench
     # one timed process after the one that fills the caches: the fields are tested, not the timing
     monkeypatch.setattr(bench, "process_costs", partial(bench.process_costs, repeat=1))
+    # one compiled path's start-up is probed (numba's import alone took 7 of this test's 43 s): the
+    # fields are the same for every path
+    import fdi.kernels as kernels
+    monkeypatch.setattr(kernels, "available", lambda paths=kernels.available(): paths[:1])
     d = _json(capsys, ["bench", "diagnose", "--workers", "1", "--json"])
     assert d["benchmark"] == "diagnose" and (d["pop"], d["generations"], d["workers"]) == (100, 150, 1)
     # scenario 2's five candidate sets (README): {beta_theta2}, {R4, R5}, and the three pairs/triple with both
