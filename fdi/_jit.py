@@ -254,8 +254,8 @@ def _eq17(t, a, nominal, c, b):  # pragma: no cover - compiled
 def decode_rows(real, bits, log, scale, powers, vpow, zeta, t_last):  # pragma: no cover - compiled
     """:func:`fdi.encoding.decode_table` for the fused objective, with what it reads next: per fault
     and individual the type, model, value, period and coefficients (faults, pop[, 7]), the
-    eq. (16)/(18) rows numbered fault by fault (``pre_at``: eq. 16's of fault 0, its eq. 18's, then
-    fault 1's...; -1 elsewhere; ``counts`` per fault and model), eq. (19)'s span per fault (the
+    rows the caller gives a profile of (``pre_at``, all -1 here: the solved steps are numbered by
+    the caller), the count of eq. (16) and (18) rows per fault (``counts``), eq. (19)'s span per fault (the
     latest onset's t_last - t0, NaN onsets left out, at least 0) and, per fault, whether an
     individual makes it abrupt or intermittent. ``powers`` holds numpy's 10 ** x of each rate
     slot (fault j's at column j) and of each logarithmic value (fault j's at ``vpow[j]``): numpy's
@@ -303,15 +303,6 @@ def decode_rows(real, bits, log, scale, powers, vpow, zeta, t_last):  # pragma: 
         if seen and late_max > 0.0:
             span19[j] = late_max
     pre_at = np.full((nf, pop), -1, dtype=np.int64)
-    filled = 0
-    for j in range(nf):
-        for k in range(2):
-            if counts[j, k]:
-                want = 1 if k == 0 else 3
-                for r in range(pop):
-                    if kinds[j, r] == 2 and models[j, r] == want:
-                        pre_at[j, r] = filled
-                        filled += 1
     return kinds, models, values, periods, b, pre_at, counts, span19, level
 
 
@@ -323,48 +314,31 @@ def _eq18_roots(b3):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
-def exp_arguments(t, t0, model, b):  # pragma: no cover - compiled
-    """The arguments of eq. (16)'s exponential (model 1: b1 tau) or eq. (18)'s two (model 3: r1 tau,
-    r2 tau) for every row of ``b`` and time: (1 or 2, rows, samples), tau = max(t - t0, 0) (NaN
-    stays NaN), as :func:`fdi.profiles.incipient` forms them (one product each, so numpy's bits);
-    numpy then takes the exponentials, in place, and :func:`incipient_exp` reads them."""
-    rows, n = b.shape[0], t.shape[0]
-    k = 1 if model == 1 else 2
-    out = np.empty((k, rows, n))
-    for r in range(rows):
-        a = t0[r]
-        if model == 1:
-            r1, r2 = b[r, 0], 0.0
-        else:
-            r1, r2 = _eq18_roots(b[r, 0])
-        for i in range(n):
-            x = t[i] - a
-            tau = 0.0 if x < 0 else x
-            out[0, r, i] = r1 * tau
-            if k == 2:
-                out[1, r, i] = r2 * tau
-    return out
-
-
-@njit(cache=True, nogil=True)
-def incipient_exp(t, t0, nominal, model, b, e):  # pragma: no cover - compiled
-    """Eq. (16) (model 1: P0 e1) or eq. (18) (model 3, finite P0: -b4 + a e1 + c e2) from t0 on, the
-    nominal value before, from the exponentials ``e`` of :func:`exp_arguments`: the products,
-    quotients and sums of :func:`fdi.profiles.incipient` in its order, so its numbers."""
+def incipient_exp(t, t0, nominal, model, b):  # pragma: no cover - compiled
+    """Eq. (16) (model 1: P0 exp(b1 tau)) or eq. (18) (model 3, finite P0: -b4 + a exp(r1 tau) +
+    c exp(r2 tau)) from t0 on, the nominal value before, for every row of ``b`` and time (tau =
+    max(t - t0, 0), NaN stays NaN): the products, quotients and sums of
+    :func:`fdi.profiles.incipient` in its order, with libm's exponential (numpy's on AVX2
+    machines), in one pass and no temporary (numpy's path takes three passes and two)."""
     rows, n = b.shape[0], t.shape[0]
     out = np.empty((rows, n))
     for r in range(rows):
-        t0r = t0[r]
+        a = t0[r]
         if model == 1:
+            r1 = b[r, 0]
             for i in range(n):
-                out[r, i] = nominal * e[0, r, i] if t[i] >= t0r else nominal
+                x = t[i] - a
+                tau = 0.0 if x < 0 else x
+                out[r, i] = nominal * math.exp(r1 * tau) if t[i] >= a else nominal
         else:
             b4 = b[r, 1]
             r1, r2 = _eq18_roots(b[r, 0])
-            a = -r2 * (nominal + b4) / (r1 - r2)
-            c = r1 * (nominal + b4) / (r1 - r2)
+            ca = -r2 * (nominal + b4) / (r1 - r2)
+            cc = r1 * (nominal + b4) / (r1 - r2)
             for i in range(n):
-                out[r, i] = (-b4 + a * e[0, r, i]) + c * e[1, r, i] if t[i] >= t0r else nominal
+                x = t[i] - a
+                tau = 0.0 if x < 0 else x
+                out[r, i] = (-b4 + ca * math.exp(r1 * tau)) + cc * math.exp(r2 * tau) if t[i] >= a else nominal
     return out
 
 
@@ -544,8 +518,8 @@ def _corrected(raw, v, is_source, beta, bias, half, cp):  # pragma: no cover - c
 def _profile(t, j, row, onset, kinds, models, values, periods, coeffs, pre, pre_at, nominal, unit, linear, k19, h19,
              grid, slope, out):  # pragma: no cover - compiled
     """Fault j's profile for individual ``row`` at every time of ``t`` into ``out``, as
-    :func:`fdi.encoding.profiles` gives it (eq. 14, 15, 17 and 19 here by the numpy path's
-    operations; eqs. 16 and 18, exponentials, from numpy: ``pre``); a linear fault that is
+    :func:`fdi.encoding.profiles` gives it (the numpy path's operations; eqs. 16 and 18 with
+    libm's exponential, numpy's on AVX2 machines); a linear fault that is
     abrupt or intermittent at its unit value (its solved magnitude's unit step; from ``pre``
     when given there: the step or square wave as the filtered residuals see it)."""
     kind = kinds[j, row]
@@ -587,10 +561,24 @@ def _profile(t, j, row, onset, kinds, models, values, periods, coeffs, pre, pre_
                         tau = 0.0
                     p = _hermite(tau, h19, k19, grid, slope)
                     out[i] = p if t[i] >= a else nominal
-        else:
-            k = pre_at[j, row]
+        elif model == 1:                           # eq. (16): fdi.profiles.incipient's operations
+            r1 = coeffs[j, row, 4]
             for i in range(n):
-                out[i] = pre[k, i]
+                x = t[i] - a
+                tau = 0.0 if x < 0 else x
+                out[i] = nominal * math.exp(r1 * tau) if t[i] >= a else nominal
+        elif math.isinf(nominal):                  # eq. (18) never leaves an infinite P0
+            for i in range(n):
+                out[i] = np.inf
+        else:                                      # eq. (18)
+            b4 = coeffs[j, row, 6]
+            r1, r2 = _eq18_roots(coeffs[j, row, 5])
+            ca = -r2 * (nominal + b4) / (r1 - r2)
+            cc = r1 * (nominal + b4) / (r1 - r2)
+            for i in range(n):
+                x = t[i] - a
+                tau = 0.0 if x < 0 else x
+                out[i] = (-b4 + ca * math.exp(r1 * tau)) + cc * math.exp(r2 * tau) if t[i] >= a else nominal
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

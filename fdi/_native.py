@@ -24,8 +24,7 @@ _SIGNATURES = {
     "weighted_median": ("r", "ppiip"),
     "intermittent": ("r", "pipidppp"),
     "incipient17": ("r", "pipidpp"),
-    "exp_arguments": ("r", "pipipiip"),
-    "incipient_exp": ("r", "pipdipiipp"),
+    "incipient_exp": ("r", "pipdipiip"),
     "fir": ("r", "piipiiiiip"),
     "decode_rows": ("r", "piipipppipp" + "di" + "p" * 9),
     "fused_cost": ("r", "ppppp"),
@@ -87,23 +86,12 @@ def incipient17(t, t0, nominal, b2):
     return out
 
 
-def exp_arguments(t, t0, model, b):
-    """:func:`fdi._jit.exp_arguments`."""
+def incipient_exp(t, t0, nominal, model, b):
+    """:func:`fdi._jit.incipient_exp`."""
     t, t0, b = _f(t), _f(t0), _f(b)
     rows, n = b.shape[0], t.shape[0]
-    out = np.empty((1 if model == 1 else 2, rows, n))
-    _check(_lib.exp_arguments(_at(t), n, _at(t0), int(model), _at(b), rows, b.shape[1],
-                              _at(out)))
-    return out
-
-
-def incipient_exp(t, t0, nominal, model, b, e):
-    """:func:`fdi._jit.incipient_exp`."""
-    t, t0, b, e = _f(t), _f(t0), _f(b), _f(e)
-    rows, n = b.shape[0], t.shape[0]
     out = np.empty((rows, n))
-    _check(_lib.incipient_exp(_at(t), n, _at(t0), float(nominal), int(model), _at(b), rows,
-                              b.shape[1], _at(e), _at(out)))
+    _check(_lib.incipient_exp(_at(t), n, _at(t0), float(nominal), int(model), _at(b), rows, b.shape[1], _at(out)))
     return out
 
 

@@ -9,9 +9,15 @@ magnitudes solved, the sums taken. Here the same computation runs in one compile
 - the profiles and the solved faults' unit steps are the numpy path's (:meth:`Objective.prepare`),
   as are the corrections (:meth:`Objective.corrections`);
 - the population is decoded in one compiled pass (:func:`fdi._jit.decode_rows`) around numpy's
-  powers 10 ** x (SIMD code: numpy's bits), eqs. (16) and (18) by compiled passes around numpy's
-  exponentials (:func:`fdi.profiles.incipient`), and what depends only on which linear faults are
+  powers 10 ** x (SIMD code: numpy's bits), and what depends only on which linear faults are
   solved is built once (:meth:`Fused.pattern`): a call's Python is ~40 us before the kernel;
+- eqs. (16) and (18) are formed in the kernel, row by row, with libm's exponential (the numpy
+  path's operations; numpy's exponential is libm's on AVX2 machines, its own SIMD code where
+  AVX-512 is, a last-bit difference): they were numpy passes over the whole population before the
+  kernel (three passes and a temporary of rows x samples each call: 22 ns a sample, where the
+  kernel's own exponential costs 9; measured on docs/tutorial.md's RC filter, A/B: its eq. (16)
+  rows 49 -> 35 ns a sample on 5 000-sample windows, its whole diagnosis 11.2-13.3 -> 9.0-10.9 s CPU,
+  the numbers the same to the bit here: tests/golden identical);
 - a corrected signal is formed and filtered in the kernel by the same operations in the same
   order (:func:`fdi.derivatives.fir`), so its derivatives are the numpy path's bits (a Coulomb
   friction's sign of a derivative then agrees);
@@ -48,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-from . import derivatives, encoding, kernels, profiles, tape
+from . import derivatives, encoding, kernels, tape
 from .residuals import Residual, mode_breaks, samples_of
 
 Objective = Any     # fdi.objective.Objective (which imports this module where it is first used)
@@ -383,15 +389,8 @@ class Fused:
         else:                                       # bits other than 0/1: decode_table's reading of them
             kinds, models, values, periods, b, pre_at, counts, span19, level = self.decode_numpy(real, bits)
         pre = []
-        if counts.any():                            # eqs. (16) and (18): numpy's exponentials, as the numpy path
-            for j, (n1, n3) in enumerate(counts.tolist()):
-                for count, model in ((n1, 1), (n3, 3)):
-                    if count:
-                        rows = (kinds[j] == 2) & (models[j] == model)
-                        cols = [slot - 2 for slot in encoding.COEFF_SLOTS[model]]
-                        pre.append(profiles.incipient(t, onset[rows], obj.spaces[j].nominal, model, b[j][rows][:, cols]))
         solving = tuple(level[self.lin_fault].tolist())
-        filled = int(counts.sum())
+        filled = 0
         for jj, j in enumerate(self.linear):          # a solved step or square wave as the filtered residuals see it
             if solving[jj]:
                 for kind in (0, 1):
@@ -432,12 +431,6 @@ class Fused:
         incipient = kinds == 2
         counts = np.stack([(incipient & (models == 1)).sum(axis=1), (incipient & (models == 3)).sum(axis=1)], axis=1)
         pre_at = np.full(kinds.shape, -1, dtype=np.int64)
-        filled = 0
-        for j in range(len(obj.spaces)):
-            for k, model in enumerate((1, 3)):
-                rows = incipient[j] & (models[j] == model)
-                pre_at[j, rows] = filled + np.arange(int(counts[j, k]))
-                filled += int(counts[j, k])
         span19 = np.zeros(len(obj.spaces))
         onset = real[:, -1]
         for j in range(len(obj.spaces)):
@@ -490,5 +483,6 @@ class Pattern:
     passes: int
 
 
-COEFFS = [1, 4, 5, 6]     # the decoded coefficients the kernel reads: b2 (eq. 17), b5, b6, b7 (eq. 19)
+COEFFS = [1, 4, 5, 6, 0, 2, 3]   # the decoded coefficients the kernel reads: b2 (eq. 17), b5, b6, b7 (eq. 19),
+                                 # b1 (eq. 16), b3, b4 (eq. 18); kernels.c's NCOEFFS
 STEP19 = 0.1              # eq. (19)'s RK4 grid (fdi.profiles._model19's step)

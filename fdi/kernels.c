@@ -21,6 +21,7 @@ enum { LOADF = 0, LOADP = 1, LOADS = 2, CONST = 3,
        NEG = 20, ABS, SIGN, SQRT, SQUARE, RECIP, EXP, LOG, SIN, COS, TAN, ASIN, ACOS, ATAN, SINH, COSH, TANH };
 
 #define PI 3.141592653589793     /* numpy's pi, the same double */
+#define NCOEFFS 7       /* the decoded coefficients the kernel reads (fdi.fused.COEFFS) */
 #define BRACKET_FROM 256
 #define BRACKET_SAMPLE 256
 
@@ -242,39 +243,31 @@ static void eq18_roots(double b3, double *r1, double *r2)
     *r2 = (b3 - root) / 2;
 }
 
-/* b (rows, bc) -> out (k, rows, n) */
-int exp_arguments(const double *t, I n, const double *t0, I model, const double *b, I rows, I bc, double *out)
-{
-    I k = model == 1 ? 1 : 2;
-    for (I r = 0; r < rows; r++) {
-        double a = t0[r], r1, r2;
-        if (model == 1) { r1 = b[r * bc]; r2 = 0.0; }
-        else eq18_roots(b[r * bc], &r1, &r2);
-        for (I i = 0; i < n; i++) {
-            double x = t[i] - a;
-            double tau = x < 0 ? 0.0 : x;
-            out[r * n + i] = r1 * tau;
-            if (k == 2) out[rows * n + r * n + i] = r2 * tau;
-        }
-    }
-    return 0;
-}
-
+/* eq. (16) (model 1: P0 exp(b1 tau)) or eq. (18) (model 3, finite P0: -b4 + a exp(r1 tau) + c exp(r2 tau))
+ * from t0 on, the nominal value before: fdi.profiles.incipient's operations in its order, libm's
+ * exponential (numpy's on AVX2 machines). b (rows, bc) -> out (rows, n) */
 int incipient_exp(const double *t, I n, const double *t0, double nominal, I model, const double *b, I rows, I bc,
-                  const double *e, double *out)
+                  double *out)
 {
     for (I r = 0; r < rows; r++) {
-        double t0r = t0[r];
+        double a = t0[r];
         if (model == 1) {
-            for (I i = 0; i < n; i++)
-                out[r * n + i] = t[i] >= t0r ? nominal * e[r * n + i] : nominal;
+            double r1 = b[r * bc];
+            for (I i = 0; i < n; i++) {
+                double x = t[i] - a;
+                double tau = x < 0 ? 0.0 : x;
+                out[r * n + i] = t[i] >= a ? nominal * exp(r1 * tau) : nominal;
+            }
         } else {
             double b4 = b[r * bc + 1], r1, r2;
             eq18_roots(b[r * bc], &r1, &r2);
-            double a = -r2 * (nominal + b4) / (r1 - r2);
-            double c = r1 * (nominal + b4) / (r1 - r2);
-            for (I i = 0; i < n; i++)
-                out[r * n + i] = t[i] >= t0r ? (-b4 + a * e[r * n + i]) + c * e[rows * n + r * n + i] : nominal;
+            double ca = -r2 * (nominal + b4) / (r1 - r2);
+            double cc = r1 * (nominal + b4) / (r1 - r2);
+            for (I i = 0; i < n; i++) {
+                double x = t[i] - a;
+                double tau = x < 0 ? 0.0 : x;
+                out[r * n + i] = t[i] >= a ? (-b4 + ca * exp(r1 * tau)) + cc * exp(r2 * tau) : nominal;
+            }
         }
     }
     return 0;
@@ -381,15 +374,7 @@ int decode_rows(const double *real, I pop, I nr, const B *bits, I nb, const B *l
         }
         if (seen && late_max > 0.0) span19[j] = late_max;
     }
-    I filled = 0;
     for (I q = 0; q < nf * pop; q++) pre_at[q] = -1;
-    for (I j = 0; j < nf; j++)
-        for (I k = 0; k < 2; k++)
-            if (counts[2 * j + k]) {
-                I want = k == 0 ? 1 : 3;
-                for (I r = 0; r < pop; r++)
-                    if (kinds[j * pop + r] == 2 && models[j * pop + r] == want) pre_at[j * pop + r] = filled++;
-            }
     return 0;
 }
 
@@ -500,7 +485,7 @@ static void profile(const double *t, I nw, I j, I row, I pop, const double *onse
         for (I i = 0; i < nw; i++) out[i] = intermittent1(t[i], a, nominal, val, T);
     } else {
         I model = models[j * pop + row];
-        const double *cf = coeffs + (j * pop + row) * 4;
+        const double *cf = coeffs + (j * pop + row) * NCOEFFS;
         if (model == 2) {
             if (nominal == 0) {
                 for (I i = 0; i < nw; i++) out[i] = 0.0;
@@ -521,9 +506,25 @@ static void profile(const double *t, I nw, I j, I row, I pop, const double *onse
                     out[i] = t[i] >= a ? p : nominal;
                 }
             }
-        } else {
-            const double *src = pre + pre_at[j * pop + row] * prew;
-            for (I i = 0; i < nw; i++) out[i] = src[i];
+        } else if (model == 1) {                 /* eq. (16): fdi.profiles.incipient's operations */
+            double r1 = cf[4];
+            for (I i = 0; i < nw; i++) {
+                double x = t[i] - a;
+                double tau = x < 0 ? 0.0 : x;
+                out[i] = t[i] >= a ? nominal * exp(r1 * tau) : nominal;
+            }
+        } else if (isinf(nominal)) {             /* eq. (18) never leaves an infinite P0 */
+            for (I i = 0; i < nw; i++) out[i] = INFINITY;
+        } else {                                 /* eq. (18) */
+            double b4 = cf[6], r1, r2;
+            eq18_roots(cf[5], &r1, &r2);
+            double ca = -r2 * (nominal + b4) / (r1 - r2);
+            double cc = r1 * (nominal + b4) / (r1 - r2);
+            for (I i = 0; i < nw; i++) {
+                double x = t[i] - a;
+                double tau = x < 0 ? 0.0 : x;
+                out[i] = t[i] >= a ? (-b4 + ca * exp(r1 * tau)) + cc * exp(r2 * tau) : nominal;
+            }
         }
     }
 }
