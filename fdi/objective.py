@@ -20,7 +20,6 @@ number of worker processes.
 """
 from __future__ import annotations
 
-import math
 
 from dataclasses import dataclass
 from typing import Mapping
@@ -187,9 +186,12 @@ def seen_profile(transform: str, nominal: float, value: float, seen: np.ndarray)
     (:func:`fdi.derivatives.step_seen`): exactly the two values where ``seen`` is 0 or 1."""
     to_u, from_u = LINEAR[transform]
     u0 = to_u(nominal)
+    seen = np.asarray(seen, dtype=float)
+    out = np.where(seen == 1.0, value, nominal)
+    mid = (seen != 0.0) & (seen != 1.0)        # the blend where the filter's window holds a step (NaN too)
     with np.errstate(all="ignore"):
-        blend = from_u(u0 + (to_u(value) - u0) * seen)
-    return np.where(seen == 0.0, nominal, np.where(seen == 1.0, value, blend))
+        out[mid] = from_u(u0 + (to_u(value) - u0) * seen[mid])
+    return out
 
 
 @dataclass
@@ -463,12 +465,18 @@ class Objective:
         period), each of its edges seen so."""
         space = self.spaces[j]
         t = self.win.t
-        if periods is None:
-            seen = derivatives.step_seen(t, onsets, STEP_ORDER, self.window_s, self.win.ts)
-        else:
-            edges, signs = profiles.intermittent_edges(float(t[-1]), onsets, periods)
-            seen = derivatives.edges_seen(t, edges, signs, STEP_ORDER, self.window_s, self.win.ts)
-        return seen_profile(self.linear[space.name], space.nominal, self.unit_value(j), seen)
+        transform, unit = self.linear[space.name], self.unit_value(j)
+        if periods is None:      # the sharp step's two levels, the blend on the 2 h samples around each onset
+            out = np.where(t[None, :] >= np.asarray(onsets, dtype=float)[:, None], unit, space.nominal)
+            blends = derivatives.step_blends(t, np.asarray(onsets, dtype=float), STEP_ORDER, self.window_s,
+                                             self.win.ts)
+            if blends is not None:
+                at, seen, (r, c) = blends
+                out[r, at[r, c]] = seen_profile(transform, space.nominal, unit, seen[r, c])
+            return out
+        edges, signs = profiles.intermittent_edges(float(t[-1]), onsets, periods)
+        seen = derivatives.edges_seen(t, edges, signs, STEP_ORDER, self.window_s, self.win.ts)
+        return seen_profile(transform, space.nominal, unit, seen)
 
     def unit_value(self, j: int) -> float:
         """Linear fault j's value one unit of u = h(value) from its nominal value: its unit step
