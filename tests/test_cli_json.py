@@ -147,8 +147,10 @@ def _seconds(x) -> bool:
 
 
 def test_bench_derive_json(capsys, monkeypatch):
+    import fdi.app.bench as bench
     import fdi.app.resources as resources
     monkeypatch.setattr(resources, "shipped_models", lambda: [CYCAB])
+    monkeypatch.setattr(bench, "TANK_SIZES", (3,))       # the 100-tank chain took 8 of this test's 15 s
     d = _json(capsys, ["bench", "derive", "--sizes", "5", "--json"])
     assert d["benchmark"] == "derive"
     cycab, chain = d["cases"]
@@ -158,6 +160,9 @@ def test_bench_derive_json(capsys, monkeypatch):
     assert cycab["state_equations_s"] is None and _seconds(cycab["arrs_s"])
     assert chain["case"] == "chain N=5" and chain["chain"] and _seconds(chain["state_equations_s"])
     assert d["mso"]["case"] == "cycab_steering" and d["mso"]["msos"] > 0 and _seconds(d["mso"]["search_s"])
+    (tanks,) = d["tank_chains"]     # three tanks: the pump's fault, each tank's, valve's and sensor's
+    assert (tanks["tanks"], tanks["faults"]) == (3, 1 + 3 * 3) and _seconds(tanks["tables_s"])
+    assert tanks["arrs"] >= 3                                 # at least each tank's mass balance
 
 
 def test_bench_simulate_json(capsys):

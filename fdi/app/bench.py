@@ -31,7 +31,7 @@ def _best_of(fn, repeat: int = 3) -> float:
     return best
 
 
-def derive_rows(models: list[Path], sizes=CHAIN_SIZES, echo=None, tanks=TANK_SIZES) -> list[dict]:
+def derive_rows(models: list[Path], sizes=CHAIN_SIZES, echo=None, tanks: tuple[int, ...] | None = None) -> list[dict]:
     """Time causality + AGARRs (+ signature matrices for shipped models), best of three cold runs
     (sympy's cache cleared before each, so nothing derived earlier is reused); chains also their
     state equations (:func:`chain_row`, ``echo`` told each stage as it is measured); tank chains
@@ -61,7 +61,7 @@ def derive_rows(models: list[Path], sizes=CHAIN_SIZES, echo=None, tanks=TANK_SIZ
                        equations=len(system.equations), select_seconds=_best_of(lambda: select_arrs(model), 1))
     for size in sizes:
         rows.append(chain_row(size, echo))
-    for n in tanks:
+    for n in TANK_SIZES if tanks is None else tanks:
         rows.append(tank_row(n, echo))
     return rows
 
