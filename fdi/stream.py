@@ -179,6 +179,7 @@ class Stream:
     def __post_init__(self) -> None:
         self.options = self.options or Options()
         self.options.check()
+        self.origin = self.monitor          # the monitor as given (a model file's: kept on disk, fdi.monitor.persist)
         self.monitor = self.monitor.with_config(self.options.settings)
         c = self.monitor
         self.model, self.config, self.compiled = c.model, c.config, c.residuals
@@ -563,6 +564,8 @@ class Stream:
         out = d.to_dict()
         self._report_decisions(out, float(meas.t[-1]))
         self.emit({"event": "summary", **out})
+        from .monitor import persist
+        persist(self.origin)       # what the stream derived (time scales, FSMs) for the next process, as the CLI does
         return d
 
     def stop(self, now: bool = False) -> None:

@@ -347,6 +347,40 @@ def test_the_api_keeps_what_a_diagnosis_derived_for_the_next_process(cache):
     assert first > 0 and second == 0 and t1 == t2
 
 
+def test_a_stream_from_the_api_keeps_what_it_derived_for_the_next_process(cache):
+    """``compiled(path).stream(...)`` twice, in two processes: the first stream derives the model's
+    time scales (its settling time and detection rule need them) and, closed, keeps them with the
+    compiled model; the second derives none (before, only the CLI and ``diagnose`` kept them, and a
+    notebook's streams derived the simulation system again in every process: the CyCab's 1.2 s)."""
+    script = textwrap.dedent(f"""
+        import json
+        import bondgraph.timescales as T
+        calls = []
+        inner = T.time_scales
+        T.time_scales = lambda *a, **k: calls.append(1) or inner(*a, **k)
+        from fdi.api import Options
+        from fdi.data import read_csv
+        from fdi.monitor import compiled
+        import numpy as np
+        data = read_csv({str(DATA / 'nominal.csv')!r})
+        header = ["t"] + [k for k in data.columns if k != "t"]
+        table = np.column_stack([data.t] + [data.columns[k] for k in header[1:]])
+        events = []
+        s = compiled({str(CYCAB)!r}).stream(events.append, Options(workers=1))
+        s.feed(header, table[:3000])
+        s.close()
+        print(json.dumps([len(calls), events[-1]["event"]]))
+    """)
+    seen = []
+    for _ in range(2):
+        out = subprocess.run(PY + ["-c", script], cwd=ROOT, env=_env(cache), capture_output=True, text=True,
+                             timeout=300)
+        assert out.returncode == 0, out.stderr[-2000:]
+        seen.append(json.loads(out.stdout.splitlines()[-1]))
+    (first, e1), (second, e2) = seen
+    assert first > 0 and second == 0 and e1 == e2 == "summary"
+
+
 def test_no_cache_option_derives_afresh(cache):
     out = subprocess.run(PY + ["-m", "fdi", "diagnose", str(CYCAB), str(DATA / "scenario3.csv"), "-q", "--no-cache"],
                          cwd=ROOT, env=_env(cache), capture_output=True, text=True, timeout=300)
