@@ -286,8 +286,11 @@ class Monitor:
         return run(self, data, options, progress, memo)
 
     def stream(self, emit: Callable[[dict], None], options: "Options | None" = None, **kw) -> "Stream":
-        """A streaming monitor that feeds blocks of rows and emits events (:class:`fdi.stream.Stream`)."""
+        """A streaming monitor that feeds blocks of rows and emits events (:class:`fdi.stream.Stream`);
+        closed, it keeps what it derived (the time scales, FSMs) with a model file's compiled monitor
+        on disk (:func:`persist`), as ``bgfdi monitor`` and :func:`fdi.api.diagnose` do."""
         from .stream import Stream
+        kw.setdefault("closed", lambda: persist(self))
         return Stream(self, emit, options, **kw)
 
     def __reduce__(self):

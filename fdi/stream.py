@@ -175,11 +175,11 @@ class Stream:
     due: int | None = None              # samples received when the next decision came due (coalesced)
     job: tuple[str, Future, int] | None = None     # the identification in flight: kind, future, samples
     carried: Carried | None = None      # the residual kernels on the stream's columns (fdi.carry)
+    closed: Callable[[], None] | None = None   # called after the summary (Monitor.stream: fdi.monitor.persist)
 
     def __post_init__(self) -> None:
         self.options = self.options or Options()
         self.options.check()
-        self.origin = self.monitor          # the monitor as given (a model file's: kept on disk, fdi.monitor.persist)
         self.monitor = self.monitor.with_config(self.options.settings)
         c = self.monitor
         self.model, self.config, self.compiled = c.model, c.config, c.residuals
@@ -564,8 +564,8 @@ class Stream:
         out = d.to_dict()
         self._report_decisions(out, float(meas.t[-1]))
         self.emit({"event": "summary", **out})
-        from .monitor import persist
-        persist(self.origin)       # what the stream derived (time scales, FSMs) for the next process, as the CLI does
+        if self.closed is not None:
+            self.closed()          # Monitor.stream's: what the stream derived kept for the next process
         return d
 
     def stop(self, now: bool = False) -> None:
