@@ -27,6 +27,8 @@ of period 1 s, faulty during the first half of each period (the mean at the swit
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from . import kernels
@@ -182,6 +184,53 @@ def _model19(tau: np.ndarray, p0: float, b5, b6, b7, step: float = 0.1) -> np.nd
     with np.errstate(invalid="ignore"):
         out = (2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb + (s3 - s2) * vb
     return np.where(np.isfinite(pa) & np.isfinite(pb), out, np.inf)
+
+
+def at(kind: str, t: float, t0: float, nominal: float, *, value=None, model: int | None = None,
+       b=None) -> float | None:
+    """One profile's value at one instant, by the array functions' operations on Python floats
+    (their bits: IEEE sums, products and quotients; libm's exponential and square root, as the
+    compiled kernels'), or None where only the array functions compute it (eq. 15, eq. 19).
+    Why: a simulation's right-hand side asks for the parameters one instant at a time (twice a
+    step of LSODA), and the array functions cost ~25 us a call on one sample where this takes ~2
+    (the tutorial's 30 s drift: 60 000 calls).
+
+    >>> at("incipient", 3.0, 1.0, 1.0, model=2, b=[-0.5]), at("abrupt", 0.5, 1.0, 10.0, value=4.0)
+    (0.5, 10.0)
+    """
+    if kind == "abrupt":
+        return (value if t >= t0 else nominal) + 0.0 * value
+    if kind != "incipient" or model not in (1, 2, 3):
+        return None
+    x = t - t0
+    tau = 0.0 if x < 0 else x                      # NaN stays NaN, as np.maximum keeps it
+    if not t >= t0:
+        return nominal
+    if model == 1:
+        return nominal * _exp(b[0] * tau)
+    if model == 2:
+        if nominal == 0:
+            return 0.0
+        if not tau > 0:
+            return nominal
+        den = (0.0 if math.isinf(nominal) else 1.0 / nominal) - b[0] * tau
+        return 1.0 / den if den > 0 else math.inf
+    if math.isinf(nominal):
+        return math.inf
+    b3, b4 = b[0], b[1]
+    root = math.sqrt(b3 * b3 + 4.0)
+    r1, r2 = (b3 + root) / 2, (b3 - root) / 2
+    a = -r2 * (nominal + b4) / (r1 - r2)
+    c = r1 * (nominal + b4) / (r1 - r2)
+    return (-b4 + a * _exp(r1 * tau)) + c * _exp(r2 * tau)
+
+
+def _exp(x: float) -> float:
+    """libm's exponential, inf past its range as numpy's (math.exp raises there)."""
+    try:
+        return math.exp(x)
+    except OverflowError:
+        return math.inf
 
 
 def profile(kind: str, t: np.ndarray, t0: float, nominal: float, *, value=None, period=None, model: int | None = None,

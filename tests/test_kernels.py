@@ -482,3 +482,27 @@ def test_tape_registers_never_write_over_an_operand_and_compute_the_expression()
     x1 = np.cos(x0 + 0.25) * q
     expected = (x0 - x1) * (x0 + x1) / (q ** 2 + 1) - np.sin(x1) * 3.0
     assert np.allclose(R[t.results[0, 0]], expected, rtol=1e-13, atol=0.0)
+
+
+def test_a_profile_at_one_instant_is_the_array_functions_value_to_the_bit():
+    """fdi.profiles.at (a simulation's right-hand side asks one instant at a time) against the
+    array functions on the same instants: eqs. (14), (16)-(18) at onsets before, at and after the
+    instant, infinite and zero nominal values, rates that overflow, a NaN onset; None for eqs.
+    (15) and (19), which only the array functions compute."""
+    from fdi import profiles
+    rng = np.random.default_rng(3)
+    cases = [("abrupt", {"value": 4.0}), ("incipient", {"model": 1, "b": [-0.3]}),
+             ("incipient", {"model": 1, "b": [900.0]}), ("incipient", {"model": 2, "b": [-0.5]}),
+             ("incipient", {"model": 2, "b": [0.7]}), ("incipient", {"model": 3, "b": [-0.4, -1.2]}),
+             ("incipient", {"model": 3, "b": [2.0, 0.3]})]
+    for kind, kw in cases:
+        for nominal in (2.5, 0.0, np.inf):
+            for t0 in (1.0, float("nan")):
+                for t in np.concatenate([rng.uniform(-1.0, 5.0, 40), [1.0, 0.0]]):
+                    want = profiles.profile(kind, np.array([t]), t0, nominal,
+                                            **({"b": [kw["b"]], "model": kw["model"]} if "b" in kw else kw))[0][0]
+                    with np.errstate(all="ignore"):
+                        got = profiles.at(kind, float(t), t0, nominal, **kw)
+                    assert np.array_equal(np.float64(got), want, equal_nan=True), (kind, kw, nominal, t0, t, got, want)
+    assert profiles.at("intermittent", 2.0, 1.0, 1.0, value=2.0) is None
+    assert profiles.at("incipient", 2.0, 1.0, 1.0, model=4, b=[0.1, 0.1, 0.1]) is None

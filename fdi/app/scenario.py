@@ -359,12 +359,23 @@ def _incipient(path: str, where: str, f: dict) -> tuple[int, tuple[float, ...]]:
 
 
 def fault_profile(event: FaultEvent, nominal: float) -> Callable[[np.ndarray], np.ndarray]:
-    """P(t) of one injected fault, as a function of a time array."""
+    """P(t) of one injected fault, as a function of a time array; its ``at`` attribute gives it at
+    one instant (:func:`fdi.profiles.at`, the same numbers; the array function where that has none)."""
     if event.type in ("abrupt", "mode"):
-        return lambda t: profiles.abrupt(t, event.t0, nominal, event.value)[0]
-    if event.type == "intermittent":
-        return lambda t: profiles.intermittent(t, event.t0, nominal, event.value, event.period)[0]
-    return lambda t: profiles.incipient(t, event.t0, nominal, event.model, [list(event.b)])[0]
+        kind, kw = "abrupt", {"value": event.value}
+        fn = lambda t: profiles.abrupt(t, event.t0, nominal, event.value)[0]        # noqa: E731
+    elif event.type == "intermittent":
+        kind, kw = "intermittent", {"value": event.value}
+        fn = lambda t: profiles.intermittent(t, event.t0, nominal, event.value, event.period)[0]   # noqa: E731
+    else:
+        kind, kw = "incipient", {"model": event.model, "b": list(event.b)}
+        fn = lambda t: profiles.incipient(t, event.t0, nominal, event.model, [list(event.b)])[0]   # noqa: E731
+
+    def at(t: float) -> float:
+        v = profiles.at(kind, t, event.t0, nominal, **kw)
+        return float(fn(np.array([t]))[0]) if v is None else v
+    fn.at = at
+    return fn
 
 
 def breakpoints(scenario: Scenario) -> list[float]:
@@ -423,7 +434,8 @@ def time_functions(model: Model, scenario: Scenario):
         if param_fns:
             arr = np.atleast_1d(np.asarray(t, dtype=float))
             for k, fn in param_fns.items():
-                v[k] = np.asarray(fn(arr), dtype=float) if np.ndim(t) else float(fn(arr)[0])
+                v[k] = (np.asarray(fn(arr), dtype=float) if np.ndim(t) else
+                        float(fn.at(float(t))) if hasattr(fn, "at") else float(fn(arr)[0]))
         return v
     return values, beta_sensors, stuck
 
