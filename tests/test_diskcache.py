@@ -323,6 +323,18 @@ def test_a_worker_that_receives_a_compiled_monitor_imports_no_sympy(tmp_path):
     assert [f["name"] for f in there["diagnosis"]["faults"]] == ["R4", "beta_theta2"]    # the paper's scenario 2
 
 
+def _in_two_processes(script: str, cache) -> list:
+    """``script`` run in two fresh processes one after the other, sharing the cache: each one's last
+    printed line, read as JSON."""
+    seen = []
+    for _ in range(2):
+        out = subprocess.run(PY + ["-c", script], cwd=ROOT, env=_env(cache), capture_output=True, text=True,
+                             timeout=300)
+        assert out.returncode == 0, out.stderr[-2000:]
+        seen.append(json.loads(out.stdout.splitlines()[-1]))
+    return seen
+
+
 def test_the_api_keeps_what_a_diagnosis_derived_for_the_next_process(cache):
     """``fdi.api.diagnose`` twice, in two processes: the first derives the model's time scales (a
     simulation system per mode, their eigenvalues) and keeps them with the compiled model, as the
@@ -337,12 +349,7 @@ def test_the_api_keeps_what_a_diagnosis_derived_for_the_next_process(cache):
         d = diagnose({str(CYCAB)!r}, {str(DATA / 'scenario2.csv')!r}, workers=1, pop=12, generations=5)
         print(json.dumps([len(calls), d.to_dict()["detection"]["time"]]))
     """)
-    seen = []
-    for _ in range(2):
-        out = subprocess.run(PY + ["-c", script], cwd=ROOT, env=_env(cache), capture_output=True, text=True,
-                             timeout=300)
-        assert out.returncode == 0, out.stderr[-2000:]
-        seen.append(json.loads(out.stdout.splitlines()[-1]))
+    seen = _in_two_processes(script, cache)
     (first, t1), (second, t2) = seen
     assert first > 0 and second == 0 and t1 == t2
 
@@ -371,12 +378,7 @@ def test_a_stream_from_the_api_keeps_what_it_derived_for_the_next_process(cache)
         s.close()
         print(json.dumps([len(calls), events[-1]["event"]]))
     """)
-    seen = []
-    for _ in range(2):
-        out = subprocess.run(PY + ["-c", script], cwd=ROOT, env=_env(cache), capture_output=True, text=True,
-                             timeout=300)
-        assert out.returncode == 0, out.stderr[-2000:]
-        seen.append(json.loads(out.stdout.splitlines()[-1]))
+    seen = _in_two_processes(script, cache)
     (first, e1), (second, e2) = seen
     assert first > 0 and second == 0 and e1 == e2 == "summary"
 
