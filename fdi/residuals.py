@@ -88,21 +88,24 @@ class Residual:
 
     def __call__(self, signals: Mapping[str, list[np.ndarray]], values: Mapping[str, object],
                  ts: float | None = None, window: float = derivatives.DEFAULT_WINDOW,
-                 crop: slice | None = None, rates: dict | None = None) -> np.ndarray:
+                 crop: slice | None = None, rates: dict | None = None,
+                 polyorder: int = derivatives.DEFAULT_ORDER) -> np.ndarray:
         """The residual on the samples of ``crop`` (all by default): signals and time-varying values
         are cut before the kernel runs; stored quantities are formed on the whole span (the filter reads
-        their neighbours) and differentiated at the samples of ``crop`` only.
+        their neighbours) and differentiated at the samples of ``crop`` only, by a Savitzky-Golay
+        filter of order ``polyorder`` over ``window`` (that of the signals' derivatives, so that both
+        forms of an ARR see the data alike; fdi.verify asks the order of its own signals).
 
         ``rates``: a dict the caller keeps while its ``signals`` and ``values`` stay the same arrays
         (one objective evaluation): a stored quantity's rate is filtered once there and reused by
         every residual that reads it with the same inputs (the CyCab's and the RC filter's ARR2 and
         ARR3 share d(C1 v)/dt; a linear fault's unit step leaves it unchanged)."""
-        out = self.func(*self.arguments(signals, values, crop, ts, window, rates))
+        out = self.func(*self.arguments(signals, values, crop, ts, window, rates, polyorder))
         return np.asarray(out, dtype=float)
 
     def arguments(self, signals: Mapping[str, list[np.ndarray]], values: Mapping[str, object],
                   crop: slice | None = None, ts: float | None = None, window: float = derivatives.DEFAULT_WINDOW,
-                  rates: dict | None = None) -> list:
+                  rates: dict | None = None, polyorder: int = derivatives.DEFAULT_ORDER) -> list:
         """The kernel's arguments in order (:meth:`__call__` without the call): signals and values
         cut to ``crop``, stored quantities' rates filtered."""
         def cut(a):      # an array along the samples is cut; a number, or one value per row (pop, 1), is not
@@ -111,32 +114,33 @@ class Residual:
         for order, inner in self.composites:
             if ts is None:
                 raise ValueError(f"{self.name} differentiates a stored quantity numerically: pass ts")
-            args.append(self._rate(order, inner, signals, values, ts, window, crop, rates))
+            args.append(self._rate(order, inner, signals, values, ts, window, crop, rates, polyorder))
         args += [cut(values[n]) for n in self.symbols]
         return args
 
     @staticmethod
     def _rate(order: int, inner: "Residual", signals: Mapping, values: Mapping, ts: float, window: float,
-              crop: slice | None, rates: dict | None) -> np.ndarray:
+              crop: slice | None, rates: dict | None, polyorder: int = derivatives.DEFAULT_ORDER) -> np.ndarray:
         """d^order/dt^order of the stored quantity ``inner`` at the samples of ``crop``; from ``rates``
         when the same quantity was filtered there from the very same input arrays (compared by
         identity, and held by the entry, so an id is never reused while it is compared)."""
         reads = tuple(signals[s][k] for s, k in inner.signal_orders()) + \
             tuple(values[n] for n in sorted(inner.parameter_names()))
-        key = (inner.key, order, None if crop is None else (crop.start, crop.stop, crop.step))
+        key = (inner.key, order, polyorder, None if crop is None else (crop.start, crop.stop, crop.step))
         if rates is not None:
             for held, rate in rates.get(key, ()):
                 if len(held) == len(reads) and all(a is b for a, b in zip(held, reads)):
                     return rate
         measured = {s: Estimates([samples_of(v)] + list(v[1:]), samples_of(v), getattr(v, "breaks", None))
                     for s, v in signals.items()}
-        x = np.asarray(inner(measured, values, ts, window, rates=rates), dtype=float)
+        x = np.asarray(inner(measured, values, ts, window, rates=rates, polyorder=polyorder), dtype=float)
         bad = ~np.isfinite(x).all(axis=-1, keepdims=True)    # an individual past a pole: no residual
         breaks = next((b.breaks for b in signals.values() if isinstance(b, Estimates) and len(b.breaks)), None)
         if breaks is not None:       # its rate broken at the mode switches, as the signals' derivatives are
-            d = _piecewise(np.where(np.isfinite(x), x, 0.0), ts, order, window, breaks)[order]
+            d = _piecewise(np.where(np.isfinite(x), x, 0.0), ts, order, window, breaks, polyorder)[order]
         else:
-            d = derivatives.estimate(np.where(np.isfinite(x), x, 0.0), ts, order, window, at=crop)[order]
+            d = derivatives.estimate(np.where(np.isfinite(x), x, 0.0), ts, order, window, polyorder=polyorder,
+                                     at=crop)[order]
         rate = np.where(bad, np.nan, d[..., crop] if crop is not None else d)
         if rates is not None:
             rates.setdefault(key, []).append((reads, rate))
@@ -294,7 +298,8 @@ def mode_breaks(model: Model, raw: Mapping[str, np.ndarray]) -> np.ndarray:
 SHORT_STRETCH = 4     # windows: a stretch between switches shorter than this is fast switching
 
 
-def _piecewise(x: np.ndarray, ts: float, order: int, window: float, breaks: np.ndarray) -> list[np.ndarray]:
+def _piecewise(x: np.ndarray, ts: float, order: int, window: float, breaks: np.ndarray,
+               polyorder: int = derivatives.DEFAULT_ORDER) -> list[np.ndarray]:
     """Derivatives estimated on each stretch between mode switches apart. A stretch a few windows
     long or more is fitted up to its ends (one-sided fits there: a valve commanded shut is seen at
     once); in fast switching (a stretch shorter than SHORT_STRETCH windows, a PWM half-period) only
@@ -303,14 +308,14 @@ def _piecewise(x: np.ndarray, ts: float, order: int, window: float, breaks: np.n
     left out give NaN, which detection, calibration and identification skip."""
     out = [np.full(x.shape, np.nan) for _ in range(order + 1)]
     edges = np.r_[0, breaks, x.shape[-1]]
-    need = derivatives.window_samples(window, ts, max(derivatives.DEFAULT_ORDER, order))
+    need = derivatives.window_samples(window, ts, max(polyorder, order))
     half = need // 2
     for a, b in zip(edges[:-1].tolist(), edges[1:].tolist()):
         if b - a < need:
             continue
         trim = half if b - a < SHORT_STRETCH * need else 0
         keep = slice(a + trim if a > 0 else a, b - trim if b < x.shape[-1] else b)
-        for k, d in enumerate(derivatives.estimate(x[..., a:b], ts, order, window)):
+        for k, d in enumerate(derivatives.estimate(x[..., a:b], ts, order, window, polyorder=polyorder)):
             out[k][..., keep] = d[..., keep.start - a:keep.stop - a]
     return out
 

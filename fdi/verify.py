@@ -26,7 +26,9 @@ How (every scale from the model, no constant in seconds):
   violations of 1e-4 on correct ARRs, and its chatter while a velocity sticks is no motion an
   ARR with sign(v) describes;
 - derivatives: Savitzky-Golay of polynomial order 7 over 9 samples (relative error about 1e-6 on
-  the third derivative of the fastest mode); the filter's edges are dropped, and so are the
+  the third derivative of the fastest mode), of the signals and of the stored quantities an
+  ARR's exact form differentiates (a cubic there left the LC ladder's d2(C2 v2)/dt2 a quadratic
+  fit's error, (w ts)^2: 1.3e-3 on correct ARRs); the filter's edges are dropped, and so are the
   samples within a filter's reach of a switching surface (a sign/abs/max/min/heaviside argument
   of any ARR crossing zero: no derivative across a kink is accurate) and, for an ARR, those
   where one of its own kink arguments is below its round-off (its sign is unknown there);
@@ -35,7 +37,7 @@ How (every scale from the model, no constant in seconds):
   compares the residual with what it sums.
 
 An ARR passes in a mode when its violation stays at or below :data:`THRESHOLD` on every run.
-Measured (seeds 0 to 5, every model of models/ and tests/data/): correct ARRs at most 3.4e-6;
+Measured (seeds 0 to 5, every model of models/ and tests/data/): correct ARRs at most 2.7e-6;
 an ARR with one term dropped or mis-signed (242 variants) fails with that term's share of the
 scale, median 0.7, 90 % above 4e-2, smallest 4.3e-4 (the back-EMF K w of dc_motor_clutch, a
 5e-4 share of its voltage balance); only the CyCab's leak term, zero on the healthy model
@@ -382,10 +384,13 @@ def _orders(compiled: Sequence[_Compiled]) -> dict[str, int]:
 
 
 def _call(r: Residual, sig, vals, ts: float, n: int) -> np.ndarray:
-    """A residual (or term, or kink argument) on every sample; stored quantities differentiated by
-    a cubic Savitzky-Golay over 5 samples (accurate to (w ts)^4 for a frequency w)."""
+    """A residual (or term, or kink argument) on every sample; stored quantities differentiated as
+    the signals are (order POLYORDER over POLYORDER + 2 samples). A cubic over 5 samples was used
+    until 2026-11: exact to (w ts)^4 on a first derivative, but its second derivative is the
+    quadratic fit's, (w ts)^2: the LC ladder's d2(C2 v2)/dt2 left 7e-4 on correct ARRs."""
     with np.errstate(all="ignore"):
-        return np.broadcast_to(np.asarray(r(sig, vals, ts, 5 * ts), dtype=float), (n,))
+        return np.broadcast_to(np.asarray(r(sig, vals, ts, (POLYORDER + 2) * ts, polyorder=POLYORDER),
+                                          dtype=float), (n,))
 
 
 @dataclass(frozen=True)

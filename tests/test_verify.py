@@ -34,11 +34,9 @@ def _verified(path: Path):
     return verify(load_model(path))
 
 
-LIMITS = {"lc_ladder": (     # a correct model the verification's numerics do not yet resolve
-    "fdi.verify: the LC ladder's ARRs are its loop equations (tests/test_domain_ladder.py, by hand), "
-    "yet their violations are 1.3e-3 and 1.1e-3 at 10 samples per fastest time constant, and fall as "
-    "the square of the step (20: 3.3e-4; 40: 7.9e-5): second-order convergence where the derivative "
-    "filter is of order 7; ARR1 holds the third derivative of i1 (2026-11-29 stop note)")}
+LIMITS: dict[str, str] = {}     # a correct model the verification's numerics do not resolve: why
+# (the LC ladder was here until its stored quantities' second derivatives were filtered at the
+# signals' order: a cubic over 5 samples converged as the square of the step)
 
 
 @pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.xfail(strict=False, reason=LIMITS[p.stem]))
