@@ -27,6 +27,7 @@ of period 1 s, faulty during the first half of each period (the mean at the swit
 """
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -157,6 +158,23 @@ def _model19(tau: np.ndarray, p0: float, b5, b6, b7, step: float = 0.1) -> np.nd
         return fast.rk4_19(np.ascontiguousarray(tau), float(p0), *(np.ascontiguousarray(np.broadcast_to(x, (pop,)))
                                                                     for x in (b5, b6, b7)), float(step))
     span = float(tau.max()) if tau.size else 0.0
+    grid, slope, h = _rk4_grid(p0, b5, b6, b7, pop, span, step)
+    k = grid.shape[1] - 1
+    x = np.clip(tau / h, 0, k)
+    i0 = np.minimum(np.floor(x).astype(int), k - 1)
+    s = x - i0
+    rows = np.arange(pop)[:, None]
+    pa, pb, va, vb = grid[rows, i0], grid[rows, i0 + 1], slope[rows, i0] * h, slope[rows, i0 + 1] * h
+    s2, s3 = s * s, s * s * s
+    with np.errstate(invalid="ignore"):
+        out = (2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb + (s3 - s2) * vb
+    return np.where(np.isfinite(pa) & np.isfinite(pb), out, np.inf)
+
+
+def _rk4_grid(p0: float, b5, b6, b7, pop: int, span: float, step: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """Eq. (19) by classical RK4 from tau = 0 to ``span`` on ceil(span/step) equal steps: P and
+    dP/dt at the grid points, (pop, k + 1) each (P infinite and its slope 0 once P overflows), and
+    the step h."""
     k = max(1, int(np.ceil(span / step)))
     h = span / k if span > 0 else step
     grid, slope = np.empty((pop, k + 1)), np.empty((pop, k + 1))
@@ -175,34 +193,63 @@ def _model19(tau: np.ndarray, p0: float, b5, b6, b7, step: float = 0.1) -> np.nd
             v = v + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
             grid[:, i] = np.where(np.isfinite(p), p, np.inf)
             slope[:, i] = np.where(np.isfinite(p), v, 0.0)
-    x = np.clip(tau / h, 0, k)
-    i0 = np.minimum(np.floor(x).astype(int), k - 1)
+    return grid, slope, h
+
+
+@functools.lru_cache(maxsize=16)
+def _table19(p0: float, b: tuple[float, float, float], span: float) -> tuple[list[float], list[float], float]:
+    """Eq. (19)'s RK4 grid for one fault over tau in [0, span], as Python floats (kept: a
+    simulation reads it at every step)."""
+    grid, slope, h = _rk4_grid(p0, *(np.array([x]) for x in b), 1, span, 0.1)
+    return grid[0].tolist(), slope[0].tolist(), h
+
+
+def _at19(tau: float, p0: float, b: tuple[float, float, float], span: float) -> float:
+    """Eq. (19) at one tau in [0, span]: the array function's reading (grid and Hermite
+    interpolation) of a window whose last sample is tau = span, on Python floats."""
+    if math.isinf(p0):
+        return math.inf
+    grid, slope, h = _table19(p0, b, span)
+    k = len(grid) - 1
+    x = min(max(tau / h, 0.0), float(k))
+    i0 = min(int(math.floor(x)), k - 1)
     s = x - i0
-    rows = np.arange(pop)[:, None]
-    pa, pb, va, vb = grid[rows, i0], grid[rows, i0 + 1], slope[rows, i0] * h, slope[rows, i0 + 1] * h
+    pa, pb, va, vb = grid[i0], grid[i0 + 1], slope[i0] * h, slope[i0 + 1] * h
+    if not (math.isfinite(pa) and math.isfinite(pb)):
+        return math.inf
     s2, s3 = s * s, s * s * s
-    with np.errstate(invalid="ignore"):
-        out = (2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb + (s3 - s2) * vb
-    return np.where(np.isfinite(pa) & np.isfinite(pb), out, np.inf)
+    return (2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb + (s3 - s2) * vb
 
 
 def at(kind: str, t: float, t0: float, nominal: float, *, value=None, model: int | None = None,
-       b=None) -> float | None:
+       b=None, span: float | None = None) -> float | None:
     """One profile's value at one instant, by the array functions' operations on Python floats
     (their bits: IEEE sums, products and quotients; libm's exponential and square root, as the
-    compiled kernels'), or None where only the array functions compute it (eq. 15, eq. 19).
-    Why: a simulation's right-hand side asks for the parameters one instant at a time (twice a
-    step of LSODA), and the array functions cost ~25 us a call on one sample where this takes ~2
-    (the tutorial's 30 s drift: 60 000 calls).
+    compiled kernels'), or None where only the array functions compute it (eq. 15; eq. 19 past
+    ``span`` or without one). Why: a simulation's right-hand side asks for the parameters one
+    instant at a time (twice a step of LSODA), and the array functions cost ~25 us a call on one
+    sample where this takes ~2 (the tutorial's 30 s drift: 60 000 calls).
+
+    Eq. (19) has no closed form: its array function integrates RK4 from the onset to the window's
+    last instant at every call, which one instant at a time is quadratic in the run's length (an
+    8 s run at 1 kHz took more than 13 min). With ``span`` (the run's end minus t0) its grid is
+    integrated once per fault to the run's end and read at each instant: the array function's
+    numbers on the whole run's window.
 
     >>> at("incipient", 3.0, 1.0, 1.0, model=2, b=[-0.5]), at("abrupt", 0.5, 1.0, 10.0, value=4.0)
     (0.5, 10.0)
     """
     if kind == "abrupt":
         return (value if t >= t0 else nominal) + 0.0 * value
-    if kind != "incipient" or model not in (1, 2, 3):
+    if kind != "incipient" or model not in (1, 2, 3, 4):
         return None
     x = t - t0
+    if model == 4:
+        if span is None or not (x <= span) or not math.isfinite(span):
+            return None
+        if not t >= t0:
+            return nominal
+        return _at19(x, float(nominal), (float(b[0]), float(b[1]), float(b[2])), float(span))
     tau = 0.0 if x < 0 else x                      # NaN stays NaN, as np.maximum keeps it
     if not t >= t0:
         return nominal

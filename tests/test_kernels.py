@@ -505,4 +505,31 @@ def test_a_profile_at_one_instant_is_the_array_functions_value_to_the_bit():
                         got = profiles.at(kind, float(t), t0, nominal, **kw)
                     assert np.array_equal(np.float64(got), want, equal_nan=True), (kind, kw, nominal, t0, t, got, want)
     assert profiles.at("intermittent", 2.0, 1.0, 1.0, value=2.0) is None
-    assert profiles.at("incipient", 2.0, 1.0, 1.0, model=4, b=[0.1, 0.1, 0.1]) is None
+    assert profiles.at("incipient", 2.0, 1.0, 1.0, model=4, b=[0.1, 0.1, 0.1]) is None      # no span: no table
+
+
+def test_eq19_at_one_instant_reads_one_integration_to_the_runs_end(monkeypatch):
+    """Eq. (19) has no closed form: fdi.profiles.at integrates its RK4 once to the run's end
+    (``span``) and reads the grid at each instant, where the array function integrated from the
+    onset at every call (quadratic in a run's length under LSODA). Reference: the array function
+    (numpy path, the same operations: to the bit) on the whole run's window, whose last sample is
+    t0 + span; a P that overflows to inf; None past the run's end or for a NaN onset; the nominal
+    value before the onset."""
+    from fdi import profiles
+    t0 = 1.0
+    window = t0 + np.linspace(0.0, 7.3, 2001)
+    span = float(window[-1] - t0)                  # the array function's last tau, as a simulation's t_end - t0
+    for nominal, b in ((2.5, [-0.2, -1.5, 0.4]), (1.0, [0.05, -4.0, 0.0]), (3.0, [2.0, 1.0, 5.0]),
+                       (np.inf, [0.1, 0.1, 0.1])):
+        monkeypatch.setattr(profiles.kernels, "jit", lambda: None)
+        want = profiles.incipient(window, t0, nominal, 4, [b])[0]
+        monkeypatch.undo()
+        with np.errstate(all="ignore"):
+            got = np.array([profiles.at("incipient", float(x), t0, nominal, model=4, b=b, span=span) for x in window])
+        assert np.array_equal(got, want), (nominal, b, np.max(np.abs(got - want)))
+        compiled = profiles.incipient(window, t0, nominal, 4, [b])[0]
+        assert np.allclose(got, compiled, rtol=1e-9, atol=0), (nominal, b)          # the 1e-9 contract
+        assert profiles.at("incipient", 0.5, t0, nominal, model=4, b=b, span=span) == nominal
+        assert profiles.at("incipient", t0 + span + 0.1, t0, nominal, model=4, b=b, span=span) is None
+    assert np.isinf(got[-1]) and np.isinf(profiles.incipient(window, t0, 3.0, 4, [[2.0, 1.0, 5.0]])[0][-1])
+    assert profiles.at("incipient", 2.0, float("nan"), 1.0, model=4, b=[0.1, 0.1, 0.1], span=span) is None

@@ -358,9 +358,10 @@ def _incipient(path: str, where: str, f: dict) -> tuple[int, tuple[float, ...]]:
     return model_no, b
 
 
-def fault_profile(event: FaultEvent, nominal: float) -> Callable[[np.ndarray], np.ndarray]:
+def fault_profile(event: FaultEvent, nominal: float, t_end: float | None = None) -> Callable[[np.ndarray], np.ndarray]:
     """P(t) of one injected fault, as a function of a time array; its ``at`` attribute gives it at
-    one instant (:func:`fdi.profiles.at`, the same numbers; the array function where that has none)."""
+    one instant (:func:`fdi.profiles.at`, the same numbers; the array function where that has none).
+    ``t_end``, the run's end: eq. (19) read at one instant from one integration to it."""
     if event.type in ("abrupt", "mode"):
         kind, kw = "abrupt", {"value": event.value}
         fn = lambda t: profiles.abrupt(t, event.t0, nominal, event.value)[0]        # noqa: E731
@@ -368,7 +369,8 @@ def fault_profile(event: FaultEvent, nominal: float) -> Callable[[np.ndarray], n
         kind, kw = "intermittent", {"value": event.value}
         fn = lambda t: profiles.intermittent(t, event.t0, nominal, event.value, event.period)[0]   # noqa: E731
     else:
-        kind, kw = "incipient", {"model": event.model, "b": list(event.b)}
+        kind, kw = "incipient", {"model": event.model, "b": list(event.b),
+                                 "span": None if t_end is None else t_end - event.t0}
         fn = lambda t: profiles.incipient(t, event.t0, nominal, event.model, [list(event.b)])[0]   # noqa: E731
 
     def at(t: float) -> float:
@@ -397,7 +399,7 @@ def time_functions(model: Model, scenario: Scenario):
     for e in scenario.faults:
         fault = model.faults[e.target]
         if fault.effect == "bias":               # an offset added to the measurement, or to the command
-            offset = fault_profile(e, 0.0)
+            offset = fault_profile(e, 0.0, scenario.T)
             name = f"bias_{fault.targets[0]}" if fault.kind == "source" else f"~bias_{fault.targets[0]}"
             (param_fns if fault.kind == "source" else beta_sensors)[name] = offset
             continue
@@ -405,17 +407,17 @@ def time_functions(model: Model, scenario: Scenario):
             stuck[fault.targets[0]] = e.t0
             continue
         if fault.kind == "parametric" and len(fault.targets) == 1:
-            param_fns[fault.targets[0]] = fault_profile(e, nominal[fault.targets[0]])
+            param_fns[fault.targets[0]] = fault_profile(e, nominal[fault.targets[0]], scenario.T)
         elif fault.kind == "parametric":
-            mult = fault_profile(e, 1.0)
+            mult = fault_profile(e, 1.0, scenario.T)
             for p in fault.targets:
                 param_fns[p] = (lambda m, base: (lambda t: base * m(t)))(mult, nominal[p])
         elif fault.kind == "sensor":
-            beta_sensors[fault.targets[0]] = fault_profile(e, 1.0)
+            beta_sensors[fault.targets[0]] = fault_profile(e, 1.0, scenario.T)
         elif fault.kind == "source":
-            param_fns[f"beta_{fault.targets[0]}"] = fault_profile(e, 1.0)
+            param_fns[f"beta_{fault.targets[0]}"] = fault_profile(e, 1.0, scenario.T)
         else:
-            param_fns[fault.targets[0]] = fault_profile(e, float(model.modes[fault.targets[0]].nominal))
+            param_fns[fault.targets[0]] = fault_profile(e, float(model.modes[fault.targets[0]].nominal), scenario.T)
     for m in model.modes.values():                 # a commanded mode follows its command, unless stuck
         if m.column and m.expr is not None:
             command = command_function(model, m.name)
