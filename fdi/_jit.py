@@ -397,6 +397,27 @@ def _fir_row(src, half, start, count, stride, S, at, phases, pair):  # pragma: n
 # ---------------------------------------------------------------- the fused objective (fdi.fused)
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _edge_rates(x, edge, n, h, start, m, stride, out):  # pragma: no cover - compiled
+    """A stored quantity's rate at the samples evaluated (start, start + stride, ... m of them)
+    that lie within h of the window's ends, into ``out``: by the polynomial of the whole edge
+    window (``edge[0]``: the first n samples, ``edge[1]``: the last n), as derivatives.estimate's
+    ``interp``."""
+    nw = x.shape[0]
+    for j in range(m):
+        i = start + j * stride
+        if i < h:
+            a = 0.0
+            for r in range(n):
+                a += x[r] * edge[0, r, i]
+            out[j] = a
+        elif i >= nw - h:
+            a = 0.0
+            for r in range(n):
+                a += x[nw - n + r] * edge[1, r, i - (nw - h)]
+            out[j] = a
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def _tape(code, R, L, s0, F, P, S, consts):  # pragma: no cover - compiled
     """Run a tape (:mod:`fdi.tape`) on samples [s0, s0 + L) of one individual (its parameter
     slots P and filtered signals S): registers R (registers, block), each operation elementwise,
@@ -790,7 +811,17 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
                             x[i] = 0.0
                             inv = True
                     if comp_at[c] >= 0:
-                        _fir_row(x, ck[c, :h + 1, :o + 1], start - h, m, stride, S, comp_at[c], phases, pair)
+                        if start >= h and start + (m - 1) * stride + h < nw:
+                            _fir_row(x, ck[c, :h + 1, :o + 1], start - h, m, stride, S, comp_at[c], phases, pair)
+                        else:            # samples within h of the window's ends: zeros beyond, then fitted
+                            for i in range(h):
+                                cp[i] = 0.0
+                                cp[h + nw + i] = 0.0
+                            for i in range(nw):
+                                cp[h + i] = x[i]
+                            _fir_row(cp[:nw + 2 * h], ck[c, :h + 1, :o + 1], start, m, stride, S, comp_at[c], phases,
+                                     pair)
+                            _edge_rates(x, edge[c], n, h, start, m, stride, S[comp_at[c] + o])
                     if full_at[c] >= 0:          # every sample: the middle filtered, the edges fitted
                         dst = Sfull[full_at[c]]
                         _fir_row(x, ck[c, :h + 1, :o + 1], 0, nw - 2 * h, 1, T, 0, phases_full, pair_full)

@@ -276,19 +276,25 @@ class Fused:
 
     def _stored_filters(self, filters: list) -> None:
         """The stored quantities' rate filters (window n, polynomial order p, centred half kernel) as
-        the kernel reads them: ``ck`` and ``ck_n``, and for a rate read on every sample the edge
-        half-windows' kernels ``edge`` (the polynomial of the edge window)."""
+        the kernel reads them: ``ck`` and ``ck_n``, and the edge half-windows' kernels ``edge`` (the
+        polynomial of the edge window), for a rate read on every sample and for one read at the
+        samples evaluated where they come within half a filter of the window's ends (a window that
+        ends with the data: a prognosis refreshed at the last sample, evaluate's RUL checkpoints;
+        until 2026-11 those kept the numpy path)."""
         ts = float(self.obj.win.ts)
         nmax = max((n for n, _, _ in filters), default=1)
         self.ck = np.zeros((max(1, len(filters)), nmax // 2 + 1, int(self.comp_order.max()) + 1))
-        whole = max((n for c, (n, _, _) in enumerate(filters) if self.full_at[c] >= 0), default=1)
+        short = [n * (n // 2) * (int(self.comp_order[c]) + 1) <= derivatives.EDGE_VALUES
+                 for c, (n, _, _) in enumerate(filters)]
+        if any(self.full_at[c] >= 0 and not short[c] for c in range(len(filters))):
+            raise tape.Unsupported("a stored quantity inside another, filtered over a long window")
+        self.edge_known = np.array(short or [False])     # a rate at the samples evaluated may meet the edges
+        whole = max((n for c, (n, _, _) in enumerate(filters) if short[c]), default=1)
         self.edge = np.zeros((max(1, len(filters)), 2, whole, whole // 2))
         for c, (n, p, k) in enumerate(filters):
             self.ck[c, :k.shape[0], :k.shape[1]] = k
-            if self.full_at[c] >= 0:
+            if short[c]:
                 order, h = int(self.comp_order[c]), n // 2
-                if n * h * (order + 1) > derivatives.EDGE_VALUES:
-                    raise tape.Unsupported("a stored quantity inside another, filtered over a long window")
                 self.edge[c, 0, :n, :h] = derivatives.kernels_at(n, p, order, ts, 0, h)[:, :, order]
                 self.edge[c, 1, :n, :h] = derivatives.kernels_at(n, p, order, ts, h + 1, n)[:, :, order]
         self.ck_n = np.array([n for n, _, _ in filters] or [1], dtype=np.int64)
@@ -339,8 +345,9 @@ class Fused:
         def cut(a):      # as fdi.residuals.Residual.arguments cuts an argument
             return a[..., crop] if isinstance(a, np.ndarray) and a.ndim and a.shape[-1] > 1 else a
         for c, n in enumerate(self.ck_n[:len(self.stored)]):      # a stored quantity's rate reads whole windows
-            if self.comp_at[c] >= 0 and (crop.start < n // 2 or crop.start + (m - 1) * stride + n // 2 >= obj.win.t.size):
-                raise tape.Unsupported("a stored quantity's rate at the window's edge")
+            if self.comp_at[c] >= 0 and not self.edge_known[c] and \
+                    (crop.start < n // 2 or crop.start + (m - 1) * stride + n // 2 >= obj.win.t.size):
+                raise tape.Unsupported("a stored quantity's rate at the window's edge, filtered over a long window")
         entries = []
         for i in obj.active:
             r = obj.residuals[i]

@@ -740,9 +740,28 @@ int fused_cost(const I *D, const double *X, double *total, double *deltas, B *in
                     for (I i = 0; i < nw; i++)
                         if (!isfinite(x[i])) { x[i] = 0.0; inv = 1; }
                     const double *half = ck + c * ck1 * ck2;
-                    if (comp_at[c] >= 0)
+                    if (comp_at[c] >= 0 && start >= h && start + (m - 1) * stride + h < nw)
                         fir_row(x, nw, half, h + 1, o + 1, ck2, start - h, m, stride, S, m, comp_at[c], phases, phw,
                                 pair, pair + m);
+                    else if (comp_at[c] >= 0) {   /* samples within h of the window's ends: zeros beyond, then fitted */
+                        for (I i = 0; i < h; i++) { cp[i] = 0.0; cp[h + nw + i] = 0.0; }
+                        memcpy(cp + h, x, sizeof(double) * nw);
+                        fir_row(cp, nw + 2 * h, half, h + 1, o + 1, ck2, start, m, stride, S, m, comp_at[c], phases, phw,
+                                pair, pair + m);
+                        const double *e0 = edge + c * e1 * e2 * e3, *e1p = e0 + e2 * e3;
+                        double *out = S + (comp_at[c] + o) * m;
+                        for (I j = 0; j < m; j++) {
+                            I i = start + j * stride;
+                            double a = 0.0;
+                            if (i < h) {
+                                for (I r = 0; r < n; r++) a += x[r] * e0[r * e3 + i];
+                                out[j] = a;
+                            } else if (i >= nw - h) {
+                                for (I r = 0; r < n; r++) a += x[nw - n + r] * e1p[r * e3 + (i - (nw - h))];
+                                out[j] = a;
+                            }
+                        }
+                    }
                     if (full_at[c] >= 0) {
                         double *dst = Sfull + full_at[c] * nw;
                         fir_row(x, nw, half, h + 1, o + 1, ck2, 0, nw - 2 * h, 1, T, nw, 0, phases_full, pfw,

@@ -370,6 +370,34 @@ def test_stored_quantities_compiled_are_the_numpy_path_s(case):
     _assert_same_costs(obj)
 
 
+@pytest.mark.parametrize("t0, candidate", [(0.0, ("Cc",)), (7.6, ("Cc",)), (7.6, ("beta_pc",)), (7.6, ("Cc", "Kv")),
+                                         (7.97, ("Cc",))])
+def test_a_stored_quantity_s_rate_at_the_data_s_ends_is_compiled_as_the_numpy_path_s(t0, candidate):
+    """A window that begins or ends with the data (a prognosis refreshed at the last sample,
+    evaluate's RUL checkpoints): the rate of the chamber's Cc pc (Cc a candidate, or pc a faulty
+    transducer's corrected reading) is filtered within half a filter of the ends, where the numpy
+    path fits the edge window's polynomial (derivatives.estimate's ``interp``). Those windows kept
+    the numpy path until 2026-11; the compiled kernels give their costs to 1e-9, full and coarse
+    (the hydraulic actuator's 8 s clog record; windows from 0 s, to the end from 7.6 s, and one
+    of 60 samples, shorter than the filter's 101, from 7.97 s)."""
+    pytest.importorskip("numba")
+    from .conftest import ROOT
+    obj = _objective(ROOT / "models" / "hydraulic_actuator.yaml", _hydraulic_clog(), t0, candidate)
+    assert any(obj.residuals[i].composites for i in obj.active)
+    n = obj.win.t.size
+    for stride in (1, obj.stride):
+        crop = obj.crop(stride)
+        last = range(crop.start, crop.stop, stride)[-1]
+        assert crop.start < 50 or last >= n - 50          # within half a filter of an end
+    before = kernels.use_numba(True)
+    try:
+        fast = obj.fused()
+        assert fast is not None and fast.stored
+    finally:
+        kernels.use_numba(before)
+    _assert_same_costs(obj)
+
+
 def _simulated(name: str, T: float, fs: float) -> dict:
     """Data of a shipped model from bgfdi's simulator (the kernels are compared with each other on
     them; nothing is graded)."""
