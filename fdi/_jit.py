@@ -14,6 +14,8 @@ import math
 import numpy as np
 from numba import njit
 
+STEPS19 = 1000      # fdi.profiles.STEPS19 (a compile-time constant here; tests/test_kernels.py checks they agree)
+
 from .tape import (ABS, ACOS, ADD, ASIN, ATAN, CONST, COS, COSH, DIV, EXP, LOADF, LOADP, LOADS, LOG, MUL, NEG, POW,  # noqa: F401
                    RECIP, SIGN, SIN, SINH, SQRT, SQUARE, SUB, TAN)
 
@@ -28,7 +30,7 @@ def rk4_19(tau, p0, b5, b6, b7, step):  # pragma: no cover - compiled
         for j in range(n):
             if tau[r, j] > span:
                 span = tau[r, j]
-    k = max(1, int(np.ceil(span / step)))
+    k = STEPS19 if span / step > STEPS19 else max(1, int(np.ceil(span / step)))
     h = span / k if span > 0 else step
     grid = np.empty(k + 1)
     slope = np.empty(k + 1)
@@ -712,7 +714,7 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
     kmax = 1
     for j in range(nf):
         span = span19[j]
-        k19[j] = max(1, int(np.ceil(span / step19)))
+        k19[j] = STEPS19 if span / step19 > STEPS19 else max(1, int(np.ceil(span / step19)))
         h19[j] = span / k19[j] if span > 0 else step19
         kmax = max(kmax, k19[j])
     grid = np.empty(kmax + 1)

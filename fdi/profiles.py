@@ -11,7 +11,8 @@ leakage resistance): the formulas are written so that infinity is handled exactl
   (16) dP/dt = b1 P               -> P = P0 exp(b1 tau)
   (17) dP/dt = b2 P^2             -> 1/P = 1/P0 - b2 tau  (infinite P0 allowed; past the pole: inf)
   (18) d2P/dt2 = b3 dP/dt + P + b4 -> closed form, roots (b3 +- sqrt(b3^2 + 4))/2
-  (19) d2P/dt2 = b5 (dP/dt)^2 + b6 P + b7 -> classical RK4 on a 0.1 s grid, Hermite-interpolated
+  (19) d2P/dt2 = b5 (dP/dt)^2 + b6 P + b7 -> classical RK4 on a 0.1 s grid (at most STEPS19
+       steps over the window), Hermite-interpolated
 
 From t0 = 1 s: an abrupt fault to 4 (nominal 10); an efficiency factor decaying as (17) with
 b2 = -0.5, 1/P = 1 + 0.5 (t - t0), so 2/3 at t = 2 s and 1/2 at t = 3 s; an intermittent fault
@@ -37,6 +38,13 @@ from . import kernels
 TYPES = ("abrupt", "intermittent", "incipient")
 MODELS = (1, 2, 3, 4)                       # eqs. (16), (17), (18), (19)
 N_COEFFICIENTS = {1: 1, 2: 1, 3: 2, 4: 3}  # b1 | b2 | b3, b4 | b5, b6, b7
+# Eq. (19)'s RK4 grid: 0.1 s steps, and at most STEPS19 of them over a window (the same in
+# fdi._jit and fdi/kernels.c). Why a cap: a grid in seconds cost the water heater (1 s samples,
+# windows of hours) 10^5 steps per individual, most of its diagnosis; over 1000 steps RK4's error
+# on a drift that evolves over the window is ~1e-12 of it, and an individual whose own time scale
+# is a few steps (|b6| h^2 ~ 1) is as far from such a drift as the bounds allow. Windows up to
+# 100 s keep the 0.1 s grid (the CyCab's, the tutorial's: their numbers unchanged).
+STEPS19 = 1000
 
 
 def _col(x) -> np.ndarray:
@@ -172,10 +180,10 @@ def _model19(tau: np.ndarray, p0: float, b5, b6, b7, step: float = 0.1) -> np.nd
 
 
 def _rk4_grid(p0: float, b5, b6, b7, pop: int, span: float, step: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """Eq. (19) by classical RK4 from tau = 0 to ``span`` on ceil(span/step) equal steps: P and
-    dP/dt at the grid points, (pop, k + 1) each (P infinite and its slope 0 once P overflows), and
-    the step h."""
-    k = max(1, int(np.ceil(span / step)))
+    """Eq. (19) by classical RK4 from tau = 0 to ``span`` on ceil(span/step) equal steps, at most
+    STEPS19: P and dP/dt at the grid points, (pop, k + 1) each (P infinite and its slope 0 once P
+    overflows), and the step h."""
+    k = STEPS19 if span / step > STEPS19 else max(1, int(np.ceil(span / step)))
     h = span / k if span > 0 else step
     grid, slope = np.empty((pop, k + 1)), np.empty((pop, k + 1))
     p, v = np.full(pop, float(p0)), np.zeros(pop)

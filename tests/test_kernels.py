@@ -4,6 +4,8 @@ brute-force L1 minimum, and the identification objective's costs on random popul
 fault type and degradation model against the numpy path (1e-9 relative)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -64,6 +66,23 @@ def test_eq19_harmonic_case_is_a_cosine(path):
     p = incipient(t, 1.0, 3.0, 4, np.column_stack([0 * w, -w ** 2, 0 * w]))
     tau = np.maximum(t - 1.0, 0.0)
     assert np.allclose(p, 3.0 * np.cos(w[:, None] * tau[None, :]), atol=3e-4 * 3.0)
+
+
+def test_eq19_over_hours_is_a_cosine_on_at_most_steps19_steps(path):
+    """A window of hours (the water heater's, 1 s samples): eq. (19)'s grid has at most STEPS19
+    intervals (not 0.1 s ones: 10^5 steps an individual), the same in numpy, numba and C, and
+    its harmonic case is still P0 cos(w tau) to 1e-8 of P0 (periods of 1 h and 2 h over 2 h,
+    h = 7.2 s: RK4's global error ~ w tau (w h)^4 / 120, 2.7e-9 for the hour; measured 2.3e-9);
+    the fused objective's kernels read this grid too (tests of fdi.fused against the numpy path)."""
+    from fdi import _jit, profiles
+    assert profiles.STEPS19 == _jit.STEPS19 == 1000
+    assert "#define STEPS19 1000" in (Path(profiles.__file__).parent / "kernels.c").read_text()
+    t = np.linspace(0.0, 7200.0, 2001)
+    w = 2 * np.pi / np.array([3600.0, 7200.0])
+    p = incipient(t, 0.0, 3.0, 4, np.column_stack([0 * w, -w ** 2, 0 * w]))
+    assert np.allclose(p, 3.0 * np.cos(w[:, None] * t[None, :]), rtol=0, atol=1e-8 * 3.0)
+    grid, slope, h = profiles._rk4_grid(3.0, *(np.array([x]) for x in (0.0, -w[0] ** 2, 0.0)), 1, 7200.0, 0.1)
+    assert grid.shape == (1, profiles.STEPS19 + 1) and h == 7.2
 
 
 def test_eq19_constant_forcing_is_a_parabola(path):
