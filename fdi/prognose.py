@@ -73,8 +73,9 @@ def ends_of_life(model_no: int, bs, nominal: float, failure: float, tfs, now: fl
         for row, r in zip(todo[hit], np.flatnonzero(hit)):
             i = int(np.argmax(reached[r]))
             a, c = p[r, i - 1] if i else np.nan, p[r, i]
-            out[row] = (t[i] if i == 0 or not np.isfinite(a) or not np.isfinite(c) or a == c
-                        else t[i - 1] + (failure - a) / (c - a) * step)
+            crossed = i == 0 or not np.isfinite(a) or not np.isfinite(c) or a == c or \
+                ((a <= failure) if down else (a >= failure))     # failed already before now: at now
+            out[row] = max(now, t[i] if crossed else t[i - 1] + (failure - a) / (c - a) * step)
         todo = todo[~hit]
         if ahead >= horizon:
             break

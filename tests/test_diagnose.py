@@ -118,6 +118,21 @@ def test_end_of_life_closed_forms():
     assert end_of_life(4, [0.0, -0.01, 0.0], 1.0, 0.5, 0.0, 0.0) == pytest.approx(np.arccos(0.5) / 0.1, abs=0.02)
 
 
+def test_a_slow_drift_past_its_failure_value_before_now_has_no_life_left():
+    """Eqs. (18) and (19) are followed numerically: a slow profile that crossed the failure value
+    before ``now`` fails at ``now`` (RUL 0), never earlier. Designed: eq. (18) with r1 = 1e-3 /s
+    (b3 = r1 - 1/r1), b4 = -2, P0 = 1, so P = 2 - exp(r1 tau) (the other mode, exp(-tau/r1), gone
+    in seconds) reaches 0.5 at ln(1.5)/r1 = 405.5 s; eq. (19) with P'' = -1e-6, P = 1 - 5e-7 tau^2,
+    at 1000 s. Interpolating across a sample where both sides had failed put the end of life
+    hundreds of seconds before now (551.8 s and 1250 s for nows of 1000 s and 2000 s: a two-rooms
+    prognosis printed an RUL band from -960 s)."""
+    r1 = 1e-3
+    assert end_of_life(3, [r1 - 1 / r1, -2.0], 1.0, 0.5, 0.0, 300.0) == pytest.approx(np.log(1.5) / r1, abs=0.02)
+    assert end_of_life(3, [r1 - 1 / r1, -2.0], 1.0, 0.5, 0.0, 1000.0) == 1000.0
+    assert end_of_life(4, [0.0, 0.0, -1e-6], 1.0, 0.5, 0.0, 500.0) == pytest.approx(1000.0, abs=0.02)
+    assert end_of_life(4, [0.0, 0.0, -1e-6], 1.0, 0.5, 0.0, 2000.0) == 2000.0
+
+
 @pytest.mark.parametrize("edit, message", [
     (lambda lines: [lines[0].replace(",p2", "")] + [l.rsplit(",", 1)[0] for l in lines[1:]], "missing column(s) p2"),
     (lambda lines: lines[:50] + [lines[50].replace(lines[50].split(",")[2], "nan", 1)] + lines[51:], "NaN"),
