@@ -453,7 +453,7 @@ def prognoses(p: Prepared, d: Diagnosis, now: float, clock: Clock) -> Diagnosis:
         failure = o.failures.get(f.name, p.monitor.config.failure(f.name))
         if failure is not None:
             out.append(Prognosis.from_dict(prognose(f.to_dict(), nominal(model, f.name), failure,
-                                                    t0 if f.t0 is None else f.t0, now)))
+                                                    t0 if f.t0 is None else f.t0, now, p.meas.ts)))
     clock.lap("prognosis")
     return replace(d, prognosis=tuple(out))
 
@@ -487,7 +487,7 @@ def refresh_prognosis(monitor: "Monitor", meas: Measurements, d: Diagnosis, opti
                             [[growing]])
     now = float(meas.t[-1])
     prognosis = tuple(Prognosis.from_dict(prognose(f, nominal(p.monitor.model, f["name"]), failures[f["name"]],
-                                                   f["t0"], now))
+                                                   f["t0"], now, meas.ts))
                       for f in result.faults if f["type"] == "incipient")
     return tuple(others) + tuple(result.faults), prognosis
 

@@ -4,8 +4,12 @@ EOL(tf) = inf{t >= tf + N ts : P(t) has reached the failure value}, RUL(tf) = EO
 with the identified degradation model run from P(tf) = P (the window starts at tf = tD). Closed
 forms for (16), P = P0 exp(b1 tau) -> tau = ln(Pf/P0)/b1, and (17), 1/P = 1/P0 - b2 tau ->
 tau = (1/P0 - 1/Pf)/b2 (the paper's (1/R4(0) - 1/R4F)/b2 of Sec. III-D); (18) and (19) are
-integrated forward (the profile functions of fdi.profiles) until the failure value is crossed or
-a horizon passes (EOL = inf: no failure predicted). The failure value is reached from above when
+integrated forward (the profile functions of fdi.profiles) on a grid of one sampling period of
+the data (``ts``) until the failure value is crossed or a horizon of HORIZON_SAMPLES periods passes
+(EOL = inf: no failure predicted): the CyCab's 10 ms and hour, a water heater's seconds and
+100 hours, a converter's microseconds and third of a second. (A grid of 10 ms and an hour in
+seconds, the defaults when no ``ts`` is given, left a slow system's end of life past the hour
+infinite and a fast one's resolved to ten milliseconds.) The failure value is reached from above when
 it is below the nominal value (an efficiency factor that decays) and from below otherwise.
 
 The CyCab's encoder fault of scenario 2 (README): beta_theta2 from 1 at tf = 32 s as (17) with
@@ -25,28 +29,31 @@ inf
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 
 from .profiles import incipient
 
-HORIZON = 3600.0   # s, how far ahead a numerically integrated profile is followed
+STEP = 0.01                  # s: the grid of a caller that gives no sampling period (the CyCab's)
+HORIZON_SAMPLES = 360_000    # grid steps a numerically integrated profile is followed ahead (an hour at 10 ms)
 
 
 def end_of_life(model_no: int, b: list[float], nominal: float, failure: float, tf: float, now: float,
-                horizon: float = HORIZON) -> float:
+                horizon: float | None = None, ts: float | None = None) -> float:
     """The first time >= ``now`` at which the profile started at ``tf`` reaches ``failure``."""
-    return float(ends_of_life(model_no, [b], nominal, failure, [tf], now, horizon)[0])
+    return float(ends_of_life(model_no, [b], nominal, failure, [tf], now, horizon, ts)[0])
 
 
 def ends_of_life(model_no: int, bs, nominal: float, failure: float, tfs, now: float,
-                 horizon: float = HORIZON) -> np.ndarray:
+                 horizon: float | None = None, ts: float | None = None) -> np.ndarray:
     """:func:`end_of_life` of several coefficient vectors ``bs`` (rows) with their onsets ``tfs``:
     closed forms for (16) and (17); (18) and (19) integrated together (one population of the
     profile functions) over a look-ahead that grows fourfold from the time already elapsed until
     every row has failed or ``horizon`` is passed: an RUL of seconds is not looked for an hour
     ahead, and a row that never fails costs 1.3 passes of the hour (measured: the 17 corners of an
-    eq. (19) band took 11 s one at a time over the whole hour, 4 ms together)."""
+    eq. (19) band took 11 s one at a time over the whole hour, 4 ms together). ``ts``: the grid
+    (default STEP); ``horizon``: how far ahead, s (default HORIZON_SAMPLES grid steps)."""
     bs = np.atleast_2d(np.asarray(bs, dtype=float))
     tfs = np.asarray(tfs, dtype=float).reshape(-1)
     down = failure < nominal
@@ -59,7 +66,8 @@ def ends_of_life(model_no: int, bs, nominal: float, failure: float, tfs, now: fl
                 tau = (inv0 - 1.0 / failure) / bs[:, 0]
         tau = np.where((bs[:, 0] != 0) & np.isfinite(tau) & (tau >= 0), tau, np.inf)
         return np.where(np.isfinite(tau), np.maximum(tfs + tau, now), np.inf)
-    step = 0.01
+    step = float(ts) if ts is not None and ts > 0 and math.isfinite(ts) else STEP
+    horizon = HORIZON_SAMPLES * step if horizon is None else horizon
     out = np.full(len(bs), np.inf)
     todo = np.arange(len(bs))
     ahead = max(1.0, now - float(tfs.min()))
@@ -83,7 +91,7 @@ def ends_of_life(model_no: int, bs, nominal: float, failure: float, tfs, now: fl
 
 
 def _region_ruls(model_no: int, b_band, onsets: list[float], profile, nominal: float, failure: float,
-                 now: float) -> list[float]:
+                 now: float, ts: float | None = None) -> list[float]:
     """The RULs at the corners of a model's 95 % intervals (``b_band`` times ``onsets``) and at its
     plausible fits along the onset (``profile``: t0, b)."""
     points = [(list(c), start) for c in itertools.product(*b_band) for start in onsets] if b_band else []
@@ -91,10 +99,10 @@ def _region_ruls(model_no: int, b_band, onsets: list[float], profile, nominal: f
     if not points:
         return []
     return [float(e) - now for e in ends_of_life(model_no, [c for c, _ in points], nominal, failure,
-                                                  [start for _, start in points], now)]
+                                                  [start for _, start in points], now, ts=ts)]
 
 
-def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float) -> dict:
+def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float, ts: float | None = None) -> dict:
     """EOL, RUL at ``now`` = tf + N ts, and the RUL band: the RULs at the corners of the 95 %
     profile-likelihood intervals of the coefficients and the onset (``b_band``, ``t0_band``, from
     the final fit: see ``fdi.estimators.coefficient_band``; the RUL is monotone in each, so the
@@ -102,14 +110,15 @@ def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float)
     a second-order drift that started earlier and grew slower, :func:`fdi.estimators.onset_profile`),
     widened to the RULs of each other degradation model the data
     cannot tell from the fit's (``other_models``, :func:`fdi.estimators.other_models`: its best
-    point, the corners of its own intervals and its onset profile); without a band, the band is the RUL itself."""
-    eol = end_of_life(fault["model"], fault["b"], nominal, failure, tf, now)
+    point, the corners of its own intervals and its onset profile); without a band, the band is the RUL itself.
+    ``ts``: the data's sampling period, the grid of eqs. (18) and (19) (see the module's text)."""
+    eol = end_of_life(fault["model"], fault["b"], nominal, failure, tf, now, ts=ts)
     ruls = [eol - now] + _region_ruls(fault["model"], fault.get("b_band"), list(fault.get("t0_band") or []) or [tf],
-                                      fault.get("onset_profile"), nominal, failure, now)
+                                      fault.get("onset_profile"), nominal, failure, now, ts)
     for other in fault.get("other_models") or []:      # a degradation model the data cannot tell apart
-        ruls.append(end_of_life(other["model"], other["b"], nominal, failure, other["t0"], now) - now)
+        ruls.append(end_of_life(other["model"], other["b"], nominal, failure, other["t0"], now, ts=ts) - now)
         ruls += _region_ruls(other["model"], other.get("b_band"), list(other.get("t0_band") or []) or [other["t0"]],
-                             other.get("onset_profile"), nominal, failure, now)
+                             other.get("onset_profile"), nominal, failure, now, ts)
     finite = [r for r in ruls if np.isfinite(r)]
     return {"name": fault["name"], "failure": failure, "eol": eol, "rul": eol - now, "at": now,
             "rul_low": min(finite) if finite else float("inf"), "rul_high": max(finite) if finite else float("inf")}

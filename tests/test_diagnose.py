@@ -133,6 +133,20 @@ def test_a_slow_drift_past_its_failure_value_before_now_has_no_life_left():
     assert end_of_life(4, [0.0, 0.0, -1e-6], 1.0, 0.5, 0.0, 2000.0) == 2000.0
 
 
+def test_the_end_of_life_is_followed_in_the_data_s_sampling_periods():
+    """Eqs. (18) and (19) are followed on a grid of the data's sampling period ``ts``, HORIZON_SAMPLES
+    of them ahead: a slow system's drift that fails after more than an hour is found (eq. 18,
+    r1 = 1e-4 /s: P = 2 - exp(r1 tau) reaches 0.5 at ln(1.5)/r1 = 4054.7 s; with 1 s samples), and a
+    fast one's within a millisecond is resolved (eq. 19, P'' = -1e6 /s^2: P = 1 - 5e5 tau^2 reaches
+    0.5 at 1 ms; with 10 us samples). The CyCab's grid without ``ts``: 10 ms, an hour ahead
+    (the first infinite, the second at 0.1 ms, the chord of a parabola over 10 ms)."""
+    r1 = 1e-4
+    assert end_of_life(3, [r1 - 1 / r1, -2.0], 1.0, 0.5, 0.0, 0.0) == float("inf")
+    assert end_of_life(3, [r1 - 1 / r1, -2.0], 1.0, 0.5, 0.0, 0.0, ts=1.0) == pytest.approx(np.log(1.5) / r1, abs=0.01)
+    assert end_of_life(4, [0.0, 0.0, -1e6], 1.0, 0.5, 0.0, 0.0) == pytest.approx(1e-4, rel=1e-6)
+    assert end_of_life(4, [0.0, 0.0, -1e6], 1.0, 0.5, 0.0, 0.0, ts=1e-5) == pytest.approx(1e-3, rel=1e-3)
+
+
 @pytest.mark.parametrize("edit, message", [
     (lambda lines: [lines[0].replace(",p2", "")] + [l.rsplit(",", 1)[0] for l in lines[1:]], "missing column(s) p2"),
     (lambda lines: lines[:50] + [lines[50].replace(lines[50].split(",")[2], "nan", 1)] + lines[51:], "NaN"),

@@ -51,7 +51,7 @@ from ..episodes import since_detection
 from ..pipeline import MAX_REFIT, refresh_prognosis
 from ..monitor import compiled
 from ..objective import nominal
-from ..prognose import end_of_life
+from ..prognose import HORIZON_SAMPLES, end_of_life
 from ..criterion import effective_samples
 from ..scales import for_model
 from .scenario import FaultEvent, Scenario, load_scenario, simulate_scenario
@@ -311,7 +311,8 @@ def true_end_of_life(model, scenario: Scenario, e: FaultEvent, failure: float) -
     if scenario.plant == "cycab":
         from . import plant_cycab
         return plant_cycab.end_of_life(e, failure)
-    return end_of_life(e.model, list(e.b), nominal(model, e.target), failure, e.t0, e.t0)
+    return end_of_life(e.model, list(e.b), nominal(model, e.target), failure, e.t0, e.t0,
+                       horizon=max(HORIZON_SAMPLES / scenario.fs, scenario.T), ts=1.0 / scenario.fs)
 
 
 def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements, report: dict,
