@@ -65,6 +65,8 @@ from .options import Options
 from .pipeline import refresh_prognosis
 from .results import Diagnosis, plain
 
+HISTORY_SAMPLES = 360_000   # samples kept before a detection when no history in seconds is given
+
 if TYPE_CHECKING:
     from .monitor import Monitor
 
@@ -159,7 +161,8 @@ class Stream:
     n: int = 0                          # samples received
     done: int = 0                       # samples whose residuals are final
     residuals: np.ndarray | None = None   # the residuals the last feed made final (residuals x samples)
-    history: float = 3600.0             # s of samples kept before a detection (bounded memory)
+    history: float | None = None        # s of samples kept before a detection (bounded memory); None:
+                                        # HISTORY_SAMPLES samples, whatever the rate
     t_detect: float | None = None
     lit: np.ndarray | None = None       # latched coherence
     recent: np.ndarray | None = None    # each residual's evidence over the last span (fdi.detect)
@@ -298,7 +301,7 @@ class Stream:
         ts = float(self.buffer[1, ti] - self.buffer[0, ti])
         margin = int(math.ceil(self.window / ts)) + 1
         lag = int(math.ceil(self.lag / ts)) + 1
-        keep = max(int(math.ceil(self.history / ts)), 4 * margin)
+        keep = max(self._kept(ts), 4 * margin)
         n, done, dropped = self.n, self.done, 0      # the buffer's rows, final residuals, rows forgotten
         plan = []                                    # per block: (end, final, buffer start), rows from the buffer's start now
         for a in range(0, m, rows):
@@ -364,13 +367,20 @@ class Stream:
                 self.residuals = r[:, :k]
         return used
 
+    def _kept(self, ts: float) -> int:
+        """Samples kept before a detection: ``history`` seconds of them, or HISTORY_SAMPLES (an
+        hour at the CyCab's 100 Hz, 100 hours of a thermal system sampled each second, 36 s at
+        10 kHz: one memory bound, 17 MB for 6 columns, where an hour in seconds held 1.7 GB at
+        10 kHz)."""
+        return HISTORY_SAMPLES if self.history is None else int(math.ceil(self.history / ts))
+
     def _forget(self, ts: float, margin: int) -> None:
-        """Before a detection, rows older than ``history`` seconds are dropped, so a stream watched
-        for days holds at most that much (an hour of 8 columns at 100 Hz: 23 MB). The rows are
+        """Before a detection, rows older than the history (:meth:`_kept`) are dropped, so a stream
+        watched for days holds at most that much (an hour of 8 columns at 100 Hz: 23 MB). The rows are
         shifted once as many have aged out as are kept (amortised: each row is copied once); the
         margin the next residual block needs stays. A stream no longer than ``history`` keeps
         every sample, and its summary is ``bgfdi diagnose`` on the whole file."""
-        keep = max(int(math.ceil(self.history / ts)), 4 * margin)
+        keep = max(self._kept(ts), 4 * margin)
         if self.t_detect is not None or self.n < 2 * keep:
             return
         drop = min(self.n - keep, self.done - 2 * margin)

@@ -96,6 +96,25 @@ def test_a_long_stream_keeps_a_bounded_history_and_still_detects():
     assert detection["t"] == whole["t"] and detection["coherence"] == whole["coherence"]
 
 
+def test_the_default_history_is_a_number_of_samples_whatever_the_rate(monkeypatch):
+    """Without ``history`` the stream keeps HISTORY_SAMPLES samples (360 000: an hour at 100 Hz,
+    100 h at 1 Hz, 36 s at 10 kHz), where an hour in seconds held 1.7 GB at 10 kHz and 3 600
+    samples at 1 Hz. Here 500 samples on scenario 2's stream: the buffer bounded as with
+    ``history=5.0`` at its 100 Hz (the test above), the start forgotten; and the rule at any rate."""
+    import fdi.stream
+    monkeypatch.setattr(fdi.stream, "HISTORY_SAMPLES", 500)
+    m, header, table = _table("scenario2")
+    mon = compiled(CYCAB).stream(lambda e: None, Options(workers=1))
+    sizes = []
+    for a in range(0, 2500, 50):
+        mon.feed(header, table[a:a + 50])
+        sizes.append(mon.n)
+    assert max(sizes) <= 2 * 500 + 50 and mon.buffer[0, mon.ti] > 10.0
+    assert [mon._kept(ts) for ts in (1e-4, 0.01, 1.0)] == [500] * 3
+    mon.history = 5.0
+    assert [mon._kept(ts) for ts in (1e-4, 0.01, 1.0)] == [50_000, 500, 5]
+
+
 def _events_of_whole(header, table):
     events: list[dict] = []
     mon = compiled(CYCAB).stream(events.append, Options(workers=1))

@@ -1199,9 +1199,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="rows read before the residuals are brought up to date (default 50)")
     mon.add_argument("--refresh", type=real(0.1, high=1e6), default=5.0,
                      help="seconds between refreshed prognoses of a growing fault (default 5)")
-    mon.add_argument("--history", type=real(1.0, high=1e9), default=3600.0,
+    mon.add_argument("--history", type=real(1.0, high=1e9), default=None,
                      help="seconds of samples kept before a detection: memory stays bounded on an endless "
-                          "stream (default 3600)")
+                          "stream (default: 360 000 samples, an hour at 100 Hz, 36 s at 10 kHz)")
     diagnosis_options(mon)
     mon.set_defaults(func=cmd_monitor)
 
