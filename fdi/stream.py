@@ -11,7 +11,8 @@ each event, in stream time:
 - ``decision``: at the alarm + T_wt (once the N identification samples have arrived), and again T_wt
   after each later change of the coherence vector: candidate sets, the identified faults, the
   fault-mode estimate, and the prognosis (RUL and its band) of incipient faults;
-- ``prognosis``: every ``refresh`` seconds after a decision with a growing fault, its fit
+- ``prognosis``: every ``refresh`` seconds (an identification window by default) after a
+  decision with a growing fault, its fit
   refreshed on the data so far (:func:`fdi.pipeline.refresh_prognosis`) and the RUL re-issued;
 - ``summary``: at the end of the stream, the report ``bgfdi diagnose --json`` gives for the same
   samples (the same engine: the final decisions are recomputed on all the data, reusing every
@@ -170,7 +171,8 @@ class Stream:
     pending: list[float] = field(default_factory=list)       # decision times not yet reached
     decided: int = 0                    # decisions emitted
     memo: dict = field(default_factory=dict)
-    refresh: float = 5.0                # s between prognosis refreshes
+    refresh: float | None = None        # s between prognosis refreshes; None: an identification window
+    ts: float = math.nan                # the sampling period, from the first two samples
     latest: Diagnosis | None = None     # the last decision
     next_refresh: float = math.inf
     live: bool = True                   # samples arrive in real time: read on while identifying
@@ -199,6 +201,7 @@ class Stream:
         """The derivative window, its lag and the waiting time, and the ``start`` event. Times the
         model file leaves out come from the sampling time ``ts`` and the model (fdi.scales)."""
         if ts is not None:
+            self.ts = ts
             self.monitor, sc = self.monitor.scaled(ts)
             self.identifier.monitor = self.monitor
             self.config = self.monitor.config
@@ -257,6 +260,8 @@ class Stream:
         ts = float(t[1] - t[0])
         if self.window is None:
             self._start(ts)
+        elif self.ts != self.ts:            # a model file that gave every time: _start had no ts
+            self.ts = ts
         margin = int(math.ceil(self.window / ts)) + 1
         final = self.n - int(math.ceil(self.lag / ts)) - 1          # residuals final up to here (exclusive)
         if final <= self.done or self.n <= 2 * margin:
@@ -506,7 +511,7 @@ class Stream:
                 report, self.latest, fresh, seconds = result
                 self.memo.update(fresh)
                 self._report_decisions(report, known_at, seconds)
-                self.next_refresh = known_at + self.refresh
+                self.next_refresh = known_at + self._refresh_period()
             else:
                 faults, prognosis, fresh, seconds = result
                 self.memo.update(fresh)
@@ -516,9 +521,19 @@ class Stream:
                            "identification_s": seconds})
             self._submit()
 
+    def _refresh_period(self) -> float:
+        """Seconds of data between prognosis refreshes: ``refresh``, or one identification window,
+        N ts: a refit sees a window more each time (the CyCab's 10 s, the tutorial's RC filter 5 s;
+        a thermal system's 1 000 samples of a second, 17 minutes: the former 5 s of data was a refit
+        every 5 samples there, each taking seconds, and one every 2.5 windows of the CyCab)."""
+        if self.refresh is not None:
+            return self.refresh
+        return self.samples * self.ts
+
     def _refresh(self) -> None:
-        """Every ``refresh`` seconds after a decision with a growing fault, its fit refreshed on the
-        data so far and the prognosis re-issued (a ``prognosis`` event), in the worker too."""
+        """Every refresh period (:meth:`_refresh_period`) after a decision with a growing fault, its
+        fit refreshed on the data so far and the prognosis re-issued (a ``prognosis`` event), in
+        the worker too."""
         self._collect()
         if self.latest is None or not self.latest.prognosis or self.pending or self.job is not None \
                 or self.due is not None:
@@ -526,7 +541,7 @@ class Stream:
         t_last = float(self.buffer[self.n - 1, self.ti])
         if t_last < self.next_refresh:
             return
-        self.next_refresh = t_last + self.refresh
+        self.next_refresh = t_last + self._refresh_period()
         job = self.identifier.submit(_refresh, self.measurements(), self.latest, self.options, self.memo)
         self.job = ("prognosis", job, self.n)
         if not self.live:

@@ -1197,8 +1197,9 @@ def build_parser() -> argparse.ArgumentParser:
     mon.add_argument("data", help="measurement CSV file, or - for a CSV stream on standard input (header first)")
     mon.add_argument("--block", type=whole(1, 1_000_000), default=50,
                      help="rows read before the residuals are brought up to date (default 50)")
-    mon.add_argument("--refresh", type=real(0.1, high=1e6), default=5.0,
-                     help="seconds between refreshed prognoses of a growing fault (default 5)")
+    mon.add_argument("--refresh", type=real(0.1, high=1e6), default=None,
+                     help="seconds between refreshed prognoses of a growing fault (default: an "
+                          "identification window, N ts: 10 s for the CyCab)")
     mon.add_argument("--history", type=real(1.0, high=1e9), default=None,
                      help="seconds of samples kept before a detection: memory stays bounded on an endless "
                           "stream (default: 360 000 samples, an hour at 100 Hz, 36 s at 10 kHz)")
