@@ -115,6 +115,17 @@ def test_the_default_history_is_a_number_of_samples_whatever_the_rate(monkeypatc
     assert [mon._kept(ts) for ts in (1e-4, 0.01, 1.0)] == [50_000, 500, 5]
 
 
+def test_a_prognosis_is_refreshed_every_identification_window_by_default():
+    """Without ``refresh`` a growing fault's prognosis is refitted every N ts of data (the CyCab's
+    1 000 samples at 100 Hz: 10 s; where a fixed 5 s was a refit every 5 samples of a system
+    sampled each second); with it, every ``refresh`` seconds."""
+    m, header, table = _table("scenario2")
+    for given, period in ((None, 10.0), (5.0, 5.0)):
+        mon = compiled(CYCAB).stream(lambda e: None, Options(workers=1), refresh=given)
+        mon.feed(header, table[:300])
+        assert mon.samples == 1000 and mon._refresh_period() == pytest.approx(period, rel=1e-12)
+
+
 def _events_of_whole(header, table):
     events: list[dict] = []
     mon = compiled(CYCAB).stream(events.append, Options(workers=1))
