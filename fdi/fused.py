@@ -55,6 +55,7 @@ from typing import Any
 import numpy as np
 
 from . import derivatives, encoding, kernels, tape
+from .profiles import STEP19
 from .residuals import Residual, mode_breaks, samples_of
 
 Objective = Any     # fdi.objective.Objective (which imports this module where it is first used)
@@ -492,4 +493,3 @@ class Pattern:
 
 COEFFS = [1, 4, 5, 6, 0, 2, 3]   # the decoded coefficients the kernel reads: b2 (eq. 17), b5, b6, b7 (eq. 19),
                                  # b1 (eq. 16), b3, b4 (eq. 18); kernels.c's NCOEFFS
-STEP19 = 0.1              # eq. (19)'s RK4 grid (fdi.profiles._model19's step)

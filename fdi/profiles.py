@@ -45,6 +45,7 @@ N_COEFFICIENTS = {1: 1, 2: 1, 3: 2, 4: 3}  # b1 | b2 | b3, b4 | b5, b6, b7
 # is a few steps (|b6| h^2 ~ 1) is as far from such a drift as the bounds allow. Windows up to
 # 100 s keep the 0.1 s grid (the CyCab's, the tutorial's: their numbers unchanged).
 STEPS19 = 1000
+STEP19 = 0.1        # s: eq. (19)'s RK4 step on windows up to STEPS19 steps
 
 
 def _col(x) -> np.ndarray:
@@ -152,7 +153,7 @@ def _model18(tau: np.ndarray, p0: float, b3: np.ndarray, b4: np.ndarray) -> np.n
     return -b4 + a * np.exp(r1 * tau) + c * np.exp(r2 * tau)
 
 
-def _model19(tau: np.ndarray, p0: float, b5, b6, b7, step: float = 0.1) -> np.ndarray:
+def _model19(tau: np.ndarray, p0: float, b5, b6, b7, step: float = STEP19) -> np.ndarray:
     """RK4 in tau = t - t0 on a uniform grid of ``step`` seconds, all rows at once, read between grid
     points by cubic Hermite interpolation on P and dP/dt (error O(step^4): 1e-5 of P against cos(tau)
     at a rate of 1/s, where linear interpolation on a 0.05 s grid leaves h^2/8 P'' = 3e-4)."""
@@ -208,7 +209,7 @@ def _rk4_grid(p0: float, b5, b6, b7, pop: int, span: float, step: float) -> tupl
 def _table19(p0: float, b: tuple[float, float, float], span: float) -> tuple[list[float], list[float], float]:
     """Eq. (19)'s RK4 grid for one fault over tau in [0, span], as Python floats (kept: a
     simulation reads it at every step)."""
-    grid, slope, h = _rk4_grid(p0, *(np.array([x]) for x in b), 1, span, 0.1)
+    grid, slope, h = _rk4_grid(p0, *(np.array([x]) for x in b), 1, span, STEP19)
     return grid[0].tolist(), slope[0].tolist(), h
 
 
@@ -239,10 +240,11 @@ def at(kind: str, t: float, t0: float, nominal: float, *, value=None, model: int
     sample where this takes ~2 (the tutorial's 30 s drift: 60 000 calls).
 
     Eq. (19) has no closed form: its array function integrates RK4 from the onset to the window's
-    last instant at every call, which one instant at a time is quadratic in the run's length (an
-    8 s run at 1 kHz took more than 13 min). With ``span`` (the run's end minus t0) its grid is
-    integrated once per fault to the run's end and read at each instant: the array function's
-    numbers on the whole run's window.
+    last instant at every call, which one instant at a time is quadratic in the run's length (the
+    tutorial's RC filter with an eq. (19) drift, 8 s at 1 kHz under LSODA: 9.1 s; 30 s: 10.3 s).
+    With ``span`` (the run's end minus t0) its grid is integrated once per fault to the run's end
+    and read at each instant (3.0 s and 5.8 s): the array function's numbers on the whole run's
+    window.
 
     >>> at("incipient", 3.0, 1.0, 1.0, model=2, b=[-0.5]), at("abrupt", 0.5, 1.0, 10.0, value=4.0)
     (0.5, 10.0)
