@@ -32,10 +32,7 @@ def cycab_arrs(cycab):
 
 
 SLOW_FIRST = ("test_tutorial.py", "test_golden.py", "test_evaluate.py", "test_domain_converter.py",
-              "test_plant_accuracy.py", "test_rediagnosis.py",
-              # single tests of 14-31 s (--durations, 2026-11-29): collected late, they ran last
-              "test_cli_json.py", "test_domain_chemical.py", "test_memory_bounds.py", "test_diskcache.py",
-              "test_domain_power.py")
+              "test_plant_accuracy.py", "test_rediagnosis.py")
 
 
 def pytest_collection_modifyitems(config, items):
