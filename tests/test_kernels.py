@@ -304,11 +304,7 @@ def test_fused_objective_is_the_numpy_path_s(case):
     else:
         data = circuit(6.0, seed=1, bias=(3.0, 0.3))
         obj = _objective(MODEL, data, 3.0, ("bias_v", "RL"), thresholds={"ARR1": 0.05, "ARR2": 0.01})
-    before = kernels.use_numba(True)
-    try:
-        assert obj.fused() is not None
-    finally:
-        kernels.use_numba(before)
+    assert _fused(obj) is not None
     real, bits = random_population(obj, 60, np.random.default_rng(23))
     for stride in (1, obj.stride):
         (c0, r0), (c1, r1) = both(lambda: obj.evaluate(real, bits, stride))
@@ -339,6 +335,15 @@ def _hydraulic_clog() -> dict:
         return read_csv(path).columns
     finally:
         path.unlink()
+
+
+def _fused(obj):
+    """The objective's compiled path (fdi.fused.Fused, or None) as numba builds it."""
+    before = kernels.use_numba(True)
+    try:
+        return obj.fused()
+    finally:
+        kernels.use_numba(before)
 
 
 def _assert_same_costs(obj) -> None:
@@ -380,12 +385,8 @@ def test_stored_quantities_compiled_are_the_numpy_path_s(case):
         obj = _objective(ROOT / "models" / "hydraulic_actuator.yaml", cols, float(cols["t"][len(cols["t"]) // 2]),
                          candidate)
     assert any(obj.residuals[i].composites for i in obj.active)
-    before = kernels.use_numba(True)
-    try:
-        fast = obj.fused()
-        assert fast is not None and fast.stored
-    finally:
-        kernels.use_numba(before)
+    fast = _fused(obj)
+    assert fast is not None and fast.stored
     _assert_same_costs(obj)
 
 
@@ -408,12 +409,8 @@ def test_a_stored_quantity_s_rate_at_the_data_s_ends_is_compiled_as_the_numpy_pa
         crop = obj.crop(stride)
         last = range(crop.start, crop.stop, stride)[-1]
         assert crop.start < 50 or last >= n - 50          # within half a filter of an end
-    before = kernels.use_numba(True)
-    try:
-        fast = obj.fused()
-        assert fast is not None and fast.stored
-    finally:
-        kernels.use_numba(before)
+    fast = _fused(obj)
+    assert fast is not None and fast.stored
     _assert_same_costs(obj)
 
 
@@ -441,12 +438,8 @@ def test_stored_quantities_inside_stored_quantities_compiled_are_the_numpy_path_
     fs = 10.0 if model == "three_tank.yaml" else 100.0
     cols = _simulated(model, 3000 / fs, fs)
     obj = _objective(ROOT / "models" / model, cols, 1000 / fs, candidate)
-    before = kernels.use_numba(True)
-    try:
-        fast = obj.fused()
-        assert fast is not None and (fast.full_at >= 0).any()
-    finally:
-        kernels.use_numba(before)
+    fast = _fused(obj)
+    assert fast is not None and (fast.full_at >= 0).any()
     _assert_same_costs(obj)
 
 
