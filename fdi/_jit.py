@@ -15,6 +15,7 @@ import numpy as np
 from numba import njit
 
 STEPS19 = 1000      # fdi.profiles.STEPS19 (a compile-time constant here; tests/test_kernels.py checks they agree)
+MIN_STEPS19 = 100   # fdi.profiles.MIN_STEPS19 (likewise)
 
 from .tape import (ABS, ACOS, ADD, ASIN, ATAN, CONST, COS, COSH, DIV, EXP, LOADF, LOADP, LOADS, LOG, MUL, NEG, POW,  # noqa: F401
                    RECIP, SIGN, SIN, SINH, SQRT, SQUARE, SUB, TAN)
@@ -30,7 +31,7 @@ def rk4_19(tau, p0, b5, b6, b7, step):  # pragma: no cover - compiled
         for j in range(n):
             if tau[r, j] > span:
                 span = tau[r, j]
-    k = STEPS19 if span / step > STEPS19 else max(1, int(np.ceil(span / step)))
+    k = STEPS19 if span / step > STEPS19 else max(MIN_STEPS19, int(np.ceil(span / step)))
     h = span / k if span > 0 else step
     grid = np.empty(k + 1)
     slope = np.empty(k + 1)
@@ -714,7 +715,7 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
     kmax = 1
     for j in range(nf):
         span = span19[j]
-        k19[j] = STEPS19 if span / step19 > STEPS19 else max(1, int(np.ceil(span / step19)))
+        k19[j] = STEPS19 if span / step19 > STEPS19 else max(MIN_STEPS19, int(np.ceil(span / step19)))
         h19[j] = span / k19[j] if span > 0 else step19
         kmax = max(kmax, k19[j])
     grid = np.empty(kmax + 1)

@@ -15,8 +15,10 @@ b1, b6 are rates (1/s) as they are; b2 = b2n / P_ref, b4 = b4n * P_ref, b5 = b5n
 b7 = b7n * P_ref. eta = [0 0], [0 1], [1 0], [1 1] selects model (16), (17), (18), (19).
 
 Eq. (18)'s b3 is searched through the rate of the mode that grows, r1 = (b3 + sqrt(b3^2 + 4))/2 > 0
-(the other root is -1/r1: every eq. (18) drift grows as exp(r1 tau)), as log10(r1) in [-2, 1]
-(time constants from 0.1 s to 100 s); b3 = r1 - 1/r1. Searched as b3 in [-3, 3], eq. (18) could
+(the other root is -1/r1: every eq. (18) drift grows as exp(r1 tau)), as log10(r1), with r1 W in
+[0.1, 100] for an identification window of W seconds (the CyCab's W = 10 s: log10 r1 in [-2, 1],
+time constants from 0.1 s to 100 s); b3 = r1 - 1/r1. Every coefficient's bounds are in units of W
+(:func:`coefficient_bounds`). Searched as b3 in [-3, 3], eq. (18) could
 not be slower than exp(0.30 tau): a slow drift of this model (the CyCab suite's beta_theta2,
 b3 = -3) sat on the bound, and its fit seen from t_D needs b3 = -3.7 (measured: cost 551 against
 2036 for the best fit inside the old bounds).
@@ -37,7 +39,38 @@ from .profiles import N_COEFFICIENTS, TYPES, incipient, intermittent, abrupt
 N_REAL = 9
 N_BITS = 5
 COEFF_SLOTS = {1: [2], 2: [3], 3: [4, 5], 4: [6, 7, 8]}           # real indices of each model's b's
-DEFAULT_COEFF_BOUNDS = [(-0.3, 0.3), (-0.3, 0.3), (-2.0, 1.0), (-2.0, 0.0), (-20.0, 20.0), (-1.0, 1.0), (-1.0, 1.0)]
+# The degradation coefficients' bounds in units of the identification window W = N ts (s): over one
+# window an eq. (16)/(17) drift changes its exponent or reciprocal by at most 3 (b1 W, b2n W), eq.
+# (18)'s growing mode has r1 W in [0.1, 100], eq. (19)'s b6 W^2 and b7n W^2 are within 100; b4
+# and b5n are dimensionless. Why: bounds in seconds (the CyCab's, W = 10 s) left a microsecond
+# converter no drift it could express over its 2 ms window (b1 W <= 6e-4) and eq. (18) no drift
+# slower than 100 s; in window units every time scale gets the CyCab's search space.
+WINDOW_COEFF_BOUNDS = ((-3.0, 3.0), (-3.0, 3.0), (-1.0, 2.0), (-2.0, 0.0), (-20.0, 20.0), (-100.0, 100.0),
+                       (-100.0, 100.0))
+REFERENCE_WINDOW = 10.0       # s: the CyCab's identification window (1000 samples at 100 Hz)
+
+
+def coefficient_bounds(window: float) -> tuple[tuple[float, float], ...]:
+    """The bounds of [b1, b2n, log10 r1, b4n, b5n, b6, b7n] for an identification window of
+    ``window`` seconds (:data:`WINDOW_COEFF_BOUNDS` in units of it). ``window`` is read to six
+    significant digits (a window from a sampling period measured in the data, 1000 x 0.01000000001 s,
+    is the 10 s one).
+
+    >>> coefficient_bounds(10.0)[:3]
+    ((-0.3, 0.3), (-0.3, 0.3), (-2.0, 1.0))
+    >>> coefficient_bounds(0.002)[0], coefficient_bounds(0.002)[5]
+    ((-1500.0, 1500.0), (-25000000.0, 25000000.0))
+    """
+    w = float(f"{float(window):.6g}")
+    if not (np.isfinite(w) and w > 0):
+        raise ValueError(f"the identification window must be a positive number of seconds, got {window!r}")
+    lw = float(np.log10(w))
+    per = (w, w, None, 1.0, 1.0, w * w, w * w)                # each bound's divisor (s, s^2)
+    return tuple((lo - lw, hi - lw) if k is None else (lo / k, hi / k)
+                 for (lo, hi), k in zip(WINDOW_COEFF_BOUNDS, per))
+
+
+DEFAULT_COEFF_BOUNDS = list(coefficient_bounds(REFERENCE_WINDOW))      # a FaultSpace made without a window
 RATE_SLOT = 4                 # real index of eq. (18)'s log10(r1) (b3 = r1 - 1/r1)
 # The intermittent period's search interval (s) of a FaultSpace made without data: the optimiser
 # benchmarks' synthetic problems, on the CyCab's time axis. A diagnosis always gives its own, from

@@ -75,9 +75,10 @@ static double hermite(double tau, double h, I k, const double *grid, const doubl
     return (2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb + (s3 - s2) * vb;
 }
 
-/* fdi.profiles.STEPS19: eq. (19)'s grid has at most this many intervals over the window */
+/* fdi.profiles.STEPS19, MIN_STEPS19: eq. (19)'s grid has at most and at least this many intervals over the window */
 #define STEPS19 1000
-static I steps19(double span, double step) { return span / step > STEPS19 ? STEPS19 : imax(1, (I)ceil(span / step)); }
+#define MIN_STEPS19 100
+static I steps19(double span, double step) { return span / step > STEPS19 ? STEPS19 : imax(MIN_STEPS19, (I)ceil(span / step)); }
 
 /* rk4_19: tau (pop, n) -> out (pop, n); scratch of k + 1 */
 int rk4_19(const double *tau, I pop, I n, double p0, const double *b5, const double *b6, const double *b7,

@@ -57,13 +57,16 @@ def nominal(model: Model, name: str) -> float:
 
 
 def fault_space(model: Model, name: str, span: float | None = None,
-                config: MonitorConfig | None = None, min_period: float | None = None) -> FaultSpace:
+                config: MonitorConfig | None = None, min_period: float | None = None,
+                window: float | None = None) -> FaultSpace:
     """The search space of a candidate fault: the bounds the monitor settings give, else a factor
     of 100 around a parameter's nominal value (0.05-1.5 for an efficiency factor, 0.1-10 for a
     group's common factor). ``span`` (s), the data window, caps the intermittent period: a period
     longer than the window is indistinguishable from an abrupt fault; ``min_period`` (s) is the
     shortest (:func:`fdi.scales.min_period`: two derivative windows; without it, the default of
-    :data:`fdi.encoding.DEFAULT_PERIOD`)."""
+    :data:`fdi.encoding.DEFAULT_PERIOD`). ``window`` (s), the identification window N ts, sets the
+    degradation coefficients' bounds (:func:`fdi.encoding.coefficient_bounds`; without it, the
+    CyCab's 10 s)."""
     f = model.faults[name]
     value, given = nominal(model, name), config.bounds(name) if config else None
     if given is not None:
@@ -82,7 +85,8 @@ def fault_space(model: Model, name: str, span: float | None = None,
         bounds = (value / 100.0, value * 100.0) if value > 0 else (value * 100.0, value / 100.0)
     low = encoding.DEFAULT_PERIOD[0] if min_period is None else min_period
     period = (min(low, span), span) if span else (low, max(encoding.DEFAULT_PERIOD[1], 2 * low))
-    return FaultSpace.make(name, value, tuple(bounds), period=period)
+    coefficients = encoding.coefficient_bounds(window) if window else tuple(encoding.DEFAULT_COEFF_BOUNDS)
+    return FaultSpace.make(name, value, tuple(bounds), period=period, coefficients=coefficients)
 
 
 LINEAR = {"identity": (lambda v: v, lambda u: u),
@@ -244,7 +248,11 @@ class Objective:
         span = (win.crop.stop - win.crop.start) * win.ts
         self.config = config
         self.min_period = scales.min_period(window_s, win.ts)
-        self.spaces = [fault_space(model, f, span, config, self.min_period) for f in candidate]
+        # the identification window the degradation coefficients' bounds are expressed in: the
+        # configured N samples (not this window's, shorter at the data's end: the same bounds for
+        # every window of a run)
+        self.window = config.samples * win.ts if config is not None else None
+        self.spaces = [fault_space(model, f, span, config, self.min_period, self.window) for f in candidate]
         self.weights = weights
         self.window_s = window_s
         self.onset_bounds = onset
@@ -282,7 +290,7 @@ class Objective:
         betas: dict[str, np.ndarray] = {}
         biases: dict[str, np.ndarray] = {}
         for f in self.fixed:
-            space = fault_space(self.model, f["name"], span, self.config, self.min_period)
+            space = fault_space(self.model, f["name"], span, self.config, self.min_period, self.window)
             real, bits = encoding.encode([space], [f])
             (p,) = encoding.profiles([space], encoding.decode([space], real[None, :], bits[None, :]), self.win.t,
                                      f.get("t0", self.win.t0))

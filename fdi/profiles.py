@@ -11,8 +11,8 @@ leakage resistance): the formulas are written so that infinity is handled exactl
   (16) dP/dt = b1 P               -> P = P0 exp(b1 tau)
   (17) dP/dt = b2 P^2             -> 1/P = 1/P0 - b2 tau  (infinite P0 allowed; past the pole: inf)
   (18) d2P/dt2 = b3 dP/dt + P + b4 -> closed form, roots (b3 +- sqrt(b3^2 + 4))/2
-  (19) d2P/dt2 = b5 (dP/dt)^2 + b6 P + b7 -> classical RK4 on a 0.1 s grid (at most STEPS19
-       steps over the window), Hermite-interpolated
+  (19) d2P/dt2 = b5 (dP/dt)^2 + b6 P + b7 -> classical RK4 on a 0.1 s grid (at least
+       MIN_STEPS19 and at most STEPS19 steps over the window), Hermite-interpolated
 
 From t0 = 1 s: an abrupt fault to 4 (nominal 10); an efficiency factor decaying as (17) with
 b2 = -0.5, 1/P = 1 + 0.5 (t - t0), so 2/3 at t = 2 s and 1/2 at t = 3 s; an intermittent fault
@@ -45,6 +45,11 @@ N_COEFFICIENTS = {1: 1, 2: 1, 3: 2, 4: 3}  # b1 | b2 | b3, b4 | b5, b6, b7
 # is a few steps (|b6| h^2 ~ 1) is as far from such a drift as the bounds allow. Windows up to
 # 100 s keep the 0.1 s grid (the CyCab's, the tutorial's: their numbers unchanged).
 STEPS19 = 1000
+# And at least MIN_STEPS19: a grid in seconds gave a millisecond window one RK4 step, read by
+# Hermite interpolation, where the coefficients' bounds (fdi.encoding.coefficient_bounds, in units
+# of the identification window W) reach |b6| W^2 = 100. Windows of 10 s and more keep the 0.1 s
+# grid (the CyCab's identification windows: its numbers unchanged); a shorter span is cut in 100.
+MIN_STEPS19 = 100
 STEP19 = 0.1        # s: eq. (19)'s RK4 step on windows up to STEPS19 steps
 
 
@@ -180,11 +185,21 @@ def _model19(tau: np.ndarray, p0: float, b5, b6, b7, step: float = STEP19) -> np
     return np.where(np.isfinite(pa) & np.isfinite(pb), out, np.inf)
 
 
+def steps19(span: float, step: float) -> int:
+    """The number of RK4 steps eq. (19) takes over ``span`` seconds (the same rule in fdi._jit and
+    fdi/kernels.c): ``step``-second steps, at least MIN_STEPS19, at most STEPS19.
+
+    >>> steps19(10.0, 0.1), steps19(60.0, 0.1), steps19(0.002, 0.1), steps19(7200.0, 0.1)
+    (100, 600, 100, 1000)
+    """
+    return STEPS19 if span / step > STEPS19 else max(MIN_STEPS19, int(math.ceil(span / step)))
+
+
 def _rk4_grid(p0: float, b5, b6, b7, pop: int, span: float, step: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """Eq. (19) by classical RK4 from tau = 0 to ``span`` on ceil(span/step) equal steps, at most
-    STEPS19: P and dP/dt at the grid points, (pop, k + 1) each (P infinite and its slope 0 once P
+    """Eq. (19) by classical RK4 from tau = 0 to ``span`` on ceil(span/step) equal steps, at least
+    MIN_STEPS19 and at most STEPS19 (:func:`steps19`): P and dP/dt at the grid points, (pop, k + 1) each (P infinite and its slope 0 once P
     overflows), and the step h."""
-    k = STEPS19 if span / step > STEPS19 else max(1, int(np.ceil(span / step)))
+    k = steps19(span, step)
     h = span / k if span > 0 else step
     grid, slope = np.empty((pop, k + 1)), np.empty((pop, k + 1))
     p, v = np.full(pop, float(p0)), np.zeros(pop)

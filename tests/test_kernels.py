@@ -85,6 +85,26 @@ def test_eq19_over_hours_is_a_cosine_on_at_most_steps19_steps(path):
     assert grid.shape == (1, profiles.STEPS19 + 1) and h == 7.2
 
 
+def test_eq19_over_milliseconds_is_a_cosine_on_at_least_min_steps19_steps(path):
+    """A window of 2 ms (a converter's, 1 MHz samples): eq. (19)'s grid has at least MIN_STEPS19
+    intervals (a 0.1 s grid gave it one RK4 step), the same in numpy, numba and C. Its harmonic
+    case at the bounds' fastest, |b6| W^2 = 100 (fdi.encoding.coefficient_bounds: 10 radians over
+    the window), is P0 cos(w tau) to 1e-5 of P0 (RK4's global error ~ w tau (w h)^4 / 120 = 8e-7
+    at h = W / 100), and an eq. (19) drift slower than the window to 1e-9."""
+    from fdi import _jit, profiles
+    assert profiles.MIN_STEPS19 == _jit.MIN_STEPS19 == 100
+    assert "#define MIN_STEPS19 100" in (Path(profiles.__file__).parent / "kernels.c").read_text()
+    W = 2e-3
+    t = np.linspace(0.0, W, 2001)
+    w = np.array([np.sqrt(100.0) / W, 1.0 / W])
+    p = incipient(t, 0.0, 3.0, 4, np.column_stack([0 * w, -w ** 2, 0 * w]))
+    exact = 3.0 * np.cos(w[:, None] * t[None, :])
+    assert np.abs(p[0] - exact[0]).max() < 1e-5 * 3.0
+    assert np.abs(p[1] - exact[1]).max() < 1e-9 * 3.0
+    grid, slope, h = profiles._rk4_grid(3.0, *(np.array([x]) for x in (0.0, -w[0] ** 2, 0.0)), 1, W, 0.1)
+    assert grid.shape == (1, profiles.MIN_STEPS19 + 1) and h == pytest.approx(W / 100)
+
+
 def test_eq19_constant_forcing_is_a_parabola(path):
     """b5 = b6 = 0: P'' = b7, so P = P0 + b7 tau^2 / 2 (RK4 and cubic Hermite are exact)."""
     t = np.linspace(0.0, 5.0, 333)

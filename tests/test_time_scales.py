@@ -196,3 +196,46 @@ def test_the_rules():
     s = scales.for_data(1.0, 3600.0)
     assert (s.window, s.settle, s.end_edge, s.min_period, s.step) == (101.0, 50.5, 50.5, 202.0, 1.0)
     assert s.min_samples() == 202
+
+
+DRIFT_BW = 0.5      # b1 W: the drift's exponent grows by half over one identification window W = N ts
+
+
+@pytest.mark.parametrize("case", ["RC 0.1 s at 1 kHz", "RC 10 us at 1 MHz"])
+def test_a_drift_is_typed_and_sized_at_any_time_scale(case, tmp_path, capsys):
+    """R drifting as eq. (16), R = R0 exp(b1 (t - t_f)) with b1 W = 0.5 (W = 1000 samples: 1 s at
+    1 kHz, 1 ms at 1 MHz), simulated by scipy (DOP853 on C v' = (u - v)/R(t), from the physics):
+    isolated to R, typed eq. (16), b1 within 3 % and the onset within a derivative window. The
+    coefficients' bounds were the CyCab's in seconds (|b1| <= 0.3/s for its 10 s window): the
+    1 kHz drift (0.5/s) was typed eq. (19) from 0.19 s before the fault, the 1 MHz one (500/s)
+    an abrupt R and an intermittent sensor fault; in units of the window (fdi.encoding.
+    coefficient_bounds) every time scale has the same search space."""
+    from scipy.integrate import solve_ivp
+    R, C, r_unit, c_unit, e_unit, fs, T_tau, tf_tau, u0, a, sigma = CASES[case]
+    tau = R * C
+    W = 1000 / fs
+    b1 = DRIFT_BW / W
+    t = np.arange(int(round(T_tau * tau * fs)) + 1) / fs
+    t_fault = tf_tau * tau
+
+    def rhs(x, v):
+        return [(u0 + a * math.sin(x / tau) - v[0]) / (R * math.exp(b1 * max(x - t_fault, 0.0)) * C)]
+    sol = solve_ivp(rhs, (0.0, t[-1]), [u0 - a], method="DOP853", rtol=1e-11, atol=1e-12, t_eval=t,
+                    max_step=tau / 5)
+    assert sol.success
+    model = tmp_path / "rc.yaml"
+    model.write_text(rc_text(R, C, r_unit, c_unit, e_unit, sigma), encoding="utf-8")
+    for k, seed in enumerate((1, 2)):
+        write_run(tmp_path / f"nominal{k}.csv", t, *closed_form(t, tau, None, RISE, u0, a, u0 - a), sigma, seed)
+    write_run(tmp_path / "faulty.csv", t, u0 + a * np.sin(t / tau), sol.y[0], sigma, 3)
+    calibrated = tmp_path / "calibrated.yaml"
+    assert main(["calibrate", str(model), str(tmp_path / "nominal0.csv"), str(tmp_path / "nominal1.csv"),
+                 "-o", str(calibrated), "-q"]) == 0
+    capsys.readouterr()
+    assert main(["diagnose", str(calibrated), str(tmp_path / "faulty.csv"), "--json", "--workers", "1"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    window = scales.for_model(*load(calibrated), 1.0 / fs).window
+    (fault,) = report["diagnosis"]["faults"]
+    assert (fault["name"], fault["type"], fault["model"]) == ("R", "incipient", 1), fault
+    assert fault["b"][0] == pytest.approx(b1, rel=0.03)
+    assert abs(fault["t0"] - t_fault) <= window, (fault["t0"], t_fault)
