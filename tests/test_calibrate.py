@@ -159,3 +159,41 @@ def test_the_report_says_which_derivative_window_filtered_the_residuals(tmp_path
     c = calibrate(str(model), runs)
     assert (c.window, c.window_samples, c.window_given) == (pytest.approx(0.06), 61, True)
     assert "0.06 s (61 samples), diagnosis.derivative_window" in format_calibration(c)
+    assert "calibrate --window auto chooses" in format_calibration(calibrate(str(rule), runs))
+
+
+def test_window_auto_keeps_a_window_the_file_sets(tmp_path, capsys):
+    """--window auto on a model that sets diagnosis.derivative_window (the quarter car's 0.06 s): one
+    line naming the file and the key, exit 2, no copy written."""
+    from pathlib import Path
+
+    from fdi.app.cli import main
+
+    from .independent import quarter_car
+    model = Path(__file__).resolve().parent / "data" / "quarter_car.yaml"
+    cols = quarter_car.simulate(1, T=4.0)
+    keys = ["t"] + [k for k in cols if k != "t"]
+    run_csv = tmp_path / "nominal.csv"
+    np.savetxt(run_csv, np.column_stack([cols[k] for k in keys]), delimiter=",", header=",".join(keys), comments="")
+    out = tmp_path / "copy.yaml"
+    assert main(["calibrate", str(model), str(run_csv), "--window", "auto", "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "quarter_car.yaml" in err[0] and "diagnosis.derivative_window is set (0.06 s)" in err[0]
+    assert not out.exists()
+
+
+def test_a_chosen_window_is_added_to_the_diagnosis_section():
+    """Written as diagnosis.derivative_window whatever the section's layout; the copy reads as the
+    original plus that key, or nothing is written (a layout it cannot edit)."""
+    import yaml
+
+    from fdi.calibrate import with_window
+    for text in ("name: m\n", "name: m\ndiagnosis: {samples: 500}   # note\nx: 1\n",
+                 "name: m\ndiagnosis:\n  # the paper's\n    samples: 500\n    waiting_time: 2.0\nx: 1\n",
+                 "name: m\ndiagnosis:"):
+        doc = yaml.safe_load(with_window(text, 0.0123456))
+        assert doc["diagnosis"]["derivative_window"] == 0.01235
+        assert {k: v for k, v in doc["diagnosis"].items() if k != "derivative_window"} == \
+            (yaml.safe_load(text).get("diagnosis") or {})
+    with pytest.raises(ValueError):
+        with_window("diagnosis: &d\n  samples: 5\n", 0.01)

@@ -727,10 +727,15 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from ..monitor import compiled
 
     compiled(args.model)                                   # the model checked before the runs are read
-    c = calibrate(args.model, args.runs, args.margin, args.quantile)
+    c = calibrate(args.model, args.runs, args.margin, args.quantile, window=args.window)
     text = _json_text(c.to_dict()) if args.json else format_calibration(c)
     if args.output:
-        write_atomic(args.output, with_thresholds(Path(args.model).read_text(encoding="utf-8"), c))
+        try:
+            edited = with_thresholds(Path(args.model).read_text(encoding="utf-8"), c)
+        except ValueError as e:              # a diagnosis key laid out in a way the window cannot be added to
+            raise DataError(f"{args.model}: the chosen derivative window ({c.window:.4g} s) cannot be written into a "
+                            f"copy: {e}; add diagnosis: {{derivative_window: {c.window:.4g}}} by hand") from None
+        write_atomic(args.output, edited)
         _note(f"wrote {args.output} with the calibrated thresholds", args.output)
     sys.stdout.write(text)
     return 0
@@ -1178,6 +1183,9 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("runs", nargs="+", help="nominal measurement CSV files (one may be -: standard input)")
     cal.add_argument("--margin", type=real(1.0, high=1e6), default=1.5, help="factor on the level (default 1.5)")
     cal.add_argument("--quantile", type=real(0.5, high=1.0), help="use this quantile of |r| instead of its peak")
+    cal.add_argument("--window", choices=["auto"],
+                     help="auto: also choose the derivative window (the rule's up to 16 times it) where the faults "
+                          "need the smallest changes to be detected, and calibrate at it (written with -o)")
     cal.add_argument("--json", action="store_true", help="print the calibration as JSON")
     cal.add_argument("-o", "--output", help="write a copy of the model with the calibrated thresholds")
     cal.set_defaults(func=cmd_calibrate)
