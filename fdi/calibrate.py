@@ -183,13 +183,18 @@ def choose_window(model_path: str, data: list[Measurements], margin: float = DEF
         window = rule * factor
         if factor > 1 and window > longest:
             break
-        if factor > 1 and not clear_of_modes(derivatives.window_samples(window, ts, derivatives.DEFAULT_ORDER), ts, eigenvalues):
+        samples = derivatives.window_samples(window, ts, derivatives.DEFAULT_ORDER)
+        if factor > 1 and not clear_of_modes(samples, ts, eigenvalues):
             continue
         config = replace(c.config, derivative_window=float(window))
-        base, moved = [], {}
-        for meas, raw, modes in runs:
+        keeps = []
+        for meas, _, _ in runs:
             sc = scales.for_model(model, config, meas.ts)
-            keep = trusted(meas.t, settling(settle, sc.settle), sc.end_edge)
+            keeps.append(trusted(meas.t, settling(settle, sc.settle), sc.end_edge))
+        if factor > 1 and min(int(k.sum()) for k in keeps) < 4 * samples:
+            continue                      # its settling (7 decay times of the modes it spans) leaves too little
+        base, moved = [], {}
+        for (meas, raw, modes), keep in zip(runs, keeps):
             r0 = np.asarray(evaluate(model, residuals, raw, meas.ts, window=window, values=modes))
             base.append(np.abs(r0)[:, keep])
             for f in model.faults:
@@ -217,8 +222,7 @@ def choose_window(model_path: str, data: list[Measurements], margin: float = DEF
         if any(f not in detectable for f in faults):
             continue
         score = float(np.exp(np.mean(np.log([detectable[f] for f in faults])))) if faults else float("inf")
-        out.append(WindowScore(float(window), derivatives.window_samples(window, ts, derivatives.DEFAULT_ORDER),
-                               {f: detectable[f] for f in faults}, score))
+        out.append(WindowScore(float(window), samples, {f: detectable[f] for f in faults}, score))
     return out
 
 
