@@ -322,10 +322,16 @@ def format_calibration(c: Calibration) -> str:
                          + (" (an alarm)" if alarmed else ""))
     if c.window is not None and c.window_chosen and c.window_scores and chosen(c.window_scores) is c.window_scores[0]:
         rule = c.window_scores[0]
-        worst = max(rule.detectable, key=rule.detectable.get)
-        lines.append(f"derivative window: {c.window:.4g} s ({c.window_samples} samples), the rule's, kept by --window auto: "
-                     f"every fault is detected from a change of at most {100 * DETECT_GOAL:g} % there (the largest: "
-                     f"{worst}, {100 * rule.detectable[worst]:.3g} %)")
+        head = f"derivative window: {c.window:.4g} s ({c.window_samples} samples), the rule's, kept by --window auto: "
+        if not rule.detectable:
+            lines.append(head + "no fault can be moved to score the windows (stuck and mode faults only)")
+        else:
+            worst = max(rule.detectable, key=rule.detectable.get)
+            largest = f"{worst}, {100 * rule.detectable[worst]:.3g} %"
+            lines.append(head + (f"every fault is detected from a change of at most {100 * DETECT_GOAL:g} % there "
+                                 f"(the largest: {largest})" if rule.detectable[worst] <= DETECT_GOAL else
+                                 f"no longer window qualifies (at most a tenth of a run, clear of the model's modes, "
+                                 f"under half a run without residuals); the largest change to detect: {largest}"))
     elif c.window is not None and c.window_chosen and c.window_scores:
         rule, pick = c.window_scores[0], chosen(c.window_scores)
         lines.append(f"derivative window: {c.window:.4g} s ({c.window_samples} samples), chosen by --window auto from "
