@@ -21,6 +21,11 @@ fewer). Each left-out run's worst residual is reported with its ratio to the oth
 Each residual's unit is given (:func:`fdi.arrs.arr_unit`): it depends on the variable it sums
 (m^3/s for one residual of a hydraulic model, Pa or N*m for the next).
 
+``bgfdi calibrate --window auto`` also chooses the derivative window for a model that sets none
+(:func:`choose_window`, :func:`chosen`; measured in docs/diagnosis.md, Time scales): the rule's
+window unless a fault needs more than a 10 % change to be detected there, else the candidate
+where the faults need the smallest changes.
+
 ``bgfdi calibrate -o`` writes the thresholds into a copy of the model file, the rest untouched:
 
 >>> c = Calibration("rc", ["ARR1"], ["A"], [[0.002]], [0.003], "peak", 1.5, None, ["nominal.csv"])
@@ -377,8 +382,15 @@ def with_window(text: str, window: float) -> str:
     diagnosis:
       derivative_window: 0.06   # bgfdi calibrate --window auto
       samples: 500
+    >>> print(with_window("name: m\\n", 1e-05), end="")
+    name: m
+    <BLANKLINE>
+    diagnosis: {derivative_window: 1.0e-05}   # bgfdi calibrate --window auto
     """
     value = f"{window:.4g}"
+    mantissa, e, exponent = value.partition("e")
+    if e and "." not in mantissa:            # YAML 1.1 reads 1e-05 as text: 1.0e-05 is a number
+        value = f"{mantissa}.0e{exponent}"
     found = list(re.finditer(r"^diagnosis:(.*)\n?", text, re.M))
     if not found:
         out = text.rstrip("\n") + f"\n\ndiagnosis: {{derivative_window: {value}}}   # bgfdi calibrate --window auto\n"
