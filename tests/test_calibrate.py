@@ -205,7 +205,8 @@ def test_window_auto_keeps_the_rules_window_where_it_detects_every_fault():
     """Two Helmholtz cavities (tests/data/helmholtz.yaml, scipy data): at the rule's window (4.5 ms)
     every fault is detected from a change of at most 3.7 %, so --window auto keeps it (a longer one
     scores better still, 0.13 %, but blurs what identification reads: docs/diagnosis.md)."""
-    from fdi.calibrate import DETECT_GOAL, chosen, format_calibration
+    from fdi.calibrate import format_calibration
+    from fdi.window_choice import DETECT_GOAL, chosen
 
     from .independent import helmholtz, measurements
     model = str(Path(__file__).resolve().parent / "data" / "helmholtz.yaml")

@@ -128,7 +128,7 @@ def test_the_damper_is_detected_with_the_rules_derivative_window(tmp_path):
 
 def test_calibrate_chooses_a_window_at_which_the_damper_is_found(tmp_path, capsys):
     """`bgfdi calibrate --window auto` on the model without its derivative window: of the rule's
-    9-sample window and its multiples clear of the 11 Hz wheel hop (fdi.calibrate.clear_of_modes:
+    9-sample window and its multiples clear of the 11 Hz wheel hop (fdi.window_choice.clear_of_modes:
     145 samples, cutoff 8.9 Hz, is left out), the window at which the five faults need the smallest
     changes to be detected, written into the copy (0.1018 s, 103 samples); at it the damper's 60 %
     loss is isolated from a coherence [1 0], typed abrupt and sized within 3 % from its onset (where
@@ -136,7 +136,7 @@ def test_calibrate_chooses_a_window_at_which_the_damper_is_found(tmp_path, capsy
     import json
 
     from fdi.app.cli import main
-    from fdi.calibrate import cutoff
+    from fdi.window_choice import cutoff
     from fdi.config import load
     text = MODEL.read_text()
     model = tmp_path / "quarter_car_rule_window.yaml"

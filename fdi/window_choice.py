@@ -1,0 +1,176 @@
+"""The derivative window from nominal runs (``bgfdi calibrate --window auto``).
+
+The rule's window (half the model's fastest time constant, :mod:`fdi.scales`) suits a residual's
+first derivatives; one that takes a second derivative of a noisy signal can be far noisier at it
+than any fault moves it. Each candidate window is scored on the nominal runs by the smallest
+relative change of each fault its calibrated thresholds detect; the rule's window stays where it
+detects every fault from DETECT_GOAL, else the best candidate wins. Measured on ten domain models
+in docs/diagnosis.md (Time scales).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import numpy as np
+
+from bondgraph.timescales import model_time_scales
+
+from . import derivatives, scales
+from .data import Measurements, commanded, signals_from_data
+from .detect import settling, trusted
+from .monitor import compiled
+from .residuals import evaluate
+from .sensitivity import STEP, _perturbed
+
+# ``--window auto``: the candidate derivative windows are the rule's times sqrt(2)^k, k = 0..8 (up
+# to 16 times it), each at most a tenth of the shortest run and clear of the model's modes
+# (clear_of_modes); unless the rule's window is good enough (DETECT_GOAL), the one with the
+# smallest detectable changes wins, the shortest of those within WINDOW_TIE of it (a shorter window
+# detects sooner)
+WINDOW_FACTORS = tuple(2.0 ** (k / 2) for k in range(9))
+WINDOW_TIE = 0.05
+MODE_CLEARANCE = 4.0      # a mode is cut when its frequency is this many times the filter's cutoff
+# ... and at most this fraction of a run's samples without a residual (within half a window of a
+# commanded or autonomous switch, fdi.residuals.mode_breaks). Measured on the water heater (its
+# thermostat relay and tap switching): 50 % at its hand-set 901 s window, whose designed truths
+# hold; 64 % at 1143 s, where the element's fault was typed a sensor offset, the insulation's seen
+# 1 500 s late and a relay stuck open not found
+MAX_GAPS = 0.5
+# The rule's window stays when every fault's detectable change is at most DETECT_GOAL there: a
+# longer window detects smaller changes but blurs what identification reads (measured on the
+# domain tests: at the longest-scoring windows a transformer's shorted turns took a spurious second
+# fault, the LC ladder's output capacitor too, where the rule's window finds them alone)
+DETECT_GOAL = 0.1
+
+
+@dataclass(frozen=True)
+class WindowScore:
+    """One candidate derivative window (s, and samples of the first run) and, per fault, the
+    smallest relative change of it the calibrated thresholds detect on the nominal runs (the
+    change whose RMS effect on its most telling residual equals that residual's threshold; 0.1 is
+    10 %); ``score`` is their geometric mean."""
+    window: float
+    samples: int
+    detectable: dict[str, float]
+    score: float
+
+
+def cutoff(samples: int, ts: float, polyorder: int = derivatives.DEFAULT_ORDER) -> float:
+    """The half-power frequency (Hz) of a Savitzky-Golay filter of order p over ``samples`` = 2M + 1
+    samples: (p + 1)/(3.2 M - 4.6) of the Nyquist frequency (Schafer, IEEE Signal Processing
+    Magazine 28(4), 2011).
+
+    >>> round(cutoff(103, 0.001), 1), round(cutoff(145, 0.001), 1)   # the quarter car's candidates
+    (12.6, 8.9)
+    """
+    m = (samples - 1) / 2
+    return (polyorder + 1) / max(3.2 * m - 4.6, polyorder + 1) / (2.0 * ts)
+
+
+def clear_of_modes(samples: int, ts: float, eigenvalues, polyorder: int = derivatives.DEFAULT_ORDER) -> bool:
+    """Whether a window passes each mode of the model (its frequency |lambda|/2 pi at most the
+    filter's :func:`cutoff`) or cuts it well (at least MODE_CLEARANCE times the cutoff). Why: a
+    residual's terms are filtered by the smoother and by its derivative filters, which agree on what
+    they pass and on what they cut, not in between: a mode near the cutoff leaves a bias in the
+    residual that nominal runs, exciting it little, do not show. Measured on the quarter car (wheel
+    hop 11 Hz): at 103 samples (cutoff 12.6 Hz) its damper's loss is isolated and sized (400.2 for
+    400); at 145 (8.9 Hz) the nominal runs score better still, but after the loss the tyre's balance
+    fires too and the damper is exonerated. The loudspeaker's electrical mode (1.9 kHz at 20 kHz
+    sampling) is passed by the rule's 9 samples and cut from 73 on (a 3.6 ms window), where its
+    mechanical residuals become useful.
+
+    >>> wheel_hop = [complex(-20.0, 69.0), complex(-20.0, -69.0)]
+    >>> clear_of_modes(103, 0.001, wheel_hop), clear_of_modes(145, 0.001, wheel_hop)
+    (True, False)
+    """
+    fc = cutoff(samples, ts, polyorder)
+    for lam in eigenvalues:
+        f = abs(lam) / (2.0 * np.pi)
+        if fc < f < MODE_CLEARANCE * fc:
+            return False
+    return True
+
+
+def choose_window(model_path: str, data: list[Measurements], thresholds_of: Callable[[list[np.ndarray]], np.ndarray],
+                  settle: float | None = None) -> list[WindowScore]:
+    """Every candidate derivative window's :class:`WindowScore` on the nominal runs ``data``, the
+    rule's window first (:data:`WINDOW_FACTORS` times it). Why: the rule (half the fastest time
+    constant, fdi.scales) suits a residual's first derivatives; a residual that takes a second
+    derivative of a noisy signal (a mass's acceleration from its velocity, a capacitor's current's
+    rate) is noisy at that window, its calibrated threshold far above what a fault moves it by (the
+    quarter car's damper: 3.65 m/s against 0.06 m/s). A longer window lowers the noise and biases
+    the fast dynamics: the thresholds from the runs see both, and each fault's effect (its parameter
+    or factor moved by fdi.sensitivity.STEP) is measured through the same filter. ``thresholds_of``:
+    the calibration's rule, |r| on the trusted samples of each run -> one threshold per residual
+    (:func:`fdi.calibrate.calibrate` passes its margin and quantile)."""
+    c = compiled(model_path)
+    model, residuals = c.model, list(c.residuals)
+    ts = data[0].ts
+    rule = scales.for_model(model, c.config, ts).window
+    longest = min(meas.t.size for meas in data) / 10 * ts          # at least ten windows per run
+    eigenvalues = model_time_scales(model).eigenvalues
+    nominal = {k: float(v) for k, v in model.nominal_by_name().items()}
+    runs = []
+    for meas in data:
+        raw = signals_from_data(model, meas)
+        runs.append((meas, raw, commanded(model, raw)))
+    out: list[WindowScore] = []
+    faults = None
+    for factor in WINDOW_FACTORS:
+        window = rule * factor
+        if factor > 1 and window > longest:
+            break
+        samples = derivatives.window_samples(window, ts, derivatives.DEFAULT_ORDER)
+        if factor > 1 and not clear_of_modes(samples, ts, eigenvalues):
+            continue
+        config = replace(c.config, derivative_window=float(window))
+        keeps = []
+        for meas, _, _ in runs:
+            sc = scales.for_model(model, config, meas.ts)
+            keeps.append(trusted(meas.t, settling(settle, sc.settle), sc.end_edge))
+        if factor > 1 and min(int(k.sum()) for k in keeps) < 4 * samples:
+            continue                      # its settling (7 decay times of the modes it spans) leaves too little
+        nominal_r = [np.asarray(evaluate(model, residuals, raw, meas.ts, window=window, values=modes))[:, keep]
+                     for (meas, raw, modes), keep in zip(runs, keeps)]
+        if factor > 1 and max(float(np.isnan(r0).any(axis=0).mean()) for r0 in nominal_r) > MAX_GAPS:
+            break                         # longer windows leave more of a run without residuals still
+        base, moved = [np.abs(r0) for r0 in nominal_r], {}
+        for (meas, raw, modes), keep, r0 in zip(runs, keeps, nominal_r):
+            for f in model.faults:
+                step = _perturbed(model, f, nominal, raw)
+                if step is None:
+                    continue
+                params, betas, biases = step
+                r1 = evaluate(model, residuals, raw, meas.ts, window=window, values={**modes, **params},
+                              betas=betas, biases=biases)
+                d = np.asarray(r1)[:, keep] - r0
+                ok = np.isfinite(d)           # sums of squares and counts: no copy of a long run per fault
+                total, count = moved.get(f, (0.0, 0))
+                moved[f] = (total + np.where(ok, d * d, 0.0).sum(axis=1), count + ok.sum(axis=1))
+        thresholds = thresholds_of(base)
+        detectable = {}
+        for f, (total, count) in moved.items():
+            with np.errstate(all="ignore"):
+                rms = np.sqrt(total / count)
+                sizes = STEP * thresholds / rms
+            sizes = sizes[np.isfinite(sizes) & (rms > 0)]
+            if sizes.size:
+                detectable[f] = float(sizes.min())
+        if faults is None:
+            faults = sorted(detectable)                # the faults the rule's window scores
+        if any(f not in detectable for f in faults):
+            continue
+        score = float(np.exp(np.mean(np.log([detectable[f] for f in faults])))) if faults else float("inf")
+        out.append(WindowScore(float(window), samples, {f: detectable[f] for f in faults}, score))
+    return out
+
+
+def chosen(scores: list[WindowScore]) -> WindowScore:
+    """The rule's window (the first) when it detects a change of DETECT_GOAL of every fault; else
+    the window with the smallest score, or the shortest within WINDOW_TIE of it."""
+    rule = scores[0]
+    if rule.detectable and max(rule.detectable.values()) <= DETECT_GOAL:
+        return rule
+    best = min(s.score for s in scores)
+    return next(s for s in scores if s.score <= best * (1 + WINDOW_TIE))
