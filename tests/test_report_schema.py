@@ -84,3 +84,21 @@ def test_a_nominal_and_a_faulty_report_have_the_same_keys():
                        prognosis=(Prognosis("R4", 1e9, 65.0, 23.0, 42.0, 22.0, 24.0),)).to_dict()
     assert list(nominal) == list(faulty) == SCHEMA["required"]
     VALIDATOR.validate(nominal)
+
+
+def test_an_alternative_with_a_lower_criterion_reads_as_a_tie():
+    """Schwarz's criterion within 2 is no preference (fdi.decide.NO_PREFERENCE) and the smaller set
+    wins: an alternative 1.6 lower is printed with its sign and why it did not win (it read
+    'criterion +-1.60': a two-compartment pharmacokinetic model's clearance drift beside a pump
+    fault, written for the review)."""
+    from fdi.app.report import to_text
+    fault = {"name": "a", "type": "abrupt", "value": 2.0, "t0": 1.0}
+    report = {"detection": {"time": 1.0, "alarm": 1.0, "coherence": [1, 0], "decision_time": 2.0,
+                            "final_coherence": [1, 0]},
+              "mode": {}, "candidates": [["a"], ["a", "b"]], "diagnosis": {"faults": [fault]},
+              "alternatives": [{"candidate": ["a", "b"], "cost": 10.0, "criterion": -1.6,
+                                "faults": [fault, {"name": "b", "type": "abrupt", "value": 1.02, "t0": 1.0}]},
+                               {"candidate": ["b"], "cost": 11.0, "criterion": 1.5, "faults": []}]}
+    text = to_text(report, "m", "d")
+    assert "(criterion -1.60: lower, but within 2 is a tie and the smaller set wins; cost 10)" in text
+    assert "(criterion +1.50; cost 11)" in text and "+-" not in text

@@ -64,7 +64,8 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
         out.append("  (* the winner: the smallest information criterion, 2 N_eff ln(cost) + ln(N_eff) per identified "
                    "parameter)")
     for a in report.get("alternatives") or []:
-        out.append(f"  nearly as good: {{{', '.join(a['candidate'])}}} (criterion +{a['criterion']:.2f}, cost "
+        tie = ": lower, but within 2 is a tie and the smaller set wins" if a["criterion"] < 0 else ""
+        out.append(f"  nearly as good: {{{', '.join(a['candidate'])}}} (criterion {a['criterion']:+.2f}{tie}; cost "
                    f"{a['cost']:.4g}): " + "; ".join(describe_fault(f) for f in a["faults"]))
     for e in report.get("episodes") or []:
         out.append(f"at {e['time']:.2f} s the coherence vector became {list(e['coherence'])}; decided again at "
