@@ -22,6 +22,12 @@ from .tape import (ABS, ACOS, ADD, ASIN, ATAN, CONST, COS, COSH, DIV, EXP, LOADF
 
 
 @njit(cache=True, nogil=True)
+def _steps19(span, step):  # pragma: no cover - compiled
+    """fdi.profiles.steps19: ``step``-second RK4 steps over ``span``, at least MIN_STEPS19, at most STEPS19."""
+    return STEPS19 if span / step > STEPS19 else max(MIN_STEPS19, int(np.ceil(span / step)))
+
+
+@njit(cache=True, nogil=True)
 def rk4_19(tau, p0, b5, b6, b7, step):  # pragma: no cover - compiled
     """Eq. (19) by RK4 on a uniform grid, Hermite-interpolated at ``tau`` (pop, N); see
     :func:`fdi.profiles._model19` (one grid step for all rows, from the largest tau)."""
@@ -31,7 +37,7 @@ def rk4_19(tau, p0, b5, b6, b7, step):  # pragma: no cover - compiled
         for j in range(n):
             if tau[r, j] > span:
                 span = tau[r, j]
-    k = STEPS19 if span / step > STEPS19 else max(MIN_STEPS19, int(np.ceil(span / step)))
+    k = _steps19(span, step)
     h = span / k if span > 0 else step
     grid = np.empty(k + 1)
     slope = np.empty(k + 1)
@@ -715,7 +721,7 @@ def fused_cost(t, onset, kinds, models, values, periods, coeffs, pre, pre_at,
     kmax = 1
     for j in range(nf):
         span = span19[j]
-        k19[j] = STEPS19 if span / step19 > STEPS19 else max(MIN_STEPS19, int(np.ceil(span / step19)))
+        k19[j] = _steps19(span, step19)
         h19[j] = span / k19[j] if span > 0 else step19
         kmax = max(kmax, k19[j])
     grid = np.empty(kmax + 1)

@@ -38,17 +38,16 @@ from . import kernels
 TYPES = ("abrupt", "intermittent", "incipient")
 MODELS = (1, 2, 3, 4)                       # eqs. (16), (17), (18), (19)
 N_COEFFICIENTS = {1: 1, 2: 1, 3: 2, 4: 3}  # b1 | b2 | b3, b4 | b5, b6, b7
-# Eq. (19)'s RK4 grid: 0.1 s steps, and at most STEPS19 of them over a window (the same in
-# fdi._jit and fdi/kernels.c). Why a cap: a grid in seconds cost the water heater (1 s samples,
-# windows of hours) 10^5 steps per individual, most of its diagnosis; over 1000 steps RK4's error
-# on a drift that evolves over the window is ~1e-12 of it, and an individual whose own time scale
-# is a few steps (|b6| h^2 ~ 1) is as far from such a drift as the bounds allow. Windows up to
-# 100 s keep the 0.1 s grid (the CyCab's, the tutorial's: their numbers unchanged).
-STEPS19 = 1000
-# And at least MIN_STEPS19: a grid in seconds gave a millisecond window one RK4 step, read by
+# Eq. (19)'s RK4 grid (steps19, the same rule in fdi._jit and fdi/kernels.c): 0.1 s steps, at
+# least MIN_STEPS19 and at most STEPS19 of them over a span. Why a cap: a grid in seconds cost the
+# water heater (1 s samples, windows of hours) 10^5 steps per individual, most of its diagnosis;
+# over 1000 steps RK4's error on a drift that evolves over the window is ~1e-12 of it, and an
+# individual whose own time scale is a few steps (|b6| h^2 ~ 1) is as far from such a drift as the
+# bounds allow. Why a floor: a grid in seconds gave a millisecond window one RK4 step, read by
 # Hermite interpolation, where the coefficients' bounds (fdi.encoding.coefficient_bounds, in units
-# of the identification window W) reach |b6| W^2 = 100. Windows of 10 s and more keep the 0.1 s
-# grid (the CyCab's identification windows: its numbers unchanged); a shorter span is cut in 100.
+# of the identification window W) reach |b6| W^2 = 100. Spans from 10 s to 100 s keep the 0.1 s
+# grid (the CyCab's identification windows: its numbers unchanged).
+STEPS19 = 1000
 MIN_STEPS19 = 100
 STEP19 = 0.1        # s: eq. (19)'s RK4 step on windows up to STEPS19 steps
 
@@ -196,9 +195,9 @@ def steps19(span: float, step: float) -> int:
 
 
 def _rk4_grid(p0: float, b5, b6, b7, pop: int, span: float, step: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """Eq. (19) by classical RK4 from tau = 0 to ``span`` on ceil(span/step) equal steps, at least
-    MIN_STEPS19 and at most STEPS19 (:func:`steps19`): P and dP/dt at the grid points, (pop, k + 1) each (P infinite and its slope 0 once P
-    overflows), and the step h."""
+    """Eq. (19) by classical RK4 from tau = 0 to ``span`` on :func:`steps19` equal steps: P and
+    dP/dt at the grid points, (pop, k + 1) each (P infinite and its slope 0 once P overflows), and
+    the step h."""
     k = steps19(span, step)
     h = span / k if span > 0 else step
     grid, slope = np.empty((pop, k + 1)), np.empty((pop, k + 1))

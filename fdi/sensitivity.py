@@ -61,7 +61,7 @@ class Weakness:
     threshold: float
 
 
-def _perturbed(model: Model, fault: str, nominal: Mapping[str, float],
+def perturbed(model: Model, fault: str, nominal: Mapping[str, float],
                raw: Mapping[str, np.ndarray]) -> tuple[dict, dict, dict] | None:
     """(parameter values, efficiency factors, offsets) with the fault's targets moved by STEP (an
     offset by STEP x the signal's RMS); None where the fault cannot be perturbed (a mode fault, an
@@ -101,7 +101,7 @@ def weak_entries(model: Model, residuals: list[Residual], raw: Mapping[str, np.n
         fired = [j for j, (s, cj) in enumerate(zip(row.nominal, c)) if s and cj]
         if not quiet or not fired:
             continue
-        moved = _perturbed(model, row.fault, nominal, raw)
+        moved = perturbed(model, row.fault, nominal, raw)
         if moved is None:
             continue
         params, betas, biases = moved
@@ -185,7 +185,7 @@ def nominal_sensitivities(model: Model, residuals: list[Residual], thresholds: M
     out = []
     names = [r.name for r in residuals]
     for fault in model.faults:
-        moved = _perturbed(model, fault, nominal, raw)
+        moved = perturbed(model, fault, nominal, raw)
         if moved is None:
             continue
         params, betas, biases = moved

@@ -260,7 +260,7 @@ class Stream:
         ts = float(t[1] - t[0])
         if self.window is None:
             self._start(ts)
-        elif self.ts != self.ts:            # a model file that gave every time: _start had no ts
+        elif math.isnan(self.ts):           # a model file that gave every time: _start had no ts
             self.ts = ts
         margin = int(math.ceil(self.window / ts)) + 1
         final = self.n - int(math.ceil(self.lag / ts)) - 1          # residuals final up to here (exclusive)

@@ -21,7 +21,7 @@ from .data import Measurements, commanded, signals_from_data
 from .detect import settling, trusted
 from .monitor import compiled
 from .residuals import evaluate
-from .sensitivity import STEP, _perturbed
+from .sensitivity import STEP, perturbed
 
 # ``--window auto``: the candidate derivative windows are the rule's times sqrt(2)^k, k = 0..8 (up
 # to 16 times it), each at most a tenth of the shortest run and clear of the model's modes
@@ -135,24 +135,10 @@ def choose_window(model_path: str, data: list[Measurements], thresholds_of: Call
                      for (meas, raw, modes), keep in zip(runs, keeps)]
         if factor > 1 and max(float(np.isnan(r0).any(axis=0).mean()) for r0 in nominal_r) > MAX_GAPS:
             break                         # longer windows leave more of a run without residuals still
-        base, moved = [np.abs(r0) for r0 in nominal_r], {}
-        for (meas, raw, modes), keep, r0 in zip(runs, keeps, nominal_r):
-            for f in model.faults:
-                step = _perturbed(model, f, nominal, raw)
-                if step is None:
-                    continue
-                params, betas, biases = step
-                r1 = evaluate(model, residuals, raw, meas.ts, window=window, values={**modes, **params},
-                              betas=betas, biases=biases)
-                d = np.asarray(r1)[:, keep] - r0
-                ok = np.isfinite(d)           # sums of squares and counts: no copy of a long run per fault
-                total, count = moved.get(f, (0.0, 0))
-                moved[f] = (total + np.where(ok, d * d, 0.0).sum(axis=1), count + ok.sum(axis=1))
-        thresholds = thresholds_of(base)
+        thresholds = thresholds_of([np.abs(r0) for r0 in nominal_r])
         detectable = {}
-        for f, (total, count) in moved.items():
+        for f, rms in _effects(model, residuals, runs, keeps, nominal_r, window, nominal).items():
             with np.errstate(all="ignore"):
-                rms = np.sqrt(total / count)
                 sizes = STEP * thresholds / rms
             sizes = sizes[np.isfinite(sizes) & (rms > 0)]
             if sizes.size:
@@ -164,6 +150,26 @@ def choose_window(model_path: str, data: list[Measurements], thresholds_of: Call
         score = float(np.exp(np.mean(np.log([detectable[f] for f in faults])))) if faults else float("inf")
         out.append(WindowScore(float(window), samples, {f: detectable[f] for f in faults}, score))
     return out
+
+
+def _effects(model, residuals, runs, keeps, nominal_r, window: float, nominal: dict) -> dict[str, np.ndarray]:
+    """Per fault that can be moved (fdi.sensitivity.perturbed), the RMS over the runs' trusted
+    samples of each residual's change when it is moved by STEP, at ``window``."""
+    sums: dict[str, tuple] = {}
+    for (meas, raw, modes), keep, r0 in zip(runs, keeps, nominal_r):
+        for f in model.faults:
+            step = perturbed(model, f, nominal, raw)
+            if step is None:
+                continue
+            params, betas, biases = step
+            r1 = evaluate(model, residuals, raw, meas.ts, window=window, values={**modes, **params},
+                          betas=betas, biases=biases)
+            d = np.asarray(r1)[:, keep] - r0
+            ok = np.isfinite(d)               # sums of squares and counts: no copy of a long run per fault
+            total, count = sums.get(f, (0.0, 0))
+            sums[f] = (total + np.where(ok, d * d, 0.0).sum(axis=1), count + ok.sum(axis=1))
+    with np.errstate(all="ignore"):
+        return {f: np.sqrt(total / count) for f, (total, count) in sums.items()}
 
 
 def chosen(scores: list[WindowScore]) -> WindowScore:
