@@ -181,6 +181,37 @@ def _template(args: tuple, shared: list) -> _Template | None:
                      words, numbers)
 
 
+def bind_fused(args: tuple, fresh: tuple):
+    """:func:`fused_cost` with every argument but the population's (``fresh``, which must be
+    :data:`FRESH`) described once: a callable of those nine arrays, in their order. The
+    objective that binds it owns the arrays (held here too), so no call looks them up or checks
+    them again (``fused_cost``'s template search and its fifty identity checks, ~60 us a call).
+    None when a shared array is not of its C type (then :func:`fused_cost` converts it each call)."""
+    if tuple(fresh) != FRESH or len(args) != len(FUSED_TYPES):
+        return None
+    held = list(args)
+    shared = [held[k] for k in SHARED]
+    if not all(isinstance(a, np.ndarray) for a in shared):
+        return None
+    t = _template(held, shared)
+    if t is None:
+        return None
+    pop_at, nlin = FRESH.index(2), held[46].shape[0]
+
+    def call(*values):
+        a = held.copy()                 # (a call's own list: an objective may be shared between threads)
+        for k, v in zip(FRESH, values):
+            a[k] = v
+        keep: list = []
+        d = t.words.copy()
+        _describe(a, FRESH, d, t.numbers, keep)
+        pop = values[pop_at].shape[1]
+        total, deltas, invalid = np.empty(pop), np.zeros((nlin, pop)), np.zeros(pop, dtype=np.bool_)
+        _check(_lib.fused_cost(_at(d), _at(t.numbers), _at(total), _at(deltas), _at(invalid)))
+        return total, deltas, invalid
+    return call
+
+
 def fused_cost(*args):
     """:func:`fdi._jit.fused_cost` (the same seventy arguments and three results). The arguments an
     objective's calls share are described once (:class:`_Template`, found by their identities and

@@ -259,6 +259,20 @@ def step_blends(t: np.ndarray, steps: np.ndarray, order: int, window: float | No
     return at, seen, valid
 
 
+def smoothed_step(window: float | None, ts: float) -> np.ndarray:
+    """(2 h,): a unit step as the smoothing filter (order 0) sees it at the samples q - h .. q + h - 1
+    (q the first sample at or after the step, n = 2 h + 1 the filter's window): the same wherever
+    the step falls between two samples (:func:`step_blends`' ``seen`` for order 0, one row).
+
+    >>> s = smoothed_step(0.05, 0.01)
+    >>> s.size, bool(s[0] < 0.5 < s[-1])
+    (4, True)
+    """
+    p = DEFAULT_ORDER
+    n = window_samples(window, ts, p)
+    return _step_table(n, p, 0, float(ts))[:, 0]
+
+
 def blend_rows(valid: np.ndarray) -> np.ndarray:
     """The step (row) of each place :func:`step_blends` marks ``valid``, in the mask's order."""
     return np.broadcast_to(np.arange(valid.shape[0])[:, None], valid.shape)[valid]

@@ -60,6 +60,8 @@ from .residuals import Residual, mode_breaks, samples_of
 
 Objective = Any     # fdi.objective.Objective (which imports this module where it is first used)
 
+FRESH = (1, 2, 3, 4, 5, 6, 7, 8, 15)   # fused_cost's arguments a call gives: the population's (onsets,
+                                      # decoded structure, coefficients, seen steps, eq. 19's span)
 BLOCK = 256         # samples per block of a tape's registers (registers x 2 kB: in L1/L2)
 SOURCE = "__bgfdi_source__"     # fdi.persist's attribute for a kernel compiled from its source
 
@@ -168,6 +170,7 @@ class Fused:
         self.t = np.ascontiguousarray(obj.win.t, dtype=float)
         self.plans: dict[int, Plan] = {}
         self.patterns: dict[tuple[bool, ...], Pattern] = {}
+        self.calls: dict[tuple[int, tuple[bool, ...]], Any] = {}     # bind's, per (stride, solving)
         self.s_at_array = np.array(self.s_at, dtype=np.int64)
         self.no_pre = np.zeros((1, 1))
         # the decoding's constants (fdi._jit.decode_rows): logarithmic values, coefficient scales, and
@@ -408,20 +411,37 @@ class Fused:
                         pre_at[j, rows] = filled + np.arange(rows.size)
                         filled += rows.size
         pre = (pre[0] if len(pre) == 1 else np.vstack(pre)) if pre else self.no_pre
-        p = self.pattern(solving)
-        total, d, invalid = fast.fused_cost(
-            t, onset, kinds, models, values, periods, np.ascontiguousarray(b[:, :, COEFFS]), pre, pre_at,
-            self.f_nominal, self.f_unit, self.f_linear, self.f_role, self.f_lo, self.f_hi, span19, STEP19,
-            self.slot_fault, self.slot_step, self.slot_group, self.tnom,
-            plan.code, plan.results, plan.registers, plan.consts, plan.fixed,
-            self.raw, self.is_source, self.beta_fault, self.beta_fixed, self.bias_fault, self.bias_fixed,
-            self.corr_fixed, self.fk, self.fk_n, self.fk_orders, self.s_at_array, self.n_slots,
-            plan.crop.start, stride, plan.m, p.plain, p.plain_w, p.joint, p.joint_w, p.enters, self.lin_fault,
-            p.lo, p.hi, p.passes, plan.gaps, plan.constant, BLOCK,
-            *self.stored_arguments())
+        call = self.calls.get((stride, solving)) or self.bind(fast, stride, solving)
+        total, d, invalid = call(onset, kinds, models, values, periods, np.ascontiguousarray(b[:, :, COEFFS]), pre,
+                                 pre_at, span19)
         solve = {j: kinds[j] < 2 for jj, j in enumerate(self.linear) if solving[jj]}
-        deltas = {j: d[jj] for jj, j in enumerate(self.linear) if solving[jj]} if p.joint.size else {}
+        deltas = {j: d[jj] for jj, j in enumerate(self.linear) if solving[jj]} if self.pattern(solving).joint.size else {}
         return obj.finish(real, solve, deltas, total, invalid, stride)
+
+    def bind(self, fast, stride: int, solving: tuple[bool, ...]):
+        """The kernel's call for one sampling stride and set of solved linear faults: every
+        argument but the population's (:data:`FRESH`) fixed, and described once where the
+        compiled path can (:func:`fdi._native.bind_fused`); kept per (stride, solving)."""
+        plan, p = self.plan(stride), self.pattern(solving)
+        args = (self.t, None, None, None, None, None, None, None, None,
+                self.f_nominal, self.f_unit, self.f_linear, self.f_role, self.f_lo, self.f_hi, None, STEP19,
+                self.slot_fault, self.slot_step, self.slot_group, self.tnom,
+                plan.code, plan.results, plan.registers, plan.consts, plan.fixed,
+                self.raw, self.is_source, self.beta_fault, self.beta_fixed, self.bias_fault, self.bias_fixed,
+                self.corr_fixed, self.fk, self.fk_n, self.fk_orders, self.s_at_array, self.n_slots,
+                plan.crop.start, stride, plan.m, p.plain, p.plain_w, p.joint, p.joint_w, p.enters, self.lin_fault,
+                p.lo, p.hi, p.passes, plan.gaps, plan.constant, BLOCK,
+                *self.stored_arguments())
+        bound = getattr(fast, "bind_fused", None)
+        call = bound(args, FRESH) if bound is not None else None
+        if call is None:
+            def call(*values, fused_cost=fast.fused_cost):
+                a = list(args)
+                for k, v in zip(FRESH, values):
+                    a[k] = v
+                return fused_cost(*a)
+        self.calls[(stride, solving)] = call
+        return call
 
     def stored_arguments(self) -> tuple:
         """The kernel's arguments for the stored quantities (:meth:`_stored_quantities`)."""
