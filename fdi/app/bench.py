@@ -322,18 +322,19 @@ def diagnose_rows(data_path: Path, workers: int = 1) -> dict:
             "process": process_costs(model, data_path, workers)}
 
 
-def process_costs(model: Path, data_path: Path, workers: int, repeat: int = 3) -> dict | None:
+def process_costs(model: Path, data_path: Path, workers: int, repeat: int = 3, fill: bool = True) -> dict | None:
     """A whole ``bgfdi diagnose MODEL DATA --workers N -q`` process as a user runs it: after one run
-    that fills the caches (the compiled model and the C kernels, where the disk cache is on), the
-    least wall and CPU seconds (user + system of the child, ``getrusage``) of ``repeat`` runs; and
-    whether the cache was on. None if a run fails."""
+    that fills the caches (the compiled model and the C kernels, where the disk cache is on; not
+    with ``fill`` off), the least wall and CPU seconds (user + system of the child, ``getrusage``)
+    of ``repeat`` runs; and whether the cache was on. None if a run fails."""
     import sys
 
     from .. import diskcache
     from .bench_startup import process_times
     cmd = [sys.executable, "-m", "fdi", "diagnose", str(model), str(data_path), "--workers", str(workers), "-q"]
     try:
-        process_times(cmd)
+        if fill:
+            process_times(cmd)
         runs = [process_times(cmd) for _ in range(repeat)]
     except RuntimeError:
         return None
@@ -341,17 +342,18 @@ def process_costs(model: Path, data_path: Path, workers: int, repeat: int = 3) -
             "cache": diskcache.enabled()}
 
 
-def jit_costs(path: str) -> dict | None:
+def jit_costs(path: str, probes: int = 2) -> dict | None:
     """CPU seconds a fresh process pays for the compiled kernels of ``path`` (``c``: the library
     built once and kept in the disk cache; ``numba``: numba's disk cache), warm: loading them (for
     numba its import), then the first objective call (numba loads every kernel it runs there), then
-    a second (:func:`jit_probe` in a subprocess, run twice: the first may build). None if it fails."""
+    a second (:func:`jit_probe` in a subprocess, run ``probes`` times: the first may build; the last
+    is reported). None if it fails."""
     import json
     import os
     import subprocess
     import sys
     env = {**os.environ, "BGFDI_KERNELS": path}
-    for _ in range(2):
+    for _ in range(max(1, probes)):
         out = subprocess.run([sys.executable, "-c", "from fdi.app.bench import jit_probe; jit_probe()"],
                              capture_output=True, text=True, env=env)
     try:
