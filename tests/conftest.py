@@ -1,7 +1,10 @@
 """Shared fixtures: the shipped models and the CyCab reference data (copied into tests/data)."""
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -9,10 +12,17 @@ import pytest
 from bondgraph.loader import load_model
 from fdi.arrs import derive_arrs
 
-# The compiled-model cache on disk is off in tests (and their subprocesses): a test never reads or
-# fills the user's ~/.cache, and every derivation it counts happens; tests/test_diskcache.py turns
-# it on in a folder of its own.
-os.environ["BGFDI_CACHE"] = "off"
+# bgfdi's disk cache (compiled models, the built C kernels) in a folder of this test process's own,
+# removed at its exit, and shared with the processes it starts: a test never reads or fills the
+# user's ~/.cache. With the cache off (as until 2026-11-29) no process could keep the C kernels:
+# identification ran on the numpy path everywhere a test diagnosed (the C library built in a
+# process is kept only by the store), and every CLI subprocess derived its model again. A test
+# that counts derivations, or compares a fresh process with a warm one, turns the cache off or
+# gives it a folder of its own (tests/test_worker_pool.py, tests/test_diskcache.py).
+_CACHE = tempfile.mkdtemp(prefix="bgfdi-tests-")
+os.environ.pop("BGFDI_CACHE", None)
+os.environ["BGFDI_CACHE_DIR"] = _CACHE
+atexit.register(shutil.rmtree, _CACHE, True)
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = ROOT / "models"

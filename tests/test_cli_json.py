@@ -199,7 +199,7 @@ def test_bench_diagnose_json(capsys, monkeypatch):
         assert c["call_100_s"] > c["call_1_s"] > 0 and c["per_row_s"] > 0
         assert abs(c["overhead_s"] + c["per_row_s"] - c["call_1_s"]) < 1e-12
     p = d["process"]                                      # a whole bgfdi diagnose process, as a user runs it
-    assert p["runs"] == 1 and p["cache"] is False and _seconds(p["wall_s"]) and _seconds(p["cpu_s"])
+    assert p["runs"] == 1 and p["cache"] is True and _seconds(p["wall_s"]) and _seconds(p["cpu_s"])   # the session's own cache
     for path, j in (d["jit"] or {}).items():             # a fresh process loads the kept kernels of each path
         assert path in ("c", "numba")
         assert _seconds(j["import_s"]) and j["first_call_s"] > 0 and j["second_call_s"] > 0 and j["path"] == path

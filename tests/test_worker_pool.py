@@ -28,7 +28,7 @@ SCRIPT = textwrap.dedent("""
 
 def test_a_spawned_pool_derives_the_model_once_in_the_parent(tmp_path):
     log = tmp_path / "derivations"
-    env = {**os.environ, LOG_ENV: str(log), "PYTHONPATH": str(ROOT)}
+    env = {**os.environ, LOG_ENV: str(log), "PYTHONPATH": str(ROOT), "BGFDI_CACHE": "off"}   # every derivation happens
     out = subprocess.run([sys.executable, "-c", SCRIPT], cwd=ROOT, env=env, capture_output=True, text=True,
                          timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
