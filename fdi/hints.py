@@ -316,6 +316,35 @@ def intermittent_rows(spaces: list, bits: np.ndarray, seeds: list[list[tuple[flo
     return np.vstack(blocks) if blocks else np.empty((0, d))
 
 
+def step_rows(spaces: list, bits: np.ndarray, onsets: list[list[float]], levels: int) -> np.ndarray:
+    """Decision vectors (``fdi.encoding``'s reals, the onset last) seeding the abrupt faults of the
+    structure of ``bits`` that have ``onsets``: for each such fault j, ``levels`` values spread
+    evenly over its bounds (in its decades when logarithmic) at each onset of ``onsets[j]``; NaN
+    elsewhere (the engine draws those). No rows when none has.
+
+    >>> from fdi import encoding
+    >>> s = encoding.FaultSpace.make("Kv", 2e-8, (2e-10, 2e-6))
+    >>> _, bits = encoding.encode([s], [{"type": "abrupt", "value": 2e-8}])
+    >>> rows = step_rows([s], bits, [[2.0, 2.001]], 4)
+    >>> rows.shape, rows[:4, 0].round(2).tolist(), rows[[0, 4], -1].tolist()
+    ((8, 10), [-9.2, -8.2, -7.2, -6.2], [2.0, 2.001])
+    """
+    from . import encoding
+    d = encoding.N_REAL * len(spaces) + 1
+    blocks = []
+    decoded = encoding.decode(spaces, np.zeros((1, encoding.N_REAL * len(spaces))), np.asarray(bits)[None, :])
+    for j, (space, dec) in enumerate(zip(spaces, decoded)):
+        if int(dec.kind[0]) != 0 or not onsets[j]:
+            continue
+        lo, hi = encoding.bounds([space])[0]
+        values = lo + (np.arange(levels) + 0.5) / levels * (hi - lo)
+        block = np.full((len(onsets[j]) * levels, d), np.nan)      # each onset, each value (values inner)
+        block[:, encoding.N_REAL * j] = np.tile(values, len(onsets[j]))
+        block[:, -1] = np.repeat(np.asarray(onsets[j], dtype=float), levels)
+        blocks.append(block)
+    return np.vstack(blocks) if blocks else np.empty((0, d))
+
+
 def nesting_depth(residual) -> int:
     """How many derivative filters a residual's samples pass through in series: one for its signals,
     and for a stored quantity it differentiates (``composites``), one for the rate plus those of the

@@ -42,6 +42,8 @@ BLOCK = 32768          # samples x individuals per block of a residual that filt
 KERNEL_BLOCK = 8192    # ... and of one that does not (64 kB per temporary: the CyCab's ARR3 in blocks of 8 rows x 1 000
                        # samples 24 ns a value, in one block of 30 rows 53 ns, measured)
 PHASES = 16           # onsets proposed per period found in the residuals (fdi.hints)
+SPIKE_OFFSETS = (-1, 0, 1, 2, 3)   # samples from a spike's peak where its step is proposed (Objective.spikes)
+SPIKE_LEVELS = 16     # values proposed at each of them, evenly over the fault's range (its decades when logarithmic)
 DEFAULT_BOUNDS = {"sensor": (0.05, 1.5), "source": (0.05, 1.5), "group": (0.1, 10.0)}
 
 
@@ -91,6 +93,11 @@ def fault_space(model: Model, name: str, span: float | None = None,
 
 LINEAR = {"identity": (lambda v: v, lambda u: u),
           "reciprocal": (lambda v: 1.0 / np.asarray(v, dtype=float), lambda u: 1.0 / np.asarray(u, dtype=float))}
+
+
+def _holds(residual: Residual, names: set[str]) -> bool:
+    """Whether a stored quantity ``residual`` differentiates (at any depth) reads one of ``names``."""
+    return any(names & set(inner.symbols) or _holds(inner, names) for _, inner in residual.composites)
 
 
 def acted_on(model: Model, residuals: tuple[Residual, ...], name: str) -> set[int]:
@@ -630,11 +637,11 @@ class Objective:
             out[:, self.gaps[crop]] = 0.0
         return out
 
-    def seeds(self) -> list[list[tuple[float, float]]]:
-        """Per candidate fault, the (period, phase) pairs the data suggest (:mod:`fdi.hints`): square
-        waves in the weighted magnitude of the residuals it enters, at the nominal hypothesis (the
-        fixed faults held), from the window's first sample; computed once."""
-        if getattr(self, "_seeds", None) is None:
+    def magnitudes(self) -> list[np.ndarray]:
+        """Per candidate fault, the weighted magnitude of the residuals it enters at the nominal
+        hypothesis (the fixed faults held) on the window's samples (``crop()``), summed; zeros for
+        a fault no active residual reads. Computed once."""
+        if getattr(self, "_magnitudes", None) is None:
             c = self.crop()
             mags = {}
             for i in self.active:
@@ -642,14 +649,53 @@ class Objective:
                 x = np.abs(np.broadcast_to(x, x.shape[:-1] + (self.win.t.size,)).reshape(-1, self.win.t.size)[0, c])
                 mags[i] = self.weights[i] * np.where(np.isfinite(x), x, 0.0)
             out = []
-            for j, space in enumerate(self.spaces):
-                f = self.model.faults[space.name]
-                mine = [i for i in self.active if set(f.symbols) & self.residuals[i].parameter_names()
-                        or f.targets[0] in {s for s, _ in self.residuals[i].signal_orders()}]
-                x = sum((mags[i] for i in mine), np.zeros(c.stop - c.start))
-                out.append(hints.periods(x, self.win.ts, *space.period) if mine else [])
-            self._seeds = out
+            for space in self.spaces:
+                mine = self._entered(space.name)
+                out.append(sum((mags[i] for i in mine), np.zeros(c.stop - c.start)))
+            self._magnitudes = out
+        return self._magnitudes
+
+    def _entered(self, name: str) -> list[int]:
+        """The active residuals fault ``name`` enters (a parameter read, or its signal)."""
+        f = self.model.faults[name]
+        return [i for i in self.active if set(f.symbols) & self.residuals[i].parameter_names()
+                or f.targets[0] in {s for s, _ in self.residuals[i].signal_orders()}]
+
+    def seeds(self) -> list[list[tuple[float, float]]]:
+        """Per candidate fault, the (period, phase) pairs the data suggest (:mod:`fdi.hints`): square
+        waves in the weighted magnitude of the residuals it enters (:meth:`magnitudes`), from the
+        window's first sample; computed once."""
+        if getattr(self, "_seeds", None) is None:
+            self._seeds = [hints.periods(x, self.win.ts, *space.period) if self._entered(space.name) else []
+                           for space, x in zip(self.spaces, self.magnitudes())]
         return self._seeds
+
+    def spikes(self) -> list[list[float]]:
+        """Per candidate fault, the onsets the data suggest for its step where the objective must
+        search its value and a residual differentiates a stored quantity that holds its parameter
+        (:attr:`fdi.residuals.Residual.composites`: an orifice's flow inside the supply pressure
+        whose rate the balance reads). Such a step shows as a spike of the residual at the onset
+        (the rate of a jump), and only the right value at the right onset, within a few samples,
+        takes it away: a basin a Latin hypercube over the value's decades and the onset interval
+        hits a few times in a hundred draws (the orifice's {Kv}: missed on 2 of 8 seeds). The onsets
+        are the samples around the peak of the weighted magnitude (:meth:`magnitudes`) within the
+        onset interval, :data:`SPIKE_OFFSETS` samples from it; [] for the other faults."""
+        if getattr(self, "_spikes", None) is None:
+            lo, hi = self.bounds()[-1]
+            t = self.win.t[self.crop()]
+            inside = (t >= lo) & (t <= hi)
+            out = []
+            for space, x in zip(self.spaces, self.magnitudes()):
+                f = self.model.faults[space.name]
+                stored = f.kind == "parametric" and space.name not in self.linear and any(
+                    _holds(self.residuals[i], set(f.targets)) for i in self._entered(space.name))
+                if not stored or not inside.any() or not np.any(x[inside] > 0):
+                    out.append([])
+                    continue
+                peak = int(np.flatnonzero(inside)[np.argmax(x[inside])])
+                out.append(sorted({float(np.clip(t[0] + (peak + k) * self.win.ts, lo, hi)) for k in SPIKE_OFFSETS}))
+            self._spikes = out
+        return self._spikes
 
     def translate(self, real: np.ndarray, bits_from: np.ndarray, bits_to: np.ndarray) -> np.ndarray:
         """The engine's ``translate`` hook: ``real``'s fault profiles re-expressed in the structure
@@ -661,7 +707,9 @@ class Objective:
     def propose(self, bits: np.ndarray) -> np.ndarray:
         """Points the data suggest for the structure of ``bits`` (the engine's ``propose`` hook): its
         intermittent faults at the periods found in the residuals (:meth:`seeds`), each with its
-        onset where its square wave switches on within the onset interval; NaN elsewhere."""
+        onset where its square wave switches on within the onset interval; its abrupt faults whose
+        step the residuals see as a spike at the spike (:meth:`spikes`), at values spread over their
+        range; NaN elsewhere."""
         lo, hi = self.bounds()[-1]
 
         def onsets(T: float, phase: float) -> list[float]:
@@ -669,7 +717,8 @@ class Objective:
             # biased by the spikes a gain's switching leaves at both edges (measured: 70 ms on 0.7 s)
             return [hints.aligned_onsets(T, phase + k * T / PHASES, self.win.t0, lo, hi, limit=1)[0]
                     for k in range(PHASES)]
-        return hints.intermittent_rows(self.spaces, bits, self.seeds(), onsets, levels=3)
+        rows = hints.intermittent_rows(self.spaces, bits, self.seeds(), onsets, levels=3)
+        return np.vstack([rows, hints.step_rows(self.spaces, bits, self.spikes(), SPIKE_LEVELS)])
 
     def structure(self, bits: np.ndarray):
         return encoding.structure(self.spaces, bits)
