@@ -352,6 +352,42 @@ def incipient_exp(t, t0, nominal, model, b):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
+def edges_seen0(t, edges, signs, seen, h, blends):  # pragma: no cover - compiled
+    """:func:`fdi.derivatives.edges_seen` for order 0 (``seen``: the smoothing filter's view of a
+    step, 2 h values; ``blends`` False when no window fits): per row the sharp steps summed sample
+    by sample (exact: sums of +-1), then each edge's blend added edge after edge in (row, column)
+    order, np.add.at's order, so the same bits where two edges' windows meet. ``signs`` (rows or
+    1, edges)."""
+    rows, ne = edges.shape
+    nw = t.shape[0]
+    out = np.empty((rows, nw))
+    jumps = np.empty(nw + 1)
+    for r in range(rows):
+        sr = signs[0] if signs.shape[0] == 1 else signs[r]
+        jumps[:] = 0.0
+        for e in range(ne):
+            if np.isfinite(edges[r, e]):
+                jumps[np.searchsorted(t, edges[r, e])] += sr[e]
+        acc = 0.0
+        for i in range(nw):
+            acc += jumps[i]
+            out[r, i] = acc
+        if not blends:
+            continue
+        for e in range(ne):
+            if not np.isfinite(edges[r, e]):
+                continue
+            q = np.searchsorted(t, edges[r, e])
+            if q >= nw:
+                continue
+            for k in range(2 * h):
+                a = q - h + k
+                if h <= a < nw - h:
+                    out[r, a] += sr[e] * (seen[k] - (1.0 if k >= h else 0.0))
+    return out
+
+
+@njit(cache=True, nogil=True)
 def fir(x, half, start, count, stride):  # pragma: no cover - compiled
     """:func:`fdi.derivatives.fir` for rows of ``x`` (rows, samples): out[r, k, i], the numpy
     path's operations in its order (the middle sample times tap 0, then the pairs j = 1, 2, ...).

@@ -26,6 +26,7 @@ _SIGNATURES = {
     "incipient17": ("r", "pipidpp"),
     "incipient_exp": ("r", "pipdipiip"),
     "fir": ("r", "piipiiiiip"),
+    "edges_seen0": ("r", "pipiipipiip"),
     "decode_rows": ("r", "piipipppipp" + "di" + "p" * 9),
     "fused_cost": ("r", "ppppp"),
     "fused_arity": ("r", ""),
@@ -92,6 +93,16 @@ def incipient_exp(t, t0, nominal, model, b):
     rows, n = b.shape[0], t.shape[0]
     out = np.empty((rows, n))
     _check(_lib.incipient_exp(_at(t), n, _at(t0), float(nominal), int(model), _at(b), rows, b.shape[1], _at(out)))
+    return out
+
+
+def edges_seen0(t, edges, signs, seen, h, blends):
+    """:func:`fdi._jit.edges_seen0`."""
+    t, edges, signs, seen = _f(t), _f(edges), _f(signs), _f(seen)
+    rows, ne = edges.shape
+    out = np.empty((rows, t.shape[0]))
+    _check(_lib.edges_seen0(_at(t), t.shape[0], _at(edges), rows, ne, _at(signs), signs.shape[0], _at(seen),
+                            int(h), int(bool(blends)), _at(out)))
     return out
 
 

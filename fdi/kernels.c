@@ -319,6 +319,51 @@ static void fir_row(const double *src, I nsrc, const double *half, I hrows, I hc
     }
 }
 
+/* fdi.derivatives.edges_seen for order 0: per row, the sharp steps of edges (rows, ne; NaN: none)
+   times signs (srows = 1: one row for all) summed sample by sample (exact: sums of +-1), then each
+   edge's blend sign * (seen[k] - (k >= h)) added at q - h + k where h <= that < nw - h (q the first
+   sample at or after the edge), edge after edge in (row, column) order: np.add.at's order, so the
+   same bits where two edges' windows meet. seen (2 h) is the smoothing filter's view of a step;
+   blends = 0 when no window fits. out (rows, nw). */
+static I first_at_or_after(const double *t, I n, double x)
+{
+    I lo = 0, hi = n;
+    while (lo < hi) {
+        I mid = lo + (hi - lo) / 2;
+        if (t[mid] < x) lo = mid + 1; else hi = mid;
+    }
+    return lo;
+}
+
+int edges_seen0(const double *t, I nw, const double *edges, I rows, I ne, const double *signs, I srows,
+                const double *seen, I h, I blends, double *out)
+{
+    double *jumps = malloc(sizeof(double) * (nw + 1));
+    if (!jumps) return -1;
+    for (I r = 0; r < rows; r++) {
+        const double *er = edges + r * ne, *sr = signs + (srows == 1 ? 0 : r * ne);
+        double *o = out + r * nw;
+        for (I i = 0; i <= nw; i++) jumps[i] = 0.0;
+        for (I e = 0; e < ne; e++)
+            if (isfinite(er[e])) jumps[first_at_or_after(t, nw, er[e])] += sr[e];
+        double acc = 0.0;
+        for (I i = 0; i < nw; i++) { acc += jumps[i]; o[i] = acc; }
+        if (!blends) continue;
+        for (I e = 0; e < ne; e++) {
+            if (!isfinite(er[e])) continue;
+            I q = first_at_or_after(t, nw, er[e]);
+            if (q >= nw) continue;
+            double s = sr[e];
+            for (I k = 0; k < 2 * h; k++) {
+                I a = q - h + k;
+                if (a >= h && a < nw - h) o[a] += s * (seen[k] - (k >= h ? 1.0 : 0.0));
+            }
+        }
+    }
+    free(jumps);
+    return 0;
+}
+
 /* x (rows, nx), half (hrows, hcols) -> out (rows, hcols, count) */
 int fir(const double *x, I rows, I nx, const double *half, I hrows, I hcols, I start, I count, I stride, double *out)
 {

@@ -207,6 +207,28 @@ def test_intermittent_paths_agree_at_and_between_switches():
         assert np.array_equal(plain, fast, equal_nan=True)
 
 
+def test_square_waves_seen_by_the_filter_are_the_numpy_path_s_bits():
+    """fdi.derivatives.edges_seen (an intermittent fault's profile as the smoothing filter sees
+    it) compiled and on numpy, to the bit: square waves of eq. (15) with periods long and short
+    (edges whose windows meet: the blends then add in np.add.at's order), edges on the grid, in the
+    window's first and last half-window and beyond its end; a window shorter than the filter."""
+    from fdi.derivatives import edges_seen
+    from fdi.profiles import intermittent_edges
+
+    rng = np.random.default_rng(5)
+    t = np.arange(0.0, 10.5, 0.01)
+    t0 = np.concatenate([rng.uniform(-0.2, 10.6, 60), np.round(rng.uniform(0, 10, 20), 2), [np.nan, 0.0, 10.49]])
+    period = np.concatenate([rng.uniform(0.05, 4.0, 60), np.round(rng.uniform(0.1, 2, 20), 2), [1.0, 0.12, 1.0]])
+    edges, signs = intermittent_edges(float(t[-1]), t0, period)
+    for window in (0.25, 0.05):
+        plain, fast = both(lambda: edges_seen(t, edges, signs, 0, window, 0.01))
+        same(plain, fast)
+    assert (0.0 < plain).any() and (plain < 1.0).any() and not np.isin(plain, (0.0, 1.0)).all()
+    short = t[:10]
+    plain, fast = both(lambda: edges_seen(short, np.array([[0.03, 0.07]]), np.array([[1.0, -1.0]]), 0, 0.25, 0.01))
+    same(plain, fast)
+
+
 def test_eq17_paths_agree_and_follow_the_closed_form(path):
     """1/P = 1/P0 - b2 tau (infinite past the pole), for finite and infinite P0, on both paths."""
     rng = np.random.default_rng(17)
