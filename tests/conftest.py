@@ -14,9 +14,10 @@ from fdi.arrs import derive_arrs
 
 # bgfdi's disk cache (compiled models, the built C kernels) in a folder of this test process's own,
 # removed at its exit, and shared with the processes it starts: a test never reads or fills the
-# user's ~/.cache. With the cache off (as until 2026-11-29) no process could keep the C kernels:
-# identification ran on the numpy path everywhere a test diagnosed (the C library built in a
-# process is kept only by the store), and every CLI subprocess derived its model again. A test
+# user's ~/.cache. With the cache off (as until 2026-11-29) no process could keep the C kernels
+# (optim.kernels takes C only with a store): every process that identified took numba's path
+# instead, paying its import and kernel loading (~1.2 s a process: bench diagnose's "numba kernels
+# in a fresh process"), and every CLI subprocess derived its model again. A test
 # that counts derivations, or compares a fresh process with a warm one, turns the cache off or
 # gives it a folder of its own (tests/test_worker_pool.py, tests/test_diskcache.py).
 _CACHE = tempfile.mkdtemp(prefix="bgfdi-tests-")
