@@ -299,19 +299,12 @@ def intermittent_rows(spaces: list, bits: np.ndarray, seeds: list[list[tuple[flo
     from . import encoding
     d = encoding.N_REAL * len(spaces) + (1 if onsets is not None else 0)
     blocks = []
-    decoded = encoding.decode(spaces, np.zeros((1, encoding.N_REAL * len(spaces))), np.asarray(bits)[None, :])
-    for j, (space, dec) in enumerate(zip(spaces, decoded)):
-        if int(dec.kind[0]) != 1 or not seeds[j]:
+    for j, kind in enumerate(_kinds(spaces, bits)):
+        if kind != 1 or not seeds[j]:
             continue
-        lo, hi = encoding.bounds([space])[0]
-        values = lo + (np.arange(levels) + 0.5) / levels * (hi - lo)
         for period, phase in seeds[j]:
-            starts = onsets(period, phase) if onsets is not None else [np.nan]
-            block = np.full((len(starts) * levels, d), np.nan)     # each onset, each value (values inner)
-            block[:, encoding.N_REAL * j] = np.tile(values, len(starts))
+            block = _value_grid(spaces[j], j, onsets(period, phase) if onsets is not None else None, levels, d)
             block[:, encoding.N_REAL * j + 1] = period
-            if onsets is not None:
-                block[:, -1] = np.repeat(np.asarray(starts, dtype=float), levels)
             blocks.append(block)
     return np.vstack(blocks) if blocks else np.empty((0, d))
 
@@ -331,18 +324,32 @@ def step_rows(spaces: list, bits: np.ndarray, onsets: list[list[float]], levels:
     """
     from . import encoding
     d = encoding.N_REAL * len(spaces) + 1
-    blocks = []
-    decoded = encoding.decode(spaces, np.zeros((1, encoding.N_REAL * len(spaces))), np.asarray(bits)[None, :])
-    for j, (space, dec) in enumerate(zip(spaces, decoded)):
-        if int(dec.kind[0]) != 0 or not onsets[j]:
-            continue
-        lo, hi = encoding.bounds([space])[0]
-        values = lo + (np.arange(levels) + 0.5) / levels * (hi - lo)
-        block = np.full((len(onsets[j]) * levels, d), np.nan)      # each onset, each value (values inner)
-        block[:, encoding.N_REAL * j] = np.tile(values, len(onsets[j]))
-        block[:, -1] = np.repeat(np.asarray(onsets[j], dtype=float), levels)
-        blocks.append(block)
+    blocks = [_value_grid(spaces[j], j, onsets[j], levels, d)
+              for j, kind in enumerate(_kinds(spaces, bits)) if kind == 0 and onsets[j]]
     return np.vstack(blocks) if blocks else np.empty((0, d))
+
+
+def _kinds(spaces: list, bits: np.ndarray) -> list[int]:
+    """Each fault's type in the structure of ``bits`` (0 abrupt, 1 intermittent, 2 incipient)."""
+    from . import encoding
+    decoded = encoding.decode(spaces, np.zeros((1, encoding.N_REAL * len(spaces))), np.asarray(bits)[None, :])
+    return [int(dec.kind[0]) for dec in decoded]
+
+
+def _value_grid(space, j: int, starts, levels: int, d: int) -> np.ndarray:
+    """(len(starts) x levels, d) rows, NaN but for fault j's value, ``levels`` of them spread evenly
+    over its bounds (``fdi.encoding``'s reals: its decades when logarithmic), at each onset of
+    ``starts`` in the last column (values inner); one set of values and no onset when ``starts`` is
+    None."""
+    from . import encoding
+    lo, hi = encoding.bounds([space])[0]
+    values = lo + (np.arange(levels) + 0.5) / levels * (hi - lo)
+    count = 1 if starts is None else len(starts)
+    block = np.full((count * levels, d), np.nan)
+    block[:, encoding.N_REAL * j] = np.tile(values, count)
+    if starts is not None:
+        block[:, -1] = np.repeat(np.asarray(starts, dtype=float), levels)
+    return block
 
 
 def nesting_depth(residual) -> int:
