@@ -494,6 +494,8 @@ def _translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: n
         target = scale(p)
         if kb == 0:
             value = float(np.median(p[after]))
+            if space.log and not value > 0:   # a profile gone through zero has no abrupt value coded by its log
+                continue
             out[n_real * j] = np.log10(value) if space.log else value
             lo, hi = bounds[n_real * j]
             out[n_real * j] = float(np.clip(out[n_real * j], lo, hi))

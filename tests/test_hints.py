@@ -153,3 +153,24 @@ def test_proposed_points_join_the_screen():
     problem = optim.pose(cost, bounds=[[0.0, 1.0], [0.0, 1.0]],
                          propose=lambda bits: np.array([[0.61803, np.nan]]))
     assert optim.minimize(problem, engine="AHDE", seed=0).cost == 0.0
+
+
+def test_a_drift_through_zero_has_no_abrupt_value_on_a_log_scale():
+    """Designed truth: eq. (18) with b = [-0.5, -5] takes a resistance (coded by its logarithm)
+    from 1 through zero to about -120 over 10 s; its median after the onset is negative, so no
+    abrupt value reproduces it: the translation leaves the value to the engine (NaN), silently
+    (it printed numpy's "invalid value encountered in log10" in bench accuracy's output). A drift
+    that stays positive still translates to its median."""
+    import warnings
+
+    from fdi import encoding
+    s = encoding.FaultSpace.make("R", 1.0, (0.001, 10.0))
+    t = np.linspace(0.0, 10.0, 101)
+    _, abrupt = encoding.encode([s], [{"type": "abrupt", "value": 1.0}])
+    through, bits = encoding.encode([s], [{"type": "incipient", "model": 3, "b": [-0.5, -5.0]}])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert np.isnan(hints.translate([s], through, bits, abrupt, t, 0.0)[0])
+    rising, bits = encoding.encode([s], [{"type": "incipient", "model": 1, "b": [0.1]}])
+    value = 10.0 ** hints.translate([s], rising, bits, abrupt, t, 0.0)[0]
+    assert abs(value - np.median(np.exp(0.1 * t[t >= 0.0]))) < 1e-9
