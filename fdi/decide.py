@@ -13,7 +13,8 @@ not earn their parameters.
 from __future__ import annotations
 
 import math  # noqa: F401  (the doctest)
-from typing import TYPE_CHECKING
+from dataclasses import replace
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
 
@@ -21,7 +22,7 @@ from .criterion import effective_samples, information, parameters
 from .data import Measurements
 from .mode_estimation import mode_values
 from .objective import Objective, window
-from .results import Alternative, Dropped, Estimate
+from .results import Alternative, Coincidence, Dropped, Estimate
 
 if TYPE_CHECKING:
     from .monitor import Monitor
@@ -45,16 +46,39 @@ NO_PREFERENCE = 2.0   # a difference of Schwarz's criterion below this is no pre
 
 
 def alternatives(results: list[Estimate], cost: float, faults: list[dict], n_eff: float,
-                 extra: list[Alternative] = (), skip: Estimate | None = None) -> tuple[Alternative, ...]:
+                 extra: list[Alternative] = (), skip: Estimate | None = None,
+                 coinciding: Sequence[Coincidence] | Callable[[], Sequence[Coincidence]] = ()) -> tuple[Alternative, ...]:
     """Explanations the data hardly separate from the winner (of ``cost`` and ``faults``; criterion
     within 2 of it: a valve stuck closed and its conductance at zero), with their costs, for the
     report. ``skip``: the estimator that is the winner; ``extra``: other explanations (the fault
-    mode), criterion to be filled in."""
+    mode), criterion to be filled in. An explanation that is the winner with one fault swapped
+    for one the residuals read together with it (``coinciding``, :mod:`fdi.identifiability`)
+    carries that pair: the report says why no data separate them (a callable ``coinciding`` is
+    asked only then: a monitor derived afresh decides the pairs with sympy)."""
     best = information(cost, faults, n_eff)
     others = [(e.candidate, e.faults, e.cost) for e in results if e is not skip]
     others += [(a.candidate, a.faults, a.cost) for a in extra]
     out = [Alternative(tuple(c), tuple(fs), cost, information(cost, list(fs), n_eff) - best) for c, fs, cost in others]
-    return tuple(sorted((a for a in out if a.criterion < 2.0), key=lambda a: a.criterion))
+    out = sorted((a for a in out if a.criterion < 2.0), key=lambda a: a.criterion)
+    won = {f["name"] for f in faults}
+    if any(len(won ^ set(a.candidate)) == 2 and len(won) == len(a.candidate) for a in out):
+        pairs = coinciding() if callable(coinciding) else coinciding
+        out = [replace(a, coincides=swapped(won, set(a.candidate), pairs)) for a in out]
+    return tuple(out)
+
+
+def swapped(winner: set[str], other: set[str], coinciding: Sequence[Coincidence]) -> Coincidence | None:
+    """The pair of ``coinciding`` that turns the set ``winner`` into ``other`` (one fault swapped for
+    the other), or None.
+
+    >>> pair = Coincidence(("Kv", "C"), "Kv**2/C", ("ARR1",))
+    >>> swapped({"C"}, {"Kv"}, [pair]) is pair, swapped({"C"}, {"Kv", "C"}, [pair])
+    (True, None)
+    """
+    gone, new = winner - other, other - winner
+    if len(gone) != 1 or len(new) != 1:
+        return None
+    return next((c for c in coinciding if set(c.faults) == gone | new), None)
 
 
 def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float, span: int,

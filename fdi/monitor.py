@@ -45,7 +45,7 @@ if TYPE_CHECKING:                   # the derivation's modules are imported wher
     from .residuals import Residual
     from .signatures import FSM, MCSM
     from .options import Options
-    from .results import Diagnosis
+    from .results import Coincidence, Diagnosis
     from .scales import Scales
     from .stream import Stream
 
@@ -240,6 +240,15 @@ class Monitor:
             from .arrs import arr_unit
             self._matrices["units"] = tuple(arr_unit(self.model, a) for a in self.arrs)
         return self._matrices["units"]
+
+    @property
+    def coinciding(self) -> tuple["Coincidence", ...]:
+        """The pairs of faults the residuals read only through one combination (a constant fault of
+        one is fitted as well by the other: :func:`fdi.identifiability.coinciding`), decided once."""
+        if "coinciding" not in self._matrices:
+            from .identifiability import coinciding
+            self._matrices["coinciding"] = coinciding(self.model, self.arrs)
+        return self._matrices["coinciding"]
 
     def with_config(self, config: MonitorConfig | None) -> "Monitor":
         """This monitor with other settings (the derivation is shared)."""

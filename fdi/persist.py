@@ -30,7 +30,7 @@ from bondgraph import deferred
 if TYPE_CHECKING:
     from .residuals import Residual
 
-FORMAT = 3
+FORMAT = 4          # 4: the faults the residuals read together travel with the FSMs (Monitor.coinciding)
 
 
 SOURCE = "__bgfdi_source__"       # the attribute a kernel compiled from its source keeps it in
@@ -138,8 +138,8 @@ def pack(monitor: Any, config=None) -> bytes | None:
 def warm(monitor: Any) -> None:
     """Derive what every diagnosis asks for first, so the packed monitor carries it: the residuals'
     units, the sensors', inputs' and autonomous modes' functions, the faults' linear transforms,
-    the FSM and MCSM of the nominal mode (a worker that receives it then derives nothing before
-    its first file)."""
+    the faults the residuals read together (a report names them), the FSM and MCSM of the nominal
+    mode (a worker that receives it then derives nothing before its first file)."""
     from .data import _signal_functions
     from .objective import linear_transforms
     from .signatures import nominal_mode
@@ -149,6 +149,7 @@ def warm(monitor: Any) -> None:
     mode = nominal_mode(monitor.model)
     monitor.fsm(mode)
     monitor.mcsm(mode)
+    monitor.coinciding
 
 
 def restore(payload: bytes) -> dict[str, Any]:

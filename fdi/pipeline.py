@@ -371,9 +371,11 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
         # charged (Sec. III-C's order, with the comparison the paper leaves implicit: a valve stuck
         # closed also looks like a clogged one, and a pair of component faults can over-fit the window)
         return replace(d, mode=dict(mf.mode), faults=mf.faults,
-                       alternatives=alternatives(results, mf.cost, mode_faults, n_eff))
+                       alternatives=alternatives(results, mf.cost, mode_faults, n_eff,
+                                                 coinciding=lambda: p.monitor.coinciding))
     extra = [Alternative(tuple(f["name"] for f in mode_faults), tuple(mode_faults), mf.cost, 0.0)] if mf else []
-    d = replace(d, alternatives=alternatives(results, best.cost, list(best.faults), n_eff, extra, skip=best),
+    d = replace(d, alternatives=alternatives(results, best.cost, list(best.faults), n_eff, extra, skip=best,
+                                             coinciding=lambda: p.monitor.coinciding),
                 faults=faults_of(best.faults), winner=tuple(best.candidate))
     d, now = later_decisions(p, d, fsm, r, est, clock)
     return prognoses(p, significance(p, d, now), now, clock)

@@ -175,16 +175,43 @@ class Estimate:
 
 
 @dataclass(frozen=True)
+class Coincidence:
+    """Two faults every residual reads only through one combination (:mod:`fdi.identifiability`): a
+    constant fault of one is fitted as well by the other. ``combination`` names it (sympy's text)
+    where it is a product of powers or a weighted sum, else it is empty; ``residuals`` read them."""
+    faults: tuple[str, str]
+    combination: str
+    residuals: tuple[str, ...]
+
+    def to_dict(self) -> dict:
+        return {"faults": list(self.faults), "combination": self.combination or None,
+                "residuals": list(self.residuals)}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "Coincidence":
+        return cls(tuple(d["faults"]), d.get("combination") or "", tuple(d.get("residuals") or ()))
+
+    def describe(self) -> str:
+        """One line: ``the residuals (ARR1) read Kv and C only through Kv**2/C``."""
+        a, b = self.faults
+        how = f"through {self.combination}" if self.combination else "through one combination"
+        return f"the residuals ({', '.join(self.residuals)}) read {a} and {b} only {how}"
+
+
+@dataclass(frozen=True)
 class Alternative:
-    """An explanation the data hardly separate from the winner (information criterion within 2)."""
+    """An explanation the data hardly separate from the winner (information criterion within 2).
+    ``coincides``: where it is the winner with one fault swapped for another that the residuals
+    read only through one combination with it, that pair: then no data can separate them."""
     candidate: tuple[str, ...]
     faults: tuple[dict, ...]
     cost: float
     criterion: float
+    coincides: Coincidence | None = None
 
     def to_dict(self) -> dict:
         return {"candidate": list(self.candidate), "faults": [dict(f) for f in self.faults], "cost": self.cost,
-                "criterion": self.criterion}
+                "criterion": self.criterion, "coincides": None if self.coincides is None else self.coincides.to_dict()}
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ from bondgraph.model import Model
 from bondgraph.structure import DERIVATIVE, MIXED
 
 from ..arrs import select_arrs, structural_system
+from ..identifiability import coinciding
 from ..isolability import Isolability, sensor_placement, signature_isolability, structural_isolability
 from ..signatures import all_modes, fault_signature_matrix
 
@@ -34,6 +35,7 @@ class Analysis:
     seconds: float
     notes: tuple[str, ...]
     sensitivities: tuple = ()           # fdi.sensitivity.NominalSensitivity, on a nominal simulation
+    coinciding: tuple = ()              # fdi.results.Coincidence: faults the residuals read only together
 
 
 def analyse(model: Model, causality: str = DERIVATIVE, modes: list[dict] | None = None,
@@ -67,8 +69,9 @@ def analyse(model: Model, causality: str = DERIVATIVE, modes: list[dict] | None 
                                                         config.derivative_window))
         except Exception as exc:                   # noqa: BLE001  the analysis stands without it; say why
             notes.append(f"weak detectability not assessed: {str(exc).splitlines()[0]}")
+    together = coinciding(model, chosen.arrs)
     return Analysis(model.name, causality, chosen.arrs, tuple(out), placement, chosen.msos, chosen.mso_seconds,
-                    time.perf_counter() - start, tuple(notes), sensitivities)
+                    time.perf_counter() - start, tuple(notes), sensitivities, together)
 
 
 def _classes(iso: Isolability) -> str:
@@ -96,6 +99,13 @@ def to_text(a: Analysis) -> str:
                   "these by less than theirs, on a nominal simulation: their silence does not exonerate it)"]
         for fault, residuals, reach in weak:
             lines.append(f"  {fault}: " + ", ".join(f"{r} ({reach[r]:.2g} of its threshold)" for r in residuals))
+    if a.coinciding:
+        lines += ["", "read together (faults with one signature are told apart by their fits, but not these: the "
+                  "residuals read each pair only through one combination, so a constant fault of one is fitted "
+                  "as well by the other on any data)"]
+        for c in a.coinciding:
+            lines.append(f"  {c.faults[0]} and {c.faults[1]}: " + (c.combination or "one combination")
+                         + f" ({', '.join(c.residuals)})")
     p = a.placement
     if p is not None:
         lines += ["", f"sensor placement ({a.causality} causality, first mode): smallest sets of added sensors that make "
@@ -135,6 +145,7 @@ def to_dict(a: Analysis) -> dict:
             "classes": [list(c) for c in p.target.classes()]},
         "mso_sets": a.mso_count, "notes": list(a.notes),
         "weakly_detectable": {x.fault: {r: x.reach[r] for r in x.weak()} for x in a.sensitivities if x.weak()},
+        "read_together": [c.to_dict() for c in a.coinciding],
     }
 
 

@@ -1,7 +1,7 @@
 """The diagnosis report as readable text (the JSON report is ``Diagnosis.to_dict``)."""
 from __future__ import annotations
 
-from ..results import Fault, _vec
+from ..results import Coincidence, Fault, _vec
 
 
 def describe_fault(f: dict) -> str:
@@ -67,6 +67,10 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
         tie = ": lower, but within 2 is a tie and the smaller set wins" if a["criterion"] < 0 else ""
         out.append(f"  nearly as good: {{{', '.join(a['candidate'])}}} (criterion {a['criterion']:+.2f}{tie}; cost "
                    f"{a['cost']:.4g}): " + "; ".join(describe_fault(f) for f in a["faults"]))
+        if a.get("coincides"):
+            out.append(f"    (one fit: {Coincidence.from_dict(a['coincides']).describe()}: a constant fault of either "
+                       f"is fitted as well by the other on any data; bgfdi isolability proposes sensors that separate "
+                       f"them)")
     for e in report.get("episodes") or []:
         out.append(f"at {e['time']:.2f} s the coherence vector became {list(e['coherence'])}; decided again at "
                    f"{e['decision_time']:.2f} s over {len(e['candidates'])} candidate set(s): "

@@ -1,0 +1,167 @@
+"""Faults the residuals read only through one combination: isolation by identification fails there.
+
+Faults with one signature are not isolated by the residuals' alarms (:mod:`fdi.isolability`);
+bgfdi still tells them apart by fitting each one's profile to the residuals (Sec. III-D): a
+tank's section and its drain valve, both read by one mass balance, leave different traces. Not
+always: when every residual reads two fault parameters a and b only through one function
+phi(a, b), a constant fault of either is the same change of phi, and its fit is the same fit.
+The gravity-drained tank measured at its inflow and outflow only reads its capacitance C and its
+valve coefficient Kv through C/Kv**2 (its level is the valve law read backwards, p = Q**2/Kv**2):
+a clog Kv x 0.7 is fitted by C x 2.04 to the last digit.
+
+The test, on the AGARRs (constant parameters, as an abrupt fault holds them after its onset): a
+and b are read together when, in every residual that reads either, dr/da / dr/db is free of the
+signals and one value (compared at random values of the signals and their derivatives). Then r
+depends on (a, b) through one function whose level sets that ratio describes; it is named when
+it is a product of powers (dr/da / dr/db = (p/q) b/a: a**p * b**q) or a weighted sum (a ratio
+k free of a and b: a + b/k).
+
+>>> import sympy as sp
+>>> C, Kv, Rv, q = sp.symbols("C Kv Rv q")
+>>> Q = sp.Function("Q")(sp.Symbol("t"))
+>>> tank = [q - sp.Derivative(C * Q**2 / Kv**2, sp.Symbol("t"))]
+>>> read_together(tank, C, Kv, {"C": 5e-6, "Kv": 1e-4})
+True
+>>> r = ratio(tank, C, Kv)
+>>> r, combination(r, C, Kv)
+(-Kv/(2*C), C/Kv**2)
+>>> read_together([q - C * Q.diff() - Q / Rv], C, Rv, {"C": 1e-3, "Rv": 10.0})     # an RC node: they differ
+False
+"""
+from __future__ import annotations
+
+import math
+import random
+from itertools import combinations
+from typing import TYPE_CHECKING, Iterable, Mapping
+
+import sympy as sp
+
+from .results import Coincidence
+
+if TYPE_CHECKING:
+    from bondgraph.model import Model
+
+    from .scaph import ARR
+
+MAX_OPS = 400     # sympy operations of a pair's two partial derivatives beyond which the combination is not named
+DRAWS = 3         # random points of the signals the ratio of the partial derivatives is compared at
+TOL = 1e-9        # relative: two values of the ratio that differ by less are equal
+
+
+def _signals(expr: sp.Expr) -> list[sp.Expr]:
+    """The signals ``expr`` reads: its derivatives of functions of time (each order its own value:
+    a signal's value and its derivatives are free of each other at an instant), its functions of
+    time, and time itself."""
+    found = set(expr.atoms(sp.Derivative)) | set(expr.atoms(sp.core.function.AppliedUndef))
+    found |= {s for s in expr.free_symbols if s.name == "t"}
+    return sorted(found, key=sp.default_sort_key)
+
+
+def _value(expr: sp.Expr, point: dict) -> complex | None:
+    """``expr`` at ``point`` (a value for each signal and symbol), or None where it has none."""
+    try:
+        v = complex(sp.N(expr.xreplace(point)))
+    except (TypeError, ValueError, ZeroDivisionError):
+        return None
+    return v if v == v and abs(v) != float("inf") else None
+
+
+def read_together(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol, constants: Mapping[str, float],
+                  seed: int = 0) -> bool:
+    """Whether every residual ``r`` of ``exprs`` that reads ``a`` or ``b`` reads both (and some does),
+    with dr/da / dr/db one value at ``DRAWS`` random points of the signals (the model's
+    ``constants`` at their values): a ratio free of the signals and the same in every residual,
+    what one combination of (a, b) gives. Decided by random points, not by simplifying the ratio
+    (sympy's ``cancel`` took 260 s on a pendulum's arcsine relation): a ratio that moves with the
+    signals differs at random points but on a set of measure zero."""
+    rng = random.Random(seed)
+    base = {sp.Symbol(n): sp.Float(v) for n, v in constants.items() if sp.Symbol(n) not in (a, b)}
+    base[a], base[b] = sp.Float(rng.uniform(0.5, 2.0)), sp.Float(rng.uniform(0.5, 2.0))
+    seen, first = False, None
+    for e in exprs:
+        if a not in e.free_symbols and b not in e.free_symbols:
+            continue
+        da, db = sp.diff(e, a), sp.diff(e, b)
+        if da == 0 or db == 0:
+            return False
+        signals = sorted(set(_signals(da)) | set(_signals(db)), key=sp.default_sort_key)
+        for _ in range(DRAWS):
+            point = {**base, **{s: sp.Float(rng.uniform(0.2, 1.0)) for s in signals}}
+            num, den = _value(da, point), _value(db, point)
+            if num is None or den is None or den == 0:
+                return False
+            r = num / den
+            if first is None:
+                first = r
+            elif abs(r - first) > TOL * max(abs(r), abs(first)):
+                return False
+        seen = True
+    return seen
+
+
+def ratio(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol) -> sp.Expr | None:
+    """dr/da / dr/db of the first residual of ``exprs`` that reads ``a``, simplified (sympy's
+    ``cancel``) when its derivatives are small (``MAX_OPS``), else None. For pairs
+    :func:`read_together` found: the ratio is then the same in every residual."""
+    for e in exprs:
+        if a in e.free_symbols:
+            da, db = sp.diff(e, a), sp.diff(e, b)
+            if sp.count_ops(da) + sp.count_ops(db) > MAX_OPS:
+                return None
+            return sp.cancel(da / db)
+    return None
+
+
+def combination(ratio: sp.Expr | None, a: sp.Symbol, b: sp.Symbol) -> sp.Expr | None:
+    """The function of (a, b) whose level sets have slope ``ratio`` (= dr/da / dr/db), where it is
+    a product of powers a**p * b**q (ratio * a / b a rational constant p/q; p > 0) or a weighted
+    sum a + b / ratio (a ratio free of a and b: a turns ratio squared that refers a winding's
+    resistance to the other side); None otherwise.
+
+    >>> R1, R2, n = sp.symbols("R1 R2 n")
+    >>> combination(sp.Integer(1), R1, R2), combination(-R2 / R1, R1, R2), combination(n**2, R1, R2)
+    (R1 + R2, R1/R2, R1 + R2/n**2)
+    """
+    if ratio is None:
+        return None
+    power = sp.cancel(ratio * a / b)
+    if power.is_Rational and power != 0:
+        p, q = sp.fraction(power)
+        if p < 0:
+            p, q = -p, -q
+        return a ** p * b ** q
+    if ratio != 0 and not ({a, b} & ratio.free_symbols):
+        return a + b / ratio
+    return None
+
+
+def coinciding(model: "Model", arrs: Iterable["ARR"]) -> tuple[Coincidence, ...]:
+    """Every pair of the model's faults that act through one symbol each (a parameter, or a sensor's
+    or a source's efficiency factor) and that the derivative-causality residuals ``arrs`` read
+    only through one combination (:func:`read_together`). A residual that integrates (mixed
+    causality) is not decided here: a pair it reads is left out."""
+    arrs = [(arr, _plain(arr.expr)) for arr in arrs]
+    values = model.nominal_by_name()
+    constants = {n: v for n, v in values.items() if n not in model.modes and math.isfinite(v) and v != 0}
+    single = {name: f.symbols[0] for name, f in model.faults.items() if f.kind != "mode" and len(f.symbols) == 1}
+    out = []
+    for (fa, sa), (fb, sb) in combinations(single.items(), 2):
+        if sa == sb:
+            continue
+        a, b = sp.Symbol(sa), sp.Symbol(sb)
+        reading = [(arr, e) for arr, e in arrs if {a, b} & e.free_symbols]
+        if not reading or any(arr.causality != "derivative" for arr, _ in reading):
+            continue
+        exprs = [e for _, e in reading]
+        if not read_together(exprs, a, b, constants):
+            continue
+        named = combination(ratio(exprs, a, b), a, b)
+        out.append(Coincidence((fa, fb), "" if named is None else str(named), tuple(arr.name for arr, _ in reading)))
+    return tuple(out)
+
+
+def _plain(expr: sp.Expr) -> sp.Expr:
+    """``expr`` with every symbol a plain one of its name (the model's carry assumptions, positive
+    or real; the test's symbols must be the same objects)."""
+    return expr.xreplace({s: sp.Symbol(s.name) for s in expr.free_symbols if s != sp.Symbol(s.name)})

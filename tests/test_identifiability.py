@@ -1,0 +1,93 @@
+"""Faults the residuals read only through one combination (fdi.identifiability): against hand
+derivations and a designed truth on data from tests/independent/drained_tank.py (scipy, the
+volume balance typed by hand, apart from bgfdi).
+
+A gravity-drained tank measured at its inflow and outflow (tests/data/drained_tank.yaml) has no
+level sensor: its balance reads the level through the valve law backwards, p = Qout^2/Kv^2, so
+Qin - Qout - C dp/dt reads the capacitance C and the valve Kv only as C/Kv^2. A clog Kv x 0.7 is
+then a capacitance x 1/0.49 to the last digit, and the report must say so."""
+from __future__ import annotations
+
+import json
+from functools import partial
+from pathlib import Path
+
+import pytest
+import sympy as sp
+
+from fdi.api import Options, diagnose
+from fdi.monitor import compiled
+
+from .independent import drained_tank, measurements, thresholds_fixture
+
+DATA = Path(__file__).resolve().parent / "data"
+TANK = str(DATA / "drained_tank.yaml")
+ROOT = DATA.parent.parent
+
+_data = partial(measurements, drained_tank.simulate)
+thresholds = thresholds_fixture(TANK, drained_tank.simulate)
+
+
+def _function_of(combination: str, names: tuple[str, str], of: sp.Expr) -> bool:
+    """Whether the text ``combination`` of the symbols ``names`` is a function of ``of`` alone:
+    written with ``of`` = s, it no longer reads the second name."""
+    a, b = (sp.Symbol(n) for n in names)
+    expr = sp.sympify(combination, locals={n: sp.Symbol(n) for n in names} | {"N": sp.Symbol("N")})
+    s = sp.Symbol("s")
+    (a_of_s,) = sp.solve(sp.Eq(of, s), a)
+    return b not in sp.simplify(expr.subs(a, a_of_s)).free_symbols
+
+
+def test_the_tanks_capacitance_and_valve_are_read_only_through_c_over_kv_squared():
+    (pair,) = compiled(TANK).coinciding
+    assert set(pair.faults) == {"Kv", "C"} and pair.residuals == ("ARR1",)
+    C, Kv = sp.symbols("C Kv")
+    assert _function_of(pair.combination, ("C", "Kv"), C / Kv ** 2)
+
+
+def test_a_transformers_winding_resistances_are_read_as_one_referred_to_the_secondary():
+    """Hughes, Electrical and Electronic Technology, ch. 31: measured at its currents only, the
+    transformer's effort balance (V - R1 i1)/N - N R2 i1 - N L2 i1' reads R1 and R2 only as
+    R2 + R1/N^2, the primary's resistance referred to the secondary."""
+    (pair,) = compiled(str(DATA / "transformer.yaml")).coinciding
+    assert set(pair.faults) == {"R1", "R2"} and pair.residuals == ("ARR2",)
+    R1, R2, N = sp.symbols("R1 R2 N")
+    assert _function_of(pair.combination, ("R1", "R2"), R2 + R1 / N ** 2)
+
+
+def test_faults_of_one_signature_whose_fits_differ_are_not_read_together():
+    """Frisk et al. (2012): with a pressure sensor on tank 1 and a flow sensor through valve 2, the
+    three tanks' valves 2 and 3 and tank 3 share a signature (ARR2 only). Their fits still differ:
+    by hand, d ARR2/d Rv2 = CT3 q2' + q2/Rv3 and d ARR2/d Rv3 = (p3 terms)/Rv3^2 move apart with
+    the signals, as does the capacitance's derivative term; nothing is read together."""
+    assert compiled(str(ROOT / "models" / "three_tank.yaml")).coinciding == ()
+
+
+def test_the_pairs_travel_with_a_compiled_monitor():
+    from fdi.persist import pack, restore
+    m = compiled(TANK)
+    assert restore(pack(m))["_matrices"]["coinciding"] == m.coinciding
+
+
+def test_a_clog_is_fitted_as_either_fault_and_the_report_says_they_are_one_fit(thresholds):
+    """Designed truth: Kv x 0.7 at 60 s. Whichever fault the search names (seed 0 named the
+    capacitance), its fit is the design's C/Kv^2 x 1/0.49; the other is offered as nearly as good,
+    with the pair the residuals read together."""
+    report = diagnose(TANK, _data("clog", 7, t0=60.0, factor=0.7),
+                      Options(workers=1, seed=0, thresholds=thresholds))
+    d = report.to_dict()
+    (found,) = d["diagnosis"]["faults"]
+    ratio = (found["value"] / drained_tank.KV) ** -2 if found["name"] == "Kv" else found["value"] / drained_tank.C
+    assert found["type"] == "abrupt" and ratio == pytest.approx(1 / 0.49, rel=0.01)
+    (alt,) = [a for a in d["alternatives"] if a["coincides"]]
+    assert {found["name"], *alt["candidate"]} == {"Kv", "C"} and set(alt["coincides"]["faults"]) == {"Kv", "C"}
+    assert abs(alt["criterion"]) < 0.01
+    from fdi.app.report import to_text
+    assert "(one fit: the residuals (ARR1) read Kv and C only through" in to_text(d, "drained_tank", "clog")
+
+
+def test_bgfdi_isolability_lists_the_pair(capsys):
+    from fdi.app.cli import main
+    assert main(["isolability", TANK, "--json", "--max-sensors", "0"]) == 0
+    (pair,) = json.loads(capsys.readouterr().out)["read_together"]
+    assert set(pair["faults"]) == {"Kv", "C"} and pair["residuals"] == ["ARR1"]
