@@ -20,20 +20,19 @@ k free of a and b: a + b/k).
 >>> C, Kv, Rv, q = sp.symbols("C Kv Rv q")
 >>> Q = sp.Function("Q")(sp.Symbol("t"))
 >>> tank = [q - sp.Derivative(C * Q**2 / Kv**2, sp.Symbol("t"))]
->>> read_together(tank, C, Kv, {"C": 5e-6, "Kv": 1e-4})
+>>> read_together(tank, C, Kv, {"C", "Kv"})
 True
 >>> r = ratio(tank, C, Kv)
 >>> r, combination(r, C, Kv)
 (-Kv/(2*C), C/Kv**2)
->>> read_together([q - C * Q.diff() - Q / Rv], C, Rv, {"C": 1e-3, "Rv": 10.0})     # an RC node: they differ
+>>> read_together([q - C * Q.diff() - Q / Rv], C, Rv, {"C", "Rv"})     # an RC node: they differ
 False
 """
 from __future__ import annotations
 
-import math
 import random
 from itertools import combinations
-from typing import TYPE_CHECKING, Iterable, Mapping
+from typing import TYPE_CHECKING, Iterable
 
 import sympy as sp
 
@@ -67,17 +66,21 @@ def _value(expr: sp.Expr, point: dict) -> complex | None:
     return v if v == v and abs(v) != float("inf") else None
 
 
-def read_together(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol, constants: Mapping[str, float],
+def read_together(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol, constants: Iterable[str],
                   seed: int = 0) -> bool:
     """Whether every residual ``r`` of ``exprs`` that reads ``a`` or ``b`` reads both (and some does),
-    with dr/da / dr/db one value at ``DRAWS`` random points of the signals (the model's
-    ``constants`` at their values): a ratio free of the signals and the same in every residual,
+    with dr/da / dr/db one value at ``DRAWS`` random points of the signals (and of any symbol not
+    among the model's ``constants``, its parameters and efficiency factors, which are drawn once:
+    a mode variable changes in time): a ratio free of the signals and the same in every residual,
     what one combination of (a, b) gives. Decided by random points, not by simplifying the ratio
     (sympy's ``cancel`` took 260 s on a pendulum's arcsine relation): a ratio that moves with the
-    signals differs at random points but on a set of measure zero."""
+    signals differs at random points but on a set of measure zero. The parameters are drawn too,
+    not taken at their nominal values: a leak's infinite resistance has no value to put there."""
     rng = random.Random(seed)
-    base = {sp.Symbol(n): sp.Float(v) for n, v in constants.items() if sp.Symbol(n) not in (a, b)}
-    base[a], base[b] = sp.Float(rng.uniform(0.5, 2.0)), sp.Float(rng.uniform(0.5, 2.0))
+    constants = set(constants)
+    exprs = list(exprs)
+    symbols = sorted({s for e in exprs for s in e.free_symbols}, key=sp.default_sort_key)
+    base = {s: sp.Float(rng.uniform(0.5, 2.0)) for s in symbols if s.name in constants or s in (a, b)}
     seen, first = False, None
     for e in exprs:
         if a not in e.free_symbols and b not in e.free_symbols:
@@ -85,7 +88,8 @@ def read_together(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol, constant
         da, db = sp.diff(e, a), sp.diff(e, b)
         if da == 0 or db == 0:
             return False
-        signals = sorted(set(_signals(da)) | set(_signals(db)), key=sp.default_sort_key)
+        signals = sorted((set(_signals(da)) | set(_signals(db)) | da.free_symbols | db.free_symbols) - set(base),
+                         key=sp.default_sort_key)
         for _ in range(DRAWS):
             point = {**base, **{s: sp.Float(rng.uniform(0.2, 1.0)) for s in signals}}
             num, den = _value(da, point), _value(db, point)
@@ -142,8 +146,7 @@ def coinciding(model: "Model", arrs: Iterable["ARR"]) -> tuple[Coincidence, ...]
     only through one combination (:func:`read_together`). A residual that integrates (mixed
     causality) is not decided here: a pair it reads is left out."""
     arrs = [(arr, _plain(arr.expr)) for arr in arrs]
-    values = model.nominal_by_name()
-    constants = {n: v for n, v in values.items() if n not in model.modes and math.isfinite(v) and v != 0}
+    constants = set(model.nominal_by_name()) - set(model.modes)
     single = {name: f.symbols[0] for name, f in model.faults.items() if f.kind != "mode" and len(f.symbols) == 1}
     out = []
     for (fa, sa), (fb, sb) in combinations(single.items(), 2):
