@@ -91,3 +91,25 @@ def test_bgfdi_isolability_lists_the_pair(capsys):
     assert main(["isolability", TANK, "--json", "--max-sensors", "0"]) == 0
     (pair,) = json.loads(capsys.readouterr().out)["read_together"]
     assert set(pair["faults"]) == {"Kv", "C"} and pair["residuals"] == ["ARR1"]
+
+
+def test_evaluate_grades_a_partner_read_together_on_the_reports_fit_of_the_design():
+    """Designed truth: a clog Kv 1e-4 -> 7e-5. A report that names the capacitance and offers the
+    valve as its partner read together (``coincides``) is isolated and typed, graded on the
+    offered valve fit (7.07e-5: 1 % off); without the pair, or when the alternative is another
+    set, the same report is not isolated."""
+    from fdi.app.evaluate import format_scores, score, summary
+    from fdi.app.scenario import FaultEvent
+    design = [FaultEvent("Kv", "abrupt", 60.0, value=7.0e-5)]
+    pair = {"faults": ["Kv", "C"], "combination": "Kv**2/C", "residuals": ["ARR1"]}
+    offered = {"candidate": ["Kv"], "faults": [{"name": "Kv", "type": "abrupt", "value": 7.07e-5, "t0": 60.0}],
+               "cost": 100.0, "criterion": 0.0, "coincides": pair}
+    report = {"detection": {"time": 59.8}, "alternatives": [offered],
+              "diagnosis": {"faults": [{"name": "C", "type": "abrupt", "value": 1.04e-5, "t0": 60.0}]}}
+    s = score("clog", design, report, {})
+    assert (s.isolated, s.typed, s.found, s.read_together) == (True, True, ["C"], ["Kv", "C"])
+    assert s.errors["Kv"] == pytest.approx(0.01)
+    assert "yes*" in format_scores([s], summary([s]))
+    for alternatives in ([], [{**offered, "coincides": None}]):
+        s = score("clog", design, {**report, "alternatives": alternatives}, {})
+        assert (s.isolated, s.read_together, s.errors) == (False, [], {})

@@ -86,6 +86,7 @@ class Score:
     models_at_decision: dict[str, int | None] = field(default_factory=dict)   # incipient fault -> model then
     design_models: dict[str, int | None] = field(default_factory=dict)        # incipient fault -> the design's
     coefficient_errors: dict[str, float] = field(default_factory=dict)   # as errors, an incipient fault's coefficients
+    read_together: list[str] = field(default_factory=list)   # the answer named a design fault's partner (graded on its fit)
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -147,14 +148,31 @@ def identification_errors(events: list[FaultEvent], faults: list[dict], nominals
     return out
 
 
+def graded_faults(report: dict, truth: list[str]) -> tuple[list[dict], list[str]]:
+    """The faults a report is graded on, and the pair read together when that decided it. The
+    report's own diagnosis; but where its winner is the design with one fault swapped for a fault
+    every residual reads only together with it (an alternative whose ``coincides`` names the
+    pair, :mod:`fdi.identifiability`), that alternative's fit of the design's faults: no data
+    could have chosen between the two, and the report offers both."""
+    faults = report["diagnosis"]["faults"]
+    if {f["name"] for f in faults} == set(truth):
+        return faults, []
+    for a in report.get("alternatives") or []:
+        if a.get("coincides") and set(a["candidate"]) == set(truth) and len(a["candidate"]) == len(truth):
+            return list(a["faults"]), list(a["coincides"]["faults"])
+    return faults, []
+
+
 def score(name: str, events: list[FaultEvent], report: dict, mode_names: dict[str, str], early: float = 0.0,
           expect_nothing: bool = False) -> Score:
     """A diagnosis report against the scenario's fault events. ``early``: how long before a fault's
     onset a detection still counts as its detection (the centred derivative filter lets a residual
     cross up to half a window before the fault starts). ``expect_nothing``: the faults are designed
-    below the thresholds, so any detection is a false alarm and a silent report is right."""
+    below the thresholds, so any detection is a false alarm and a silent report is right. A
+    design fault named by its partner read together is graded on the partner's fit
+    (:func:`graded_faults`, ``Score.read_together``)."""
     truth = sorted({e.target for e in events})
-    faults = report["diagnosis"]["faults"]
+    faults, together = graded_faults(report, truth)
     found = sorted({f["name"] for f in faults})
     det = report["detection"]
     onset = min((e.t0 for e in events), default=None)
@@ -172,8 +190,9 @@ def score(name: str, events: list[FaultEvent], report: dict, mode_names: dict[st
     isolated = set(truth) == {n for n in found_named if n in set(truth)} and len(found) == len(truth)
     typed = all(e.target in by_name and by_name[e.target]["type"] == e.type
                 and (e.type != "incipient" or by_name[e.target].get("model") == e.model) for e in events)
-    return Score(name, truth, found, t_d, delay, false_alarm, isolated, typed,
-                 identification_errors(events, faults))
+    said = sorted({f["name"] for f in report["diagnosis"]["faults"]})
+    return Score(name, truth, said, t_d, delay, false_alarm, isolated, typed,
+                 identification_errors(events, faults), read_together=together)
 
 
 def evaluate_scenario(model_path: str, scenario_path: str | Path, options: Options | None = None,
@@ -218,7 +237,7 @@ def regrade(s: Score, events: list[FaultEvent], report: dict, mode_names: dict[s
     """Grade each incipient fault's degradation model and coefficients on its refit at the life
     fraction ``late`` (the checkpoint's ``model``/``b``) where there is one; the decision's grade
     kept in ``typed_at_decision`` and ``models_at_decision``."""
-    faults = [dict(f) for f in report["diagnosis"]["faults"]]
+    faults = [dict(f) for f in graded_faults(report, sorted({e.target for e in events}))[0]]
     by_name = {f["name"]: f for f in faults}
     s.typed_at_decision = s.typed
     s.models_at_decision = {e.target: by_name.get(e.target, {}).get("model") for e in events if e.type == "incipient"}
@@ -530,7 +549,8 @@ def format_scores(scores: list[Score], totals: dict) -> str:
         err = max(s.errors.values()) if s.errors else None
         rul = " / ".join(_band(r) for r in s.rul) or "-"
         lines.append(f"{s.name:<32}{truth:<28}{', '.join(s.found) or 'none':<28}{delay:>10}  "
-                     f"{'yes' if s.isolated or not s.truth else 'no':<9}{'yes' if s.typed else 'no':<6}"
+                     f"{('yes*' if s.read_together else 'yes') if s.isolated or not s.truth else 'no':<9}"
+                     f"{'yes' if s.typed else 'no':<6}"
                      f"{_pct(err):>14}  {rul}")
     t = totals
     longest = t.get("longest_nominal")
@@ -559,6 +579,12 @@ def format_scores(scores: list[Score], totals: dict) -> str:
               + ("no nominal run" if not longest else
                  f"longest nominal run {longest['name']} ({longest['duration_s']:g} s): "
                  + ("false alarm" if longest["false_alarm"] else "quiet"))]
+    together = [s for s in scores if s.read_together and s.isolated]
+    if together:
+        lines.append("* named by a fault the residuals read only together with the design's (no data separate "
+                     "them; the report offers both): " + ", ".join(
+                         f"{s.name} ({' for '.join(sorted(set(s.found) - set(s.truth)) + sorted(set(s.truth) - set(s.found)))}"
+                         "; graded on the report's fit of the design's fault)" for s in together))
     if t.get("wrong"):
         checks = {s.name: s.refit_check or s.design_check for s in scores if s.refit_check or s.design_check}
         lines.append("not isolated and typed: " + ", ".join(
