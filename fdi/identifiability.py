@@ -146,15 +146,17 @@ def coinciding(model: "Model", arrs: Iterable["ARR"]) -> tuple[Coincidence, ...]
     only through one combination (:func:`read_together`). A residual that integrates (mixed
     causality) is not decided here: a pair it reads is left out."""
     arrs = [(arr, _plain(arr.expr)) for arr in arrs]
+    names = [{s.name for s in e.free_symbols} for _, e in arrs]
     constants = set(model.nominal_by_name()) - set(model.modes)
     single = {name: f.symbols[0] for name, f in model.faults.items() if f.kind != "mode" and len(f.symbols) == 1}
+    signature = {name: frozenset(i for i, n in enumerate(names) if s in n) for name, s in single.items()}
     out = []
     for (fa, sa), (fb, sb) in combinations(single.items(), 2):
-        if sa == sb:
-            continue
+        if sa == sb or not signature[fa] or signature[fa] != signature[fb]:
+            continue                     # another signature: the residuals' alarms separate them
         a, b = sp.Symbol(sa), sp.Symbol(sb)
-        reading = [(arr, e) for arr, e in arrs if {a, b} & e.free_symbols]
-        if not reading or any(arr.causality != "derivative" for arr, _ in reading):
+        reading = [arrs[i] for i in sorted(signature[fa])]
+        if any(arr.causality != "derivative" for arr, _ in reading):
             continue
         exprs = [e for _, e in reading]
         if not read_together(exprs, a, b, constants):
