@@ -144,7 +144,8 @@ def coinciding(model: "Model", arrs: Iterable["ARR"]) -> tuple[Coincidence, ...]
     """Every pair of the model's faults that act through one symbol each (a parameter, or a sensor's
     or a source's efficiency factor) and that the derivative-causality residuals ``arrs`` read
     only through one combination (:func:`read_together`). A residual that integrates (mixed
-    causality) is not decided here: a pair it reads is left out."""
+    causality) is not decided here, nor a law sympy cannot differentiate or evaluate: a pair they
+    read is left out (what this finds explains a report; it never stops a diagnosis)."""
     arrs = [(arr, _plain(arr.expr)) for arr in arrs]
     names = [{s.name for s in e.free_symbols} for _, e in arrs]
     constants = set(model.nominal_by_name()) - set(model.modes)
@@ -159,9 +160,12 @@ def coinciding(model: "Model", arrs: Iterable["ARR"]) -> tuple[Coincidence, ...]
         if any(arr.causality != "derivative" for arr, _ in reading):
             continue
         exprs = [e for _, e in reading]
-        if not read_together(exprs, a, b, constants):
+        try:
+            if not read_together(exprs, a, b, constants):
+                continue
+            named = combination(ratio(exprs, a, b), a, b)
+        except Exception:    # noqa: BLE001 - sympy on a law it cannot differentiate or evaluate: not decided
             continue
-        named = combination(ratio(exprs, a, b), a, b)
         out.append(Coincidence((fa, fb), "" if named is None else str(named), tuple(arr.name for arr, _ in reading)))
     return tuple(out)
 
