@@ -377,8 +377,11 @@ class Diagnosis:
         lines = [f"{self.model}: " + ("nothing detected" if d is None else
                                        f"detected at t_D = {d.time:.4g} s, coherence {_vec(d.coherence)}; "
                                        f"at {d.decision_time:.4g} s: {_vec(d.final_coherence)}")]
-        lines += [f"  {f.describe()}" + (f" from {f.t0:.4g} s" if f.t0 is not None and f.type != "stuck" else "")
-                  for f in self.faults]
+        for f in self.faults:
+            lines.append(f"  {f.describe()}" + (f" from {f.t0:.4g} s" if f.t0 is not None and f.type != "stuck" else ""))
+            lines += [f"    or {Fault.from_dict(g).describe()} (read together with {f.name}: one fit)"
+                      for a in self.alternatives or () if a.coincides is not None and f.name in a.coincides.faults
+                      for g in a.faults if g["name"] in a.coincides.faults and g["name"] != f.name]
         if d is not None and not self.faults:
             lines.append("  no fault identified" + (f" ({self.note})" if self.note else ""))
         lines += [f"  RUL of {p.name}: {p.rul:.4g} s at {p.at:.4g} s (band {p.rul_low:.4g} to {p.rul_high:.4g} s)"

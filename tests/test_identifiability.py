@@ -83,7 +83,10 @@ def test_a_clog_is_fitted_as_either_fault_and_the_report_says_they_are_one_fit(t
     assert {found["name"], *alt["candidate"]} == {"Kv", "C"} and set(alt["coincides"]["faults"]) == {"Kv", "C"}
     assert abs(alt["criterion"]) < 0.01
     from fdi.app.report import to_text
-    assert "(one fit: the residuals (ARR1) read Kv and C only through" in to_text(d, "drained_tank", "clog")
+    text = to_text(d, "drained_tank", "clog")
+    assert "(one fit: the residuals (ARR1) read Kv and C only through" in text
+    partner = alt["candidate"][0]
+    assert f"    or {partner}: abrupt" in text and f"(read together with {found['name']}: one fit)" in report.summary()
 
 
 def test_bgfdi_isolability_lists_the_pair(capsys):

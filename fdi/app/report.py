@@ -89,6 +89,11 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
         out.append("diagnosis: no fault explains the coherence vector")
     for f in faults:
         out.append(f"  {describe_fault(f)}")
+        for a in report.get("alternatives") or []:
+            pair = a.get("coincides")
+            if pair and f["name"] in pair["faults"]:
+                out += [f"    or {describe_fault(g)} (read together with {f['name']}: one fit)"
+                        for g in a["faults"] if g["name"] in pair["faults"] and g["name"] != f["name"]]
     for p in report.get("prognosis") or []:
         band = ""
         if p.get("rul_low") is not None and p.get("rul_high") is not None and p["rul_high"] != p["rul_low"]:
