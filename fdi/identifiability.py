@@ -11,7 +11,8 @@ a clog Kv x 0.7 is fitted by C x 2.04 to the last digit.
 
 The test, on the AGARRs (constant parameters, as an abrupt fault holds them after its onset): a
 and b are read together when, in every residual that reads either, dr/da / dr/db is free of the
-signals and one value (compared at random values of the signals and their derivatives). Then r
+signals and one value (compared at random values of the signals and their derivatives, of either
+sign: a probabilistic identity test, wrong only on a set of measure zero). Then r
 depends on (a, b) through one function whose level sets that ratio describes; it is named when
 it is a product of powers (dr/da / dr/db = (p/q) b/a: a**p * b**q) or a weighted sum (a ratio
 k free of a and b: a + b/k).
@@ -44,7 +45,7 @@ if TYPE_CHECKING:
     from .scaph import ARR
 
 MAX_OPS = 400     # sympy operations of a pair's two partial derivatives beyond which the combination is not named
-DRAWS = 3         # random points of the signals the ratio of the partial derivatives is compared at
+DRAWS = 6         # points of the signals the ratio of the partial derivatives is compared at (two of fixed sign)
 TOL = 1e-9        # relative: two values of the ratio that differ by less are equal
 
 
@@ -74,8 +75,14 @@ def read_together(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol, constant
     a mode variable changes in time): a ratio free of the signals and the same in every residual,
     what one combination of (a, b) gives. Decided by random points, not by simplifying the ratio
     (sympy's ``cancel`` took 260 s on a pendulum's arcsine relation): a ratio that moves with the
-    signals differs at random points but on a set of measure zero. The parameters are drawn too,
-    not taken at their nominal values: a leak's infinite resistance has no value to put there."""
+    signals differs at random points but on a set of measure zero. The signals are drawn of either
+    sign (a|x| + b x reads a and b together only while x keeps its sign: a flow that reverses
+    separates them); the parameters are drawn too (positive), not taken at their nominal values: a
+    leak's infinite resistance has no value to put there.
+
+    Not found: a pair the residual reads as a quotient with a sensor's gain (i/beta_i against
+    (u - v)/R, where the data determine beta_i/R only): there the ratio is one value only where
+    the residual vanishes, not at every point of the signals."""
     rng = random.Random(seed)
     constants = set(constants)
     exprs = list(exprs)
@@ -90,8 +97,9 @@ def read_together(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol, constant
             return False
         signals = sorted((set(_signals(da)) | set(_signals(db)) | da.free_symbols | db.free_symbols) - set(base),
                          key=sp.default_sort_key)
-        for _ in range(DRAWS):
-            point = {**base, **{s: sp.Float(rng.uniform(0.2, 1.0)) for s in signals}}
+        for k in range(DRAWS):        # all signals positive, all negative, then signs at random
+            signs = [1 if k == 0 else -1 if k == 1 else rng.choice((-1, 1)) for _ in signals]
+            point = {**base, **{s: sp.Float(sign * rng.uniform(0.2, 1.0)) for s, sign in zip(signals, signs)}}
             num, den = _value(da, point), _value(db, point)
             if num is None or den is None or den == 0:
                 return False
@@ -117,26 +125,27 @@ def ratio(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol) -> sp.Expr | Non
     return None
 
 
-def combination(ratio: sp.Expr | None, a: sp.Symbol, b: sp.Symbol) -> sp.Expr | None:
-    """The function of (a, b) whose level sets have slope ``ratio`` (= dr/da / dr/db), where it is
-    a product of powers a**p * b**q (ratio * a / b a rational constant p/q; p > 0) or a weighted
-    sum a + b / ratio (a ratio free of a and b: a turns ratio squared that refers a winding's
-    resistance to the other side); None otherwise.
+def combination(slope: sp.Expr | None, a: sp.Symbol, b: sp.Symbol) -> sp.Expr | None:
+    """The function of (a, b) whose level sets have slope ``slope`` (= dr/da / dr/db), where it is
+    a product of powers a**p * b**q (slope * a / b a rational constant p/q; p > 0) or a weighted
+    sum a + b / slope (a slope free of a and b: a turns ratio squared that refers a winding's
+    resistance to the other side); None otherwise, and for a slope that still reads a signal.
 
     >>> R1, R2, n = sp.symbols("R1 R2 n")
     >>> combination(sp.Integer(1), R1, R2), combination(-R2 / R1, R1, R2), combination(n**2, R1, R2)
     (R1 + R2, R1/R2, R1 + R2/n**2)
     """
-    if ratio is None:
-        return None
-    power = sp.cancel(ratio * a / b)
+    if slope is None or slope.atoms(sp.Derivative) or slope.atoms(sp.core.function.AppliedUndef) \
+            or any(s.name == "t" for s in slope.free_symbols):
+        return None                       # a ratio cancel left with signals in it names nothing
+    power = sp.cancel(slope * a / b)
     if power.is_Rational and power != 0:
         p, q = sp.fraction(power)
         if p < 0:
             p, q = -p, -q
         return a ** p * b ** q
-    if ratio != 0 and not ({a, b} & ratio.free_symbols):
-        return a + b / ratio
+    if slope != 0 and not ({a, b} & slope.free_symbols):
+        return a + b / slope
     return None
 
 
@@ -149,7 +158,9 @@ def coinciding(model: "Model", arrs: Iterable["ARR"]) -> tuple[Coincidence, ...]
     arrs = [(arr, _plain(arr.expr)) for arr in arrs]
     names = [{s.name for s in e.free_symbols} for _, e in arrs]
     constants = set(model.nominal_by_name()) - set(model.modes)
-    single = {name: f.symbols[0] for name, f in model.faults.items() if f.kind != "mode" and len(f.symbols) == 1}
+    single = {name: f.symbols[0] for name, f in model.faults.items()
+              if f.kind != "mode" and f.effect == "gain" and len(f.symbols) == 1}    # an offset or a frozen reading
+                                                                                     # acts on no symbol: left out
     signature = {name: frozenset(i for i, n in enumerate(names) if s in n) for name, s in single.items()}
     out = []
     for (fa, sa), (fb, sb) in combinations(single.items(), 2):

@@ -143,13 +143,16 @@ def warm(monitor: Any) -> None:
     from .data import _signal_functions
     from .objective import linear_transforms
     from .signatures import nominal_mode
+    try:
+        monitor.coinciding                  # first and apart: a later step that fails keeps it
+    except Exception:                       # noqa: BLE001 - asked again (and reported) where a report needs it
+        pass
     monitor.units
     _signal_functions(monitor.model)
     linear_transforms(monitor.model, monitor.residuals)
     mode = nominal_mode(monitor.model)
     monitor.fsm(mode)
     monitor.mcsm(mode)
-    monitor.coinciding
 
 
 def restore(payload: bytes) -> dict[str, Any]:

@@ -198,6 +198,16 @@ class Coincidence:
         return f"the residuals ({', '.join(self.residuals)}) read {a} and {b} only {how}"
 
 
+def partners(alternatives, name: str, final: set[str], winner) -> list[dict]:
+    """The fits the report's ``alternatives`` (dicts) offer of the faults read together with final
+    fault ``name`` (their ``coincides``), while the final faults are still the first decision's
+    winner's (a later decision's faults were fitted on other data)."""
+    if winner is None or final != set(winner):
+        return []
+    return [g for a in alternatives or () if a.get("coincides") and name in a["coincides"]["faults"]
+            for g in a["faults"] if g["name"] in a["coincides"]["faults"] and g["name"] != name]
+
+
 @dataclass(frozen=True)
 class Alternative:
     """An explanation the data hardly separate from the winner (information criterion within 2).
@@ -377,11 +387,11 @@ class Diagnosis:
         lines = [f"{self.model}: " + ("nothing detected" if d is None else
                                        f"detected at t_D = {d.time:.4g} s, coherence {_vec(d.coherence)}; "
                                        f"at {d.decision_time:.4g} s: {_vec(d.final_coherence)}")]
+        offered = [a.to_dict() for a in self.alternatives or ()]
         for f in self.faults:
             lines.append(f"  {f.describe()}" + (f" from {f.t0:.4g} s" if f.t0 is not None and f.type != "stuck" else ""))
             lines += [f"    or {Fault.from_dict(g).describe()} (read together with {f.name}: one fit)"
-                      for a in self.alternatives or () if a.coincides is not None and f.name in a.coincides.faults
-                      for g in a.faults if g["name"] in a.coincides.faults and g["name"] != f.name]
+                      for g in partners(offered, f.name, {g.name for g in self.faults}, self.winner)]
         if d is not None and not self.faults:
             lines.append("  no fault identified" + (f" ({self.note})" if self.note else ""))
         lines += [f"  RUL of {p.name}: {p.rul:.4g} s at {p.at:.4g} s (band {p.rul_low:.4g} to {p.rul_high:.4g} s)"

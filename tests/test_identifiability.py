@@ -116,3 +116,88 @@ def test_evaluate_grades_a_partner_read_together_on_the_reports_fit_of_the_desig
     for alternatives in ([], [{**offered, "coincides": None}]):
         s = score("clog", design, {**report, "alternatives": alternatives}, {})
         assert (s.isolated, s.read_together, s.errors) == (False, [], {})
+
+
+def test_laws_that_read_a_pair_together_only_while_a_signal_keeps_its_sign_are_separated():
+    """Designed truths: a|x| + b x, a sign(x) x^2 + b x^2 and a max(x, 0) + b x read a and b as
+    a + b only while x > 0; a flow that reverses separates them. (a + b) x and the tank's
+    a sign(x) x^2 / b^2 read them together whatever the sign."""
+    from fdi.identifiability import read_together
+    a, b, u = sp.symbols("a b u")
+    x = sp.Function("x")(sp.Symbol("t"))
+    apart = [u - a * sp.Abs(x) - b * x, a * sp.sign(x) * x ** 2 + b * x ** 2, a * sp.Max(x, 0) + b * x]
+    assert not any(read_together([e], a, b, {"a", "b"}) for e in apart)
+    assert read_together([u - (a + b) * x], a, b, {"a", "b"})
+    assert read_together([u - a * sp.sign(x) * x ** 2 / b ** 2], a, b, {"a", "b"})
+
+
+def test_a_combination_is_named_from_constants_only():
+    """A ratio that still reads a signal names nothing (it is not a pair read together)."""
+    from fdi.identifiability import combination
+    a, b = sp.symbols("a b")
+    x = sp.Function("x")(sp.Symbol("t"))
+    assert combination(x / sp.Abs(x), a, b) is None
+    assert combination(sp.Integer(2), a, b) == a + b / 2
+
+
+def test_the_three_tanks_shared_signature_is_decided_apart_pair_by_pair():
+    """By hand, d ARR2/d Rv2 = CT3 q2' + q2/Rv3 and d ARR2/d Rv3 = (p3 terms)/Rv3^2: their ratio
+    moves with the signals (as does the capacitance's CT3 p3' term): not read together."""
+    from fdi.identifiability import _plain, read_together
+    m = compiled(str(ROOT / "models" / "three_tank.yaml"))
+    (arr2,) = [a for a in m.arrs if a.name == "ARR2"]
+    e = _plain(arr2.expr)
+    Rv2, Rv3, CT3 = sp.symbols("Rv2 Rv3 CT3")
+    constants = set(m.model.nominal_by_name())
+    assert read_together([e], Rv2, Rv3, constants) is False
+    assert read_together([e], Rv2, CT3, constants) is False
+
+
+def test_an_offset_or_a_frozen_sensor_is_never_read_together_with_a_parameter(tmp_path):
+    """By hand: a resistor across a source with its current measured, u - R i/beta_i, reads R and
+    the current sensor's gain only as R/beta_i (Ohm's law through a mis-scaled ammeter). The same
+    sensor's offset (i + b) or frozen reading acts on no gain symbol: paired with nothing."""
+    path = tmp_path / "resistor.yaml"
+    path.write_text(RESISTOR)
+    (pair,) = compiled(str(path)).coinciding
+    assert set(pair.faults) == {"R", "gain"}
+    assert _function_of(pair.combination.replace("beta_i", "B"), ("R", "B"), sp.Symbol("R") / sp.Symbol("B"))
+
+
+RESISTOR = """name: resistor
+parameters:
+  R: {value: 10.0, unit: Ohm}
+data: {columns: [t, u, i], sampling_time: 0.001}
+inputs:
+  u: {column: u, unit: V, expr: "sin(t)"}
+elements:
+  supply: {type: MSe, input: u}
+  load: {type: R, parameter: R}
+junctions:
+  J: {type: "1"}
+sensors:
+  i: {type: Df, junction: J, column: i, unit: A, noise: 0.001}
+bonds:
+  1: [supply, J]
+  2: [J, load]
+faults:
+  R: {kind: parametric, parameters: [R]}
+  gain: {kind: sensor, sensor: i}
+  offset: {kind: sensor, sensor: i, effect: bias}
+  frozen: {kind: sensor, sensor: i, effect: stuck}
+"""
+
+
+def test_evaluate_does_not_hide_an_extra_final_fault_behind_a_pair():
+    """Designed: truth {Kv}; the report's final faults are {C, X} (a later decision added X) and
+    its first decision offered {Kv} as C's partner. The pair does not turn {C, X} into {Kv}."""
+    from fdi.app.evaluate import score
+    from fdi.app.scenario import FaultEvent
+    pair = {"faults": ["Kv", "C"], "combination": "Kv**2/C", "residuals": ["ARR1"]}
+    offered = {"candidate": ["Kv"], "faults": [{"name": "Kv", "type": "abrupt", "value": 7.0e-5, "t0": 60.0}],
+               "cost": 1.0, "criterion": 0.0, "coincides": pair}
+    report = {"detection": {"time": 59.8}, "alternatives": [offered],
+              "diagnosis": {"faults": [{"name": "C", "type": "abrupt", "value": 1e-5, "t0": 60.0},
+                                       {"name": "X", "type": "abrupt", "value": 1.0, "t0": 70.0}]}}
+    s = score("clog", [FaultEvent("Kv", "abrupt", 60.0, value=7.0e-5)], report, {})
+    assert not s.isolated and s.read_together == []

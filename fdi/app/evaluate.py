@@ -155,10 +155,12 @@ def graded_faults(report: dict, truth: list[str]) -> tuple[list[dict], list[str]
     pair, :mod:`fdi.identifiability`), that alternative's fit of the design's faults: no data
     could have chosen between the two, and the report offers both."""
     faults = report["diagnosis"]["faults"]
-    if {f["name"] for f in faults} == set(truth):
+    said = {f["name"] for f in faults}
+    if said == set(truth):
         return faults, []
-    for a in report.get("alternatives") or []:
-        if a.get("coincides") and set(a["candidate"]) == set(truth) and len(a["candidate"]) == len(truth):
+    for a in report.get("alternatives") or []:           # the final faults the design with one swapped
+        if a.get("coincides") and set(a["candidate"]) == set(truth) and len(a["candidate"]) == len(truth) \
+                and set(a["coincides"]["faults"]) == said ^ set(truth):
             return list(a["faults"]), list(a["coincides"]["faults"])
     return faults, []
 

@@ -12,6 +12,7 @@ from bondgraph.structure import DERIVATIVE, MIXED
 
 from ..arrs import select_arrs, structural_system
 from ..identifiability import coinciding
+from ..results import Coincidence
 from ..isolability import Isolability, sensor_placement, signature_isolability, structural_isolability
 from ..signatures import all_modes, fault_signature_matrix
 
@@ -35,7 +36,7 @@ class Analysis:
     seconds: float
     notes: tuple[str, ...]
     sensitivities: tuple = ()           # fdi.sensitivity.NominalSensitivity, on a nominal simulation
-    coinciding: tuple = ()              # fdi.results.Coincidence: faults the residuals read only together
+    coinciding: tuple[Coincidence, ...] = ()   # faults the residuals read only together
 
 
 def analyse(model: Model, causality: str = DERIVATIVE, modes: list[dict] | None = None,
@@ -102,7 +103,7 @@ def to_text(a: Analysis) -> str:
     if a.coinciding:
         lines += ["", "read together (faults with one signature are told apart by their fits, but not these: the "
                   "residuals read each pair only through one combination, so a constant fault of one is fitted "
-                  "as well by the other on any data)"]
+                  "as well by the other within their ranges)"]
         for c in a.coinciding:
             lines.append(f"  {c.faults[0]} and {c.faults[1]}: " + (c.combination or "one combination")
                          + f" ({', '.join(c.residuals)})")

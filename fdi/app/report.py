@@ -1,7 +1,7 @@
 """The diagnosis report as readable text (the JSON report is ``Diagnosis.to_dict``)."""
 from __future__ import annotations
 
-from ..results import Coincidence, Fault, _vec
+from ..results import Coincidence, Fault, _vec, partners
 
 
 def describe_fault(f: dict) -> str:
@@ -69,8 +69,8 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
                    f"{a['cost']:.4g}): " + "; ".join(describe_fault(f) for f in a["faults"]))
         if a.get("coincides"):
             out.append(f"    (one fit: {Coincidence.from_dict(a['coincides']).describe()}: a constant fault of either "
-                       f"is fitted as well by the other on any data; bgfdi isolability proposes sensors that separate "
-                       f"them)")
+                       f"is fitted as well by the other within their ranges; bgfdi isolability proposes sensors that "
+                       f"separate them)")
     for e in report.get("episodes") or []:
         out.append(f"at {e['time']:.2f} s the coherence vector became {list(e['coherence'])}; decided again at "
                    f"{e['decision_time']:.2f} s over {len(e['candidates'])} candidate set(s): "
@@ -89,11 +89,9 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
         out.append("diagnosis: no fault explains the coherence vector")
     for f in faults:
         out.append(f"  {describe_fault(f)}")
-        for a in report.get("alternatives") or []:
-            pair = a.get("coincides")
-            if pair and f["name"] in pair["faults"]:
-                out += [f"    or {describe_fault(g)} (read together with {f['name']}: one fit)"
-                        for g in a["faults"] if g["name"] in pair["faults"] and g["name"] != f["name"]]
+        out += [f"    or {describe_fault(g)} (read together with {f['name']}: one fit)"
+                for g in partners(report.get("alternatives"), f["name"], {g["name"] for g in faults},
+                                  report.get("winner"))]
     for p in report.get("prognosis") or []:
         band = ""
         if p.get("rul_low") is not None and p.get("rul_high") is not None and p["rul_high"] != p["rul_low"]:
