@@ -262,13 +262,25 @@ def test_the_cached_monitor_diagnoses_as_the_fresh_one(cache):
 @pytest.mark.parametrize("model, data", [
     (CYCAB, DATA / "scenario3.csv"),                                  # a mode fault, isolated
     (ROOT / "models" / "hydraulic_actuator.yaml", ROOT / "tests" / "golden" / "hydraulic_clog.csv.gz"),
-], ids=["cycab_mode_fault", "hydraulic_stored_quantity"])
+    (ROOT / "tests" / "data" / "drained_tank.yaml", "clog"),
+], ids=["cycab_mode_fault", "hydraulic_stored_quantity", "faults_read_together"])
 def test_a_warm_diagnose_process_imports_neither_sympy_nor_networkx(cache, tmp_path, model, data):
     """``bgfdi diagnose`` twice: the second process reads the compiled model and imports neither
     sympy (the model's expressions, the AGARRs and each residual's expression stay pickled bytes:
     bondgraph.deferred) nor networkx nor the modules that derive residuals, and writes the same
     report. The hydraulic actuator's residuals differentiate stored quantities (the chamber's
-    C p), identified with its clogging: the rate shared between residuals is found without sympy."""
+    C p), identified with its clogging: the rate shared between residuals is found without sympy.
+    The drained tank's clog (tests/independent/drained_tank.py) has an alternative read together
+    with the winner (fdi.identifiability): the pair travels with the compiled model."""
+    if data == "clog":
+        from .independent import drained_tank
+        cols = drained_tank.simulate(7, t0=60.0, factor=0.7)
+        data = tmp_path / "clog.csv"
+        np.savetxt(data, np.column_stack([cols[c] for c in ("t", "Qin", "Qout")]), delimiter=",",
+                   header="t,Qin,Qout", comments="", fmt="%.12g")
+        text = model.read_text(encoding="utf-8") + "thresholds: {ARR1: 0.008}\n"   # calibrated: 0.0080 m^3/s
+        model = tmp_path / "drained_tank.yaml"
+        model.write_text(text, encoding="utf-8")
     if str(data).endswith(".gz"):
         import gzip
         plain = tmp_path / "data.csv"
@@ -296,6 +308,9 @@ def test_a_warm_diagnose_process_imports_neither_sympy_nor_networkx(cache, tmp_p
     assert not derivation & warm, sorted(derivation & warm)
     assert json.loads(warm_report) == json.loads(cold_report)
     assert json.loads(warm_report)["diagnosis"]["faults"]
+    if model.name == "drained_tank.yaml":
+        assert any(a["coincides"] for a in json.loads(warm_report)["alternatives"])
+        assert "fdi.identifiability" not in warm
 
 
 def test_a_worker_that_receives_a_compiled_monitor_imports_no_sympy(tmp_path):
