@@ -177,7 +177,8 @@ def coinciding(model: "Model", arrs: Iterable["ARR"]) -> tuple[Coincidence, ...]
             named = combination(ratio(exprs, a, b), a, b)
         except Exception:    # noqa: BLE001 - sympy on a law it cannot differentiate or evaluate: not decided
             continue
-        out.append(Coincidence((fa, fb), "" if named is None else str(named), tuple(arr.name for arr, _ in reading)))
+        out.append(Coincidence((fa, fb), "" if named is None else str(named), tuple(arr.name for arr, _ in reading),
+                               (sa, sb)))
     return tuple(out)
 
 

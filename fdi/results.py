@@ -182,18 +182,25 @@ class Coincidence:
     faults: tuple[str, str]
     combination: str
     residuals: tuple[str, ...]
+    symbols: tuple[str, str] = ()        # the symbol each fault acts through (the combination's names)
 
     def to_dict(self) -> dict:
         return {"faults": list(self.faults), "combination": self.combination or None,
-                "residuals": list(self.residuals)}
+                "residuals": list(self.residuals), "symbols": list(self.symbols)}
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> "Coincidence":
-        return cls(tuple(d["faults"]), d.get("combination") or "", tuple(d.get("residuals") or ()))
+        return cls(tuple(d["faults"]), d.get("combination") or "", tuple(d.get("residuals") or ()),
+                   tuple(d.get("symbols") or ()))
 
     def describe(self) -> str:
-        """One line: ``the residuals (ARR1) read Kv and C only through Kv**2/C``."""
-        a, b = self.faults
+        """One line: ``the residuals (ARR1) read Kv and C only through Kv**2/C``; a fault named
+        apart from its symbol is given with it (``fV2 (Rv2)``).
+
+        >>> Coincidence(("fV2", "fV3"), "Rv2 + Rv3", ("ARR2",), ("Rv2", "Rv3")).describe()
+        'the residuals (ARR2) read fV2 (Rv2) and fV3 (Rv3) only through Rv2 + Rv3'
+        """
+        a, b = (f if s in ("", f) else f"{f} ({s})" for f, s in zip(self.faults, self.symbols or ("", "")))
         how = f"through {self.combination}" if self.combination else "through one combination"
         return f"the residuals ({', '.join(self.residuals)}) read {a} and {b} only {how}"
 
