@@ -3,7 +3,8 @@ diagnosis (the CLI's JSON, the API with the model as a path, as YAML text and as
 a fleet, the streaming monitor's events, the demo) prints what it
 printed before the restructuring (every key, string and flag; every real to round-off, 1e-9 of
 its value, since a matrix product need not sum in the same order on every CPU), on the four reference files of the paper's CyCab and a model
-of each kind (tests/golden/cases.py). The expected texts were recorded once, before the change,
+of each kind (tests/golden/cases.py; the API given the model as text or as an object on two of
+them: past reading the model it is the API given its path). The expected texts were recorded once, before the change,
 by tests/golden/make.py; a deliberate change of a report regenerates them in its own commit,
 which says why.
 

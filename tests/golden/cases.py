@@ -12,6 +12,10 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 
 ALL = ("cli", "api_path", "api_text", "api_model", "fleet", "monitor")
+# The API given the model as YAML text or as a Model object is the API given its path once the model
+# is read: those two doors run on two cases (the paper's scenario 2 and a commanded valve's mode
+# fault), every other door on every case (they took 40 s of the suite's CPU on the other seven)
+MOST = ("cli", "api_path", "fleet", "monitor")
 
 
 @dataclass(frozen=True)
@@ -25,19 +29,19 @@ class Case:
 
 
 CASES = (
-    Case("cycab_nominal", "cycab_steering", "models/data/cycab/nominal.csv"),
-    Case("cycab_scenario1", "cycab_steering", "models/data/cycab/scenario1.csv"),
+    Case("cycab_nominal", "cycab_steering", "models/data/cycab/nominal.csv", doors=MOST),
+    Case("cycab_scenario1", "cycab_steering", "models/data/cycab/scenario1.csv", doors=MOST),
     Case("cycab_scenario2", "cycab_steering", "models/data/cycab/scenario2.csv"),
-    Case("cycab_scenario3", "cycab_steering", "models/data/cycab/scenario3.csv"),
+    Case("cycab_scenario3", "cycab_steering", "models/data/cycab/scenario3.csv", doors=MOST),
     Case("demo", "cycab_steering", None, doors=("demo",)),
-    Case("drive_crack", "electromechanical_drive", "drive_crack.csv.gz"),
-    Case("hydraulic_clog", "hydraulic_actuator", "hydraulic_clog.csv.gz"),
+    Case("drive_crack", "electromechanical_drive", "drive_crack.csv.gz", doors=MOST),
+    Case("hydraulic_clog", "hydraulic_actuator", "hydraulic_clog.csv.gz", doors=MOST),
     Case("tank_stuck_open", "two_tank_commanded", "tank_stuck_open.csv.gz"),
     # thresholds: bgfdi calibrate on the nominal runs of tests/test_domain_converter.py and _modulated.py
     Case("boost_rL", "boost_converter", "boost_rL.csv.gz",
-         (("ARR1", 1.435632704078511), ("ARR2", 1.374877588999531))),
+         (("ARR1", 1.435632704078511), ("ARR2", 1.374877588999531)), doors=MOST),
     Case("chamber_wear", "variable_volume_actuator", "chamber_wear.csv.gz",
-         (("ARR1", 1.4611704960594416e-07), ("ARR2", 0.0005396259131573607)), max_set=1),
+         (("ARR1", 1.4611704960594416e-07), ("ARR2", 0.0005396259131573607)), max_set=1, doors=MOST),
 )
 
 
