@@ -96,7 +96,7 @@ def read_together(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol, constant
         if da == 0 or db == 0:
             return False
         signals = sorted((set(_signals(da)) | set(_signals(db)) | da.free_symbols | db.free_symbols) - set(base),
-                         key=sp.default_sort_key)
+                         key=sp.default_sort_key)      # with the mode variables: any symbol not drawn once
         for k in range(DRAWS):        # all signals positive, all negative, then signs at random
             signs = [1 if k == 0 else -1 if k == 1 else rng.choice((-1, 1)) for _ in signals]
             point = {**base, **{s: sp.Float(sign * rng.uniform(0.2, 1.0)) for s, sign in zip(signals, signs)}}
@@ -135,8 +135,7 @@ def combination(slope: sp.Expr | None, a: sp.Symbol, b: sp.Symbol) -> sp.Expr | 
     >>> combination(sp.Integer(1), R1, R2), combination(-R2 / R1, R1, R2), combination(n**2, R1, R2)
     (R1 + R2, R1/R2, R1 + R2/n**2)
     """
-    if slope is None or slope.atoms(sp.Derivative) or slope.atoms(sp.core.function.AppliedUndef) \
-            or any(s.name == "t" for s in slope.free_symbols):
+    if slope is None or _signals(slope):
         return None                       # a ratio cancel left with signals in it names nothing
     power = sp.cancel(slope * a / b)
     if power.is_Rational and power != 0:

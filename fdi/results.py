@@ -193,6 +193,11 @@ class Coincidence:
         return cls(tuple(d["faults"]), d.get("combination") or "", tuple(d.get("residuals") or ()),
                    tuple(d.get("symbols") or ()))
 
+    def names(self) -> tuple[str, str]:
+        """The two faults, each with its symbol where it is named apart from it (``fV2 (Rv2)``)."""
+        a, b = (f if s in ("", f) else f"{f} ({s})" for f, s in zip(self.faults, self.symbols or ("", "")))
+        return a, b
+
     def describe(self) -> str:
         """One line: ``the residuals (ARR1) read Kv and C only through Kv**2/C``; a fault named
         apart from its symbol is given with it (``fV2 (Rv2)``).
@@ -200,7 +205,7 @@ class Coincidence:
         >>> Coincidence(("fV2", "fV3"), "Rv2 + Rv3", ("ARR2",), ("Rv2", "Rv3")).describe()
         'the residuals (ARR2) read fV2 (Rv2) and fV3 (Rv3) only through Rv2 + Rv3'
         """
-        a, b = (f if s in ("", f) else f"{f} ({s})" for f, s in zip(self.faults, self.symbols or ("", "")))
+        a, b = self.names()
         how = f"through {self.combination}" if self.combination else "through one combination"
         return f"the residuals ({', '.join(self.residuals)}) read {a} and {b} only {how}"
 

@@ -105,8 +105,8 @@ def to_text(a: Analysis) -> str:
                   "residuals read each pair only through one combination, so a constant fault of one is fitted "
                   "as well by the other within their ranges)"]
         for c in a.coinciding:
-            names = [f if s == f else f"{f} ({s})" for f, s in zip(c.faults, c.symbols)]
-            lines.append(f"  {names[0]} and {names[1]}: " + (c.combination or "one combination")
+            first, second = c.names()
+            lines.append(f"  {first} and {second}: " + (c.combination or "one combination")
                          + f" ({', '.join(c.residuals)})")
     p = a.placement
     if p is not None:
