@@ -9,9 +9,11 @@ then a capacitance x 1/0.49 to the last digit, and the report must say so."""
 from __future__ import annotations
 
 import json
+import math
 from functools import partial
 from pathlib import Path
 
+import numpy as np
 import pytest
 import sympy as sp
 
@@ -201,3 +203,55 @@ def test_evaluate_does_not_hide_an_extra_final_fault_behind_a_pair():
                                        {"name": "X", "type": "abrupt", "value": 1.0, "t0": 70.0}]}}
     s = score("clog", [FaultEvent("Kv", "abrupt", 60.0, value=7.0e-5)], report, {})
     assert not s.isolated and s.read_together == []
+
+
+def test_a_rul_checkpoint_refits_the_design_where_the_report_named_its_partner(monkeypatch):
+    """Designed: the valve clogs by eq. (16), Kv = 1e-4 exp(-0.005 (t - 20)), failing at 6e-5:
+    EOL = 20 + ln(0.6) / -0.005 = 122.2 s. At each checkpoint the diagnosis names the capacitance,
+    its partner read only through C/Kv^2, and offers the valve's fit beside it; the refit starts
+    from that fit of the design (not C's), and the checkpoint is graded on the valve's prognosis,
+    marked read together. Without the pair, the same report is no prediction of the valve."""
+    from fdi.app import evaluate
+    from fdi.app.scenario import FaultEvent, Scenario
+    from fdi.config import load
+    from fdi.data import Measurements
+    from fdi.detect import Detection
+    from fdi.options import Options
+    from fdi.prognose import end_of_life
+    from fdi.results import Alternative, Coincidence, Diagnosis, Fault, Prognosis
+    model, config = load(TANK)
+    b, failure, t0 = -0.005, 6.0e-5, 20.0
+    eol = t0 + math.log(failure / 1.0e-4) / b
+    design = FaultEvent("Kv", "incipient", t0, model=1, b=(b,), failure=failure)
+    scenario = Scenario("clog.json", 0, 130.0, 20.0, {}, (design,), {}, {})
+    t = np.arange(0.0, 130.0, 0.05)
+    meas = Measurements("clog", t, {"t": t, "Qin": np.zeros_like(t), "Qout": np.zeros_like(t)})
+    valve = Fault("Kv", "incipient", model=1, eta=(0, 0), b=(b,), t0=t0)
+    pair = Coincidence(("Kv", "C"), "C/Kv**2", ("ARR1",), ("Kv", "C"))
+
+    def report(coincides):
+        return Diagnosis("drained_tank", {}, Detection(25.0, (1,), 26.0, (1,), 500),
+                         faults=(Fault("C", "incipient", model=1, eta=(0, 0), b=(-2 * b,), t0=t0),),
+                         alternatives=(Alternative(("Kv",), (valve.to_dict(),), 1.0, 0.0, coincides),))
+    refitted = []
+
+    def refresh(monitor, prefix, d, o, memo):
+        refitted.append([f.name for f in d.faults])
+        now = float(prefix.t[-1])
+        ends = {f.name: end_of_life(1, list(f.b), 1.0e-4, failure, f.t0, now) for f in d.faults if f.name == "Kv"}
+        return tuple(f.to_dict() for f in d.faults), tuple(
+            Prognosis(n, failure, e, e - now, now, 0.0, 1e9) for n, e in ends.items())
+    monkeypatch.setattr(evaluate, "refresh_prognosis", refresh)
+    for coincides, graded in ((pair, True), (None, False)):
+        monkeypatch.setattr(evaluate, "compiled", lambda path, r=report(coincides): type(
+            "M", (), {"diagnose": lambda self, *a: r})())
+        refitted.clear()
+        points = evaluate.rul_checkpoints(TANK, model, config, scenario, meas, {}, Options(workers=1))
+        assert [p["t"] for p in points] == pytest.approx([t0 + f * (eol - t0) for f in (0.5, 0.9)])
+        if graded:
+            assert refitted == [["Kv"], ["Kv"]]
+            assert all(p["read_together"] == ["Kv", "C"] for p in points)
+            assert all(abs(p["rul"] - p["true_rul"]) <= 0.05 for p in points)    # from the last sample before
+        else:
+            assert refitted == [] and all(p["rul"] is None for p in points)
+            assert all(p["note"] == "the fault is not diagnosed incipient at this point" for p in points)

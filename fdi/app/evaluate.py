@@ -46,6 +46,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..data import DataError, Measurements
+from ..results import Fault
 from ..options import Options
 from ..episodes import since_detection
 from ..pipeline import MAX_REFIT, refresh_prognosis
@@ -340,8 +341,12 @@ def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements
                     o: Options, life_points: tuple[float, ...] = LIFE_POINTS, memo: dict | None = None) -> list[dict]:
     """For each incipient design fault with a failure value: the RUL the toolkit gives at 50 % and
     90 % of its life (the data up to then diagnosed and refitted), against the true RUL. ``memo``:
-    the estimators already run on this record (a prefix's windows are the record's)."""
+    the estimators already run on this record (a prefix's windows are the record's). A design
+    fault a checkpoint's diagnosis names by its partner read together is refitted from the
+    report's fit of the design (:func:`graded_faults`; the entry's ``read_together``), as the
+    diagnosis is graded."""
     out = []
+    truth = sorted({g.target for g in scenario.faults})
     for e in scenario.faults:
         failure = e.failure if e.failure is not None else config.failure(e.target)
         if e.type != "incipient" or failure is None:
@@ -367,11 +372,15 @@ def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements
                 entry["note"] = f"no diagnosis at this point ({type(exc).__name__})"
                 out.append(entry)
                 continue
+            graded, together = graded_faults(part, truth)
             if part["detection"] is None:
                 entry["note"] = "nothing is detected yet at this point of life"
-            elif not any(f["name"] == e.target and f["type"] == "incipient" for f in part["diagnosis"]["faults"]):
+            elif not any(f["name"] == e.target and f["type"] == "incipient" for f in graded):
                 entry["note"] = "the fault is not diagnosed incipient at this point"
             else:
+                if together:                # the design's own fit, which the report offers beside its partner's
+                    d = replace(d, faults=tuple(Fault.from_dict(f) for f in graded))
+                    entry["read_together"] = together
                 refit, prognosis = refresh_prognosis(compiled(model_path), prefix, d, o, memo)
                 f = next((f for f in refit if f["name"] == e.target and f["type"] == "incipient"), None)
                 if f is not None:
