@@ -722,6 +722,11 @@ def _elements(ctx, data, symbols, claim, inputs, sensors) -> dict[str, Element]:
                 pname = _ref(ctx, spec["parameter"], where + ("parameter",), "parameter")
                 if pname not in symbols or not isinstance(symbols[pname], sp.Symbol):
                     raise ctx.error(where + ("parameter",), f"undefined parameter '{pname}'; add it under parameters")
+                if kind in ("C", "I") and not symbols[pname].is_positive:    # a parameter is positive iff its value is
+                    what = {"C": "a capacitance (compliance)", "I": "an inertance (mass, inductance)"}[kind]
+                    raise ctx.error(where + ("parameter",), f"{kind} element '{name}' reads parameter '{pname}', whose "
+                                    f"value is not positive; {what} stores energy only when positive: give its "
+                                    "magnitude (SI units)")
                 fields["parameter"] = pname
             laws = {}
             for law in _ELEMENT_KEYS[kind] - {"parameter"}:
