@@ -19,7 +19,8 @@ TS, NOISE, Q_MEAN = 0.01, 30.0, 9.0e-5                    # s, Pa, m^3/s (5.4 l/
 
 
 def inflow(t):
-    """The aortic inflow (m^3/s): one beat of 0.8 s and its second harmonic."""
+    """The aortic inflow (m^3/s): one beat of 0.8 s and its second harmonic (the model's input
+    expression, written out)."""
     return Q_MEAN * (1 + 0.9 * np.sin(7.854 * t) + 0.3 * np.sin(15.708 * t))
 
 
