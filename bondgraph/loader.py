@@ -460,7 +460,7 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
     sensors = _sensors(ctx, data, symbols, claim, column_symbols, columns)
     definitions = _definitions(ctx, data, symbols, claim)
     modes = _autonomous(ctx, data, modes, symbols, sensors, inputs)
-    elements = _elements(ctx, data, symbols, claim, inputs, sensors)
+    elements = _elements(ctx, data, symbols, claim, inputs, sensors, parameters)
     junctions, mode_exprs = _junctions(ctx, data, claim, modes, symbols)
     bonds = _bonds(ctx, data, elements, junctions)
     _check_ports(ctx, elements, junctions, bonds)
@@ -700,7 +700,7 @@ _LAW_VARS = {("R", "effort"): "f", ("R", "flow"): "e", ("C", "effort"): "q",
              ("C", "displacement"): "e", ("I", "flow"): "p", ("I", "momentum"): "f"}
 
 
-def _elements(ctx, data, symbols, claim, inputs, sensors) -> dict[str, Element]:
+def _elements(ctx, data, symbols, claim, inputs, sensors, parameters) -> dict[str, Element]:
     out: dict[str, Element] = {}
     params = dict(symbols)           # once, not per element: a copy each would make loading quadratic
     for name, spec in _mapping(ctx, data.get("elements"), ("elements",), required=True).items():
@@ -722,11 +722,12 @@ def _elements(ctx, data, symbols, claim, inputs, sensors) -> dict[str, Element]:
                 pname = _ref(ctx, spec["parameter"], where + ("parameter",), "parameter")
                 if pname not in symbols or not isinstance(symbols[pname], sp.Symbol):
                     raise ctx.error(where + ("parameter",), f"undefined parameter '{pname}'; add it under parameters")
-                if kind in ("C", "I") and not symbols[pname].is_positive:    # a parameter is positive iff its value is
+                value = getattr(parameters.get(symbols[pname].name), "value", None)    # (a definition's alias too)
+                if kind in ("C", "I") and value is not None and not value > 0:
                     what = {"C": "a capacitance (compliance)", "I": "an inertance (mass, inductance)"}[kind]
-                    raise ctx.error(where + ("parameter",), f"{kind} element '{name}' reads parameter '{pname}', whose "
-                                    f"value is not positive; {what} stores energy only when positive: give its "
-                                    "magnitude (SI units)")
+                    raise ctx.error(where + ("parameter",), f"{kind} element '{name}' reads parameter '{pname}' = "
+                                    f"{value:g}; {what} stores energy only when positive: give its positive "
+                                    "value (SI units)")
                 fields["parameter"] = pname
             laws = {}
             for law in _ELEMENT_KEYS[kind] - {"parameter"}:

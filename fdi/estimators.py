@@ -720,34 +720,50 @@ def refit_early_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndar
     return out
 
 
+def evidence_start(monitor: "Monitor", r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, start: float) -> float:
+    """The earliest departure from its noise band (:func:`fdi.hints.departure`; its first crossing
+    where it never leaves the band before) of a residual that crossed its threshold at or after
+    ``start``: the evidence of :func:`evidence_onsets` without the filters' look-ahead; inf when no
+    residual crossed."""
+    r = np.asarray(r, dtype=float).reshape(len(monitor.residuals), -1)
+    out = np.inf
+    for row, thr in zip(r, thresholds):
+        over = np.flatnonzero((t >= start) & (np.abs(row) > thr))
+        if over.size:
+            cross = float(t[over[0]])
+            dep = hints.departure(row, t, start, cross)
+            out = min(out, cross if dep is None else dep)
+    return out
+
+
 def date_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t_d: float, samples: int,
                 winner: Estimate, weights: np.ndarray, seed: int, onsets: tuple[float, float],
-                earliest: float) -> Estimate:
-    """The winner's abrupt faults dated where the evidence says they began before t_D. The
-    identification window starts at t_D, so a step that began before it changes nothing the cost
-    reads but the filter's margin: its onset, searched back over the evidence (``onsets``,
-    :func:`refit_early_onsets`), stays wherever the search left it. When an abrupt fault's onset is
-    at or before t_D and the evidence begins more than a derivative window earlier (a first
-    crossing the persistence rule did not confirm), the winner's set is fitted again from its fit on
-    a window that starts a derivative window before the evidence (the same N samples after t_D), and
-    its faults are taken from that fit when it keeps every fault's type and degradation model: the
-    decision stays the first window's, the dates and values come from the longer one. Measured: a
-    spring sagging from 8.00 s (quarter car) crossed at 7.996-8.023 s, then at 8.381 s (t_D): dated
-    8.36 s, now 8.007 s (12 166 N/m for 12 000); the two tanks' outlet clogged at 200 s, confirmed
-    33 s later: dated 233.5 s, now 199.9-200.0 s."""
+                evidence: float, earliest: float) -> Estimate:
+    """The winner's steps dated where the evidence says they began before t_D. The identification
+    window starts at t_D, so a step that began before it changes nothing the cost reads but the
+    filter's margin: its onset, searched back over the evidence (``onsets``,
+    :func:`refit_early_onsets`), stays wherever the search left it. When every fault of the winner
+    is abrupt, one of them dated at or before t_D, and the ``evidence`` (:func:`evidence_start`: a
+    residual left its noise band) begins more than a derivative window before t_D (a step the
+    persistence rule confirmed late), the winner's set is fitted again from its fit on a window that
+    starts a derivative window before ``onsets[0]`` (the same N samples after t_D), and all its
+    faults are taken from that fit when their types are kept: the decision, and the cost it was made
+    on, stay the first window's; the dates and values come from the longer one (the evaluations
+    add up). Measured: a spring sagging from 8.00 s (quarter car) left the band at 8.0 s and was
+    confirmed at 8.381 s (t_D): dated 8.36 s, now 8.007 s (12 166 N/m for 12 000; 12 075 before);
+    the two tanks' outlet clogged at 200 s, confirmed 33 s later: dated 233.5 s, now 199.9-200.0 s."""
     ts = float(t[1] - t[0])
     w = est.monitor.config.derivative_window
-    pinned = [f for f in winner.faults if f["type"] == "abrupt" and f.get("t0", np.inf) <= t_d + 1.5 * ts]
-    if not pinned or not onsets[0] < t_d - w:
+    if not winner.faults or any(f["type"] != "abrupt" for f in winner.faults) \
+            or not any(f.get("t0", np.inf) <= t_d + 1.5 * ts for f in winner.faults) or not evidence < t_d - w:
         return winner
     start = max(onsets[0] - w, earliest)
     i0, i1 = (int(np.searchsorted(t, x - 1e-9)) for x in (start, t_d))
     (r,) = est.run(t, raw, start, samples + (i1 - i0), [tuple(winner.candidate)], weights, seed + 7919, None, None,
                    [(start, onsets[1])], [[list(winner.faults)]])
-    shape = lambda faults: sorted((f["name"], f["type"], f.get("model")) for f in faults)    # noqa: E731
-    if not r.faults or shape(r.faults) != shape(winner.faults):
+    if sorted((f["name"], f["type"]) for f in r.faults) != sorted((f["name"], f["type"]) for f in winner.faults):
         return winner
-    return replace(winner, faults=r.faults)
+    return replace(winner, faults=r.faults, evaluations=winner.evaluations + r.evaluations)
 
 
 def _refit(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t_d: float, samples: int,

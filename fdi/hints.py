@@ -37,6 +37,7 @@ from __future__ import annotations
 import hashlib
 from collections import OrderedDict
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -367,7 +368,7 @@ def _inside(kernel) -> int:
     return max([reads] + [1 + _inside(inner) for _, inner in getattr(kernel, "composites", ())])
 
 
-def _draws(rng: np.random.Generator, box: np.ndarray, linear: list[bool], count: int = 0) -> np.ndarray:
+def _draws(rng: np.random.Generator, box: np.ndarray, linear: list[bool], count: int | None = None) -> np.ndarray:
     """``count`` (default TRANSLATE_DRAWS) points in ``box`` (one row per coefficient): uniform, and for a coefficient
     coded as itself (``linear``; eq. 18's rate is coded as a logarithm already) whose box holds
     zero, half of them log-uniform in magnitude (five decades below the box's largest, either
@@ -387,7 +388,8 @@ def _draws(rng: np.random.Generator, box: np.ndarray, linear: list[bool], count:
     return x
 
 
-def _line_search(rng: np.random.Generator, box: np.ndarray, linear: list[bool], cost) -> np.ndarray | None:
+def _line_search(rng: np.random.Generator, box: np.ndarray, linear: list[bool],
+                 cost: Callable[[np.ndarray], np.ndarray]) -> np.ndarray | None:
     """The coefficient of a one-coefficient model (eqs. 16, 17) nearest by ``cost``: LINE_DRAWS draws
     over the box (:func:`_draws`), then LINE_ROUNDS even grids of LINE_POINTS between the best
     point's neighbours among those evaluated (each round narrows the bracket some eight times).
@@ -404,11 +406,10 @@ def _line_search(rng: np.random.Generator, box: np.ndarray, linear: list[bool], 
     xs = _draws(rng, box, linear, LINE_DRAWS)[:, 0]
     es = cost(xs[:, None])
     for _ in range(LINE_ROUNDS):
-        order = np.argsort(xs, kind="stable")
-        xa, ea = xs[order], es[order]
-        k = int(np.argmin(ea))
-        a = xa[k - 1] if k > 0 else lo
-        b = xa[k + 1] if k + 1 < xa.size else hi
+        x = xs[int(np.argmin(es))]
+        below, above = xs[xs < x], xs[xs > x]      # its neighbours among the distinct points evaluated
+        a = below.max() if below.size else lo
+        b = above.min() if above.size else hi
         grid = np.linspace(a, b, LINE_POINTS + 2)[1:-1]
         xs, es = np.concatenate([xs, grid]), np.concatenate([es, cost(grid[:, None])])
     k = int(np.argmin(es))
@@ -444,8 +445,9 @@ def translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: np
     are) or where nothing translates (an intermittent target from another type: the engine keeps
     its own point there). An abrupt target takes the profile's median after the onset; a
     degradation model (16)-(19) the coefficients whose profile is nearest, in the parameter's
-    scale (its reciprocal when the nominal value is infinite), by a shrinking random search over
-    the coefficients' box. No residual is evaluated: a profile costs microseconds. With ``t0_to``
+    scale (its reciprocal when the nominal value is infinite): a line search for the one
+    coefficient of eqs. (16), (17) (:func:`_line_search`), a shrinking random search over the
+    coefficients' box for eqs. (18), (19). No residual is evaluated: a profile costs microseconds. With ``t0_to``
     the target's onset is that one (a drift re-expressed as one that started earlier); an
     incipient fault that keeps its model is then re-expressed too.
 

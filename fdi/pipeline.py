@@ -23,7 +23,7 @@ from .decide import alternatives, effective_samples, information, select_winner,
 from .derivatives import DEFAULT_ORDER, window_samples
 from .detect import Detection, detect, settling, thresholds_for
 from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide, since_detection
-from .estimators import Estimators, Search, date_onsets, evidence_onsets, refit_early_onsets
+from .estimators import Estimators, Search, date_onsets, evidence_onsets, evidence_start, refit_early_onsets
 from .ingest import measurements
 from .isolate import candidate_sets, new_mode_changes, pruned_sets, relaxed_sets, suspected_mode_changes
 from .mode_estimation import estimate_mode, mode_variable
@@ -360,8 +360,6 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
     results = refit_early_onsets(est, t, p.raw, det.time, p.samples, list(d.candidates), results, p.weights,
                                  o.seed, onsets, float(t[0]) + p.settle)
     d, results = widen(p, d, fsm, r, results, est, onsets)
-    clock.lap("identification")
-    d = replace(d, estimates=tuple(results))
     n_eff = effective_samples(p.samples, len(p.monitor.residuals), p.meas.ts, p.window_s)
     won = select_winner(results, n_eff)
     mf = d.mode_fault if d.mode_fault is not None and d.mode_fault.faults else None
@@ -370,12 +368,18 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
         # the fault mode explains the data better than any component fault once parameters are
         # charged (Sec. III-C's order, with the comparison the paper leaves implicit: a valve stuck
         # closed also looks like a clogged one, and a pair of component faults can over-fit the window)
-        return replace(d, mode=dict(mf.mode), faults=mf.faults,
+        clock.lap("identification")
+        return replace(d, estimates=tuple(results), mode=dict(mf.mode), faults=mf.faults,
                        alternatives=alternatives(results, mf.cost, mode_faults, n_eff,
                                                  coinciding=lambda: p.monitor.coinciding))
+    # the winner's steps dated from the evidence before t_D (its estimator's entry too)
+    best = date_onsets(est, t, p.raw, det.time, p.samples, won, p.weights, o.seed, onsets,
+                       evidence_start(p.monitor, r, t, p.thresholds, float(t[0]) + p.settle), float(t[0]) + p.settle)
+    results = [best if e is won else e for e in results]
+    clock.lap("identification")
+    d = replace(d, estimates=tuple(results))
     extra = [Alternative(tuple(f["name"] for f in mode_faults), tuple(mode_faults), mf.cost, 0.0)] if mf else []
-    best = date_onsets(est, t, p.raw, det.time, p.samples, won, p.weights, o.seed, onsets, float(t[0]) + p.settle)
-    d = replace(d, alternatives=alternatives(results, best.cost, list(best.faults), n_eff, extra, skip=won,
+    d = replace(d, alternatives=alternatives(results, best.cost, list(best.faults), n_eff, extra, skip=best,
                                              coinciding=lambda: p.monitor.coinciding),
                 faults=faults_of(best.faults), winner=tuple(best.candidate))
     d, now = later_decisions(p, d, fsm, r, est, clock)

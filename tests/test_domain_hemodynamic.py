@@ -40,7 +40,7 @@ def test_the_residual_is_the_windkessel_law():
 def test_a_vasoconstriction_and_a_stiffening_are_found_and_sized(thresholds, which, factor, seed):
     report = diagnose(MODEL, _data(which, seed, t0=T0, factor=factor, which=which),
                       Options(workers=1, seed=0, thresholds=thresholds, max_set=1)).to_dict()
-    assert T0 - 0.15 <= report["detection"]["time"] < T0 + 0.5      # half the 0.25 s derivative window
+    assert T0 - 0.15 <= report["detection"]["time"] < T0 + 0.5      # half the 0.25 s derivative window, and a sample
     (found,) = report["diagnosis"]["faults"]
     assert (found["name"], found["type"]) == (which, "abrupt")
     assert found["value"] == pytest.approx(windkessel.NOMINAL[which] * factor, rel=0.02)

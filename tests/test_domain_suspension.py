@@ -153,3 +153,42 @@ def test_calibrate_chooses_a_window_at_which_the_damper_is_found(tmp_path, capsy
     assert (found["name"], found["type"]) == ("damper", "abrupt")
     assert found["value"] == pytest.approx(400.0, rel=0.03)
     assert found["t0"] == pytest.approx(T0, abs=0.05)
+
+
+def test_a_step_is_dated_again_only_when_the_evidence_precedes_its_confirmation_by_a_window():
+    """Designed: t_D = 8.381 s, a derivative window of 0.06 s. The winner's set is refitted on the
+    longer window only when all its faults are abrupt, one dated at or before t_D, and a residual
+    left its noise band more than a window before t_D; the refit's dates are taken when it keeps
+    the types (else the winner stands)."""
+    import numpy as np
+    from fdi.estimators import date_onsets
+    from fdi.results import Estimate
+    t = np.arange(0.0, 20.0, 0.001)
+    runs = []
+
+    class Fake:                                     # an Estimators that records its runs
+        monitor = type("M", (), {"config": type("C", (), {"derivative_window": 0.06})()})()
+
+        def __init__(self, answer):
+            self.answer = answer
+
+        def run(self, t_, raw, start, samples, candidates, *rest):
+            runs.append((round(start, 3), samples))
+            return [self.answer]
+
+    def est(faults):
+        return Estimate(("spring",), 1.0, 1.0, (), None, tuple(faults), 10, 0.0)
+    step = {"name": "spring", "type": "abrupt", "value": 12075.0, "t0": 8.36}
+    dated = est([{**step, "value": 12166.0, "t0": 8.007}])
+    call = lambda winner, evidence, answer=dated: date_onsets(            # noqa: E731
+        Fake(answer), t, {}, 8.381, 1000, winner, np.ones(2), 0, (7.97, 8.41), evidence, 1.0)
+    assert call(est([step]), 7.998).faults == dated.faults and runs == [(7.91, 1471)]
+    assert call(est([step]), 7.998).evaluations == 20                  # the refit's evaluations added
+    runs.clear()
+    for winner, evidence in ((est([step]), 8.35),                       # evidence within a window of t_D
+                             (est([{**step, "t0": 8.40}]), 7.998),      # dated after t_D
+                             (est([{**step, "type": "incipient"}]), 7.998)):   # a drift: refitted elsewhere
+        assert call(winner, evidence) is winner
+    assert runs == []
+    other = est([{**step, "type": "intermittent", "period": 0.5}])
+    assert call(est([step]), 7.998, other).faults == (step,)             # the refit changed the type

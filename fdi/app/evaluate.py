@@ -346,7 +346,6 @@ def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements
     report's fit of the design (:func:`graded_faults`; the entry's ``read_together``), as the
     diagnosis is graded."""
     out = []
-    truth = sorted({g.target for g in scenario.faults})
     for e in scenario.faults:
         failure = e.failure if e.failure is not None else config.failure(e.target)
         if e.type != "incipient" or failure is None:
@@ -372,7 +371,7 @@ def rul_checkpoints(model_path: str, model, config, scenario, meas: Measurements
                 entry["note"] = f"no diagnosis at this point ({type(exc).__name__})"
                 out.append(entry)
                 continue
-            graded, together = graded_faults(part, truth)
+            graded, together = graded_faults(part, sorted({g.target for g in scenario.faults if g.t0 <= at}))
             if part["detection"] is None:
                 entry["note"] = "nothing is detected yet at this point of life"
             elif not any(f["name"] == e.target and f["type"] == "incipient" for f in graded):
