@@ -25,10 +25,12 @@ from .sensitivity import STEP, perturbed
 
 # ``--window auto``: the candidate derivative windows are the rule's times sqrt(2)^k, k = 0..8 (up
 # to 16 times it), each at most a tenth of the shortest run and clear of the model's modes
-# (clear_of_modes); unless the rule's window is good enough (DETECT_GOAL), the one with the
+# (clear_of_modes), and k = -1..-4 (down to a quarter of it, at least the rule's fewest samples:
+# inputs faster than the model's time constants, a heartbeat driving the arteries, are smoothed by
+# the rule's window); unless the rule's window is good enough (DETECT_GOAL), the one with the
 # smallest detectable changes wins, the shortest of those within WINDOW_TIE of it (a shorter window
 # detects sooner)
-WINDOW_FACTORS = tuple(2.0 ** (k / 2) for k in range(9))
+WINDOW_FACTORS = (1.0,) + tuple(2.0 ** (k / 2) for k in range(-4, 0)) + tuple(2.0 ** (k / 2) for k in range(1, 9))
 WINDOW_TIE = 0.05
 MODE_CLEARANCE = 4.0      # a mode is cut when its frequency is this many times the filter's cutoff
 # ... and at most this fraction of a run's samples without a residual (within half a window of a
@@ -95,7 +97,7 @@ def clear_of_modes(samples: int, ts: float, eigenvalues, polyorder: int = deriva
 def choose_window(model_path: str, data: list[Measurements], thresholds_of: Callable[[list[np.ndarray]], np.ndarray],
                   settle: float | None = None) -> list[WindowScore]:
     """Every candidate derivative window's :class:`WindowScore` on the nominal runs ``data``, the
-    rule's window first (:data:`WINDOW_FACTORS` times it). Why: the rule (half the fastest time
+    rule's window first, then the shorter and the longer ones (:data:`WINDOW_FACTORS` times it). Why: the rule (half the fastest time
     constant, fdi.scales) suits a residual's first derivatives; a residual that takes a second
     derivative of a noisy signal (a mass's acceleration from its velocity, a capacitor's current's
     rate) is noisy at that window, its calibrated threshold far above what a fault moves it by (the
@@ -122,6 +124,8 @@ def choose_window(model_path: str, data: list[Measurements], thresholds_of: Call
         if factor > 1 and window > longest:
             break
         samples = derivatives.window_samples(window, ts, derivatives.DEFAULT_ORDER)
+        if factor < 1 and samples < scales.min_window_samples():
+            continue                      # below the rule's fewest samples
         if factor > 1 and not clear_of_modes(samples, ts, eigenvalues):
             continue
         config = replace(c.config, derivative_window=float(window))
@@ -179,4 +183,4 @@ def chosen(scores: list[WindowScore]) -> WindowScore:
     if rule.detectable and max(rule.detectable.values()) <= DETECT_GOAL:
         return rule
     best = min(s.score for s in scores)
-    return next(s for s in scores if s.score <= best * (1 + WINDOW_TIE))
+    return next(s for s in sorted(scores, key=lambda s: s.window) if s.score <= best * (1 + WINDOW_TIE))

@@ -45,3 +45,19 @@ def test_a_vasoconstriction_and_a_stiffening_are_found_and_sized(thresholds, whi
     assert (found["name"], found["type"]) == (which, "abrupt")
     assert found["value"] == pytest.approx(windkessel.NOMINAL[which] * factor, rel=0.02)
     assert found["t0"] == pytest.approx(T0, abs=0.1)
+
+
+def test_calibrate_finds_a_window_shorter_than_the_rules_where_the_heart_beats_faster(tmp_path):
+    """Without the file's window, the rule's is half of Rp C = 1.5 s, and the heartbeat (1.25 Hz and
+    its harmonic) is smoothed by it: `calibrate --window auto` tries windows below the rule's too
+    and picks one (0.375 s), where every fault is detected from a smaller change than at the rule's."""
+    from fdi.calibrate import calibrate
+    from fdi.window_choice import chosen
+    text = Path(MODEL).read_text(encoding="utf-8")
+    model = tmp_path / "windkessel_rule.yaml"
+    model.write_text(text[:text.index("\ndiagnosis:")] + "\n", encoding="utf-8")
+    runs = [_data("nominal1", 1), _data("nominal2", 2)]
+    scores = calibrate(str(model), runs, window="auto").window_scores
+    rule, pick = scores[0], chosen(scores)
+    assert rule.window == pytest.approx(0.75, rel=0.01) and pick.window < rule.window / 1.5
+    assert all(pick.detectable[f] < rule.detectable[f] for f in rule.detectable)
