@@ -185,9 +185,10 @@ def format_calibration(c: Calibration) -> str:
             largest = f"{worst}, {100 * rule.detectable[worst]:.3g} %"
             lines.append(head + (f"every fault is detected from a change of at most {100 * DETECT_GOAL:g} % there "
                                  f"(the largest: {largest})" if rule.detectable[worst] <= DETECT_GOAL else
-                                 f"no other window does better (shorter: down to a quarter of it, {scales.min_window_samples()} "
-                                 f"samples at least; longer: at most a tenth of a run, clear of the model's modes, "
-                                 f"under half a run without residuals); the largest change to detect: {largest}"))
+                                 f"no other window does better (shorter: down to a quarter of it, "
+                                 f"{scales.min_window_samples()} samples at least; longer: at most a tenth of a "
+                                 f"run, clear of the model's modes, under half a run without residuals); the "
+                                 f"largest change to detect: {largest}"))
     elif c.window is not None and c.window_chosen and c.window_scores:
         rule, pick = c.window_scores[0], chosen(c.window_scores)
         lines.append(f"derivative window: {c.window:.4g} s ({c.window_samples} samples), chosen by --window auto from "

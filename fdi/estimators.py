@@ -696,7 +696,7 @@ def refit_early_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndar
     ``earliest`` (a re-decision, whose sets are seeded with the earlier diagnosis, passes False)."""
     ts = float(t[1] - t[0])
     best = min(e.cost for e in results)
-    redo = [i for i, e in enumerate(results) if e.faults and min(f["t0"] for f in e.faults) <= t_d + 1.5 * ts
+    redo = [i for i, e in enumerate(results) if e.faults and at_window_start(e.faults, t_d, ts)
             and e.cost <= REFIT_REACH * best and not e.raced_out]     # a set raced out is no candidate
     seeds = seeds or [[] for _ in candidates]
     growing = lambda e: earliest is not None and any(f["type"] == "incipient" for f in e.faults)
@@ -721,19 +721,17 @@ def refit_early_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndar
 
 
 def evidence_start(monitor: "Monitor", r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, start: float) -> float:
-    """The earliest departure from its noise band (:func:`fdi.hints.departure`; its first crossing
-    where it never leaves the band before) of a residual that crossed its threshold at or after
-    ``start``: the evidence of :func:`evidence_onsets` without the filters' look-ahead; inf when no
-    residual crossed."""
-    r = np.asarray(r, dtype=float).reshape(len(monitor.residuals), -1)
-    out = np.inf
-    for row, thr in zip(r, thresholds):
-        over = np.flatnonzero((t >= start) & (np.abs(row) > thr))
-        if over.size:
-            cross = float(t[over[0]])
-            dep = hints.departure(row, t, start, cross)
-            out = min(out, cross if dep is None else dep)
-    return out
+    """Where the evidence begins (:func:`fdi.hints.evidence`: the earliest departure from its noise
+    band of a residual that crossed its threshold at or after ``start``): :func:`evidence_onsets`'
+    lower end without the filters' look-ahead; inf when no residual crossed."""
+    found = hints.evidence(np.asarray(r).reshape(len(monitor.residuals), -1), t, thresholds, start)
+    return min((began for _, _, began in found), default=np.inf)
+
+
+def at_window_start(faults, t_d: float, ts: float) -> bool:
+    """Whether a fit's onset sits at t_D, the earliest its window lets the search date it (within
+    a sample and a half)."""
+    return min((f.get("t0", np.inf) for f in faults), default=np.inf) <= t_d + 1.5 * ts
 
 
 def date_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t_d: float, samples: int,
@@ -755,7 +753,7 @@ def date_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t
     ts = float(t[1] - t[0])
     w = est.monitor.config.derivative_window
     if not winner.faults or any(f["type"] != "abrupt" for f in winner.faults) \
-            or not any(f.get("t0", np.inf) <= t_d + 1.5 * ts for f in winner.faults) or not evidence < t_d - w:
+            or not at_window_start(winner.faults, t_d, ts) or not evidence < t_d - w:
         return winner
     start = max(onsets[0] - w, earliest)
     i0, i1 = (int(np.searchsorted(t, x - 1e-9)) for x in (start, t_d))

@@ -259,6 +259,27 @@ def departure(r: np.ndarray, t: np.ndarray, start: float, until: float) -> float
     return float(t[out[0]]) if out.size else None
 
 
+def evidence(r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, start: float) -> list[tuple[int, float, float]]:
+    """For each residual (a row of ``r``) that crosses its threshold at or after ``start``: its
+    index, its first crossing, and where its evidence begins, its departure from its noise band
+    before that crossing (:func:`departure`; the crossing itself where it never leaves the band).
+
+    >>> t = np.arange(0.0, 20.0, 0.01)
+    >>> r = np.vstack([0.1 * np.sin(37 * t) + np.where(t >= 12.0, 1.0, 0.0), 0 * t])
+    >>> evidence(r, t, np.array([0.5, 0.5]), 1.0)
+    [(0, 12.0, 12.0)]
+    """
+    r = np.asarray(r, dtype=float).reshape(len(thresholds), -1)
+    out = []
+    for i, (row, thr) in enumerate(zip(r, thresholds)):
+        over = np.flatnonzero((t >= start) & (np.abs(row) > thr))
+        if over.size:
+            cross = float(t[over[0]])
+            dep = departure(row, t, start, cross)
+            out.append((i, cross, cross if dep is None else dep))
+    return out
+
+
 def onset_interval(r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, t_d: float, start: float,
                    lookahead: np.ndarray) -> tuple[float, float]:
     """The onsets the evidence allows: from the earliest departure from its noise band
@@ -273,18 +294,12 @@ def onset_interval(r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, t_d: fl
     >>> bool(12.0 - 0.25 <= lo <= 12.0 + 1.0), hi     # the drift starts at 12 s; the band is 0.12 wide
     (True, 15.25)
     """
-    r = np.asarray(r, dtype=float).reshape(len(thresholds), -1)
     lookahead = np.broadcast_to(np.asarray(lookahead, dtype=float), (len(thresholds),))
     lows, highs = [], []
-    for i, (row, thr) in enumerate(zip(r, thresholds)):
-        over = np.flatnonzero((t >= start) & (np.abs(row) > thr))
-        if not over.size:
-            continue
-        cross = float(t[over[0]])
+    for i, cross, began in evidence(r, t, thresholds, start):
         if cross <= t_d + 1e-9:
             highs.append(t_d + lookahead[i])
-        dep = departure(row, t, start, cross)
-        lows.append((cross if dep is None else dep) - lookahead[i])
+        lows.append(began - lookahead[i])
     if not lows:
         return t_d, t_d + float(lookahead.max(initial=0.0))
     return max(float(t[0]), min(min(lows), t_d)), float(max(highs) if highs else t_d + lookahead.max())
@@ -369,8 +384,8 @@ def _inside(kernel) -> int:
 
 
 def _draws(rng: np.random.Generator, box: np.ndarray, linear: list[bool], count: int | None = None) -> np.ndarray:
-    """``count`` (default TRANSLATE_DRAWS) points in ``box`` (one row per coefficient): uniform, and for a coefficient
-    coded as itself (``linear``; eq. 18's rate is coded as a logarithm already) whose box holds
+    """``count`` (default TRANSLATE_DRAWS) points in ``box`` (one row per coefficient): uniform, and
+    for a coefficient coded as itself (``linear``; eq. 18's rate is coded as a logarithm already) whose box holds
     zero, half of them log-uniform in magnitude (five decades below the box's largest, either
     sign). Why: eq. (19)'s box is [-20, 20] x [-1, 1]^2 and a slow drift's b6, b7 are
     a few thousandths; uniform draws almost never come near them and the halving boxes then close
@@ -447,8 +462,8 @@ def translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: np
     degradation model (16)-(19) the coefficients whose profile is nearest, in the parameter's
     scale (its reciprocal when the nominal value is infinite): a line search for the one
     coefficient of eqs. (16), (17) (:func:`_line_search`), a shrinking random search over the
-    coefficients' box for eqs. (18), (19). No residual is evaluated: a profile costs microseconds. With ``t0_to``
-    the target's onset is that one (a drift re-expressed as one that started earlier); an
+    coefficients' box for eqs. (18), (19). No residual is evaluated: a profile costs microseconds.
+    With ``t0_to`` the target's onset is that one (a drift re-expressed as one that started earlier); an
     incipient fault that keeps its model is then re-expressed too.
 
     Why: a family whose degradation model differs from the winner's starts the final check from a
@@ -553,6 +568,7 @@ def _translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: n
                 best_x = _line_search(rng, box, linear, cost)
             else:
                 best_x, best_e = None, np.inf
+                lo, hi = bounds[cols, 0], bounds[cols, 1]
                 for _ in range(TRANSLATE_ROUNDS):
                     x = _draws(rng, box, linear)
                     if best_x is not None:
@@ -562,7 +578,6 @@ def _translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: n
                     if e[i] < best_e:
                         best_x, best_e = x[i].copy(), float(e[i])
                     half = (box[:, 1] - box[:, 0]) / 4
-                    lo, hi = bounds[cols, 0], bounds[cols, 1]
                     centre = best_x if best_x is not None else (box[:, 0] + box[:, 1]) / 2
                     box = np.column_stack([np.maximum(lo, centre - half), np.minimum(hi, centre + half)])
             if best_x is not None:

@@ -58,6 +58,11 @@ class Prepared:
     options: Options
 
     @property
+    def first_trusted(self) -> float:
+        """The first sample after the settling time: where residuals and onsets are trusted."""
+        return float(self.meas.t[0]) + self.settle
+
+    @property
     def modes(self) -> dict[str, float]:
         """The mode variables the options fix (``Options.mode``): residuals and estimators use them."""
         return {k: float(v) for k, v in (self.options.mode or {}).items()}
@@ -241,7 +246,7 @@ def nominal_cost(p: Prepared, r: np.ndarray, t_d: float) -> float:
     |residual| of the trusted data before the detection (less a derivative window, the filter's
     look-ahead); inf when there are too few such samples (a fault from the start) to say."""
     t = p.meas.t
-    before = (t >= t[0] + p.settle) & (t < t_d - p.window_s)
+    before = (t >= p.first_trusted) & (t < t_d - p.window_s)
     if before.sum() < max(10, window_samples(p.window_s, p.meas.ts, DEFAULT_ORDER)):
         return float("inf")
     level = np.nanmean(np.abs(np.asarray(r)[:, before]), axis=1)
@@ -277,7 +282,7 @@ def widen(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, results: list, est: Est
     more = est.run(p.meas.t, p.raw, det.time, p.samples, extra, p.weights, o.seed + 104723, None, None,
                    [(det.time, onsets[1])] * len(extra))
     more = refit_early_onsets(est, p.meas.t, p.raw, det.time, p.samples, extra, more, p.weights, o.seed + 104723,
-                              onsets, float(p.meas.t[0]) + p.settle)
+                              onsets, p.first_trusted)
     note = (f"the structurally exonerated candidate sets left residuals {best / level:.0f} times their nominal "
             f"level; sets a quiet residual could not have exonerated were identified too")
     iso = replace(d.isolation, candidates=tuple(d.candidates) + tuple(extra), weak=weak)
@@ -352,13 +357,14 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
     significance check and the prognosis."""
     det, o, t = d.detection, p.options, p.meas.t
     clock.restart()
+    earliest = p.first_trusted
     # onsets the evidence allows: from the first departure from a noise band (minus the filter's
     # look-ahead) to t_D plus the look-ahead; searched from t_D first, then back for a drift seen late
-    onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, float(t[0]) + p.settle)
+    onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, earliest)
     results = est.run(t, p.raw, det.time, p.samples, list(d.candidates), p.weights, o.seed, progress, None,
                       [(det.time, onsets[1])] * len(d.candidates))
     results = refit_early_onsets(est, t, p.raw, det.time, p.samples, list(d.candidates), results, p.weights,
-                                 o.seed, onsets, float(t[0]) + p.settle)
+                                 o.seed, onsets, earliest)
     d, results = widen(p, d, fsm, r, results, est, onsets)
     n_eff = effective_samples(p.samples, len(p.monitor.residuals), p.meas.ts, p.window_s)
     won = select_winner(results, n_eff)
@@ -374,7 +380,7 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
                                                  coinciding=lambda: p.monitor.coinciding))
     # the winner's steps dated from the evidence before t_D (its estimator's entry too)
     best = date_onsets(est, t, p.raw, det.time, p.samples, won, p.weights, o.seed, onsets,
-                       evidence_start(p.monitor, r, t, p.thresholds, float(t[0]) + p.settle), float(t[0]) + p.settle)
+                       evidence_start(p.monitor, r, t, p.thresholds, earliest), earliest)
     results = [best if e is won else e for e in results]
     clock.lap("identification")
     d = replace(d, estimates=tuple(results))
@@ -401,7 +407,7 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
     faults = [f.to_dict() for f in d.faults]
     winner = d.winner
     mcsm = p.monitor.mcsm(d.mode)
-    onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, float(t[0]) + p.settle)
+    onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, p.first_trusted)
     while (change := next_change(lit, j)) is not None:
         k, j = change, decision_index(t, change, p.wait)
         coherence = tuple(int(x) for x in lit[:, j])
@@ -410,7 +416,7 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
         onset = int(min(began[joined])) if joined.size else k        # where the new excursion began
         changes = mode_changes_at(p, new_mode_changes(mcsm, before, coherence, p.covering), onset, faults)
         e = redecide(est, p.meas, p.raw, det, p.weights, p.options, fsm, faults, float(t[onset]), float(t[j]),
-                     coherence, p.samples, len(episodes) + 1, changes, p.modes, onsets, float(t[0]) + p.settle)
+                     coherence, p.samples, len(episodes) + 1, changes, p.modes, onsets, p.first_trusted)
         episodes.append(e)
         faults, winner = list(e.faults), e.winner
         now = float(t[j])
@@ -490,7 +496,7 @@ def refresh_prognosis(monitor: "Monitor", meas: Measurements, d: Diagnosis, opti
     search = Search(o.engine, o.pop, o.generations)
     with Estimators(p.monitor, search, 1, memo, p.modes, p.prognosed) as est:
         (result,) = est.run(meas.t, p.raw, start, span, [tuple(f["name"] for f in growing)], p.weights,
-                            o.seed + 104729, None, [others], [(min(t0 - w, float(meas.t[0]) + p.settle), t0 + w)],
+                            o.seed + 104729, None, [others], [(min(t0 - w, p.first_trusted), t0 + w)],
                             [[growing]])
     now = float(meas.t[-1])
     prognosis = tuple(Prognosis.from_dict(prognose(f, nominal(p.monitor.model, f["name"]), failures[f["name"]],

@@ -96,15 +96,15 @@ def clear_of_modes(samples: int, ts: float, eigenvalues, polyorder: int = deriva
 
 def choose_window(model_path: str, data: list[Measurements], thresholds_of: Callable[[list[np.ndarray]], np.ndarray],
                   settle: float | None = None) -> list[WindowScore]:
-    """Every candidate derivative window's :class:`WindowScore` on the nominal runs ``data``, the
-    rule's window first, then the shorter and the longer ones (:data:`WINDOW_FACTORS` times it). Why: the rule (half the fastest time
-    constant, fdi.scales) suits a residual's first derivatives; a residual that takes a second
-    derivative of a noisy signal (a mass's acceleration from its velocity, a capacitor's current's
-    rate) is noisy at that window, its calibrated threshold far above what a fault moves it by (the
-    quarter car's damper: 3.65 m/s against 0.06 m/s). A longer window lowers the noise and biases
-    the fast dynamics: the thresholds from the runs see both, and each fault's effect (its parameter
-    or factor moved by fdi.sensitivity.STEP) is measured through the same filter. ``thresholds_of``:
-    the calibration's rule, |r| on the trusted samples of each run -> one threshold per residual
+    """Every candidate derivative window's :class:`WindowScore` on the nominal runs ``data``, the rule's
+    window first, then the shorter and the longer ones (:data:`WINDOW_FACTORS` times it). Why: the rule
+    (half the fastest time constant, fdi.scales) suits a residual's first derivatives; a residual that
+    takes a second derivative of a noisy signal (a mass's acceleration from its velocity, a capacitor's
+    current's rate) is noisy at that window, its calibrated threshold far above what a fault moves it by
+    (the quarter car's damper: 3.65 m/s against 0.06 m/s). A longer window lowers the noise and biases
+    the fast dynamics: the thresholds from the runs see both, and each fault's effect (its parameter or
+    factor moved by fdi.sensitivity.STEP) is measured through the same filter. ``thresholds_of``: the
+    calibration's rule, |r| on the trusted samples of each run -> one threshold per residual
     (:func:`fdi.calibrate.calibrate` passes its margin and quantile)."""
     c = compiled(model_path)
     model, residuals = c.model, list(c.residuals)

@@ -87,7 +87,7 @@ class Score:
     models_at_decision: dict[str, int | None] = field(default_factory=dict)   # incipient fault -> model then
     design_models: dict[str, int | None] = field(default_factory=dict)        # incipient fault -> the design's
     coefficient_errors: dict[str, float] = field(default_factory=dict)   # as errors, an incipient fault's coefficients
-    read_together: list[str] = field(default_factory=list)   # the answer named a design fault's partner (graded on its fit)
+    read_together: list[str] = field(default_factory=list)   # a design fault named by its partner: graded on its fit
 
     def to_dict(self) -> dict:
         return asdict(self)
