@@ -23,7 +23,8 @@ from .decide import alternatives, effective_samples, information, select_winner,
 from .derivatives import DEFAULT_ORDER, window_samples
 from .detect import Detection, detect, settling, thresholds_for
 from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide, since_detection
-from .estimators import Estimators, Search, date_onsets, evidence_onsets, evidence_start, refit_early_onsets
+from .estimators import (Estimators, Search, date_onsets, evidence_onsets, evidence_start, refit_early_onsets,
+                         refitted_step)
 from .ingest import measurements
 from .isolate import candidate_sets, new_mode_changes, pruned_sets, relaxed_sets, suspected_mode_changes
 from .mode_estimation import estimate_mode, mode_variable
@@ -361,8 +362,10 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
     # onsets the evidence allows: from the first departure from a noise band (minus the filter's
     # look-ahead) to t_D plus the look-ahead; searched from t_D first, then back for a drift seen late
     onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, earliest)
+    ts = float(t[1] - t[0])
     results = est.run(t, p.raw, det.time, p.samples, list(d.candidates), p.weights, o.seed, progress, None,
-                      [(det.time, onsets[1])] * len(d.candidates))
+                      [(det.time, onsets[1])] * len(d.candidates), None,
+                      lambda i, e: refitted_step(e, det.time, ts))
     results = refit_early_onsets(est, t, p.raw, det.time, p.samples, list(d.candidates), results, p.weights,
                                  o.seed, onsets, earliest)
     d, results = widen(p, d, fsm, r, results, est, onsets)
