@@ -24,7 +24,11 @@ Each residual's unit is given (:func:`fdi.arrs.arr_unit`): it depends on the var
 ``bgfdi calibrate --window auto`` also chooses the derivative window for a model that sets none
 (:mod:`fdi.window_choice`; measured in docs/diagnosis.md, Time scales): the rule's
 window unless a fault needs more than a 10 % change to be detected there, else the candidate
-where the faults need the smallest changes.
+where the faults need the smallest changes. A model whose time constants are unknown (an input
+given by its column only: :mod:`bondgraph.timescales` says which), or whose fastest is far below a
+sample (an artefact of a law that jumps where the model is linearised), gives the rule nothing the
+data show to follow: calibrate says so and why (``Calibration.blind``), and what to do:
+``--window auto``, or initial values where the system operates.
 
 ``bgfdi calibrate -o`` writes the thresholds into a copy of the model file, the rest untouched:
 
@@ -40,6 +44,8 @@ import re
 from dataclasses import asdict, dataclass, replace
 
 import numpy as np
+
+from bondgraph.timescales import TimeScales
 
 from . import derivatives, scales
 from .arrs import arr_unit
@@ -72,6 +78,7 @@ class Calibration:
     highest_order: int = 0              # the highest derivative the residuals take
     window_chosen: bool = False         # chosen by ``--window auto`` (fdi.window_choice): written with -o
     window_scores: list[WindowScore] | None = None    # every candidate window's, the rule's first
+    blind: tuple[str, ...] = ()         # why the rule's window follows no time constant the data show
 
     @property
     def false_alarm_rate(self) -> float | None:
@@ -148,13 +155,33 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
             worst.append((names[int(np.argmax(ratio))], float(ratio.max())))
     config = c.config if pick is None else replace(c.config, derivative_window=pick)
     sc = scales.for_model(model, config, data[0].ts)
+    blind = _blind(scales.model_time_scales(model), data[0].ts) if c.config.derivative_window is None else ()
     return Calibration(model.name, names, [arr_unit(model, a) for a in arrs],
                        [[float(x) for x in np.nanmax(s, axis=1)] for s in samples], [float(x) for x in thresholds],
                        "peak" if quantile is None else f"quantile {quantile:g}", margin, false_alarms,
                        [m.path for m in data], worst, float(sc.window),
                        int(derivatives.window_samples(sc.window, data[0].ts, derivatives.DEFAULT_ORDER)),
                        c.config.derivative_window is not None,
-                       max((r.highest_order() for r in c.residuals), default=0), pick is not None, scores)
+                       max((r.highest_order() for r in c.residuals), default=0), pick is not None, scores, blind)
+
+
+SUBSAMPLE = 100    # a time constant this many times shorter than a sample: likely an operating point's artefact
+
+
+def _blind(tau: TimeScales, ts: float) -> tuple[str, ...]:
+    """Why the rule's window follows nothing the data show: the model's time constants unknown
+    (:mod:`bondgraph.timescales`' notes: an input given by its column only cannot be simulated to
+    linearise the model), or the fastest far below a sample, where a law that jumps at the
+    operating point makes one (a car linearised at rest: Coulomb rolling resistance differenced
+    across v = 0 gave 7e-13 s, where the car at 25 m/s has 76 s); empty when neither."""
+    if not tau.known:
+        return tuple(tau.notes) or ("no operating point could be linearised",)
+    if tau.fastest < ts / SUBSAMPLE:
+        return (f"the fastest time constant, {tau.fastest:.3g} s, is below a hundredth of a sample "
+                f"({ts:.3g} s): a law that jumps or has no slope where the model is linearised (the "
+                f"initial state) makes such a one; if the system has none, give initial values where it "
+                f"operates (initial: {{SENSOR: value}})",)
+    return ()
 
 
 def format_calibration(c: Calibration) -> str:
@@ -201,10 +228,14 @@ def format_calibration(c: Calibration) -> str:
     elif c.window is not None:
         lines.append(f"derivative window: {c.window:.4g} s ({c.window_samples} samples), "
                      + ("diagnosis.derivative_window" if c.window_given else
+                        "the rule's, from no time constant of the data (the note below)" if c.blind else
                         "the rule's (half the model's fastest time constant, docs/diagnosis.md)"
                         + (": the residuals take second derivatives, whose noise falls as the window's "
                            "length to the power 2.5; if faults go undetected, calibrate --window auto chooses a "
                            "window from the runs" if c.highest_order >= 2 else "")))
+    if c.blind and not c.window_chosen:
+        lines.append(f"note: the rule's window follows no time constant of the data ({'; '.join(c.blind)}): "
+                     f"calibrate --window auto chooses one from the runs")
     lines.append("thresholds: {" + ", ".join(f"{n}: {t:.4g}" for n, t in zip(c.names, c.thresholds)) + "}")
     return "\n".join(lines) + "\n"
 
