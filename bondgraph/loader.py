@@ -478,6 +478,7 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
     faults = _faults(ctx, data, parameters, sensors, elements, modes)
     initial = {str(k): _number(ctx, v, ("initial", k), "initial value")
                for k, v in _mapping(ctx, data.get("initial"), ("initial",)).items()}
+    _check_initial(ctx, initial, elements, sensors)
     name = data.get("name") or Path(ctx.path).stem
     plain = {k: v for k, v in symbols.items() if isinstance(v, sp.Symbol)}
     plain.update(mode_exprs)      # a junction's mode written as an expression (1 - s), under its text
@@ -486,6 +487,19 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
                  inputs=inputs, modes=modes, elements=elements, junctions=junctions, sensors=sensors,
                  bonds=bonds, faults=faults, columns=columns, sampling_time=sampling_time,
                  initial=initial, symbols=plain)
+
+
+def _check_initial(ctx: _Ctx, initial: Mapping[str, float], elements: Mapping, sensors: Mapping) -> None:
+    """initial: each name a storage element's (its state), a sensor's (its reading, met by solving
+    for the states) or ``flow_`` and a storage element's (the simulator's outputs); a misspelt
+    name is refused here, not when the first simulation or linearisation asks for it."""
+    storage = [e for e, el in elements.items() if el.kind in ("C", "I")]
+    known = set(storage) | set(sensors) | {f"flow_{e}" for e in storage}
+    for k in initial:
+        if k not in known:
+            offer = ", ".join(sorted(set(storage) | set(sensors))) or "none"
+            raise ctx.error(("initial", k), f"'{k}' is no storage element or sensor: give initial values by a "
+                                            f"storage element's name (its state) or a sensor's (its reading): {offer}")
 
 
 def _check_columns(ctx: _Ctx, columns: tuple[str, ...]) -> None:
