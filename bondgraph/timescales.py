@@ -75,6 +75,7 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
 
     base = {k: float(v) for k, v in model.nominal_by_name().items()}
     base.update(values or {})
+    model = _inputs_held(model)
     eigs: list[complex] = []
     notes: list[str] = []
     fastest: list[float] = []
@@ -101,6 +102,9 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
                 lam = np.linalg.eigvals(jac)
             except (ArithmeticError, ValueError, np.linalg.LinAlgError):
                 continue
+            except (NameError, TypeError) as exc:      # a law the compiled equations cannot evaluate
+                notes.append(f"mode {dict(mode)}: not linearised (its equations cannot be evaluated: {exc})")
+                break
             lam = [complex(v) for v in lam if np.isfinite(v)]
             eigs += lam
             mags = [abs(v) for v in lam if abs(v) > 1e-12]
@@ -117,6 +121,22 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
     if not fastest:
         return TimeScales(math.inf, math.inf, tuple(eigs), tuple(notes))
     return TimeScales(min(fastest), max(slowest), tuple(eigs), tuple(notes))
+
+def _inputs_held(model: Model) -> Model:
+    """``model`` with each input given by its data column only held at 0 for the linearisation (the
+    simulator needs an expression of t): a linear model's time constants do not depend on its
+    inputs, and a nonlinear one's operating point is its initial state anyway. Without this, a
+    model whose inputs are all measured (the usual case on a plant) had no time constant, and the
+    rule's window was 25 samples whatever its pace: an RC filter of 0.1 s sampled at 1 kHz got
+    25 ms instead of 50 ms."""
+    held = {name: i for name, i in model.inputs.items() if i.expr is None}
+    if not held:
+        return model
+    from dataclasses import replace
+
+    import sympy as sp
+    return replace(model, inputs={**model.inputs, **{n: replace(i, expr=sp.Integer(0)) for n, i in held.items()}})
+
 
 STEPS_PER_TIME_CONSTANT = 20
 

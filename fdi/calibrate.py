@@ -24,8 +24,8 @@ Each residual's unit is given (:func:`fdi.arrs.arr_unit`): it depends on the var
 ``bgfdi calibrate --window auto`` also chooses the derivative window for a model that sets none
 (:mod:`fdi.window_choice`; measured in docs/diagnosis.md, Time scales): the rule's
 window unless a fault needs more than a 10 % change to be detected there, else the candidate
-where the faults need the smallest changes. A model whose time constants are unknown (an input
-given by its column only: :mod:`bondgraph.timescales` says which), or whose fastest is far below a
+where the faults need the smallest changes. A model whose time constants are unknown (one that
+cannot be linearised: :mod:`bondgraph.timescales` says why), or whose fastest is far below a
 sample (an artefact of a law that jumps where the model is linearised), gives the rule nothing the
 data show to follow: calibrate says so and why (``Calibration.blind``), and what to do:
 ``--window auto``, or initial values where the system operates.
@@ -170,8 +170,8 @@ SUBSAMPLE = 100    # a time constant this many times shorter than a sample: like
 
 def _blind(tau: TimeScales, ts: float) -> tuple[str, ...]:
     """Why the rule's window follows nothing the data show: the model's time constants unknown
-    (:mod:`bondgraph.timescales`' notes: an input given by its column only cannot be simulated to
-    linearise the model), or the fastest far below a sample, where a law that jumps at the
+    (:mod:`bondgraph.timescales`' notes: the model could not be linearised), or the fastest far
+    below a sample, where a law that jumps at the
     operating point makes one (a car linearised at rest: Coulomb rolling resistance differenced
     across v = 0 gave 7e-13 s, where the car at 25 m/s has 76 s); empty when neither."""
     if not tau.known:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import time
 
 import numpy as np
@@ -239,3 +240,14 @@ def test_a_drift_is_typed_and_sized_at_any_time_scale(case, tmp_path, capsys):
     assert (fault["name"], fault["type"], fault["model"]) == ("R", "incipient", 1), fault
     assert fault["b"][0] == pytest.approx(b1, rel=0.03)
     assert abs(fault["t0"] - t_fault) <= window, (fault["t0"], t_fault)
+
+
+def test_a_model_whose_inputs_are_all_measured_has_its_time_constant():
+    """An input given by its data column only (no expression to simulate) is held at 0 to
+    linearise the model: the RC circuit's time constant is R C = 0.1 s, not unknown (the rule's
+    window was 25 samples whatever the pace: 25 ms at 1 kHz, now tau / 2 = 50 ms)."""
+    from bondgraph.timescales import time_scales
+    text = rc_text(100.0, 1.0e-3, "Ohm", "F", "V", 1.0e-3)
+    measured = re.sub(r'expr: "[^"]*", ', "", text)
+    assert "expr" not in measured.split("inputs:")[1].split("elements:")[0]
+    assert time_scales(load_model_text(measured, "rc.yaml")).fastest == pytest.approx(0.1, rel=1e-6)
