@@ -124,13 +124,19 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
 
 def _inputs_held(model: Model) -> Model:
     """``model`` with each input given by its data column only held at 0 for the linearisation (the
-    simulator needs an expression of t): a linear model's time constants do not depend on its
-    inputs, and a nonlinear one's operating point is its initial state anyway. Without this, a
+    simulator needs an expression of t), when every such input only drives a source (an effort or
+    a flow added to a junction's balance: it moves no slope of the state equations, so no time
+    constant of a linear model, and a nonlinear one's operating point is its initial state
+    anyway); an input a law reads is not held (the model is returned as it is). Without this, a
     model whose inputs are all measured (the usual case on a plant) had no time constant, and the
     rule's window was 25 samples whatever its pace: an RC filter of 0.1 s sampled at 1 kHz got
     25 ms instead of 50 ms."""
-    held = {name: i for name, i in model.inputs.items() if i.expr is None}
-    if not held:
+    read = {str(x) for e in model.elements.values()
+            for law in [*e.laws.values(), e.modulus, e.value] if law is not None for x in law.free_symbols}
+    # only inputs that drive a source alone: one read by a law (a modulated valve's opening) changes
+    # the linearisation where it is held, and is left unknown
+    held = {name: i for name, i in model.inputs.items() if i.expr is None and name not in read}
+    if not held or len(held) < sum(i.expr is None for i in model.inputs.values()):
         return model
     from dataclasses import replace
 
