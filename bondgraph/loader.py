@@ -499,7 +499,8 @@ def _check_initial(ctx: _Ctx, initial: Mapping[str, float], elements: Mapping, s
         if k not in known:
             offer = ", ".join(sorted(set(storage) | set(sensors))) or "none"
             raise ctx.error(("initial", k), f"'{k}' is no storage element or sensor: give initial values by a "
-                                            f"storage element's name (its state) or a sensor's (its reading): {offer}")
+                                            f"storage element's name (its state; flow_NAME its flow) or a sensor's "
+                                            f"(its reading): {offer}")
 
 
 def _check_columns(ctx: _Ctx, columns: tuple[str, ...]) -> None:

@@ -102,7 +102,7 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
                 lam = np.linalg.eigvals(jac)
             except (ArithmeticError, ValueError, np.linalg.LinAlgError):
                 continue
-            except (NameError, TypeError) as exc:      # a law the compiled equations cannot evaluate
+            except NameError as exc:         # a function the compiled equations lack (besselj)
                 notes.append(f"mode {dict(mode)}: not linearised (its equations cannot be evaluated: {exc})")
                 break
             lam = [complex(v) for v in lam if np.isfinite(v)]
@@ -124,24 +124,42 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
 
 def _inputs_held(model: Model) -> Model:
     """``model`` with each input given by its data column only held at 0 for the linearisation (the
-    simulator needs an expression of t), when every such input only drives a source (an effort or
-    a flow added to a junction's balance: it moves no slope of the state equations, so no time
-    constant of a linear model, and a nonlinear one's operating point is its initial state
-    anyway); an input a law reads is not held (the model is returned as it is). Without this, a
-    model whose inputs are all measured (the usual case on a plant) had no time constant, and the
-    rule's window was 25 samples whatever its pace: an RC filter of 0.1 s sampled at 1 kHz got
-    25 ms instead of 50 ms."""
-    read = {str(x) for e in model.elements.values()
-            for law in [*e.laws.values(), e.modulus, e.value] if law is not None for x in law.free_symbols}
-    # only inputs that drive a source alone: one read by a law (a modulated valve's opening) changes
-    # the linearisation where it is held, and is left unknown
-    held = {name: i for name, i in model.inputs.items() if i.expr is None and name not in read}
-    if not held or len(held) < sum(i.expr is None for i in model.inputs.values()):
+    simulator needs an expression of t), when the model is linear: every element law linear in its
+    own variable with constant coefficients, every modulus and source value constant. Its time
+    constants then depend on no input. A nonlinear model's may (a conductance e^3 downstream of a
+    measured source: 2.1 ms at u = 5, 33 ms at u = 0), so it is returned as it is and stays
+    unknown (the rule's 25 samples; calibrate says so). Without this, a linear model whose inputs
+    are all measured (the usual case on a plant) had no time constant and the rule's 25 samples
+    whatever its pace: an RC filter of 0.1 s sampled at 1 kHz got 25 ms instead of 50 ms."""
+    held = [name for name, i in model.inputs.items() if i.expr is None]
+    if not held or not _linear(model):
         return model
     from dataclasses import replace
 
     import sympy as sp
-    return replace(model, inputs={**model.inputs, **{n: replace(i, expr=sp.Integer(0)) for n, i in held.items()}})
+    return replace(model, inputs={**model.inputs, **{n: replace(model.inputs[n], expr=sp.Integer(0)) for n in held}})
+
+
+def _linear(model: Model) -> bool:
+    """Whether every element law is a polynomial of degree at most 1 in its own variable (e, f, p or
+    q) with the model's parameters as coefficients, and every modulus and source value a constant
+    of the parameters: the state equations are then linear."""
+    import sympy as sp
+
+    from .model import LAW_VARIABLES
+    constants = set(model.parameters)
+    local = set(LAW_VARIABLES.values())
+    for e in model.elements.values():
+        for law in e.laws.values():
+            xs = [x for x in law.free_symbols if x in local]
+            if {str(s) for s in law.free_symbols if s not in local} - constants:
+                return False
+            if xs and not (law.is_polynomial(*xs) and sp.Poly(law, *xs).total_degree() <= 1):
+                return False
+        for expr in (e.modulus, e.value):
+            if expr is not None and {str(s) for s in expr.free_symbols} - constants:
+                return False
+    return True
 
 
 STEPS_PER_TIME_CONSTANT = 20

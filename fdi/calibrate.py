@@ -175,7 +175,10 @@ def _blind(tau: TimeScales, ts: float) -> tuple[str, ...]:
     operating point makes one (a car linearised at rest: Coulomb rolling resistance differenced
     across v = 0 gave 7e-13 s, where the car at 25 m/s has 76 s); empty when neither."""
     if not tau.known:
-        return tuple(tau.notes) or ("no operating point could be linearised",)
+        if tau.notes:
+            return tuple(tau.notes)
+        return ("its linearisation has integrators only (every eigenvalue 0): no time constant",) if tau.eigenvalues \
+            else ("it has no state: no time constant",)
     if tau.fastest < ts / SUBSAMPLE:
         return (f"the fastest time constant, {tau.fastest:.3g} s, is below a hundredth of a sample "
                 f"({ts:.3g} s): a law that jumps or has no slope where the model is linearised (the "

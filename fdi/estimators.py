@@ -475,7 +475,8 @@ class Estimators:
 
         ``defer(i, estimate)`` (two-phase runs only): True puts off the final check of set ``i``,
         given its first pass, to :meth:`settle`: a caller that will refit the set and keep the
-        better fit (:func:`refit_early_onsets`) checks only the fit it keeps."""
+        better fit (:func:`refit_early_onsets`) checks only the fit it keeps. Until then the set
+        competes on its first pass (its cost before the check, never lower than after it)."""
         fixed = fixed or [[] for _ in candidates]
         onsets = onsets or [None for _ in candidates]
         known = known or [[] for _ in candidates]
@@ -532,23 +533,31 @@ class Estimators:
 
     def settle(self, estimates: list[Estimate]) -> list[Estimate]:
         """``estimates`` with every final check :meth:`run` put off (``defer``) run now, from the
-        state the first pass left (the result is the one the check would have given in ``run``);
-        the work a caller added to the estimate (a refit's evaluations and history) is kept.
-        Checks put off for estimates not among ``estimates`` (fits a refit replaced) are dropped."""
-        todo = [k for k, e in enumerate(estimates) if e.resume is not None and id(e.resume) in self._pending]
+        state the first pass left: the fit, cost, evaluations and times the check would have given
+        in ``run``, plus any work a caller added to the estimate (evaluations, time, and history
+        entries before the first pass's). A snapshot met twice is checked once. Checks put off for
+        estimates not among ``estimates`` (fits a refit replaced) are dropped."""
         out = list(estimates)
-        groups: dict[int, list[int]] = {}
-        for k in todo:
-            groups.setdefault(id(self._pending[id(out[k].resume)][2]), []).append(k)
-        for ks in groups.values():
-            t, t0, samples = self._pending[id(out[ks[0]].resume)][2]
-            got = self._run([self._pending[id(out[k].resume)][1] for k in ks], t, t0, samples)
-            for k, checked in zip(ks, got):
-                e, first = out[k], self._pending[id(out[k].resume)][0]
-                added = len(e.history) - len(first.history)
-                out[k] = replace(checked, evaluations=checked.evaluations + e.evaluations - first.evaluations,
-                                 history=tuple(e.history[:added]) + tuple(checked.history),
-                                 wall_s=e.wall_s + checked.wall_s, objective_s=e.objective_s + checked.objective_s)
+        todo: dict[int, list[int]] = {}                  # snapshot -> the places that hold it
+        for k, e in enumerate(out):
+            if e.resume is not None and id(e.resume) in self._pending:
+                todo.setdefault(id(e.resume), []).append(k)
+        groups: dict[int, list[int]] = {}                # one batch per run that put checks off
+        for key in todo:
+            groups.setdefault(id(self._pending[key][2]), []).append(key)
+        for keys in groups.values():
+            t, t0, samples = self._pending[keys[0]][2]
+            got = self._run([self._pending[key][1] for key in keys], t, t0, samples)
+            for key, checked in zip(keys, got):
+                first = self._pending[key][0]
+                for k in todo[key]:
+                    e = out[k]
+                    n = len(first.history)
+                    before = tuple(e.history[:-n]) if n and tuple(e.history[-n:]) == tuple(first.history) else ()
+                    out[k] = replace(checked, evaluations=checked.evaluations + e.evaluations - first.evaluations,
+                                     history=before + tuple(checked.history),
+                                     wall_s=checked.wall_s + e.wall_s - first.wall_s,
+                                     objective_s=checked.objective_s + e.objective_s - first.objective_s)
         self._pending.clear()
         return out
 
@@ -728,7 +737,10 @@ def refit_early_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndar
     diagnosis: its onset may lie outside the first search's interval, where that search clipped it).
     A set seeded with a drift is refitted from ``earliest`` at once, as a drift fitted at first is.
     ``pinned``: a drift whose refitted onset stays at the evidence's bound is refitted once more from
-    ``earliest`` (a re-decision, whose sets are seeded with the earlier diagnosis, passes False)."""
+    ``earliest`` (a re-decision, whose sets are seeded with the earlier diagnosis, passes False).
+    A first pass whose final check was put off (``Estimators.run``'s ``defer``: steps dated at t_D,
+    :func:`refitted_step`) enters here unchecked: it is compared, and refitted from, as its first
+    pass left it, and checked at the end only if it is kept (``Estimators.settle``)."""
     ts = float(t[1] - t[0])
     best = min(e.cost for e in results)
     redo = [i for i, e in enumerate(results) if e.faults and at_window_start(e.faults, t_d, ts)

@@ -49,8 +49,6 @@ def _fit(e):
 def test_a_check_put_off_gives_the_fit_the_check_in_place_gives(setting, in_place):
     est, first = _run(setting, defer=lambda i, e: True)
     assert est._pending                                      # at least the best set's check waits
-    waiting = [e for e in first if e.resume is not None and id(e.resume) in est._pending]
-    assert all(e.resume is not None for e in waiting)
     settled = est.settle(first)
     assert [_fit(e) for e in settled] == [_fit(e) for e in in_place]
     assert [e.evaluations for e in settled] == [e.evaluations for e in in_place]
@@ -60,12 +58,18 @@ def test_a_check_put_off_gives_the_fit_the_check_in_place_gives(setting, in_plac
 def test_the_work_a_refit_added_is_kept_and_a_replaced_fits_check_never_runs(setting, in_place):
     est, first = _run(setting, defer=lambda i, e: True)
     k = next(i for i, e in enumerate(first) if e.resume is not None and id(e.resume) in est._pending)
-    # a refit kept beside it: its evaluations and history added in front, as _refit adds them
-    grown = replace(first[k], evaluations=first[k].evaluations + 1000, history=(9.0, 8.0) + first[k].history)
-    (settled,) = est.settle([grown])
+    # a caller that added work of its own (a search before it, as _refit adds an earlier fit's),
+    # and holds the same first pass twice: checked once, the added work kept
+    grown = replace(first[k], evaluations=first[k].evaluations + 1000, history=(9.0, 8.0) + first[k].history,
+                    wall_s=first[k].wall_s + 5.0)
+    ran: list = []
+    inner = est._map
+    est._map = lambda jobs: ran.extend(jobs) or inner(jobs)
+    settled, again = est.settle([grown, grown])
+    assert len(ran) == 1 and settled == again
     assert settled.evaluations == in_place[k].evaluations + 1000
     assert settled.history[:2] == (9.0, 8.0) and settled.history[2:] == in_place[k].history
-    assert settled.cost == in_place[k].cost
+    assert settled.cost == in_place[k].cost and settled.wall_s >= 5.0
     # a fit a refit replaced: its check is dropped, no estimator runs
     ran: list = []
     est2, first2 = _run(setting, defer=lambda i, e: True, counted=ran)
