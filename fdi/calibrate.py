@@ -156,6 +156,8 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
     config = c.config if pick is None else replace(c.config, derivative_window=pick)
     sc = scales.for_model(model, config, data[0].ts)
     blind = _blind(scales.model_time_scales(model), data[0].ts) if c.config.derivative_window is None else ()
+    if blind:
+        blind += _operating_point(model, data)
     return Calibration(model.name, names, [arr_unit(model, a) for a in arrs],
                        [[float(x) for x in np.nanmax(s, axis=1)] for s in samples], [float(x) for x in thresholds],
                        "peak" if quantile is None else f"quantile {quantile:g}", margin, false_alarms,
@@ -185,6 +187,29 @@ def _blind(tau: TimeScales, ts: float) -> tuple[str, ...]:
                 f"initial state) makes such a one; if the system has none, give initial values where it "
                 f"operates (initial: {{SENSOR: value}})",)
     return ()
+
+
+def _operating_point(model, data: list[Measurements]) -> tuple[str, ...]:
+    """What the runs say to give as ``initial``: each sensor's median over them (a sensor's reading
+    is met by solving for the states), and the time constant the model has there, when it has one
+    that is not below a hundredth of a sample (the car: v 25.3 m/s, 76 s); else nothing."""
+    from dataclasses import replace as with_fields
+
+    from bondgraph.timescales import time_scales
+    signals = [signals_from_data(model, m) for m in data]
+    values = {name: float(np.nanmedian(np.concatenate([np.asarray(raw[name], dtype=float) for raw in signals])))
+              for name in model.sensors if all(name in raw for raw in signals)}
+    values = {k: v for k, v in values.items() if np.isfinite(v)}
+    if not values:
+        return ()
+    try:
+        tau = time_scales(with_fields(model, initial={**model.initial, **values}))
+    except Exception:                 # noqa: BLE001 - a suggestion only: no suggestion
+        return ()
+    if not tau.known or tau.fastest < data[0].ts / SUBSAMPLE:
+        return ()
+    shown = ", ".join(f"{k}: {v:.4g}" for k, v in values.items())
+    return (f"at the runs' medians, initial: {{{shown}}}, the fastest time constant is {tau.fastest:.3g} s",)
 
 
 def format_calibration(c: Calibration) -> str:

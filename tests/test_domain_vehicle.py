@@ -12,6 +12,7 @@ follows nothing the data show, and what to do."""
 from __future__ import annotations
 
 import json
+import re
 from functools import partial
 from pathlib import Path
 
@@ -68,9 +69,10 @@ def test_calibrate_says_when_the_rule_has_no_time_constant_to_follow(tmp_path, c
     text = Path(MODEL).read_text(encoding="utf-8")
     model = tmp_path / "car_at_rest.yaml"
     model.write_text(text[:text.index("# At rest")], encoding="utf-8")
-    runs = []
+    runs, speeds = [], []
     for seed in (1, 2):
         cols = car.simulate(seed, T=200.0)
+        speeds.append(cols["v"])
         path = tmp_path / f"nominal{seed}.csv"
         np.savetxt(path, np.column_stack([cols["t"], cols["F"], cols["v"]]), delimiter=",", header="t,F,v",
                    comments="", fmt="%.10g")
@@ -78,6 +80,12 @@ def test_calibrate_says_when_the_rule_has_no_time_constant_to_follow(tmp_path, c
     assert main(["calibrate", str(model), *runs, "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["window_samples"] == 9 and "below a hundredth of a sample" in out["blind"][0]
+    # what the runs say to give as initial: the speed's median, and the time constant there by hand
+    speed = float(np.median(np.concatenate(speeds)))
+    hint = re.fullmatch(r"at the runs' medians, initial: \{v: ([\d.]+)\}, the fastest time constant is ([\d.]+) s",
+                        out["blind"][1])
+    assert float(hint.group(1)) == pytest.approx(speed, rel=1e-3)
+    assert float(hint.group(2)) == pytest.approx(car.NOMINAL["m"] / (2 * car.NOMINAL["kd"] * speed), rel=2e-3)
     assert main(["calibrate", str(model), *runs]) == 0
     assert "note: the rule's window follows no time constant of the data" in capsys.readouterr().out
     assert main(["calibrate", MODEL, *runs, "--json"]) == 0              # with the operating point: known
