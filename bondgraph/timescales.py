@@ -24,7 +24,7 @@ period over 2 pi).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import product
 from typing import Mapping
 
@@ -122,6 +122,7 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
         return TimeScales(math.inf, math.inf, tuple(eigs), tuple(notes))
     return TimeScales(min(fastest), max(slowest), tuple(eigs), tuple(notes))
 
+
 def _inputs_held(model: Model) -> Model:
     """``model`` with each input given by its data column only held at 0 for the linearisation (the
     simulator needs an expression of t), when the model is linear: every element law linear in its
@@ -134,9 +135,7 @@ def _inputs_held(model: Model) -> Model:
     held = [name for name, i in model.inputs.items() if i.expr is None]
     if not held or not _linear(model):
         return model
-    from dataclasses import replace
-
-    import sympy as sp
+    import sympy as sp                  # here: the warm diagnosis path imports this module, not sympy
     return replace(model, inputs={**model.inputs, **{n: replace(model.inputs[n], expr=sp.Integer(0)) for n in held}})
 
 

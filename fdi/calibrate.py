@@ -45,7 +45,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from bondgraph.timescales import TimeScales
+from bondgraph.timescales import TimeScales, time_scales
 
 from . import derivatives, scales
 from .arrs import arr_unit
@@ -172,10 +172,10 @@ SUBSAMPLE = 100    # a time constant this many times shorter than a sample: like
 
 def _blind(tau: TimeScales, ts: float) -> tuple[str, ...]:
     """Why the rule's window follows nothing the data show: the model's time constants unknown
-    (:mod:`bondgraph.timescales`' notes: the model could not be linearised), or the fastest far
-    below a sample, where a law that jumps at the
-    operating point makes one (a car linearised at rest: Coulomb rolling resistance differenced
-    across v = 0 gave 7e-13 s, where the car at 25 m/s has 76 s); empty when neither."""
+    (:mod:`bondgraph.timescales`' notes: the model could not be linearised; or integrators only),
+    or the fastest far below a sample, where a law that jumps at the operating point makes one (a
+    car linearised at rest: Coulomb rolling resistance differenced across v = 0 gave 7e-13 s, where
+    the car at 25 m/s has 76 s); empty when neither."""
     if not tau.known:
         if tau.notes:
             return tuple(tau.notes)
@@ -192,10 +192,8 @@ def _blind(tau: TimeScales, ts: float) -> tuple[str, ...]:
 def _operating_point(model, data: list[Measurements]) -> tuple[str, ...]:
     """What the runs say to give as ``initial``: each sensor's median over them (a sensor's reading
     is met by solving for the states), and the time constant the model has there, when it has one
-    that is not below a hundredth of a sample (the car: v 25.3 m/s, 76 s); else nothing."""
-    from dataclasses import replace as with_fields
-
-    from bondgraph.timescales import time_scales
+    that is not below a hundredth of a sample (the car's two nominal runs: v 25.55 m/s, 74.1 s);
+    else nothing."""
     signals = [signals_from_data(model, m) for m in data]
     values = {name: float(np.nanmedian(np.concatenate([np.asarray(raw[name], dtype=float) for raw in signals])))
               for name in model.sensors if all(name in raw for raw in signals)}
@@ -203,7 +201,7 @@ def _operating_point(model, data: list[Measurements]) -> tuple[str, ...]:
     if not values:
         return ()
     try:
-        tau = time_scales(with_fields(model, initial={**model.initial, **values}))
+        tau = time_scales(replace(model, initial={**model.initial, **values}))
     except Exception:                 # noqa: BLE001 - a suggestion only: no suggestion
         return ()
     if not tau.known or tau.fastest < data[0].ts / SUBSAMPLE:

@@ -89,13 +89,13 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
         if names < set(s) or len(s) <= len(names):
             plan.append((tuple(s), [], None))
     start, span = since_detection(meas.t, det.time, t_decision, samples, MAX_GROWTH)
-    from .estimators import refit_early_onsets, refitted_step
+    from .estimators import refit_early_onsets, steps_at_window_start
     fresh = [i for i, p in enumerate(plan) if not p[1]]
     ts = float(meas.t[1] - meas.t[0])
     refitted = set(fresh) if onsets is not None else set()     # their final checks wait for the fit kept
     results = est.run(meas.t, raw, start, span, [p[0] for p in plan], weights, o.seed + 7919 * episode, None,
                       [p[1] for p in plan], [p[2] for p in plan], [[known] for _ in plan],
-                      lambda i, e: i in refitted and refitted_step(e, start, ts))
+                      lambda i, e: i in refitted and steps_at_window_start(e, start, ts))
     if onsets is not None and fresh:
         refits = refit_early_onsets(est, meas.t, raw, start, span, [plan[i][0] for i in fresh],
                                     [results[i] for i in fresh], weights, o.seed + 7919 * episode, onsets, earliest,

@@ -739,7 +739,7 @@ def refit_early_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndar
     ``pinned``: a drift whose refitted onset stays at the evidence's bound is refitted once more from
     ``earliest`` (a re-decision, whose sets are seeded with the earlier diagnosis, passes False).
     A first pass whose final check was put off (``Estimators.run``'s ``defer``: steps dated at t_D,
-    :func:`refitted_step`) enters here unchecked: it is compared, and refitted from, as its first
+    :func:`steps_at_window_start`) enters here unchecked: it is compared, and refitted from, as its first
     pass left it, and checked at the end only if it is kept (``Estimators.settle``)."""
     ts = float(t[1] - t[0])
     best = min(e.cost for e in results)
@@ -781,17 +781,18 @@ def at_window_start(faults, t_d: float, ts: float) -> bool:
     return min((f.get("t0", np.inf) for f in faults), default=np.inf) <= t_d + 1.5 * ts
 
 
-def refitted_step(first: Estimate, t_d: float, ts: float) -> bool:
-    """Whether a first pass (``Estimators.run`` without its final check) is a fit of steps dated at
-    t_D, which :func:`refit_early_onsets` refits with the onset free: its final check can wait for
-    the fit that is kept (``run``'s ``defer``). A step seen late is usually a drift or an earlier
+def steps_at_window_start(fit: Estimate, t_d: float, ts: float) -> bool:
+    """Whether a fit is all steps, dated at t_D (:func:`at_window_start`): one that
+    :func:`refit_early_onsets` refits with the onset free, so that a first pass's final check can
+    wait for the fit that is kept (``Estimators.run``'s ``defer``), and whose onsets
+    :func:`date_onsets` dates from the evidence. A step seen late is usually a drift or an earlier
     step: the tutorial's capacitor ageing, first fitted as a step at t_D (cost 2 029), refitted as
     eq. (16) from 5 s (1 674); its check (4 700 evaluations, a second on 5 000-sample rows) was
     never read. Fits with a drift or an intermittent fault keep their check: it settles each
     family at its bottom (a second-order drift's narrow basin), and a drift's refit starts from
     the degradation models it found (``other_models``)."""
-    return bool(first.faults) and all(f["type"] == "abrupt" for f in first.faults) \
-        and at_window_start(first.faults, t_d, ts)
+    return bool(fit.faults) and all(f["type"] == "abrupt" for f in fit.faults) \
+        and at_window_start(fit.faults, t_d, ts)
 
 
 def date_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t_d: float, samples: int,
@@ -812,8 +813,7 @@ def date_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t
     the two tanks' outlet clogged at 200 s, confirmed 33 s later: dated 233.5 s, now 199.9-200.0 s."""
     ts = float(t[1] - t[0])
     w = est.monitor.config.derivative_window
-    if not winner.faults or any(f["type"] != "abrupt" for f in winner.faults) \
-            or not at_window_start(winner.faults, t_d, ts) or not evidence < t_d - w:
+    if not steps_at_window_start(winner, t_d, ts) or not evidence < t_d - w:
         return winner
     start = max(onsets[0] - w, earliest)
     i0, i1 = (int(np.searchsorted(t, x - 1e-9)) for x in (start, t_d))

@@ -24,7 +24,7 @@ from .derivatives import DEFAULT_ORDER, window_samples
 from .detect import Detection, detect, settling, thresholds_for
 from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide, since_detection
 from .estimators import (Estimators, Search, date_onsets, evidence_onsets, evidence_start, refit_early_onsets,
-                         refitted_step)
+                         steps_at_window_start)
 from .ingest import measurements
 from .isolate import candidate_sets, new_mode_changes, pruned_sets, relaxed_sets, suspected_mode_changes
 from .mode_estimation import estimate_mode, mode_variable
@@ -365,7 +365,7 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
     ts = float(t[1] - t[0])
     results = est.run(t, p.raw, det.time, p.samples, list(d.candidates), p.weights, o.seed, progress, None,
                       [(det.time, onsets[1])] * len(d.candidates), None,
-                      lambda i, e: refitted_step(e, det.time, ts))
+                      lambda i, e: steps_at_window_start(e, det.time, ts))
     results = refit_early_onsets(est, t, p.raw, det.time, p.samples, list(d.candidates), results, p.weights,
                                  o.seed, onsets, earliest)
     d, results = widen(p, d, fsm, r, results, est, onsets)

@@ -12,7 +12,7 @@ import pytest
 
 from fdi.app.resources import reference_data, shipped_model
 from fdi.data import read_csv, signals_from_data
-from fdi.estimators import Estimators, Search, refitted_step
+from fdi.estimators import Estimators, Search, steps_at_window_start
 from fdi.monitor import compiled
 
 CANDIDATES = [("beta_theta2",), ("R4", "beta_theta2")]
@@ -82,7 +82,7 @@ def test_only_steps_dated_at_the_window_start_wait():
     from fdi.results import Estimate
     e = lambda *faults: Estimate(("x",), 1.0, 1.0, (), None, tuple(faults), 0, 0.0)   # noqa: E731
     step = {"name": "x", "type": "abrupt", "value": 2.0, "t0": 10.0}
-    assert refitted_step(e(step), 10.0, 0.01)
-    assert not refitted_step(e({**step, "t0": 10.5}), 10.0, 0.01)                 # dated later: not refitted
-    assert not refitted_step(e({"name": "x", "type": "incipient", "model": 1, "b": [0.1], "t0": 10.0}), 10.0, 0.01)
-    assert not refitted_step(e(), 10.0, 0.01)
+    assert steps_at_window_start(e(step), 10.0, 0.01)
+    assert not steps_at_window_start(e({**step, "t0": 10.5}), 10.0, 0.01)                 # dated later: not refitted
+    assert not steps_at_window_start(e({"name": "x", "type": "incipient", "model": 1, "b": [0.1], "t0": 10.0}), 10.0, 0.01)
+    assert not steps_at_window_start(e(), 10.0, 0.01)
