@@ -166,10 +166,13 @@ def read_document_text(text: str, path: str = "<model>") -> Document:
         loader, node = _compose(text.lstrip("\ufeff"))
         if node is None:
             raise ModelError("the file is empty; see docs/model-format.md for the layout", file=path)
-        _measure(node, path)
+        data = _plain(loader, node, path) if "&" not in text else _GENERAL
+        if data is _GENERAL:
+            _measure(node, path)
         lines: dict[tuple, int] = {}
         _index_lines(node, (), lines, path)
-        data = loader.construct_document(node)
+        if data is _GENERAL:
+            data = loader.construct_document(node)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = mark.line + 1 if mark else None
@@ -281,6 +284,57 @@ def _measure(root: yaml.Node, path: str) -> None:
         size[key] = total
         return total
     visit(root, 0)
+
+
+_GENERAL = object()       # _plain's answer for a document left to PyYAML's constructor
+_PLAIN_SCALARS = frozenset(f"tag:yaml.org,2002:{t}" for t in ("null", "bool", "int", "float", "timestamp", "binary"))
+_STR, _MAP, _SEQ = "tag:yaml.org,2002:str", "tag:yaml.org,2002:map", "tag:yaml.org,2002:seq"
+
+
+def _plain(loader: yaml.SafeLoader, root: yaml.Node, path: str) -> Any:
+    """The document as ``loader.construct_document`` builds it, for a text without anchors (so
+    without aliases: no node is shared or refers to itself), its size and nesting checked on the
+    way as :func:`_measure` checks them: one walk for the two (a 10 000-element chain: 0.95 s
+    measured and constructed, now 0.3 s). Plain maps, lists and the safe loader's scalars only;
+    for anything else (a merge key, a set, another tag) ``_GENERAL``: the caller measures and
+    constructs as PyYAML does, and its messages stay PyYAML's."""
+    scalars = loader.yaml_constructors
+    count = 0
+
+    class General(Exception):
+        pass
+
+    def build(node: yaml.Node, depth: int) -> Any:
+        nonlocal count
+        count += 1
+        if count > MAX_NODES:
+            raise ModelError(f"the YAML expands to more than {MAX_NODES} values (aliases counted each time "
+                             "they are used); a model is far smaller", file=path, line=node.start_mark.line + 1)
+        if depth > MAX_NESTING:
+            raise ModelError(f"YAML nested more than {MAX_NESTING} levels deep", file=path,
+                             line=node.start_mark.line + 1)
+        tag = node.tag
+        if isinstance(node, yaml.ScalarNode):
+            if tag == _STR:
+                return node.value
+            if tag in _PLAIN_SCALARS:
+                return scalars[tag](loader, node)
+        elif isinstance(node, yaml.MappingNode) and tag == _MAP:
+            out = {}
+            for key, value in node.value:
+                if not isinstance(key, yaml.ScalarNode) or key.tag not in _PLAIN_SCALARS and key.tag != _STR:
+                    raise General
+                k = build(key, depth + 1)                # the key first, as _measure visits it
+                out[k] = build(value, depth + 1)
+            return out
+        elif isinstance(node, yaml.SequenceNode) and tag == _SEQ:
+            return [build(item, depth + 1) for item in node.value]
+        raise General
+
+    try:
+        return build(root, 0)
+    except General:
+        return _GENERAL
 
 
 _INF = re.compile(r"[-+]?\.(inf|Inf|INF)")

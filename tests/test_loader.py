@@ -174,3 +174,50 @@ def test_monitor_settings_errors_name_file_key_and_line():
         load_text(bad, "rc.yaml")
     with pytest.raises(ModelError, match="thresholds.nope: 'nope' is no residual"):
         load_text(BASE + "thresholds: {nope: 1}\n", "rc.yaml")
+
+
+# The loader constructs a document without anchors in one walk of its own (bondgraph.loader._plain);
+# PyYAML's safe_load is the reference it must equal, and the limits _measure enforces must hold.
+PLAIN_DOCS = [
+    "a: 1\nb: 0x1f\nc: 1_000\nd: 1.5e3\ne: .inf\nf: -.Inf\ng: yes\nh: No\ni: ~\nj: null\nk: 'x: y'\n",
+    "t: 2001-12-14t21:59:43.10-05:00\nd: 2002-12-14\nb: !!binary aGVsbG8=\ns: !!str 12\nf: !!float 3\n",
+    "list: [1, [2, {x: 3}], 'four', 5.0]\nmap: {1: one, 2.5: two, true: three, null: four}\n",
+    "nested:\n  - a: {b: [c, d]}\n  - - 1\n    - 2\nempty: {}\nnone: []\nblank:\n",
+    "é: ünïcödé\n\"quoted key\": \"tab\\tand newline\\n\"\nfolded: >\n  one\n  two\nliteral: |\n  one\n  two\n",
+]
+GENERAL_DOCS = [            # left to PyYAML's constructor: anchors, merge keys, sets, ordered maps
+    "base: &b {x: 1, y: 2}\nderived:\n  <<: *b\n  y: 3\n",
+    "derived:\n  <<: {x: 1}\n  y: 3\n",
+    "s: !!set {a, b}\no: !!omap [{a: 1}, {b: 2}]\n",
+    "a: &x [1, 2]\nb: *x\n",
+]
+
+
+@pytest.mark.parametrize("text", PLAIN_DOCS + GENERAL_DOCS)
+def test_documents_read_as_safe_load_reads_them(text):
+    import yaml
+
+    from bondgraph.loader import read_document_text
+    assert read_document_text(text, "m.yaml").data == yaml.safe_load(text)
+
+
+@pytest.mark.parametrize("text", PLAIN_DOCS)
+def test_a_document_without_anchors_is_built_in_one_walk(text):
+    import yaml
+
+    from bondgraph.loader import _GENERAL, _compose, _plain
+    loader, node = _compose(text)
+    got = _plain(loader, node, "m.yaml")
+    loader.dispose()
+    assert got is not _GENERAL and got == yaml.safe_load(text)
+
+
+def test_nesting_and_size_limits_hold_without_anchors():
+    from bondgraph.loader import MAX_NESTING, MAX_NODES, read_document_text
+    deep = "".join("  " * i + f"k{i}:\n" for i in range(MAX_NESTING + 5)) + "  " * (MAX_NESTING + 5) + "v: 1\n"
+    with pytest.raises(ModelError, match=f"nested more than {MAX_NESTING} levels") as exc:
+        read_document_text(deep, "deep.yaml")
+    assert exc.value.line == MAX_NESTING + 1          # the first line past the limit
+    wide = "x: [" + ", ".join(["1"] * (MAX_NODES + 10)) + "]\n"
+    with pytest.raises(ModelError, match=f"more than {MAX_NODES} values"):
+        read_document_text(wide, "wide.yaml")
