@@ -431,6 +431,27 @@ def _line_search(rng: np.random.Generator, box: np.ndarray, linear: list[bool],
     return np.array([xs[k]]) if np.isfinite(es[k]) else None
 
 
+def _box_search(rng: np.random.Generator, box: np.ndarray, linear: list[bool],
+                cost: Callable[[np.ndarray], np.ndarray]) -> np.ndarray | None:
+    """The coefficients of a model of several (eqs. 18, 19) nearest by ``cost``: TRANSLATE_ROUNDS
+    rounds of TRANSLATE_DRAWS draws (:func:`_draws`), each in a box half as wide around the best
+    so far (the best kept among the next round's draws). None when no point has a finite cost."""
+    best_x, best_e = None, np.inf
+    lo, hi = box[:, 0].copy(), box[:, 1].copy()
+    for _ in range(TRANSLATE_ROUNDS):
+        x = _draws(rng, box, linear)
+        if best_x is not None:
+            x[0] = best_x
+        e = cost(x)
+        i = int(np.argmin(e))
+        if e[i] < best_e:
+            best_x, best_e = x[i].copy(), float(e[i])
+        half = (box[:, 1] - box[:, 0]) / 4
+        centre = best_x if best_x is not None else (box[:, 0] + box[:, 1]) / 2
+        box = np.column_stack([np.maximum(lo, centre - half), np.minimum(hi, centre + half)])
+    return best_x
+
+
 LINE_DRAWS = 128          # a one-coefficient translation: draws over the box first,
 LINE_POINTS = 16          # ... then even grids of this many points between the best one's neighbours,
 LINE_ROUNDS = 6           # ... this many rounds
@@ -564,22 +585,7 @@ def _translate(spaces: list, real: np.ndarray, bits_from: np.ndarray, bits_to: n
                 with np.errstate(all="ignore"):
                     e = _distance(q, target, first, inverse) / width
                 return np.where(np.isfinite(e), e, np.inf)
-            if len(cols) == 1:
-                best_x = _line_search(rng, box, linear, cost)
-            else:
-                best_x, best_e = None, np.inf
-                lo, hi = bounds[cols, 0], bounds[cols, 1]
-                for _ in range(TRANSLATE_ROUNDS):
-                    x = _draws(rng, box, linear)
-                    if best_x is not None:
-                        x[0] = best_x
-                    e = cost(x)
-                    i = int(np.argmin(e))
-                    if e[i] < best_e:
-                        best_x, best_e = x[i].copy(), float(e[i])
-                    half = (box[:, 1] - box[:, 0]) / 4
-                    centre = best_x if best_x is not None else (box[:, 0] + box[:, 1]) / 2
-                    box = np.column_stack([np.maximum(lo, centre - half), np.minimum(hi, centre + half)])
+            best_x = (_line_search if len(cols) == 1 else _box_search)(rng, box, linear, cost)
             if best_x is not None:
                 out[cols] = best_x
     return out

@@ -280,15 +280,66 @@ int incipient_exp(const double *t, I n, const double *t0, double nominal, I mode
 
 /* fdi._jit._fir_row: src (nsrc), half (hrows, hcols) with row stride hs; into S[(at + k) * ss + i];
  * phases: min(stride, n) rows of pw; plus, minus: count each */
+/* fir_row's sums for K (1 to 3) orders, FIR_LANES outputs at a time in GCC/clang vectors: each
+   output's sum takes the same operations in the same order as the tap-by-tap loops (mid * c0, then
+   (up + down) * c_j or (up - down) * c_j added for j = 1..h), so the same bits (IEEE operations lane
+   by lane, no contraction), without storing the pairs and the sums between taps. */
+typedef double v4d __attribute__((vector_size(32)));
+static inline v4d ld4(const double *p) { v4d v; memcpy(&v, p, sizeof v); return v; }
+static inline void st4(double *p, v4d v) { memcpy(p, &v, sizeof v); }
+#define FIR_LANES_K(K)                                                                                      \
+static void fir_lanes##K(const double *mid, const double *const *up, const double *const *down, I h,      \
+                         const double *half, I hs, I count, double *S0, double *S1, double *S2)          \
+{                                                                                                          \
+    (void)S1; (void)S2;                                                                                    \
+    I i = 0;                                                                                               \
+    for (; i + 8 <= count; i += 8) {                                                                       \
+        v4d m0 = ld4(mid + i), m1 = ld4(mid + i + 4);                                                      \
+        v4d a0 = m0 * half[0], b0 = m1 * half[0];                                                          \
+        v4d a1 = m0 * (K > 1 ? half[1] : 0.0), b1 = m1 * (K > 1 ? half[1] : 0.0);                         \
+        v4d a2 = m0 * (K > 2 ? half[2] : 0.0), b2 = m1 * (K > 2 ? half[2] : 0.0);                         \
+        for (I j = 1; j <= h; j++) {                                                                       \
+            const double *c = half + j * hs;                                                               \
+            v4d u0 = ld4(up[j] + i), u1 = ld4(up[j] + i + 4), d0 = ld4(down[j] + i), d1 = ld4(down[j] + i + 4); \
+            v4d p0 = u0 + d0, p1 = u1 + d1;                                                                \
+            a0 += p0 * c[0]; b0 += p1 * c[0];                                                              \
+            if (K > 1) { a1 += (u0 - d0) * c[1]; b1 += (u1 - d1) * c[1]; }                                 \
+            if (K > 2) { a2 += p0 * c[2]; b2 += p1 * c[2]; }                                               \
+        }                                                                                                  \
+        st4(S0 + i, a0); st4(S0 + i + 4, b0);                                                              \
+        if (K > 1) { st4(S1 + i, a1); st4(S1 + i + 4, b1); }                                               \
+        if (K > 2) { st4(S2 + i, a2); st4(S2 + i + 4, b2); }                                               \
+    }                                                                                                      \
+    for (; i < count; i++) {                                                                               \
+        double a0 = mid[i] * half[0], a1 = K > 1 ? mid[i] * half[1] : 0.0, a2 = K > 2 ? mid[i] * half[2] : 0.0; \
+        for (I j = 1; j <= h; j++) {                                                                       \
+            double u = up[j][i], d = down[j][i];                                                           \
+            a0 += (u + d) * half[j * hs];                                                                  \
+            if (K > 1) a1 += (u - d) * half[j * hs + 1];                                                   \
+            if (K > 2) a2 += (u + d) * half[j * hs + 2];                                                   \
+        }                                                                                                  \
+        S0[i] = a0;                                                                                        \
+        if (K > 1) S1[i] = a1;                                                                             \
+        if (K > 2) S2[i] = a2;                                                                             \
+    }                                                                                                      \
+}
+FIR_LANES_K(1)
+FIR_LANES_K(2)
+FIR_LANES_K(3)
+
 static void fir_row(const double *src, I nsrc, const double *half, I hrows, I hcols, I hs, I start, I count,
                     I stride, double *S, I ss, I at, double *phases, I pw, double *plus, double *minus)
 {
     I h = hrows - 1;
     I n = 2 * h + 1;
     I length = count + (n - 1) / stride + 1;
+    const double *base = phases;
     if (stride == 1) {
         I stop = imin(start + count + n - 1, nsrc);
-        if (stop > start) memcpy(phases, src + start, sizeof(double) * (stop - start));
+        if (stop == start + count + n - 1)
+            base = src + start;              /* every tap inside the source: read it in place */
+        else if (stop > start)
+            memcpy(phases, src + start, sizeof(double) * (stop - start));
     } else {
         I nph = imin(stride, n);
         for (I ph = 0; ph < nph; ph++)
@@ -297,15 +348,27 @@ static void fir_row(const double *src, I nsrc, const double *half, I hrows, I hc
                 phases[ph * pw + t] = q < nsrc ? src[q] : 0.0;
             }
     }
-    const double *mid = phases + (h % stride) * pw + h / stride;
+    const double *mid = base + (h % stride) * pw + h / stride;
+    if (hcols >= 1 && hcols <= 3 && h <= 4096) {
+        const double *up[h + 1], *down[h + 1];
+        for (I j = 1; j <= h; j++) {
+            up[j] = base + ((h + j) % stride) * pw + (h + j) / stride;
+            down[j] = base + ((h - j) % stride) * pw + (h - j) / stride;
+        }
+        double *S0 = S + at * ss;
+        if (hcols == 1) fir_lanes1(mid, up, down, h, half, hs, count, S0, S0 + ss, S0 + 2 * ss);
+        else if (hcols == 2) fir_lanes2(mid, up, down, h, half, hs, count, S0, S0 + ss, S0 + 2 * ss);
+        else fir_lanes3(mid, up, down, h, half, hs, count, S0, S0 + ss, S0 + 2 * ss);
+        return;
+    }
     for (I k = 0; k < hcols; k++) {
         double *acc = S + (at + k) * ss;
         double c = half[k];
         for (I i = 0; i < count; i++) acc[i] = mid[i] * c;
     }
     for (I j = 1; j <= h; j++) {
-        const double *up = phases + ((h + j) % stride) * pw + (h + j) / stride;
-        const double *down = phases + ((h - j) % stride) * pw + (h - j) / stride;
+        const double *up = base + ((h + j) % stride) * pw + (h + j) / stride;
+        const double *down = base + ((h - j) % stride) * pw + (h - j) / stride;
         for (I i = 0; i < count; i++) {
             plus[i] = up[i] + down[i];
             minus[i] = up[i] - down[i];
@@ -729,16 +792,21 @@ int fused_cost(const I *D, const double *X, double *total, double *deltas, B *in
                     f_unit[j], f_linear[j], k19[j], h19[j], grid, slope, pj);
             solved[j] = f_linear[j] && kinds[j * pop + row] < 2;
             int b = 0;
-            if (!solved[j]) {
+            if (!solved[j]) {      /* whether any sample is NaN or (role 1, 2) outside the bounds (role 1: > 0 too) */
                 I role = f_role[j];
-                for (I i = 0; i < nw; i++) {
-                    double x = pj[i];
-                    if (x != x || (role == 1 && !(isfinite(x) && x > 0 && f_lo[j] <= x && x <= f_hi[j])) ||
-                        (role == 2 && !(isfinite(x) && f_lo[j] <= x && x <= f_hi[j]))) {
-                        b = 1;
-                        break;
+                double lo_j = f_lo[j], hi_j = f_hi[j];
+                if (role == 1)
+                    for (I i = 0; i < nw; i++) {
+                        double x = pj[i];     /* one pass without branches: vectorised */
+                        b |= !(x > 0 && lo_j <= x && x <= hi_j && fabs(x) < INFINITY);
                     }
-                }
+                else if (role == 2)
+                    for (I i = 0; i < nw; i++) {
+                        double x = pj[i];
+                        b |= !(lo_j <= x && x <= hi_j && fabs(x) < INFINITY);
+                    }
+                else
+                    for (I i = 0; i < nw; i++) b |= pj[i] != pj[i];
             }
             bad[j] = b;
             inv = inv || b;
@@ -785,8 +853,14 @@ int fused_cost(const I *D, const double *X, double *total, double *deltas, B *in
                     I c = members[k];
                     I n = ck_n[c], h = n / 2, o = comp_order[c];
                     double *x = Xq + c * xw;
-                    for (I i = 0; i < nw; i++)
-                        if (!isfinite(x[i])) { x[i] = 0.0; inv = 1; }
+                    int nonfinite = 0;
+                    for (I i = 0; i < nw; i++) {        /* non-finite values zeroed, without branches */
+                        double v = x[i];
+                        int finite = fabs(v) < INFINITY;
+                        x[i] = finite ? v : 0.0;
+                        nonfinite |= !finite;
+                    }
+                    inv = inv || nonfinite;
                     const double *half = ck + c * ck1 * ck2;
                     if (comp_at[c] >= 0 && start >= h && start + (m - 1) * stride + h < nw)
                         fir_row(x, nw, half, h + 1, o + 1, ck2, start - h, m, stride, S, m, comp_at[c], phases, phw,
