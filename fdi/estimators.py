@@ -436,6 +436,9 @@ class Estimators:
         # final checks put off (``run``'s ``defer``), by the engine's state they continue from:
         # that state, not the Estimate, is kept by ``dataclasses.replace``
         self._pending: dict[int, tuple[Estimate, Job, tuple]] = {}
+        # every answer of this diagnosis by its question (:meth:`_question`): a later decision that
+        # fits a set on the same window with the same bounds gets the earlier fit
+        self._answers: dict[str, Estimate] = {}
 
     def __enter__(self) -> "Estimators":
         return self
@@ -602,17 +605,37 @@ class Estimators:
         return {i: out[i] for i in wave}           # in index order: larger sets start from these in order
 
     def _run(self, jobs: list[Job], t: np.ndarray, t0: float, samples: int) -> list[Estimate]:
-        """The estimates of ``jobs``, from the memo where it has them."""
+        """The estimates of ``jobs``, from the memo where it has them, or from an earlier answer of
+        this diagnosis to the same question (:meth:`_question`)."""
         keys = [self._key(job, t, t0, samples) for job in jobs] if self.memo is not None else [None] * len(jobs)
-        todo = [job for job, key in zip(jobs, keys) if key is None or key not in self.memo]
+        asked = [self._question(job, t, t0, samples) for job in jobs]
+        todo = [job for job, key, q in zip(jobs, keys, asked)
+                if (key is None or key not in self.memo) and q not in self._answers]
         fresh = iter(self._map(todo))
         out = []
-        for key in keys:
-            r = self.memo[key] if key is not None and key in self.memo else next(fresh)
+        for key, q in zip(keys, asked):
+            if key is not None and key in self.memo:
+                r = self.memo[key]
+            else:
+                r = self._answers[q] if q in self._answers else next(fresh)
             if key is not None:
                 self.memo[key] = r
+            self._answers[q] = r
             out.append(r)
         return out
+
+    def _question(self, job: Job, t: np.ndarray, t0: float, samples: int) -> str:
+        """What an estimator answers: :meth:`_key` without the seed and the fits it starts from
+        (they steer the search, not what it searches), and the run it continues (its snapshot,
+        kept alive by the answer that holds it). A later decision on the window of an earlier
+        one asks again for the sets that decision fitted (the tutorial's re-decision, 20 % of its
+        evaluations to find the same fit of {C1}); the earlier fit answers it."""
+        i0 = int(np.searchsorted(t, t0 - 1e-9))
+        margin = int(np.ceil(self.monitor.config.derivative_window / float(t[1] - t[0])))
+        end = min(t.size, i0 + samples + margin)
+        return json.dumps([t0, samples, end, list(job.candidate), list(map(float, job.weights)), repr(job.search),
+                           job.fixed, job.onset, job.modes, job.recheck, job.pause, job.settle_later, job.prognosed,
+                           None if job.resume is None else id(job.resume)], default=float, sort_keys=True)
 
     def _key(self, job: Job, t: np.ndarray, t0: float, samples: int) -> str:
         """What an estimator's result depends on: the model and settings, the job, and the samples
