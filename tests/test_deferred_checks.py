@@ -86,3 +86,18 @@ def test_only_steps_dated_at_the_window_start_wait():
     assert not steps_at_window_start(e({**step, "t0": 10.5}), 10.0, 0.01)                 # dated later: not refitted
     assert not steps_at_window_start(e({"name": "x", "type": "incipient", "model": 1, "b": [0.1], "t0": 10.0}), 10.0, 0.01)
     assert not steps_at_window_start(e(), 10.0, 0.01)
+
+
+def test_a_question_asked_again_gets_the_earlier_fit_and_another_question_does_not(setting):
+    """A later decision that fits a set on the same window with the same bounds (its seed and
+    starting points aside) gets the fit the diagnosis made: no job runs; a set asked with another
+    onset interval is fitted."""
+    monitor, t, raw, weights = setting
+    counted: list = []
+    est, first = _run(setting, counted=counted)
+    ran = len(counted)
+    again = est.run(t, raw, 32.0, 250, CANDIDATES, weights, 97, known=[[], [dict(f) for f in first[0].faults]])
+    assert len(counted) == ran                                # nothing fitted again
+    assert [a is b for a, b in zip(again, first)] == [True, True]
+    other = est.run(t, raw, 32.0, 250, CANDIDATES[:1], weights, 3, onsets=[(31.0, 32.5)])
+    assert len(counted) > ran and other[0] is not first[0]
