@@ -172,7 +172,12 @@ def read_document_text(text: str, path: str = "<model>") -> Document:
         lines: dict[tuple, int] = {}
         _index_lines(node, (), lines, path)
         if data is _GENERAL:
-            data = loader.construct_document(node)
+            try:
+                data = loader.construct_document(node)
+            except (ValueError, TypeError, AttributeError, OverflowError) as exc:
+                if isinstance(exc, yaml.YAMLError):
+                    raise
+                raise _misfit(loader, node, path) from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = mark.line + 1 if mark else None
@@ -294,47 +299,75 @@ _STR, _MAP, _SEQ = "tag:yaml.org,2002:str", "tag:yaml.org,2002:map", "tag:yaml.o
 def _plain(loader: yaml.SafeLoader, root: yaml.Node, path: str) -> Any:
     """The document as ``loader.construct_document`` builds it, for a text without anchors (so
     without aliases: no node is shared or refers to itself), its size and nesting checked on the
-    way as :func:`_measure` checks them: one walk for the two (a 10 000-element chain: 0.95 s
-    measured and constructed, now 0.3 s). Plain maps, lists and the safe loader's scalars only;
-    for anything else (a merge key, a set, another tag) ``_GENERAL``: the caller measures and
-    constructs as PyYAML does, and its messages stay PyYAML's."""
+    way as :func:`_measure` checks them (the same error at the same node): one walk for the two
+    (a 10 000-element chain: 0.95 s measured and constructed, now 0.3 s). Plain maps, lists and
+    the safe loader's scalars only; for anything else (a merge key, a set, another tag, a value
+    its tag does not fit) ``_GENERAL``: the caller measures, indexes and constructs as PyYAML
+    does, in that order, and its messages stay its own."""
     scalars = loader.yaml_constructors
-    count = 0
 
     class General(Exception):
         pass
 
-    def build(node: yaml.Node, depth: int) -> Any:
-        nonlocal count
-        count += 1
-        if count > MAX_NODES:
-            raise ModelError(f"the YAML expands to more than {MAX_NODES} values (aliases counted each time "
-                             "they are used); a model is far smaller", file=path, line=node.start_mark.line + 1)
+    def build(node: yaml.Node, depth: int) -> tuple[Any, int]:
+        """The node's value and its number of nodes; the limits as :func:`_measure` applies them
+        (nesting on the way down, size once a node's subtree is counted: the same node named)."""
         if depth > MAX_NESTING:
             raise ModelError(f"YAML nested more than {MAX_NESTING} levels deep", file=path,
                              line=node.start_mark.line + 1)
-        tag = node.tag
-        if isinstance(node, yaml.ScalarNode):
-            if tag == _STR:
-                return node.value
-            if tag in _PLAIN_SCALARS:
-                return scalars[tag](loader, node)
+        tag, size = node.tag, 1
+        if isinstance(node, yaml.ScalarNode) and tag == _STR:
+            value: Any = node.value
+        elif isinstance(node, yaml.ScalarNode) and tag in _PLAIN_SCALARS:
+            try:
+                value = scalars[tag](loader, node)
+            except Exception:                        # a value its tag does not fit: PyYAML's path says
+                raise General from None              # so, after the checks that come first there
         elif isinstance(node, yaml.MappingNode) and tag == _MAP:
-            out = {}
-            for key, value in node.value:
+            value = {}
+            for key, item in node.value:
                 if not isinstance(key, yaml.ScalarNode) or key.tag not in _PLAIN_SCALARS and key.tag != _STR:
                     raise General
-                k = build(key, depth + 1)                # the key first, as _measure visits it
-                out[k] = build(value, depth + 1)
-            return out
+                k, n = build(key, depth + 1)             # the key first, as _measure visits it
+                value[k], m = build(item, depth + 1)
+                size += n + m
         elif isinstance(node, yaml.SequenceNode) and tag == _SEQ:
-            return [build(item, depth + 1) for item in node.value]
-        raise General
+            value = []
+            for item in node.value:
+                v, n = build(item, depth + 1)
+                value.append(v)
+                size += n
+        else:
+            raise General
+        if size > MAX_NODES:
+            raise ModelError(f"the YAML expands to more than {MAX_NODES} values (aliases counted each time "
+                             "they are used); a model is far smaller", file=path, line=node.start_mark.line + 1)
+        return value, size
 
     try:
-        return build(root, 0)
+        return build(root, 0)[0]
     except General:
         return _GENERAL
+
+
+def _misfit(loader: yaml.SafeLoader, root: yaml.Node, path: str) -> ModelError:
+    """The error of a value its tag does not fit (``!!int x``, ``!!timestamp 'x'``: PyYAML's
+    constructors raise plain Python errors there), naming the first such value's line."""
+    stack = [root]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, yaml.ScalarNode) and node.tag in _PLAIN_SCALARS:
+            try:
+                loader.yaml_constructors[node.tag](loader, node)
+            except Exception:
+                kind = node.tag.rsplit(":", 1)[-1]
+                return ModelError(f"not valid YAML: '{node.value[:30]}' is no {kind}; write one or remove its "
+                                  f"!!{kind} tag", file=path, line=node.start_mark.line + 1)
+        elif isinstance(node, yaml.MappingNode):
+            stack.extend(n for pair in reversed(node.value) for n in reversed(pair))
+        elif isinstance(node, yaml.SequenceNode):
+            stack.extend(reversed(node.value))
+    return ModelError("not valid YAML: a value its tag does not fit; remove the tag", file=path)
 
 
 _INF = re.compile(r"[-+]?\.(inf|Inf|INF)")

@@ -605,31 +605,43 @@ class Estimators:
         return {i: out[i] for i in wave}           # in index order: larger sets start from these in order
 
     def _run(self, jobs: list[Job], t: np.ndarray, t0: float, samples: int) -> list[Estimate]:
-        """The estimates of ``jobs``, from the memo where it has them, or from an earlier answer of
-        this diagnosis to the same question (:meth:`_question`)."""
+        """The estimates of ``jobs``, from the memo where it has them, or from this diagnosis'
+        earlier answer to the same question (:meth:`_question`; none of its work counted again:
+        evaluations and times 0). A question asked twice in ``jobs`` is fitted once."""
         keys = [self._key(job, t, t0, samples) for job in jobs] if self.memo is not None else [None] * len(jobs)
         asked = [self._question(job, t, t0, samples) for job in jobs]
-        todo = [job for job, key, q in zip(jobs, keys, asked)
-                if (key is None or key not in self.memo) and q not in self._answers]
-        fresh = iter(self._map(todo))
+        todo: list[Job] = []
+        first: dict[str, int] = {}                       # a question fitted in this call: its job in todo
+        for job, key, q in zip(jobs, keys, asked):
+            if (key is None or key not in self.memo) and q not in self._answers and q not in first:
+                first[q] = len(todo)
+                todo.append(job)
+        got = self._map(todo)
         out = []
-        for key, q in zip(keys, asked):
+        for job, key, q in zip(jobs, keys, asked):
             if key is not None and key in self.memo:
                 r = self.memo[key]
+            elif q in self._answers:
+                r = replace(self._answers[q], evaluations=0, wall_s=0.0, objective_s=0.0)
             else:
-                r = self._answers[q] if q in self._answers else next(fresh)
+                r = got[first[q]]
+                if todo[first[q]] is not job:             # the same question twice in this call
+                    r = replace(r, evaluations=0, wall_s=0.0, objective_s=0.0)
             if key is not None:
                 self.memo[key] = r
-            self._answers[q] = r
+            self._answers.setdefault(q, r)
             out.append(r)
         return out
 
     def _question(self, job: Job, t: np.ndarray, t0: float, samples: int) -> str:
         """What an estimator answers: :meth:`_key` without the seed and the fits it starts from
-        (they steer the search, not what it searches), and the run it continues (its snapshot,
-        kept alive by the answer that holds it). A later decision on the window of an earlier
-        one asks again for the sets that decision fitted (the tutorial's re-decision, 20 % of its
-        evaluations to find the same fit of {C1}); the earlier fit answers it."""
+        (``known``: the engine's starting points and those of the other degradation models'
+        search), and with the run it continues (its snapshot, held by the answer kept for the
+        question that made it: its id is not reused while the diagnosis runs). Every run of one
+        Estimators reads the same record (``raw``), so the window's place says which samples.
+        A later decision on the window of an earlier one asks again for sets that decision
+        fitted (the tutorial's re-decision: a fifth of its evaluations to find the same fit of
+        {C1}); the earlier fit answers it, without a second search from it."""
         i0 = int(np.searchsorted(t, t0 - 1e-9))
         margin = int(np.ceil(self.monitor.config.derivative_window / float(t[1] - t[0])))
         end = min(t.size, i0 + samples + margin)

@@ -278,12 +278,11 @@ int incipient_exp(const double *t, I n, const double *t0, double nominal, I mode
 
 /* ------------------------------------------------------------------ the filter */
 
-/* fdi._jit._fir_row: src (nsrc), half (hrows, hcols) with row stride hs; into S[(at + k) * ss + i];
- * phases: min(stride, n) rows of pw; plus, minus: count each */
-/* fir_row's sums for K (1 to 3) orders, FIR_LANES outputs at a time in GCC/clang vectors: each
+/* fir_row's sums for K (1 to 3) orders, eight outputs at a time in GCC/clang vectors: each
    output's sum takes the same operations in the same order as the tap-by-tap loops (mid * c0, then
    (up + down) * c_j or (up - down) * c_j added for j = 1..h), so the same bits (IEEE operations lane
-   by lane, no contraction), without storing the pairs and the sums between taps. */
+   by lane, no contraction), without storing the pairs and the sums between taps. S1, S2: the
+   second and third orders' rows (read only for K > 1, K > 2). */
 typedef double v4d __attribute__((vector_size(32)));
 static inline v4d ld4(const double *p) { v4d v; memcpy(&v, p, sizeof v); return v; }
 static inline void st4(double *p, v4d v) { memcpy(p, &v, sizeof v); }
@@ -327,6 +326,8 @@ FIR_LANES_K(1)
 FIR_LANES_K(2)
 FIR_LANES_K(3)
 
+/* fdi._jit._fir_row: src (nsrc), half (hrows, hcols) with row stride hs; into S[(at + k) * ss + i];
+ * phases: min(stride, n) rows of pw; plus, minus: count each */
 static void fir_row(const double *src, I nsrc, const double *half, I hrows, I hcols, I hs, I start, I count,
                     I stride, double *S, I ss, I at, double *phases, I pw, double *plus, double *minus)
 {
@@ -349,15 +350,15 @@ static void fir_row(const double *src, I nsrc, const double *half, I hrows, I hc
             }
     }
     const double *mid = base + (h % stride) * pw + h / stride;
-    if (hcols >= 1 && hcols <= 3 && h <= 4096) {
+    if (hcols >= 1 && hcols <= 3 && h <= 1024) {      /* the taps' pointers on the stack: 16 kB at most */
         const double *up[h + 1], *down[h + 1];
         for (I j = 1; j <= h; j++) {
             up[j] = base + ((h + j) % stride) * pw + (h + j) / stride;
             down[j] = base + ((h - j) % stride) * pw + (h - j) / stride;
         }
         double *S0 = S + at * ss;
-        if (hcols == 1) fir_lanes1(mid, up, down, h, half, hs, count, S0, S0 + ss, S0 + 2 * ss);
-        else if (hcols == 2) fir_lanes2(mid, up, down, h, half, hs, count, S0, S0 + ss, S0 + 2 * ss);
+        if (hcols == 1) fir_lanes1(mid, up, down, h, half, hs, count, S0, S0, S0);
+        else if (hcols == 2) fir_lanes2(mid, up, down, h, half, hs, count, S0, S0 + ss, S0);
         else fir_lanes3(mid, up, down, h, half, hs, count, S0, S0 + ss, S0 + 2 * ss);
         return;
     }

@@ -90,14 +90,26 @@ def test_only_steps_dated_at_the_window_start_wait():
 
 def test_a_question_asked_again_gets_the_earlier_fit_and_another_question_does_not(setting):
     """A later decision that fits a set on the same window with the same bounds (its seed and
-    starting points aside) gets the fit the diagnosis made: no job runs; a set asked with another
-    onset interval is fitted."""
+    starting points aside) gets the fit the diagnosis made, its work not counted again: no job
+    runs; a set asked with another onset interval is fitted; a question asked twice in one call
+    is fitted once, and the jobs after it get their own answers."""
     monitor, t, raw, weights = setting
     counted: list = []
     est, first = _run(setting, counted=counted)
     ran = len(counted)
     again = est.run(t, raw, 32.0, 250, CANDIDATES, weights, 97, known=[[], [dict(f) for f in first[0].faults]])
     assert len(counted) == ran                                # nothing fitted again
-    assert [a is b for a, b in zip(again, first)] == [True, True]
+    assert [_fit(a) for a in again] == [_fit(b) for b in first]
+    assert [a.evaluations for a in again] == [0, 0] and all(b.evaluations > 0 for b in first)
     other = est.run(t, raw, 32.0, 250, CANDIDATES[:1], weights, 3, onsets=[(31.0, 32.5)])
-    assert len(counted) > ran and other[0] is not first[0]
+    assert len(counted) == ran + 1 and other[0].evaluations > 0
+    fresh = Estimators(monitor, Search("AHDE", 12, 5))
+    jobs: list = []
+    inner = fresh._map
+    fresh._map = lambda js: jobs.extend(js) or inner(js)
+    win = fresh.run(t, raw, 32.0, 250, CANDIDATES[:1], weights, 3)[0]
+    job = jobs[0]
+    twice = fresh._run([replace(job, seed=5, pause=1), replace(job, seed=6, pause=1), job], t, 32.0, 250)
+    assert len(jobs) == 2                                     # the paused question once; the last asked before
+    assert _fit(twice[0]) == _fit(twice[1]) and twice[1].evaluations == 0
+    assert _fit(twice[2]) == _fit(win)

@@ -221,3 +221,31 @@ def test_nesting_and_size_limits_hold_without_anchors():
     wide = "x: [" + ", ".join(["1"] * (MAX_NODES + 10)) + "]\n"
     with pytest.raises(ModelError, match=f"more than {MAX_NODES} values"):
         read_document_text(wide, "wide.yaml")
+
+
+@pytest.mark.parametrize("text", ["x:\n" + "- 0\n" * 12 + "y: 1\n",                       # a long list
+                                  "a:\n  b:\n    c:\n      - 1\n      - 2\n      - 3\n      - [4, 5, 6, 7]\n"])
+def test_a_limit_names_the_node_pyyaml_s_measure_names(text, monkeypatch):
+    """The size limit (lowered here) and the nesting limit are met at the same node, with the same
+    message, whether the loader's one walk or PyYAML's measured construction reads the text (an
+    anchor's '&' in a comment sends it to the latter)."""
+    from bondgraph import loader
+    for nodes, nesting in ((10, 64), (6, 3), (1000, 1)):
+        monkeypatch.setattr(loader, "MAX_NODES", nodes)
+        monkeypatch.setattr(loader, "MAX_NESTING", nesting)
+        got = []
+        for t in (text, "# &\n" + text):
+            with pytest.raises(ModelError) as exc:
+                loader.read_document_text(t, "m.yaml")
+            got.append((str(exc.value).split(": ", 1)[1], exc.value.line - (1 if t.startswith("#") else 0)))
+        assert got[0] == got[1]
+
+
+@pytest.mark.parametrize("value, kind", [("!!int x", "int"), ("!!float 'x'", "float"), ("!!timestamp 'x'", "timestamp")])
+def test_a_value_its_tag_does_not_fit_is_one_line_and_a_duplicate_key_comes_first(value, kind):
+    from bondgraph.loader import read_document_text
+    with pytest.raises(ModelError, match=f"is no {kind}; write one or remove its !!{kind} tag") as exc:
+        read_document_text(f"a: 1\nb: {value}\n", "m.yaml")
+    assert exc.value.line == 2
+    with pytest.raises(ModelError, match="duplicate key 'a'"):
+        read_document_text(f"a: 1\na: 2\nb: {value}\n", "m.yaml")

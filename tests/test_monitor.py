@@ -182,12 +182,13 @@ def test_the_monitor_keeps_reading_while_it_identifies(tmp_path):
     from bondgraph.loader import load_model
     from fdi import kernels
     from fdi.app.scenario import load_scenario, run
+    from optim import kernels as optim_kernels
 
     # the C kernels built before the stream starts (this test process's cache folder may be new):
     # building them takes 4 s on a slow host, which the worker otherwise spent inside the 6.6 s
     # the stream lasts, and the decision came after its end
     kernels.jit()
-    kernels._switch().compiled("optim")            # the engines' (optim/trials.c) likewise
+    optim_kernels.compiled("optim")                 # the engines' (optim/trials.c) likewise
     model = load_model(CYCAB)
     (tmp_path / "three.json").write_text(json.dumps(THREE_FAULTS), encoding="utf-8")
     columns = run(model, load_scenario(tmp_path / "three.json", model))
