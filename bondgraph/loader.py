@@ -174,9 +174,7 @@ def read_document_text(text: str, path: str = "<model>") -> Document:
         if data is _GENERAL:
             try:
                 data = loader.construct_document(node)
-            except (ValueError, TypeError, AttributeError, OverflowError) as exc:
-                if isinstance(exc, yaml.YAMLError):
-                    raise
+            except (ValueError, TypeError, AttributeError, OverflowError):   # a YAMLError is none of these
                 raise _misfit(loader, node, path) from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
@@ -292,6 +290,11 @@ def _measure(root: yaml.Node, path: str) -> None:
 
 
 _GENERAL = object()       # _plain's answer for a document left to PyYAML's constructor
+
+
+class _General(Exception):
+    """Raised inside :func:`_plain` at a node it leaves to PyYAML's constructor."""
+
 _PLAIN_SCALARS = frozenset(f"tag:yaml.org,2002:{t}" for t in ("null", "bool", "int", "float", "timestamp", "binary"))
 _STR, _MAP, _SEQ = "tag:yaml.org,2002:str", "tag:yaml.org,2002:map", "tag:yaml.org,2002:seq"
 
@@ -306,9 +309,6 @@ def _plain(loader: yaml.SafeLoader, root: yaml.Node, path: str) -> Any:
     does, in that order, and its messages stay its own."""
     scalars = loader.yaml_constructors
 
-    class General(Exception):
-        pass
-
     def build(node: yaml.Node, depth: int) -> tuple[Any, int]:
         """The node's value and its number of nodes; the limits as :func:`_measure` applies them
         (nesting on the way down, size once a node's subtree is counted: the same node named)."""
@@ -322,12 +322,12 @@ def _plain(loader: yaml.SafeLoader, root: yaml.Node, path: str) -> Any:
             try:
                 value = scalars[tag](loader, node)
             except Exception:                        # a value its tag does not fit: PyYAML's path says
-                raise General from None              # so, after the checks that come first there
+                raise _General from None             # so, after the checks that come first there
         elif isinstance(node, yaml.MappingNode) and tag == _MAP:
             value = {}
             for key, item in node.value:
                 if not isinstance(key, yaml.ScalarNode) or key.tag not in _PLAIN_SCALARS and key.tag != _STR:
-                    raise General
+                    raise _General
                 k, n = build(key, depth + 1)             # the key first, as _measure visits it
                 value[k], m = build(item, depth + 1)
                 size += n + m
@@ -338,7 +338,7 @@ def _plain(loader: yaml.SafeLoader, root: yaml.Node, path: str) -> Any:
                 value.append(v)
                 size += n
         else:
-            raise General
+            raise _General
         if size > MAX_NODES:
             raise ModelError(f"the YAML expands to more than {MAX_NODES} values (aliases counted each time "
                              "they are used); a model is far smaller", file=path, line=node.start_mark.line + 1)
@@ -346,7 +346,7 @@ def _plain(loader: yaml.SafeLoader, root: yaml.Node, path: str) -> Any:
 
     try:
         return build(root, 0)[0]
-    except General:
+    except _General:
         return _GENERAL
 
 

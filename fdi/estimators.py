@@ -642,23 +642,25 @@ class Estimators:
         A later decision on the window of an earlier one asks again for sets that decision
         fitted (the tutorial's re-decision: a fifth of its evaluations to find the same fit of
         {C1}); the earlier fit answers it, without a second search from it."""
-        i0 = int(np.searchsorted(t, t0 - 1e-9))
-        margin = int(np.ceil(self.monitor.config.derivative_window / float(t[1] - t[0])))
-        end = min(t.size, i0 + samples + margin)
-        return json.dumps([t0, samples, end, list(job.candidate), list(map(float, job.weights)), repr(job.search),
+        return json.dumps([*self._window(t, t0, samples), list(job.candidate), list(map(float, job.weights)), repr(job.search),
                            job.fixed, job.onset, job.modes, job.recheck, job.pause, job.settle_later, job.prognosed,
                            None if job.resume is None else id(job.resume)], default=float, sort_keys=True)
 
     def _key(self, job: Job, t: np.ndarray, t0: float, samples: int) -> str:
         """What an estimator's result depends on: the model and settings, the job, and the samples
         of its window (the stream's record grows; its window's last sample is where it ends)."""
-        i0 = int(np.searchsorted(t, t0 - 1e-9))
-        margin = int(np.ceil(self.monitor.config.derivative_window / float(t[1] - t[0])))
-        end = min(t.size, i0 + samples + margin)
-        return json.dumps([self.monitor.key, repr(self.monitor.config), t0, samples, end, list(job.candidate),
+        return json.dumps([self.monitor.key, repr(self.monitor.config), *self._window(t, t0, samples),
+                           list(job.candidate),
                            list(map(float, job.weights)), repr(job.search), job.seed, job.known, job.fixed,
                            job.onset, job.modes, job.recheck, job.pause, job.settle_later, job.prognosed],
                           default=float, sort_keys=True)
+
+    def _window(self, t: np.ndarray, t0: float, samples: int) -> tuple[float, int, int]:
+        """Where a job's window is in the record: its start, its samples and the index one past its
+        last sample read (the filter's margin after it)."""
+        i0 = int(np.searchsorted(t, t0 - 1e-9))
+        margin = int(np.ceil(self.monitor.config.derivative_window / float(t[1] - t[0])))
+        return t0, samples, min(t.size, i0 + samples + margin)
 
 
 def _preferred_subset(r: Estimate, i: int, done: dict[int, Estimate], candidates: list, fixed: list,
