@@ -33,46 +33,68 @@ static double pmin(double a, double b) { return b < a ? b : a; }
 
 /* ------------------------------------------------------------------ eq. (19), RK4 and Hermite */
 
-static void rk4_grid(double p0, double c5, double c6, double c7, double h, I k, double *grid, double *slope)
+/* eq. (19)'s RK4 grids (fdi._jit._rk4_grid's operations, P and dP/dt at k + 1 points h apart, inf
+ * and 0 once P is no longer finite) for `rows` rows (coefficients c5[r * cs], c6[r * cs],
+ * c7[r * cs]; row r's grid and slope at grid + r * (k + 1), slope + r * (k + 1)): eight rows in the
+ * lanes of one vector, each lane the scalar's operations in their order (the same bits); a grid
+ * costs its steps' chain of dependent operations, so eight take about the time of one */
+typedef double v8d __attribute__((vector_size(64)));
+
+static void rk4_grids(double p0, const double *c5, const double *c6, const double *c7, I cs, I rows, double h,
+                      I k, double *grid, double *slope)
 {
     double h2 = h / 2, h6 = h / 6;
-    double p = p0, v = 0.0;
-    grid[0] = p; slope[0] = v;
-    for (I i = 1; i <= k; i++) {
-        double k1p = v;
-        double k1v = c5 * v * v + c6 * p + c7;
-        double k2p = v + h2 * k1v;
-        double q = p + h2 * k1p, w = v + h2 * k1v;
-        double k2v = c5 * w * w + c6 * q + c7;
-        double k3p = v + h2 * k2v;
-        q = p + h2 * k2p; w = v + h2 * k2v;
-        double k3v = c5 * w * w + c6 * q + c7;
-        double k4p = v + h * k3v;
-        q = p + h * k3p; w = v + h * k3v;
-        double k4v = c5 * w * w + c6 * q + c7;
-        p = p + h6 * (k1p + 2 * k2p + 2 * k3p + k4p);
-        v = v + h6 * (k1v + 2 * k2v + 2 * k3v + k4v);
-        if (isfinite(p)) { grid[i] = p; slope[i] = v; }
-        else { grid[i] = INFINITY; slope[i] = 0.0; }
+    I w = k + 1;
+    for (I r0 = 0; r0 < rows; r0 += 8) {
+        I nl = imin(8, rows - r0);
+        v8d C5, C6, C7, p, v;
+        for (I l = 0; l < 8; l++) {
+            I r = r0 + imin(l, nl - 1);          /* spare lanes repeat the last row: computed, not stored */
+            C5[l] = c5[r * cs]; C6[l] = c6[r * cs]; C7[l] = c7[r * cs];
+            p[l] = p0; v[l] = 0.0;
+        }
+        for (I l = 0; l < nl; l++) { grid[(r0 + l) * w] = p0; slope[(r0 + l) * w] = 0.0; }
+        for (I i = 1; i <= k; i++) {
+            v8d k1p = v;
+            v8d k1v = C5 * v * v + C6 * p + C7;
+            v8d k2p = v + h2 * k1v;
+            v8d q = p + h2 * k1p, u = v + h2 * k1v;
+            v8d k2v = C5 * u * u + C6 * q + C7;
+            v8d k3p = v + h2 * k2v;
+            q = p + h2 * k2p; u = v + h2 * k2v;
+            v8d k3v = C5 * u * u + C6 * q + C7;
+            v8d k4p = v + h * k3v;
+            q = p + h * k3p; u = v + h * k3v;
+            v8d k4v = C5 * u * u + C6 * q + C7;
+            p = p + h6 * (k1p + 2 * k2p + 2 * k3p + k4p);
+            v = v + h6 * (k1v + 2 * k2v + 2 * k3v + k4v);
+            for (I l = 0; l < nl; l++) {
+                double pl = p[l];
+                int ok = isfinite(pl);
+                grid[(r0 + l) * w + i] = ok ? pl : INFINITY;
+                slope[(r0 + l) * w + i] = ok ? v[l] : 0.0;
+            }
+        }
     }
 }
 
-static double hermite(double tau, double h, I k, const double *grid, const double *slope)
+/* P at tau by cubic Hermite interpolation on the grid (fdi._jit._hermite's operations), without
+ * branches: NaN and the infinite ends chosen at the end, so a row of samples' loop vectorises */
+static inline double hermite(double tau, double h, I k, const double *grid, const double *slope)
 {
     double x = tau / h;
-    if (x != x)
-        return NAN;
-    if (x < 0) x = 0.0;
-    else if (x > k) x = (double)k;
-    I i0 = imin((I)floor(x), k - 1);
+    int nan = x != x;
+    x = x < 0 ? 0.0 : x;
+    x = x > k ? (double)k : x;
+    I i0 = imin((I)floor(nan ? 0.0 : x), k - 1);
     double s = x - i0;
     double pa = grid[i0], pb = grid[i0 + 1];
-    if (!(isfinite(pa) && isfinite(pb)))
-        return INFINITY;
     double va = slope[i0] * h, vb = slope[i0 + 1] * h;
     double s2 = s * s;
     double s3 = s * s * s;
-    return (2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb + (s3 - s2) * vb;
+    double p = (2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb + (s3 - s2) * vb;
+    p = (isfinite(pa) & isfinite(pb)) ? p : INFINITY;
+    return nan ? NAN : p;
 }
 
 /* fdi.profiles.STEPS19, MIN_STEPS19: eq. (19)'s grid has at most and at least this many intervals over the window */
@@ -90,12 +112,14 @@ int rk4_19(const double *tau, I pop, I n, double p0, const double *b5, const dou
             if (tau[r * n + j] > span) span = tau[r * n + j];
     I k = steps19(span, step);
     double h = span > 0 ? span / k : step;
-    double *grid = malloc(sizeof(double) * (k + 1)), *slope = malloc(sizeof(double) * (k + 1));
+    double *grid = malloc(sizeof(double) * 8 * (k + 1)), *slope = malloc(sizeof(double) * 8 * (k + 1));
     if (!grid || !slope) { free(grid); free(slope); return -1; }
-    for (I r = 0; r < pop; r++) {
-        rk4_grid(p0, b5[r], b6[r], b7[r], h, k, grid, slope);
-        for (I j = 0; j < n; j++)
-            out[r * n + j] = hermite(tau[r * n + j], h, k, grid, slope);
+    for (I r0 = 0; r0 < pop; r0 += 8) {
+        I nl = imin(8, pop - r0);
+        rk4_grids(p0, b5 + r0, b6 + r0, b7 + r0, 1, nl, h, k, grid, slope);
+        for (I l = 0; l < nl; l++)
+            for (I j = 0; j < n; j++)
+                out[(r0 + l) * n + j] = hermite(tau[(r0 + l) * n + j], h, k, grid + l * (k + 1), slope + l * (k + 1));
     }
     free(grid); free(slope);
     return 0;
@@ -210,12 +234,38 @@ static double intermittent1(double t, double a, double nominal, double v, double
     return s > 0 ? v : (s < 0 ? nominal : (nominal + v) / 2);
 }
 
+/* intermittent1 over a row of samples, its values: one pass without branches (vectorised) decides
+ * every sample whose phase is clear of a switching instant (f within (1e-6, 1 - 1e-6): the parity
+ * of floor(u) alone, read as floor(kf / 2) != kf / 2, which is (I)kf & 1 for every kf that cast
+ * defines); the samples at an instant (rare) are then done by intermittent1 itself, with sin */
+static void intermittent_row(const double *t, I n, double a, double nominal, double v, double T, double *out)
+{
+    int edge = 0;
+    for (I i = 0; i < n; i++) {
+        double x = 2 * PI * (t[i] - a) / T;
+        double u = x / PI;
+        double kf = floor(u);
+        double f = u - kf;
+        double half = kf * 0.5;
+        int odd = floor(half) != half;
+        int after = t[i] >= a;
+        out[i] = after & !odd ? v : nominal;
+        edge |= after & !((f > 1e-6) & (f < 1 - 1e-6));
+    }
+    if (edge)
+        for (I i = 0; i < n; i++) {
+            double x = 2 * PI * (t[i] - a) / T;
+            double u = x / PI;
+            double f = u - floor(u);
+            if (t[i] >= a && !(f > 1e-6 && f < 1 - 1e-6)) out[i] = intermittent1(t[i], a, nominal, v, T);
+        }
+}
+
 int intermittent(const double *t, I n, const double *t0, I rows, double nominal, const double *value,
                  const double *period, double *out)
 {
     for (I r = 0; r < rows; r++)
-        for (I j = 0; j < n; j++)
-            out[r * n + j] = intermittent1(t[j], t0[r], nominal, value[r], period[r]);
+        intermittent_row(t, n, t0[r], nominal, value[r], period[r], out + r * n);
     return 0;
 }
 
@@ -594,7 +644,7 @@ static void profile(const double *t, I nw, I j, I row, I pop, const double *onse
         for (I i = 0; i < nw; i++) out[i] = (t[i] >= a ? val : nominal) + z;
     } else if (kind == 1) {
         double T = periods[j * pop + row];
-        for (I i = 0; i < nw; i++) out[i] = intermittent1(t[i], a, nominal, val, T);
+        intermittent_row(t, nw, a, nominal, val, T, out);
     } else {
         I model = models[j * pop + row];
         const double *cf = coeffs + (j * pop + row) * NCOEFFS;
@@ -610,7 +660,7 @@ static void profile(const double *t, I nw, I j, I row, I pop, const double *onse
             if (isinf(nominal)) {
                 for (I i = 0; i < nw; i++) out[i] = t[i] >= a ? INFINITY : nominal;
             } else {
-                rk4_grid(nominal, cf[1], cf[2], cf[3], h19, k19, grid, slope);
+                /* the grid made for this row before the rows' loop (fused_cost: rk4_grids) */
                 for (I i = 0; i < nw; i++) {
                     double tau = t[i] - a;
                     if (tau < 0) tau = 0.0;
@@ -747,7 +797,8 @@ int fused_cost(const I *D, const double *X, double *total, double *deltas, B *in
     double *seen = NULL, *parts = NULL, *cp = NULL, *Pfull = NULL, *Sfull = NULL, *Ri = NULL, *Xq = NULL;
     double *T = NULL, *phases_full = NULL, *pair_full = NULL, *phases = NULL, *pair = NULL, *scratch = NULL;
     B *bad = NULL, *solved = NULL, *fresh = NULL, *srow = NULL;
-    I *k19 = NULL;
+    I *k19 = NULL, *at19 = NULL, *off19 = NULL;
+    double *g19 = NULL, *s19 = NULL, *c19 = NULL;
 
     NEW(prof, nf1 * nw); NEW(bad, nf1); NEW(solved, nf1); NEW(k19, nf1); NEW(h19, nf1);
     I kmax = 1;
@@ -758,6 +809,29 @@ int fused_cost(const I *D, const double *X, double *total, double *deltas, B *in
         kmax = imax(kmax, k19[j]);
     }
     NEW(grid, kmax + 1); NEW(slope, kmax + 1); NEW(ones, nw); NEW(zeros, nw);
+    /* eq. (19)'s grids, every row's that needs one, made before the rows' loop eight at a time */
+    NEW(at19, nf1 * pop); NEW(off19, nf1); NEW(c19, 3 * imax(1, pop));
+    I tot19 = 0;
+    for (I j = 0; j < nf; j++) {
+        I c = 0;
+        off19[j] = tot19;
+        for (I row = 0; row < pop; row++)
+            at19[j * pop + row] = (kinds[j * pop + row] >= 2 && models[j * pop + row] == 4 && !isinf(f_nominal[j]))
+                                  ? c++ : -1;
+        tot19 += c * (k19[j] + 1);
+    }
+    NEW(g19, tot19); NEW(s19, tot19);
+    for (I j = 0; j < nf; j++) {
+        I c = 0;
+        for (I row = 0; row < pop; row++)
+            if (at19[j * pop + row] >= 0) {
+                const double *cf = coeffs + (j * pop + row) * NCOEFFS;
+                c19[c] = cf[1]; c19[pop + c] = cf[2]; c19[2 * pop + c] = cf[3];
+                c++;
+            }
+        if (c)
+            rk4_grids(f_nominal[j], c19, c19 + pop, c19 + 2 * pop, 1, c, h19[j], k19[j], g19 + off19[j], s19 + off19[j]);
+    }
     for (I i = 0; i < nw; i++) ones[i] = 1.0;
     I nslot1 = imax(1, nslot);
     NEW(Prow, nslot1 * m);
@@ -790,7 +864,9 @@ int fused_cost(const I *D, const double *X, double *total, double *deltas, B *in
         for (I j = 0; j < nf; j++) {
             double *pj = prof + j * nw;
             profile(t, nw, j, row, pop, onset, kinds, models, values, periods, coeffs, pre, prew, pre_at, f_nominal[j],
-                    f_unit[j], f_linear[j], k19[j], h19[j], grid, slope, pj);
+                    f_unit[j], f_linear[j], k19[j], h19[j],
+                    at19[j * pop + row] >= 0 ? g19 + off19[j] + at19[j * pop + row] * (k19[j] + 1) : grid,
+                    at19[j * pop + row] >= 0 ? s19 + off19[j] + at19[j * pop + row] * (k19[j] + 1) : slope, pj);
             solved[j] = f_linear[j] && kinds[j * pop + row] < 2;
             int b = 0;
             if (!solved[j]) {      /* whether any sample is NaN or (role 1, 2) outside the bounds (role 1: > 0 too) */
@@ -798,13 +874,13 @@ int fused_cost(const I *D, const double *X, double *total, double *deltas, B *in
                 double lo_j = f_lo[j], hi_j = f_hi[j];
                 if (role == 1)
                     for (I i = 0; i < nw; i++) {
-                        double x = pj[i];     /* one pass without branches: vectorised */
-                        b |= !(x > 0 && lo_j <= x && x <= hi_j && fabs(x) < INFINITY);
+                        double x = pj[i];     /* one pass without branches (& not &&): vectorised */
+                        b |= !((x > 0) & (lo_j <= x) & (x <= hi_j) & (fabs(x) < INFINITY));
                     }
                 else if (role == 2)
                     for (I i = 0; i < nw; i++) {
                         double x = pj[i];
-                        b |= !(lo_j <= x && x <= hi_j && fabs(x) < INFINITY);
+                        b |= !((lo_j <= x) & (x <= hi_j) & (fabs(x) < INFINITY));
                     }
                 else
                     for (I i = 0; i < nw; i++) b |= pj[i] != pj[i];
@@ -973,5 +1049,6 @@ fail:
     free(Prow); free(R); free(S); free(base); free(gain); free(pts); free(wts); free(d); free(extra); free(fresh);
     free(seen); free(srow); free(parts); free(cp); free(Pfull); free(Sfull); free(Ri); free(Xq); free(T);
     free(phases_full); free(pair_full); free(phases); free(pair); free(scratch);
+    free(at19); free(off19); free(c19); free(g19); free(s19);
     return rc_;
 }
