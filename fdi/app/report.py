@@ -48,8 +48,10 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
     cands = report.get("candidates") or []
     out.append("candidate sets: " + ("; ".join("{" + ", ".join(c) + "}" for c in cands) if cands else "none"))
     if report.get("exoneration_relaxed"):
-        out.append("  (no fault set's signature equals the coherence vector: exoneration relaxed to the smallest "
-                   "sets that cover it)")
+        out.append("  (exoneration relaxed: the smallest sets that cover the coherence vector are candidates, "
+                   + ("as the sets that equal it left the residuals far above their nominal level)"
+                      if report.get("note") and "nominal level" in report["note"] else
+                      "as no fault set's signature equals it)"))
     if report.get("pruned"):
         p = report["pruned"]
         out.append(f"  ({p['sets']} set(s) of {p['max_set'] + 1} faults also explain it and were not identified: "
