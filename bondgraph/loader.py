@@ -855,6 +855,7 @@ def _elements(ctx, data, symbols, claim, inputs, sensors, parameters) -> dict[st
                     raise ctx.error(where + ("modulus",),
                                     f"a {kind} modulus must be constant but uses {sorted(s.name for s in signals)}; "
                                     f"use M{kind} for a modulated one")
+                _nonzero_modulus(ctx, where, kind, name, modulus, parameters)
             fields["modulus"] = modulus
         else:
             if kind in ("MSe", "MSf") and spec.get("input") is not None:
@@ -869,6 +870,24 @@ def _elements(ctx, data, symbols, claim, inputs, sensors, parameters) -> dict[st
                 raise ctx.error(where, f"source '{name}' needs {need}")
         out[name] = replace(element, **fields)
     return out
+
+
+def _nonzero_modulus(ctx, where, kind: str, name: str, modulus: sp.Expr, parameters) -> None:
+    """A TF or GY whose modulus is 0 (or not finite) at the parameters' values couples nothing: its
+    two sides are two systems, and the derivation divides by it (a loudspeaker's cone area typed as
+    0 gave a residual of inf). Refused with the value; a modulus that reads no value is left."""
+    values = {s: getattr(parameters.get(s.name), "value", None) for s in modulus.free_symbols}
+    if any(v is None for v in values.values()):
+        return
+    try:
+        number = complex(modulus.xreplace({s: sp.Float(v) for s, v in values.items()}))
+    except (TypeError, ValueError, OverflowError):
+        return
+    if number == 0 or not (math.isfinite(number.real) and math.isfinite(number.imag)):
+        raise ctx.error(where + ("modulus",), f"{kind} element '{name}' has modulus {modulus} = "
+                        f"{number.real:g} at the parameters' values: a {kind} of modulus 0 or infinite couples "
+                        "nothing (its two sides are two systems) and the derivation divides by it; give its "
+                        "nonzero, finite value (SI units), or remove the element")
 
 
 def _check_inverse(ctx, where, law: sp.Expr, law_var: str, inverse: sp.Expr, inverse_var: str,
