@@ -885,7 +885,7 @@ def _nonzero_modulus(ctx, where, kind: str, name: str, modulus: sp.Expr, paramet
         return
     if number == 0 or not (math.isfinite(number.real) and math.isfinite(number.imag)):
         raise ctx.error(where + ("modulus",), f"{kind} element '{name}' has modulus {modulus} = "
-                        f"{number.real:g} at the parameters' values: a {kind} of modulus 0 or infinite couples "
+                        f"{number.real:g} at the parameters' values: a {kind} of modulus 0 or not finite couples "
                         "nothing (its two sides are two systems) and the derivation divides by it; give its "
                         "nonzero, finite value (SI units), or remove the element")
 

@@ -45,6 +45,11 @@ def candidate_sets(fsm: FSM, coherence: tuple[int, ...], exoneration: bool = Tru
     return out
 
 
+COVERING_NOTE = "the smallest sets covering the coherence vector (a quiet residual exonerating nothing) were identified too"
+"""The note of a diagnosis whose exact candidate sets fit badly and which identified these too
+(:func:`fdi.pipeline.widen`; the CLI's relaxation line reads it)."""
+
+
 def relaxed_sets(fsm: FSM, coherence: tuple[int, ...], max_set: int = 3) -> list[tuple[str, ...]]:
     """The smallest fault sets whose signatures cover the coherence vector, when no set matches it
     exactly and no mode change explains it. Exoneration assumes every residual a fault enters

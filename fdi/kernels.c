@@ -93,7 +93,7 @@ static inline double hermite(double tau, double h, I k, const double *grid, cons
     double s2 = s * s;
     double s3 = s * s * s;
     double p = (2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb + (s3 - s2) * vb;
-    p = (isfinite(pa) & isfinite(pb)) ? p : INFINITY;
+    p = ((isfinite(pa) != 0) & (isfinite(pb) != 0)) ? p : INFINITY;   /* isfinite: nonzero, not 1 */
     return nan ? NAN : p;
 }
 

@@ -26,7 +26,7 @@ from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide
 from .estimators import (Estimators, Search, date_onsets, evidence_onsets, evidence_start, refit_early_onsets,
                          steps_at_window_start)
 from .ingest import measurements
-from .isolate import candidate_sets, new_mode_changes, pruned_sets, relaxed_sets, suspected_mode_changes
+from .isolate import COVERING_NOTE, candidate_sets, new_mode_changes, pruned_sets, relaxed_sets, suspected_mode_changes
 from .mode_estimation import estimate_mode, mode_variable
 from .objective import nominal, window
 from .options import MIN_WINDOW_S, Options, check_samples
@@ -279,27 +279,36 @@ def widen(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, results: list, est: Est
     best = min([e.cost for e in results] + ([mf.cost] if mf else []))
     if not best > LACK_OF_FIT * level:
         return d, results
-    have, extra, weak = set(d.candidates), [], None
+    stuck = {f for f, spec in m.model.faults.items() if spec.effect == "stuck"}   # confirmed by signals, never fitted
+    have, extra, weak, left = set(d.candidates), [], None, 0
     if m.config.exoneration == "structural":
         eff, weak = weakened(p, det, fsm)
         if weak:
-            extra = [c for c in map(tuple, candidate_sets(eff, det.final_coherence, True, o.max_set)) if c not in have]
+            extra = [c for c in map(tuple, candidate_sets(eff, det.final_coherence, True, o.max_set))
+                     if c not in have and not stuck & set(c)]
     covering = not extra
-    if covering:        # no entry the data show weak: the smallest sets covering the coherence vector
-        extra = [c for c in map(tuple, relaxed_sets(fsm, det.final_coherence, o.max_set)) if c not in have]
+    if covering:        # no new set from weak entries: the smallest sets covering the coherence vector,
+        cols = [j for j, x in enumerate(det.final_coherence) if not x]     # nearest the vector first
+        quiet = {row.fault: sum(row.nominal[j] for j in cols) for row in fsm.rows}
+        extra = sorted((c for c in map(tuple, relaxed_sets(fsm, det.final_coherence, o.max_set))
+                        if c not in have and not stuck & set(c)), key=lambda c: sum(quiet.get(f, 0) for f in c))
+        extra, left = extra[:MAX_COVERING], max(0, len(extra) - MAX_COVERING)
     if not extra:
         return d, results
     more = est.run(p.meas.t, p.raw, det.time, p.samples, extra, p.weights, o.seed + 104723, None, None,
                    [(det.time, onsets[1])] * len(extra))
     more = refit_early_onsets(est, p.meas.t, p.raw, det.time, p.samples, extra, more, p.weights, o.seed + 104723,
                               onsets, p.first_trusted)
-    note = (f"the candidate sets exoneration left had residuals {best / level:.0f} times their nominal "
-            f"level; " + ("the smallest sets covering the coherence vector (a quiet residual exonerating nothing) "
-                          "were identified too" if covering else
+    note = (f"the best explanation exoneration left had residuals {best / level:.0f} times their nominal "
+            f"level; " + (COVERING_NOTE + (f" ({len(extra)} of them, the {left} whose faults enter more quiet "
+                                           "residuals left out)" if left else "") if covering else
                           "sets a quiet residual could not have exonerated were identified too"))
     iso = replace(d.isolation, candidates=tuple(d.candidates) + tuple(extra), weak=weak or d.isolation.weak,
                   relaxed=d.isolation.relaxed or covering)
-    return replace(d, isolation=iso, note=note), list(results) + list(more)
+    return replace(d, isolation=iso, note=f"{d.note}; {note}" if d.note else note), list(results) + list(more)
+
+
+MAX_COVERING = 6     # covering sets identified at most when the exact ones fit badly (each costs an estimator)
 
 
 def switching(p: Prepared, det: Detection, suspect: str) -> bool:

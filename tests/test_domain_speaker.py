@@ -74,3 +74,13 @@ def test_a_microphone_exonerated_by_a_quiet_residual_is_found_when_the_exact_set
     (found,) = report["diagnosis"]["faults"]
     assert (found["name"], found["type"]) == ("beta_p", "abrupt")
     assert found["value"] == pytest.approx(0.8, rel=0.01)
+
+
+def test_the_text_report_says_why_exoneration_was_relaxed(thresholds):
+    """The CLI's line names the reason: the exact sets' lack of fit here (the note's words), no
+    matching set where none equals the coherence vector (that note left out)."""
+    from fdi.app.report import to_text
+    report = diagnose(MODEL, _data("mic", 25, t0=T0, factor=0.8, which="beta_p"),
+                      Options(workers=1, seed=0, thresholds=thresholds)).to_dict()
+    assert "as the sets that equal it left the residuals far above their nominal level" in to_text(report, "m", "d")
+    assert "as no fault set's signature equals it" in to_text({**report, "note": None}, "m", "d")

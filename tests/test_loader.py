@@ -251,14 +251,17 @@ def test_a_value_its_tag_does_not_fit_is_one_line_and_a_duplicate_key_comes_firs
         read_document_text(f"a: 1\na: 2\nb: {value}\n", "m.yaml")
 
 
-@pytest.mark.parametrize("modulus, value", [("n", "0.0"), ("2*n", "0.0"), ("n", ".inf"), ("0", "1.0")])
-def test_a_two_port_of_modulus_zero_or_infinite_is_refused_with_its_value(modulus, value):
+@pytest.mark.parametrize("kind", ["TF", "GY"])
+@pytest.mark.parametrize("modulus, value", [("n", "0.0"), ("2*n", "0.0"), ("n", ".inf"), ("0", "1.0"), ("1/n", "0.0"),
+                                            ("n - n", "1.0")])
+def test_a_two_port_of_modulus_zero_or_infinite_is_refused_with_its_value(kind, modulus, value):
     """A TF (or GY) of modulus 0 couples nothing and the derivation divides by it (a loudspeaker's
     cone area typed as 0 gave the voice-coil residual inf); a modulus of n = 0.5 loads."""
     text = (BASE.replace("  C1: {value: 1.0e-3, unit: F}\n", f"  C1: {{value: 1.0e-3, unit: F}}\n  n: {{value: {value}}}\n")
-            .replace("  cap: {type: C, parameter: C1}\n", f"  cap: {{type: C, parameter: C1}}\n  tf: {{type: TF, modulus: '{modulus}'}}\n")
+            .replace("  cap: {type: C, parameter: C1}\n", f"  cap: {{type: C, parameter: C1}}\n  tf: {{type: {kind}, modulus: '{modulus}'}}\n")
             .replace("  j0: {type: \"0\"}\n", "  j0: {type: \"0\"}\n  j2: {type: \"0\"}\n")
             .replace("  3: [j1, j0]\n", "  3: [j1, tf]\n  5: [tf, j2]\n  6: [j2, j0]\n"))
     err = _err(text)
     assert "elements.tf.modulus" in str(err) and "couples nothing" in str(err)
-    load_model_text(text.replace(f"n: {{value: {value}}}", "n: {value: 0.5}").replace("modulus: '0'", "modulus: '0.5'"))
+    load_model_text(text.replace(f"n: {{value: {value}}}", "n: {value: 0.5}").replace("modulus: '0'", "modulus: '0.5'")
+                    .replace("modulus: 'n - n'", "modulus: 'n'"))

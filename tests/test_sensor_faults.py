@@ -102,3 +102,26 @@ def test_a_stuck_fault_the_data_do_not_show_is_no_candidate_for_identification()
                              Options(workers=1, seed=0, thresholds=thresholds())).to_dict()
     assert not any("stuck_v" in c for c in report["candidates"])
     assert [f["name"] for f in report["diagnosis"]["faults"]] == ["bias_v"]
+
+
+def test_lack_of_fit_widens_to_covering_sets_but_a_stuck_sensor_is_never_fitted():
+    """An unmodelled fault: the capacitor doubles at 3 s (C is no candidate). Only ARR2 fires; its one
+    exact set {RL} fits 8 times the nominal level, so the sets covering [0 1] are identified too
+    (fdi.pipeline.widen): the voltage sensor's gain and offset, never its stuck fault, which is
+    confirmed by its signal and was already set aside (it was fitted as a gain)."""
+    t = np.arange(0.0, 6.0005, 0.001)
+
+    def u(tt):
+        return 5 + 2 * np.sin(3 * tt)
+    sol = solve_ivp(lambda tt, y: [((u(tt) - y[0]) / R - y[0] / RL) / (C * (2.0 if tt >= 3.0 else 1.0))], (0, 6.0),
+                    [0.0], t_eval=t, rtol=1e-10, atol=1e-12, max_step=0.01)
+    rng = np.random.default_rng(5)
+    v = sol.y[0]
+    data = {"t": t, "u": u(t), "i": (u(t) - v) / R + rng.normal(0, 1e-5, t.size), "v": v + rng.normal(0, 1e-3, t.size)}
+    report = diagnose(str(MODEL), Measurements("capacitor", t, data),
+                      Options(workers=1, seed=0, thresholds=thresholds())).to_dict()
+    assert report["detection"]["final_coherence"] == [0, 1]
+    assert "covering the coherence vector" in report["note"] and report["exoneration_relaxed"] is True
+    fitted = [tuple(e["candidate"]) for e in report["estimators"]]
+    assert ("RL",) in fitted and ("beta_v",) in fitted and ("bias_v",) in fitted
+    assert not any("stuck_v" in c for c in fitted) and ["stuck_v"] not in report["candidates"]

@@ -1,6 +1,7 @@
 """The diagnosis report as readable text (the JSON report is ``Diagnosis.to_dict``)."""
 from __future__ import annotations
 
+from ..isolate import COVERING_NOTE
 from ..results import Coincidence, Fault, _vec, partners
 
 
@@ -50,8 +51,7 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
     if report.get("exoneration_relaxed"):
         out.append("  (exoneration relaxed: the smallest sets that cover the coherence vector are candidates, "
                    + ("as the sets that equal it left the residuals far above their nominal level)"
-                      if report.get("note") and "nominal level" in report["note"] else
-                      "as no fault set's signature equals it)"))
+                      if COVERING_NOTE in (report.get("note") or "") else "as no fault set's signature equals it)"))
     if report.get("pruned"):
         p = report["pruned"]
         out.append(f"  ({p['sets']} set(s) of {p['max_set'] + 1} faults also explain it and were not identified: "
