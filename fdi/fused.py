@@ -55,6 +55,7 @@ from typing import Any
 import numpy as np
 
 from . import derivatives, encoding, kernels, tape
+from .objective import STEP_ORDER
 from .profiles import STEP19
 from .residuals import Residual, mode_breaks, samples_of
 
@@ -172,7 +173,7 @@ class Fused:
         self.patterns: dict[tuple[bool, ...], Pattern] = {}
         self.calls: dict[tuple[int, tuple[bool, ...]], Any] = {}     # bind's, per (stride, solving)
         self.s_at_array = np.array(self.s_at, dtype=np.int64)
-        self.no_pre = np.zeros((1, 1))
+        self.seen = SeenSteps(obj)
         # the decoding's constants (fdi._jit.decode_rows): logarithmic values, coefficient scales, and
         # the reals numpy raises 10 to (every rate slot, then each logarithmic value)
         self.log = np.array([sp.log for sp in obj.spaces], dtype=np.bool_)
@@ -399,21 +400,25 @@ class Fused:
                 self.vpow, encoding.ZETA_TYPES, float(t[-1]))
         else:                                       # bits other than 0/1: decode_table's reading of them
             kinds, models, values, periods, b, pre_at, counts, span19, level = self.decode_numpy(real, bits)
-        pre = []
         solving = tuple(level[self.lin_fault].tolist())
-        filled = 0
-        for jj, j in enumerate(self.linear):          # a solved step or square wave as the filtered residuals see it
-            if solving[jj]:
-                for kind in (0, 1):
-                    rows = np.flatnonzero(kinds[j] == kind)
+        formed = []
+        keep = STEP_ORDER == 0          # a step's seen profile then depends on its first sample alone
+        with self.seen.lock:            # (the kept steps and this call's rows: one call at a time)
+            self.seen.begin()
+            for jj, j in enumerate(self.linear):      # a solved step or square wave as the filtered residuals see it
+                if solving[jj]:
+                    rows = np.flatnonzero(kinds[j] == 0)
+                    if rows.size and keep:
+                        pre_at[j, rows] = self.seen.steps(j, onset[rows])
+                    elif rows.size:
+                        formed.append((j, rows, obj.seen_steps(j, onset[rows])))
+                    rows = np.flatnonzero(kinds[j] == 1)
                     if rows.size:
-                        pre.append(obj.seen_steps(j, onset[rows], periods[j, rows] if kind else None))
-                        pre_at[j, rows] = filled + np.arange(rows.size)
-                        filled += rows.size
-        pre = (pre[0] if len(pre) == 1 else np.vstack(pre)) if pre else self.no_pre
-        call = self.calls.get((stride, solving)) or self.bind(fast, stride, solving)
-        total, d, invalid = call(onset, kinds, models, values, periods, np.ascontiguousarray(b[:, :, COEFFS]), pre,
-                                 pre_at, span19)
+                        formed.append((j, rows, obj.seen_steps(j, onset[rows], periods[j, rows])))
+            pre = self.seen.table(formed, pre_at)
+            call = self.calls.get((stride, solving)) or self.bind(fast, stride, solving)
+            total, d, invalid = call(onset, kinds, models, values, periods, np.ascontiguousarray(b[:, :, COEFFS]),
+                                     pre, pre_at, span19)
         solve = {j: kinds[j] < 2 for jj, j in enumerate(self.linear) if solving[jj]}
         deltas = {j: d[jj] for jj, j in enumerate(self.linear) if solving[jj]} if self.pattern(solving).joint.size else {}
         return obj.finish(real, solve, deltas, total, invalid, stride)
@@ -496,6 +501,68 @@ class Fused:
             np.array(plain, dtype=np.int64), weights[[active[q] for q in plain]], np.array(joint, dtype=np.int64),
             weights[[active[q] for q in joint]], enters, lo, hi, 3 if len(entered) > 1 else 1)
         return got
+
+
+class SeenSteps:
+    """The profiles the fused kernel reads for solved linear faults (its ``pre`` rows). A unit step as
+    the smoothing filter sees it is kept by fault and by q, the first sample at or after the onset:
+    with the order-0 filter (:data:`fdi.objective.STEP_ORDER`) :func:`fdi.objective.seen_step_profile`
+    is a function of q alone (the sharp step is t >= onset; the blend around it depends on q only),
+    so a population's steps are formed once per sample they start at, not per individual and call
+    (scenario 2: 451 calls, 33 ms). An intermittent fault's square waves (edges anywhere) are formed
+    each call, after the kept rows. Past ``MAX_BYTES`` of kept rows they are dropped at the start of
+    the next call (a row handed out is never overwritten within its call)."""
+
+    MAX_BYTES = 16 << 20
+
+    def __init__(self, obj: "Objective") -> None:
+        import threading
+        self.obj, self.t = obj, np.ascontiguousarray(obj.win.t, dtype=float)
+        self.cap_rows = max(64, self.MAX_BYTES // (8 * max(1, self.t.size)))
+        self.rows: dict[tuple[int, int], int] = {}      # (fault, q) -> row of ``matrix``
+        self.matrix = np.zeros((1, max(1, self.t.size)))
+        self.used = 0
+        self.lock = threading.Lock()                    # a call's rows: one call at a time
+
+    def begin(self) -> None:
+        """A call starts: the kept rows dropped if they passed the cap."""
+        if self.used > self.cap_rows:
+            self.rows.clear()
+            self.used = 0
+
+    def _grow(self, rows: int) -> None:
+        if rows > self.matrix.shape[0]:
+            grown = np.empty((max(rows, 2 * self.matrix.shape[0]), self.matrix.shape[1]))
+            grown[:self.used] = self.matrix[:self.used]
+            self.matrix = grown
+
+    def steps(self, j: int, onsets: np.ndarray) -> np.ndarray:
+        """The rows of linear fault j's seen unit steps at ``onsets`` (order-0 filter), formed for the
+        q not kept yet."""
+        q = np.searchsorted(self.t, onsets, side="left")
+        uq, first, back = np.unique(q, return_index=True, return_inverse=True)
+        keys = [(j, u) for u in uq.tolist()]
+        missing = [k for k, key in enumerate(keys) if key not in self.rows]
+        if missing:
+            self._grow(self.used + len(missing))
+            self.matrix[self.used:self.used + len(missing)] = self.obj.seen_steps(j, onsets[first[missing]])
+            for k, m in enumerate(missing):
+                self.rows[keys[m]] = self.used + k
+            self.used += len(missing)
+        return np.array([self.rows[key] for key in keys], dtype=np.int64)[back.reshape(-1)]
+
+    def table(self, formed: list, pre_at: np.ndarray) -> np.ndarray:
+        """The ``pre`` array of this call: the kept rows, then the profiles formed this call
+        (``formed``: (fault, rows, profiles)), their rows written into ``pre_at``."""
+        extra = sum(p.shape[0] for _, _, p in formed)
+        if extra:
+            self._grow(self.used + extra)
+            at = self.used
+            for j, rows, profiles in formed:
+                self.matrix[at:at + profiles.shape[0]] = profiles
+                pre_at[j, rows] = at + np.arange(profiles.shape[0])
+                at += profiles.shape[0]
+        return self.matrix
 
 
 @dataclass
