@@ -3,12 +3,15 @@
 Each estimator minimises the objective of :mod:`fdi.objective` for its candidate set with the
 chosen engine (:mod:`optim`), seeded from the diagnosis seed and its index, so results do not
 depend on the number of workers. :class:`Estimators` holds the compiled monitor and, with more
-than one worker, one process pool for the whole diagnosis: each worker receives the monitor once
-(it derives the model once, :mod:`fdi.monitor`) and each job only the window of data it fits.
+than one worker, one process pool for the whole diagnosis, which takes the rest of a batch once
+that rest is predicted to take longer than :data:`POOL_WORTH_S` here (a short diagnosis runs in its
+own process): each worker receives the monitor once (it derives the model once,
+:mod:`fdi.monitor`) and each job only the window of data it fits.
 """
 from __future__ import annotations
 
 import json
+import time
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Callable, Mapping
 
@@ -27,6 +30,14 @@ if TYPE_CHECKING:
     from .monitor import Monitor
 
 CHI2_95 = 3.841458820694124      # 95 % quantile of chi-square with one degree of freedom
+POOL_WORTH_S = 0.5               # s of estimators left in a batch worth the pool (see Estimators._map)
+"""With more than one worker, the pool takes the rest of a batch only once that rest is predicted to
+take this long (wall) in this process: a pool costs its start, each job's data and each estimate's
+state moved between processes, and the workers' empty caches. Measured on 2 cores: CyCab scenario
+2 (estimators of 0.02-0.34 s, batches of at most 3) as a whole ``bgfdi diagnose`` 0.96-0.98 s with
+one worker, 1.06-1.27 s when every batch went to the pool of two; the tutorial's capacitor ageing
+(a first batch of four singletons, 0.38 s the first) keeps the pool for its first batch. Which
+process fits a set never changes its result (each estimator's seed is its own)."""
 
 
 @dataclass(frozen=True)
@@ -433,6 +444,7 @@ class Estimators:
         self.prognosed = tuple(sorted(prognosed))
         self.modes = tuple(sorted((modes or {}).items()))
         self._pool: ProcessPoolExecutor | None = None
+        self._spent, self._fitted = 0.0, 0  # wall seconds and number of the estimators run in this process
         # final checks put off (``run``'s ``defer``), by the engine's state they continue from:
         # that state, not the Estimate, is kept by ``dataclasses.replace``
         self._pending: dict[int, tuple[Estimate, Job, tuple]] = {}
@@ -449,13 +461,24 @@ class Estimators:
             self._pool = None
 
     def _map(self, jobs: list[Job]) -> list[Estimate]:
-        if self.workers > 1 and len(jobs) > 1:
-            if self._pool is None:
-                from concurrent.futures import ProcessPoolExecutor     # (20 ms of imports a one-worker run skips)
-                self._pool = ProcessPoolExecutor(min(self.workers, len(jobs)), initializer=_install,
-                                                 initargs=(self.monitor,))
-            return list(self._pool.map(_fit_in_worker, jobs))
-        return [fit(self.monitor, job) for job in jobs]
+        """The jobs' estimates, in order. With more than one worker, the jobs left of a batch go to
+        the pool once they are predicted (this diagnosis's mean estimator so far, times their number)
+        to take longer than POOL_WORTH_S in this process; until then, and for a batch of one, they
+        run here."""
+        out: list[Estimate] = []
+        while jobs:
+            if self.workers > 1 and len(jobs) > 1 and (
+                    self._pool is not None or self._fitted and self._spent / self._fitted * len(jobs) > POOL_WORTH_S):
+                if self._pool is None:
+                    from concurrent.futures import ProcessPoolExecutor     # (20 ms of imports a short run skips)
+                    self._pool = ProcessPoolExecutor(min(self.workers, len(jobs)), initializer=_install,
+                                                     initargs=(self.monitor,))
+                return out + list(self._pool.map(_fit_in_worker, jobs))
+            start = time.perf_counter()
+            out.append(fit(self.monitor, jobs[0]))
+            self._spent, self._fitted = self._spent + time.perf_counter() - start, self._fitted + 1
+            jobs = jobs[1:]
+        return out
 
     def run(self, t: np.ndarray, raw: Mapping[str, np.ndarray], t0: float, samples: int,
             candidates: list[tuple[str, ...]], weights: np.ndarray, seed: int, progress: Callable | None = None,

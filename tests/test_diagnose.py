@@ -72,7 +72,7 @@ def test_the_race_of_candidate_sets_is_worker_independent_and_settles_the_winner
     settled: ``SET_REACH`` infinite, no set outdone by a subset), and one or two workers give the
     same report."""
     import fdi.estimators as E
-    raced = report("scenario2", workers=2)
+    raced = _in_the_pool(monkeypatch, "scenario2")
     assert _results_only(report("scenario2", workers=1)) == _results_only(raced)
     monkeypatch.setattr(E, "SET_REACH", float("inf"))
     monkeypatch.setattr(E, "_preferred_subset", lambda *args: None)
@@ -97,9 +97,30 @@ def _results_only(r: dict) -> str:
     return json.dumps(clean, sort_keys=True)
 
 
-def test_same_seed_same_result_with_one_or_two_workers():
-    one, two = report("scenario1", workers=1), report("scenario1", workers=2)
+def _in_the_pool(monkeypatch, name: str, pools: int = 1) -> dict:
+    """The report of ``name`` with two workers, every batch's rest sent to the pool (its estimators
+    are too short for the pool to open by itself: fdi.estimators.POOL_WORTH_S); ``pools`` opened
+    (scenario 1's batches are all of one set: none)."""
+    import concurrent.futures as cf
+
+    import fdi.estimators as E
+    opened = []
+
+    class Counted(cf.ProcessPoolExecutor):
+        def __init__(self, *args, **kw):
+            opened.append(1)
+            super().__init__(*args, **kw)
+    monkeypatch.setattr(E, "POOL_WORTH_S", 0.0)
+    monkeypatch.setattr(cf, "ProcessPoolExecutor", Counted)
+    r = diagnose(CYCAB, DATA / f"{name}.csv", Options(workers=2, seed=0)).to_dict()
+    assert len(opened) == pools                           # one pool for the diagnosis (where a batch has two)
+    return r
+
+
+def test_same_seed_same_result_with_one_or_two_workers(monkeypatch):
+    one, two = report("scenario1", workers=1), _in_the_pool(monkeypatch, "scenario1", pools=0)
     assert _results_only(one) == _results_only(two)
+    assert _results_only(report("scenario1", workers=2)) == _results_only(one)     # the pool left closed
 
 
 def test_json_report_shape(capsys):

@@ -19,7 +19,9 @@ SCRIPT = textwrap.dedent("""
     import multiprocessing as mp
     if __name__ == "__main__":
         mp.set_start_method("spawn")
+        import fdi.estimators
         from fdi.api import diagnose
+        fdi.estimators.POOL_WORTH_S = 0.0        # the pool for every batch's rest (these estimators are short)
         d = diagnose("models/cycab_steering.yaml", "models/data/cycab/scenario2.csv", workers=2, pop=12,
                      generations=6)
         print(len(d.estimates), sum(len(e.estimates) for e in d.episodes))

@@ -1153,8 +1153,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help=f"N samples from t_D for identification, >= {MIN_SAMPLES} (default: the model's)")
         p.add_argument("--seed", type=whole(0), default=0, help="random seed, an integer >= 0")
         p.add_argument("--workers", type=whole(1, MAX_WORKERS), default=DEFAULT_WORKERS,
-                       help=f"estimator processes, 1 to {MAX_WORKERS} (default {DEFAULT_WORKERS}: up to 2, one per "
-                            "core; results do not depend on it)")
+                       help=f"estimator processes at most, 1 to {MAX_WORKERS} (default {DEFAULT_WORKERS}: up to 2, "
+                            "one per core; the pool opens when the estimators left are worth it; results do not "
+                            "depend on it)")
         p.add_argument("--failure", action="append", type=pair(), metavar="FAULT=VALUE", help="failure value for prognosis")
         p.add_argument("--json", action="store_true", help="print the report as JSON")
         p.add_argument("--timings", action="store_true",
