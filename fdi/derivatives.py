@@ -40,6 +40,19 @@ from . import kernels as _kernels
 
 DEFAULT_WINDOW = None   # no window in s: None is fdi.scales' window of a model with no known time constant
 DEFAULT_ORDER = 3
+
+# A linear fault's abrupt step (each edge of an intermittent one) is seen through the filter of this
+# derivative order: 0, the smoothing filter every signal's value goes through, so that a
+# parameter's step and a source's or a sensor's (applied to the signal before the filters) are
+# seen alike. Before, it stepped sharply against
+# filtered signals and paid the mismatch for half a window each side of its onset: a water
+# heater's insulation (901 s window) lost to an element fault, its onset found 386 s late. The
+# slope's filter (1, the derivative that jumps in the tank's balance) fits a parameter's step
+# better still, but a source's step is smoothed by the order-0 filter: measured, it then made
+# every element fault an insulation fault (stop note of 2026-11-29: the whole remedy filters each
+# residual's terms alike)
+STEP_ORDER = 0
+
 # Below this many products the numpy loop runs (the same bits), unless the compiled filter already
 # ran in this process: numba's import and first compiled call cost
 # 0.6 s of a short diagnosis's start (scenario 3, warm cache: 1.47 s process, of which 0.45 s in the

@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 
 from . import derivatives, encoding, kernels, tape
-from .objective import STEP_ORDER
+from .derivatives import STEP_ORDER
 from .profiles import STEP19
 from .residuals import Residual, mode_breaks, samples_of
 
@@ -506,7 +506,7 @@ class Fused:
 class SeenSteps:
     """The profiles the fused kernel reads for solved linear faults (its ``pre`` rows). A unit step as
     the smoothing filter sees it is kept by fault and by q, the first sample at or after the onset:
-    with the order-0 filter (:data:`fdi.objective.STEP_ORDER`) :func:`fdi.objective.seen_step_profile`
+    with the order-0 filter (:data:`fdi.derivatives.STEP_ORDER`) :func:`fdi.objective.seen_step_profile`
     is a function of q alone (the sharp step is t >= onset; the blend around it depends on q only),
     so a population's steps are formed once per sample they start at, not per individual and call
     (scenario 2: 451 calls, 33 ms). An intermittent fault's square waves (edges anywhere) are formed

@@ -29,6 +29,7 @@ from bondgraph.errors import ModelError
 from bondgraph.model import Model
 
 from . import criterion, derivatives, encoding, hints, kernels, profiles, scales
+from .derivatives import STEP_ORDER
 from .config import MonitorConfig
 from .data import commanded
 from .encoding import FaultSpace
@@ -177,17 +178,7 @@ def _transform(model: Model, residuals: tuple[Residual, ...], name: str) -> str 
     return None
 
 
-# A linear fault's abrupt step (each edge of an intermittent one) is seen through the filter of this
-# derivative order: 0, the smoothing filter every signal's value goes through, so that a
-# parameter's step and a source's or a sensor's (applied to the signal before the filters) are
-# seen alike. Before, it stepped sharply against
-# filtered signals and paid the mismatch for half a window each side of its onset: a water
-# heater's insulation (901 s window) lost to an element fault, its onset found 386 s late. The
-# slope's filter (1, the derivative that jumps in the tank's balance) fits a parameter's step
-# better still, but a source's step is smoothed by the order-0 filter: measured, it then made
-# every element fault an insulation fault (stop note of 2026-11-29: the whole remedy filters each
-# residual's terms alike)
-STEP_ORDER = 0
+# STEP_ORDER: the filter a linear fault's step is seen through (fdi.derivatives, where it is set and why)
 
 
 def seen_profile(transform: str, nominal: float, value: float, seen: np.ndarray) -> np.ndarray:
