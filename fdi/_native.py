@@ -27,6 +27,7 @@ _SIGNATURES = {
     "incipient_exp": ("r", "pipdipiip"),
     "fir": ("r", "piipiiiiip"),
     "edges_seen0": ("r", "pipiipipiip"),
+    "square_seen": ("r", "pidppipiiiddp"),
     "decode_rows": ("r", "piipipppipp" + "di" + "p" * 9),
     "fused_cost": ("r", "ppppp"),
     "fused_arity": ("r", ""),
@@ -103,6 +104,21 @@ def edges_seen0(t, edges, signs, seen, h, blends):
     out = np.empty((rows, t.shape[0]))
     _check(_lib.edges_seen0(_at(t), t.shape[0], _at(edges), rows, ne, _at(signs), signs.shape[0], _at(seen),
                             int(h), int(bool(blends)), _at(out)))
+    return out
+
+
+def square_seen(t, t_end, t0, period, seen, h, blends, transform, nominal, unit):
+    """An intermittent linear fault's seen square waves as its values (kernels.c's square_seen:
+    fdi.profiles.intermittent_edges, fdi._jit.edges_seen0 and fdi.objective.seen_profile in one
+    pass); ``transform`` 0 identity, 1 reciprocal. None when the edges' table would be impossible."""
+    t, t0, period, seen = _f(t), _f(t0), _f(period), _f(seen)
+    rows = t0.shape[0]
+    out = np.empty((rows, t.shape[0]))
+    code = _lib.square_seen(_at(t), t.shape[0], float(t_end), _at(t0), _at(period), rows, _at(seen), int(h),
+                            int(bool(blends)), int(transform), float(nominal), float(unit), _at(out))
+    if code == -2:
+        return None
+    _check(code)
     return out
 
 

@@ -478,6 +478,64 @@ int edges_seen0(const double *t, I nw, const double *edges, I rows, I ne, const 
     return 0;
 }
 
+/* An intermittent linear fault's unit square waves as the order-0 filter sees them, mapped to the
+ * fault's values (fdi.objective.Objective.seen_steps with periods, in one pass): eq. (15)'s edges
+ * as fdi.profiles.intermittent_edges lays them out (every row M rises t0 + m T and M falls half a
+ * period later, M from the population's earliest onset and shortest period, NaN past t_end or for
+ * an onset or period that is not a finite positive number), edges_seen0 over them, then
+ * fdi.objective.seen_profile: the unit value where the wave is 1, the nominal where 0, between them
+ * from_u(u0 + (to_u(unit) - u0) s) (transform 0: identity, 1: reciprocal). The same operations in
+ * the same order: numpy's bits. out (rows, nw) */
+int square_seen(const double *t, I nw, double t_end, const double *t0, const double *period, I rows,
+                const double *seen, I h, I blends, I transform, double nominal, double unit, double *out)
+{
+    double lo = INFINITY, shortest = INFINITY;
+    int any = 0;
+    for (I r = 0; r < rows; r++) {
+        if (isfinite(t0[r]) && isfinite(period[r]) && period[r] > 0) {
+            any = 1;
+            if (t0[r] < lo) lo = t0[r];
+            if (period[r] < shortest) shortest = period[r];
+        }
+    }
+    double span = any ? t_end - lo : 0.0;
+    if (!any) shortest = 1.0;
+    double ratio = ceil(span / shortest);
+    I M = (ratio > 0 ? (I)ratio : 0) + 1;
+    if (M < 1) M = 1;
+    if (!(ratio < 1e8)) return -2;                   /* (numpy would need the same impossible table) */
+    I ne = 2 * M;
+    double *edges = malloc(sizeof(double) * (size_t)(rows > 0 ? rows : 1) * (size_t)ne);
+    double *signs = malloc(sizeof(double) * (size_t)ne);
+    if (!edges || !signs) { free(edges); free(signs); return -1; }
+    for (I m = 0; m < M; m++) { signs[m] = 1.0; signs[M + m] = -1.0; }
+    for (I r = 0; r < rows; r++) {
+        int ok = isfinite(t0[r]) && isfinite(period[r]) && period[r] > 0;
+        double half = period[r] / 2;
+        for (I m = 0; m < M; m++) {
+            double rise = ok ? t0[r] + (double)m * period[r] : NAN;
+            double fall = rise + half;
+            edges[r * ne + m] = rise > t_end ? NAN : rise;
+            edges[r * ne + M + m] = fall > t_end ? NAN : fall;
+        }
+    }
+    int rc = edges_seen0(t, nw, edges, rows, ne, signs, 1, seen, h, blends, out);
+    free(edges); free(signs);
+    if (rc) return rc;
+    double u0 = transform ? 1.0 / nominal : nominal;
+    double d = (transform ? 1.0 / unit : unit) - u0;
+    for (I k = 0; k < rows * nw; k++) {
+        double s = out[k];
+        double v = s == 1.0 ? unit : nominal;
+        if (s != 0.0 && s != 1.0) {
+            double x = u0 + d * s;
+            v = transform ? 1.0 / x : x;
+        }
+        out[k] = v;
+    }
+    return 0;
+}
+
 /* x (rows, nx), half (hrows, hcols) -> out (rows, hcols, count) */
 int fir(const double *x, I rows, I nx, const double *half, I hrows, I hcols, I start, I count, I stride, double *out)
 {

@@ -525,6 +525,14 @@ class Objective:
         transform, unit = self.linear[space.name], self.unit_value(j)
         if periods is None:
             return seen_step_profile(t, onsets, transform, space.nominal, unit, self.window_s, self.win.ts)
+        fast = kernels.jit() if STEP_ORDER == 0 and kernels.cheap() and np.size(onsets) else None
+        if fast is not None and hasattr(fast, "square_seen"):     # the three steps below in one compiled pass
+            n = derivatives.window_samples(self.window_s, self.win.ts, derivatives.DEFAULT_ORDER)
+            got = fast.square_seen(t, float(t[-1]), np.asarray(onsets, dtype=float), np.asarray(periods, dtype=float),
+                                   derivatives.smoothed_step(self.window_s, self.win.ts), n // 2, t.size >= n,
+                                   {"identity": 0, "reciprocal": 1}[transform], float(space.nominal), unit)
+            if got is not None:
+                return got
         edges, signs = profiles.intermittent_edges(float(t[-1]), onsets, periods)
         seen = derivatives.edges_seen(t, edges, signs, STEP_ORDER, self.window_s, self.win.ts)
         return seen_profile(transform, space.nominal, unit, seen)

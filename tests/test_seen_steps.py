@@ -52,3 +52,38 @@ def test_kept_steps_are_each_onsets_own_profile_across_calls_and_the_cap():
                 assert np.array_equal(got[rows], square)
             assert np.array_equal(got[keep].view(np.uint64), want[keep].view(np.uint64))
     assert seen.used <= 2 * (seen.cap_rows + 64)                  # bounded: kept rows dropped past the cap
+
+
+def test_the_compiled_square_waves_are_the_numpy_path_s_bits():
+    """kernels.c's square_seen (an intermittent linear fault's seen square waves as its values, in
+    one pass) against the numpy path: fdi.profiles.intermittent_edges, fdi.derivatives.edges_seen
+    and fdi.objective.seen_profile, each on numpy; both transforms, an infinite nominal value, onsets
+    and periods on the sample grid (edges on samples, windows that meet), NaN and negative ones."""
+    import pytest
+
+    from fdi import derivatives, kernels, profiles
+    from fdi.objective import seen_profile
+    if "c" not in kernels.available():
+        pytest.skip("no C compiler")
+    from fdi import _native
+    rng = np.random.default_rng(11)
+    n = derivatives.window_samples(0.05, 0.01, derivatives.DEFAULT_ORDER)
+    blend = derivatives.smoothed_step(0.05, 0.01)
+    for trial in range(120):
+        rows = int(rng.integers(1, 30))
+        onsets, periods = rng.uniform(-0.5, 2.5, rows), rng.uniform(0.02, 1.5, rows)
+        if trial % 3 == 0:
+            onsets, periods = np.round(onsets, 2), np.maximum(np.round(periods, 2), 0.01)
+        if trial % 7 == 0:
+            onsets[0], periods[-1] = np.nan, -1.0
+        transform, nominal, unit = [("identity", 2.0, 3.5), ("reciprocal", 5.0, 0.25), ("reciprocal", np.inf, 1.0)][trial % 3]
+        got = _native.square_seen(T, float(T[-1]), onsets, periods, blend, n // 2, T.size >= n,
+                                  {"identity": 0, "reciprocal": 1}[transform], nominal, unit)
+        before = kernels.use("numpy")
+        try:
+            edges, signs = profiles.intermittent_edges(float(T[-1]), onsets, periods)
+            with np.errstate(all="ignore"):
+                want = seen_profile(transform, nominal, unit, derivatives.edges_seen(T, edges, signs, 0, 0.05, 0.01))
+        finally:
+            kernels.use(before)
+        assert np.array_equal(got.view(np.uint64), want.view(np.uint64)), trial
