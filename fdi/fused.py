@@ -519,7 +519,7 @@ class SeenSteps:
         import threading
         self.obj, self.t = obj, np.ascontiguousarray(obj.win.t, dtype=float)
         self.cap_rows = max(64, self.MAX_BYTES // (8 * max(1, self.t.size)))
-        self.rows: dict[tuple[int, int], int] = {}      # (fault, q) -> row of ``matrix``
+        self.rows: dict[int, np.ndarray] = {}           # fault -> its kept row at each q (0..nw), -1 where none
         self.matrix = np.zeros((1, max(1, self.t.size)))
         self.used = 0
         self.lock = threading.Lock()                    # a call's rows: one call at a time
@@ -540,16 +540,18 @@ class SeenSteps:
         """The rows of linear fault j's seen unit steps at ``onsets`` (order-0 filter), formed for the
         q not kept yet."""
         q = np.searchsorted(self.t, onsets, side="left")
-        uq, first, back = np.unique(q, return_index=True, return_inverse=True)
-        keys = [(j, u) for u in uq.tolist()]
-        missing = [k for k, key in enumerate(keys) if key not in self.rows]
-        if missing:
-            self._grow(self.used + len(missing))
-            self.matrix[self.used:self.used + len(missing)] = self.obj.seen_steps(j, onsets[first[missing]])
-            for k, m in enumerate(missing):
-                self.rows[keys[m]] = self.used + k
-            self.used += len(missing)
-        return np.array([self.rows[key] for key in keys], dtype=np.int64)[back.reshape(-1)]
+        at = self.rows.get(j)
+        if at is None:
+            at = self.rows[j] = np.full(self.t.size + 1, -1, dtype=np.int64)
+        rows = at[q]
+        if (rows < 0).any():
+            new, first = np.unique(q[rows < 0], return_index=True)
+            self._grow(self.used + new.size)
+            self.matrix[self.used:self.used + new.size] = self.obj.seen_steps(j, onsets[rows < 0][first])
+            at[new] = self.used + np.arange(new.size)
+            self.used += new.size
+            rows = at[q]
+        return rows
 
     def table(self, formed: list, pre_at: np.ndarray) -> np.ndarray:
         """The ``pre`` array of this call: the kept rows, then the profiles formed this call
