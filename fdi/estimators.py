@@ -464,15 +464,15 @@ class Estimators:
         """The jobs' estimates, in order. With more than one worker, the jobs left of a batch go to
         the pool once they are predicted (this diagnosis's mean estimator so far, times their number)
         to take longer than POOL_WORTH_S in this process; until then, and for a batch of one, they
-        run here."""
+        run here (so a batch's first job always does, before the pool is open). Once open, the pool
+        (of ``workers`` processes) takes every later batch of two or more whole."""
         out: list[Estimate] = []
         while jobs:
             if self.workers > 1 and len(jobs) > 1 and (
                     self._pool is not None or self._fitted and self._spent / self._fitted * len(jobs) > POOL_WORTH_S):
                 if self._pool is None:
                     from concurrent.futures import ProcessPoolExecutor     # (20 ms of imports a short run skips)
-                    self._pool = ProcessPoolExecutor(min(self.workers, len(jobs)), initializer=_install,
-                                                     initargs=(self.monitor,))
+                    self._pool = ProcessPoolExecutor(self.workers, initializer=_install, initargs=(self.monitor,))
                 return out + list(self._pool.map(_fit_in_worker, jobs))
             start = time.perf_counter()
             out.append(fit(self.monitor, jobs[0]))

@@ -55,7 +55,6 @@ from typing import Any
 import numpy as np
 
 from . import derivatives, encoding, kernels, tape
-from .derivatives import STEP_ORDER
 from .profiles import STEP19
 from .residuals import Residual, mode_breaks, samples_of
 
@@ -402,7 +401,8 @@ class Fused:
             kinds, models, values, periods, b, pre_at, counts, span19, level = self.decode_numpy(real, bits)
         solving = tuple(level[self.lin_fault].tolist())
         formed = []
-        keep = STEP_ORDER == 0          # a step's seen profile then depends on its first sample alone
+        # order 0: a step's seen profile depends on its first sample alone (kept; read here, not copied)
+        keep = derivatives.STEP_ORDER == 0 and self.seen.keeps()
         with self.seen.lock:            # (the kept steps and this call's rows: one call at a time)
             self.seen.begin()
             for jj, j in enumerate(self.linear):      # a solved step or square wave as the filtered residuals see it
@@ -511,30 +511,37 @@ class SeenSteps:
     so a population's steps are formed once per sample they start at, not per individual and call
     (scenario 2: 451 calls, 33 ms). An intermittent fault's square waves (edges anywhere) are formed
     each call, after the kept rows. Past ``MAX_BYTES`` of kept rows they are dropped at the start of
-    the next call (a row handed out is never overwritten within its call)."""
+    the next call (a row handed out is never overwritten within its call; a call may add a
+    population's worth past the cap); a window longer than ``MAX_BYTES`` a row keeps none."""
 
     MAX_BYTES = 16 << 20
 
     def __init__(self, obj: "Objective") -> None:
         import threading
         self.obj, self.t = obj, np.ascontiguousarray(obj.win.t, dtype=float)
-        self.cap_rows = max(64, self.MAX_BYTES // (8 * max(1, self.t.size)))
+        self.cap_rows = self.MAX_BYTES // (8 * max(1, self.t.size))   # 0 for a window of over 2 M samples: none kept
         self.rows: dict[int, np.ndarray] = {}           # fault -> its kept row at each q (0..nw), -1 where none
         self.matrix = np.zeros((1, max(1, self.t.size)))
         self.used = 0
         self.lock = threading.Lock()                    # a call's rows: one call at a time
 
     def begin(self) -> None:
-        """A call starts: the kept rows dropped if they passed the cap."""
+        """A call starts: the kept rows dropped if they passed the cap (the matrix shrunk to it)."""
         if self.used > self.cap_rows:
             self.rows.clear()
             self.used = 0
+            if self.matrix.shape[0] > max(1, self.cap_rows):
+                self.matrix = np.zeros((max(1, self.cap_rows), self.matrix.shape[1]))
 
     def _grow(self, rows: int) -> None:
         if rows > self.matrix.shape[0]:
             grown = np.empty((max(rows, 2 * self.matrix.shape[0]), self.matrix.shape[1]))
             grown[:self.used] = self.matrix[:self.used]
             self.matrix = grown
+
+    def keeps(self) -> bool:
+        """Whether steps are kept at all (a window of at most MAX_BYTES a row)."""
+        return self.cap_rows > 0
 
     def steps(self, j: int, onsets: np.ndarray) -> np.ndarray:
         """The rows of linear fault j's seen unit steps at ``onsets`` (order-0 filter), formed for the

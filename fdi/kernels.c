@@ -501,9 +501,8 @@ int square_seen(const double *t, I nw, double t_end, const double *t0, const dou
     double span = any ? t_end - lo : 0.0;
     if (!any) shortest = 1.0;
     double ratio = ceil(span / shortest);
-    I M = (ratio > 0 ? (I)ratio : 0) + 1;
-    if (M < 1) M = 1;
     if (!(ratio < 1e8)) return -2;                   /* (numpy would need the same impossible table) */
+    I M = (ratio > 0 ? (I)ratio : 0) + 1;
     I ne = 2 * M;
     double *edges = malloc(sizeof(double) * (size_t)(rows > 0 ? rows : 1) * (size_t)ne);
     double *signs = malloc(sizeof(double) * (size_t)ne);

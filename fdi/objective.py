@@ -29,7 +29,6 @@ from bondgraph.errors import ModelError
 from bondgraph.model import Model
 
 from . import criterion, derivatives, encoding, hints, kernels, profiles, scales
-from .derivatives import STEP_ORDER
 from .config import MonitorConfig
 from .data import commanded
 from .encoding import FaultSpace
@@ -198,7 +197,7 @@ def seen_profile(transform: str, nominal: float, value: float, seen: np.ndarray)
 def seen_step_profile(t: np.ndarray, onsets: np.ndarray, transform: str, nominal: float, value: float,
                       window: float | None, ts: float) -> np.ndarray:
     """(onsets, t.size): a two-level profile stepping from ``nominal`` to ``value`` at each onset as
-    the smoothing filter (:data:`STEP_ORDER`) sees it: :func:`seen_profile` of
+    the smoothing filter (:data:`fdi.derivatives.STEP_ORDER`) sees it: :func:`seen_profile` of
     :func:`fdi.derivatives.step_seen`, formed as the sharp step's two levels where the filter's
     window lies wholly before or after the onset and the blend on the 2 h samples around it only
     (:func:`fdi.derivatives.step_blends`: 2.6-4.0 -> 0.26 ms for 100 onsets on a 1 050-sample
@@ -209,8 +208,8 @@ def seen_step_profile(t: np.ndarray, onsets: np.ndarray, transform: str, nominal
     onsets = np.atleast_1d(np.asarray(onsets, dtype=float))
     out = np.where(t[None, :] >= onsets[:, None], value, nominal)
     nw = t.size
-    if STEP_ORDER != 0:
-        blends = derivatives.step_blends(t, onsets, STEP_ORDER, window, ts)
+    if derivatives.STEP_ORDER != 0:
+        blends = derivatives.step_blends(t, onsets, derivatives.STEP_ORDER, window, ts)
         if blends is not None:
             at, seen, valid = blends
             out[derivatives.blend_rows(valid), at[valid]] = seen_profile(transform, nominal, value, seen[valid])
@@ -220,7 +219,7 @@ def seen_step_profile(t: np.ndarray, onsets: np.ndarray, transform: str, nominal
     if not onsets.size or nw < 2 * h + 1:
         return out
     if onsets.size > FEW_ONSETS:
-        at, _, valid = derivatives.step_blends(t, onsets, STEP_ORDER, window, ts)
+        at, _, valid = derivatives.step_blends(t, onsets, derivatives.STEP_ORDER, window, ts)
         out[derivatives.blend_rows(valid), at[valid]] = np.broadcast_to(blend, at.shape)[valid]
         return out
     for r, q in enumerate(np.searchsorted(t, onsets, side="left").tolist()):
@@ -515,7 +514,7 @@ class Objective:
 
     def seen_steps(self, j: int, onsets: np.ndarray, periods: np.ndarray | None = None) -> np.ndarray:
         """(onsets, window samples): linear fault j's unit step (one unit of u = h(value) from its
-        nominal value) at each onset through the smoothing filter (:data:`STEP_ORDER`,
+        nominal value) at each onset through the smoothing filter (:data:`fdi.derivatives.STEP_ORDER`,
         :func:`seen_profile`): the nominal value and the unit value exactly where the filter's
         window lies wholly before or after the onset, a blend of the two within half a window.
         With ``periods``, eq. (15)'s square wave from each onset (on for the first half of each
@@ -525,7 +524,7 @@ class Objective:
         transform, unit = self.linear[space.name], self.unit_value(j)
         if periods is None:
             return seen_step_profile(t, onsets, transform, space.nominal, unit, self.window_s, self.win.ts)
-        fast = kernels.jit() if STEP_ORDER == 0 and kernels.cheap() and np.size(onsets) else None
+        fast = kernels.jit() if derivatives.STEP_ORDER == 0 and kernels.cheap() and np.size(onsets) else None
         if fast is not None and hasattr(fast, "square_seen"):     # the three steps below in one compiled pass
             n = derivatives.window_samples(self.window_s, self.win.ts, derivatives.DEFAULT_ORDER)
             got = fast.square_seen(t, float(t[-1]), np.asarray(onsets, dtype=float), np.asarray(periods, dtype=float),
@@ -534,7 +533,7 @@ class Objective:
             if got is not None:
                 return got
         edges, signs = profiles.intermittent_edges(float(t[-1]), onsets, periods)
-        seen = derivatives.edges_seen(t, edges, signs, STEP_ORDER, self.window_s, self.win.ts)
+        seen = derivatives.edges_seen(t, edges, signs, derivatives.STEP_ORDER, self.window_s, self.win.ts)
         return seen_profile(transform, space.nominal, unit, seen)
 
     def unit_value(self, j: int) -> float:

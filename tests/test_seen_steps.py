@@ -9,7 +9,8 @@ from types import SimpleNamespace
 import numpy as np
 
 from fdi.fused import SeenSteps
-from fdi.objective import STEP_ORDER, seen_step_profile
+from fdi.derivatives import STEP_ORDER
+from fdi.objective import seen_step_profile
 
 T = np.arange(0.0, 2.0, 0.01)
 LEVELS = {0: ("identity", 1.0, 2.0), 1: ("reciprocal", 5.0, 0.25)}

@@ -52,14 +52,16 @@ def run_ways(model: str, files: list[str], options, workers: int, repeat: int = 
     """Each way's wall and CPU seconds, its cluster's start and whether its reports are ``--jobs 1``'s:
     the ways run in turn ``repeat`` times (interleaved, so a slow spell of the machine falls on all of
     them) and each keeps its least wall time; ``runs`` holds every wall time, ``first_start_s`` the
-    cluster's first start (dask's import in it: a new process pays that)."""
+    cluster's first start in this call (with dask's import, as a new process pays it, only in the
+    bench's first call). Only the answers kept by content are forgotten between runs: the ways run
+    here or forked from here find this process's other warm caches, a cluster's new workers do not."""
     from .. import hints
-    best: dict[str, dict] = {}
-    walls: dict[str, list[float]] = {}
+    best: dict[int, dict] = {}              # by the way's place (--workers 1 has --jobs 1 twice)
+    walls: dict[int, list[float]] = {}
     first = None
-    first_start: dict[str, float] = {}
+    first_start: dict[int, float] = {}
     for _ in range(repeat):
-        for name, n, dask in _ways(workers):
+        for way, (name, n, dask) in enumerate(_ways(workers)):
             hints.forget()      # as a new process starts: a pool forked from here would inherit the last way's answers
             w0, c0 = time.perf_counter(), _cpu()
             start = stop = 0.0
@@ -73,15 +75,15 @@ def run_ways(model: str, files: list[str], options, workers: int, repeat: int = 
                 reports = diagnose_many(model, files, options, jobs=n)
             wall, cpu = time.perf_counter() - w0, _cpu() - c0
             first = reports if first is None else first
-            first_start.setdefault(name, start)
-            walls.setdefault(name, []).append(wall)
+            first_start.setdefault(way, start)
+            walls.setdefault(way, []).append(wall)
             row = {"way": name, "wall_s": wall, "cpu_s": cpu, "start_s": start, "stop_s": stop,
                    "files": len(files), "same": reports == first}
-            if name not in best or wall < best[name]["wall_s"]:
-                best[name] = {**row, "same": row["same"] and best.get(name, row)["same"]}
+            if way not in best or wall < best[way]["wall_s"]:
+                best[way] = {**row, "same": row["same"] and best.get(way, row)["same"]}
             else:
-                best[name]["same"] = best[name]["same"] and row["same"]
-    return [{**best[name], "runs": walls[name], "first_start_s": first_start[name]} for name, _, _ in _ways(workers)]
+                best[way]["same"] = best[way]["same"] and row["same"]
+    return [{**best[way], "runs": walls[way], "first_start_s": first_start[way]} for way in range(len(best))]
 
 
 def fleet_rows(reference_dir: Path, model: str, copies: int = 2, short: int = 1000, workers: int = 2,
