@@ -687,8 +687,8 @@ int fused_arity(void) { return A_COUNT; }
 /* the profile of fault j for individual row (fdi._jit._profile) */
 static void profile(const double *t, I nw, I j, I row, I pop, const double *onset, const I *kinds, const I *models,
                     const double *values, const double *periods, const double *coeffs, const double *pre, I prew,
-                    const I *pre_at, double nominal, double unit, int linear, I k19, double h19, double *grid,
-                    double *slope, double *out)
+                    const I *pre_at, double nominal, double unit, int linear, I k19, double h19,
+                    const double *grid, const double *slope, double *out)
 {
     I kind = kinds[j * pop + row];
     double a = onset[row];
@@ -717,7 +717,8 @@ static void profile(const double *t, I nw, I j, I row, I pop, const double *onse
             if (isinf(nominal)) {
                 for (I i = 0; i < nw; i++) out[i] = t[i] >= a ? INFINITY : nominal;
             } else {
-                /* the grid made for this row before the rows' loop (fused_cost: rk4_grids) */
+                /* the grid made for this row before the rows' loop (fused_cost: rk4_grids; NULL for
+                   any row but an eq. (19) one of a finite nominal value, which never reads it) */
                 for (I i = 0; i < nw; i++) {
                     double tau = t[i] - a;
                     if (tau < 0) tau = 0.0;
@@ -849,7 +850,7 @@ int fused_cost(const I *D, const double *X, double *total, double *deltas, B *in
     I nlin1 = imax(1, nlin), nj1 = imax(1, nj), nf1 = imax(1, nf);
     int rc_ = -1;
 
-    double *prof = NULL, *h19 = NULL, *grid = NULL, *slope = NULL, *ones = NULL, *zeros = NULL, *Prow = NULL;
+    double *prof = NULL, *h19 = NULL, *ones = NULL, *zeros = NULL, *Prow = NULL;
     double *R = NULL, *S = NULL, *base = NULL, *gain = NULL, *pts = NULL, *wts = NULL, *d = NULL, *extra = NULL;
     double *seen = NULL, *parts = NULL, *cp = NULL, *Pfull = NULL, *Sfull = NULL, *Ri = NULL, *Xq = NULL;
     double *T = NULL, *phases_full = NULL, *pair_full = NULL, *phases = NULL, *pair = NULL, *scratch = NULL;
@@ -858,14 +859,12 @@ int fused_cost(const I *D, const double *X, double *total, double *deltas, B *in
     double *g19 = NULL, *s19 = NULL, *c19 = NULL;
 
     NEW(prof, nf1 * nw); NEW(bad, nf1); NEW(solved, nf1); NEW(k19, nf1); NEW(h19, nf1);
-    I kmax = 1;
     for (I j = 0; j < nf; j++) {
         double span = span19[j];
         k19[j] = steps19(span, step19);
         h19[j] = span > 0 ? span / k19[j] : step19;
-        kmax = imax(kmax, k19[j]);
     }
-    NEW(grid, kmax + 1); NEW(slope, kmax + 1); NEW(ones, nw); NEW(zeros, nw);
+    NEW(ones, nw); NEW(zeros, nw);
     /* eq. (19)'s grids, every row's that needs one, made before the rows' loop eight at a time */
     NEW(at19, nf1 * pop); NEW(off19, nf1); NEW(c19, 3 * imax(1, pop));
     I tot19 = 0;
@@ -922,8 +921,8 @@ int fused_cost(const I *D, const double *X, double *total, double *deltas, B *in
             double *pj = prof + j * nw;
             profile(t, nw, j, row, pop, onset, kinds, models, values, periods, coeffs, pre, prew, pre_at, f_nominal[j],
                     f_unit[j], f_linear[j], k19[j], h19[j],
-                    at19[j * pop + row] >= 0 ? g19 + off19[j] + at19[j * pop + row] * (k19[j] + 1) : grid,
-                    at19[j * pop + row] >= 0 ? s19 + off19[j] + at19[j * pop + row] * (k19[j] + 1) : slope, pj);
+                    at19[j * pop + row] >= 0 ? g19 + off19[j] + at19[j * pop + row] * (k19[j] + 1) : NULL,
+                    at19[j * pop + row] >= 0 ? s19 + off19[j] + at19[j * pop + row] * (k19[j] + 1) : NULL, pj);
             solved[j] = f_linear[j] && kinds[j * pop + row] < 2;
             int b = 0;
             if (!solved[j]) {      /* whether any sample is NaN or (role 1, 2) outside the bounds (role 1: > 0 too) */
@@ -1102,7 +1101,7 @@ int fused_cost(const I *D, const double *X, double *total, double *deltas, B *in
     }
     rc_ = 0;
 fail:
-    free(prof); free(bad); free(solved); free(k19); free(h19); free(grid); free(slope); free(ones); free(zeros);
+    free(prof); free(bad); free(solved); free(k19); free(h19); free(ones); free(zeros);
     free(Prow); free(R); free(S); free(base); free(gain); free(pts); free(wts); free(d); free(extra); free(fresh);
     free(seen); free(srow); free(parts); free(cp); free(Pfull); free(Sfull); free(Ri); free(Xq); free(T);
     free(phases_full); free(pair_full); free(phases); free(pair); free(scratch);

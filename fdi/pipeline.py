@@ -279,19 +279,18 @@ def widen(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, results: list, est: Est
     best = min([e.cost for e in results] + ([mf.cost] if mf else []))
     if not best > LACK_OF_FIT * level:
         return d, results
-    stuck = {f for f, spec in m.model.faults.items() if spec.effect == "stuck"}   # confirmed by signals, never fitted
     have, extra, weak, left = set(d.candidates), [], None, 0
     if m.config.exoneration == "structural":
         eff, weak = weakened(p, det, fsm)
         if weak:
-            extra = [c for c in map(tuple, candidate_sets(eff, det.final_coherence, True, o.max_set))
-                     if c not in have and not stuck & set(c)]
+            extra = [c for c in fitted_sets(m.model, candidate_sets(eff, det.final_coherence, True, o.max_set))
+                     if c not in have]
     covering = not extra
     if covering:        # no new set from weak entries: the smallest sets covering the coherence vector,
         cols = [j for j, x in enumerate(det.final_coherence) if not x]     # nearest the vector first
         quiet = {row.fault: sum(row.nominal[j] for j in cols) for row in fsm.rows}
-        extra = sorted((c for c in map(tuple, relaxed_sets(fsm, det.final_coherence, o.max_set))
-                        if c not in have and not stuck & set(c)), key=lambda c: sum(quiet.get(f, 0) for f in c))
+        extra = sorted((c for c in fitted_sets(m.model, relaxed_sets(fsm, det.final_coherence, o.max_set))
+                        if c not in have), key=lambda c: sum(quiet.get(f, 0) for f in c))
         extra, left = extra[:MAX_COVERING], max(0, len(extra) - MAX_COVERING)
     if not extra:
         return d, results
@@ -360,8 +359,12 @@ def stuck_sensors(p: Prepared, d: Diagnosis) -> Diagnosis:
             if found is not None:
                 return replace(d, faults=faults_of([{"name": c[0], "type": "stuck", "value": found.value,
                                                      "t0": found.onset}]), winner=(c[0],))
-    kept = tuple(c for c in d.candidates if not any(model.faults[f].effect == "stuck" for f in c))
-    return replace(d, isolation=replace(d.isolation, candidates=kept))
+    return replace(d, isolation=replace(d.isolation, candidates=tuple(fitted_sets(model, d.candidates))))
+
+
+def fitted_sets(model, sets) -> list[tuple[str, ...]]:
+    """The sets an estimator fits: those without a stuck sensor (confirmed by its signal, never fitted)."""
+    return [tuple(c) for c in sets if not any(model.faults[f].effect == "stuck" for f in c)]
 
 
 def check_window(meas: Measurements, t0: float, samples: int, min_period: float = MIN_WINDOW_S) -> None:

@@ -13,9 +13,8 @@ import pytest
 import sympy as sp
 
 from fdi.api import Options, diagnose
-from fdi.monitor import compiled
 
-from .independent import by_hand, measurements, pump, thresholds_fixture
+from .independent import laws_of, measurements, pump, thresholds_fixture
 
 MODEL = str(Path(__file__).resolve().parent / "data" / "motor_pump_tank.yaml")
 T0 = 20.0
@@ -25,9 +24,7 @@ thresholds = thresholds_fixture(MODEL, pump.simulate)
 
 
 def test_the_residuals_are_the_armature_the_rotor_and_the_accumulator_by_hand():
-    (e1, _, _), (e2, _, _), (e3, _, _) = (by_hand(arr.expr) for arr in compiled(MODEL).arrs)
-    sym = {x.name: x for e in (e1, e2, e3) for x in e.free_symbols if isinstance(x, sp.Symbol)}
-    sig = {f.func.__name__: f for e in (e1, e2, e3) for f in e.atoms(sp.core.function.AppliedUndef)}
+    (e1, e2, e3), sym, sig = laws_of(MODEL)
     i, w, p, u = sig["i"], sig["w"], sig["p"], sig["u"]
     t = i.args[0]
     Ra, La, K, J, b, D, C, Ro = (sym[n] for n in ("Ra", "La", "K", "J", "b", "D", "C", "Ro"))

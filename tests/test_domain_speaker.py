@@ -22,9 +22,8 @@ import pytest
 import sympy as sp
 
 from fdi.api import Options, diagnose
-from fdi.monitor import compiled
 
-from .independent import by_hand, measurements, speaker, thresholds_fixture
+from .independent import laws_of, measurements, speaker, thresholds_fixture
 
 MODEL = str(Path(__file__).resolve().parent / "data" / "closed_box_speaker.yaml")
 T0 = 1.0
@@ -34,9 +33,7 @@ thresholds = thresholds_fixture(MODEL, speaker.simulate)
 
 
 def test_the_residuals_are_the_coil_the_cone_and_the_box_by_hand():
-    (e1, _, _), (e2, _, _), (e3, _, _) = (by_hand(arr.expr) for arr in compiled(MODEL).arrs)
-    sym = {x.name: x for e in (e1, e2, e3) for x in e.free_symbols if isinstance(x, sp.Symbol)}
-    sig = {f.func.__name__: f for e in (e1, e2, e3) for f in e.atoms(sp.core.function.AppliedUndef)}
+    (e1, e2, e3), sym, sig = laws_of(MODEL)
     i, v, p, u = sig["i"], sig["v"], sig["p"], sig["u"]
     t = i.args[0]
     Re, Le, Bl, Mms, Rms, Cms, Sd, Cab, Ral = (sym[n] for n in ("Re", "Le", "Bl", "Mms", "Rms", "Cms", "Sd", "Cab",

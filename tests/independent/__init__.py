@@ -41,3 +41,15 @@ def by_hand(expr) -> tuple:
     syms = {s.name: s for s in expr.free_symbols}
     plain = expr.subs({s: 1 for n, s in syms.items() if n.startswith("beta")})
     return plain, syms, {f.func.__name__: f for f in plain.atoms(sp.core.function.AppliedUndef)}
+
+
+def laws_of(model: str) -> tuple[list, dict, dict]:
+    """The model's residuals as :func:`by_hand` writes them, with every symbol and every signal
+    (a function of t) among them by name: what a test of its laws by hand starts from."""
+    import sympy as sp
+
+    from fdi.monitor import compiled
+    exprs = [by_hand(arr.expr)[0] for arr in compiled(model).arrs]
+    sym = {x.name: x for e in exprs for x in e.free_symbols if isinstance(x, sp.Symbol)}
+    sig = {f.func.__name__: f for e in exprs for f in e.atoms(sp.core.function.AppliedUndef)}
+    return exprs, sym, sig
