@@ -36,9 +36,10 @@ import numpy as np
 
 # IEEE arithmetic as written: no fast-math (it reorders sums), no contraction into fused
 # multiply-adds (they change last bits); errno and traps ignored (numba's assumptions too: the
-# loops over samples then vectorise; the values are the same)
-FLAGS = ("-O3", "-std=c99", "-fPIC", "-shared", "-ffp-contract=off", "-fno-math-errno", "-fno-trapping-math",
-         "-fno-fast-math")
+# loops over samples then vectorise; the values are the same). -fno-fast-math first: given after
+# them, it turned errno and traps back on (GCC 12), and the loops with selects stayed scalar
+FLAGS = ("-O3", "-std=c99", "-fPIC", "-shared", "-fno-fast-math", "-ffp-contract=off", "-fno-math-errno",
+         "-fno-trapping-math")
 NATIVE = ("-march=native",)     # this machine's vector units (its CPU is in the library's key); dropped if refused
 TIMEOUT_S = 60.0        # a build that takes longer is abandoned (the callers fall back); it takes 1-2 s
 
