@@ -3,7 +3,7 @@
  * Each function does the floating-point operations of its numba twin (fdi/_jit.py), in the same
  * order, on the same IEEE doubles, calling the same libm for the transcendental functions: the
  * numbers are the numba path's, and the numpy path's to round-off (tests/test_kernels.py, 1e-9
- * relative). Built by optim.native with -O2 and -ffp-contract=off (no fused multiply-adds: they
+ * relative). Built by optim.native with -O3 and -ffp-contract=off (no fused multiply-adds: they
  * would change the last bits) and no fast-math (it would reorder sums). Arrays are C-contiguous;
  * bool arrays are numpy's one byte per element. fdi/_native.py loads it with ctypes and gives it
  * fdi._jit's signatures. */
