@@ -42,7 +42,8 @@ CONNECT_TIMEOUT = 10.0          # s a scheduler address is given to answer
 BATCHES_PER_WORKER = 4          # a LocalCluster's fleet: files dealt round-robin into this many tasks per worker
 # The LocalCluster the command starts does fleets only: no sampling profiler, and its monitors polled
 # less often (an idle 2-worker cluster took 0.049 s of CPU per second, 0.018 with these)
-LOCAL_SETTINGS = {"distributed.worker.profile.enabled": False,
+LOCAL_SETTINGS = {"distributed.scheduler.worker-saturation": 1.0,   # a batch to a worker as it frees up
+                  "distributed.worker.profile.enabled": False,
                   "distributed.worker.memory.monitor-interval": "1s",
                   "distributed.admin.system-monitor.interval": "2s",
                   "distributed.admin.tick.interval": "200ms"}
@@ -209,8 +210,12 @@ def _on_dask(client, monitor, files: list[str], options, timings: bool, progress
     out: list[dict | None] = [None] * len(files)
     if same_machine(client):            # the workers read the files: only the paths travel, a batch per task
         n = min(len(files), max(1, workers_of(client)) * BATCHES_PER_WORKER)
-        batches = {client.submit(diagnose_files, model_ref, files[k::n], options, timings, pure=False):
-                   list(range(k, len(files), n)) for k in range(n)}
+        # one map, not a submit per batch: the scheduler sees the whole group at once, queues it
+        # as root tasks and hands a batch to a worker as it frees up (submitted one by one, the
+        # first batches were placed at once, 5 of 8 on one worker: it ended 0.45 s after the other)
+        futures = client.map(diagnose_files, [model_ref] * n, [files[k::n] for k in range(n)], [options] * n,
+                             [timings] * n, pure=False)
+        batches = {f: list(range(k, len(files), n)) for k, f in enumerate(futures)}
         return _collect(batches, out, 0, progress, model_ref)
     pending, done = {}, 0
     for i, path in enumerate(files):
