@@ -49,3 +49,14 @@ def test_a_fault_in_the_line_the_load_and_the_transducer_is_found_and_sized(thre
     assert (found["name"], found["type"]) == (which, "abrupt")
     assert found["value"] == pytest.approx(hydrostatic.NOMINAL.get(which, 1.0) * factor, rel=rel)
     assert found["t0"] == pytest.approx(T0, abs=0.05)
+
+
+def test_check_shows_which_way_each_transformer_reads_its_modulus(capsys):
+    """The motor is written line to shaft with modulus 1/Dm (a TF's e1 = m e2, f2 = m f1 from its first
+    bond to its second): check prints its laws in the file's bond numbers, P = torque / Dm and
+    wm = Q / Dm, where m = Dm would have shown the displacement on the wrong side."""
+    from fdi.app.cli import main
+    assert main(["check", MODEL, "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "    pump (TF, J_pump -> J_line): e[4] = Dp*e[5], f[5] = Dp*f[4]" in out
+    assert "    motor (TF, J_line -> J_motor): e[8] = e[9]/Dm, f[9] = f[8]/Dm" in out

@@ -42,6 +42,7 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
     from ..signatures import all_modes
 
     from ..config import load
+    from .two_ports import laws as two_port_laws
 
     with stage("load"):
         model, config = load(path)               # the bond graph and the monitor settings both checked
@@ -76,6 +77,7 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
                     for s in model.sensors.values()],
         "modes": [{"name": m.name, "nominal": m.nominal} for m in model.modes.values()],
         "faults": [{"name": f.name, "kind": f.kind, "targets": list(f.targets)} for f in model.faults.values()],
+        "two_ports": two_port_laws(model),
         "diagnosis": _causality(model, diag),
         "residuals": {
             "causality": causality,

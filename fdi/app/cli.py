@@ -339,6 +339,12 @@ def _print_summary(model: Model, path: str) -> None:
           + f" -> {2 ** len(model.modes)} mode(s)")
     print(f"  faults     {len(model.faults)}: " + ", ".join(
         f"{f.name} ({f.kind}: {', '.join(f.targets)})" for f in model.faults.values()))
+    from .two_ports import laws
+    ports = laws(model)
+    if ports:            # a TF's modulus is read from its first bond to its second: the laws show which way
+        print(f"  two-ports  {len(ports)} (bond variables e[k], f[k]; power from the first node to the second):")
+        for p in ports:
+            print(f"    {p['name']} ({p['kind']}, {p['from']} -> {p['to']}): {', '.join(p['laws'])}")
 
 
 def _print_diagnostic_causality(model: Model, args: argparse.Namespace) -> list:
