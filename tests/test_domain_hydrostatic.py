@@ -59,4 +59,4 @@ def test_check_shows_which_way_each_transformer_reads_its_modulus(capsys):
     assert main(["check", MODEL, "-q"]) == 0
     out = capsys.readouterr().out
     assert "    pump (TF, J_pump -> J_line): e[4] = Dp*e[5], f[5] = Dp*f[4]" in out
-    assert "    motor (TF, J_line -> J_motor): e[8] = e[9]/Dm, f[9] = f[8]/Dm" in out
+    assert "    motor (TF, J_line -> J_motor): e[8] = (1/Dm)*e[9], f[9] = (1/Dm)*f[8]" in out
