@@ -123,7 +123,12 @@ static void hermite_row(const double *restrict t, I n, double onset, double nomi
 /* fdi.profiles.STEPS19, MIN_STEPS19: eq. (19)'s grid has at most and at least this many intervals over the window */
 #define STEPS19 1000
 #define MIN_STEPS19 100
-static I steps19(double span, double step) { return span / step > STEPS19 ? STEPS19 : imax(MIN_STEPS19, (I)ceil(span / step)); }
+static I steps19(double span, double step)
+{
+    double q = span / step;                  /* a NaN (0/0) or a q at most MIN_STEPS19 takes the fewest: no */
+    if (!(q > MIN_STEPS19)) return MIN_STEPS19;   /* conversion of a NaN or a huge value (undefined in C) */
+    return q > STEPS19 ? STEPS19 : (I)ceil(q);
+}
 
 /* rk4_19: tau (pop, n) -> out (pop, n); scratch of k + 1 */
 int rk4_19(const double *tau, I pop, I n, double p0, const double *b5, const double *b6, const double *b7,

@@ -36,6 +36,9 @@ class _Engines(Mapping):
     def __len__(self) -> int:
         return len(_WHERE)
 
+    def __contains__(self, name: object) -> bool:      # a name's check imports nothing
+        return name in _WHERE
+
     def __repr__(self) -> str:
         return f"ENGINES({', '.join(_WHERE)})"
 
@@ -62,6 +65,10 @@ def __getattr__(name: str):
     if name in {m for m, _ in _WHERE.values()}:
         return importlib.import_module(f"{__name__}.{name}")
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_OPTIONS) | {m for m, _ in _WHERE.values()})
 
 
 __all__ = ["ENGINES", "DEFAULT_ENGINE", "Engine", "Options", "Stopping", "AHDEOptions", "JointOptions", "PaperOptions",

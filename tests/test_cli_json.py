@@ -218,3 +218,14 @@ def test_bench_accuracy_json(capsys, monkeypatch, tmp_path):
     assert (s["summary"]["scenarios"], s["summary"]["nominal"], s["summary"]["false_alarms"]) == (1, 1, 0)
     assert s["scenarios"][0]["name"] == "nominal" and s["scenarios"][0]["found"] == []
     assert s["scenarios"][0]["detection"] is None
+
+
+def test_check_json_gives_each_transformer_s_laws_as_fig_2_draws_it(check_json):
+    """Fig. 2's TF k1 takes the motor's input current to the arm (e1 = k1 e2, f2 = k1 f1 from its first
+    bond to its second, docs/model-format.md); the gyrator k2 crosses effort and flow."""
+    ports = {p["name"]: p for p in check_json["two_ports"]}
+    assert set(ports) == {"TF_k1", "GY_k2", "TF_k3", "TF_k4", "TF_k5", "TF_A", "MTF_F1", "MTF_F2"}
+    assert ports["TF_k1"] == {"name": "TF_k1", "kind": "TF", "from": "MSf_uin", "to": "sw_a1",
+                              "laws": ["e[1] = k1*e[2]", "f[2] = k1*f[1]"]}
+    assert ports["GY_k2"]["laws"] == ["e[5] = k2*f[6]", "e[6] = k2*f[5]"]
+    assert ports["TF_A"]["laws"] == ["e[21] = (1/A)*e[22]", "f[22] = (1/A)*f[21]"]

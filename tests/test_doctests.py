@@ -15,7 +15,7 @@ from .conftest import ROOT
 
 def _modules_with_examples() -> list[str]:
     out = []
-    for package in ("bondgraph", "fdi", "optim"):
+    for package in ("bondgraph", "fdi", "optim", "fdi.app"):      # fdi.app: a namespace package, not walked
         pkg = importlib.import_module(package)
         for name in [package] + [info.name for info in pkgutil.walk_packages(pkg.__path__, package + ".")]:
             spec = importlib.util.find_spec(name)
@@ -28,7 +28,8 @@ MODULES = _modules_with_examples()
 
 
 def test_the_known_examples_are_collected():
-    assert {"bondgraph", "bondgraph.units", "bondgraph.loader", "fdi.arrs", "fdi.api", "fdi.config"} <= set(MODULES)
+    assert {"bondgraph", "bondgraph.units", "bondgraph.loader", "fdi.arrs", "fdi.api", "fdi.config",
+            "fdi.app.two_ports", "fdi.app.evaluate"} <= set(MODULES)
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -11,12 +11,13 @@ from fdi.app import launch
 
 
 def test_blas_threads_default_to_one_and_a_users_setting_stands(monkeypatch):
-    for name in launch.THREADS:
-        monkeypatch.delenv(name, raising=False)
+    for name in launch.THREADS:              # set first, so that monkeypatch restores the state before
+        monkeypatch.setenv(name, "x")
+        monkeypatch.delenv(name)
     monkeypatch.setenv("MKL_NUM_THREADS", "4")
     launch.single_threaded_blas()
     import os
-    assert os.environ["OPENBLAS_NUM_THREADS"] == "1"
+    assert os.environ["OPENBLAS_NUM_THREADS"] == "1" and os.environ["VECLIB_MAXIMUM_THREADS"] == "1"
     assert os.environ["MKL_NUM_THREADS"] == "4"
 
 

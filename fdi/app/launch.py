@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import os
 
-THREADS = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")   # numpy's and scipy's BLAS (OpenBLAS wheels, MKL builds)
+# numpy's and scipy's BLAS: OpenBLAS (pip's wheels; conda's OpenMP builds read OMP_NUM_THREADS), MKL,
+# Apple's Accelerate (numpy's arm64 wheels on macOS)
+THREADS = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OMP_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")
 
 
 def single_threaded_blas() -> None:
