@@ -295,6 +295,10 @@ def format_optim(summary: dict) -> str:
 
 # ---------------------------------------------------------------- the diagnosis pipeline
 
+REPEAT = 5      # bench diagnose: the least of this many runs, in the process and as whole processes (this
+                # machine's speed drifts by 30-40 % within minutes: of three, the least still moved 0.96-1.10 s)
+
+
 def diagnose_rows(data_path: Path, workers: int = 1) -> dict:
     """Stage times of one diagnosis of scenario 2 at the paper's settings (population 100,
     150 generations, five estimators), and the share of identification spent in the objective."""
@@ -311,8 +315,8 @@ def diagnose_rows(data_path: Path, workers: int = 1) -> dict:
     est = d.estimates
     from .. import hints
     later = math.inf
-    for _ in range(3):                   # again in this process: what a notebook or a monitor pays per decision;
-        hints.forget()                   # the least of 3 (this machine's speed drifts); the answers kept by
+    for _ in range(REPEAT):              # again in this process: what a notebook or a monitor pays per decision;
+        hints.forget()                   # the least of REPEAT (this machine's speed drifts); the answers kept by
         cpu1 = time.process_time()       # content forgotten first: a new record would find none
         diagnose(model, data_path, options)
         later = min(later, time.process_time() - cpu1)
@@ -324,7 +328,7 @@ def diagnose_rows(data_path: Path, workers: int = 1) -> dict:
             "process": process_costs(model, data_path, workers)}
 
 
-def process_costs(model: Path, data_path: Path, workers: int, repeat: int = 3, fill: bool = True) -> dict | None:
+def process_costs(model: Path, data_path: Path, workers: int, repeat: int = REPEAT, fill: bool = True) -> dict | None:
     """A whole ``bgfdi diagnose MODEL DATA --workers N -q`` process as a user runs it: after one run
     that fills the caches (the compiled model and the C kernels, where the disk cache is on; not
     with ``fill`` off), the least wall and CPU seconds (user + system of the child, ``getrusage``)
@@ -438,7 +442,8 @@ def format_diagnose(row: dict) -> str:
     out.append(f"{'total':<20}{row['total_s']:>10.2f}")
     share = row["objective_s"] / row["estimator_s"] if row["estimator_s"] else 0.0
     out.append(f"{'total CPU':<20}{row['cpu_s']:>10.2f}")
-    out.append(f"the same diagnosis again in this process: {row['later_cpu_s']:.2f} s CPU, least of 3 (kernels loaded, model derived)")
+    out.append(f"the same diagnosis again in this process: {row['later_cpu_s']:.2f} s CPU, least of {REPEAT} (kernels loaded, "
+               f"model derived)")
     out.append(f"identification: {row['evaluations']} evaluations; {100 * share:.0f} % of estimator time in residual "
                f"evaluation (the objective), {row['estimator_s'] - row['objective_s']:.2f} s in the engines; "
                f"{1e6 * row['objective_s'] / max(1, row['evaluations']):.0f} us per evaluated row")
