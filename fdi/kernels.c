@@ -130,7 +130,7 @@ static I steps19(double span, double step)
     return q > STEPS19 ? STEPS19 : (I)ceil(q);
 }
 
-/* rk4_19: tau (pop, n) -> out (pop, n); scratch of k + 1 */
+/* rk4_19: tau (pop, n) -> out (pop, n); the grids of eight rows at a time (scratch of 8 (k + 1) each) */
 int rk4_19(const double *tau, I pop, I n, double p0, const double *b5, const double *b6, const double *b7,
            double step, double *out)
 {

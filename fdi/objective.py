@@ -177,8 +177,6 @@ def _transform(model: Model, residuals: tuple[Residual, ...], name: str) -> str 
     return None
 
 
-# STEP_ORDER: the filter a linear fault's step is seen through (fdi.derivatives, where it is set and why)
-
 
 def seen_profile(transform: str, nominal: float, value: float, seen: np.ndarray) -> np.ndarray:
     """A two-level profile, ``nominal`` before a step and ``value`` after it, blended in u =

@@ -21,6 +21,7 @@ _WHERE = {"AHDE": ("ahde", "ENGINE"), "AHDE-joint": ("ahde_joint", "ENGINE"), "A
           "SHADE": ("shade", "ENGINE")}
 _OPTIONS = {"AHDEOptions": "ahde", "JointOptions": "ahde_joint", "PaperOptions": "ahde_paper", "GAOptions": "ga",
             "AGAOptions": "ga", "SHADEOptions": "shade", "ScipyDEOptions": "scipy_de"}
+_MODULES = frozenset(m for m, _ in _WHERE.values())
 
 
 class _Engines(Mapping):
@@ -62,13 +63,13 @@ def __getattr__(name: str):
     """The engines' options classes (``optim.AHDEOptions``) and modules (``optim.ga``), imported at first use."""
     if name in _OPTIONS:
         return getattr(importlib.import_module(f"{__name__}.{_OPTIONS[name]}"), name)
-    if name in {m for m, _ in _WHERE.values()}:
+    if name in _MODULES:
         return importlib.import_module(f"{__name__}.{name}")
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_OPTIONS) | {m for m, _ in _WHERE.values()})
+    return sorted(set(globals()) | set(_OPTIONS) | _MODULES)
 
 
 __all__ = ["ENGINES", "DEFAULT_ENGINE", "Engine", "Options", "Stopping", "AHDEOptions", "JointOptions", "PaperOptions",

@@ -56,10 +56,8 @@ def run_ways(model: str, files: list[str], options, workers: int, repeat: int = 
     bench's first call). Only the answers kept by content are forgotten between runs: the ways run
     here or forked from here find this process's other warm caches, a cluster's new workers do not."""
     from .. import hints
-    best: dict[int, dict] = {}              # by the way's place (--workers 1 has --jobs 1 twice)
-    walls: dict[int, list[float]] = {}
+    runs: dict[int, list[dict]] = {}         # by the way's place (--workers 1 has --jobs 1 twice)
     first = None
-    first_start: dict[int, float] = {}
     for _ in range(repeat):
         for way, (name, n, dask) in enumerate(_ways(workers)):
             hints.forget()      # as a new process starts: a pool forked from here would inherit the last way's answers
@@ -75,15 +73,10 @@ def run_ways(model: str, files: list[str], options, workers: int, repeat: int = 
                 reports = diagnose_many(model, files, options, jobs=n)
             wall, cpu = time.perf_counter() - w0, _cpu() - c0
             first = reports if first is None else first
-            first_start.setdefault(way, start)
-            walls.setdefault(way, []).append(wall)
-            row = {"way": name, "wall_s": wall, "cpu_s": cpu, "start_s": start, "stop_s": stop,
-                   "files": len(files), "same": reports == first}
-            if way not in best or wall < best[way]["wall_s"]:
-                best[way] = {**row, "same": row["same"] and best.get(way, row)["same"]}
-            else:
-                best[way]["same"] = best[way]["same"] and row["same"]
-    return [{**best[way], "runs": walls[way], "first_start_s": first_start[way]} for way in range(len(best))]
+            runs.setdefault(way, []).append({"way": name, "wall_s": wall, "cpu_s": cpu, "start_s": start,
+                                             "stop_s": stop, "files": len(files), "same": reports == first})
+    return [{**min(rows, key=lambda r: r["wall_s"]), "same": all(r["same"] for r in rows),
+             "runs": [r["wall_s"] for r in rows], "first_start_s": rows[0]["start_s"]} for rows in runs.values()]
 
 
 def fleet_rows(reference_dir: Path, model: str, copies: int = 2, short: int = 1000, workers: int = 2,

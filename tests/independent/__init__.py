@@ -1,12 +1,52 @@
 """Simulators written apart from bgfdi (scipy, the physics typed by hand), and the steps every
 domain test takes with them: their columns as measurements, thresholds calibrated on two nominal
 runs and checked quiet on a third (as a module's fixture), and an ARR in the terms a hand
-derivation is written in."""
+derivation is written in; and the exact solution of a linear system driven by tones, whose
+parameters step once (the loudspeaker's and the hydrostatic transmission's simulators)."""
 from __future__ import annotations
 
 from typing import Callable
 
 import numpy as np
+
+
+def tones_steady(A: np.ndarray, B: np.ndarray, t: np.ndarray, tones, mean: float = 0.0) -> np.ndarray:
+    """(states, t.size): the steady state of dx/dt = A x + B u for u = mean + sum a sin(2 pi f t) over
+    ``tones`` ((a, f) pairs): the mean's equilibrium, plus per tone Im(X e^{j w t}) with
+    X = (j w I - A)^-1 B a."""
+    n = A.shape[0]
+    out = np.repeat(np.linalg.solve(-A, B * mean)[:, None], t.size, axis=1) if mean else np.zeros((n, t.size))
+    for a, f in tones:
+        w = 2 * np.pi * f
+        X = np.linalg.solve(1j * w * np.eye(n) - A, B * a)
+        out += np.imag(X[:, None] * np.exp(1j * w * t)[None, :])
+    return out
+
+
+def piecewise_linear(t: np.ndarray, stretches, system: Callable, steady: Callable,
+                     start: np.ndarray | None = None) -> np.ndarray:
+    """(states, t.size): a linear system solved exactly, not integrated, sample to sample. Each
+    stretch (first sample, one past its last, parameters) has ``system(parameters) -> (A, B)``;
+    its state is ``steady(A, B, t)`` plus exp(A (t - a)) times the difference at its start, stepped
+    by expm(A Ts). ``start``: the state at t[0] (None: the first stretch's steady state)."""
+    from scipy.linalg import expm
+    ts = float(t[1] - t[0])
+    x = None
+    state = start
+    for a, b, params in stretches:
+        if a >= b:
+            continue
+        A, B = system(params)
+        x = np.empty((A.shape[0], t.size)) if x is None else x
+        ss = steady(A, B, t[a:b])
+        step = expm(A * ts)
+        z = np.zeros(A.shape[0]) if state is None else state - ss[:, 0]     # the transient at the stretch's start
+        for k in range(b - a):
+            x[:, a + k] = ss[:, k] + z
+            z = step @ z
+        if b < t.size:                        # the state at the next stretch's first sample, these parameters'
+            state = steady(A, B, t[b:b + 1])[:, 0] + z
+    return x
 
 
 def measurements(simulate: Callable[..., dict], name: str, seed: int, **kw):

@@ -15,7 +15,8 @@ noise (1 mA, 1 mm/s, 0.5 Pa), the voltage exactly."""
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import expm
+
+from . import piecewise_linear, tones_steady
 
 NOMINAL = {"Re": 6.0, "Le": 5.0e-4, "Bl": 7.0, "Mms": 0.015, "Rms": 1.5, "Cms": 1.0e-3, "Sd": 0.013,
            "Cab": 7.08e-8, "Ral": 1.0e6}
@@ -38,38 +39,14 @@ def _system(P: dict) -> tuple[np.ndarray, np.ndarray]:
     return A, np.array([1.0 / P["Le"], 0.0, 0.0, 0.0])
 
 
-def _steady(A: np.ndarray, B: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """(4, t.size): the sinusoidal steady state, sum over the tones of Im(X e^{j w t}), X = (j w I - A)^-1 B a."""
-    out = np.zeros((4, t.size))
-    for a, f in TONES:
-        w = 2 * np.pi * f
-        X = np.linalg.solve(1j * w * np.eye(4) - A, B * a)
-        out += np.imag(X[:, None] * np.exp(1j * w * t)[None, :])
-    return out
-
-
 def simulate(seed: int, T: float = 2.0, t0: float | None = None, factor: float = 1.0,
              which: str = "Re") -> dict[str, np.ndarray]:
     """Columns t, u, i, v, p every TS s over [0, T]; from ``t0`` (a sample time) ``which`` times ``factor``."""
     t = np.arange(0.0, T + TS / 2, TS)
     k0 = t.size if t0 is None or which == "beta_p" else int(np.searchsorted(t, t0 - TS / 2))
-    state = np.zeros(4)
-    x = np.empty((4, t.size))
-    for a, b, scale in ((0, k0, 1.0), (k0, t.size, factor)):
-        if a >= b:
-            continue
-        P = dict(NOMINAL)
-        if which in P:
-            P[which] *= scale
-        A, B = _system(P)
-        ss = _steady(A, B, t[a:b])
-        step = expm(A * TS)
-        z = state - ss[:, 0]                  # the transient at the stretch's start
-        for k in range(b - a):
-            x[:, a + k] = ss[:, k] + z
-            z = step @ z
-        if b < t.size:                        # the state at the next stretch's first sample, these parameters'
-            state = _steady(A, B, t[b:b + 1])[:, 0] + z
+    faulty = {**NOMINAL, **({which: NOMINAL[which] * factor} if which in NOMINAL else {})}
+    x = piecewise_linear(t, ((0, k0, NOMINAL), (k0, t.size, faulty)), _system,
+                         lambda A, B, tt: tones_steady(A, B, tt, TONES), start=np.zeros(4))
     i, v, _, p = x
     rng = np.random.default_rng(seed)
     gain = np.where(t >= t0, factor, 1.0) if t0 is not None and which == "beta_p" else 1.0
