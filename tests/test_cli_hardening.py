@@ -171,6 +171,7 @@ def test_diagnosis_options_are_checked_before_any_work(capsys, option, value, me
     (["bench", "derive", "--sizes", "100000"], "--sizes: must be comma-separated chain sizes from 1 to 10000"),
     (["bench", "optim", "--runs", "0"], "--runs: must be an integer >= 1"),
     (["bench", "optim", "--workers", "0"], "--workers: must be an integer from 1"),
+    (["bench", "accuracy", "--seed", "-1"], "--seed: must be an integer >= 0"),
     (["isolability", str(CYCAB), "--max-sensors", "7"], "--max-sensors: must be an integer from 0 to 6"),
     (["simulate", str(CYCAB), "s.json", "-o", "o.csv", "--method", "euler"], "--method: must be one of auto, ros2"),
     (["simulate", str(CYCAB), "s.json", "-o", "o.csv", "--seed", "-5"], "--seed: must be an integer >= 0"),

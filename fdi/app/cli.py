@@ -991,14 +991,14 @@ def cmd_bench(args: argparse.Namespace) -> int:
         suites = []
         for suite in sorted(p for p in scenarios_dir().iterdir() if p.is_dir() and p.name.startswith("suite_")):
             model = str(shipped_model(suite.name.removeprefix("suite_")))
-            scores = _evaluate_files(model, suite_files([str(suite)]), Options(workers=args.workers))
+            scores = _evaluate_files(model, suite_files([str(suite)]), Options(workers=args.workers, seed=args.seed))
             if args.json:
                 suites.append({"suite": suite.name, "model": load_model(model).name, "summary": summary(scores),
                                "scenarios": [s.to_dict() for s in scores]})
             else:
                 sys.stdout.write(f"{suite.name} ({model})\n" + format_scores(scores, summary(scores)) + "\n")
         if args.json:
-            sys.stdout.write(_json_text({"benchmark": "accuracy", "suites": suites}))
+            sys.stdout.write(_json_text({"benchmark": "accuracy", "seed": args.seed, "suites": suites}))
         return 0
     if args.what == "monitor":
         from .bench_monitor import format_monitor, monitor_json, monitor_rows
@@ -1259,6 +1259,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--methods", help="optim: comma-separated engines (default: all)")
     b.add_argument("--workers", type=whole(1, MAX_WORKERS), default=2,
                    help="processes (diagnose: default 1 core is measured with 1)")
+    b.add_argument("--seed", type=whole(0), default=0,
+                   help="accuracy: the diagnoses' random seed (default 0); a difference between two trees that "
+                        "one seed shows and others do not is the search's noise")
     b.add_argument("--json", action="store_true", help="print the measurements as JSON (docs/cli.md)")
     b.set_defaults(func=cmd_bench)
     for command in sub.choices.values():
