@@ -32,14 +32,21 @@ from __future__ import annotations
 from types import ModuleType
 
 
+_optim: tuple | None = None     # (optim.kernels, optim.native) once imported
+
+
 def _switch() -> ModuleType:
     """:mod:`optim.kernels`, which holds the one switch for both packages' compiled code (imported
     when first asked: the optim package brings its engines), with the disk cache as the store of
-    built C libraries."""
-    from optim import kernels, native
-
-    from . import diskcache
+    built C libraries. (The modules kept after the first call: every objective call asks, and
+    three import statements cost ~3 us.)"""
+    global _optim
+    if _optim is None:
+        from optim import kernels, native
+        _optim = (kernels, native)
+    kernels, native = _optim
     if native._store is None:
+        from . import diskcache
         native.use_store(diskcache)         # fetch, store, ready: optim.native.Store's protocol
     return kernels
 

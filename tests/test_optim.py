@@ -441,3 +441,48 @@ def test_compiled_de_trials_are_numpys_to_the_bit():
             for a, c in zip(plain, fast):
                 assert np.array_equal(a, c)
             assert state_plain == state_fast
+
+
+def test_a_generation_drawn_in_c_is_numpys_to_the_bit():
+    """AHDE's generation of several structures at once on the C path (optim._native.trials_batch:
+    the random draws taken in C from numpy's own bit generator, Lemire's bounded integers included)
+    against numpy's trials one structure after another: the same trial points, F and CR bit for
+    bit, and the generator left in the same state. Populations of 3 (integers(1, 2) draws nothing),
+    6, 10 and 40 points, with ties in the costs; the generator entered with half of a 64-bit draw
+    buffered (its next 32-bit draw is that half)."""
+    from optim import kernels
+    if "c" not in kernels.available():
+        pytest.skip("no C compiler")
+    draws = np.random.default_rng(3)
+    branches = []
+    for n, d, free in ((3, 2, [0]), (6, 3, [1]), (10, 4, [0, 2, 3]), (40, 7, list(range(7)))):
+        x = draws.uniform(-1.5, 1.5, (n, d))
+        f = np.round(draws.random(n), 1)
+        branches.append((d, Branch("k", np.zeros(2, dtype=bool), np.array(free), x, f, draws.uniform(0.1, 1.0, n),
+                                   draws.random(n))))
+    for seed in range(5):
+        got = []
+        for path in ("numpy", "c"):
+            before = kernels.use(path)
+            try:
+                runs = []
+                for d, b in branches:
+                    e = AHDE(optim.pose(lambda r, bits: r.sum(axis=1), bounds=[[-1, 1]] * d, n_bits=2),
+                             AHDEOptions(seed=seed))
+                    e.rng.integers(0, 7, seed % 2)          # odd seeds: a 32-bit half left in the buffer
+                    runs.append((e, b))
+                # one engine's generator across the structures, as one generation of the race draws
+                e0 = runs[-1][0]
+                for e, _ in runs:
+                    e.rng = e0.rng
+                if path == "c":
+                    assert kernels.path() == "c" and getattr(kernels.jit(), "trials_batch", None) is not None
+                made = e0.trials_of([b for _, b in runs]) if path == "c" else [e0.trials(b) for _, b in runs]
+                got.append((made, e0.rng.bit_generator.state["state"], e0.rng.random()))
+            finally:
+                kernels.use(before)
+        (plain, state_plain, next_plain), (fast, state_fast, next_fast) = got
+        for a, c in zip(plain, fast):
+            for u, v in zip(a, c):
+                assert np.array_equal(u, v)
+        assert state_plain == state_fast and next_plain == next_fast
