@@ -31,6 +31,7 @@ _SIGNATURES = {
     "decode_rows": ("r", "piipipppipp" + "di" + "p" * 9),
     "fused_cost": ("r", "ppppp"),
     "fused_arity": ("r", ""),
+    "distance_rows": ("r", "piipiip"),
 }
 _lib = native.require("bgfdi_kernels", __file__, "kernels.c", _SIGNATURES)
 
@@ -58,6 +59,15 @@ def rk4_19(tau, p0, b5, b6, b7, step):
     b5, b6, b7 = _f(b5), _f(b6), _f(b7)
     _check(_lib.rk4_19(_at(tau), pop, n, float(p0), _at(b5), _at(b6), _at(b7),
                        float(step), _at(out)))
+    return out
+
+
+def distance_rows(q, target, first, inverse):
+    """:func:`fdi.hints._distance` (the same numbers): each row's sum over the samples ``first:`` of
+    |scale(q) - target|, one pass in C."""
+    q, target = _f(q), _f(target)
+    out = np.empty(q.shape[0])
+    _check(_lib.distance_rows(_at(q), q.shape[0], q.shape[1], _at(target), int(first), int(bool(inverse)), _at(out)))
     return out
 
 

@@ -248,20 +248,32 @@ def profiles(spaces: list[FaultSpace], decoded: list[Decoded], t: np.ndarray, t0
     for s, d in zip(spaces, decoded):
         pop = d.kind.shape[0]
         onset = np.broadcast_to(np.asarray(t0, dtype=float), (pop,))
-        p = np.empty((pop, t.size))
+        parts = []                               # (rows, their profiles) per type and model present
         m = d.kind == 0
         if m.any():
-            p[m] = abrupt(t, onset[m], s.nominal, d.value_ab[m])
+            parts.append((m, abrupt(t, onset[m], s.nominal, d.value_ab[m])))
         m = d.kind == 1
         if m.any():
-            p[m] = intermittent(t, onset[m], s.nominal, d.value_int[m], d.period[m])
+            parts.append((m, intermittent(t, onset[m], s.nominal, d.value_int[m], d.period[m])))
         for model in (1, 2, 3, 4):
             m = (d.kind == 2) & (d.model == model)
             if m.any():
                 cols = [slot - 2 for slot in COEFF_SLOTS[model]]
-                p[m] = incipient(t, onset[m], s.nominal, model, d.b[m][:, cols])
+                parts.append((m, incipient(t, onset[m], s.nominal, model, d.b[m][:, cols])))
+        if len(parts) == 1 and parts[0][0].all() and _own(parts[0][1], (pop, t.size)):
+            out.append(parts[0][1])              # one type and model for all (a translation's 768 rows): as made,
+            continue                             # not copied through a mask
+        p = np.empty((pop, t.size))
+        for m, rows in parts:
+            p[m] = rows
         out.append(p)
     return out
+
+
+def _own(a: np.ndarray, shape: tuple) -> bool:
+    """Whether ``a`` is a fresh float array of ``shape`` a caller may keep and write (not a view)."""
+    return (a.shape == shape and a.dtype == np.float64 and a.base is None and a.flags.c_contiguous
+            and a.flags.writeable)
 
 
 _ZETA_LIST = ZETA_TYPES.tolist()

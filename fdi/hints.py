@@ -41,6 +41,8 @@ from typing import Callable
 
 import numpy as np
 
+from . import kernels
+
 SIGNIFICANCE = 25.0   # a peak of the periodogram of |r| this many times its median (of white noise: max/median ~ 10)
 REFINE_VALUES = 1 << 18   # positions per block of periods in refine (2 MB per temporary)
 REFINE = 0.04         # periods searched within 4 % of the periodogram's peak (its bin at 14 periods per window: 7 %)
@@ -521,6 +523,10 @@ def _distance(q: np.ndarray, target: np.ndarray, first: int, inverse: bool) -> n
     when ``inverse``), in one buffer laid out samples-major: each row's terms are added sample by
     sample, in the order (and to the bits) of the boolean-indexed copy this replaced, in a third
     of its time (three passes over the population's profiles instead of six)."""
+    fast = kernels.jit()
+    if hasattr(fast, "distance_rows") and q.ndim == 2 and q.shape[0] > 1 and q.shape[1] == target.shape[0]:
+        # C: the same sums in one pass (one row only here: numpy sums a single column pairwise)
+        return fast.distance_rows(q, target, first, inverse)
     qt = q.T[first:]
     d = np.empty(qt.shape)
     with np.errstate(all="ignore"):

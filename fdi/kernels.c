@@ -152,6 +152,26 @@ int rk4_19(const double *tau, I pop, I n, double p0, const double *b5, const dou
     return 0;
 }
 
+/* ------------------------------------------------------------------ a translation's distances */
+
+/* fdi.hints._distance: per row r of q (rows, n), the sum over i = first, ..., n - 1, in that order,
+ * of |s(q[r, i]) - target[i]| with s(x) = 1 / x when inverse, else x: numpy's operations (its sum
+ * over the samples' axis adds one sample after another), without the transposed copy and the
+ * three passes over the population's profiles */
+int distance_rows(const double *q, I rows, I n, const double *target, I first, I inverse, double *out)
+{
+    for (I r = 0; r < rows; r++) {
+        const double *x = q + r * n;
+        double acc = 0.0;
+        if (inverse)
+            for (I i = first; i < n; i++) acc += fabs(1.0 / x[i] - target[i]);
+        else
+            for (I i = first; i < n; i++) acc += fabs(x[i] - target[i]);
+        out[r] = acc;
+    }
+    return 0;
+}
+
 /* ------------------------------------------------------------------ the weighted median */
 
 static double select_w(double *x, double *w, I lo, I hi, double below, double half)

@@ -310,6 +310,8 @@ class Objective:
         self._constant: dict[int, float] = {}
         self._rates: dict = {}
         self._blocks: dict = {}
+        self._phase_onsets: dict = {}   # propose's onsets per (period, phase): every structure with that fault
+                                        # intermittent asks for the same (scenario 2: 1 632 -> 704 computed)
         self.composites = any(r.composites for r in residuals)
         # the screening fidelity: every stride-th sample, a sixth of the derivative window apart, so that
         # the filtered residuals barely change between the samples left out
@@ -707,12 +709,15 @@ class Objective:
         step the residuals see as a spike at the spike (:meth:`spikes`), at values spread over their
         range; NaN elsewhere."""
         lo, hi = self.bounds()[-1]
+        at = self._phase_onsets
 
         def onsets(T: float, phase: float) -> list[float]:
             # the phase's own switch first, then PHASES evenly over the period: the phase of |r| is
             # biased by the spikes a gain's switching leaves at both edges (measured: 70 ms on 0.7 s)
-            return [hints.aligned_onsets(T, phase + k * T / PHASES, self.win.t0, lo, hi, limit=1)[0]
-                    for k in range(PHASES)]
+            if (T, phase) not in at:
+                at[T, phase] = [hints.aligned_onsets(T, phase + k * T / PHASES, self.win.t0, lo, hi, limit=1)[0]
+                                for k in range(PHASES)]
+            return at[T, phase]
         rows = hints.intermittent_rows(self.spaces, bits, self.seeds(), onsets, levels=3)
         return np.vstack([rows, hints.step_rows(self.spaces, bits, self.spikes(), SPIKE_LEVELS)])
 
