@@ -32,6 +32,7 @@ _SIGNATURES = {
     "fused_cost": ("r", "ppppp"),
     "fused_arity": ("r", ""),
     "distance_rows": ("r", "piipiip"),
+    "incipient19": ("r", "pipidpppdp"),
 }
 _lib = native.require("bgfdi_kernels", __file__, "kernels.c", _SIGNATURES)
 
@@ -68,6 +69,16 @@ def distance_rows(q, target, first, inverse):
     q, target = _f(q), _f(target)
     out = np.empty(q.shape[0])
     _check(_lib.distance_rows(_at(q), q.shape[0], q.shape[1], _at(target), int(first), int(bool(inverse)), _at(out)))
+    return out
+
+
+def incipient19(t, t0, p0, b5, b6, b7, step):
+    """Eq. (19)'s profiles (rows of ``t0`` and the coefficients) on the samples ``t``, the nominal
+    ``p0`` before each onset: :func:`rk4_19` on max(t - t0, 0) then numpy's select, in one call."""
+    t, t0, b5, b6, b7 = _f(t), _f(t0), _f(b5), _f(b6), _f(b7)
+    out = np.empty((t0.shape[0], t.shape[0]))
+    _check(_lib.incipient19(_at(t), t.shape[0], _at(t0), t0.shape[0], float(p0), _at(b5), _at(b6), _at(b7),
+                            float(step), _at(out)))
     return out
 
 

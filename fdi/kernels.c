@@ -172,6 +172,33 @@ int distance_rows(const double *q, I rows, I n, const double *target, I first, I
     return 0;
 }
 
+/* eq. (19)'s profile of each row on the samples t: rk4_19 on tau = max(t - t0[r], 0) (the grid's
+ * span the largest tau of all rows, as there), nominal before the onset (fdi.profiles.incipient's
+ * np.where): the same numbers without the population's tau and select passes */
+int incipient19(const double *t, I n, const double *t0, I pop, double p0, const double *b5, const double *b6,
+                const double *b7, double step, double *out)
+{
+    double span = 0.0;
+    for (I r = 0; r < pop; r++)
+        for (I j = 0; j < n; j++) {
+            double x = t[j] - t0[r];
+            double tau = x < 0 ? 0.0 : x;
+            if (tau > span) span = tau;
+        }
+    I k = steps19(span, step);
+    double h = span > 0 ? span / k : step;
+    double *grid = malloc(sizeof(double) * 8 * (k + 1)), *slope = malloc(sizeof(double) * 8 * (k + 1));
+    if (!grid || !slope) { free(grid); free(slope); return -1; }
+    for (I r0 = 0; r0 < pop; r0 += 8) {
+        I nl = imin(8, pop - r0);
+        rk4_grids(p0, b5 + r0, b6 + r0, b7 + r0, 1, nl, h, k, grid, slope);
+        for (I l = 0; l < nl; l++)
+            hermite_row(t, n, t0[r0 + l], p0, h, k, grid + l * (k + 1), slope + l * (k + 1), out + (r0 + l) * n);
+    }
+    free(grid); free(slope);
+    return 0;
+}
+
 /* ------------------------------------------------------------------ the weighted median */
 
 static double select_w(double *x, double *w, I lo, I hi, double below, double half)

@@ -114,6 +114,10 @@ def incipient(t: np.ndarray, t0, nominal: float, model: int, b) -> np.ndarray:
                                 np.ascontiguousarray(np.broadcast_to(b[:, 0], (rows,))))
     if model in (1, 3) and fast is not None and t.size and not (model == 3 and np.isinf(nominal)):
         return _exponential(fast, t, t0[:, 0], nominal, model, b)
+    if model == 4 and hasattr(fast, "incipient19") and t.size and np.isfinite(nominal):
+        rows = max(b.shape[0], t0.shape[0])       # C: _model19's numbers and the select below, in one call
+        return fast.incipient19(t, np.ascontiguousarray(np.broadcast_to(t0[:, 0], (rows,))), float(nominal),
+                                *(np.ascontiguousarray(np.broadcast_to(b[:, k], (rows,))) for k in range(3)), STEP19)
     tau = np.maximum(t[None, :] - t0, 0.0)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         if model == 1:

@@ -643,3 +643,25 @@ def test_eq19_at_one_instant_reads_one_integration_to_the_runs_end(monkeypatch):
         assert profiles.at("incipient", t0 + span + 0.1, t0, nominal, model=4, b=b, span=span) is None
     assert np.isinf(got[-1]) and np.isinf(profiles.incipient(window, t0, 3.0, 4, [[2.0, 1.0, 5.0]])[0][-1])
     assert profiles.at("incipient", 2.0, float("nan"), 1.0, model=4, b=[0.1, 0.1, 0.1], span=span) is None
+
+
+def test_eq19_profiles_in_one_c_call_are_the_grid_and_select_to_the_bit():
+    """fdi._native.incipient19 (the RK4 grid, its Hermite reads and the nominal value before each
+    onset in one call) against the composition it replaces: rk4_19 on max(t - t0, 0), then numpy's
+    select; onsets before the window, inside it, at its last sample, after it and NaN; coefficients
+    that overflow (P infinite) among them."""
+    if "c" not in kernels.available():
+        pytest.skip("no C compiler")
+    from fdi import _native
+    from fdi.profiles import STEP19
+    rng = np.random.default_rng(19)
+    t = np.arange(0.0, 10.5, 0.01)
+    t0 = np.concatenate([rng.uniform(-1.0, 12.0, 60), [10.49, np.nan, 0.0]])
+    b = np.column_stack([rng.uniform(-20, 20, t0.size), rng.uniform(-1, 1, t0.size), rng.uniform(-2, 2, t0.size)])
+    b[5] = (20.0, 1.0, 5.0)                              # grows past any float
+    for p0 in (1.0, 0.62, 2.5e7, 0.0):
+        with np.errstate(all="ignore"):
+            tau = np.maximum(t[None, :] - t0[:, None], 0.0)
+            want = np.where(t[None, :] >= t0[:, None], _native.rk4_19(tau, p0, b[:, 0], b[:, 1], b[:, 2], STEP19), p0)
+        got = _native.incipient19(t, t0, p0, b[:, 0], b[:, 1], b[:, 2], STEP19)
+        assert np.array_equal(got, want, equal_nan=True)
