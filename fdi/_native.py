@@ -67,6 +67,8 @@ def distance_rows(q, target, first, inverse):
     """:func:`fdi.hints._distance` (the same numbers): each row's sum over the samples ``first:`` of
     |scale(q) - target|, one pass in C."""
     q, target = _f(q), _f(target)
+    if q.ndim != 2 or target.shape != (q.shape[1],):
+        raise ValueError("distance_rows: q must be (rows, samples) and target one value per sample")
     out = np.empty(q.shape[0])
     _check(_lib.distance_rows(_at(q), q.shape[0], q.shape[1], _at(target), int(first), int(bool(inverse)), _at(out)))
     return out
@@ -76,6 +78,8 @@ def incipient19(t, t0, p0, b5, b6, b7, step):
     """Eq. (19)'s profiles (rows of ``t0`` and the coefficients) on the samples ``t``, the nominal
     ``p0`` before each onset: :func:`rk4_19` on max(t - t0, 0) then numpy's select, in one call."""
     t, t0, b5, b6, b7 = _f(t), _f(t0), _f(b5), _f(b6), _f(b7)
+    if not (t.ndim == 1 and t0.ndim == 1 and b5.shape == b6.shape == b7.shape == t0.shape):
+        raise ValueError("incipient19: t one row of samples, t0 and b5, b6, b7 one value per row")
     out = np.empty((t0.shape[0], t.shape[0]))
     _check(_lib.incipient19(_at(t), t.shape[0], _at(t0), t0.shape[0], float(p0), _at(b5), _at(b6), _at(b7),
                             float(step), _at(out)))
@@ -254,8 +258,9 @@ def bind_fused(args: tuple, fresh: tuple):
         words: list = []
         keep: list = []                 # converted copies, alive until the call returns
         for v, want in zip(values, wanted):
-            if v.dtype != want or not v.flags.c_contiguous:
-                v = np.ascontiguousarray(v, dtype=want)
+            v = np.asarray(v)
+            if v.dtype != want or not v.flags.c_contiguous or v.ndim == 0:
+                v = np.ascontiguousarray(v, dtype=want)          # (at least one dimension, as _words)
                 keep.append(v)
             if v.ndim > 4:
                 raise ValueError("fused_cost: an argument of more than four dimensions")

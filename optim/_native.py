@@ -49,6 +49,10 @@ def trials_batch(rng, populations: list[tuple]) -> list[tuple] | None:
         m = cols.shape[0]
         if n < 3 or m < 1 or n >= 2 ** 31:
             return None
+        if not (F_old.shape == CR_old.shape == order.shape == (n,) and lo.shape == hi.shape == (m,)
+                and ((cols >= 0) & (cols < D)).all()):
+            raise ValueError("trials_batch: F, CR and order need one entry per point, lo and hi one per free "
+                             "column, and the columns must lie within the population's")
         trial, F, CR = np.empty_like(x), np.empty(n), np.empty(n)
         desc[k] = (_at(x), n, D, _at(cols), m, _at(F_old), _at(CR_old), _at(order), _at(lo), _at(hi), _at(trial),
                    _at(F), _at(CR), max(2, math.ceil(0.2 * n)))

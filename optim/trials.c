@@ -72,18 +72,24 @@ static I bounded(bitgen_t *g, I low, I high)
  * order (random(n), uniform(0.1, 1.0, n), random(n), random(n), integers(0, top, n), integers(1, n,
  * n), integers(1, n - 1, n), random((n, m)), integers(0, m, n)), then ``trials``. desc: 14 words
  * per population: x, n, D, cols, m, F_old, CR_old, order, lo, hi, trial, F, CR, top (addresses, and
- * n, D, m, top). 3 <= n, 1 <= m, 2 <= top <= n, all below 2**32 (the caller's). Returns 1 when
- * scratch cannot be allocated. */
+ * n, D, m, top). 3 <= n, 1 <= m, 2 <= top <= n, all below 2**32 (the caller's). Returns 1, having
+ * drawn nothing, when scratch cannot be allocated (one allocation for the largest population). */
 #define P(k) ((void *)(intptr_t)d[k])
 int trials_batch(void *gen, I nb, const I *desc)
 {
     bitgen_t *g = gen;
+    I most = 0, cells = 0;
+    for (I b = 0; b < nb; b++) {
+        const I *d = desc + 14 * b;
+        if (d[1] > most) most = d[1];
+        if (d[1] * d[4] > cells) cells = d[1] * d[4];
+    }
+    double *u = malloc(sizeof(double) * (size_t)(4 * most + cells + 1));
+    I *k = malloc(sizeof(I) * (size_t)(4 * most + 1));
+    if (!u || !k) { free(u); free(k); return 1; }
     for (I b = 0; b < nb; b++) {
         const I *d = desc + 14 * b;
         I n = d[1], D = d[2], m = d[4], top = d[13];
-        double *u = malloc(sizeof(double) * (size_t)(4 * n + n * m));
-        I *k = malloc(sizeof(I) * (size_t)(4 * n));
-        if (!u || !k) { free(u); free(k); return 1; }
         double *redraw_F = u, *new_F = u + n, *redraw_CR = u + 2 * n, *new_CR = u + 3 * n, *cross = u + 4 * n;
         I *pick = k, *hop1 = k + n, *hop2 = k + 2 * n, *forced = k + 3 * n;
         for (I i = 0; i < n; i++) redraw_F[i] = g->next_double(g->state);
@@ -97,8 +103,8 @@ int trials_batch(void *gen, I nb, const I *desc)
         for (I i = 0; i < n; i++) forced[i] = bounded(g, 0, m);
         trials(P(0), n, D, P(3), m, P(5), P(6), redraw_F, new_F, redraw_CR, new_CR, P(7), pick, hop1, hop2, cross,
                forced, P(8), P(9), P(10), P(11), P(12));
-        free(u);
-        free(k);
     }
+    free(u);
+    free(k);
     return 0;
 }

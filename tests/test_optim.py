@@ -475,8 +475,10 @@ def test_a_generation_drawn_in_c_is_numpys_to_the_bit():
                 e0 = runs[-1][0]
                 for e, _ in runs:
                     e.rng = e0.rng
-                if path == "c":
-                    assert kernels.path() == "c" and getattr(kernels.jit(), "trials_batch", None) is not None
+                if path == "c":                             # the batch runs (no fall-back to one at a time)
+                    assert kernels.path() == "c" and kernels.jit().trials_batch(
+                        np.random.default_rng(0), [(b.x, b.free, b.F, b.CR, b.f.argsort(), *e0._limits(b.free))
+                                                   for _, b in runs]) is not None
                 made = e0.trials_of([b for _, b in runs]) if path == "c" else [e0.trials(b) for _, b in runs]
                 got.append((made, e0.rng.bit_generator.state["state"], e0.rng.random()))
             finally:
