@@ -335,9 +335,14 @@ class AHDE(GenerationalSolver):
     def evaluate(self, xs: list[np.ndarray], branches: list[Branch]) -> list[np.ndarray]:
         """One objective call for the rows of every branch; the costs split back per branch."""
         real = np.vstack(xs)
-        bits = np.vstack([np.broadcast_to(b.bits, (x.shape[0], self.n_bits)) for x, b in zip(xs, branches)])
+        counts = [x.shape[0] for x in xs]
+        bits = np.repeat(np.vstack([b.bits for b in branches]), counts, axis=0)
         cost = self.counter(real, bits)
-        return np.split(cost, np.cumsum([x.shape[0] for x in xs])[:-1])
+        out, at = [], 0
+        for n in counts:
+            out.append(cost[at:at + n])
+            at += n
+        return out
 
     def trials(self, b: Branch) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """DE/current-to-pbest/1/bin over the free reals, jDE-adapted F and CR."""
