@@ -322,13 +322,47 @@ def _eq18_roots(b3):  # pragma: no cover - compiled
     return (b3 + root) / 2, (b3 - root) / 2
 
 
+_SHIFT, _LOG2E = float.fromhex("0x1.8p52"), float.fromhex("0x1.71547652b82fep+0")
+_LN2HI, _LN2LO = float.fromhex("0x1.62e42fee00000p-1"), float.fromhex("0x1.a39ef35793c76p-33")
+_C = tuple(float.fromhex(h) for h in ("0x1p-1", "0x1.5555555555555p-3", "0x1.5555555555555p-5", "0x1.1111111111111p-7",
+                                      "0x1.6c16c16c16c17p-10", "0x1.a01a01a01a01ap-13", "0x1.a01a01a01a01ap-16",
+                                      "0x1.71de3a556c734p-19", "0x1.27e4fb7789f5cp-22", "0x1.ae64567f544e4p-26",
+                                      "0x1.1eed8eff8d898p-29", "0x1.6124613a86d09p-33"))
+_C2, _C3, _C4, _C5, _C6, _C7, _C8, _C9, _C10, _C11, _C12, _C13 = _C
+_HI, _LO = float.fromhex("0x1p600"), float.fromhex("0x1p-600")
+
+
+@njit(cache=True, nogil=True)
+def _vexp(x):  # pragma: no cover - compiled
+    """fdi/kernels.c's vexp, its operations in its order (the C's bits): exp(x) = 2^k exp(r), k by
+    the 1.5 * 2^52 shift, r with ln2 in two parts, exp(r) by Taylor to degree 13, 2^k exact (ldexp),
+    in two steps near the range's ends."""
+    if x != x:
+        return x
+    if x > 709.782712893384:
+        return np.inf
+    if x < -745.1332191019412:
+        return 0.0
+    kd = x * _LOG2E + _SHIFT
+    kd = kd - _SHIFT
+    r = (x - kd * _LN2HI) - kd * _LN2LO
+    p = 1.0 + r * (1.0 + r * (_C2 + r * (_C3 + r * (_C4 + r * (_C5 + r * (_C6 + r * (_C7 + r * (_C8 + r * (
+        _C9 + r * (_C10 + r * (_C11 + r * (_C12 + r * _C13))))))))))))
+    k = int(kd)
+    if kd > 1000.0:
+        return (p * math.ldexp(1.0, k - 600)) * _HI
+    if kd < -1000.0:
+        return (p * math.ldexp(1.0, k + 600)) * _LO
+    return (p * math.ldexp(1.0, k)) * 1.0
+
+
 @njit(cache=True, nogil=True)
 def incipient_exp(t, t0, nominal, model, b):  # pragma: no cover - compiled
     """Eq. (16) (model 1: P0 exp(b1 tau)) or eq. (18) (model 3, finite P0: -b4 + a exp(r1 tau) +
     c exp(r2 tau)) from t0 on, the nominal value before, for every row of ``b`` and time (tau =
     max(t - t0, 0), NaN stays NaN): the products, quotients and sums of
-    :func:`fdi.profiles.incipient` in its order, with libm's exponential (numpy's on AVX2
-    machines), in one pass and no temporary (numpy's path takes three passes and two)."""
+    :func:`fdi.profiles.incipient` in its order, with :func:`_vexp` (the C's exponential; numpy's
+    differs in the last bit), in one pass and no temporary (numpy's path takes three passes and two)."""
     rows, n = b.shape[0], t.shape[0]
     out = np.empty((rows, n))
     for r in range(rows):
@@ -338,7 +372,7 @@ def incipient_exp(t, t0, nominal, model, b):  # pragma: no cover - compiled
             for i in range(n):
                 x = t[i] - a
                 tau = 0.0 if x < 0 else x
-                out[r, i] = nominal * math.exp(r1 * tau) if t[i] >= a else nominal
+                out[r, i] = nominal * _vexp(r1 * tau) if t[i] >= a else nominal
         else:
             b4 = b[r, 1]
             r1, r2 = _eq18_roots(b[r, 0])
@@ -347,7 +381,7 @@ def incipient_exp(t, t0, nominal, model, b):  # pragma: no cover - compiled
             for i in range(n):
                 x = t[i] - a
                 tau = 0.0 if x < 0 else x
-                out[r, i] = (-b4 + ca * math.exp(r1 * tau)) + cc * math.exp(r2 * tau) if t[i] >= a else nominal
+                out[r, i] = (-b4 + ca * _vexp(r1 * tau)) + cc * _vexp(r2 * tau) if t[i] >= a else nominal
     return out
 
 
@@ -585,7 +619,7 @@ def _profile(t, j, row, onset, kinds, models, values, periods, coeffs, pre, pre_
              grid, slope, out):  # pragma: no cover - compiled
     """Fault j's profile for individual ``row`` at every time of ``t`` into ``out``, as
     :func:`fdi.encoding.profiles` gives it (the numpy path's operations; eqs. 16 and 18 with
-    libm's exponential, numpy's on AVX2 machines); a linear fault that is
+    :func:`_vexp`, the C's exponential); a linear fault that is
     abrupt or intermittent at its unit value (its solved magnitude's unit step; from ``pre``
     when given there: the step or square wave as the filtered residuals see it)."""
     kind = kinds[j, row]
@@ -632,7 +666,7 @@ def _profile(t, j, row, onset, kinds, models, values, periods, coeffs, pre, pre_
             for i in range(n):
                 x = t[i] - a
                 tau = 0.0 if x < 0 else x
-                out[i] = nominal * math.exp(r1 * tau) if t[i] >= a else nominal
+                out[i] = nominal * _vexp(r1 * tau) if t[i] >= a else nominal
         elif math.isinf(nominal):                  # eq. (18) never leaves an infinite P0
             for i in range(n):
                 out[i] = np.inf
@@ -644,7 +678,7 @@ def _profile(t, j, row, onset, kinds, models, values, periods, coeffs, pre, pre_
             for i in range(n):
                 x = t[i] - a
                 tau = 0.0 if x < 0 else x
-                out[i] = (-b4 + ca * math.exp(r1 * tau)) + cc * math.exp(r2 * tau) if t[i] >= a else nominal
+                out[i] = (-b4 + ca * _vexp(r1 * tau)) + cc * _vexp(r2 * tau) if t[i] >= a else nominal
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

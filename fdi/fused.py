@@ -11,9 +11,9 @@ magnitudes solved, the sums taken. Here the same computation runs in one compile
 - the population is decoded in one compiled pass (:func:`fdi._jit.decode_rows`) around numpy's
   powers 10 ** x (SIMD code: numpy's bits), and what depends only on which linear faults are
   solved is built once (:meth:`Fused.pattern`): a call's Python is ~40 us before the kernel;
-- eqs. (16) and (18) are formed in the kernel, row by row, with libm's exponential (the numpy
-  path's operations; numpy's exponential is libm's on AVX2 machines, its own SIMD code where
-  AVX-512 is, a last-bit difference): they were numpy passes over the whole population before the
+- eqs. (16) and (18) are formed in the kernel, row by row, with the kernels' exponential (the numpy
+  path's operations; the exponential written to vectorise, :func:`fdi.profiles._exp`, within 1 ulp
+  of numpy's): they were numpy passes over the whole population before the
   kernel (three passes and a temporary of rows x samples each call: 22 ns a sample, where the
   kernel's own exponential costs 9; measured on docs/tutorial.md's RC filter, A/B: its eq. (16)
   rows 49 -> 35 ns a sample on 5 000-sample windows, its whole diagnosis 11.2-13.3 -> 9.0-10.9 s CPU,
@@ -31,8 +31,8 @@ magnitudes solved, the sums taken. Here the same computation runs in one compile
   same points, the same median; an individual that solves one of them takes one median, not three).
 
 The numbers are the numpy path's to round-off: the sums of |r| are taken one sample after
-another (numpy sums pairwise) and the transcendental functions are libm's (numpy's are SIMD code),
-a last-bit difference (tests/test_kernels.py: 1e-9 relative on random populations of every fault
+another (numpy sums pairwise) and the transcendental functions are libm's or the kernels' own
+exponential (numpy's are SIMD code), a last-bit difference (tests/test_kernels.py: 1e-9 relative on random populations of every fault
 type and model). The kernel is generic (no model-specific code is compiled): numba keeps it on
 disk, and a model costs no compilation.
 

@@ -6,15 +6,15 @@ The parts are the ones a profile of identification names and that do not depend 
 eq. (19)'s RK4 over the population (a Python loop of ~100 steps of ~40 numpy calls on (pop,)
 arrays, ~4 ms per call), eq. (17) and eq. (15)'s profiles (one pass instead of ten over
 (pop, samples) arrays; eq. 15's sign of a sine read from the phase's half-period), eqs. (16) and
-(18) but their exponentials (numpy's, taken in place between two compiled passes), the weighted
+(18) (with the kernels' own exponential, written to vectorise: :func:`fdi.profiles._exp`), the weighted
 median that solves a linear fault's magnitude, an intermittent fault's square wave as the
 smoothing filter sees it (:func:`fdi.derivatives.edges_seen`: a solved fault's unit step; 100
 rows 5.2 -> 0.4 ms), and the fused objective (:mod:`fdi.fused`). All
 paths give the same numbers (tests/test_kernels.py: equal arrays, and 1e-9 relative on the
-objective's costs on random populations); nothing whose last bits would differ is compiled: the
-filter's sums (numpy's are BLAS's) and the exponentials and sines of eqs. (16), (18) (numpy's
-are SIMD code), since the Coulomb terms' sign of a filtered derivative turns 1e-15 into 3e-5 of a
-cost. The model-specific part, the ARR expressions, runs as tapes (:mod:`fdi.tape`) in the
+objective's costs on random populations; C and numba equal to the bit): the filter's sums are
+numpy's order, not BLAS's, since the Coulomb terms' sign of a filtered derivative turns 1e-15 into
+3e-5 of a cost; the exponentials of eqs. (16), (18) are the kernels' own, within 1 ulp of the
+correctly rounded value (numpy's SIMD exponential differs from either in the last bit). The model-specific part, the ARR expressions, runs as tapes (:mod:`fdi.tape`) in the
 generic kernel: no compilation per model.
 
 Built C libraries are kept in bgfdi's disk cache (:mod:`fdi.diskcache`: signed entries in a

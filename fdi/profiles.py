@@ -139,8 +139,8 @@ def incipient(t: np.ndarray, t0, nominal: float, model: int, b) -> np.ndarray:
 
 def _exponential(fast, t: np.ndarray, t0: np.ndarray, nominal: float, model: int, b: np.ndarray) -> np.ndarray:
     """Eq. (16) or (18) (finite P0) by the compiled kernels (fdi.kernels): the numpy path's
-    operations in one pass with libm's exponential (numpy's own on AVX2 machines; its SIMD code
-    where AVX-512 is, a last-bit difference), and no temporary. It was three passes around
+    operations in one pass with the kernels' exponential (:func:`_exp`'s numbers, within 1 ulp of
+    numpy's; a loop that vectorises, where libm's is a call per sample), and no temporary. It was three passes around
     numpy's exponential (22 ns a sample where this takes 9): a translation's search
     (fdi.hints.translate) forms 860 000 samples of profiles."""
     rows = max(b.shape[0], t0.shape[0])
@@ -251,8 +251,8 @@ def _at19(tau: float, p0: float, b: tuple[float, float, float], span: float) -> 
 def at(kind: str, t: float, t0: float, nominal: float, *, value=None, model: int | None = None,
        b=None, span: float | None = None) -> float | None:
     """One profile's value at one instant, by the array functions' operations on Python floats
-    (their bits: IEEE sums, products and quotients; libm's exponential and square root, as the
-    compiled kernels'), or None where only the array functions compute it (eq. 15; eq. 19 past
+    (their bits: IEEE sums, products and quotients; the compiled kernels' exponential (:func:`_exp`),
+    libm's square root), or None where only the array functions compute it (eq. 15; eq. 19 past
     ``span`` or without one). Why: a simulation's right-hand side asks for the parameters one
     instant at a time (twice a step of LSODA), and the array functions cost ~25 us a call on one
     sample where this takes ~2 (the tutorial's 30 s drift: 60 000 calls).
@@ -300,12 +300,43 @@ def at(kind: str, t: float, t0: float, nominal: float, *, value=None, model: int
     return (-b4 + a * _exp(r1 * tau)) + c * _exp(r2 * tau)
 
 
+_SHIFT, _LOG2E = float.fromhex("0x1.8p52"), float.fromhex("0x1.71547652b82fep+0")
+_LN2HI, _LN2LO = float.fromhex("0x1.62e42fee00000p-1"), float.fromhex("0x1.a39ef35793c76p-33")
+_TAYLOR = tuple(float.fromhex(h) for h in (       # 1/13!, 1/12!, ..., 1/2!: Horner's order, innermost first
+    "0x1.6124613a86d09p-33", "0x1.1eed8eff8d898p-29", "0x1.ae64567f544e4p-26", "0x1.27e4fb7789f5cp-22",
+    "0x1.71de3a556c734p-19", "0x1.a01a01a01a01ap-16", "0x1.a01a01a01a01ap-13", "0x1.6c16c16c16c17p-10",
+    "0x1.1111111111111p-7", "0x1.5555555555555p-5", "0x1.5555555555555p-3", "0x1p-1"))
+_HI, _LO = 2.0 ** 600, 2.0 ** -600
+
+
 def _exp(x: float) -> float:
-    """libm's exponential, inf past its range as numpy's (math.exp raises there)."""
-    try:
-        return math.exp(x)
-    except OverflowError:
+    """The compiled kernels' exponential (fdi/kernels.c vexp, fdi._jit._vexp) on a Python float,
+    their operations in their order, so a simulation's profile at one instant is theirs to the bit:
+    x = k ln2 + r (k by the 1.5 * 2^52 shift, ln2 in two parts), exp(r) by Taylor to degree 13, times
+    2^k (in two steps near the range's ends); within 1 ulp of the correctly rounded value, inf past
+    709.78, 0 below -745.13, NaN kept.
+
+    >>> _exp(0.0), abs(_exp(1.0) - math.e) <= math.ulp(math.e), _exp(710.0), _exp(-746.0)
+    (1.0, True, inf, 0.0)
+    """
+    if x != x:
+        return x
+    if x > 709.782712893384:
         return math.inf
+    if x < -745.1332191019412:
+        return 0.0
+    kd = (x * _LOG2E + _SHIFT) - _SHIFT
+    r = (x - kd * _LN2HI) - kd * _LN2LO
+    p = _TAYLOR[0]
+    for c in _TAYLOR[1:]:
+        p = c + r * p
+    p = 1.0 + r * (1.0 + r * p)
+    k = int(kd)
+    if kd > 1000.0:
+        return (p * math.ldexp(1.0, k - 600)) * _HI
+    if kd < -1000.0:
+        return (p * math.ldexp(1.0, k + 600)) * _LO
+    return p * math.ldexp(1.0, k)
 
 
 def profile(kind: str, t: np.ndarray, t0: float, nominal: float, *, value=None, period=None, model: int | None = None,
