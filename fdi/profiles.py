@@ -252,7 +252,7 @@ def at(kind: str, t: float, t0: float, nominal: float, *, value=None, model: int
        b=None, span: float | None = None) -> float | None:
     """One profile's value at one instant, by the array functions' operations on Python floats
     (their bits: IEEE sums, products and quotients; the compiled kernels' exponential (:func:`_exp`),
-    libm's square root), or None where only the array functions compute it (eq. 15; eq. 19 past
+    libm's square root; on the numpy path, numpy's exponential differs from it in the last bit), or None where only the array functions compute it (eq. 15; eq. 19 past
     ``span`` or without one). Why: a simulation's right-hand side asks for the parameters one
     instant at a time (twice a step of LSODA), and the array functions cost ~25 us a call on one
     sample where this takes ~2 (the tutorial's 30 s drift: 60 000 calls).
@@ -313,8 +313,9 @@ def _exp(x: float) -> float:
     """The compiled kernels' exponential (fdi/kernels.c vexp, fdi._jit._vexp) on a Python float,
     their operations in their order, so a simulation's profile at one instant is theirs to the bit:
     x = k ln2 + r (k by the 1.5 * 2^52 shift, ln2 in two parts), exp(r) by Taylor to degree 13, times
-    2^k (in two steps near the range's ends); within 1 ulp of the correctly rounded value, inf past
-    709.78, 0 below -745.13, NaN kept.
+    2^k (in two steps near the range's ends); within 1 ulp of the correctly rounded value (1.16 ulp
+    of the exact one at most), inf past 709.78, 0 below -745.13, NaN kept. 0.7 us a call where
+    math.exp takes 0.1: a simulation's instant (:func:`at`) costs ~1 us more.
 
     >>> _exp(0.0), abs(_exp(1.0) - math.e) <= math.ulp(math.e), _exp(710.0), _exp(-746.0)
     (1.0, True, inf, 0.0)
@@ -327,10 +328,9 @@ def _exp(x: float) -> float:
         return 0.0
     kd = (x * _LOG2E + _SHIFT) - _SHIFT
     r = (x - kd * _LN2HI) - kd * _LN2LO
-    p = _TAYLOR[0]
-    for c in _TAYLOR[1:]:
-        p = c + r * p
-    p = 1.0 + r * (1.0 + r * p)
+    c13, c12, c11, c10, c9, c8, c7, c6, c5, c4, c3, c2 = _TAYLOR
+    p = 1.0 + r * (1.0 + r * (c2 + r * (c3 + r * (c4 + r * (c5 + r * (c6 + r * (c7 + r * (c8 + r * (
+        c9 + r * (c10 + r * (c11 + r * (c12 + r * c13))))))))))))
     k = int(kd)
     if kd > 1000.0:
         return (p * math.ldexp(1.0, k - 600)) * _HI

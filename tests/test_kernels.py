@@ -690,6 +690,12 @@ def test_the_kernels_exponential_is_within_one_ulp_of_the_correctly_rounded_one(
     assert np.all(np.abs(spec[tiny] - want[tiny]) <= 5e-324)
     assert np.array_equal(spec[~np.isfinite(xs) & ~np.isnan(xs)], [np.inf, 0.0])
     assert spec[xs == 709.7827128933841][0] == np.inf and spec[xs == -745.1332191019413][0] == 0.0
+    import mpmath                                  # against the exact value (sympy's mpmath): 1.16 ulp at most
+    mpmath.mp.dps = 40
+    worst = [float.fromhex(h) for h in ("-0x1.49975dfc1df53p+8", "0x1.03ef1c214c598p+7", "0x1.d4e028a5632b0p+5")]
+    for x in list(rng.uniform(-700.0, 700.0, 1500)) + list(rng.uniform(-0.5, 0.5, 500)) + worst:
+        y = _exp(float(x))
+        assert abs(mpmath.mpf(y) - mpmath.exp(mpmath.mpf(float(x)))) <= 1.16 * math.ulp(y), x
     t = np.array([0.0, 1.0])
     for path in kernels.available():
         before = kernels.use(path)
