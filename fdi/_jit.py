@@ -17,6 +17,7 @@ from numba import njit
 STEPS19 = 1000      # fdi.profiles.STEPS19 (a compile-time constant here; tests/test_kernels.py checks they agree)
 MIN_STEPS19 = 100   # fdi.profiles.MIN_STEPS19 (likewise)
 
+from .profiles import _exp
 from .tape import (ABS, ACOS, ADD, ASIN, ATAN, CONST, COS, COSH, DIV, EXP, LOADF, LOADP, LOADS, LOG, MUL, NEG, POW,  # noqa: F401
                    RECIP, SIGN, SIN, SINH, SQRT, SQUARE, SUB, TAN)
 
@@ -322,38 +323,9 @@ def _eq18_roots(b3):  # pragma: no cover - compiled
     return (b3 + root) / 2, (b3 - root) / 2
 
 
-_SHIFT, _LOG2E = float.fromhex("0x1.8p52"), float.fromhex("0x1.71547652b82fep+0")
-_LN2HI, _LN2LO = float.fromhex("0x1.62e42fee00000p-1"), float.fromhex("0x1.a39ef35793c76p-33")
-_C = tuple(float.fromhex(h) for h in ("0x1p-1", "0x1.5555555555555p-3", "0x1.5555555555555p-5", "0x1.1111111111111p-7",
-                                      "0x1.6c16c16c16c17p-10", "0x1.a01a01a01a01ap-13", "0x1.a01a01a01a01ap-16",
-                                      "0x1.71de3a556c734p-19", "0x1.27e4fb7789f5cp-22", "0x1.ae64567f544e4p-26",
-                                      "0x1.1eed8eff8d898p-29", "0x1.6124613a86d09p-33"))
-_C2, _C3, _C4, _C5, _C6, _C7, _C8, _C9, _C10, _C11, _C12, _C13 = _C
-_HI, _LO = float.fromhex("0x1p600"), float.fromhex("0x1p-600")
-
-
-@njit(cache=True, nogil=True)
-def _vexp(x):  # pragma: no cover - compiled
-    """fdi/kernels.c's vexp, its operations in its order (the C's bits): exp(x) = 2^k exp(r), k by
-    the 1.5 * 2^52 shift, r with ln2 in two parts, exp(r) by Taylor to degree 13, 2^k exact (ldexp),
-    in two steps near the range's ends."""
-    if x != x:
-        return x
-    if x > 709.782712893384:
-        return np.inf
-    if x < -745.1332191019412:
-        return 0.0
-    kd = x * _LOG2E + _SHIFT
-    kd = kd - _SHIFT
-    r = (x - kd * _LN2HI) - kd * _LN2LO
-    p = 1.0 + r * (1.0 + r * (_C2 + r * (_C3 + r * (_C4 + r * (_C5 + r * (_C6 + r * (_C7 + r * (_C8 + r * (
-        _C9 + r * (_C10 + r * (_C11 + r * (_C12 + r * _C13))))))))))))
-    k = int(kd)
-    if kd > 1000.0:
-        return (p * math.ldexp(1.0, k - 600)) * _HI
-    if kd < -1000.0:
-        return (p * math.ldexp(1.0, k + 600)) * _LO
-    return (p * math.ldexp(1.0, k)) * 1.0
+# the kernels' exponential (fdi/kernels.c vexp): fdi.profiles._exp, its one Python statement of the
+# operations, compiled as it is, so the C, numba and a simulation's instant give the same bits
+_vexp = njit(cache=True, nogil=True)(_exp)
 
 
 @njit(cache=True, nogil=True)

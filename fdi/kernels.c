@@ -130,14 +130,12 @@ static I steps19(double span, double step)
     return q > STEPS19 ? STEPS19 : (I)ceil(q);
 }
 
-/* rk4_19: tau (pop, n) -> out (pop, n); the grids of eight rows at a time (scratch of 8 (k + 1) each) */
-int rk4_19(const double *tau, I pop, I n, double p0, const double *b5, const double *b6, const double *b7,
-           double step, double *out)
+/* eq. (19)'s rows on a grid spanning ``span``, eight rows' grids at a time (scratch of 8 (k + 1) each),
+ * read at tau[r] (tau non-NULL: rk4_19) or at max(t - t0[r], 0) with the nominal value before the
+ * onset (incipient19) */
+static int eq19_rows(const double *tau, const double *t, const double *t0, I pop, I n, double span, double p0,
+                     const double *b5, const double *b6, const double *b7, double step, double *out)
 {
-    double span = 0.0;
-    for (I r = 0; r < pop; r++)
-        for (I j = 0; j < n; j++)
-            if (tau[r * n + j] > span) span = tau[r * n + j];
     I k = steps19(span, step);
     double h = span > 0 ? span / k : step;
     double *grid = malloc(sizeof(double) * 8 * (k + 1)), *slope = malloc(sizeof(double) * 8 * (k + 1));
@@ -145,11 +143,43 @@ int rk4_19(const double *tau, I pop, I n, double p0, const double *b5, const dou
     for (I r0 = 0; r0 < pop; r0 += 8) {
         I nl = imin(8, pop - r0);
         rk4_grids(p0, b5 + r0, b6 + r0, b7 + r0, 1, nl, h, k, grid, slope);
-        for (I l = 0; l < nl; l++)
-            hermite_taus(tau + (r0 + l) * n, n, h, k, grid + l * (k + 1), slope + l * (k + 1), out + (r0 + l) * n);
+        for (I l = 0; l < nl; l++) {
+            I r = r0 + l;
+            if (tau)
+                hermite_taus(tau + r * n, n, h, k, grid + l * (k + 1), slope + l * (k + 1), out + r * n);
+            else
+                hermite_row(t, n, t0[r], p0, h, k, grid + l * (k + 1), slope + l * (k + 1), out + r * n);
+        }
     }
     free(grid); free(slope);
     return 0;
+}
+
+/* rk4_19: tau (pop, n) -> out (pop, n), the grid spanning the largest tau */
+int rk4_19(const double *tau, I pop, I n, double p0, const double *b5, const double *b6, const double *b7,
+           double step, double *out)
+{
+    double span = 0.0;
+    for (I r = 0; r < pop; r++)
+        for (I j = 0; j < n; j++)
+            if (tau[r * n + j] > span) span = tau[r * n + j];
+    return eq19_rows(tau, NULL, NULL, pop, n, span, p0, b5, b6, b7, step, out);
+}
+
+/* eq. (19)'s profile of each row on the samples t: rk4_19 on tau = max(t - t0[r], 0) (the grid's
+ * span the largest tau of all rows, as there), nominal before the onset (fdi.profiles.incipient's
+ * np.where): the same numbers without the population's tau and select passes */
+int incipient19(const double *t, I n, const double *t0, I pop, double p0, const double *b5, const double *b6,
+                const double *b7, double step, double *out)
+{
+    double span = 0.0;
+    for (I r = 0; r < pop; r++)
+        for (I j = 0; j < n; j++) {
+            double x = t[j] - t0[r];
+            double tau = x < 0 ? 0.0 : x;
+            if (tau > span) span = tau;
+        }
+    return eq19_rows(NULL, t, t0, pop, n, span, p0, b5, b6, b7, step, out);
 }
 
 /* ------------------------------------------------------------------ a translation's distances */
@@ -172,32 +202,6 @@ int distance_rows(const double *q, I rows, I n, const double *target, I first, I
     return 0;
 }
 
-/* eq. (19)'s profile of each row on the samples t: rk4_19 on tau = max(t - t0[r], 0) (the grid's
- * span the largest tau of all rows, as there), nominal before the onset (fdi.profiles.incipient's
- * np.where): the same numbers without the population's tau and select passes */
-int incipient19(const double *t, I n, const double *t0, I pop, double p0, const double *b5, const double *b6,
-                const double *b7, double step, double *out)
-{
-    double span = 0.0;
-    for (I r = 0; r < pop; r++)
-        for (I j = 0; j < n; j++) {
-            double x = t[j] - t0[r];
-            double tau = x < 0 ? 0.0 : x;
-            if (tau > span) span = tau;
-        }
-    I k = steps19(span, step);
-    double h = span > 0 ? span / k : step;
-    double *grid = malloc(sizeof(double) * 8 * (k + 1)), *slope = malloc(sizeof(double) * 8 * (k + 1));
-    if (!grid || !slope) { free(grid); free(slope); return -1; }
-    for (I r0 = 0; r0 < pop; r0 += 8) {
-        I nl = imin(8, pop - r0);
-        rk4_grids(p0, b5 + r0, b6 + r0, b7 + r0, 1, nl, h, k, grid, slope);
-        for (I l = 0; l < nl; l++)
-            hermite_row(t, n, t0[r0 + l], p0, h, k, grid + l * (k + 1), slope + l * (k + 1), out + (r0 + l) * n);
-    }
-    free(grid); free(slope);
-    return 0;
-}
 
 /* ------------------------------------------------------------------ the weighted median */
 

@@ -310,8 +310,9 @@ _HI, _LO = 2.0 ** 600, 2.0 ** -600
 
 
 def _exp(x: float) -> float:
-    """The compiled kernels' exponential (fdi/kernels.c vexp, fdi._jit._vexp) on a Python float,
-    their operations in their order, so a simulation's profile at one instant is theirs to the bit:
+    """The compiled kernels' exponential on a Python float (fdi/kernels.c vexp; numba compiles this
+    very function as fdi._jit._vexp): their operations in their order, so a simulation's profile at
+    one instant is theirs to the bit:
     x = k ln2 + r (k by the 1.5 * 2^52 shift, ln2 in two parts), exp(r) by Taylor to degree 13, times
     2^k (in two steps near the range's ends); within 1 ulp of the correctly rounded value (1.16 ulp
     of the exact one at most), inf past 709.78, 0 below -745.13, NaN kept. 0.7 us a call where

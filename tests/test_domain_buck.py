@@ -6,20 +6,16 @@ the data column), a nominal run that raises no alarm, and a designed load step a
 gain, each found alone and sized."""
 from __future__ import annotations
 
-from functools import partial
 from pathlib import Path
 
 import pytest
 import sympy as sp
 
-from fdi.api import Options, diagnose
-
-from .independent import buck, laws_of, measurements, thresholds_fixture
+from .independent import buck, found_alone, laws_of, thresholds_fixture
 
 MODEL = str(Path(__file__).resolve().parent / "data" / "buck_averaged.yaml")
 T0 = 0.12
 
-_data = partial(measurements, buck.simulate)
 thresholds = thresholds_fixture(MODEL, buck.simulate)
 
 
@@ -38,11 +34,8 @@ def test_the_residuals_are_the_inductor_and_the_capacitor_by_hand():
 def test_a_load_step_and_a_sensor_gain_are_found_and_sized(thresholds, which, factor, seed, rel):
     """The load drops to 3.5 Ohm (measured 3.4996) and the voltage sensor reads 0.9 of the truth (measured 0.90005)
     at 0.12 s; each is the single fault named, sized and dated."""
-    report = diagnose(MODEL, _data(which, seed, t0=T0, factor=factor, which=which),
-                      Options(workers=1, seed=0, thresholds=thresholds)).to_dict()
+    report, found = found_alone(MODEL, buck.simulate, which, factor, seed, T0, thresholds)
     assert T0 - 0.001 <= report["detection"]["time"] < T0 + 0.005     # half the 1.44 ms window before
-    (found,) = report["diagnosis"]["faults"]
-    assert (found["name"], found["type"]) == (which, "abrupt")
     assert found["value"] == pytest.approx(buck.NOMINAL.get(which, 1.0) * factor, rel=rel)
     assert found["t0"] == pytest.approx(T0, abs=0.001)
 

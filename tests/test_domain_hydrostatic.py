@@ -7,20 +7,16 @@ written line to shaft, modulus 1/Dm), a nominal run that raises no alarm, and a 
 each of the line, the load and the pressure transducer, each found alone and sized."""
 from __future__ import annotations
 
-from functools import partial
 from pathlib import Path
 
 import pytest
 import sympy as sp
 
-from fdi.api import Options, diagnose
-
-from .independent import hydrostatic, laws_of, measurements, thresholds_fixture
+from .independent import found_alone, hydrostatic, laws_of, thresholds_fixture
 
 MODEL = str(Path(__file__).resolve().parent / "data" / "hydrostatic_transmission.yaml")
 T0 = 10.0
 
-_data = partial(measurements, hydrostatic.simulate)
 thresholds = thresholds_fixture(MODEL, hydrostatic.simulate)
 
 
@@ -42,11 +38,8 @@ def test_a_fault_in_the_line_the_load_and_the_transducer_is_found_and_sized(thre
     """Rl within 2 % (measured 0.7 %): a leak is seen through the line's flow balance alone, where the leak's flow
     grows by P (1/Rl - 1/Rl0), 18 cm^3/s, 2.7 times the residual's threshold (calibrate: the
     smallest change of Rl these runs detect is 153 %, of bm 19 %, of the transducer's gain 2.3 %)."""
-    report = diagnose(MODEL, _data(which, seed, t0=T0, factor=factor, which=which),
-                      Options(workers=1, seed=0, thresholds=thresholds)).to_dict()
+    report, found = found_alone(MODEL, hydrostatic.simulate, which, factor, seed, T0, thresholds)
     assert T0 - 0.06 <= report["detection"]["time"] < T0 + 0.1     # half the 0.1 s window before
-    (found,) = report["diagnosis"]["faults"]
-    assert (found["name"], found["type"]) == (which, "abrupt")
     assert found["value"] == pytest.approx(hydrostatic.NOMINAL.get(which, 1.0) * factor, rel=rel)
     assert found["t0"] == pytest.approx(T0, abs=0.05)
 

@@ -56,6 +56,19 @@ def measurements(simulate: Callable[..., dict], name: str, seed: int, **kw):
     return Measurements(name, cols["t"], cols)
 
 
+def found_alone(model: str, simulate: Callable[..., dict], which: str, factor: float, seed: int, t0: float,
+                thresholds: dict) -> tuple[dict, dict]:
+    """A run of ``simulate`` (seed ``seed``) with ``which`` times ``factor`` from ``t0``, diagnosed with
+    ``thresholds``: the report and its one fault, asserted to be ``which``, abrupt (what each domain's
+    designed abrupt faults are checked for before their size and date)."""
+    from fdi.api import Options, diagnose
+    report = diagnose(model, measurements(simulate, which, seed, t0=t0, factor=factor, which=which),
+                      Options(workers=1, seed=0, thresholds=thresholds)).to_dict()
+    (found,) = report["diagnosis"]["faults"]
+    assert (found["name"], found["type"]) == (which, "abrupt")
+    return report, found
+
+
 def thresholds(model: str, simulate: Callable[..., dict]) -> dict:
     """The model's thresholds calibrated on nominal runs 1 and 2 (seeds 1, 2), asserted quiet on a
     third (seed 3): no alarm on a run the calibration did not see."""
