@@ -18,6 +18,7 @@ STEPS19 = 1000      # fdi.profiles.STEPS19 (a compile-time constant here; tests/
 MIN_STEPS19 = 100   # fdi.profiles.MIN_STEPS19 (likewise)
 
 from .profiles import _exp
+from .trig import _trig
 from .tape import (ABS, ACOS, ADD, ASIN, ATAN, CONST, COS, COSH, DIV, EXP, LOADF, LOADP, LOADS, LOG, MUL, NEG, POW,  # noqa: F401
                    RECIP, SIGN, SIN, SINH, SQRT, SQUARE, SUB, TAN)
 
@@ -328,6 +329,20 @@ def _eq18_roots(b3):  # pragma: no cover - compiled
 _vexp = njit(cache=True, nogil=True)(_exp)
 
 
+# the tapes' cos, sin and tan (fdi/kernels.c vtrig): fdi.trig._trig compiled as it is (the same bits)
+_vtrig = njit(cache=True, nogil=True)(_trig)
+
+
+@njit(cache=True, nogil=True)
+def trig(x, which):  # pragma: no cover - compiled
+    """cos (``which`` 0), sin (1) or tan (2) of every element of ``x`` as the tapes take them."""
+    out = np.empty_like(x)
+    flat, dst = x.ravel(), out.ravel()
+    for i in range(flat.size):
+        dst[i] = _vtrig(flat[i], which)
+    return out
+
+
 @njit(cache=True, nogil=True)
 def incipient_exp(t, t0, nominal, model, b):  # pragma: no cover - compiled
     """Eq. (16) (model 1: P0 exp(b1 tau)) or eq. (18) (model 3, finite P0: -b4 + a exp(r1 tau) +
@@ -540,13 +555,13 @@ def _tape(code, R, L, s0, F, P, S, consts):  # pragma: no cover - compiled
                     out[t] = np.log(u[t])
             elif op == SIN:
                 for t in range(L):
-                    out[t] = np.sin(u[t])
+                    out[t] = _vtrig(u[t], 1)
             elif op == COS:
                 for t in range(L):
-                    out[t] = np.cos(u[t])
+                    out[t] = _vtrig(u[t], 0)
             elif op == TAN:
                 for t in range(L):
-                    out[t] = np.tan(u[t])
+                    out[t] = _vtrig(u[t], 2)
             elif op == ASIN:
                 for t in range(L):
                     out[t] = np.arcsin(u[t])

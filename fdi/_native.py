@@ -33,6 +33,7 @@ _SIGNATURES = {
     "fused_arity": ("r", ""),
     "distance_rows": ("r", "piipiip"),
     "incipient19": ("r", "pipidpppdp"),
+    "trig": ("r", "piip"),
 }
 _lib = native.require("bgfdi_kernels", __file__, "kernels.c", _SIGNATURES)
 
@@ -119,6 +120,14 @@ def incipient_exp(t, t0, nominal, model, b):
     rows, n = b.shape[0], t.shape[0]
     out = np.empty((rows, n))
     _check(_lib.incipient_exp(_at(t), n, _at(t0), float(nominal), int(model), _at(b), rows, b.shape[1], _at(out)))
+    return out
+
+
+def trig(x, which):
+    """:func:`fdi._jit.trig`."""
+    x = _f(x)
+    out = np.empty_like(x)
+    _check(_lib.trig(_at(x), x.size, int(which), _at(out)))
     return out
 
 

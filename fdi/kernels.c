@@ -1,9 +1,10 @@
 /* The identification objective's generic heavy parts in C99: fdi._jit's functions, line for line.
  *
  * Each function does the floating-point operations of its numba twin (fdi/_jit.py), in the same
- * order, on the same IEEE doubles, calling the same libm for the transcendental functions: the
- * numbers are the numba path's, and the numpy path's to round-off (tests/test_kernels.py, 1e-9
- * relative). Built by optim.native with -O3 and -ffp-contract=off (no fused multiply-adds: they
+ * order, on the same IEEE doubles, calling the same libm for the transcendental functions (but the
+ * exponential of eqs. 16 and 18 and the tapes' cos, sin and tan: their own, below, and numba's the
+ * same Python statements compiled): the numbers are the numba path's, and the numpy path's to
+ * round-off (tests/test_kernels.py, 1e-9 relative). Built by optim.native with -O3 and -ffp-contract=off (no fused multiply-adds: they
  * would change the last bits) and no fast-math (it would reorder sums). Arrays are C-contiguous;
  * bool arrays are numpy's one byte per element. fdi/_native.py loads it with ctypes and gives it
  * fdi._jit's signatures. */
@@ -328,6 +329,124 @@ static inline double vexp(double x)
     y = x > 709.782712893384 ? INFINITY : y;
     y = x < -745.1332191019412 ? 0.0 : y;
     return x != x ? x : y;
+}
+
+/* ------------------------------------------------------------------ cos, sin and tan of the tapes */
+
+/* cos, sin and tan written so that the tapes' loops over samples vectorise (libm's are a call per
+ * sample: the CyCab's ARR2 and ARR3 take a cosine and a tangent of the corrected steering angle on
+ * every sample of every individual that corrects it, 7 % of a diagnosis). FreeBSD's msun (Sun's
+ * fdlibm, Bruce Evans' kernels) with its branches as selects: x = n pi/2 + (y0 + y1), n by the
+ * 1.5 * 2^52 shift, pi/2 in three 33-bit parts and their tails (Cody & Waite; every round
+ * taken: 151 bits, exact products for |n| < 2^20), then __kernel_cos, __kernel_sin and __kernel_tan
+ * (tan's -1/w by a split of 26 bits, Veltkamp's, in place of clearing the low word), within 1 ulp
+ * (tests/test_kernels.py against mpmath). Beyond |x| = 1.5 * 2^20, and for inf and NaN, libm's
+ * own (the second loop of each operation in run_tape). fdi.trig._trig takes the same operations: the
+ * numba path's bits. */
+#define TRIG_LIMIT 0x1.8p20
+
+static inline double rem_pio2(double x, double *tail, uint64_t *quadrant)
+{
+    const double shift = 0x1.8p52, invpio2 = 0x1.45f306dc9c883p-1;
+    const double p1 = 0x1.921fb54400000p+0, p2 = 0x1.0b4611a600000p-34;
+    const double p3 = 0x1.3198a2e000000p-69, p3t = 0x1.b839a252049c1p-104;
+    double fn = x * invpio2 + shift;
+    uint64_t nb;
+    memcpy(&nb, &fn, sizeof nb);                    /* round(x 2/pi) + 1.5 * 2^52 in the low bits */
+    *quadrant = nb & 3;
+    fn -= shift;
+    double r = x - fn * p1;                         /* exact: fn p1 is, and x is near it */
+    double s = fn * p2;                             /* exact */
+    double h = r - s;
+    double e = h - r;                               /* r - s = h + its rounding error (Knuth's two-sum) */
+    double lo = ((r - (h - e)) + (-s - e) - fn * p3) - fn * p3t;
+    double y0 = h + lo;
+    *tail = (h - y0) + lo;
+    return y0;
+}
+
+static inline double kcos(double x, double y)
+{
+    double z = x * x, w = z * z;
+    double r = z * (0x1.555555555554cp-5 + z * (-0x1.6c16c16c15177p-10 + z * 0x1.a01a019cb159p-16))
+             + w * w * (-0x1.27e4f809c52adp-22 + z * (0x1.1ee9ebdb4b1c4p-29 + z * -0x1.8fae9be8838d4p-37));
+    double hz = 0.5 * z;
+    double v = 1.0 - hz;
+    return v + (((1.0 - v) - hz) + (z * r - x * y));
+}
+
+static inline double ksin(double x, double y)
+{
+    double z = x * x, w = z * z;
+    double r = 0x1.111111110f8a6p-7 + z * (-0x1.a01a019c161d5p-13 + z * 0x1.71de357b1fe7dp-19)
+             + z * w * (-0x1.ae5e68a2b9cebp-26 + z * 0x1.5d93a5acfd57cp-33);
+    double v = z * x;
+    return x - ((z * (0.5 * y - v * r) - y) - v * -0x1.5555555555549p-3);
+}
+
+static inline double split_hi(double a)           /* a's leading 26 bits (Veltkamp) */
+{
+    double c = a * 134217729.0;
+    return c - (c - a);
+}
+
+static inline double ktan(double x, double y, int odd)
+{
+    int big = fabs(x) >= 0x1.59428p-1, neg = x < 0;
+    double xs = neg ? -x : x, ys = neg ? -y : y;
+    double xb = (0x1.921fb54442d18p-1 - xs) + (0x1.1a62633145c07p-55 - ys);
+    double xx = big ? xb : x, yy = big ? 0.0 : y;
+    double z = xx * xx, w = z * z;
+    double r = 0x1.111111110fe7ap-3 + w * (0x1.664f48406d637p-6 + w * (0x1.d6d22c9560328p-9
+             + w * (0x1.344d8f2f26501p-11 + w * (0x1.47e88a03792a6p-14 + w * -0x1.375cbdb605373p-16))));
+    double v = z * (0x1.ba1ba1bb341fep-5 + w * (0x1.226e3e96e8493p-7 + w * (0x1.7dbc8fee08315p-10
+             + w * (0x1.026f71a8d1068p-12 + w * (0x1.2b80f32f0a7e9p-14 + w * 0x1.b2a7074bf7ad4p-16)))));
+    double s = z * xx;
+    r = (yy + z * (s * (r + v) + yy)) + s * 0x1.5555555555563p-2;
+    w = xx + r;
+    double iy = odd ? -1.0 : 1.0;
+    double near = iy - 2.0 * (xx - (w * w / (w + iy) - r));
+    double folded = neg ? -near : near;
+    double zh = split_hi(w);
+    double vv = r - (zh - xx);                        /* zh + vv = xx + r */
+    double a = -1.0 / w;
+    double th = split_hi(a);
+    double inverse = th + a * ((1.0 + th * zh) + th * vv);
+    return big ? folded : (odd ? inverse : w);
+}
+
+/* which: 0 cos, 1 sin, 2 tan; |x| < TRIG_LIMIT (the callers take libm's beyond) */
+static inline double vtrig(double x, int which)
+{
+    double y1;
+    uint64_t q;
+    double y0 = rem_pio2(x, &y1, &q);
+    double out;
+    if (which == 2)
+        out = ktan(y0, y1, (int)(q & 1));
+    else {
+        double c = kcos(y0, y1), s = ksin(y0, y1);
+        q = (q + (which == 1 ? 3 : 0)) & 3;
+        out = q == 0 ? c : (q == 1 ? -s : (q == 2 ? -c : s));
+    }
+    return which != 0 && x == 0 ? x : out;      /* sin and tan keep the sign of zero (the reduction loses it) */
+}
+
+/* out[i] = cos, sin or tan (which 0, 1, 2) of x[i]: the tapes' loop (run_tape) */
+static void trig_loop(const double *restrict x, I n, int which, double *restrict out)
+{
+    if (which == 0) for (I i = 0; i < n; i++) out[i] = vtrig(x[i], 0);
+    else if (which == 1) for (I i = 0; i < n; i++) out[i] = vtrig(x[i], 1);
+    else for (I i = 0; i < n; i++) out[i] = vtrig(x[i], 2);
+    for (I i = 0; i < n; i++)
+        if (!(fabs(x[i]) < TRIG_LIMIT))
+            out[i] = which == 0 ? cos(x[i]) : (which == 1 ? sin(x[i]) : tan(x[i]));
+}
+
+int trig(const double *x, I n, I which, double *out)
+{
+    trig_loop(x, n, (int)which, out);
+    return 0;
 }
 
 /* ------------------------------------------------------------------ eqs. (15) and (17) */
@@ -748,9 +867,9 @@ static void run_tape(const I *code, I ncode, double *R, I block, I L, I s0, cons
             case RECIP: for (I t = 0; t < L; t++) out[t] = 1.0 / u[t]; break;
             case EXP: for (I t = 0; t < L; t++) out[t] = exp(u[t]); break;
             case LOG: for (I t = 0; t < L; t++) out[t] = log(u[t]); break;
-            case SIN: for (I t = 0; t < L; t++) out[t] = sin(u[t]); break;
-            case COS: for (I t = 0; t < L; t++) out[t] = cos(u[t]); break;
-            case TAN: for (I t = 0; t < L; t++) out[t] = tan(u[t]); break;
+            case SIN: trig_loop(u, L, 1, out); break;
+            case COS: trig_loop(u, L, 0, out); break;
+            case TAN: trig_loop(u, L, 2, out); break;
             case ASIN: for (I t = 0; t < L; t++) out[t] = asin(u[t]); break;
             case ACOS: for (I t = 0; t < L; t++) out[t] = acos(u[t]); break;
             case ATAN: for (I t = 0; t < L; t++) out[t] = atan(u[t]); break;

@@ -12,9 +12,10 @@ and then, by the very numpy operation the generated code applies to the very sam
 the numpy path's number bit for bit (the constants folded, the common subexpressions of the
 individual-free signals hoisted); a node that depends on the individual becomes one instruction of
 the tape, run by the compiled kernel on blocks of samples of each individual. Elementwise
-arithmetic is IEEE's in both; the transcendental functions (cos, tan, exp, general powers) are
-libm's in the kernel and numpy's SIMD code in the numpy path, a last-bit difference
-(tests/test_kernels.py compares the costs to 1e-9). numpy's ``x ** 2``, ``x ** -1`` and
+arithmetic is IEEE's in both; the transcendental functions are numpy's SIMD code in the numpy
+path and, in the kernel, :mod:`fdi.trig`'s cos, sin and tan (loops that vectorise, within 1 ulp)
+and libm's others (exp, general powers), a last-bit difference (tests/test_kernels.py compares
+the costs to 1e-9). numpy's ``x ** 2``, ``x ** -1`` and
 ``x ** 0.5`` are square, reciprocal and square root (its fast scalar powers), and so are the
 tape's.
 

@@ -704,3 +704,44 @@ def test_the_kernels_exponential_is_within_one_ulp_of_the_correctly_rounded_one(
         finally:
             kernels.use(before)
         assert np.array_equal(got, spec, equal_nan=True), path
+
+
+def test_the_tapes_cos_sin_and_tan_are_within_one_ulp_and_the_same_on_every_compiled_path():
+    """The tapes' cos, sin and tan (fdi/kernels.c vtrig, fdi._jit._vtrig, fdi.trig._trig: fdlibm's
+    reduction and kernels as selects): within 1 ulp of the exact value (mpmath, 40 digits) on
+    arguments near 0, near multiples of pi/4 and pi/2 (the reduction's cancellation), and out to
+    the reduction's limit; the same bits from the Python statement, numba and the C; signed zeros
+    kept; libm's own past the limit; NaN for inf and NaN."""
+    import math
+
+    import mpmath
+
+    from fdi.trig import LIMIT, _trig
+    rng = np.random.default_rng(3141)
+    near = np.array([k * math.pi / 4 for k in range(-64, 65)] + [k * math.pi / 2 for k in (1, 29, 1001, 650001)])
+    xs = np.concatenate([rng.uniform(-4.0, 4.0, 1500), rng.uniform(-LIMIT, LIMIT, 300), rng.normal(0, 1e-9, 100),
+                         near, np.nextafter(near, np.inf), [0.6743354797363281, np.nextafter(0.6743354797363281, 0),
+                                                            -0.6743354797363281, 5e-324, -1e-300]])
+    mpmath.mp.dps = 40
+    for which, exact in enumerate((mpmath.cos, mpmath.sin, mpmath.tan)):
+        for x in xs:
+            y, want = _trig(float(x), which), exact(mpmath.mpf(float(x)))
+            assert abs(mpmath.mpf(y) - want) <= math.ulp(float(want)) or y == float(want), (which, float(x).hex())
+    special = np.array([0.0, -0.0, LIMIT, -LIMIT, np.nextafter(LIMIT, 0), 1e300, np.inf, -np.inf, np.nan])
+    for which, libm in enumerate((math.cos, math.sin, math.tan)):
+        spec = np.array([_trig(float(x), which) for x in special])
+        assert [str(v) for v in spec[:2]] == (["1.0", "1.0"] if which == 0 else ["0.0", "-0.0"])
+        assert spec[2] == libm(LIMIT) and spec[5] == libm(1e300) and np.isnan(spec[-3:]).all()
+        every = np.concatenate([xs, special, rng.uniform(-10.0, 10.0, 20000)])
+        want = np.array([_trig(float(x), which) for x in every])
+        compiled = []
+        for path in kernels.available():
+            before = kernels.use(path)
+            try:
+                compiled.append(kernels.jit().trig(every, which))
+            finally:
+                kernels.use(before)
+        assert compiled or not kernels.available()
+        for got in compiled:
+            assert np.array_equal(got, want, equal_nan=True)
+            assert np.array_equal(np.signbit(got[~np.isnan(got)]), np.signbit(want[~np.isnan(want)]))
