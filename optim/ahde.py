@@ -291,7 +291,7 @@ class AHDE(GenerationalSolver):
             samples.append(np.vstack([x, self.proposals(bits, free)]))
         shells = [Branch(key, bits, free, x, np.empty(0), np.empty(0), np.empty(0))
                   for (key, (bits, free)), x in zip(picked.items(), samples)]
-        for b, c in zip(shells, self.evaluate(samples, shells)):
+        for b, c in zip(shells, self.evaluate_distinct(samples, shells)):
             keep = np.argsort(c, kind="stable")[:self.size(b.free.size)]
             b.x, b.f = b.x[keep], c[keep]
             b.F, b.CR = self.rng.uniform(0.1, 1.0, keep.size), self.rng.random(keep.size)
@@ -332,6 +332,28 @@ class AHDE(GenerationalSolver):
         return self.options.per_dim * d + 4 if d else 1
 
     # ------------------------------------------------------------------ evaluation and DE
+    def evaluate_distinct(self, xs: list[np.ndarray], branches: list[Branch]) -> list[np.ndarray]:
+        """:meth:`evaluate` with each branch's repeated rows evaluated once (a screen's proposals
+        repeat: the reals a structure does not read are set to their midpoints; scenario 2's
+        screens asked 518 rows twice), the costs those of every row as given."""
+        kept, back = [], []
+        for x in xs:
+            rows = np.ascontiguousarray(x)
+            if rows.shape[0] > 1:
+                key = rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel()
+                _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+                if first.size < rows.shape[0]:
+                    order = np.argsort(first, kind="stable")   # the distinct rows in the order given
+                    rank = np.empty_like(order)
+                    rank[order] = np.arange(order.size)
+                    kept.append(rows[first[order]])
+                    back.append(rank[inverse.reshape(-1)])
+                    continue
+            kept.append(x)
+            back.append(None)
+        costs = self.evaluate(kept, branches)
+        return [c if b is None else c[b] for c, b in zip(costs, back)]
+
     def evaluate(self, xs: list[np.ndarray], branches: list[Branch]) -> list[np.ndarray]:
         """One objective call for the rows of every branch; the costs split back per branch."""
         real = np.vstack(xs)

@@ -488,3 +488,27 @@ def test_a_generation_drawn_in_c_is_numpys_to_the_bit():
             for u, v in zip(a, c):
                 assert np.array_equal(u, v)
         assert state_plain == state_fast and next_plain == next_fast
+
+
+def test_a_screen_evaluates_each_distinct_point_once_and_keeps_every_rows_cost():
+    # the proposals repeat (a structure's unread real set to its midpoint makes them equal): each
+    # distinct point is evaluated once, the costs of the screen are every row's, so the population
+    # kept is the one a screen evaluating every row keeps, and the evaluations counted are the rows
+    # evaluated
+    seen = []
+
+    def cost(real, bits):
+        seen.extend(map(tuple, np.column_stack([real, bits])))
+        return _sphere(real, bits)
+
+    twice = np.array([[0.1, 0.2, 0.9], [0.1, 0.2, -0.9], [0.3, 0.3, 0.0], [0.1, 0.2, 0.0]])
+    problem = optim.pose(cost, bounds=[[-1, 1]] * 3, n_bits=1, free=lambda b: np.array([True, True, False]),
+                         propose=lambda b: twice)
+    e = AHDE(problem, AHDEOptions(screen=40, screen_each=20))
+    e.counter.objective = cost
+    bits = np.array([True])
+    (b,) = e.spawn([bits], screen=40)
+    rows = e.counter.evaluations
+    assert rows == len(seen) == len(set(seen))               # no point evaluated twice
+    assert rows == 20 + 2          # 20 screen points and the proposals' 2 distinct ones (x3 at its midpoint)
+    assert np.allclose(b.f, _sphere(b.x, np.ones((len(b.x), 1), dtype=bool)))
