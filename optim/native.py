@@ -41,6 +41,9 @@ import numpy as np
 FLAGS = ("-O3", "-std=c99", "-fPIC", "-shared", "-fno-fast-math", "-ffp-contract=off", "-fno-math-errno",
          "-fno-trapping-math")
 NATIVE = ("-march=native",)     # this machine's vector units (its CPU is in the library's key); dropped if refused
+# ... for x86-64's second level (SSE4.2: the kernels' exponential, cos, sin and tan loops still
+# vectorise, where a build without -march keeps them scalar at about twice libm's time), then none
+FALLBACKS = (("-march=x86-64-v2",), ()) if platform.machine().lower() in ("x86_64", "amd64") else ((),)
 TIMEOUT_S = 60.0        # a build that takes longer is abandoned (the callers fall back); it takes 1-2 s
 
 _TYPES = {"d": ctypes.c_double, "i": ctypes.c_int64, "p": ctypes.c_void_p, "r": ctypes.c_int}
@@ -182,7 +185,7 @@ def _build(name: str, source: bytes, cc: str) -> bytes | None:
         src, out = os.path.join(tmp, name + ".c"), os.path.join(tmp, name + ".so")
         with open(src, "wb") as fh:
             fh.write(source)
-        for native in (NATIVE, ()):
+        for native in (NATIVE, *FALLBACKS):
             try:
                 done = subprocess.run([cc, *FLAGS, *native, "-o", out, src, "-lm"], capture_output=True,
                                       timeout=TIMEOUT_S, stdin=subprocess.DEVNULL)

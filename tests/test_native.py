@@ -197,3 +197,23 @@ def test_no_room_for_the_build_leaves_a_note_not_a_crash(fresh, monkeypatch, tmp
     monkeypatch.setattr(tempfile, "tempdir", str(blocked))
     assert native.load("t_noroom", SOURCE, SIG) is None
     assert native.notes[-1].startswith("t_noroom: cannot build or load it here")
+
+
+@pytest.mark.skipif(native.FALLBACKS == ((),), reason="x86-64's levels only")
+def test_a_compiler_that_refuses_march_native_builds_for_x86_64_v2_then_for_none(fresh, monkeypatch, tmp_path):
+    """A compiler that refuses -march=native (a cross or older compiler) builds for x86-64's second
+    level (SSE4.2, where the kernels' exponential and trigonometric loops still vectorise), and
+    one that refuses that too builds without -march: the library loads and computes either way."""
+    real = native.compiler()
+    log = tmp_path / "flags"
+    for refused, used in (("native", "-march=x86-64-v2"), ("*", "")):
+        fake = tmp_path / "cc"
+        fake.write_text(f"#!/bin/sh\ncase \"$*\" in *-march={refused}*) exit 1;; esac\n"
+                        f"echo \"$*\" > {log}\nexec {real} \"$@\"\n")
+        fake.chmod(0o755)
+        monkeypatch.setenv("CC", str(fake))
+        monkeypatch.setattr(native, "_loaded", {})
+        lib = native.load(f"t_level_{len(used)}", SOURCE, SIG)
+        assert lib is not None and lib.add3(4) == 7
+        flags = log.read_text()
+        assert (used in flags if used else "-march" not in flags), flags
