@@ -12,7 +12,7 @@ not earn their parameters.
 """
 from __future__ import annotations
 
-import math  # noqa: F401  (the doctest)
+import math
 from dataclasses import replace
 from typing import TYPE_CHECKING, Callable, Sequence
 
@@ -37,7 +37,10 @@ def select_winner(results: list[Estimate], n_eff: float) -> Estimate:
     reference plant, fitted from its detection, was explained as well (criterion 0.1 lower) with
     a tiny leak and a 0.5 % piston-area change beside it."""
     crit = [information(e.cost, list(e.faults), n_eff) for e in results]
-    best = min(crit)
+    finite = [c for c in crit if math.isfinite(c)]
+    if not finite:          # (callers leave such results out: the smallest set, not an error)
+        return min(results, key=lambda e: len(e.candidate))
+    best = min(finite)
     ties = [i for i, c in enumerate(crit) if c < best + NO_PREFERENCE]
     return results[min(ties, key=lambda i: (len(results[i].candidate), crit[i]))]
 

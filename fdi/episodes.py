@@ -17,7 +17,7 @@ import numpy as np
 from .data import Measurements
 from .decide import effective_samples, select_winner
 from .detect import alarms
-from .isolate import candidate_sets
+from .isolate import candidate_sets, relaxed_sets
 from .mode_estimation import mode_change_fits
 from .objective import window
 from .results import Detection, Episode
@@ -73,7 +73,11 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
     Larger sets that drop a known fault are not tried. Beside them, each mode change of
     ``mode_changes`` (fault name, value) that could explain the new residuals, with the known
     faults held (:func:`fdi.mode_estimation.mode_change_fits`: no parameter, its onset near the
-    change): a burnt driver after a leak. The winner is chosen as at the first decision. A set fitted
+    change): a burnt driver after a leak. The winner is chosen as at the first decision; when no set
+    matches the new vector exactly, the smallest sets covering it are tried (as the first decision
+    does) with the known set refitted beside them (a piezoelectric stack's capacitance drift lit a
+    second residual the signature did not give it: the covering set alone, the coupling's modulus,
+    won though the drift went on), and when nothing is left to try the known diagnosis stands. A set fitted
     afresh is refitted with an earlier onset as the first decision's are
     (:func:`fdi.estimators.refit_early_onsets` over ``onsets``, the interval the evidence allows, and
     for a drift back to ``earliest``): a slow drift first seen in one residual and decided again when
@@ -82,12 +86,21 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
     eq. (17))."""
     w = est.monitor.config.derivative_window
     names = {f["name"] for f in known}
+    sets = candidate_sets(fsm, coherence, o.exoneration, o.max_set)
+    if not sets and o.exoneration:       # as the first decision: the smallest sets covering the vector,
+        sets = relaxed_sets(fsm, coherence, o.max_set)   # and the known set refitted beside them
+        known_set = tuple(f["name"] for f in known if f["type"] != "mode")
+        if known_set and len(known_set) <= o.max_set and all(set(known_set) != set(x) for x in sets):
+            sets.append(known_set)
     plan = []
-    for s in candidate_sets(fsm, coherence, o.exoneration, o.max_set):
+    for s in sets:
         if names < set(s):
             plan.append((tuple(x for x in s if x not in names), known, (t_change, t_change + w)))
         if names < set(s) or len(s) <= len(names):
             plan.append((tuple(s), [], None))
+    if not plan and not mode_changes:    # nothing to try explains the new vector: the diagnosis stands
+        return Episode(t_change, t_decision, tuple(coherence), tuple(known), (), tuple(f["name"] for f in known),
+                       tuple(known))
     start, span = since_detection(meas.t, det.time, t_decision, samples, MAX_GROWTH)
     from .estimators import refit_early_onsets, steps_at_window_start
     fresh = [i for i, p in enumerate(plan) if not p[1]]
@@ -95,7 +108,7 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
     refitted = set(fresh) if onsets is not None else set()     # their final checks wait for the fit kept
     results = est.run(meas.t, raw, start, span, [p[0] for p in plan], weights, o.seed + 7919 * episode, None,
                       [p[1] for p in plan], [p[2] for p in plan], [[known] for _ in plan],
-                      lambda i, e: i in refitted and steps_at_window_start(e, start, ts))
+                      lambda i, e: i in refitted and steps_at_window_start(e, start, ts)) if plan else []
     if onsets is not None and fresh:
         refits = refit_early_onsets(est, meas.t, raw, start, span, [plan[i][0] for i in fresh],
                                     [results[i] for i in fresh], weights, o.seed + 7919 * episode, onsets, earliest,
@@ -108,7 +121,11 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
     if mode_changes:
         win = window(meas.t, raw, start, span, w)
         full += mode_change_fits(est.monitor, win, weights, known, list(mode_changes), t_change, modes)
+    finite = [e for e in full if np.isfinite(e.cost)]
+    if not finite:                       # nothing fitted (or every fit overflowed): the diagnosis stands
+        return Episode(t_change, t_decision, tuple(coherence), tuple(known), tuple(full),
+                       tuple(f["name"] for f in known), tuple(known))
     n_eff = effective_samples(span, len(est.monitor.residuals), meas.ts, w)
-    best = select_winner(full, n_eff)
+    best = select_winner(finite, n_eff)
     return Episode(t_change, t_decision, tuple(coherence), tuple(known), tuple(full), tuple(best.candidate),
                    tuple(best.faults))

@@ -143,6 +143,11 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     w = config.derivative_window
     check_samples(o.samples, meas.ts, min_period=sc.min_period)
     raw = signals_from_data(model, meas)
+    if w is not None and w < meas.ts:        # (a window of a few samples is widened to the filter's least)
+        raise ModelError(f"{w:g} s is shorter than one sample of {meas.path} ({meas.ts:g} s): the derivatives "
+                         f"would be a {DEFAULT_ORDER + 2}-sample filter the thresholds were not set for; give at "
+                         f"least a few samples ({(DEFAULT_ORDER + 2) * meas.ts:g} s), or leave it out (bgfdi "
+                         "calibrate --window auto chooses one)", file=model.path, where="diagnosis.derivative_window")
     need = window_samples(w, meas.ts, DEFAULT_ORDER) + 1
     if meas.t.size < need:
         raise DataError(f"{meas.path}: {meas.t.size} samples are too few: the derivative window of {model.name} "
@@ -394,8 +399,15 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
                                  o.seed, onsets, earliest)
     d, results = widen(p, d, fsm, r, results, est, onsets)
     n_eff = effective_samples(p.samples, len(p.monitor.residuals), p.meas.ts, p.window_s)
-    won = select_winner(results, n_eff)
     mf = d.mode_fault if d.mode_fault is not None and d.mode_fault.faults else None
+    if mf is None and not any(np.isfinite(e.cost) for e in results):
+        # every fit's residuals overflow (a sample no sensor reads, 1e308 in a record): detected and
+        # isolated, not identified
+        clock.lap("identification")
+        note = (f"no candidate set's fit has a finite cost on the window from {det.time:g} s: the residuals "
+                "overflow on these data (look for a value no sensor reads, or a spike, near the detection)")
+        return replace(d, estimates=tuple(results), note=f"{d.note}; {note}" if d.note else note)
+    won = select_winner(results, n_eff)
     mode_faults = [f.to_dict() for f in mf.faults] if mf else []
     if mf is not None and information(mf.cost, mode_faults, n_eff) <= information(won.cost, list(won.faults), n_eff):
         # the fault mode explains the data better than any component fault once parameters are

@@ -251,3 +251,33 @@ def test_a_mode_the_options_fix_reaches_the_residuals_and_the_report():
     d = diagnose(str(CYCAB), data, Options(workers=1, mode={"a1": 1, "a2": 0}, max_set=1, pop=12, generations=4))
     assert d.detection is not None and d.detection.final_coherence[0] == 1
     assert [f.name for f in d.faults] == ["a2"] and d.mode_fault.mode["a2"] == 1
+
+
+def test_a_record_whose_values_overflow_every_fit_is_detected_and_not_identified(tmp_path, capsys):
+    """One sample no sensor reads (1e308 V: finite, so the reader takes it) makes every candidate's
+    residuals overflow: the diagnosis reports the detection and a note saying why no fault is
+    identified, exit 0 (it crashed choosing a winner among infinite costs), and no numpy warning.
+    The record: the RC circuit under u = 5 + 2 sin(3 t) by scipy (C v' = (u - v) / R - v / RL,
+    i = (u - v) / R), the sensors' noise seeded."""
+    from pathlib import Path
+
+    from scipy.integrate import solve_ivp
+    R, C, RL = 100.0, 1e-3, 200.0
+    t = np.arange(0.0, 3.0, 0.001)
+    u = 5.0 + 2.0 * np.sin(3.0 * t)
+    sol = solve_ivp(lambda s, x: [((5.0 + 2.0 * np.sin(3.0 * s) - x[0]) / R - x[0] / RL) / C], (0.0, 3.0),
+                    [5.0 * RL / (R + RL)], t_eval=t, rtol=1e-10, atol=1e-12)
+    rng = np.random.default_rng(7)
+    v = sol.y[0] + rng.normal(0.0, 1e-3, t.size)
+    i = (u - sol.y[0]) / R + rng.normal(0.0, 1e-5, t.size)
+    v[1500] = 1e308
+    path = tmp_path / "spike.csv"
+    np.savetxt(path, np.column_stack([t, u, i, v]), delimiter=",", header="t,u,i,v", comments="", fmt="%.17g")
+    code = main(["diagnose", str(Path(__file__).parent / "data" / "rc_two_sensors.yaml"), str(path), "--workers", "1",
+                 "--pop", "8", "--generations", "1", "--max-set", "1", "--threshold", "ARR1=0.01", "--threshold", "ARR2=0.001",
+                 "--json", "-q"])
+    out, err = capsys.readouterr()
+    assert code == 0 and "Warning" not in err, err
+    r = json.loads(out)
+    assert r["detection"]["time"] == pytest.approx(1.5, abs=0.1)
+    assert r["diagnosis"]["faults"] == [] and "no candidate set's fit has a finite cost" in r["note"]

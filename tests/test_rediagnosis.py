@@ -81,3 +81,39 @@ def test_a_second_fault_after_the_first_decision_is_found():
     b2 = _fault(r, "beta_theta2")
     assert b2["type"] == "abrupt" and b2["value"] == pytest.approx(0.8, rel=0.02)
     assert b2["t0"] == pytest.approx(35.0, abs=0.3)          # its own onset, not the first fault's
+
+
+def test_a_later_decision_that_no_set_matches_tries_the_covering_sets_beside_the_known_one(monkeypatch):
+    """A later coherence vector no candidate set matches exactly (a piezoelectric stack's capacitance
+    drift lit a second residual its signature did not give it; the decision again crashed on no
+    candidate): as at the first decision, the smallest sets covering it are fitted, with the known
+    set refitted beside them, and the criterion chooses; with nothing to try, the diagnosis stands."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from fdi import episodes
+    from fdi.results import Estimate
+    known = [{"name": "C0", "type": "incipient", "model": 1, "b": [-0.1], "t0": 0.5}]
+    fits = {("n",): 40.0, ("C0",): 10.0}
+    asked = []
+
+    class Est:
+        monitor = SimpleNamespace(config=SimpleNamespace(derivative_window=0.01), residuals=[0, 1, 2, 3])
+
+        def run(self, t, raw, start, span, candidates, *rest):
+            asked.append(list(candidates))
+            return [Estimate(c, fits[c], 1 / fits[c], (), None, ({**known[0], "name": c[0]},), 1, 0.0) for c in candidates]
+
+    t = np.arange(0.0, 2.0, 1e-3)
+    meas = SimpleNamespace(t=t, ts=1e-3)
+    det = SimpleNamespace(time=0.8)
+    monkeypatch.setattr(episodes, "candidate_sets", lambda fsm, coherence, exoneration, size: [])
+    monkeypatch.setattr(episodes, "relaxed_sets", lambda fsm, coherence, size: [("n",)])
+    o = SimpleNamespace(exoneration=True, max_set=3, seed=0)
+    e = episodes.redecide(Est(), meas, {}, det, np.ones(4), o, None, known, 1.2, 1.3, (1, 0, 0, 1), 100, 1)
+    assert asked == [[("n",), ("C0",)]] and e.winner == ("C0",) and len(e.estimates) == 2
+    monkeypatch.setattr(episodes, "relaxed_sets", lambda fsm, coherence, size: [])
+    o.exoneration = False                         # nothing to try: the known diagnosis stands, nothing fitted
+    e = episodes.redecide(Est(), meas, {}, det, np.ones(4), o, None, known, 1.2, 1.3, (1, 0, 0, 1), 100, 2)
+    assert len(asked) == 1 and e.winner == ("C0",) and e.faults == tuple(known) and e.estimates == ()
