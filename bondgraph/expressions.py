@@ -79,6 +79,8 @@ def parse_expression(text: str | int | float, symbols: Mapping[str, sp.Expr]) ->
         tree = ast.parse(src, mode="eval")
     except SyntaxError as exc:
         raise ExpressionError(f"cannot parse '{_short(src)}': {exc.msg}") from None
+    except ValueError:                      # an integer of more digits than Python converts (4 300)
+        raise ExpressionError(f"a number in '{_short(src)}' is out of range (at most 1e300)") from None
     except (RecursionError, MemoryError):
         raise ExpressionError(f"expression nested too deeply ('{_short(src)}')") from None
     if len(src) > MAX_DEPTH // 2 and _depth(tree.body) > MAX_DEPTH:     # each level takes a character:
@@ -89,6 +91,14 @@ def parse_expression(text: str | int | float, symbols: Mapping[str, sp.Expr]) ->
     expr = _build(tree.body, symbols, _short(src))
     if expr.has(sp.zoo, sp.nan):
         raise ExpressionError(f"'{_short(src)}' divides by zero")
+    for number in expr.atoms(sp.Number):      # numbers sympy multiplied together (1e300 * 1e300)
+        try:
+            inside = abs(float(number)) <= MAX_CONSTANT
+        except OverflowError:
+            inside = False
+        if not inside:
+            raise ExpressionError(f"the constant factor {number.evalf(3)} of '{_short(src)}' is beyond "
+                                  f"{MAX_CONSTANT:g} in magnitude; the residuals would be inf on every sample")
     return expr
 
 
@@ -117,10 +127,63 @@ def _power(base: sp.Expr, exponent: sp.Expr, src: str) -> sp.Expr:
     return base ** exponent
 
 
+# the functions as floats, for the constant parts' range check (:func:`_constant`)
+_FLOATS = {"sin": math.sin, "cos": math.cos, "tan": math.tan, "asin": math.asin, "acos": math.acos,
+           "atan": math.atan, "atan2": math.atan2, "sinh": math.sinh, "cosh": math.cosh, "tanh": math.tanh,
+           "exp": math.exp, "log": math.log, "sqrt": math.sqrt, "abs": abs,
+           "sign": lambda x: float((x > 0) - (x < 0)), "min": min, "max": max,
+           "heaviside": lambda x, h=0.5: 0.0 if x < 0 else (1.0 if x > 0 else h)}
+_FLOAT_OPS = {ast.Add: lambda a, b: a + b, ast.Sub: lambda a, b: a - b, ast.Mult: lambda a, b: a * b,
+              ast.Div: lambda a, b: a / b, ast.Pow: lambda a, b: math.pow(a, b)}
+MAX_CONSTANT = 1e300
+
+
+def _constant(node: ast.AST, symbols: Mapping[str, sp.Expr]) -> float | None:
+    """The value of a part of an expression that names no symbol, in double precision (None where it
+    names one): a constant part must be a double within MAX_CONSTANT, or the residuals it enters are
+    inf or NaN on every sample (blind, not an error), and sympy would work exactly on what a double
+    cannot hold (exp(exp(exp(100))) held ``tables`` for minutes). inf for an overflow, NaN outside a
+    function's domain."""
+    if isinstance(node, ast.Constant):
+        return float(node.value)
+    if isinstance(node, ast.Name):
+        if node.id in symbols or node.id not in CONSTANTS:
+            return None
+        return math.pi if node.id == "pi" else math.e
+    try:
+        if isinstance(node, ast.UnaryOp):
+            v = _constant(node.operand, symbols)
+            return None if v is None else (-v if isinstance(node.op, ast.USub) else v)
+        if isinstance(node, ast.BinOp):
+            a, b = _constant(node.left, symbols), _constant(node.right, symbols)
+            return None if a is None or b is None else _FLOAT_OPS[type(node.op)](a, b)
+        if isinstance(node, ast.Call):
+            args = [_constant(a, symbols) for a in node.args]
+            return None if any(a is None for a in args) else float(_FLOATS[node.func.id](*args))
+    except OverflowError:
+        return math.inf
+    except ZeroDivisionError:
+        raise ExpressionError(f"'{_short(ast.unparse(node), 40)}' divides by zero") from None
+    except (ValueError, TypeError):
+        return math.nan
+    return None
+
+
+def _in_range(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> None:
+    """Refuse a constant part (a call or an operation on numbers) beyond a double's range."""
+    v = _constant(node, symbols)
+    if v is not None and not abs(v) <= MAX_CONSTANT:
+        part = _short(ast.unparse(node), 40)
+        what = "is not a number" if v != v else f"is beyond {MAX_CONSTANT:g} in magnitude"
+        raise ExpressionError(f"'{part}' {what} in '{src}'; the residuals would be inf or NaN on every sample")
+
+
 def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
     if isinstance(node, ast.Constant):
         if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
             raise ExpressionError(f"only numbers are allowed as constants in '{src}'")
+        if isinstance(node.value, int) and abs(node.value) > 10 ** 300:      # (a float cannot hold it)
+            raise ExpressionError(f"number {_short(str(node.value), 20)} out of range in '{src}' (at most 1e300)")
         if not math.isfinite(node.value) or abs(node.value) > 1e300:
             raise ExpressionError(f"number {_short(str(node.value), 20)} out of range in '{src}' (at most 1e300)")
         return sp.Integer(node.value) if isinstance(node.value, int) else sp.Float(node.value)
@@ -143,8 +206,12 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
             raise ExpressionError(f"operator not allowed in '{src}'{hint}")
         left, right = _build(node.left, symbols, src), _build(node.right, symbols, src)
         if isinstance(node.op, ast.Pow):
-            return _power(left, right, src)
-        return op(left, right)
+            out = _power(left, right, src)
+        else:
+            out = op(left, right)
+        if out.is_number:
+            _in_range(node, symbols, src)
+        return out
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
         value = _build(node.operand, symbols, src)
         return -value if isinstance(node.op, ast.USub) else value
@@ -160,6 +227,8 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
         if node.keywords:
             raise ExpressionError(f"keyword arguments are not allowed in '{src}'")
         args = [_build(a, symbols, src) for a in node.args]
+        if all(a.is_number for a in args):
+            _in_range(node, symbols, src)
         try:
             return FUNCTIONS[node.func.id](*args)  # type: ignore[operator]
         except TypeError:

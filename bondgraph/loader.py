@@ -567,6 +567,9 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
                for k, v in _mapping(ctx, data.get("initial"), ("initial",)).items()}
     _check_initial(ctx, initial, elements, sensors)
     name = data.get("name") or Path(ctx.path).stem
+    if not str(name).isprintable():           # (printed in every report: a terminal would obey its escapes)
+        raise ctx.error(("name",), "the model's name holds control characters (escapes, line breaks); "
+                                   "write it as plain text on one line")
     plain = {k: v for k, v in symbols.items() if isinstance(v, sp.Symbol)}
     plain.update(mode_exprs)      # a junction's mode written as an expression (1 - s), under its text
     return Model(name=str(name), path=ctx.path, description=_text(data, "description"),

@@ -256,9 +256,9 @@ def format_calibration(c: Calibration) -> str:
                      + ("diagnosis.derivative_window" if c.window_given else
                         "the rule's, from no time constant of the data (the note below)" if c.blind else
                         "the rule's (half the model's fastest time constant, docs/diagnosis.md)"
-                        + (": the residuals take second derivatives, whose noise falls as the window's "
-                           "length to the power 2.5; if faults go undetected, calibrate --window auto chooses a "
-                           "window from the runs" if c.highest_order >= 2 else "")))
+                        + (f": the residuals take derivatives of order {c.highest_order}, whose noise falls as the "
+                           f"window's length to the power {c.highest_order + 0.5:g}; if faults go undetected, calibrate "
+                           "--window auto chooses a window from the runs" if c.highest_order >= 2 else "")))
     if c.blind and not c.window_chosen:
         lines.append(f"note: the rule's window follows no time constant of the data ({'; '.join(c.blind)}): "
                      f"calibrate --window auto chooses one from the runs")

@@ -111,6 +111,9 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
             raise DataError(f"{path}: {len(header):,} columns in the header, more than {MAX_COLUMNS:,}; a measurement "
                             "file has t and the model's columns")
         check_header(path, header)
+        if not first.strip() and not header:
+            raise DataError(f"{path}: the file is empty; a measurement file starts with a header line (t and the "
+                            "model's columns)")
         if "t" not in header:
             shown = delimiter.join(header)
             raise DataError(f"{path}: no 't' column in the header ({shown[:80]}); "

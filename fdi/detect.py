@@ -195,5 +195,5 @@ def thresholds_for(model_thresholds: Mapping[str, float], names: list[str], over
     merged.update(overrides or {})
     missing = [n for n in names if n not in merged]
     if missing:
-        raise ValueError(f"no threshold for {', '.join(missing)}: add thresholds to the model or pass --threshold")
+        raise ValueError(f"no threshold for {', '.join(missing)}: add thresholds to the model (bgfdi calibrate learns them from fault-free runs) or pass --threshold")
     return np.array([merged[n] for n in names], dtype=float)

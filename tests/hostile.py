@@ -106,6 +106,17 @@ CASES: list[tuple[str, dict, list[str], str]] = [
     ("noise-negative", *check(tank("noise: 20.0}\n  p2", "noise: -20.0}\n  p2")), "error"),
     ("initial-list", *check(tank("p1: 3000.0", "p1: [3000.0]")), "error"),
     ("tables-division-by-zero", *tables(tank('effort: "rho*g*q/A1"', 'effort: "rho*g*q/(A1 - A1)"')), "error"),
+    # a constant part beyond a double (exp(exp(exp(100))) held `tables` for minutes; 1e300 * 1e300 made
+    # every residual inf, blind without an error) and an integer no float holds (a traceback)
+    ("tables-tower-of-exponentials", *tables(tank('effort: "rho*g*q/A1"', 'effort: "rho*g*q/A1*exp(exp(exp(100)))"')),
+     "error"),
+    ("constant-overflow", *check(tank('effort: "rho*g*q/A1"', 'effort: "rho*g*q/A1*1e300*1e300"')), "error"),
+    ("integer-beyond-a-float", *check(tank('effort: "rho*g*q/A1"', 'effort: "rho*g*q/A1*' + "9" * 400 + '"')), "error"),
+    ("model-name-too-long", {}, ["check", "a" * 300 + ".yaml"], "error"),
+    ("model-name-escapes", *check(tank("name: two_tank_valve", 'name: "tank\\e[31mRED\\e[0m\\nfake: line"')), "error"),
+    ("window-below-a-sample", {"m.yaml": (ROOT / "models" / "cycab_steering.yaml").read_text(encoding="utf-8")
+                               .replace("derivative_window: 0.25", "derivative_window: 1.0e-300"), "d.csv": SHORT},
+     ["diagnose", "{m.yaml}", "{d.csv}", "--workers", "1"], "error"),
     ("name-keyword", *check(tank("  R12: {value", "  lambda: {value").replace("parameter: R12", "parameter: lambda")), "error"),
     ("top-level-list", *check("- a\n- b\n"), "error"),
     ("empty-file", *check(""), "error"),
@@ -173,6 +184,7 @@ CASES: list[tuple[str, dict, list[str], str]] = [
     ("output-directory", {}, ["tables", CYCAB, "-o", "{out}"], "error"),
     ("output-missing-folder", {}, ["tables", CYCAB, "-o", "{out}/no/such/folder/t.txt"], "error"),
     ("output-dash", {}, ["tables", CYCAB, "--mode", "a1=1,a2=1", "-o", "-"], "ok"),
+    ("output-name-too-long", {}, ["tables", CYCAB, "-o", "{out}/" + "t" * 300 + ".txt"], "error"),
     # ------------------------------------------------------------------ issue 23: names that cannot be meant
     ("data-column-twice", *data("t,u_in,theta1,theta2,p1,p1\n" + SHORT_ROWS), "error"),
     ("data-column-twice-extra", *data("t,u_in,theta1,theta2,p1,p2,p1\n"

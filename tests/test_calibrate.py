@@ -157,7 +157,7 @@ def test_the_report_says_which_derivative_window_filtered_the_residuals(tmp_path
     runs = [measurements(quarter_car.simulate, "nominal1", 1, T=4.0)]
     c = calibrate(str(rule), runs)
     assert (c.window, c.window_samples, c.window_given, c.highest_order) == (pytest.approx(0.009), 9, False, 2)
-    assert "second derivatives" in format_calibration(c)
+    assert "derivatives of order 2, whose noise falls as the window's length to the power 2.5" in format_calibration(c)
     c = calibrate(str(model), runs)
     assert (c.window, c.window_samples, c.window_given) == (pytest.approx(0.06), 61, True)
     assert "0.06 s (61 samples), diagnosis.derivative_window" in format_calibration(c)

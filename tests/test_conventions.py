@@ -300,3 +300,19 @@ def test_standard_input_is_bounded_and_named_in_a_fleets_lines(monkeypatch, caps
     lines = [json.loads(x) for x in out.splitlines()]
     assert code == 2 and [x["file"] for x in lines] == [str(tmp_path / "missing.csv"), "standard input"]
     assert lines[1]["error"].startswith("standard input: missing column(s)") and "bgfdi-stdin" not in out + err
+
+
+def test_binary_standard_input_is_refused_at_its_first_block(monkeypatch, capsys):
+    """`head -c 1G /dev/zero | bgfdi diagnose MODEL -` copied the whole gigabyte to a temporary file
+    before its first line was read: a NUL byte in the first block is refused at once."""
+    class Endless:                          # /dev/zero: a read after the first fails the test
+        reads = 0
+
+        def read(self, n):
+            Endless.reads += 1
+            assert Endless.reads == 1, "read on past the first block"
+            return b"\0" * n
+    monkeypatch.setattr("sys.stdin", type("In", (), {"buffer": Endless(), "closed": False})())
+    code, _, err = _run(["diagnose", TANK, "-"], capsys)
+    assert code == 2
+    _one_line(err, "standard input", "NUL byte at offset 0")

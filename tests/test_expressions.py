@@ -39,3 +39,29 @@ def test_forbidden_expressions(text, fragment):
 def test_misspelt_symbol_gets_a_suggestion():
     with pytest.raises(ExpressionError, match="did you mean 'kf2'"):
         parse_expression("kf3*f", {"kf2": X, "f": Y})
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ("x*exp(exp(exp(100)))", "'exp(exp(100))' is beyond 1e+300 in magnitude"),   # held `tables` for minutes
+    ("x*exp(710)", "'exp(710)' is beyond 1e+300"),
+    ("x*1e300*1e300", "the constant factor 1.00E+600"),                            # multiplied by sympy
+    ("x*" + "9" * 400, "out of range"),                                            # not a float
+    ("x*" + "9" * 1990, "out of range"),                                           # not even a Python int
+    ("x*log(-1)", "'log(-1)' is not a number"),
+    ("x*sqrt(-2) + y", "'sqrt(-2)' is not a number"),
+    ("x*(1/0)", "divides by zero"),
+])
+def test_a_constant_part_beyond_a_double_is_refused(text, fragment):
+    """A part of an expression that names no symbol is a number the residuals carry on every sample:
+    beyond a double's range (1e300 here) or not a real number, they would be inf or NaN everywhere
+    (a diagnosis that sees nothing, without an error), and sympy would work exactly on what a double
+    cannot hold. The range is a double's, computed in doubles (an independent reference: math)."""
+    with pytest.raises(ExpressionError, match=None) as err:
+        parse_expression(text, SYMS)
+    assert fragment in str(err.value)
+
+
+def test_constant_parts_within_a_double_pass():
+    assert parse_expression("x*exp(-800)", SYMS) == X * sp.exp(-800)       # underflows to 0: harmless
+    assert parse_expression("x*2**100 + sin(1) + max(1, 2)", SYMS) == X * 2 ** 100 + sp.sin(1) + 2
+    assert parse_expression("x*1e300*1e-300", SYMS) == 1.0 * X

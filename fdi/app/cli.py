@@ -14,6 +14,7 @@ import logging
 import math
 import os
 import sys
+import warnings
 import threading
 from collections import Counter
 from typing import Callable
@@ -1344,6 +1345,8 @@ def _run(argv: list[str] | None) -> int:
     except SystemExit as exc:                  # a bad option (one line printed) or --help: its code, returned
         return 0 if exc.code is None else exc.code if isinstance(exc.code, int) else 2
     configure(QUIET if args.quiet else VERBOSE if args.verbose else NORMAL)
+    if not args.verbose:     # numpy's floating-point warnings (an overflowing record or model) are not for a
+        warnings.simplefilter("ignore", RuntimeWarning)      # user to read: the report says what went wrong
     sources = Sources()
     try:
         if args.quiet and args.verbose:

@@ -619,7 +619,11 @@ def suite_files(paths: list[str], skipped: Callable[[str], None] | None = None) 
     forever), and ``skipped`` told in one line; a folder that cannot be listed is a UsageError."""
     out: list[Path] = []
     for p in map(Path, paths):
-        if not p.is_dir():
+        try:
+            folder = p.is_dir()
+        except OSError:                              # a name the system cannot look up: read as a file (one line there)
+            folder = False
+        if not folder:
             out.append(p)
             continue
         try:

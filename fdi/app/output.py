@@ -33,6 +33,10 @@ def check_output(path: str | Path, option: str = "-o") -> None:
     if str(path).strip() == "":
         raise OutputError(f"{option}: the path is empty; name a file (or - for standard output)")
     p = Path(path)
+    long = next((part for part in p.parts if len(os.fsencode(part)) > 255), None)
+    if long is not None:
+        raise OutputError(f"{option}: the name '{long[:40]}...' is longer than a file system takes (255 bytes); "
+                          "choose a shorter name")
     if p.is_dir():
         raise OutputError(f"{option}: '{path}' is a folder; name a file (or - for standard output)")
     parent = p.parent

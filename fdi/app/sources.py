@@ -36,9 +36,12 @@ def _suffixed(name: str, suffixes: tuple[str, ...]) -> list[str]:
     return [name] if name.lower().endswith(suffixes) else [name + s for s in suffixes]
 
 
+MAX_NAME = 240     # bytes: a longer name is no shipped file's (file systems take 255 a path component)
+
+
 def shipped(kind: str, name: str) -> Path | None:
     """The shipped file (or suite folder) ``name`` of ``kind`` (model, scenario, data, suite), or None."""
-    if not NAME.match(name):
+    if not NAME.match(name) or len(name.encode()) > MAX_NAME:
         return None
     if kind == "model":
         found = [models_dir() / n for n in _suffixed(name, (".yaml",))]
@@ -48,7 +51,16 @@ def shipped(kind: str, name: str) -> Path | None:
         found = [scenarios_dir() / name] + [scenarios_dir() / n for n in _suffixed(name, (".json", ".yaml"))]
     else:                                              # measurement files: models/data/<set>/<name>.csv
         found = sorted((models_dir() / "data").glob("*/" + (name if name.lower().endswith(".csv") else name + ".csv")))
-    return next((p for p in found if p.is_file() or (kind == "suite" and p.is_dir())), None)
+    return next((p for p in found if _is(p, kind)), None)
+
+
+def _is(path: Path, kind: str) -> bool:
+    """Whether ``path`` is a shipped file (a folder for a suite); False where the system cannot say
+    (a name longer than the file system takes: the name is then read as the path it is)."""
+    try:
+        return path.is_file() or (kind == "suite" and path.is_dir())
+    except OSError:
+        return False
 
 
 def shipped_names(kind: str) -> list[str]:
@@ -134,6 +146,9 @@ class Sources:
             with open(copy, "wb") as fh:
                 kept = 0
                 while kept < limit and (block := stream.read(min(1 << 20, limit - kept))):
+                    if kept == 0 and b"\0" in block:     # not text: refused before a gigabyte is copied
+                        raise UsageError(f"-: standard input holds a NUL byte at offset {block.index(0)}: not a "
+                                         "text file; pipe a CSV or YAML file in")
                     fh.write(block)
                     kept += len(block)
         except (OSError, ValueError) as exc:      # not readable (a closed descriptor, a test's capture)
