@@ -88,9 +88,12 @@ def parse_expression(text: str | int | float, symbols: Mapping[str, sp.Expr]) ->
         # 5 000 laws of a 10 000-element chain, cost a fifth of their parsing)
         raise ExpressionError(f"expression nested deeper than {MAX_DEPTH} levels ('{_short(src)}'); "
                               "name parts of it under definitions")
-    expr = _build(tree.body, symbols, _short(src))
+    doubles = _Doubles()
+    expr = _build(tree.body, symbols, _short(src), doubles)
     if expr.has(sp.zoo, sp.nan):
         raise ExpressionError(f"'{_short(src)}' divides by zero")
+    if doubles.literals < 2:
+        return expr
     for number in expr.atoms(sp.Number):      # numbers sympy multiplied together (1e300 * 1e300)
         try:
             inside = abs(float(number)) <= MAX_CONSTANT
@@ -138,47 +141,35 @@ _FLOAT_OPS = {ast.Add: lambda a, b: a + b, ast.Sub: lambda a, b: a - b, ast.Mult
 MAX_CONSTANT = 1e300
 
 
-def _constant(node: ast.AST, symbols: Mapping[str, sp.Expr]) -> float | None:
-    """The value of a part of an expression that names no symbol, in double precision (None where it
-    names one): a constant part must be a double within MAX_CONSTANT, or the residuals it enters are
-    inf or NaN on every sample (blind, not an error), and sympy would work exactly on what a double
-    cannot hold (exp(exp(exp(100))) held ``tables`` for minutes). inf for an overflow, NaN outside a
-    function's domain."""
-    if isinstance(node, ast.Constant):
-        return float(node.value)
-    if isinstance(node, ast.Name):
-        if node.id in symbols or node.id not in CONSTANTS:
-            return None
-        return math.pi if node.id == "pi" else math.e
+class _Doubles(dict):
+    """id(node) -> the value of a part of an expression that names no symbol, in doubles
+    (:func:`_double`); ``literals`` counts the number literals (sympy folds two or more)."""
+    literals = 0
+
+
+def _double(node: ast.AST, value, doubles: _Doubles, src: str) -> None:
+    """Keep ``value()`` (the part ``node`` computed in doubles from its parts' values) where every
+    part of it is a number; refuse it beyond MAX_CONSTANT or not a number: the residuals it enters
+    would be inf or NaN on every sample (blind, not an error), and sympy would work exactly on what
+    a double cannot hold (exp(exp(exp(100))) held ``tables`` for minutes)."""
     try:
-        if isinstance(node, ast.UnaryOp):
-            v = _constant(node.operand, symbols)
-            return None if v is None else (-v if isinstance(node.op, ast.USub) else v)
-        if isinstance(node, ast.BinOp):
-            a, b = _constant(node.left, symbols), _constant(node.right, symbols)
-            return None if a is None or b is None else _FLOAT_OPS[type(node.op)](a, b)
-        if isinstance(node, ast.Call):
-            args = [_constant(a, symbols) for a in node.args]
-            return None if any(a is None for a in args) else float(_FLOATS[node.func.id](*args))
+        v = value()
+    except KeyError:                             # a part names a symbol
+        return
     except OverflowError:
-        return math.inf
+        v = math.inf
     except ZeroDivisionError:
-        raise ExpressionError(f"'{_short(ast.unparse(node), 40)}' divides by zero") from None
+        raise ExpressionError(f"'{_short(ast.unparse(node), 40)}' divides by zero in '{src}'") from None
     except (ValueError, TypeError):
-        return math.nan
-    return None
-
-
-def _in_range(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> None:
-    """Refuse a constant part (a call or an operation on numbers) beyond a double's range."""
-    v = _constant(node, symbols)
-    if v is not None and not abs(v) <= MAX_CONSTANT:
-        part = _short(ast.unparse(node), 40)
+        v = math.nan
+    if not abs(v) <= MAX_CONSTANT:
         what = "is not a number" if v != v else f"is beyond {MAX_CONSTANT:g} in magnitude"
-        raise ExpressionError(f"'{part}' {what} in '{src}'; the residuals would be inf or NaN on every sample")
+        raise ExpressionError(f"'{_short(ast.unparse(node), 40)}' {what} in '{src}'; the residuals would be inf "
+                              "or NaN on every sample")
+    doubles[id(node)] = float(v)
 
 
-def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
+def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str, doubles: _Doubles) -> sp.Expr:
     if isinstance(node, ast.Constant):
         if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
             raise ExpressionError(f"only numbers are allowed as constants in '{src}'")
@@ -186,6 +177,8 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
             raise ExpressionError(f"number {_short(str(node.value), 20)} out of range in '{src}' (at most 1e300)")
         if not math.isfinite(node.value) or abs(node.value) > 1e300:
             raise ExpressionError(f"number {_short(str(node.value), 20)} out of range in '{src}' (at most 1e300)")
+        doubles.literals += 1
+        doubles[id(node)] = float(node.value)
         return sp.Integer(node.value) if isinstance(node.value, int) else sp.Float(node.value)
     if isinstance(node, ast.Name):
         name = node.id                               # Python's parser gives identifiers in NFKC form
@@ -195,6 +188,7 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
         if len(written) == 1:                        # a name written in another form ('µ' read as 'μ')
             return symbols[written[0]]
         if name in CONSTANTS:
+            doubles[id(node)] = math.pi if name == "pi" else math.e
             return CONSTANTS[name]
         if name in FUNCTIONS:
             raise ExpressionError(f"'{name}' is a function; call it as {name}(...) in '{src}'")
@@ -204,16 +198,16 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
         if op is None:
             hint = " (use ** for powers)" if isinstance(node.op, ast.BitXor) else ""
             raise ExpressionError(f"operator not allowed in '{src}'{hint}")
-        left, right = _build(node.left, symbols, src), _build(node.right, symbols, src)
-        if isinstance(node.op, ast.Pow):
-            out = _power(left, right, src)
-        else:
-            out = op(left, right)
-        if out.is_number:
-            _in_range(node, symbols, src)
+        left, right = _build(node.left, symbols, src, doubles), _build(node.right, symbols, src, doubles)
+        out = _power(left, right, src) if isinstance(node.op, ast.Pow) else op(left, right)
+        if id(node.left) in doubles and id(node.right) in doubles:
+            _double(node, lambda: _FLOAT_OPS[type(node.op)](doubles[id(node.left)], doubles[id(node.right)]),
+                    doubles, src)
         return out
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
-        value = _build(node.operand, symbols, src)
+        value = _build(node.operand, symbols, src, doubles)
+        if id(node.operand) in doubles:
+            doubles[id(node)] = -doubles[id(node.operand)] if isinstance(node.op, ast.USub) else doubles[id(node.operand)]
         return -value if isinstance(node.op, ast.USub) else value
     if isinstance(node, ast.Call):
         if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
@@ -226,13 +220,14 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
             raise ExpressionError(f"function '{node.func.id}' is not allowed in '{src}' (allowed: {allowed})")
         if node.keywords:
             raise ExpressionError(f"keyword arguments are not allowed in '{src}'")
-        args = [_build(a, symbols, src) for a in node.args]
-        if all(a.is_number for a in args):
-            _in_range(node, symbols, src)
+        args = [_build(a, symbols, src, doubles) for a in node.args]
         try:
-            return FUNCTIONS[node.func.id](*args)  # type: ignore[operator]
+            out = FUNCTIONS[node.func.id](*args)  # type: ignore[operator]
         except TypeError:
             raise ExpressionError(f"wrong number of arguments to {node.func.id} in '{src}'") from None
+        if all(id(a) in doubles for a in node.args):
+            _double(node, lambda: _FLOATS[node.func.id](*(doubles[id(a)] for a in node.args)), doubles, src)
+        return out
     raise ExpressionError(f"'{ast.unparse(node)}' is not allowed in an expression ('{src}')")
 
 
