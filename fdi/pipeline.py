@@ -31,7 +31,7 @@ from .mode_estimation import estimate_mode, mode_variable
 from .objective import nominal, window
 from .options import MIN_WINDOW_S, Options, check_samples
 from .prognose import prognose
-from .residuals import evaluate
+from .residuals import evaluate, mode_breaks
 from .results import Alternative, Diagnosis, Isolation, ModeFault, Prognosis, faults_of
 from .sensitivity import effective, weak_entries
 from .signatures import nominal_mode
@@ -163,14 +163,30 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
 
 
 def blind(p: Prepared, r: np.ndarray) -> str | None:
-    """What to change when a residual has no sample: fast switching leaves no whole derivative
-    window between two switches."""
-    names = p.monitor.names
-    empty = [n for n, row in zip(names, r.reshape(len(names), -1)) if not np.isfinite(row).any()]
-    if not empty:
-        return None
-    return (f"{', '.join(empty)} had no sample: every stretch between two mode switches is shorter than the "
-            f"derivative window ({p.window_s:g} s); shorten diagnosis.derivative_window or sample faster")
+    """What to change when a residual has samples it cannot judge: with mode switches in the record,
+    none at all when every stretch between two switches is shorter than the derivative window (its
+    samples near a switch are left out by design); without, a residual that is not finite where the
+    record or a law overflows a double (a value no sensor reads, an exponent through a parameter), on
+    every sample or on some: no threshold judges those, so the report says so."""
+    names, t = p.monitor.names, p.meas.t
+    finite = np.isfinite(r.reshape(len(names), -1))
+    empty = [n for n, f in zip(names, finite) if not f.any()]
+    if len(mode_breaks(p.monitor.model, p.raw)):
+        if not empty:
+            return None
+        return (f"{', '.join(empty)} had no sample: every stretch between two mode switches is shorter than the "
+                f"derivative window ({p.window_s:g} s); shorten diagnosis.derivative_window or sample faster")
+    notes = []
+    if empty:
+        notes.append(f"{', '.join(empty)} {'is' if len(empty) == 1 else 'are'} not finite on any sample: a law of "
+                     "the model overflows a double on these data (a constant or an exponent through a parameter; "
+                     "bgfdi tables shows the residuals), or the record holds values no sensor reads")
+    for n, f in zip(names, finite):
+        if f.any() and not f.all():
+            bad = np.flatnonzero(~f)
+            notes.append(f"{n} is not finite at {bad.size} sample(s) from {t[bad[0]]:g} s to {t[bad[-1]]:g} s: the "
+                         "record holds values it overflows on there (no threshold judges them)")
+    return "; ".join(notes) or None
 
 
 def mode_at(p: Prepared, det: Detection) -> dict[str, int]:

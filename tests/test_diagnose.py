@@ -281,3 +281,22 @@ def test_a_record_whose_values_overflow_every_fit_is_detected_and_not_identified
     r = json.loads(out)
     assert r["detection"]["time"] == pytest.approx(1.5, abs=0.1)
     assert r["diagnosis"]["faults"] == [] and "no candidate set's fit has a finite cost" in r["note"]
+
+
+def test_samples_a_residual_cannot_judge_are_reported_not_passed_over(tmp_path, capsys):
+    """One sample of 1e308 rad in the CyCab's encoder makes ARR1 and ARR2 NaN around it (their
+    derivative filters), and NaN crosses no threshold: the diagnosis said "nothing detected" and no
+    more. Now the report says which residuals were not finite, where."""
+    lines = (DATA / "nominal.csv").read_text(encoding="utf-8").splitlines(keepends=True)[:1201]
+    cells = lines[600].rstrip("\n").split(",")
+    cells[2] = "1e308"
+    lines[600] = ",".join(cells) + "\n"
+    path = tmp_path / "spike.csv"
+    path.write_text("".join(lines), encoding="utf-8")
+    code = main(["diagnose", str(CYCAB), str(path), "--workers", "1", "--json", "-q"])
+    out, err = capsys.readouterr()
+    r = json.loads(out)
+    assert code == 0 and r["detection"] is None and "Warning" not in err
+    assert "ARR1 is not finite at" in r["note"] and "ARR3" not in r["note"]
+    # the spike at 5.99 s within half the 0.25 s derivative window: 5.87 s to 6.11 s
+    assert cells[0] == "5.99" and "from 5.87 s to 6.11 s" in r["note"]
