@@ -329,7 +329,10 @@ def _eq18_roots(b3):  # pragma: no cover - compiled
 _vexp = njit(cache=True, nogil=True)(_exp)
 
 
-# the tapes' cos, sin and tan (fdi/kernels.c vtrig): fdi.trig._trig compiled as it is (the same bits)
+# the tapes' cos, sin and tan (fdi/kernels.c vtrig): fdi.trig._trig compiled as it is (the same bits).
+# numba's disk cache keys a function by its own file: the functions here that call _vexp or _vtrig
+# are not compiled again when only fdi/profiles.py or fdi/trig.py changes (an installation replaces
+# every file; when editing those, touch this file: tests/test_kernels.py compares the paths' bits)
 _vtrig = njit(cache=True, nogil=True)(_trig)
 
 

@@ -337,12 +337,12 @@ static inline double vexp(double x)
  * sample: the CyCab's ARR2 and ARR3 take a cosine and a tangent of the corrected steering angle on
  * every sample of every individual that corrects it, 7 % of a diagnosis). FreeBSD's msun (Sun's
  * fdlibm, Bruce Evans' kernels) with its branches as selects: x = n pi/2 + (y0 + y1), n by the
- * 1.5 * 2^52 shift, pi/2 in three 33-bit parts and their tails (Cody & Waite; every round
- * taken: 151 bits, exact products for |n| < 2^20), then __kernel_cos, __kernel_sin and __kernel_tan
- * (tan's -1/w by a split of 26 bits, Veltkamp's, in place of clearing the low word), within 1 ulp
- * (tests/test_kernels.py against mpmath). Beyond |x| = 1.5 * 2^20, and for inf and NaN, libm's
- * own (the second loop of each operation in run_tape). fdi.trig._trig takes the same operations: the
- * numba path's bits. */
+ * 1.5 * 2^52 shift, pi/2 in three 33-bit parts and a tail (Cody & Waite: exact products for
+ * |n| < 2^20) subtracted by two two-sums (fdi.trig's docstring says why), then __kernel_cos,
+ * __kernel_sin and __kernel_tan (tan's -1/w by a split of 26 bits, Veltkamp's, in place of clearing
+ * the low word): within 0.8 ulp (tests/test_kernels.py against mpmath, the closest arguments to
+ * multiples of pi/2 among them). Beyond |x| = 1.5 * 2^20, and for inf and NaN, libm's own (the second
+ * loop of each operation in run_tape). fdi.trig._trig takes the same operations: the numba path's bits. */
 #define TRIG_LIMIT 0x1.8p20
 
 static inline double rem_pio2(double x, double *tail, uint64_t *quadrant)
@@ -358,10 +358,14 @@ static inline double rem_pio2(double x, double *tail, uint64_t *quadrant)
     double r = x - fn * p1;                         /* exact: fn p1 is, and x is near it */
     double s = fn * p2;                             /* exact */
     double h = r - s;
-    double e = h - r;                               /* r - s = h + its rounding error (Knuth's two-sum) */
-    double lo = ((r - (h - e)) + (-s - e) - fn * p3) - fn * p3t;
-    double y0 = h + lo;
-    *tail = (h - y0) + lo;
+    double e = h - r;                               /* r - s = h + err (Knuth's two-sum) */
+    double err = (r - (h - e)) + (-s - e);
+    double t = fn * p3;                             /* exact */
+    double h2 = h - t;
+    double e2 = h2 - h;                             /* h - t = h2 + its error, a second two-sum */
+    double lo = (err + ((h - (h2 - e2)) + (-t - e2))) - fn * p3t;
+    double y0 = h2 + lo;
+    *tail = (h2 - y0) + lo;
     return y0;
 }
 

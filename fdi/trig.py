@@ -7,16 +7,19 @@ the CyCab's ARR2 and ARR3 take a cosine and a tangent of the corrected steering 
 sample of every individual that corrects it (7 % of a diagnosis). These are FreeBSD's msun (Sun's
 fdlibm with Bruce Evans' kernels) with their branches as selects:
 
-- x = n pi/2 + (y0 + y1): n by the 1.5 * 2^52 shift (round half to even), pi/2 in three 33-bit
-  parts and their tails (Cody & Waite), every round of fdlibm's medium reduction taken (151 bits;
-  the products are exact for |n| < 2^20);
+- x = n pi/2 + (y0 + y1): n by the 1.5 * 2^52 shift (round half to even), pi/2 in three parts of
+  33 bits and a tail (Cody & Waite: the products are exact for |n| < 2^20), the first two and the
+  third subtracted each by a two-sum, so that the remainder keeps its bits when x lies within 2^-54
+  of a multiple of pi/2 (fdlibm's rounds taken all at once lose the second's error term: 1e-16
+  relative errors; one sum of the last two parts, 1.8 ulp in tan near the closest such x);
 - ``__kernel_cos`` and ``__kernel_sin`` (degree 14 and 13 on [-pi/4, pi/4], the tail y1 taken in),
   picked and signed by n mod 4;
 - ``__kernel_tan`` (degree 27; past 0.6744 through tan(pi/4 - x); for odd n, -1/tan computed with a
   correction step, its splits by Veltkamp's 26 bits where fdlibm clears the low word).
 
-Within 1 ulp of the exact value (tests/test_kernels.py, against mpmath). Beyond |x| = 1.5 * 2^20,
-and for inf and NaN, the platform's libm (:mod:`math`), as before. The numpy path keeps numpy's own
+Within 0.8 ulp of the exact value (0.75 the worst found; tests/test_kernels.py, against mpmath,
+the arguments closest to multiples of pi/2 below 2^20 among them). Beyond |x| = 1.5 * 2^20, and for
+inf and NaN, the platform's libm (:mod:`math`), as before. The numpy path keeps numpy's own
 functions: the paths differ in the last bit, as they did with libm (costs compared to 1e-9).
 
 >>> import math
@@ -66,9 +69,13 @@ def _trig(x: float, which: int) -> float:
     s = fn * _PIO2_2
     h = r - s
     e = h - r
-    lo = ((r - (h - e)) + (-s - e) - fn * _PIO2_3) - fn * _PIO2_3T
-    y0 = h + lo
-    y1 = (h - y0) + lo
+    err = (r - (h - e)) + (-s - e)
+    t = fn * _PIO2_3
+    h2 = h - t
+    e2 = h2 - h
+    lo = (err + ((h - (h2 - e2)) + (-t - e2))) - fn * _PIO2_3T
+    y0 = h2 + lo
+    y1 = (h2 - y0) + lo
     if which == 2:
         big = abs(y0) >= _TAN_FOLD
         neg = y0 < 0

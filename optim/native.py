@@ -41,9 +41,22 @@ import numpy as np
 FLAGS = ("-O3", "-std=c99", "-fPIC", "-shared", "-fno-fast-math", "-ffp-contract=off", "-fno-math-errno",
          "-fno-trapping-math")
 NATIVE = ("-march=native",)     # this machine's vector units (its CPU is in the library's key); dropped if refused
-# ... for x86-64's second level (SSE4.2: the kernels' exponential, cos, sin and tan loops still
-# vectorise, where a build without -march keeps them scalar at about twice libm's time), then none
-FALLBACKS = (("-march=x86-64-v2",), ()) if platform.machine().lower() in ("x86_64", "amd64") else ((),)
+# ... for x86-64's second level where the processor has it (SSE4.2: the kernels' exponential, cos,
+# sin and tan loops still vectorise, where a build without -march keeps them scalar at about twice
+# libm's time), then none
+
+
+def _has_sse42() -> bool:
+    """Whether this Linux machine's processor reports SSE4.2 (x86-64-v2's newest part)."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
+            return any(line.startswith("flags") and " sse4_2" in line for line in fh.read(1 << 16).splitlines())
+    except OSError:
+        return False
+
+
+FALLBACKS = ((("-march=x86-64-v2",),) if platform.machine().lower() in ("x86_64", "amd64") and _has_sse42()
+             else ()) + ((),)
 TIMEOUT_S = 60.0        # a build that takes longer is abandoned (the callers fall back); it takes 1-2 s
 
 _TYPES = {"d": ctypes.c_double, "i": ctypes.c_int64, "p": ctypes.c_void_p, "r": ctypes.c_int}
@@ -101,7 +114,7 @@ def cpu() -> str:
 def _identity(source: bytes) -> bytes:
     """What a built library depends on: the source, the flags and the machine (not which compiler
     built it: any gives the arithmetic as written, and a library kept loads without one)."""
-    return b"\0".join([source, " ".join(FLAGS + NATIVE).encode(), platform.machine().encode(),
+    return b"\0".join([source, " ".join(FLAGS + NATIVE).encode(), repr(FALLBACKS).encode(), platform.machine().encode(),
                        sys.platform.encode(), cpu().encode()])
 
 

@@ -708,9 +708,9 @@ def test_the_kernels_exponential_is_within_one_ulp_of_the_correctly_rounded_one(
 
 def test_the_tapes_cos_sin_and_tan_are_within_one_ulp_and_the_same_on_every_compiled_path():
     """The tapes' cos, sin and tan (fdi/kernels.c vtrig, fdi._jit._vtrig, fdi.trig._trig: fdlibm's
-    reduction and kernels as selects): within 1 ulp of the exact value (mpmath, 40 digits) on
-    arguments near 0, near multiples of pi/4 and pi/2 (the reduction's cancellation), and out to
-    the reduction's limit; the same bits from the Python statement, numba and the C; signed zeros
+    reduction and kernels as selects): within 0.8 ulp of the exact value (mpmath, 40 digits; libm
+    0.5-0.68) on arguments near 0, near multiples of pi/4 and pi/2 (the reduction's cancellation,
+    among them the closest doubles to one below 2^20), and out to the reduction's limit; the same bits from the Python statement, numba and the C; signed zeros
     kept; libm's own past the limit; NaN for inf and NaN."""
     import math
 
@@ -718,7 +718,10 @@ def test_the_tapes_cos_sin_and_tan_are_within_one_ulp_and_the_same_on_every_comp
 
     from fdi.trig import LIMIT, _trig
     rng = np.random.default_rng(3141)
-    near = np.array([k * math.pi / 4 for k in range(-64, 65)] + [k * math.pi / 2 for k in (1, 29, 1001, 650001)])
+    near = np.array([k * math.pi / 4 for k in range(-64, 65)] + [k * math.pi / 2 for k in (1, 29, 1001, 650001)]
+                    # among the doubles closest to a multiple of pi/2 below 2^20 (a reviewer's search): the
+                    # reduction's third part taken with the second lost 0.94 ulp of y0 there, tan 1.83 ulp
+                    + [float.fromhex(h) for h in ("0x1.93c05c9ed3cbcp+18", "0x1.44bdb557e1dc1p+20")])
     xs = np.concatenate([rng.uniform(-4.0, 4.0, 1500), rng.uniform(-LIMIT, LIMIT, 300), rng.normal(0, 1e-9, 100),
                          near, np.nextafter(near, np.inf), [0.6743354797363281, np.nextafter(0.6743354797363281, 0),
                                                             -0.6743354797363281, 5e-324, -1e-300]])
@@ -726,7 +729,7 @@ def test_the_tapes_cos_sin_and_tan_are_within_one_ulp_and_the_same_on_every_comp
     for which, exact in enumerate((mpmath.cos, mpmath.sin, mpmath.tan)):
         for x in xs:
             y, want = _trig(float(x), which), exact(mpmath.mpf(float(x)))
-            assert abs(mpmath.mpf(y) - want) <= math.ulp(float(want)) or y == float(want), (which, float(x).hex())
+            assert abs(mpmath.mpf(y) - want) <= 0.8 * math.ulp(float(want)), (which, float(x).hex())
     special = np.array([0.0, -0.0, LIMIT, -LIMIT, np.nextafter(LIMIT, 0), 1e300, np.inf, -np.inf, np.nan])
     for which, libm in enumerate((math.cos, math.sin, math.tan)):
         spec = np.array([_trig(float(x), which) for x in special])
@@ -734,14 +737,11 @@ def test_the_tapes_cos_sin_and_tan_are_within_one_ulp_and_the_same_on_every_comp
         assert spec[2] == libm(LIMIT) and spec[5] == libm(1e300) and np.isnan(spec[-3:]).all()
         every = np.concatenate([xs, special, rng.uniform(-10.0, 10.0, 20000)])
         want = np.array([_trig(float(x), which) for x in every])
-        compiled = []
         for path in kernels.available():
             before = kernels.use(path)
             try:
-                compiled.append(kernels.jit().trig(every, which))
+                got = kernels.jit().trig(every, which)
             finally:
                 kernels.use(before)
-        assert compiled or not kernels.available()
-        for got in compiled:
-            assert np.array_equal(got, want, equal_nan=True)
-            assert np.array_equal(np.signbit(got[~np.isnan(got)]), np.signbit(want[~np.isnan(want)]))
+            assert np.array_equal(got, want, equal_nan=True), path
+            assert np.array_equal(np.signbit(got[~np.isnan(got)]), np.signbit(want[~np.isnan(want)])), path

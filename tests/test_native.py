@@ -199,7 +199,20 @@ def test_no_room_for_the_build_leaves_a_note_not_a_crash(fresh, monkeypatch, tmp
     assert native.notes[-1].startswith("t_noroom: cannot build or load it here")
 
 
-@pytest.mark.skipif(native.FALLBACKS == ((),), reason="x86-64's levels only")
+def _knows_v2() -> bool:
+    """Whether this machine's compiler builds for -march=x86-64-v2 (GCC 11 on, clang 12 on)."""
+    import subprocess
+    import tempfile
+    with tempfile.TemporaryDirectory() as tmp:
+        src = f"{tmp}/t.c"
+        with open(src, "w") as fh:
+            fh.write("int f(void) { return 1; }\n")
+        return subprocess.run([native.compiler(), "-march=x86-64-v2", "-c", src, "-o", f"{tmp}/t.o"],
+                              capture_output=True).returncode == 0
+
+
+@pytest.mark.skipif(native.FALLBACKS == ((),) or native.compiler() is None or not _knows_v2(),
+                    reason="x86-64-v2: its processors and compilers")
 def test_a_compiler_that_refuses_march_native_builds_for_x86_64_v2_then_for_none(fresh, monkeypatch, tmp_path):
     """A compiler that refuses -march=native (a cross or older compiler) builds for x86-64's second
     level (SSE4.2, where the kernels' exponential and trigonometric loops still vectorise), and
