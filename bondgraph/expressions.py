@@ -29,7 +29,7 @@ from __future__ import annotations
 import ast
 import math
 import unicodedata
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import sympy as sp
 
@@ -79,8 +79,6 @@ def parse_expression(text: str | int | float, symbols: Mapping[str, sp.Expr]) ->
         tree = ast.parse(src, mode="eval")
     except SyntaxError as exc:
         raise ExpressionError(f"cannot parse '{_short(src)}': {exc.msg}") from None
-    except ValueError:                      # an integer of more digits than Python converts (4 300)
-        raise ExpressionError(f"a number in '{_short(src)}' is out of range (at most 1e300)") from None
     except (RecursionError, MemoryError):
         raise ExpressionError(f"expression nested too deeply ('{_short(src)}')") from None
     if len(src) > MAX_DEPTH // 2 and _depth(tree.body) > MAX_DEPTH:     # each level takes a character:
@@ -92,15 +90,19 @@ def parse_expression(text: str | int | float, symbols: Mapping[str, sp.Expr]) ->
     expr = _build(tree.body, symbols, _short(src), doubles)
     if expr.has(sp.zoo, sp.nan):
         raise ExpressionError(f"'{_short(src)}' divides by zero")
-    if doubles.literals < 2:
+    if doubles.spread <= math.log(MAX_CONSTANT):
         return expr
-    for number in expr.atoms(sp.Number):      # numbers sympy multiplied together (1e300 * 1e300)
+    # parts sympy merged: 1e300 * 1e300 into 1e600, exp(690) * x * exp(690) into x * exp(1380) (each
+    # part within range, so its value is finite: evaluated without risk)
+    for part in expr.atoms(sp.Number, sp.Function, sp.Pow):
+        if part.free_symbols:
+            continue
         try:
-            inside = abs(float(number)) <= MAX_CONSTANT
-        except OverflowError:
+            inside = abs(complex(part if part.is_Number else part.evalf(17))) <= MAX_CONSTANT
+        except (OverflowError, TypeError, ValueError):
             inside = False
         if not inside:
-            raise ExpressionError(f"the constant factor {number.evalf(3)} of '{_short(src)}' is beyond "
+            raise ExpressionError(f"the constant factor {part.evalf(3)} of '{_short(src)}' is beyond "
                                   f"{MAX_CONSTANT:g} in magnitude; the residuals would be inf on every sample")
     return expr
 
@@ -143,19 +145,23 @@ MAX_CONSTANT = 1e300
 
 class _Doubles(dict):
     """id(node) -> the value of a part of an expression that names no symbol, in doubles
-    (:func:`_double`); ``literals`` counts the number literals (sympy folds two or more)."""
-    literals = 0
+    (:func:`_double`), and ``spread``, the sum of |ln |v|| over them: no product or quotient of
+    these parts (what sympy merges them into) can be beyond exp(spread) in magnitude."""
+    spread = 0.0
+
+    def keep(self, node: ast.AST, v: float) -> None:
+        self[id(node)] = v
+        if v != 0:
+            self.spread += abs(math.log(abs(v)))
 
 
-def _double(node: ast.AST, value, doubles: _Doubles, src: str) -> None:
+def _double(node: ast.AST, value: Callable[[], float], doubles: _Doubles, src: str) -> None:
     """Keep ``value()`` (the part ``node`` computed in doubles from its parts' values) where every
     part of it is a number; refuse it beyond MAX_CONSTANT or not a number: the residuals it enters
     would be inf or NaN on every sample (blind, not an error), and sympy would work exactly on what
     a double cannot hold (exp(exp(exp(100))) held ``tables`` for minutes)."""
     try:
         v = value()
-    except KeyError:                             # a part names a symbol
-        return
     except OverflowError:
         v = math.inf
     except ZeroDivisionError:
@@ -166,19 +172,17 @@ def _double(node: ast.AST, value, doubles: _Doubles, src: str) -> None:
         what = "is not a number" if v != v else f"is beyond {MAX_CONSTANT:g} in magnitude"
         raise ExpressionError(f"'{_short(ast.unparse(node), 40)}' {what} in '{src}'; the residuals would be inf "
                               "or NaN on every sample")
-    doubles[id(node)] = float(v)
+    doubles.keep(node, float(v))
 
 
 def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str, doubles: _Doubles) -> sp.Expr:
     if isinstance(node, ast.Constant):
         if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
             raise ExpressionError(f"only numbers are allowed as constants in '{src}'")
-        if isinstance(node.value, int) and abs(node.value) > 10 ** 300:      # (a float cannot hold it)
+        if (abs(node.value) > 10 ** 300 if isinstance(node.value, int)          # (a float may not hold it)
+                else not math.isfinite(node.value) or abs(node.value) > 1e300):
             raise ExpressionError(f"number {_short(str(node.value), 20)} out of range in '{src}' (at most 1e300)")
-        if not math.isfinite(node.value) or abs(node.value) > 1e300:
-            raise ExpressionError(f"number {_short(str(node.value), 20)} out of range in '{src}' (at most 1e300)")
-        doubles.literals += 1
-        doubles[id(node)] = float(node.value)
+        doubles.keep(node, float(node.value))
         return sp.Integer(node.value) if isinstance(node.value, int) else sp.Float(node.value)
     if isinstance(node, ast.Name):
         name = node.id                               # Python's parser gives identifiers in NFKC form
@@ -188,7 +192,7 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str, doubles: _Do
         if len(written) == 1:                        # a name written in another form ('µ' read as 'μ')
             return symbols[written[0]]
         if name in CONSTANTS:
-            doubles[id(node)] = math.pi if name == "pi" else math.e
+            doubles.keep(node, math.pi if name == "pi" else math.e)
             return CONSTANTS[name]
         if name in FUNCTIONS:
             raise ExpressionError(f"'{name}' is a function; call it as {name}(...) in '{src}'")
@@ -207,7 +211,7 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str, doubles: _Do
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
         value = _build(node.operand, symbols, src, doubles)
         if id(node.operand) in doubles:
-            doubles[id(node)] = -doubles[id(node.operand)] if isinstance(node.op, ast.USub) else doubles[id(node.operand)]
+            doubles.keep(node, -doubles[id(node.operand)] if isinstance(node.op, ast.USub) else doubles[id(node.operand)])
         return -value if isinstance(node.op, ast.USub) else value
     if isinstance(node, ast.Call):
         if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:

@@ -111,7 +111,7 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
             raise DataError(f"{path}: {len(header):,} columns in the header, more than {MAX_COLUMNS:,}; a measurement "
                             "file has t and the model's columns")
         check_header(path, header)
-        if not first.strip() and not header:
+        if first == "":
             raise DataError(f"{path}: the file is empty; a measurement file starts with a header line (t and the "
                             "model's columns)")
         if "t" not in header:

@@ -179,13 +179,15 @@ def blind(p: Prepared, r: np.ndarray) -> str | None:
     notes = []
     if empty:
         notes.append(f"{', '.join(empty)} {'is' if len(empty) == 1 else 'are'} not finite on any sample: a law of "
-                     "the model overflows a double on these data (a constant or an exponent through a parameter; "
-                     "bgfdi tables shows the residuals), or the record holds values no sensor reads")
+                     "the model overflows a double or leaves its domain on these data (a constant, an exponent "
+                     "through a parameter, a root or logarithm of a negative value; bgfdi tables shows the "
+                     "residuals), or the record holds values no sensor reads")
     for n, f in zip(names, finite):
         if f.any() and not f.all():
             bad = np.flatnonzero(~f)
             notes.append(f"{n} is not finite at {bad.size} sample(s) from {t[bad[0]]:g} s to {t[bad[-1]]:g} s: the "
-                         "record holds values it overflows on there (no threshold judges them)")
+                         "record holds values it overflows on or leaves its domain at there (no threshold judges "
+                         "them)")
     return "; ".join(notes) or None
 
 

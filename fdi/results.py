@@ -165,9 +165,10 @@ class Estimate:
 
     def to_dict(self, history: bool = True) -> dict:
         out: dict = {"candidate": list(self.candidate), "fitness": self.fitness}
-        if history:
-            out["history"] = list(self.history)
-        out.update({"margin": self.margin, "cost": self.cost, "faults": [dict(f) for f in self.faults],
+        if history:      # (JSON has no infinity: a cost no fit made finite is null)
+            out["history"] = [h if math.isfinite(h) else None for h in self.history]
+        out.update({"margin": self.margin, "cost": self.cost if math.isfinite(self.cost) else None,
+                    "faults": [dict(f) for f in self.faults],
                     "raced_out": self.raced_out, "outdone_by": list(self.outdone_by) or None,
                     "evaluations": self.evaluations, "wall_s": self.wall_s,
                     "objective_s": self.objective_s})

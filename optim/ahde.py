@@ -339,7 +339,7 @@ class AHDE(GenerationalSolver):
         kept, back = [], []
         for x in xs:
             rows = np.ascontiguousarray(x)
-            if rows.shape[0] > 1:
+            if rows.shape[0] > 1 and rows.shape[1]:         # (a problem without reals: nothing to compare)
                 key = rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel()
                 _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
                 if first.size < rows.shape[0]:

@@ -117,6 +117,10 @@ CASES: list[tuple[str, dict, list[str], str]] = [
     ("window-below-a-sample", {"m.yaml": (ROOT / "models" / "cycab_steering.yaml").read_text(encoding="utf-8")
                                .replace("derivative_window: 0.25", "derivative_window: 1.0e-300"), "d.csv": SHORT},
      ["diagnose", "{m.yaml}", "{d.csv}", "--workers", "1"], "error"),
+    ("window-below-a-sample-calibrate", {"m.yaml": (ROOT / "models" / "cycab_steering.yaml").read_text(encoding="utf-8")
+                                         .replace("derivative_window: 0.25", "derivative_window: 1.0e-300"),
+                                         "d.csv": SHORT},
+     ["calibrate", "{m.yaml}", "{d.csv}", "-o", "{out}/c.yaml"], "error"),
     ("name-keyword", *check(tank("  R12: {value", "  lambda: {value").replace("parameter: R12", "parameter: lambda")), "error"),
     ("top-level-list", *check("- a\n- b\n"), "error"),
     ("empty-file", *check(""), "error"),

@@ -316,3 +316,13 @@ def test_binary_standard_input_is_refused_at_its_first_block(monkeypatch, capsys
     code, _, err = _run(["diagnose", TANK, "-"], capsys)
     assert code == 2
     _one_line(err, "standard input", "NUL byte at offset 0")
+
+
+def test_gzip_and_utf16_standard_input_are_still_read(monkeypatch, capsys, tmp_path):
+    """Their NUL bytes are the encodings' (the data reader decodes both): not refused as binary."""
+    import gzip
+    text = "t,Qin,p1,p2\n" + "".join(f"{0.1 * k:.1f},0,3000,2000\n" for k in range(5))
+    for raw in (gzip.compress(text.encode()), text.encode("utf-16")):
+        _feed(monkeypatch, raw)
+        code, _, err = _run(["diagnose", TANK, "-", "-q"], capsys)
+        assert "NUL byte" not in err

@@ -278,7 +278,10 @@ def test_a_record_whose_values_overflow_every_fit_is_detected_and_not_identified
                  "--json", "-q"])
     out, err = capsys.readouterr()
     assert code == 0 and "Warning" not in err, err
-    r = json.loads(out)
+
+    def strict(constant):                    # JSON has no Infinity or NaN: the report must not write them
+        raise AssertionError(f"{constant} in the JSON report")
+    r = json.loads(out, parse_constant=strict)
     assert r["detection"]["time"] == pytest.approx(1.5, abs=0.1)
     assert r["diagnosis"]["faults"] == [] and "no candidate set's fit has a finite cost" in r["note"]
 

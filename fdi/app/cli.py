@@ -14,8 +14,8 @@ import logging
 import math
 import os
 import sys
-import warnings
 import threading
+import warnings
 from collections import Counter
 from typing import Callable
 
@@ -1345,8 +1345,14 @@ def _run(argv: list[str] | None) -> int:
     except SystemExit as exc:                  # a bad option (one line printed) or --help: its code, returned
         return 0 if exc.code is None else exc.code if isinstance(exc.code, int) else 2
     configure(QUIET if args.quiet else VERBOSE if args.verbose else NORMAL)
-    if not args.verbose:     # numpy's floating-point warnings (an overflowing record or model) are not for a
-        warnings.simplefilter("ignore", RuntimeWarning)      # user to read: the report says what went wrong
+    with warnings.catch_warnings():
+        if not args.verbose:     # numpy's floating-point warnings (an overflowing record or model) are not for a
+            warnings.filterwarnings("ignore", r".* encountered in ", RuntimeWarning)    # user: the report says it
+        return _run_parsed(args)
+
+
+def _run_parsed(args: argparse.Namespace) -> int:
+    """The command of ``args`` run, its exit code (:func:`_run` around it: the warnings' filter)."""
     sources = Sources()
     try:
         if args.quiet and args.verbose:

@@ -74,14 +74,16 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
                        f"is fitted as well by the other within their ranges; bgfdi isolability proposes sensors that "
                        f"separate them)")
     for e in report.get("episodes") or []:
-        if e["candidates"]:
-            out.append(f"at {e['time']:.2f} s the coherence vector became {list(e['coherence'])}; decided again at "
-                       f"{e['decision_time']:.2f} s over {len(e['candidates'])} candidate set(s): "
+        head = f"at {e['time']:.2f} s the coherence vector became {list(e['coherence'])}; "
+        if not e["candidates"]:
+            out.append(head + "no candidate set was left to try for it, so the diagnosis stands: "
                        f"{{{', '.join(e['winner'])}}}")
+        elif all(x.get("cost") is None for x in e.get("estimators") or []):
+            out.append(head + f"no fit of its {len(e['candidates'])} candidate set(s) was finite there, so the "
+                       f"diagnosis stands: {{{', '.join(e['winner'])}}}")
         else:
-            out.append(f"at {e['time']:.2f} s the coherence vector became {list(e['coherence'])}; no candidate set "
-                       f"explains it (no fault's signature covers it), so the diagnosis stands: "
-                       f"{{{', '.join(e['winner'])}}}")
+            out.append(head + f"decided again at {e['decision_time']:.2f} s over {len(e['candidates'])} candidate "
+                       f"set(s): {{{', '.join(e['winner'])}}}")
     faults = report["diagnosis"]["faults"]
     for f in report.get("insignificant") or []:
         out.append(f"  left out: {describe_fault(f)} (its parameters do not pay on the data since the detection: "

@@ -36,6 +36,7 @@ def _suffixed(name: str, suffixes: tuple[str, ...]) -> list[str]:
     return [name] if name.lower().endswith(suffixes) else [name + s for s in suffixes]
 
 
+ENCODED = (b"\x1f\x8b", b"\xff\xfe", b"\xfe\xff")   # gzip's magic bytes, UTF-16's marks: NUL bytes are theirs
 MAX_NAME = 240     # bytes: a longer name is no shipped file's (file systems take 255 a path component)
 
 
@@ -146,7 +147,8 @@ class Sources:
             with open(copy, "wb") as fh:
                 kept = 0
                 while kept < limit and (block := stream.read(min(1 << 20, limit - kept))):
-                    if kept == 0 and b"\0" in block:     # not text: refused before a gigabyte is copied
+                    if kept == 0 and b"\0" in block and not block.startswith(ENCODED):
+                        # not text, nor what the readers decode (gzip, UTF-16): refused before a gigabyte is copied
                         raise UsageError(f"-: standard input holds a NUL byte at offset {block.index(0)}: not a "
                                          "text file; pipe a CSV or YAML file in")
                     fh.write(block)
