@@ -80,6 +80,8 @@ class Calibration:
     window_chosen: bool = False         # chosen by ``--window auto`` (fdi.window_choice): written with -o
     window_scores: list[WindowScore] | None = None    # every candidate window's, the rule's first
     blind: tuple[str, ...] = ()         # why the rule's window follows no time constant the data show
+    spikes: tuple[tuple[str, float, str], ...] = ()   # (residual, its peak / its median, the run):
+                                                     # a peak rule's threshold set by a spike (SPIKE)
 
     @property
     def false_alarm_rate(self) -> float | None:
@@ -159,6 +161,7 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
             ratio = np.nanmax(left, axis=1) / others
             false_alarms.append(bool((left > others[:, None]).any()))
             worst.append((names[int(np.argmax(ratio))], float(ratio.max())))
+    spikes = _spikes(names, samples, [m.path for m in data]) if quantile is None else ()
     config = c.config if pick is None else replace(c.config, derivative_window=pick)
     sc = scales.for_model(model, config, data[0].ts)
     blind = _blind(scales.model_time_scales(model), data[0].ts) if c.config.derivative_window is None else ()
@@ -170,7 +173,29 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                        [m.path for m in data], worst, float(sc.window),
                        int(derivatives.window_samples(sc.window, data[0].ts, derivatives.DEFAULT_ORDER)),
                        c.config.derivative_window is not None,
-                       max((r.highest_order() for r in c.residuals), default=0), pick is not None, scores, blind)
+                       max((r.highest_order() for r in c.residuals), default=0), pick is not None, scores, blind,
+                       spikes)
+
+
+SPIKE = 1000.0   # a residual's peak this many times its median |r| is a spike, not noise: a normal law's peak over
+                 # a million samples is 8 times its median |r|, heavy tails and a nominal run's transients tens
+                 # (the median: one bad sample spreads over a derivative window, a share no quantile near 1 is
+                 # safe from on a short run)
+
+
+def _spikes(names: list[str], samples: list[np.ndarray], runs: list[str]) -> tuple[tuple[str, float, str], ...]:
+    """The residuals whose peak (the threshold's base under the peak rule) stands ``SPIKE`` times above
+    their median |r| over the runs, with that ratio and the run it is in: one bad sample in a run
+    meant to be fault-free sets the threshold (a 1e200 V cell made the RC circuit's ARR1 threshold
+    1.6e199, and a faulty run then raised nothing)."""
+    joined = np.concatenate(samples, axis=1)
+    level, peak = np.nanmedian(joined, axis=1), np.nanmax(joined, axis=1)
+    out = []
+    for i, name in enumerate(names):
+        if level[i] > 0 and peak[i] > SPIKE * level[i]:
+            run = int(np.argmax([np.nanmax(s[i]) for s in samples]))
+            out.append((name, float(peak[i] / level[i]), runs[run]))
+    return tuple(out)
 
 
 SUBSAMPLE = 100    # a time constant this many times shorter than a sample: likely an operating point's artefact
@@ -268,6 +293,9 @@ def format_calibration(c: Calibration) -> str:
     if c.blind and not c.window_chosen:
         lines.append(f"note: the rule's window follows no time constant of the data ({'; '.join(c.blind)}): "
                      f"calibrate --window auto chooses one from the runs")
+    for name, ratio, run in c.spikes:
+        lines.append(f"note: {name}'s peak is {ratio:.3g} times its median, in {run}: a spike or a fault in a run "
+                     "meant to be fault-free sets its threshold; check that run, or calibrate with --quantile 0.99")
     lines.append("thresholds: {" + ", ".join(f"{n}: {t:.4g}" for n, t in zip(c.names, c.thresholds)) + "}")
     return "\n".join(lines) + "\n"
 
