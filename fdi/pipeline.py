@@ -165,17 +165,24 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
 def blind(p: Prepared, r: np.ndarray) -> str | None:
     """What to change when a residual has samples it cannot judge: with mode switches in the record,
     none at all when every stretch between two switches is shorter than the derivative window (its
-    samples near a switch are left out by design); without, a residual that is not finite where the
-    record or a law overflows a double (a value no sensor reads, an exponent through a parameter), on
-    every sample or on some: no threshold judges those, so the report says so."""
+    samples near a switch are left out by design); elsewhere, a residual that is not finite where the
+    record or a law overflows a double or leaves its domain (a value no sensor reads, an exponent
+    through a parameter), on every sample or on some: no threshold judges those, so the report says
+    so."""
     names, t = p.monitor.names, p.meas.t
     finite = np.isfinite(r.reshape(len(names), -1))
     empty = [n for n, f in zip(names, finite) if not f.any()]
-    if len(mode_breaks(p.monitor.model, p.raw)):
-        if not empty:
-            return None
-        return (f"{', '.join(empty)} had no sample: every stretch between two mode switches is shorter than the "
-                f"derivative window ({p.window_s:g} s); shorten diagnosis.derivative_window or sample faster")
+    breaks = mode_breaks(p.monitor.model, p.raw)
+    if len(breaks):
+        if empty:
+            return (f"{', '.join(empty)} had no sample: every stretch between two mode switches is shorter than the "
+                    f"derivative window ({p.window_s:g} s); shorten diagnosis.derivative_window or sample faster")
+        # the samples within half a derivative window of a switch are left out by design: not those
+        reach = window_samples(p.window_s, p.meas.ts, DEFAULT_ORDER + 3) // 2 + 1
+        near = np.zeros(t.size, dtype=bool)
+        for k in breaks:
+            near[max(0, k - reach):k + reach] = True
+        finite = finite | near
     notes = []
     if empty:
         notes.append(f"{', '.join(empty)} {'is' if len(empty) == 1 else 'are'} not finite on any sample: a law of "
@@ -315,8 +322,11 @@ def widen(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, results: list, est: Est
         extra = sorted((c for c in fitted_sets(m.model, relaxed_sets(fsm, det.final_coherence, o.max_set))
                         if c not in have), key=lambda c: sum(quiet.get(f, 0) for f in c))
         extra, left = extra[:MAX_COVERING], max(0, len(extra) - MAX_COVERING)
-    if not extra:
-        return d, results
+    if not extra:                 # nothing more to try: the report says the best explains the data poorly
+        note = (f"the best explanation left residuals {best / level:.3g} times their nominal level, and no other "
+                "candidate set was left to try: a fault outside the candidates, or values no sensor reads in the "
+                "record, near the detection")
+        return replace(d, note=f"{d.note}; {note}" if d.note else note), results
     more = est.run(p.meas.t, p.raw, det.time, p.samples, extra, p.weights, o.seed + 104723, None, None,
                    [(det.time, onsets[1])] * len(extra))
     more = refit_early_onsets(est, p.meas.t, p.raw, det.time, p.samples, extra, more, p.weights, o.seed + 104723,

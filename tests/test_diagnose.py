@@ -303,3 +303,34 @@ def test_samples_a_residual_cannot_judge_are_reported_not_passed_over(tmp_path, 
     assert "ARR1 is not finite at" in r["note"] and "ARR3" not in r["note"]
     # the spike at 5.99 s within half the 0.25 s derivative window: 5.87 s to 6.11 s
     assert cells[0] == "5.99" and "from 5.87 s to 6.11 s" in r["note"]
+
+
+def test_a_fit_far_above_the_noise_with_nothing_left_to_try_is_said(tmp_path, capsys):
+    """One sample of 1e6 V in the RC circuit's voltage (finite: residuals huge, not NaN) is detected,
+    and the best candidate explains it poorly; with no other set left to try the report said nothing
+    of it (a sensor gain at its bound, as if diagnosed). Now its note gives the lack of fit. The
+    record: scipy's RC circuit as in the test above; the same record without the spike is quiet."""
+    from pathlib import Path
+
+    from scipy.integrate import solve_ivp
+    R, C, RL = 100.0, 1e-3, 200.0
+    t = np.arange(0.0, 3.0, 0.001)
+    u = 5.0 + 2.0 * np.sin(3.0 * t)
+    sol = solve_ivp(lambda s, x: [((5.0 + 2.0 * np.sin(3.0 * s) - x[0]) / R - x[0] / RL) / C], (0.0, 3.0),
+                    [5.0 * RL / (R + RL)], t_eval=t, rtol=1e-10, atol=1e-12)
+    rng = np.random.default_rng(7)
+    v = sol.y[0] + rng.normal(0.0, 1e-3, t.size)
+    i = (u - sol.y[0]) / R + rng.normal(0.0, 1e-5, t.size)
+    model = str(Path(__file__).parent / "data" / "rc_two_sensors.yaml")
+    options = ["--workers", "1", "--pop", "8", "--generations", "1", "--max-set", "1", "--threshold", "ARR1=0.01",
+               "--threshold", "ARR2=0.001", "--json", "-q"]
+    for spike, detected in ((None, False), (1e6, True)):
+        w = v.copy()
+        if spike is not None:
+            w[1500] = spike
+        path = tmp_path / "rc.csv"
+        np.savetxt(path, np.column_stack([t, u, i, w]), delimiter=",", header="t,u,i,v", comments="", fmt="%.17g")
+        assert main(["diagnose", model, str(path), *options]) == 0
+        r = json.loads(capsys.readouterr().out)
+        assert (r["detection"] is not None) == detected
+        assert detected == ("no other candidate set was left to try" in (r["note"] or ""))
