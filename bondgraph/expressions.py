@@ -29,7 +29,7 @@ from __future__ import annotations
 import ast
 import math
 import unicodedata
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 
 import sympy as sp
 
@@ -86,12 +86,11 @@ def parse_expression(text: str | int | float, symbols: Mapping[str, sp.Expr]) ->
         # 5 000 laws of a 10 000-element chain, cost a fifth of their parsing)
         raise ExpressionError(f"expression nested deeper than {MAX_DEPTH} levels ('{_short(src)}'); "
                               "name parts of it under definitions")
-    doubles = _Doubles()
-    expr = _build(tree.body, symbols, _short(src), doubles)
+    expr = _build(tree.body, symbols, _short(src))
     if expr.has(sp.zoo, sp.nan):
         raise ExpressionError(f"'{_short(src)}' divides by zero")
-    if doubles.spread <= math.log(MAX_CONSTANT):
-        return expr
+    _doubles(expr, _short(src))
+    return expr
     # parts sympy merged: 1e300 * 1e300 into 1e600, exp(690) * x * exp(690) into x * exp(1380) (each
     # part within range, so its value is finite: evaluated without risk)
     for part in expr.atoms(sp.Number, sp.Function, sp.Pow):
@@ -126,7 +125,8 @@ def _depth(root: ast.AST) -> int:
 def _power(base: sp.Expr, exponent: sp.Expr, src: str) -> sp.Expr:
     """base**exponent, refusing numeric exponents beyond MAX_EXPONENT (a power tower would be
     evaluated exactly)."""
-    if exponent.is_number and not (exponent.is_finite and abs(float(exponent)) <= MAX_EXPONENT):
+    v = _doubles(exponent)                 # (in doubles: float() of exp(exp(exp(x - x + 100))) ran for minutes)
+    if v is not None and not abs(v) <= MAX_EXPONENT:
         raise ExpressionError(f"exponent {_short(str(exponent), 20)} too large in '{src}' "
                               f"(numeric exponents must be within +-{MAX_EXPONENT})")
     return base ** exponent
@@ -138,51 +138,77 @@ _FLOATS = {"sin": math.sin, "cos": math.cos, "tan": math.tan, "asin": math.asin,
            "exp": math.exp, "log": math.log, "sqrt": math.sqrt, "abs": abs,
            "sign": lambda x: float((x > 0) - (x < 0)), "min": min, "max": max,
            "heaviside": lambda x, h=0.5: 0.0 if x < 0 else (1.0 if x > 0 else h)}
-_FLOAT_OPS = {ast.Add: lambda a, b: a + b, ast.Sub: lambda a, b: a - b, ast.Mult: lambda a, b: a * b,
-              ast.Div: lambda a, b: a / b, ast.Pow: lambda a, b: math.pow(a, b)}
 MAX_CONSTANT = 1e300
+_BY_CLASS = {FUNCTIONS[name]: f for name, f in _FLOATS.items()}      # sympy's function -> its double
 
 
-class _Doubles(dict):
-    """id(node) -> the value of a part of an expression that names no symbol, in doubles
-    (:func:`_double`), and ``spread``, the sum of |ln |v|| over them: no product or quotient of
-    these parts (what sympy merges them into) can be beyond exp(spread) in magnitude."""
-    spread = 0.0
+def _atom_double(e: sp.Basic) -> float | None:
+    """A number, pi or E as a double (inf past a double's range), NaN for the imaginary unit; None
+    for a symbol."""
+    if e.is_Number:
+        try:
+            return float(e)
+        except OverflowError:
+            return math.inf
+    if e is sp.pi or e is sp.E:
+        return math.pi if e is sp.pi else math.e
+    return math.nan if e is sp.I else None
 
-    def keep(self, node: ast.AST, v: float) -> None:
-        self[id(node)] = v
-        if v != 0:
-            self.spread += abs(math.log(abs(v)))
 
-
-def _double(node: ast.AST, value: Callable[[], float], doubles: _Doubles, src: str) -> None:
-    """Keep ``value()`` (the part ``node`` computed in doubles from its parts' values) where every
-    part of it is a number; refuse it beyond MAX_CONSTANT or not a number: the residuals it enters
-    would be inf or NaN on every sample (blind, not an error), and sympy would work exactly on what
-    a double cannot hold (exp(exp(exp(100))) held ``tables`` for minutes)."""
+def _node_double(e: sp.Basic, args: list[float]) -> float | None:
+    """``e`` (a sum, product, power or allowed function) in doubles from its arguments' doubles: an
+    overflow inf, a value outside a function's domain (or not real) NaN; None for anything else."""
     try:
-        v = value()
+        if e.is_Add:
+            return math.fsum(args)
+        if e.is_Mul:
+            return math.prod(args)
+        if e.is_Pow:
+            return math.pow(*args)
+        f = _BY_CLASS.get(type(e))
+        return None if f is None else float(f(*args))
     except OverflowError:
-        v = math.inf
-    except ZeroDivisionError:
-        raise ExpressionError(f"'{_short(ast.unparse(node), 40)}' divides by zero in '{src}'") from None
-    except (ValueError, TypeError):
-        v = math.nan
-    if not abs(v) <= MAX_CONSTANT:
-        what = "is not a number" if v != v else f"is beyond {MAX_CONSTANT:g} in magnitude"
-        raise ExpressionError(f"'{_short(ast.unparse(node), 40)}' {what} in '{src}'; the residuals would be inf "
-                              "or NaN on every sample")
-    doubles.keep(node, float(v))
+        return math.inf
+    except (ValueError, ZeroDivisionError, TypeError):
+        return math.nan
 
 
-def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str, doubles: _Doubles) -> sp.Expr:
+def _doubles(expr: sp.Expr, src: str | None = None) -> float | None:
+    """The value of ``expr`` in doubles where it names no symbol (None where it does), walked once
+    bottom-up: never sympy's exact evaluation, which ran for minutes on exp(exp(exp(100))). With
+    ``src``, every part that names no symbol (as sympy built it: parts merged, symbols that
+    cancelled, definitions substituted) must be a real double within MAX_CONSTANT, or an
+    ExpressionError names it: the residuals it enters would be inf or NaN on every sample (a
+    diagnosis blind without an error)."""
+    values: dict[int, float | None] = {}
+    stack = [(expr, False)]
+    while stack:
+        e, seen = stack.pop()
+        if not e.is_Atom and not seen:
+            stack.append((e, True))
+            stack.extend((a, False) for a in e.args)
+            continue
+        if e.is_Atom:
+            v = _atom_double(e)
+        else:
+            args = [values.get(id(a)) for a in e.args]
+            v = None if any(a is None for a in args) else _node_double(e, args)
+        values[id(e)] = v
+        if src is not None and v is not None and not abs(v) <= MAX_CONSTANT:
+            what = "is not a real number" if v != v else f"is beyond {MAX_CONSTANT:g} in magnitude"
+            shown = e.evalf(3) if e.is_Number else e
+            raise ExpressionError(f"the constant '{_short(str(shown), 40)}' of '{src}' (as the parts combine) {what}; "
+                                  "the residuals would be inf or NaN on every sample")
+    return values[id(expr)]
+
+
+def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
     if isinstance(node, ast.Constant):
         if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
             raise ExpressionError(f"only numbers are allowed as constants in '{src}'")
         if (abs(node.value) > 10 ** 300 if isinstance(node.value, int)          # (a float may not hold it)
                 else not math.isfinite(node.value) or abs(node.value) > 1e300):
             raise ExpressionError(f"number {_short(str(node.value), 20)} out of range in '{src}' (at most 1e300)")
-        doubles.keep(node, float(node.value))
         return sp.Integer(node.value) if isinstance(node.value, int) else sp.Float(node.value)
     if isinstance(node, ast.Name):
         name = node.id                               # Python's parser gives identifiers in NFKC form
@@ -192,7 +218,6 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str, doubles: _Do
         if len(written) == 1:                        # a name written in another form ('µ' read as 'μ')
             return symbols[written[0]]
         if name in CONSTANTS:
-            doubles.keep(node, math.pi if name == "pi" else math.e)
             return CONSTANTS[name]
         if name in FUNCTIONS:
             raise ExpressionError(f"'{name}' is a function; call it as {name}(...) in '{src}'")
@@ -202,16 +227,12 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str, doubles: _Do
         if op is None:
             hint = " (use ** for powers)" if isinstance(node.op, ast.BitXor) else ""
             raise ExpressionError(f"operator not allowed in '{src}'{hint}")
-        left, right = _build(node.left, symbols, src, doubles), _build(node.right, symbols, src, doubles)
-        out = _power(left, right, src) if isinstance(node.op, ast.Pow) else op(left, right)
-        if id(node.left) in doubles and id(node.right) in doubles:
-            _double(node, lambda: _FLOAT_OPS[type(node.op)](doubles[id(node.left)], doubles[id(node.right)]),
-                    doubles, src)
-        return out
+        left, right = _build(node.left, symbols, src), _build(node.right, symbols, src)
+        if isinstance(node.op, ast.Pow):
+            return _power(left, right, src)
+        return op(left, right)
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
-        value = _build(node.operand, symbols, src, doubles)
-        if id(node.operand) in doubles:
-            doubles.keep(node, -doubles[id(node.operand)] if isinstance(node.op, ast.USub) else doubles[id(node.operand)])
+        value = _build(node.operand, symbols, src)
         return -value if isinstance(node.op, ast.USub) else value
     if isinstance(node, ast.Call):
         if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
@@ -224,13 +245,16 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str, doubles: _Do
             raise ExpressionError(f"function '{node.func.id}' is not allowed in '{src}' (allowed: {allowed})")
         if node.keywords:
             raise ExpressionError(f"keyword arguments are not allowed in '{src}'")
-        args = [_build(a, symbols, src, doubles) for a in node.args]
+        args = [_build(a, symbols, src) for a in node.args]
         try:
             out = FUNCTIONS[node.func.id](*args)  # type: ignore[operator]
         except TypeError:
             raise ExpressionError(f"wrong number of arguments to {node.func.id} in '{src}'") from None
-        if all(id(a) in doubles for a in node.args):
-            _double(node, lambda: _FLOATS[node.func.id](*(doubles[id(a)] for a in node.args)), doubles, src)
+        v = _doubles(out)             # a constant call checked where it is made: sympy works on it next
+        if v is not None and not abs(v) <= MAX_CONSTANT:
+            what = "is not a real number" if v != v else f"is beyond {MAX_CONSTANT:g} in magnitude"
+            raise ExpressionError(f"'{_short(ast.unparse(node), 40)}' {what} in '{src}'; the residuals would be inf "
+                                  "or NaN on every sample")
         return out
     raise ExpressionError(f"'{ast.unparse(node)}' is not allowed in an expression ('{src}')")
 

@@ -143,6 +143,12 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
     pick = chosen(scores).window if scores else None
     samples = [nominal_residuals(model_path, meas, settle, pick) for meas in data]
     thresholds = _threshold(samples, quantile, margin)
+    joined = np.concatenate(samples, axis=1)
+    spiked = [n for n, v, row in zip(names, thresholds, joined) if not np.isfinite(v) and np.isfinite(row).any()]
+    if spiked:
+        raise DataError(f"{model_path}: {', '.join(spiked)} reach(es) infinity on the runs: a value no sensor reads "
+                        "(a spike) in a run meant to be fault-free; remove it from the run, or calibrate with "
+                        "--quantile 0.99")
     blank = [n for n, v in zip(names, thresholds) if not np.isfinite(v)]
     if blank:
         raise DataError(f"{model_path}: {', '.join(blank)} have no sample to calibrate on: every stretch between "
@@ -193,7 +199,7 @@ def _spikes(names: list[str], samples: list[np.ndarray], runs: list[str]) -> tup
     out = []
     for i, name in enumerate(names):
         if level[i] > 0 and peak[i] > SPIKE * level[i]:
-            run = int(np.argmax([np.nanmax(s[i]) for s in samples]))
+            run = int(np.argmax([np.max(np.where(np.isnan(s[i]), -np.inf, s[i])) for s in samples]))
             out.append((name, float(peak[i] / level[i]), runs[run]))
     return tuple(out)
 

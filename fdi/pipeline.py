@@ -177,11 +177,16 @@ def blind(p: Prepared, r: np.ndarray) -> str | None:
         if empty:
             return (f"{', '.join(empty)} had no sample: every stretch between two mode switches is shorter than the "
                     f"derivative window ({p.window_s:g} s); shorten diagnosis.derivative_window or sample faster")
-        # the samples within half a derivative window of a switch are left out by design: not those
-        reach = window_samples(p.window_s, p.meas.ts, DEFAULT_ORDER + 3) // 2 + 1
+        # left out by design (fdi.residuals._piecewise): a stretch between switches shorter than the
+        # filter's window, and the samples within half a window of a switch: not those
+        need = window_samples(p.window_s, p.meas.ts, DEFAULT_ORDER + 3)
         near = np.zeros(t.size, dtype=bool)
+        edges = np.r_[0, breaks, t.size]
+        for a, b in zip(edges[:-1].tolist(), edges[1:].tolist()):
+            if b - a < need:
+                near[a:b] = True
         for k in breaks:
-            near[max(0, k - reach):k + reach] = True
+            near[max(0, k - need // 2 - 1):k + need // 2 + 1] = True
         finite = finite | near
     notes = []
     if empty:
@@ -322,6 +327,8 @@ def widen(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, results: list, est: Est
         extra = sorted((c for c in fitted_sets(m.model, relaxed_sets(fsm, det.final_coherence, o.max_set))
                         if c not in have), key=lambda c: sum(quiet.get(f, 0) for f in c))
         extra, left = extra[:MAX_COVERING], max(0, len(extra) - MAX_COVERING)
+    if not extra and not (np.isfinite(best) and level > 0):
+        return d, results             # (every fit infinite: identify's note says so)
     if not extra:                 # nothing more to try: the report says the best explains the data poorly
         note = (f"the best explanation left residuals {best / level:.3g} times their nominal level, and no other "
                 "candidate set was left to try: a fault outside the candidates, or values no sensor reads in the "

@@ -334,3 +334,24 @@ def test_a_fit_far_above_the_noise_with_nothing_left_to_try_is_said(tmp_path, ca
         r = json.loads(capsys.readouterr().out)
         assert (r["detection"] is not None) == detected
         assert detected == ("no other candidate set was left to try" in (r["note"] or ""))
+
+
+def test_the_non_finite_note_leaves_out_what_mode_switches_leave_out(monkeypatch):
+    """With mode switches, the evaluator leaves NaN by design within half a derivative window of a
+    switch and on a stretch shorter than the window (fdi.residuals._piecewise): not reported; a NaN
+    elsewhere is. A record of 1 000 samples at 1 ms, a 25-sample window (need 25), switches at
+    samples 10 (a first stretch shorter than the window) and 500."""
+    from types import SimpleNamespace
+
+    from fdi import pipeline
+    monkeypatch.setattr(pipeline, "mode_breaks", lambda model, raw: np.array([10, 500]))
+    t = np.arange(1000) * 1e-3
+    r = np.ones((2, 1000))
+    r[:, :23] = np.nan                      # the short first stretch and the half window after its switch
+    r[:, 488:513] = np.nan                  # half a window each side of the switch at 500
+    p = SimpleNamespace(monitor=SimpleNamespace(names=["ARR1", "ARR2"], model=None), meas=SimpleNamespace(t=t, ts=1e-3),
+                        raw={}, window_s=0.025)
+    assert pipeline.blind(p, r) is None
+    r[1, 700] = np.nan                      # a spike's NaN far from any switch
+    assert pipeline.blind(p, r) == ("ARR2 is not finite at 1 sample(s) from 0.7 s to 0.7 s: the record holds values "
+                                    "it overflows on or leaves its domain at there (no threshold judges them)")

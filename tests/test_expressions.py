@@ -44,11 +44,16 @@ def test_misspelt_symbol_gets_a_suggestion():
 @pytest.mark.parametrize("text, fragment", [
     ("x*exp(exp(exp(100)))", "'exp(exp(100))' is beyond 1e+300 in magnitude"),   # held `tables` for minutes
     ("x*exp(710)", "'exp(710)' is beyond 1e+300"),
-    ("x*1e300*1e300", "the constant factor 1.00E+600"),                            # multiplied by sympy
-    ("exp(690)*x*exp(690)", "the constant factor 2.12E+599"),                      # merged by sympy: exp(1380)
+    ("x*1e300*1e300", "the constant '1.00e+600' of 'x*1e300*1e300' (as the parts combine) is beyond"),
+    ("exp(690)*x*exp(690)", "the constant 'exp(1380)'"),                           # merged by sympy
+    ("(x*exp(8))**100", "the constant 'exp(800)'"),                                # a power of a part in range
+    ("x*exp(800*x/x)", "'exp(800 * x / x)' is beyond"),                            # a symbol that cancels
+    ("1e300*x + 5*x**2 + exp(exp(exp(x-x+100)))", "'exp(exp(x - x + 100))' is beyond"),   # minutes in evalf
+    ("x**exp(exp(exp(x-x+100)))", "is beyond"),                                    # float() of the exponent too
     ("x*" + "9" * 400, "out of range"),                                            # not a float
-    ("x*log(-1)", "'log(-1)' is not a number"),
-    ("x*sqrt(-2) + y", "'sqrt(-2)' is not a number"),
+    ("x*log(-1)", "'log(-1)' is not a real number"),
+    ("x*log(x-x-1)", "is not a real number"),
+    ("x*sqrt(-2) + y", "'sqrt(-2)' is not a real number"),
     ("x*(1/0)", "divides by zero"),
 ])
 def test_a_constant_part_beyond_a_double_is_refused(text, fragment):

@@ -1347,7 +1347,8 @@ def _run(argv: list[str] | None) -> int:
     configure(QUIET if args.quiet else VERBOSE if args.verbose else NORMAL)
     with warnings.catch_warnings():
         if not args.verbose:     # numpy's floating-point warnings (an overflowing record or model) are not for a
-            warnings.filterwarnings("ignore", r".* encountered in ", RuntimeWarning)    # user: the report says it
+            warnings.filterwarnings("ignore", r".*( encountered|Mean of empty slice|Degrees of freedom)",
+                                    RuntimeWarning)                                     # user: the report says it
         return _run_parsed(args)
 
 
