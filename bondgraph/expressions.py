@@ -91,19 +91,6 @@ def parse_expression(text: str | int | float, symbols: Mapping[str, sp.Expr]) ->
         raise ExpressionError(f"'{_short(src)}' divides by zero")
     _doubles(expr, _short(src))
     return expr
-    # parts sympy merged: 1e300 * 1e300 into 1e600, exp(690) * x * exp(690) into x * exp(1380) (each
-    # part within range, so its value is finite: evaluated without risk)
-    for part in expr.atoms(sp.Number, sp.Function, sp.Pow):
-        if part.free_symbols:
-            continue
-        try:
-            inside = abs(complex(part if part.is_Number else part.evalf(17))) <= MAX_CONSTANT
-        except (OverflowError, TypeError, ValueError):
-            inside = False
-        if not inside:
-            raise ExpressionError(f"the constant factor {part.evalf(3)} of '{_short(src)}' is beyond "
-                                  f"{MAX_CONSTANT:g} in magnitude; the residuals would be inf on every sample")
-    return expr
 
 
 def _short(src: str, limit: int = 80) -> str:
@@ -132,7 +119,7 @@ def _power(base: sp.Expr, exponent: sp.Expr, src: str) -> sp.Expr:
     return base ** exponent
 
 
-# the functions as floats, for the constant parts' range check (:func:`_constant`)
+# the functions as floats, for the constant parts' range check (:func:`_doubles`)
 _FLOATS = {"sin": math.sin, "cos": math.cos, "tan": math.tan, "asin": math.asin, "acos": math.acos,
            "atan": math.atan, "atan2": math.atan2, "sinh": math.sinh, "cosh": math.cosh, "tanh": math.tanh,
            "exp": math.exp, "log": math.log, "sqrt": math.sqrt, "abs": abs,
@@ -194,12 +181,19 @@ def _doubles(expr: sp.Expr, src: str | None = None) -> float | None:
             args = [values.get(id(a)) for a in e.args]
             v = None if any(a is None for a in args) else _node_double(e, args)
         values[id(e)] = v
-        if src is not None and v is not None and not abs(v) <= MAX_CONSTANT:
-            what = "is not a real number" if v != v else f"is beyond {MAX_CONSTANT:g} in magnitude"
+        if src is not None and _outside(v):
             shown = e.evalf(3) if e.is_Number else e
-            raise ExpressionError(f"the constant '{_short(str(shown), 40)}' of '{src}' (as the parts combine) {what}; "
-                                  "the residuals would be inf or NaN on every sample")
+            raise ExpressionError(f"the constant '{_short(str(shown), 40)}' of '{src}' (as the parts combine) "
+                                  f"{_outside(v)}; the residuals would be inf or NaN on every sample")
     return values[id(expr)]
+
+
+def _outside(v: float | None) -> str:
+    """What is wrong with a constant part's double ``v``: '' when it is a real double within range
+    (or no constant: None)."""
+    if v is None or abs(v) <= MAX_CONSTANT:
+        return ""
+    return "is not a real number" if v != v else f"is beyond {MAX_CONSTANT:g} in magnitude"
 
 
 def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
@@ -250,10 +244,9 @@ def _build(node: ast.AST, symbols: Mapping[str, sp.Expr], src: str) -> sp.Expr:
             out = FUNCTIONS[node.func.id](*args)  # type: ignore[operator]
         except TypeError:
             raise ExpressionError(f"wrong number of arguments to {node.func.id} in '{src}'") from None
-        v = _doubles(out)             # a constant call checked where it is made: sympy works on it next
-        if v is not None and not abs(v) <= MAX_CONSTANT:
-            what = "is not a real number" if v != v else f"is beyond {MAX_CONSTANT:g} in magnitude"
-            raise ExpressionError(f"'{_short(ast.unparse(node), 40)}' {what} in '{src}'; the residuals would be inf "
+        wrong = _outside(_doubles(out))    # a constant call checked where it is made: sympy works on it next
+        if wrong:
+            raise ExpressionError(f"'{_short(ast.unparse(node), 40)}' {wrong} in '{src}'; the residuals would be inf "
                                   "or NaN on every sample")
         return out
     raise ExpressionError(f"'{ast.unparse(node)}' is not allowed in an expression ('{src}')")

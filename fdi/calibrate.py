@@ -45,7 +45,6 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from bondgraph.errors import ModelError
 from bondgraph.timescales import TimeScales, time_scales
 
 from . import derivatives, scales
@@ -129,11 +128,7 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                         "it to let calibrate --window auto choose one, or calibrate without --window")
     data = [run if isinstance(run, Measurements) else read_csv(run) for run in runs]
     for meas in data:
-        w = c.config.derivative_window
-        if w is not None and w < meas.ts:       # as the diagnosis refuses it (fdi.pipeline.prepare)
-            raise ModelError(f"{w:g} s is shorter than one sample of {meas.path} ({meas.ts:g} s); give at least a "
-                             "few samples, or leave it out (calibrate --window auto chooses one)",
-                             file=model.path, where="diagnosis.derivative_window")
+        scales.check_derivative_window(model, c.config.derivative_window, meas.ts, meas.path)
         if all(np.ptp(v) == 0 for k, v in meas.columns.items() if k != "t"):
             raise DataError(f"{meas.path}: every column is constant: no sensor noise and nothing moving, so no "
                             "threshold can be learnt from it (it would be 0, or miss the noise every real run "

@@ -98,9 +98,6 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
             plan.append((tuple(x for x in s if x not in names), known, (t_change, t_change + w)))
         if names < set(s) or len(s) <= len(names):
             plan.append((tuple(s), [], None))
-    if not plan and not mode_changes:    # nothing to try explains the new vector: the diagnosis stands
-        return Episode(t_change, t_decision, tuple(coherence), tuple(known), (), tuple(f["name"] for f in known),
-                       tuple(known))
     start, span = since_detection(meas.t, det.time, t_decision, samples, MAX_GROWTH)
     from .estimators import refit_early_onsets, steps_at_window_start
     fresh = [i for i, p in enumerate(plan) if not p[1]]
@@ -122,7 +119,7 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
         win = window(meas.t, raw, start, span, w)
         full += mode_change_fits(est.monitor, win, weights, known, list(mode_changes), t_change, modes)
     finite = [e for e in full if np.isfinite(e.cost)]
-    if not finite:                       # nothing fitted (or every fit overflowed): the diagnosis stands
+    if not finite:                       # nothing to try (or every fit overflowed): the diagnosis stands
         return Episode(t_change, t_decision, tuple(coherence), tuple(known), tuple(full),
                        tuple(f["name"] for f in known), tuple(known))
     n_eff = effective_samples(span, len(est.monitor.residuals), meas.ts, w)

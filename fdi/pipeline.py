@@ -31,7 +31,8 @@ from .mode_estimation import estimate_mode, mode_variable
 from .objective import nominal, window
 from .options import MIN_WINDOW_S, Options, check_samples
 from .prognose import prognose
-from .residuals import evaluate, mode_breaks
+from .residuals import derivative_orders, evaluate, mode_breaks, stretches
+from .scales import check_derivative_window
 from .results import Alternative, Diagnosis, Isolation, ModeFault, Prognosis, faults_of
 from .sensitivity import effective, weak_entries
 from .signatures import nominal_mode
@@ -143,11 +144,7 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     w = config.derivative_window
     check_samples(o.samples, meas.ts, min_period=sc.min_period)
     raw = signals_from_data(model, meas)
-    if w is not None and w < meas.ts:        # (a window of a few samples is widened to the filter's least)
-        raise ModelError(f"{w:g} s is shorter than one sample of {meas.path} ({meas.ts:g} s): the derivatives "
-                         f"would be a {DEFAULT_ORDER + 2}-sample filter the thresholds were not set for; give at "
-                         f"least a few samples ({(DEFAULT_ORDER + 2) * meas.ts:g} s), or leave it out (bgfdi "
-                         "calibrate --window auto chooses one)", file=model.path, where="diagnosis.derivative_window")
+    check_derivative_window(model, w, meas.ts, meas.path)
     need = window_samples(w, meas.ts, DEFAULT_ORDER) + 1
     if meas.t.size < need:
         raise DataError(f"{meas.path}: {meas.t.size} samples are too few: the derivative window of {model.name} "
@@ -177,17 +174,13 @@ def blind(p: Prepared, r: np.ndarray) -> str | None:
         if empty:
             return (f"{', '.join(empty)} had no sample: every stretch between two mode switches is shorter than the "
                     f"derivative window ({p.window_s:g} s); shorten diagnosis.derivative_window or sample faster")
-        # left out by design (fdi.residuals._piecewise): a stretch between switches shorter than the
-        # filter's window, and the samples within half a window of a switch: not those
-        need = window_samples(p.window_s, p.meas.ts, DEFAULT_ORDER + 3)
-        near = np.zeros(t.size, dtype=bool)
-        edges = np.r_[0, breaks, t.size]
-        for a, b in zip(edges[:-1].tolist(), edges[1:].tolist()):
-            if b - a < need:
-                near[a:b] = True
-        for k in breaks:
-            near[max(0, k - need // 2 - 1):k + need // 2 + 1] = True
-        finite = finite | near
+        # the samples the evaluator leaves out by design (fdi.residuals.stretches, at the highest
+        # derivative order: its window is the longest) are not reported
+        order = max(derivative_orders(list(p.monitor.residuals)).values(), default=0)
+        designed = np.ones(t.size, dtype=bool)
+        for _, keep in stretches(t.size, breaks, window_samples(p.window_s, p.meas.ts, max(DEFAULT_ORDER, order))):
+            designed[keep] = False
+        finite = finite | designed
     notes = []
     if empty:
         notes.append(f"{', '.join(empty)} {'is' if len(empty) == 1 else 'are'} not finite on any sample: a law of "

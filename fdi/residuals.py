@@ -307,16 +307,25 @@ def _piecewise(x: np.ndarray, ts: float, order: int, window: float, breaks: np.n
     times and would set the thresholds (measured on the boost converter: 15 times looser). Samples
     left out give NaN, which detection, calibration and identification skip."""
     out = [np.full(x.shape, np.nan) for _ in range(order + 1)]
-    edges = np.r_[0, breaks, x.shape[-1]]
     need = derivatives.window_samples(window, ts, max(polyorder, order))
-    half = need // 2
+    for (a, b), keep in stretches(x.shape[-1], breaks, need):
+        for k, d in enumerate(derivatives.estimate(x[..., a:b], ts, order, window, polyorder=polyorder)):
+            out[k][..., keep] = d[..., keep.start - a:keep.stop - a]
+    return out
+
+
+def stretches(size: int, breaks: np.ndarray, need: int) -> list[tuple[tuple[int, int], slice]]:
+    """The stretches between mode switches that :func:`_piecewise` estimates, each (its samples
+    [a, b), the samples kept): none shorter than the filter's window (``need`` samples); in fast
+    switching (shorter than SHORT_STRETCH windows) half a window trimmed at each switch. The other
+    samples are NaN by design (the report's note on residuals that are not finite leaves them out)."""
+    edges = np.r_[0, breaks, size]
+    out = []
     for a, b in zip(edges[:-1].tolist(), edges[1:].tolist()):
         if b - a < need:
             continue
-        trim = half if b - a < SHORT_STRETCH * need else 0
-        keep = slice(a + trim if a > 0 else a, b - trim if b < x.shape[-1] else b)
-        for k, d in enumerate(derivatives.estimate(x[..., a:b], ts, order, window, polyorder=polyorder)):
-            out[k][..., keep] = d[..., keep.start - a:keep.stop - a]
+        trim = need // 2 if b - a < SHORT_STRETCH * need else 0
+        out.append(((a, b), slice(a + trim if a > 0 else a, b - trim if b < size else b)))
     return out
 
 

@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+from bondgraph.errors import ModelError
 from bondgraph.model import Model
 from bondgraph.timescales import integration_step, model_time_scales
 
@@ -236,3 +237,14 @@ def resolve(config: MonitorConfig, model: Model, ts: float) -> MonitorConfig:
         return config
     s = for_model(model, config, ts)
     return replace(config, derivative_window=s.window, waiting_time=s.waiting_time)
+
+
+def check_derivative_window(model: Model, window: float | None, ts: float, data: str) -> None:
+    """Refuse (ModelError on ``diagnosis.derivative_window``) a derivative window shorter than one
+    sample of the record ``data``: the filter would be widened to its least (5 samples), a window the
+    thresholds were not set for (1e-300 s gave a false fault). diagnose and calibrate ask alike."""
+    if window is not None and window < ts:
+        raise ModelError(f"{window:g} s is shorter than one sample of {data} ({ts:g} s): the derivatives would be "
+                         "a 5-sample filter the thresholds were not set for; give at least a few samples "
+                         f"({5 * ts:g} s), or leave it out (bgfdi calibrate --window auto chooses one)",
+                         file=model.path, where="diagnosis.derivative_window")

@@ -224,23 +224,17 @@ def test_a_spike_in_a_fault_free_run_is_named_not_learnt_silently():
     said nothing. Now it names each residual whose peak stands 1000 times above its median |r|,
     and the run; the same run without the spike gets no such note. The runs: the RC circuit under
     u = 5 + 2 sin(3 t) by scipy, the sensors' noise seeded."""
-    from scipy.integrate import solve_ivp
-
     from fdi.calibrate import format_calibration
-    R, C, RL = 100.0, 1e-3, 200.0
-    t = np.arange(0.0, 4.0, 0.001)
-    u = 5.0 + 2.0 * np.sin(3.0 * t)
-    sol = solve_ivp(lambda s, x: [((5.0 + 2.0 * np.sin(3.0 * s) - x[0]) / R - x[0] / RL) / C], (0.0, 4.0),
-                    [5.0 * RL / (R + RL)], t_eval=t, rtol=1e-10, atol=1e-12)
-    rng = np.random.default_rng(5)
-    v = sol.y[0] + rng.normal(0.0, 1e-3, t.size)
-    i = (u - sol.y[0]) / R + rng.normal(0.0, 1e-5, t.size)
+
+    from .independent import rc
+    record = rc.simulate(4.0, 5)
+    t, v = record["t"], record["v"]
     model = str(Path(__file__).parent / "data" / "rc_two_sensors.yaml")
-    clean = calibrate(model, [Measurements("clean", t, {"t": t, "u": u, "i": i, "v": v})])
+    clean = calibrate(model, [Measurements("clean", t, record)])
     assert clean.spikes == () and "note:" not in format_calibration(clean)
     spiked = v.copy()
     spiked[2000] = 1e200
-    c = calibrate(model, [Measurements("spiked", t, {"t": t, "u": u, "i": i, "v": spiked})])
+    c = calibrate(model, [Measurements("spiked", t, {**record, "v": spiked})])
     assert {name for name, _, _ in c.spikes} == {"ARR1", "ARR2"} and all(run == "spiked" for _, _, run in c.spikes)
     assert all(ratio > 1e100 for _, ratio, _ in c.spikes)
     assert format_calibration(c).count("note: ARR") == 2

@@ -261,18 +261,11 @@ def test_a_record_whose_values_overflow_every_fit_is_detected_and_not_identified
     i = (u - v) / R), the sensors' noise seeded."""
     from pathlib import Path
 
-    from scipy.integrate import solve_ivp
-    R, C, RL = 100.0, 1e-3, 200.0
-    t = np.arange(0.0, 3.0, 0.001)
-    u = 5.0 + 2.0 * np.sin(3.0 * t)
-    sol = solve_ivp(lambda s, x: [((5.0 + 2.0 * np.sin(3.0 * s) - x[0]) / R - x[0] / RL) / C], (0.0, 3.0),
-                    [5.0 * RL / (R + RL)], t_eval=t, rtol=1e-10, atol=1e-12)
-    rng = np.random.default_rng(7)
-    v = sol.y[0] + rng.normal(0.0, 1e-3, t.size)
-    i = (u - sol.y[0]) / R + rng.normal(0.0, 1e-5, t.size)
-    v[1500] = 1e308
+    from .independent import rc
+    run = rc.simulate(3.0, 7)
+    run["v"][1500] = 1e308
     path = tmp_path / "spike.csv"
-    np.savetxt(path, np.column_stack([t, u, i, v]), delimiter=",", header="t,u,i,v", comments="", fmt="%.17g")
+    rc.write(path, run)
     code = main(["diagnose", str(Path(__file__).parent / "data" / "rc_two_sensors.yaml"), str(path), "--workers", "1",
                  "--pop", "8", "--generations", "1", "--max-set", "1", "--threshold", "ARR1=0.01", "--threshold", "ARR2=0.001",
                  "--json", "-q"])
@@ -312,24 +305,17 @@ def test_a_fit_far_above_the_noise_with_nothing_left_to_try_is_said(tmp_path, ca
     record: scipy's RC circuit as in the test above; the same record without the spike is quiet."""
     from pathlib import Path
 
-    from scipy.integrate import solve_ivp
-    R, C, RL = 100.0, 1e-3, 200.0
-    t = np.arange(0.0, 3.0, 0.001)
-    u = 5.0 + 2.0 * np.sin(3.0 * t)
-    sol = solve_ivp(lambda s, x: [((5.0 + 2.0 * np.sin(3.0 * s) - x[0]) / R - x[0] / RL) / C], (0.0, 3.0),
-                    [5.0 * RL / (R + RL)], t_eval=t, rtol=1e-10, atol=1e-12)
-    rng = np.random.default_rng(7)
-    v = sol.y[0] + rng.normal(0.0, 1e-3, t.size)
-    i = (u - sol.y[0]) / R + rng.normal(0.0, 1e-5, t.size)
+    from .independent import rc
+    run = rc.simulate(3.0, 7)
     model = str(Path(__file__).parent / "data" / "rc_two_sensors.yaml")
     options = ["--workers", "1", "--pop", "8", "--generations", "1", "--max-set", "1", "--threshold", "ARR1=0.01",
                "--threshold", "ARR2=0.001", "--json", "-q"]
     for spike, detected in ((None, False), (1e6, True)):
-        w = v.copy()
+        w = run["v"].copy()
         if spike is not None:
             w[1500] = spike
         path = tmp_path / "rc.csv"
-        np.savetxt(path, np.column_stack([t, u, i, w]), delimiter=",", header="t,u,i,v", comments="", fmt="%.17g")
+        rc.write(path, {**run, "v": w})
         assert main(["diagnose", model, str(path), *options]) == 0
         r = json.loads(capsys.readouterr().out)
         assert (r["detection"] is not None) == detected
@@ -337,21 +323,26 @@ def test_a_fit_far_above_the_noise_with_nothing_left_to_try_is_said(tmp_path, ca
 
 
 def test_the_non_finite_note_leaves_out_what_mode_switches_leave_out(monkeypatch):
-    """With mode switches, the evaluator leaves NaN by design within half a derivative window of a
-    switch and on a stretch shorter than the window (fdi.residuals._piecewise): not reported; a NaN
-    elsewhere is. A record of 1 000 samples at 1 ms, a 25-sample window (need 25), switches at
-    samples 10 (a first stretch shorter than the window) and 500."""
+    """With mode switches, the evaluator leaves NaN by design (fdi.residuals._piecewise): a stretch
+    between switches shorter than the filter's window, and half a window at each switch of a stretch
+    shorter than four windows (fast switching): not reported; a NaN elsewhere is. A record of 1 000
+    samples at 1 ms, a 25-sample window, switches at samples 10 (a first stretch shorter than the
+    window), 500 and 560 (a 60-sample stretch: 12 samples trimmed at each end)."""
     from types import SimpleNamespace
 
     from fdi import pipeline
-    monkeypatch.setattr(pipeline, "mode_breaks", lambda model, raw: np.array([10, 500]))
+    monkeypatch.setattr(pipeline, "mode_breaks", lambda model, raw: np.array([10, 500, 560]))
     t = np.arange(1000) * 1e-3
     r = np.ones((2, 1000))
-    r[:, :23] = np.nan                      # the short first stretch and the half window after its switch
-    r[:, 488:513] = np.nan                  # half a window each side of the switch at 500
-    p = SimpleNamespace(monitor=SimpleNamespace(names=["ARR1", "ARR2"], model=None), meas=SimpleNamespace(t=t, ts=1e-3),
-                        raw={}, window_s=0.025)
+    r[:, :10] = np.nan
+    r[:, 500:512] = np.nan
+    r[:, 548:560] = np.nan
+    p = SimpleNamespace(monitor=SimpleNamespace(names=["ARR1", "ARR2"], model=None, residuals=[]),
+                        meas=SimpleNamespace(t=t, ts=1e-3), raw={}, window_s=0.025)
     assert pipeline.blind(p, r) is None
     r[1, 700] = np.nan                      # a spike's NaN far from any switch
-    assert pipeline.blind(p, r) == ("ARR2 is not finite at 1 sample(s) from 0.7 s to 0.7 s: the record holds values "
-                                    "it overflows on or leaves its domain at there (no threshold judges them)")
+    r[0, 499] = np.nan                      # and one beside a switch, in a long stretch (fitted to its end)
+    assert pipeline.blind(p, r) == (
+        "ARR1 is not finite at 1 sample(s) from 0.499 s to 0.499 s: the record holds values it overflows on or "
+        "leaves its domain at there (no threshold judges them); ARR2 is not finite at 1 sample(s) from 0.7 s to "
+        "0.7 s: the record holds values it overflows on or leaves its domain at there (no threshold judges them)")
