@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import resource
 import shutil
+import statistics
 import tempfile
 import time
 from pathlib import Path
@@ -135,6 +136,10 @@ def format_fleet(row: dict) -> str:
                    f"(its start and its close left out: {cluster['start_s']:.2f} + {cluster['stop_s']:.2f} s) wall "
                    f"{(cluster['wall_s'] - cluster['start_s'] - cluster['stop_s']) / jobs['wall_s']:.2f}; "
                    f"its first start, dask's import in it as in a new process: {cluster['first_start_s']:.2f} s")
+        turns = turn_ratios(cluster, jobs)
+        if len(turns) > 1:
+            out.append(f"LocalCluster({n}) / --jobs {n} turn by turn (the two run back to back): "
+                       f"{', '.join(f'{r:.2f}' for r in turns)}; median {statistics.median(turns):.2f}")
     if row["short"]:
         out.append("")
         out.append(f"{row['short'][0]['files']} short files ({row['short_rows']} rows each, nothing detected)")
@@ -142,6 +147,21 @@ def format_fleet(row: dict) -> str:
     return "\n".join(out) + "\n"
 
 
+def turn_ratios(cluster: dict, jobs: dict) -> list[float]:
+    """The cluster's wall time over ``--jobs N``'s in each turn of :func:`run_ways` (the ways run
+    back to back, so a slow spell of the machine falls on both: this machine's speed drifts by tens
+    of percent within minutes, and the least of each way may come from different spells).
+
+    >>> turn_ratios({"runs": [1.2, 1.0, 1.1]}, {"runs": [1.0, 1.0, 1.0]})
+    [1.2, 1.0, 1.1]
+    """
+    return [c / j for c, j in zip(cluster.get("runs", []), jobs.get("runs", [])) if j > 0]
+
+
 def fleet_json(row: dict) -> dict:
-    """``bench fleet --json``."""
-    return {"benchmark": "fleet", **row}
+    """``bench fleet --json``: the measurements, and the cluster's ratio to ``--jobs N`` turn by turn
+    (``turn_ratios``, empty without dask)."""
+    by = {r["way"]: r for r in row["fleet"]}
+    n = row["workers"]
+    cluster, jobs = by.get(f"LocalCluster({n})"), by.get(f"--jobs {n}")
+    return {"benchmark": "fleet", **row, "turn_ratios": turn_ratios(cluster, jobs) if cluster and jobs else []}
