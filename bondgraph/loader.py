@@ -27,7 +27,7 @@ import sympy as sp
 import yaml
 
 from .errors import ModelError
-from .expressions import ExpressionError, parse_expression
+from .expressions import MAX_CONSTANT, ExpressionError, parse_expression
 from .model import (LAW_VARIABLES, ELEMENT_KINDS, FAULT_KINDS, JUNCTION_KINDS, SENSOR_KINDS, SOURCE_KINDS,
                     TWO_PORT_KINDS, Bond, Element, Fault, Input, Junction, Model, Mode, Parameter,
                     Sensor, t)
@@ -622,6 +622,9 @@ def _parameters(ctx, data, symbols, claim) -> dict[str, Parameter]:
         if "value" not in spec or spec["value"] is None:
             raise ctx.error(where, f"parameter '{name}' has no value; add value: <number> (SI units)")
         value = _number(ctx, spec["value"], where + ("value",), f"parameter '{name}'", infinite=True)
+        if math.isfinite(value) and abs(value) > MAX_CONSTANT:   # as a number in an expression: its products overflow
+            raise ctx.error(where + ("value",), f"parameter '{name}' is {value:g}, beyond 1e300 in magnitude; "
+                                               "give its value in SI units, or .inf for an infinite one")
         unit = _unit(ctx, spec.get("unit"), where + ("unit",))
         claim(name, "a parameter", where)
         # physical constants with a positive nominal value are positive: sign(k*x) -> sign(x)

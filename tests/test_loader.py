@@ -89,6 +89,7 @@ def _err(text: str) -> ModelError:
     ("  C1: {value: 1.0e-3, unit: F}", "  C1: {value: -1.0e-3, unit: F}",
      ["elements.cap.parameter", "'C1' = -0.001", "only when positive", "give its positive value"]),
     ("  C1: {value: 1.0e-3, unit: F}", "  C1: {value: 0, unit: F}", ["elements.cap.parameter", "'C1' = 0"]),
+    ("  R: {value: 100.0, unit: Ohm}", "  R: {value: 1.0e308, unit: Ohm}", ["parameters.R.value", "beyond 1e300", ".inf"]),
     ("  R: {value: 100.0, unit: Ohm}", "  R: {value: 100.0, unit: Ohm, description: leak (wet, aged)}",
      ["unknown key 'aged)'", "quote the text"]),
     ("  R: {value: 100.0, unit: Ohm}", "  R: {value: 100.0, unti: Ohm}", ["unknown key 'unti'", "allowed: "]),

@@ -102,3 +102,22 @@ def test_an_alternative_with_a_lower_criterion_reads_as_a_tie():
     text = to_text(report, "m", "d")
     assert "(criterion -1.60: lower, but within 2 is a tie and the smaller set wins; cost 10)" in text
     assert "(criterion +1.50; cost 11)" in text and "+-" not in text
+
+
+def test_a_failure_value_the_fit_never_reaches_is_said_in_the_text_report():
+    """A drift fitted away from its failure value (eq. (16), b1 < 0, from a nominal 1.0 to a failure
+    value of 2.0: P = exp(b1 tau) never reaches it; the end of life is infinite by the definition
+    EOL = inf{t: P(t) reached the failure value} of fdi.prognose) whose RUL band's other models do
+    reach it: the text report says so (it raised TypeError formatting the null RUL), with the band."""
+    import math
+
+    from fdi.app.report import to_text
+    from fdi.prognose import prognose
+    p = prognose({"name": "R1", "type": "incipient", "model": 1, "b": [-0.01], "t0": 10.0}, 1.0, 2.0, 20.0, 30.0)
+    assert math.isinf(p["eol"])
+    for eol, rul in ((p["eol"], p["rul"]), (None, None)):                # as computed, and as JSON gives it
+        entry = {**p, "eol": eol, "rul": rul, "rul_low": 0.48, "rul_high": 996.6}
+        detection = {"time": 20.0, "alarm": 20.0, "coherence": [1], "decision_time": 30.0, "final_coherence": [1]}
+        text = to_text({"detection": detection, "diagnosis": {"faults": []}, "prognosis": [entry]}, "m", "d.csv")
+        assert "R1 does not reach its failure value 2 on the fitted degradation" in text
+        assert "0.48 to 996.60 s" in text

@@ -1,6 +1,8 @@
 """The diagnosis report as readable text (the JSON report is ``Diagnosis.to_dict``)."""
 from __future__ import annotations
 
+import math
+
 from ..isolate import COVERING_NOTE
 from ..results import Coincidence, Fault, _vec, partners
 
@@ -105,7 +107,11 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
         band = ""
         if p.get("rul_low") is not None and p.get("rul_high") is not None and p["rul_high"] != p["rul_low"]:
             band = f" (95 % band from the fit: {p['rul_low']:.2f} to {p['rul_high']:.2f} s)"
-        eol = p["eol"] if p["eol"] is not None else float("inf")
-        out.append(f"prognosis: {p['name']} reaches its failure value {p['failure']:g} at EOL = {eol:.2f} s; "
+        if not all(isinstance(p.get(k), (int, float)) and math.isfinite(p[k]) for k in ("eol", "rul")):
+            # infinite (null in JSON): the fitted degradation never gets there
+            out.append(f"prognosis: {p['name']} does not reach its failure value {p['failure']:g} on the fitted "
+                       f"degradation (EOL = inf; RUL at {p['at']:.2f} s = inf){band}")
+            continue
+        out.append(f"prognosis: {p['name']} reaches its failure value {p['failure']:g} at EOL = {p['eol']:.2f} s; "
                    f"RUL at {p['at']:.2f} s = {p['rul']:.2f} s{band}")
     return "\n".join(out) + "\n"
