@@ -111,6 +111,28 @@ def test_a_reader_that_goes_away_ends_the_command_quietly():
     assert proc.wait(60) == 1 and err == ""
 
 
+def test_sigterm_while_standard_input_is_copied_removes_the_copy(tmp_path):
+    """``producer | timeout 60 bgfdi diagnose model.yaml -``: standard input is copied to a temporary
+    file before it is read (a 1.5 GB copy outlived the command killed by ``timeout``). SIGTERM while
+    the copy grows ends the command with 128 + 15 and one line, and nothing of the copy is left."""
+    import signal
+    import time
+    env = {**os.environ, "TMPDIR": str(tmp_path)}
+    proc = subprocess.Popen([sys.executable, "-m", "fdi.app.cli", "diagnose", str(CYCAB), "-"], cwd=ROOT, env=env,
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    block = b"t,u_in,theta1,theta2,p1,p2\n" + b"0,0,0,0,1,1\n" * 50_000
+    deadline = time.monotonic() + 60
+    while not any(tmp_path.iterdir()) and time.monotonic() < deadline:   # the copy has begun
+        proc.stdin.write(block)
+        proc.stdin.flush()
+    assert any(tmp_path.iterdir())
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=60)        # (closes standard input)
+    assert proc.returncode == 128 + signal.SIGTERM
+    assert err.decode().strip() == "bgfdi: terminated by signal 15" and "Traceback" not in err.decode()
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_real_shell_pipe_into_head():
     shell = f"'{sys.executable}' -m fdi.app.cli tables '{CYCAB}' --format latex | head -1"
     done = subprocess.run(["bash", "-c", shell], cwd=ROOT, capture_output=True, text=True, timeout=60)

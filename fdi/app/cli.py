@@ -1363,15 +1363,19 @@ def _run_parsed(args: argparse.Namespace) -> int:
             check_monitor_options(args)
         if args.command == "diagnose":
             check_parquet(args)
-        sources.resolve(args)                  # - for standard input, shipped files by name
-        check_model_input(args)
-        check_outputs(args)
-        if getattr(args, "no_cache", False):
-            from .. import diskcache
-            diskcache.disable()
-        if args.func in DEEP_COMMANDS:         # derivation only: room for the residuals of long chains
-            return run_deep(args.func, args)
-        return args.func(args)
+        with _terminated_raises():             # killed while standard input is copied: the copy is removed
+            sources.resolve(args)              # - for standard input, shipped files by name
+        # a command that reads a copy of standard input removes it when SIGTERM or SIGHUP ends it too
+        # (a 1.5 GB copy outlived `timeout`); the others keep the signals' default action
+        with _terminated_raises() if sources.folder is not None else contextlib.nullcontext():
+            check_model_input(args)
+            check_outputs(args)
+            if getattr(args, "no_cache", False):
+                from .. import diskcache
+                diskcache.disable()
+            if args.func in DEEP_COMMANDS:     # derivation only: room for the residuals of long chains
+                return run_deep(args.func, args)
+            return args.func(args)
     except CausalityError as exc:
         LOG.error(sources.message(f"{getattr(args, 'model', '')}: causality: {'; '.join(exc.problems)}"))
         return 2
