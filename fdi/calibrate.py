@@ -64,7 +64,7 @@ class Calibration:
     model: str
     names: list[str]
     units: list[str]
-    peaks: list[list[float]]            # per run, per residual: max |r| between the filter's edges
+    peaks: list[list[float | None]]     # per run, per residual: max |r| between the filter's edges (None: no sample)
     thresholds: list[float]
     rule: str
     margin: float
@@ -149,6 +149,12 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
         raise DataError(f"{model_path}: {', '.join(blank)} have no sample to calibrate on: every stretch between "
                         f"two mode switches is shorter than the derivative window ({c.config.derivative_window:g} s); "
                         "shorten diagnosis.derivative_window or sample faster")
+    empty = [m.path for m, s in zip(data, samples) if not np.isfinite(s).any()]
+    if empty:
+        raise DataError(f"{', '.join(empty)}: no residual sample at the derivative window "
+                        f"({c.config.derivative_window if pick is None else pick:g} s): every stretch between two "
+                        "mode switches is shorter than it; leave the run(s) out, or shorten "
+                        "diagnosis.derivative_window")
     zero = [n for n, v in zip(names, thresholds) if not v > 0]
     if zero:
         raise DataError(f"{model_path}: {', '.join(zero)} would get a threshold of 0 (the residual is exactly 0 on "
@@ -159,7 +165,8 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
         false_alarms, worst = [], []
         for i, left in enumerate(samples):
             others = _threshold(samples[:i] + samples[i + 1:], quantile, margin)
-            ratio = np.nanmax(left, axis=1) / others
+            with np.errstate(all="ignore"):
+                ratio = np.nanmax(np.where(np.isnan(left), -np.inf, left), axis=1) / others   # -inf: no sample
             false_alarms.append(bool((left > others[:, None]).any()))
             worst.append((names[int(np.argmax(ratio))], float(ratio.max())))
     spikes = _spikes(names, samples, [m.path for m in data]) if quantile is None else ()
@@ -169,13 +176,19 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
     if blind:
         blind += _operating_point(model, data)
     return Calibration(model.name, names, [arr_unit(model, a) for a in arrs],
-                       [[float(x) for x in np.nanmax(s, axis=1)] for s in samples], [float(x) for x in thresholds],
+                       [[_peak(row) for row in s] for s in samples], [float(x) for x in thresholds],
                        "peak" if quantile is None else f"quantile {quantile:g}", margin, false_alarms,
                        [m.path for m in data], worst, float(sc.window),
                        int(derivatives.window_samples(sc.window, data[0].ts, derivatives.DEFAULT_ORDER)),
                        c.config.derivative_window is not None,
                        max((r.highest_order() for r in c.residuals), default=0), pick is not None, scores, blind,
                        spikes)
+
+
+def _peak(row: np.ndarray) -> float | None:
+    """A run's largest |r| of one residual; None where it has no sample (every stretch between two
+    mode switches shorter than the derivative window: NaN, which is no JSON)."""
+    return float(np.nanmax(row)) if np.isfinite(row).any() or np.isinf(row).any() else None
 
 
 SPIKE = 1000.0   # a residual's peak this many times its median |r| is a spike, not noise: a normal law's peak over
@@ -246,7 +259,7 @@ def format_calibration(c: Calibration) -> str:
     lines = [f"thresholds of {c.model} from {len(c.runs)} nominal run(s): {c.rule} of |r| x {c.margin:g}",
              f"{'residual':<10}{'unit':<10}{'largest |r|':>14}{'threshold':>14}"]
     for i, name in enumerate(c.names):
-        peak = max(p[i] for p in c.peaks)
+        peak = max(p[i] for p in c.peaks if p[i] is not None)
         lines.append(f"{name:<10}{c.units[i]:<10}{peak:>14.4g}{c.thresholds[i]:>14.4g}")
     if c.false_alarms is None:
         lines.append("false alarms: give two runs or more to estimate them (each is left out in turn)")

@@ -14,7 +14,7 @@ from fdi.data import Measurements
 from fdi.app.resources import scenarios_dir
 from fdi.app.scenario import load_scenario, run
 
-from .conftest import CYCAB, DATA
+from .conftest import CYCAB, DATA, MODELS
 
 
 def _simulated(name: str) -> Measurements:
@@ -238,3 +238,23 @@ def test_a_spike_in_a_fault_free_run_is_named_not_learnt_silently():
     assert {name for name, _, _ in c.spikes} == {"ARR1", "ARR2"} and all(run == "spiked" for _, _, run in c.spikes)
     assert all(ratio > 1e100 for _, ratio, _ in c.spikes)
     assert format_calibration(c).count("note: ARR") == 2
+
+
+def test_a_run_whose_mode_switches_leave_no_residual_sample_is_named():
+    """Residuals are evaluated between commanded mode switches, half a derivative window clear of
+    each; a run whose command toggles every 2 s under the two-tank's 5 s window has no sample, and
+    calibrate took the thresholds from the other run alone, reported NaN peaks (NaN is no JSON) and
+    "0 false alarms" (the user trial of a thermal model, 601 s window). Now the run is named, one
+    line, and nothing is calibrated. The runs: designed (level pressures with seeded noise; only the
+    command differs)."""
+    from fdi.data import DataError
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 60.0, 0.1)
+    base = {"t": t, "Qin": 1.0e-4 * (1 + 0.5 * np.sin(0.01 * t)),
+            "p1": 2.0e4 + 20 * rng.standard_normal(t.size), "p2": 1.5e4 + 20 * rng.standard_normal(t.size)}
+    steady = Measurements("steady.csv", t, {**base, "v_cmd": np.ones(t.size)})
+    toggled = Measurements("toggled.csv", t, {**base, "v_cmd": (np.floor(t / 2.0) % 2 == 0).astype(float)})
+    model = str(MODELS / "two_tank_commanded.yaml")
+    with pytest.raises(DataError, match=r"^toggled.csv: no residual sample at the derivative window \(5 s\)"):
+        calibrate(model, [steady, toggled])
+    assert len(calibrate(model, [steady]).peaks) == 1
