@@ -76,7 +76,13 @@ BOMS = ((b"\xef\xbb\xbf", "utf-8-sig"), (b"\xff\xfe", "utf-16"), (b"\xfe\xff", "
 def _open_text(path: str | Path) -> io.TextIOWrapper:
     """The file as text: gunzipped when it starts with gzip's magic bytes, decoded as UTF-8, or
     as UTF-16 when it starts with that byte-order mark (a spreadsheet's "Unicode text")."""
-    raw = open_binary(path)                  # a FIFO with no writer: NoWriter, not a wait
+    return text_of(open_binary(path))        # a FIFO with no writer: NoWriter, not a wait
+
+
+def text_of(raw) -> io.TextIOWrapper:
+    """A binary stream (a file, standard input's buffer) as text, read as :func:`_open_text` reads a
+    file: gunzipped after gzip's magic bytes, UTF-16 after its byte-order mark, else UTF-8 (a
+    UTF-8 byte-order mark dropped). On a pipe, waits for its first bytes."""
     head = raw.peek(4)[:4] if hasattr(raw, "peek") else b""
     if head[:2] == b"\x1f\x8b":
         raw = gzip.open(raw, "rb")

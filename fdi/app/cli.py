@@ -860,7 +860,13 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     source = "standard input" if args.data == "-" else args.data
     if args.data == "-" and (sys.stdin is None or sys.stdin.closed):
         raise UsageError("monitor: standard input is closed; pipe the CSV stream in (header first), or give a file")
-    fh = sys.stdin if args.data == "-" else open_text(args.data)
+    if args.data != "-":
+        fh = open_text(args.data)
+    elif hasattr(sys.stdin, "buffer") and hasattr(sys.stdin.buffer, "peek"):
+        from ..data import text_of         # as a file is read: a byte-order mark, UTF-16, gzip
+        fh = text_of(sys.stdin.buffer)
+    else:
+        fh = sys.stdin                      # a text stream given as such (a test's capture)
     monitor = None
     try:
         with _terminated_raises():
@@ -881,7 +887,7 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     finally:
         if monitor is not None:
             monitor.stop(now=True)          # after an error, Ctrl-C or SIGTERM: no worker left running
-        if fh is not sys.stdin:
+        if args.data != "-":
             fh.close()
     if lines:
         write_atomic(args.output, "\n".join(lines) + "\n")
