@@ -33,10 +33,16 @@ def select_arrs(model: Model, causality: str = DERIVATIVE, *, budget: float | No
     rebuilt = sorted({c.arr for c in checks if not c.holds})
     if not rebuilt:
         return chosen
-    notes = chosen.notes + tuple(
-        f"{name} rebuilt mode by mode: the one-causality form is wrong in "
-        + ", ".join(" ".join(f"{k}={v}" for k, v in c.mode.items()) for c in checks if c.arr == name and not c.holds)
-        for name in rebuilt)
+    where = {name: ", ".join(" ".join(f"{k}={v}" for k, v in c.mode.items()) for c in checks
+                             if c.arr == name and not c.holds) for name in rebuilt}
+    if all(a.origin == "SCAPH by mode" for a in arrs):        # the whole set replaced (fdi.modewise._by_sensor)
+        notes = chosen.notes + ("residual set rebuilt mode by mode (one SCAPH ARR per sensor, joined by mode "
+                                "indicators): the one-causality form is wrong for "
+                                + "; ".join(f"{n} ({w})" for n, w in where.items())
+                                + f"; replaced {', '.join(a.name for a in chosen.arrs)}",)
+    else:
+        notes = chosen.notes + tuple(f"{name} rebuilt mode by mode: the one-causality form is wrong in {w}"
+                                     for name, w in where.items())
     return replace(chosen, arrs=tuple(arrs), notes=notes)
 
 

@@ -56,7 +56,7 @@ import numpy as np
 
 from . import derivatives, encoding, kernels, tape
 from .profiles import STEP19
-from .residuals import Residual, mode_breaks, samples_of
+from .residuals import Residual, corrects_signal, mode_breaks, samples_of
 
 Objective = Any     # fdi.objective.Objective (which imports this module where it is first used)
 
@@ -92,6 +92,8 @@ class Fused:
             f = model.faults[name]
             if f.kind not in ("sensor", "source"):
                 self.rows += [(t, j) for t in f.targets]
+            elif not corrects_signal(model, f):     # a fixed-value source: its beta_<name> slot
+                self.rows.append((f.symbols[0], j))
         self.slot = {name: k for k, (name, _) in enumerate(self.rows)}
         self.linear = [j for j, s in enumerate(obj.spaces) if s.name in obj.linear]
         # the stepped copies of each linear fault's parameters: slots after the base ones

@@ -41,7 +41,7 @@ import numpy as np
 import sympy as sp
 
 from bondgraph.causality import DIAGNOSIS, assign
-from bondgraph.model import Model
+from bondgraph.model import Model, t
 from bondgraph.modes import in_mode
 
 from .scaph import ARR, binary_modes, derive_arrs, sensor_value
@@ -126,6 +126,42 @@ def _values(exprs: list[sp.Expr], points: list, symbols: list, rng: np.random.Ge
     return out
 
 
+def _fit(exprs: list[sp.Expr], basis: list[sp.Expr], rng: np.random.Generator,
+         nominal: Mapping[sp.Symbol, float]) -> tuple[np.ndarray, np.ndarray]:
+    """How far each of ``exprs`` is from the span of ``basis`` (the worst relative residual of a
+    least-squares fit at random points, over ``TRIALS`` draws of the parameters: 0 when it is a
+    fixed combination of them), and how like each basis expression it is (summed |cosines|)."""
+    points, symbols = _atoms(exprs + basis)
+    n = len(basis) + SPARE
+    errors = np.zeros(len(exprs))
+    likeness = np.zeros((len(exprs), max(len(basis), 1)))
+    for _ in range(TRIALS):
+        values = _values(exprs + basis, points, symbols, rng, n, nominal)
+        E, B = values[:len(exprs)], values[len(exprs):]
+        for i in range(len(exprs)):
+            e = E[i]
+            if not np.all(np.isfinite(e)):
+                errors[i] = np.inf
+                continue
+            size = np.linalg.norm(e)
+            if size == 0:
+                continue                      # the ARR vanishes in this mode: no information, no error
+            good = [j for j in range(len(basis)) if np.all(np.isfinite(B[j]))]
+            if good:
+                Bg = B[good].T
+                c, *_ = np.linalg.lstsq(Bg, e, rcond=None)
+                left = np.linalg.norm(e - Bg @ c) / size
+                for j in good:
+                    b = B[j]
+                    nb = np.linalg.norm(b)
+                    if nb > 0:
+                        likeness[i, j] += abs(float(e @ b)) / (size * nb)
+            else:
+                left = 1.0
+            errors[i] = max(errors[i], left)
+    return errors, likeness
+
+
 def _by_sensor(model: Model, own_sets: Mapping[tuple, list[ARR]]) -> list[ARR] | None:
     """One ARR per sensor, ``sum_m chi_m(a) r_m,k`` with r_m,k the SCAPH ARR of sensor k in mode m
     (zero where the sensor measures zero): each mode's textbook ARRs joined, when every mode has
@@ -166,35 +202,20 @@ def check_modes(model: Model, arrs: list[ARR], modes: list[Mapping[str, int]] | 
         own_sets[key] = own
         exprs = [a.expr.xreplace(subs) for a in arrs]
         basis = [r.expr for r in own]
-        points, symbols = _atoms(exprs + basis)
-        n = len(basis) + SPARE
-        errors = np.zeros(len(arrs))
-        likeness = np.zeros((len(arrs), max(len(basis), 1)))
-        for _ in range(TRIALS):
-            values = _values(exprs + basis, points, symbols, rng, n, nominal)
-            E, B = values[:len(exprs)], values[len(exprs):]
-            for i in range(len(arrs)):
-                e = E[i]
-                if not np.all(np.isfinite(e)):
-                    errors[i] = np.inf
-                    continue
-                size = np.linalg.norm(e)
-                if size == 0:
-                    continue                      # the ARR vanishes in this mode: no information, no error
-                good = [j for j in range(len(basis)) if np.all(np.isfinite(B[j]))]
-                if good:
-                    Bg = B[good].T
-                    c, *_ = np.linalg.lstsq(Bg, e, rcond=None)
-                    left = np.linalg.norm(e - Bg @ c) / size
-                    for j in good:
-                        b = B[j]
-                        nb = np.linalg.norm(b)
-                        if nb > 0:
-                            likeness[i, j] += abs(float(e @ b)) / (size * nb)
-                else:
-                    left = 1.0
-                errors[i] = max(errors[i], left)
+        errors, likeness = _fit(exprs, basis, rng, nominal)
         holds = [bool(errors[i] <= TOLERANCE) for i in range(len(arrs))]
+        # an ARR may be the mode's ARRs combined with their time derivatives (zone 1's balance with T1
+        # taken from zone 2's reads T2''): one that fails is fitted again with those derivatives in
+        # the span, on a generator of its own (the first fit's draws, so every choice below, as before)
+        again = [i for i in range(len(arrs)) if not holds[i]]
+        depth = max((sum(int(c) for v, c in d.variable_count if v == t) for i in again
+                     for d in exprs[i].atoms(sp.Derivative)), default=0)
+        if again and own and depth:
+            wider = basis + [sp.diff(b, t, k) for k in range(1, depth + 1) for b in basis]
+            more, _ = _fit([exprs[i] for i in again], wider, np.random.default_rng([seed, 1]), nominal)
+            for i, e in zip(again, more):
+                if e <= TOLERANCE:
+                    holds[i], errors[i] = True, float(e)
         # each ARR that fails takes the mode's ARR most like it among those no other residual
         # stands for (the holding ones first claim theirs): the set keeps its rank in the mode
         used = {int(np.argmax(likeness[i, :len(own)])) for i in range(len(arrs)) if holds[i] and own}

@@ -32,7 +32,8 @@ from . import criterion, derivatives, encoding, hints, kernels, profiles, scales
 from .config import MonitorConfig
 from .data import commanded
 from .encoding import FaultSpace
-from .residuals import Estimates, Residual, corrected_signals, derivative_orders, parameter_values, samples_of
+from .residuals import (Estimates, Residual, corrected_signals, corrects_signal, derivative_orders, parameter_values,
+                        samples_of)
 
 ROWS = 256             # individuals per objective block (bounds memory on wide screening calls)
 WINDOW_VALUES = 1 << 18  # ... and at most this many individual-samples per block: a 10 kHz window of 5 000
@@ -105,7 +106,7 @@ def acted_on(model: Model, residuals: tuple[Residual, ...], name: str) -> set[in
     sensor or source fault corrects."""
     f = model.faults[name]
     symbols = set(f.symbols)
-    signal = f.targets[0] if f.kind in ("sensor", "source") else None
+    signal = f.targets[0] if corrects_signal(model, f) else None
     return {i for i, r in enumerate(residuals)
             if symbols & r.parameter_names() or (signal is not None and signal in {s for s, _ in r.signal_orders()})}
 
@@ -294,7 +295,7 @@ class Objective:
         fixed_betas, fixed_biases = self._fix(span)
         self.fixed_betas, self.fixed_biases = fixed_betas, fixed_biases
         self.orders = derivative_orders(list(residuals))
-        self.varying_signals = {model.faults[f].targets[0] for f in candidate if model.faults[f].kind in ("sensor", "source")}
+        self.varying_signals = {model.faults[f].targets[0] for f in candidate if corrects_signal(model, model.faults[f])}
         self.active = sorted(set().union(*(acted_on(model, residuals, f) for f in candidate)))
         self.linear = {f: h for f in candidate if (h := linear_transform(model, residuals, f, self.active))}
         self.enters = {j: {i: bool(set(model.faults[f].symbols) & residuals[i].parameter_names()) for i in self.active}
@@ -330,8 +331,10 @@ class Objective:
             fault = self.model.faults[f["name"]]
             if fault.effect == "bias":
                 biases[fault.targets[0]] = p
-            elif fault.kind in ("sensor", "source"):
+            elif corrects_signal(self.model, fault):
                 betas[fault.targets[0]] = p
+            elif fault.kind == "source":             # a fixed-value source: beta_<name> is a parameter
+                self.nominal[fault.symbols[0]] = p
             elif len(fault.targets) == 1:
                 self.nominal[fault.targets[0]] = self._held_step(f, p)
             else:
@@ -589,7 +592,10 @@ class Objective:
             elif f.kind in ("sensor", "source"):
                 bad = ~(np.isfinite(p) & (p > 0) & (p >= lo) & (p <= hi)).all(axis=1)   # past a pole, through zero
                 invalid |= bad
-                betas[f.targets[0]] = np.where(bad[:, None], 1.0, p)
+                if corrects_signal(self.model, f):
+                    betas[f.targets[0]] = np.where(bad[:, None], 1.0, p)
+                else:                               # a fixed-value source: beta_<name> is a kernel parameter
+                    values[f.symbols[0]] = np.where(bad[:, None], 1.0, p)
             elif len(f.targets) == 1:
                 values[f.targets[0]] = p
             else:

@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING, Callable, Mapping
 import numpy as np
 
 from bondgraph.deferred import deferred
-from bondgraph.model import Model
+from bondgraph.model import Fault, Model
 
 from . import derivatives
 
@@ -327,6 +327,14 @@ def stretches(size: int, breaks: np.ndarray, need: int) -> list[tuple[tuple[int,
         trim = need // 2 if b - a < SHORT_STRETCH * need else 0
         out.append(((a, b), slice(a + trim if a > 0 else a, b - trim if b < size else b)))
     return out
+
+
+def corrects_signal(model: Model, f: Fault) -> bool:
+    """Whether sensor or source fault ``f`` corrects a data signal before the derivatives (a
+    sensor's reading, a source's input column). A source with a fixed ``value`` (Sf/Se) has no
+    signal: its efficiency factor ``beta_<name>`` stays a parameter of the residuals, set per
+    individual like a parametric fault's."""
+    return f.kind == "sensor" or (f.kind == "source" and f.targets[0] in model.inputs)
 
 
 def parameter_values(model: Model, overrides: Mapping[str, object] | None = None) -> dict[str, object]:

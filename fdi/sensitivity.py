@@ -39,7 +39,7 @@ import numpy as np
 from bondgraph.model import Model
 
 from .data import input_values
-from .residuals import Residual, evaluate
+from .residuals import Residual, corrects_signal, evaluate
 from .signatures import FSM
 
 STEP = 0.05          # relative change of a fault's parameter (or efficiency factor) for the sensitivity
@@ -72,6 +72,8 @@ def perturbed(model: Model, fault: str, nominal: Mapping[str, float],
     if f.effect == "bias":
         size = float(np.sqrt(np.mean(np.square(np.asarray(raw[f.targets[0]], dtype=float)))))
         return ({}, {}, {f.targets[0]: STEP * size}) if size > 0 else None
+    if f.kind == "source" and not corrects_signal(model, f):     # a fixed-value source: a parameter
+        return {f.symbols[0]: 1.0 - STEP}, {}, {}
     if f.kind in ("sensor", "source"):
         return {}, {f.targets[0]: 1.0 - STEP}, {}
     if f.kind != "parametric":

@@ -124,15 +124,31 @@ def _safe_subs(expr: sp.Expr, values: Mapping[sp.Symbol, sp.Expr]) -> sp.Expr:
 
 
 def mode_change_signature_matrix(model: Model, arrs: list[ARR], mode: Mapping[str, int] | None = None) -> MCSM:
-    """MCSM: which AGARRs react when each mode variable leaves its value in ``mode``."""
+    """MCSM: which AGARRs react when each mode variable leaves its value in ``mode`` (the paper's
+    mode change: a switch that did not switch as commanded, or a mode other than the one claimed).
+    The row is named for the mode fault that holds the variable at the value it changes to
+    (``v_closed`` from v = 1), else for the variable. A residual reacts when it differs between
+    the two modes, not when the symbol merely appears in it (``s*r + (1 - s)*r`` does not react
+    to s: a residual set rebuilt mode by mode reads every mode variable).
+
+    >>> from bondgraph.loader import load_model
+    >>> from fdi.arrs import select_arrs
+    >>> from fdi.app.resources import shipped_model
+    >>> m = load_model(shipped_model("two_tank_commanded"))
+    >>> [(r.mode_change, r.signature) for r in mode_change_signature_matrix(m, list(select_arrs(m).arrs), {"v": 1}).rows]
+    [('v_closed', (1, 1, 0))]
+    """
+    import sympy as sp
     mode = dict(mode or nominal_mode(model))
-    names = {f.targets[0]: f.name for f in model.faults.values() if f.kind == "mode"}
+    faults = [f for f in model.faults.values() if f.kind == "mode"]
     sigs = []
     for var in model.modes:
-        others = {k: v for k, v in mode.items() if k != var}
-        a = model.symbols[var]
-        sig = tuple(int(_in_mode(model, arr.expr, others).has(a)) for arr in arrs)
-        sigs.append((names.get(var, var), var, sig))
+        value = 1 - int(mode[var])
+        name = next((f.name for f in faults if f.targets[0] == var and int(f.value) == value), var)
+        after = {**mode, var: value}
+        sig = tuple(int(sp.expand(_in_mode(model, arr.expr, after) - _in_mode(model, arr.expr, mode)) != 0)
+                    for arr in arrs)
+        sigs.append((name, var, sig))
     rows = []
     for name, var, sig in sigs:
         unique = sum(1 for _, _, s in sigs if s == sig) == 1
