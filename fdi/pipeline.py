@@ -171,22 +171,23 @@ def blind(p: Prepared, r: np.ndarray) -> str | None:
     empty = [n for n, f in zip(names, finite) if not f.any()]
     breaks = mode_breaks(p.monitor.model, p.raw)
     if len(breaks):
-        if empty:
-            return (f"{', '.join(empty)} had no sample: every stretch between two mode switches is shorter than the "
-                    f"derivative window ({p.window_s:g} s); shorten diagnosis.derivative_window or sample faster")
         # the samples the evaluator leaves out by design (fdi.residuals.stretches, at the highest
         # derivative order: its window is the longest) are not reported
         order = max(derivative_orders(list(p.monitor.residuals)).values(), default=0)
         designed = np.ones(t.size, dtype=bool)
         for _, keep in stretches(t.size, breaks, window_samples(p.window_s, p.meas.ts, max(DEFAULT_ORDER, order))):
             designed[keep] = False
-        finite = finite | designed
+        if empty and designed.all():
+            return (f"{', '.join(empty)} had no sample: every stretch between two mode switches is shorter than the "
+                    f"derivative window ({p.window_s:g} s); shorten diagnosis.derivative_window or sample faster")
+        finite = finite | designed          # (a residual empty on long stretches too: not finite there, below)
     notes = []
     if empty:
         notes.append(f"{', '.join(empty)} {'is' if len(empty) == 1 else 'are'} not finite on any sample: a law of "
-                     "the model overflows a double or leaves its domain on these data (a constant, an exponent "
-                     "through a parameter, a root or logarithm of a negative value; bgfdi tables shows the "
-                     "residuals), or the record holds values no sensor reads")
+                     "the model overflows a double or leaves its domain on these data (a constant, a parameter "
+                     "of 0 or .inf it divides by, an exponent through a parameter, a root or logarithm of a "
+                     "negative value; bgfdi tables shows the residuals), or the record holds values no sensor "
+                     "reads")
     for n, f in zip(names, finite):
         if f.any() and not f.all():
             bad = np.flatnonzero(~f)

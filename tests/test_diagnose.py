@@ -346,3 +346,27 @@ def test_the_non_finite_note_leaves_out_what_mode_switches_leave_out(monkeypatch
         "ARR1 is not finite at 1 sample(s) from 0.499 s to 0.499 s: the record holds values it overflows on or "
         "leaves its domain at there (no threshold judges them); ARR2 is not finite at 1 sample(s) from 0.7 s to "
         "0.7 s: the record holds values it overflows on or leaves its domain at there (no threshold judges them)")
+
+
+def test_a_residual_empty_on_long_stretches_between_switches_is_not_blamed_on_them(monkeypatch):
+    """With mode switches, a residual with no finite sample was always said to have stretches shorter
+    than the derivative window; a parameter of 0 the residual divides by (a two-zone building's wall
+    R12: 0.0, a user trial) empties it on stretches of any length. Designed: the same record and
+    switches as the test above; empty everywhere, it is now the law's note; empty where the
+    evaluator leaves samples out by design only (every stretch shorter than the window), the
+    window's."""
+    from types import SimpleNamespace
+
+    from fdi import pipeline
+    t = np.arange(1000) * 1e-3
+    p = SimpleNamespace(monitor=SimpleNamespace(names=["ARR1", "ARR2"], model=None, residuals=[]),
+                        meas=SimpleNamespace(t=t, ts=1e-3), raw={}, window_s=0.025)
+    r = np.ones((2, 1000))
+    r[0] = np.nan
+    monkeypatch.setattr(pipeline, "mode_breaks", lambda model, raw: np.array([10, 500, 560]))
+    note = pipeline.blind(p, r)
+    assert note.startswith("ARR1 is not finite on any sample: a law of the model overflows a double")
+    assert "a parameter of 0 or .inf it divides by" in note and "shorter than the derivative window" not in note
+    monkeypatch.setattr(pipeline, "mode_breaks", lambda model, raw: np.arange(10, 1000, 10))   # 10-sample stretches
+    assert pipeline.blind(p, np.full((2, 1000), np.nan)).startswith(
+        "ARR1, ARR2 had no sample: every stretch between two mode switches is shorter than the derivative window")
