@@ -191,6 +191,10 @@ def coherence_over_time(residuals: np.ndarray, t: np.ndarray, thresholds: np.nda
 
 
 def thresholds_for(model_thresholds: Mapping[str, float], names: list[str], overrides: Mapping[str, float] | None = None) -> np.ndarray:
+    stray = [n for n in model_thresholds if n not in names]
+    if stray:          # a residual renamed or gone since calibrate wrote them: ignored, a threshold is lost silently
+        raise ValueError(f"{', '.join(map(str, stray))} name(s) no residual of the model (its residuals: "
+                         f"{', '.join(names)}); correct or remove them, or run bgfdi calibrate again")
     merged = dict(model_thresholds)
     merged.update(overrides or {})
     missing = [n for n in names if n not in merged]

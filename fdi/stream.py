@@ -56,6 +56,7 @@ from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
+from bondgraph.errors import ModelError
 from bondgraph.timescales import model_time_scales
 
 from . import scales
@@ -189,7 +190,10 @@ class Stream:
         c = self.monitor
         self.model, self.config, self.compiled = c.model, c.config, c.residuals
         self.names = list(c.names)
-        self.thresholds = thresholds_for(self.config.thresholds, self.names, self.options.thresholds)
+        try:
+            self.thresholds = thresholds_for(self.config.thresholds, self.names, self.options.thresholds)
+        except ValueError as exc:           # the model's thresholds: one line naming the file and the key
+            raise ModelError(str(exc), file=self.model.path, where="thresholds") from None
         self.wait = self.config.waiting_time if self.options.waiting_time is None else self.options.waiting_time
         self.samples = self.options.samples or self.config.samples
         self.window = None

@@ -309,3 +309,24 @@ def test_a_diverging_simulation_writes_nothing(tmp_path, capsys):
     assert main(["simulate", str(CYCAB), str(tmp_path / "s.json"), "-o", str(tmp_path / "o.csv")]) == 2
     assert "is not finite from t = " in one_error_line(capsys)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.json"]
+
+
+def test_the_models_thresholds_name_only_its_residuals_and_monitor_says_so_in_one_line(tmp_path, capsys):
+    """A threshold in the model for a residual it does not have (ARR9: a residual renamed or gone
+    since calibrate wrote them) was ignored silently while --threshold ARR9=1 is refused; and
+    `monitor` ended a model without thresholds with a traceback (a ValueError). Both: one line
+    naming the file and the key, exit 2, for diagnose and for monitor."""
+    from pathlib import Path
+    text = (Path(__file__).parent / "data" / "rc_two_sensors.yaml").read_text()
+    assert "thresholds:" not in text
+    data = tmp_path / "run.csv"
+    from .independent import rc
+    rc.write(data, rc.simulate(1.0, 1))
+    for extra, said in (("thresholds: {ARR1: 0.01, ARR2: 0.001, ARR9: 3}\n", "ARR9 name(s) no residual of the model"),
+                        ("", "no threshold for ARR1, ARR2")):
+        model = tmp_path / "m.yaml"
+        model.write_text(text + extra)
+        for command in (["diagnose", str(model), str(data), "--workers", "1"], ["monitor", str(model), str(data)]):
+            assert main(command) == 2
+            err = capsys.readouterr().err.strip()
+            assert err.startswith(f"bgfdi: error: {model}: thresholds: ") and said in err and "\n" not in err
