@@ -40,6 +40,7 @@ parameters: {}
 """
 from __future__ import annotations
 
+import os
 import re
 from dataclasses import asdict, dataclass, replace
 
@@ -126,6 +127,13 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
     if window == "auto" and c.config.derivative_window is not None:
         raise DataError(f"{model_path}: diagnosis.derivative_window is set ({c.config.derivative_window:g} s): remove "
                         "it to let calibrate --window auto choose one, or calibrate without --window")
+    seen: dict[str, str] = {}
+    for run in runs:
+        if not isinstance(run, Measurements):
+            key = os.path.realpath(run)
+            if key in seen:             # the false-alarm estimate leaves each run out in turn: its twin stays
+                raise DataError(f"{run}: given twice (also as {seen[key]}); give each nominal run once")
+            seen[key] = str(run)
     data = [run if isinstance(run, Measurements) else read_csv(run) for run in runs]
     for meas in data:
         scales.check_derivative_window(model, c.config.derivative_window, meas.ts, meas.path)

@@ -258,3 +258,16 @@ def test_a_run_whose_mode_switches_leave_no_residual_sample_is_named():
     with pytest.raises(DataError, match=r"^toggled.csv: no residual sample at the derivative window \(5 s\)"):
         calibrate(model, [steady, toggled])
     assert len(calibrate(model, [steady]).peaks) == 1
+
+
+def test_a_run_given_twice_is_refused(tmp_path):
+    """The false-alarm estimate leaves each run out in turn: a run given twice (a user trial gave the
+    same file twice) is still in when it is left out, and its estimate is meaningless. One line."""
+    from fdi.data import DataError
+
+    from .independent import rc
+    path = tmp_path / "run.csv"
+    rc.write(path, rc.simulate(1.0, 2))
+    model = str(Path(__file__).parent / "data" / "rc_two_sensors.yaml")
+    with pytest.raises(DataError, match=r"run.csv: given twice \(also as .*run.csv\); give each nominal run once"):
+        calibrate(model, [str(path), str(tmp_path / "." / "run.csv")])
