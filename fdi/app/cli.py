@@ -472,12 +472,12 @@ def cmd_tables(args: argparse.Namespace) -> int:
     fmt = _tables_format(args)
     with stage("load"):
         model = load_model(args.model)
+    modes = [parse_mode(args.mode, model)] if args.mode else all_modes(model)    # a bad --mode before the derivation
     with stage(f"residuals ({args.causality} causality)"):
         arrs = list(select_arrs(model, args.causality).arrs)
     if not arrs:
         raise CausalityError([f"{model.name} has no residual in {args.causality} causality; "
                               f"bgfdi isolability {args.model} proposes sensors"])
-    modes = [parse_mode(args.mode, model)] if args.mode else all_modes(model)
     bad = undefined_in_modes(model, arrs, modes)
     if bad:
         raise CausalityError(bad)
