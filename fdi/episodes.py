@@ -17,7 +17,7 @@ import numpy as np
 from .data import Measurements
 from .decide import effective_samples, select_winner
 from .detect import alarms
-from .isolate import candidate_sets, relaxed_sets
+from .isolate import candidate_sets, fitted_sets, relaxed_sets
 from .mode_estimation import mode_change_fits
 from .objective import window
 from .results import Detection, Episode
@@ -86,9 +86,10 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
     eq. (17))."""
     w = est.monitor.config.derivative_window
     names = {f["name"] for f in known}
-    sets = candidate_sets(fsm, coherence, o.exoneration, o.max_set)
+    model = est.monitor.model
+    sets = fitted_sets(model, candidate_sets(fsm, coherence, o.exoneration, o.max_set))
     if not sets and o.exoneration:       # as the first decision: the smallest sets covering the vector,
-        sets = relaxed_sets(fsm, coherence, o.max_set)   # and the known set refitted beside them
+        sets = fitted_sets(model, relaxed_sets(fsm, coherence, o.max_set))   # and the known set refitted beside them
         known_set = tuple(f["name"] for f in known if f["type"] != "mode")
         if known_set and len(known_set) <= o.max_set and all(set(known_set) != set(x) for x in sets):
             sets.append(known_set)

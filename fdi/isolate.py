@@ -103,3 +103,9 @@ def new_mode_changes(mcsm: MCSM, before: tuple[int, ...], after: tuple[int, ...]
     return [r.mode_change for r in mcsm.rows
             if any(s and n for s, n in zip(r.signature, new))
             and (covering or all(a >= s for s, a in zip(r.signature, after)))]
+
+
+def fitted_sets(model, sets) -> list[tuple[str, ...]]:
+    """The sets an estimator fits: those without a stuck sensor (confirmed by its signal, never
+    fitted: a later decision fitted one as a drift and reported "stuck_v: incipient")."""
+    return [tuple(c) for c in sets if not any(model.faults[f].effect == "stuck" for f in c)]

@@ -26,7 +26,7 @@ from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide
 from .estimators import (Estimators, Search, date_onsets, evidence_onsets, evidence_start, refit_early_onsets,
                          steps_at_window_start)
 from .ingest import measurements
-from .isolate import COVERING_NOTE, candidate_sets, new_mode_changes, pruned_sets, relaxed_sets, suspected_mode_changes
+from .isolate import COVERING_NOTE, candidate_sets, fitted_sets, new_mode_changes, pruned_sets, relaxed_sets, suspected_mode_changes
 from .mode_estimation import estimate_mode, mode_variable
 from .objective import nominal, window
 from .options import MIN_WINDOW_S, Options, check_samples
@@ -120,7 +120,7 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
     o = options or Options()
     o.check()
     clock = Clock()
-    monitor = monitor.with_config(o.settings)
+    monitor = with_samples(monitor.with_config(o.settings), o.samples)
     meas = measurements(data)
     p = prepare(monitor, meas, o)
     clock.lap("load")
@@ -134,6 +134,16 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
     if det is None:
         return base
     return decide(p, replace(base, detection=det, mode=mode_at(p, det)), r, clock, progress, memo)
+
+
+def with_samples(monitor: "Monitor", samples: int | None) -> "Monitor":
+    """``monitor`` with the options' N as its configured N (``samples``; None keeps the file's): the
+    window of identification and the unit of its degradation coefficients' bounds (W = N ts,
+    fdi.objective), so that N given as an option and N given in the settings are one diagnosis
+    (they gave eq. (16) and eq. (17) for one drift, a user trial at N = 15 000)."""
+    if samples is None or samples == monitor.config.samples:
+        return monitor
+    return monitor.with_config(monitor.config.replace(samples=samples))
 
 
 def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
@@ -394,11 +404,6 @@ def stuck_sensors(p: Prepared, d: Diagnosis) -> Diagnosis:
                 return replace(d, faults=faults_of([{"name": c[0], "type": "stuck", "value": found.value,
                                                      "t0": found.onset}]), winner=(c[0],))
     return replace(d, isolation=replace(d.isolation, candidates=tuple(fitted_sets(model, d.candidates))))
-
-
-def fitted_sets(model, sets) -> list[tuple[str, ...]]:
-    """The sets an estimator fits: those without a stuck sensor (confirmed by its signal, never fitted)."""
-    return [tuple(c) for c in sets if not any(model.faults[f].effect == "stuck" for f in c)]
 
 
 def check_window(meas: Measurements, t0: float, samples: int, min_period: float = MIN_WINDOW_S) -> None:

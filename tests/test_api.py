@@ -247,3 +247,45 @@ def test_a_prognosis_without_an_end_of_life_is_plotted():
     assert any("RUL inf s" in label for label in figures["rul_beta_theta2"].axes[0].get_legend_handles_labels()[1])
     for fig in figures.values():
         plt.close(fig)
+
+
+def test_n_as_an_option_and_n_in_the_settings_are_one_diagnosis():
+    """The identification window N: given as an option (``samples=``) it set the window but left the
+    unit of the degradation coefficients' bounds (W = N ts) at the file's N, so the search differed
+    from N given in the settings (a user trial: eq. (16) against eq. (17), end of life 83 841 s
+    against 86 420 s). Now the two are one diagnosis, to the last digit. The record: scipy's RC
+    circuit (tests/independent/rc.py) read by a voltage sensor whose gain drifts as exp(-0.05 tau)
+    from 1 s (eq. 16)."""
+    from pathlib import Path
+
+    from fdi.config import load
+
+    from .independent import rc
+    run = rc.simulate(4.0, 11)
+    tau = np.maximum(run["t"] - 1.0, 0.0)
+    run["v"] = run["v"] * np.exp(-0.05 * tau)
+    model = str(Path(__file__).parent / "data" / "rc_two_sensors.yaml")
+    fast = dict(workers=1, pop=10, generations=4, max_set=1, seed=2, thresholds={"ARR1": 0.01, "ARR2": 0.002})
+    _, settings = load(model)
+    by_option = diagnose(model, run, samples=2000, **fast)
+    by_settings = diagnose(model, run, settings.replace(samples=2000), **fast)
+    assert by_option.detection is not None
+    assert [f.to_dict() for f in by_option.faults] == [f.to_dict() for f in by_settings.faults]
+
+
+def test_a_stuck_sensor_is_never_fitted_in_a_later_decision():
+    """A frozen sensor is confirmed by its signal, never fitted; a later decision (a residual joining
+    after t_D) took its candidate sets from the signature matrix without that rule and fitted the
+    voltage sensor's stuck fault as a drift: "stuck_v: incipient, eq. (16)". The record: scipy's RC
+    circuit, its voltage sensor's gain drifting as exp(-0.05 tau) from 1 s; a search too small to fit
+    the first decision's sets well (10 x 4) sends the diagnosis through the later decision."""
+    from pathlib import Path
+
+    from .independent import rc
+    run = rc.simulate(4.0, 11)
+    run["v"] = run["v"] * np.exp(-0.05 * np.maximum(run["t"] - 1.0, 0.0))
+    model = str(Path(__file__).parent / "data" / "rc_two_sensors.yaml")
+    d = diagnose(model, run, samples=2000, workers=1, pop=10, generations=4, max_set=1, seed=2,
+                 thresholds={"ARR1": 0.01, "ARR2": 0.002})
+    assert d.faults and all(f.type == "stuck" for f in d.faults if f.name == "stuck_v")
+    assert [f.name for f in d.faults] == ["beta_v"]
