@@ -145,6 +145,8 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
               if window == "auto" else None)
     pick = chosen(scores).window if scores else None
     samples = [nominal_residuals(model_path, meas, settle, pick) for meas in data]
+    used = scales.for_model(model, c.config if pick is None else replace(c.config, derivative_window=pick),
+                            data[0].ts).window     # the file's, the rule's (from the data's sampling time) or the chosen
     thresholds = _threshold(samples, quantile, margin)
     joined = np.concatenate(samples, axis=1)
     spiked = [n for n, v, row in zip(names, thresholds, joined) if not np.isfinite(v) and np.isfinite(row).any()]
@@ -155,12 +157,12 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
     blank = [n for n, v in zip(names, thresholds) if not np.isfinite(v)]
     if blank:
         raise DataError(f"{model_path}: {', '.join(blank)} have no sample to calibrate on: every stretch between "
-                        f"two mode switches is shorter than the derivative window ({c.config.derivative_window:g} s); "
+                        f"two mode switches is shorter than the derivative window ({used:g} s); "
                         "shorten diagnosis.derivative_window or sample faster")
     empty = [m.path for m, s in zip(data, samples) if not np.isfinite(s).any()]
     if empty:
         raise DataError(f"{', '.join(empty)}: no residual sample at the derivative window "
-                        f"({c.config.derivative_window if pick is None else pick:g} s): every stretch between two "
+                        f"({used:g} s): every stretch between two "
                         "mode switches is shorter than it; leave the run(s) out, or shorten "
                         "diagnosis.derivative_window")
     zero = [n for n, v in zip(names, thresholds) if not v > 0]

@@ -162,6 +162,12 @@ def _fit(exprs: list[sp.Expr], basis: list[sp.Expr], rng: np.random.Generator,
     return errors, likeness
 
 
+def _order(*exprs: sp.Expr) -> int:
+    """The highest time derivative in ``exprs``."""
+    return max((sum(int(c) for v, c in d.variable_count if v == t) for e in exprs for d in e.atoms(sp.Derivative)),
+               default=0)
+
+
 def _by_sensor(model: Model, own_sets: Mapping[tuple, list[ARR]]) -> list[ARR] | None:
     """One ARR per sensor, ``sum_m chi_m(a) r_m,k`` with r_m,k the SCAPH ARR of sensor k in mode m
     (zero where the sensor measures zero): each mode's textbook ARRs joined, when every mode has
@@ -208,10 +214,9 @@ def check_modes(model: Model, arrs: list[ARR], modes: list[Mapping[str, int]] | 
         # taken from zone 2's reads T2''): one that fails is fitted again with those derivatives in
         # the span, on a generator of its own (the first fit's draws, so every choice below, as before)
         again = [i for i in range(len(arrs)) if not holds[i]]
-        depth = max((sum(int(c) for v, c in d.variable_count if v == t) for i in again
-                     for d in exprs[i].atoms(sp.Derivative)), default=0)
-        if again and own and depth:
-            wider = basis + [sp.diff(b, t, k) for k in range(1, depth + 1) for b in basis]
+        depth = max((_order(exprs[i]) for i in again), default=0)
+        if again and own and depth:         # only the orders the mode's ARRs lack (each one squares the fit's work)
+            wider = basis + [sp.diff(b, t, k) for k in range(1, max(1, depth - _order(*basis)) + 1) for b in basis]
             more, _ = _fit([exprs[i] for i in again], wider, np.random.default_rng([seed, 1]), nominal)
             for i, e in zip(again, more):
                 if e <= TOLERANCE:

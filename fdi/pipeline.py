@@ -149,7 +149,7 @@ def with_samples(monitor: "Monitor", samples: int | None) -> "Monitor":
 def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     """The monitor resolved for the data's sampling time, the data checked against the window
     the derivatives need, the thresholds (the file's, overridden by name), T_wt and N."""
-    monitor, sc = monitor.scaled(meas.ts)
+    monitor, sc = with_samples(monitor, o.samples).scaled(meas.ts)    # (every caller: a refit of the prognosis too)
     model, config = monitor.model, monitor.config
     w = config.derivative_window
     check_samples(o.samples, meas.ts, min_period=sc.min_period)
@@ -383,10 +383,12 @@ def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects) 
 
 def mode_fault_name(model, variable: str, value: int) -> str:
     """The model's mode fault that puts ``variable`` at ``value`` (a valve stuck closed, or one stuck
-    open), else the first fault on the variable, else the variable itself."""
+    open), else the variable itself: the MCSM's name for the change
+    (:func:`fdi.signatures.mode_change_signature_matrix`; a relay's only fault, stuck off, is not
+    the name of its switching on)."""
     on = [f for f in model.faults.values() if f.kind == "mode" and f.targets[0] == variable]
     exact = [f for f in on if (0 if f.value is None else int(f.value)) == int(value)]
-    return (exact or on)[0].name if on else variable
+    return exact[0].name if exact else variable
 
 
 def stuck_sensors(p: Prepared, d: Diagnosis) -> Diagnosis:

@@ -139,7 +139,7 @@ def mode_change_signature_matrix(model: Model, arrs: list[ARR], mode: Mapping[st
     [('v_closed', (1, 1, 0))]
     """
     import sympy as sp
-    mode = dict(mode or nominal_mode(model))
+    mode = {**nominal_mode(model), **(mode or {})}      # a variable the mode leaves out: its nominal value
     faults = [f for f in model.faults.values() if f.kind == "mode"]
     sigs = []
     for var in model.modes:

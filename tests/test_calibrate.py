@@ -2,6 +2,7 @@
 reference runs: no alarm on the nominal one, every reference fault still detected."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -240,7 +241,7 @@ def test_a_spike_in_a_fault_free_run_is_named_not_learnt_silently():
     assert format_calibration(c).count("note: ARR") == 2
 
 
-def test_a_run_whose_mode_switches_leave_no_residual_sample_is_named():
+def test_a_run_whose_mode_switches_leave_no_residual_sample_is_named(tmp_path):
     """Residuals are evaluated between commanded mode switches, half a derivative window clear of
     each; a run whose command toggles every 2 s under the two-tank's 5 s window has no sample, and
     calibrate took the thresholds from the other run alone, reported NaN peaks (NaN is no JSON) and
@@ -258,6 +259,15 @@ def test_a_run_whose_mode_switches_leave_no_residual_sample_is_named():
     with pytest.raises(DataError, match=r"^toggled.csv: no residual sample at the derivative window \(5 s\)"):
         calibrate(model, [steady, toggled])
     assert len(calibrate(model, [steady]).peaks) == 1
+    # the window left to the rule (from the data's sampling time): the message names the rule's (it
+    # formatted the file's None: a traceback); a command toggling every 0.5 s, 5 samples a stretch
+    text = Path(model).read_text()
+    assert "  derivative_window: 5.0\n" in text
+    ruled = Path(tmp_path) / "ruled.yaml"
+    ruled.write_text(text.replace("  derivative_window: 5.0\n", ""))
+    fast = Measurements("fast.csv", t, {**base, "v_cmd": (np.floor(t / 0.5) % 2 == 0).astype(float)})
+    with pytest.raises(DataError, match=r"^fast.csv: no residual sample at the derivative window \([0-9.]+ s\)"):
+        calibrate(str(ruled), [steady, fast])
 
 
 def test_a_run_given_twice_is_refused(tmp_path):
@@ -270,4 +280,4 @@ def test_a_run_given_twice_is_refused(tmp_path):
     rc.write(path, rc.simulate(1.0, 2))
     model = str(Path(__file__).parent / "data" / "rc_two_sensors.yaml")
     with pytest.raises(DataError, match=r"run.csv: given twice \(also as .*run.csv\); give each nominal run once"):
-        calibrate(model, [str(path), str(tmp_path / "." / "run.csv")])
+        calibrate(model, [str(path), os.path.join(str(tmp_path), ".", "run.csv")])

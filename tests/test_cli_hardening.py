@@ -133,6 +133,29 @@ def test_sigterm_while_standard_input_is_copied_removes_the_copy(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_sigterm_while_a_command_reads_the_copy_of_standard_input_removes_it(tmp_path):
+    """SIGTERM after standard input was copied, while the diagnosis runs on the copy: the copy is
+    removed and the command ends by the signal (as every command does: unwinding would wait for a
+    pool's queued jobs), no traceback."""
+    import signal
+    import time
+    env = {**os.environ, "TMPDIR": str(tmp_path)}
+    proc = subprocess.Popen([sys.executable, "-m", "fdi.app.cli", "diagnose", str(CYCAB), "-", "--workers", "2"],
+                            cwd=ROOT, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdin.write((DATA / "scenario2.csv").read_bytes())
+    proc.stdin.close()
+    proc.stdin = None                       # (communicate would flush it)
+    deadline = time.monotonic() + 60
+    while not list(tmp_path.glob("bgfdi-stdin-*/stdin.csv")) and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)                    # the copy is complete (renamed) and the command reads it
+    time.sleep(0.3)
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode in (-signal.SIGTERM, 128 + signal.SIGTERM)
+    assert b"Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_real_shell_pipe_into_head():
     shell = f"'{sys.executable}' -m fdi.app.cli tables '{CYCAB}' --format latex | head -1"
     done = subprocess.run(["bash", "-c", shell], cwd=ROOT, capture_output=True, text=True, timeout=60)

@@ -70,3 +70,22 @@ def test_a_residual_that_uses_a_derivative_of_a_modes_relations_holds_in_that_mo
     kept, checks = check_modes(model, list(chosen.arrs))
     assert len(checks) == 8 and all(c.holds for c in checks)
     assert all(a is b for a, b in zip(kept, chosen.arrs))
+
+
+def test_a_diode_changes_nothing_while_the_switch_conducts():
+    """The boost converter in discontinuous conduction (tests/data/boost_dcm.yaml: switch s, diode c,
+    autonomous): while the switch conducts the inductor's current returns through it and the
+    residuals' forms in s = 1 are the same for either diode state, so the diode's change reacts
+    nowhere from s = 1 (the old rule, the symbol c appears, read (1, 1)) and in both residuals from
+    s = 0, where the diode carries the inductor's current to the output. A mode the caller leaves
+    out takes its nominal value (it raised KeyError)."""
+    model = load_model(Path(__file__).parent / "data" / "boost_dcm.yaml")
+    arrs = list(select_arrs(model).arrs)
+    for c in (0, 1):
+        s_on, s_off = (_rows(model, arrs, {"s": s, "c": c}) for s in (1, 0))
+        assert s_on["c"] == (0, 0) and s_off["c"] == (1, 1)
+        assert s_on["s"] == s_off["s"] == (1, 1)
+        for arr in arrs:              # the definition, on the residuals themselves
+            forms = [arr.expr.subs({model.symbols["s"]: 1, model.symbols["c"]: v}) for v in (0, 1)]
+            assert sp.expand(forms[0] - forms[1]) == 0
+    assert _rows(model, arrs, {"s": 0}) == _rows(model, arrs, {"s": 0, "c": model.modes["c"].nominal})

@@ -889,6 +889,8 @@ def cmd_monitor(args: argparse.Namespace) -> int:
             monitor.stop(now=True)          # after an error, Ctrl-C or SIGTERM: no worker left running
         if args.data != "-":
             fh.close()
+        elif fh is not sys.stdin:
+            fh.detach()                     # the wrapper made here: standard input itself stays open
     if lines:
         write_atomic(args.output, "\n".join(lines) + "\n")
     return 0
@@ -917,6 +919,32 @@ def _terminated_raises():
 
     def handler(signum, frame):
         raise Stopped(signum)
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    names = [getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
+    before = {s: signal.signal(s, handler) for s in names}
+    try:
+        yield
+    finally:
+        for s, h in before.items():
+            signal.signal(s, h)
+
+
+@contextlib.contextmanager
+def _removed_on_signal(sources: Sources):
+    """SIGTERM and SIGHUP remove the copy of standard input, then end the process by the signal's
+    default action (a process pool's workers, forked with the handler, only end); the handlers are
+    put back after."""
+    import signal
+
+    owner = os.getpid()
+
+    def handler(signum, frame):
+        if os.getpid() == owner:        # not a forked worker the parent may end while it reads on
+            sources.close()
+        signal.signal(signum, signal.SIG_DFL)
+        os.kill(os.getpid(), signum)
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -1372,8 +1400,9 @@ def _run_parsed(args: argparse.Namespace) -> int:
         with _terminated_raises():             # killed while standard input is copied: the copy is removed
             sources.resolve(args)              # - for standard input, shipped files by name
         # a command that reads a copy of standard input removes it when SIGTERM or SIGHUP ends it too
-        # (a 1.5 GB copy outlived `timeout`); the others keep the signals' default action
-        with _terminated_raises() if sources.folder is not None else contextlib.nullcontext():
+        # (a 1.5 GB copy outlived `timeout`), then ends by the signal's default action as every command
+        # does (unwinding would wait for a pool's queued jobs)
+        with _removed_on_signal(sources) if sources.folder is not None else contextlib.nullcontext():
             check_model_input(args)
             check_outputs(args)
             if getattr(args, "no_cache", False):
