@@ -99,7 +99,9 @@ def test_a_later_decision_that_no_set_matches_tries_the_covering_sets_beside_the
     asked = []
 
     class Est:
-        monitor = SimpleNamespace(config=SimpleNamespace(derivative_window=0.01), residuals=[0, 1, 2, 3])
+        faults = {n: SimpleNamespace(effect="gain") for n in ("n", "C0")}      # (no stuck sensor among them)
+        monitor = SimpleNamespace(config=SimpleNamespace(derivative_window=0.01), residuals=[0, 1, 2, 3],
+                                  model=SimpleNamespace(faults=faults))
 
         def run(self, t, raw, start, span, candidates, *rest):
             asked.append(list(candidates))
