@@ -27,6 +27,8 @@ from typing import Mapping
 
 import numpy as np
 
+from .errors import UsageError
+
 
 @dataclass(frozen=True)
 class Detection:
@@ -195,6 +197,10 @@ def thresholds_for(model_thresholds: Mapping[str, float], names: list[str], over
     if stray:          # a residual renamed or gone since calibrate wrote them: ignored, a threshold is lost silently
         raise ValueError(f"{', '.join(map(str, stray))} name(s) no residual of the model (its residuals: "
                          f"{', '.join(names)}); correct or remove them, or run bgfdi calibrate again")
+    loose = [n for n in (overrides or {}) if n not in names]
+    if loose:          # the options' (the command line checks its own --threshold names first)
+        raise UsageError(f"thresholds: {', '.join(map(str, loose))} name(s) no residual of the model (its residuals: "
+                         f"{', '.join(names)})")
     merged = dict(model_thresholds)
     merged.update(overrides or {})
     missing = [n for n in names if n not in merged]

@@ -289,3 +289,18 @@ def test_a_stuck_sensor_is_never_fitted_in_a_later_decision():
                  thresholds={"ARR1": 0.01, "ARR2": 0.002})
     assert d.faults and all(f.type == "stuck" for f in d.faults if f.name == "stuck_v")
     assert [f.name for f in d.faults] == ["beta_v"]
+
+
+def test_thresholds_given_in_the_options_name_residuals_of_the_model():
+    """Options(thresholds=...) naming no residual of the model was ignored silently (the command
+    line's --threshold refuses it, and the model file's thresholds are refused): a UsageError now,
+    naming it and the model's residuals."""
+    from pathlib import Path
+
+    from fdi.errors import UsageError
+
+    from .independent import rc
+    model = str(Path(__file__).parent / "data" / "rc_two_sensors.yaml")
+    with pytest.raises(UsageError, match=r"^thresholds: ARR9 name\(s\) no residual of the model \(its residuals: "
+                                         r"ARR1, ARR2\)$"):
+        diagnose(model, rc.simulate(0.5, 1), workers=1, thresholds={"ARR1": 0.01, "ARR2": 0.002, "ARR9": 1.0})
