@@ -376,11 +376,24 @@ def _print_diagnostic_causality(model: Model, args: argparse.Namespace) -> list:
         raise CausalityError(bad)
     _print_assignment(model, diag)
     print()
-    print(f"residuals ({args.causality} causality): " + ", ".join(
-        f"{a.name} ({'SCAPH, ' + str(a.sensor) if a.origin == 'SCAPH' else 'MSO at ' + a.junction})" for a in arrs))
+    print(f"residuals ({args.causality} causality): " + ", ".join(f"{a.name} ({_origin(a)})" for a in arrs))
     for note in chosen.notes:
         print(f"  note: {note}")
     return arrs
+
+
+def _origin(a) -> str:
+    """Where a residual comes from, as `check` lists it: SCAPH at a sensor, an MSO set's residual at a
+    junction, and whether it was rebuilt mode by mode (fdi.modewise: "SCAPH by mode" is one SCAPH ARR
+    per sensor joined by mode indicators; "+modes" the mode's own ARRs joined in place of one).
+
+    >>> from types import SimpleNamespace as A
+    >>> [_origin(A(origin=o, sensor="T1", junction="J1")) for o in ("SCAPH", "SCAPH by mode", "MSO", "MSO+modes")]
+    ['SCAPH, T1', 'SCAPH by mode, T1', 'MSO at J1', 'MSO at J1, rebuilt mode by mode']
+    """
+    base = a.origin.removesuffix("+modes")
+    text = f"{base}, {a.sensor}" if base.startswith("SCAPH") else f"MSO at {a.junction}"
+    return text + (", rebuilt mode by mode" if a.origin.endswith("+modes") else "")
 
 
 def _print_assignment(model: Model, diag: Causality) -> None:
