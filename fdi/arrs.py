@@ -15,6 +15,7 @@ import sympy as sp
 
 from bondgraph.model import Model, t
 from bondgraph.deep import has_any
+from bondgraph.errors import ModelError
 from bondgraph.structure import DERIVATIVE
 
 from .modewise import check_modes
@@ -29,6 +30,7 @@ def select_arrs(model: Model, causality: str = DERIVATIVE, *, budget: float | No
     switched model and rebuilt where the diagnostic hybrid bond graph's single causality is wrong
     in some mode (:mod:`fdi.modewise`)."""
     chosen = _select(model, causality, budget=budget)
+    _zero_divisors(model, chosen.arrs)
     arrs, checks = check_modes(model, list(chosen.arrs))
     rebuilt = sorted({c.arr for c in checks if not c.holds})
     if not rebuilt:
@@ -44,6 +46,20 @@ def select_arrs(model: Model, causality: str = DERIVATIVE, *, budget: float | No
         notes = chosen.notes + tuple(f"{name} rebuilt mode by mode: the one-causality form is wrong in {w}"
                                      for name, w in where.items())
     return replace(chosen, arrs=tuple(arrs), notes=notes)
+
+
+def _zero_divisors(model: Model, arrs) -> None:
+    """A parameter of value 0 that a residual divides by (a wall's thermal resistance R12: 0.0, a
+    user trial) makes the residual infinite on every sample: refused with its key, as the loader
+    refuses a TF's modulus of 0. Only models with such a parameter pay for the check."""
+    zero = [name for name, p in model.parameters.items() if p.value == 0]
+    for name in zero:
+        sym = model.symbols[name]
+        for a in arrs:
+            if sym in a.expr.free_symbols and a.expr.xreplace({sym: sp.Integer(0)}).has(sp.zoo, sp.nan):
+                raise ModelError(f"parameter '{name}' is 0, and {a.name} divides by it (its residual would be "
+                                 f"infinite on every sample): give its value in SI units, nonzero",
+                                 file=getattr(model, "path", None), where=f"parameters.{name}.value")
 
 
 def _select(model: Model, causality: str = DERIVATIVE, *, budget: float | None = None) -> ResidualSet:

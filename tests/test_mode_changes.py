@@ -89,3 +89,19 @@ def test_a_diode_changes_nothing_while_the_switch_conducts():
             forms = [arr.expr.subs({model.symbols["s"]: 1, model.symbols["c"]: v}) for v in (0, 1)]
             assert sp.expand(forms[0] - forms[1]) == 0
     assert _rows(model, arrs, {"s": 0}) == _rows(model, arrs, {"s": 0, "c": model.modes["c"].nominal})
+
+
+def test_a_parameter_of_zero_a_residual_divides_by_is_refused(tmp_path):
+    """The internal wall's resistance R12 at 0 (a user trial): zone 1's balance reads (T1 - T2)/R12,
+    infinite on every sample, and the diagnosis said only that its residuals had no sample. Now the
+    residual selection refuses it with its key; the model as written passes."""
+    import pytest
+
+    from bondgraph.errors import ModelError
+    text = BUILDING.read_text()
+    assert "  R12: {value: 0.01," in text
+    zero = tmp_path / "zero.yaml"
+    zero.write_text(text.replace("  R12: {value: 0.01,", "  R12: {value: 0.0,"))
+    with pytest.raises(ModelError, match=r"parameters\.R12\.value: parameter 'R12' is 0, and ARR\d divides by it"):
+        select_arrs(load_model(zero))
+    assert select_arrs(load_model(BUILDING)).arrs
