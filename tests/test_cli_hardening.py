@@ -273,6 +273,8 @@ GOOD_FAULT = {"target": "beta_theta1", "type": "intermittent", "t0": 1, "value":
     ({"faults": [{**GOOD_FAULT, "type": 3}]}, "faults[0]: unknown type 3"),
     ({"faults": [{**GOOD_FAULT, "t0": float("inf")}]}, "faults[0].t0: the start time (s) must be a finite"),
     ({"faults": [{**GOOD_FAULT, "value": float("nan")}]}, "faults[0].value: the faulty value must be a finite"),
+    ({"faults": [{"target": "R4", "type": "abrupt", "t0": 1, "value": -1.0e7}]},
+     "faults[0].value: -1e+07 for R4, whose parameter R4 is positive"),
     ({"faults": [{**GOOD_FAULT, "period": 1e-300}]}, "faults[0].period: 1e-300 s is shorter than two samples"),
     ({"T": 60, "fs": 200, "faults": [{**GOOD_FAULT, "period": 0.011, "t0": 0}] * 2}, "switch 21818 times"),
     ({"faults": [{"target": "beta_theta2", "type": "incipient", "t0": 1, "model": True, "b": [1]}]},

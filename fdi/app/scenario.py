@@ -322,6 +322,13 @@ def _event(path: str, i: int, f, model: Model, T: float, fs: float) -> FaultEven
         if "value" not in f:
             raise ScenarioError(f"{path}: {where}: missing value (the faulty value of {target})")
         value = _num(path, f"{where}.value", f["value"], "the faulty value")
+        if fault.kind == "parametric" and len(fault.targets) == 1 and not value > 0 and \
+                model.parameters[fault.targets[0]].value > 0:
+            # a parameter with a positive nominal value is a positive symbol in the derivation (its signs
+            # simplified on that): a value through zero is no physics the equations hold for
+            raise ScenarioError(f"{path}: {where}.value: {value:g} for {target}, whose parameter "
+                                f"{fault.targets[0]} is positive ({model.parameters[fault.targets[0]].value:g}); "
+                                "give a positive faulty value")
     if kind == "intermittent":
         period = _period(path, where, f, fs)
     if kind == "incipient":
