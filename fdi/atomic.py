@@ -135,16 +135,12 @@ def _write_replace(p: Path, text: Content) -> None:
 
 
 @contextlib.contextmanager
-def _signals_raise() -> Iterator[None]:
-    """While the block runs, SIGTERM and SIGHUP raise :class:`Terminated` (SIGINT raises
-    KeyboardInterrupt already), so that its clean-up runs; the handlers are set back after.
-    Only the main thread can set handlers; elsewhere the block runs as it is."""
+def on_signals(handler) -> Iterator[None]:
+    """While the block runs, SIGTERM and SIGHUP call ``handler(signum, frame)``; the handlers are
+    set back after. Only the main thread can set handlers; elsewhere the block runs as it is."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-
-    def handler(signum, frame):
-        raise Terminated(signum)
     old = {}
     try:
         for s in SIGNALS:
@@ -154,3 +150,11 @@ def _signals_raise() -> Iterator[None]:
         for s, h in old.items():
             if h is not None:                        # None: a handler set outside Python, not restorable
                 signal.signal(s, h)
+
+
+def _signals_raise():
+    """While the block runs, SIGTERM and SIGHUP raise :class:`Terminated` (SIGINT raises
+    KeyboardInterrupt already), so that its clean-up runs."""
+    def handler(signum, frame):
+        raise Terminated(signum)
+    return on_signals(handler)

@@ -14,7 +14,6 @@ import logging
 import math
 import os
 import sys
-import threading
 import warnings
 from collections import Counter
 from typing import Callable
@@ -34,6 +33,7 @@ if TYPE_CHECKING:                      # networkx (causality) and sympy (model) 
 from ..errors import UsageError
 from ..data import DataError
 from ..options import DEFAULT_WORKERS, MAX_GENERATIONS, MAX_POP, MIN_POP, MIN_SAMPLES
+from ..atomic import on_signals
 from .output import (Terminated, check_folder, check_folder_not_input, check_not_input, check_output, is_stdout,
                      write_atomic)
 from .sources import Sources, said
@@ -924,33 +924,19 @@ class Stopped(Terminated):
     """SIGTERM or SIGHUP while the monitor read its stream (no partial output to remove)."""
 
 
-@contextlib.contextmanager
 def _terminated_raises():
-    """SIGTERM (and SIGHUP) raise :class:`Terminated` while the monitor runs, so that its worker is
+    """SIGTERM (and SIGHUP) raise :class:`Stopped` while the monitor runs, so that its worker is
     ended (``finally``) instead of outliving a killed reader; the handlers are put back after."""
-    import signal
-
     def handler(signum, frame):
         raise Stopped(signum)
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    names = [getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
-    before = {s: signal.signal(s, handler) for s in names}
-    try:
-        yield
-    finally:
-        for s, h in before.items():
-            signal.signal(s, h)
+    return on_signals(handler)
 
 
-@contextlib.contextmanager
 def _removed_on_signal(sources: Sources):
     """SIGTERM and SIGHUP remove the copy of standard input, then end the process by the signal's
     default action (a process pool's workers, forked with the handler, only end); the handlers are
     put back after."""
     import signal
-
     owner = os.getpid()
 
     def handler(signum, frame):
@@ -958,16 +944,7 @@ def _removed_on_signal(sources: Sources):
             sources.close()
         signal.signal(signum, signal.SIG_DFL)
         os.kill(os.getpid(), signum)
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    names = [getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
-    before = {s: signal.signal(s, handler) for s in names}
-    try:
-        yield
-    finally:
-        for s, h in before.items():
-            signal.signal(s, h)
+    return on_signals(handler)
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
