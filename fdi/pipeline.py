@@ -35,7 +35,7 @@ from .residuals import derivative_orders, evaluate, mode_breaks, stretches
 from .scales import check_derivative_window
 from .results import Alternative, Diagnosis, Isolation, ModeFault, Prognosis, faults_of
 from .sensitivity import effective, weak_entries
-from .signatures import nominal_mode
+from .signatures import mode_fault_name, nominal_mode
 from .stuck import stuck_from
 
 if TYPE_CHECKING:
@@ -120,7 +120,7 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
     o = options or Options()
     o.check()
     clock = Clock()
-    monitor = with_samples(monitor.with_config(o.settings), o.samples)
+    monitor = monitor.with_config(o.settings)
     meas = measurements(data)
     p = prepare(monitor, meas, o)
     clock.lap("load")
@@ -149,7 +149,7 @@ def with_samples(monitor: "Monitor", samples: int | None) -> "Monitor":
 def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     """The monitor resolved for the data's sampling time, the data checked against the window
     the derivatives need, the thresholds (the file's, overridden by name), T_wt and N."""
-    monitor, sc = with_samples(monitor, o.samples).scaled(meas.ts)    # (every caller: a refit of the prognosis too)
+    monitor, sc = with_samples(monitor, o.samples).scaled(meas.ts)    # every caller's: the prognosis' refits too
     model, config = monitor.model, monitor.config
     w = config.derivative_window
     check_samples(o.samples, meas.ts, min_period=sc.min_period)
@@ -379,16 +379,6 @@ def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects) 
     faults = tuple(faults_of({"name": mode_fault_name(model, v, e.mode[v]), "type": "mode", "value": e.mode[v]}
                              for v in changed))
     return ModeFault(dict(e.mode), e.cost, tuple(e.table or ()), faults)
-
-
-def mode_fault_name(model, variable: str, value: int) -> str:
-    """The model's mode fault that puts ``variable`` at ``value`` (a valve stuck closed, or one stuck
-    open), else the variable itself: the MCSM's name for the change
-    (:func:`fdi.signatures.mode_change_signature_matrix`; a relay's only fault, stuck off, is not
-    the name of its switching on)."""
-    on = [f for f in model.faults.values() if f.kind == "mode" and f.targets[0] == variable]
-    exact = [f for f in on if (0 if f.value is None else int(f.value)) == int(value)]
-    return exact[0].name if exact else variable
 
 
 def stuck_sensors(p: Prepared, d: Diagnosis) -> Diagnosis:

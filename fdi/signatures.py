@@ -123,6 +123,15 @@ def _safe_subs(expr: sp.Expr, values: Mapping[sp.Symbol, sp.Expr]) -> sp.Expr:
         return expr
 
 
+def mode_fault_name(model, variable: str, value: int) -> str:
+    """The model's mode fault that puts ``variable`` at ``value`` (a valve stuck closed, or one stuck
+    open), else the variable itself: the name of a mode change in the MCSM and in the report (a
+    relay's only fault, stuck off, is not the name of its switching on)."""
+    on = [f for f in model.faults.values() if f.kind == "mode" and f.targets[0] == variable]
+    exact = [f for f in on if (0 if f.value is None else int(f.value)) == int(value)]
+    return exact[0].name if exact else variable
+
+
 def mode_change_signature_matrix(model: Model, arrs: list[ARR], mode: Mapping[str, int] | None = None) -> MCSM:
     """MCSM: which AGARRs react when each mode variable leaves its value in ``mode`` (the paper's
     mode change: a switch that did not switch as commanded, or a mode other than the one claimed).
@@ -140,11 +149,10 @@ def mode_change_signature_matrix(model: Model, arrs: list[ARR], mode: Mapping[st
     """
     import sympy as sp
     mode = {**nominal_mode(model), **(mode or {})}      # a variable the mode leaves out: its nominal value
-    faults = [f for f in model.faults.values() if f.kind == "mode"]
     sigs = []
     for var in model.modes:
         value = 1 - int(mode[var])
-        name = next((f.name for f in faults if f.targets[0] == var and int(f.value) == value), var)
+        name = mode_fault_name(model, var, value)
         after = {**mode, var: value}
         sig = tuple(int(sp.expand(_in_mode(model, arr.expr, after) - _in_mode(model, arr.expr, mode)) != 0)
                     for arr in arrs)
