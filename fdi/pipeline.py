@@ -222,7 +222,7 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
     """From a detection to the diagnosis: isolation, the fault mode, stuck sensors, then the
     estimators and everything after them."""
     clock.restart()
-    fsm, iso = isolate(p, d.detection, d.mode)
+    fsm, iso = isolate(p, d.detection, d.mode, r)
     clock.lap("isolation")
     d = replace(d, isolation=iso)
     if iso.suspected:
@@ -247,7 +247,7 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
         return identify(p, d, fsm, r, est, clock, progress)
 
 
-def isolate(p: Prepared, det: Detection, mode: dict[str, int]):
+def isolate(p: Prepared, det: Detection, mode: dict[str, int], r: np.ndarray | None = None):
     """The MD-FSM in the mode at t_D (its weak entries removed when the data show a quiet residual
     could not have moved), the candidate sets of the final coherence vector, the sets too large to
     identify, and the MCSM's suspected mode changes."""
@@ -255,7 +255,7 @@ def isolate(p: Prepared, det: Detection, mode: dict[str, int]):
     fsm = m.fsm(mode)
     weak = None
     if o.exoneration and m.config.exoneration == "sensitivity":   # a quiet residual exonerates only a fault that could have moved it
-        fsm, weak = weakened(p, det, fsm)
+        fsm, weak = weakened(p, det, fsm, r)
     candidates = candidate_sets(fsm, det.final_coherence, o.exoneration, o.max_set)
     pruned = pruned_sets(fsm, det.final_coherence, o.exoneration, o.max_set)
     suspects = [s for s in suspected_mode_changes(m.mcsm(mode), det.final_coherence, p.covering)
@@ -264,14 +264,28 @@ def isolate(p: Prepared, det: Detection, mode: dict[str, int]):
                           o.max_set, False, weak)
 
 
-def weakened(p: Prepared, det: Detection, fsm):
+def quiet_level(p: Prepared, r: np.ndarray | None, t_d: float) -> np.ndarray | None:
+    """Each residual's peak |r| on the trusted data before the detection (less a derivative window,
+    the filter's look-ahead): its noise and spikes without the fault; None when there are too few
+    such samples (a fault from the start) to say."""
+    if r is None:
+        return None
+    t = p.meas.t
+    before = (t >= p.first_trusted) & (t < t_d - p.window_s)
+    if before.sum() < max(10, window_samples(p.window_s, p.meas.ts, DEFAULT_ORDER)):
+        return None
+    with np.errstate(invalid="ignore"):
+        return np.nanmax(np.abs(np.asarray(r)[:, before]), axis=1)
+
+
+def weakened(p: Prepared, det: Detection, fsm, r: np.ndarray | None = None):
     """The MD-FSM with the entries the data show weak removed (a quiet residual that the fault could
     not have moved over the identification window, :func:`fdi.sensitivity.weak_entries`), and those
     entries (fault -> residuals; None when there is none)."""
     m = p.monitor
     win = window(p.meas.t, p.raw, det.time, p.samples, p.window_s)
     entries = weak_entries(m.model, list(m.residuals), win.raw, p.meas.ts, p.window_s, fsm, det.final_coherence,
-                           p.thresholds, win.crop, p.values(win.raw))
+                           p.thresholds, win.crop, p.values(win.raw), quiet_level(p, r, det.time))
     if not entries:
         return fsm, None
     return effective(fsm, entries), {x.fault: tuple(sorted(y.residual for y in entries if y.fault == x.fault))

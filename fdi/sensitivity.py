@@ -9,9 +9,11 @@ its threshold, so the true fault was exonerated and two wrong ones were reported
 So before exonerating, each fault's sensitivity is measured on the data of the decision window:
 the residuals with the fault's parameter moved by a small step, against the residuals at
 nominal values. The residuals that fired fix the size the fault would need (their deviation over
-the step's); at that size a quiet residual it enters would move by the step's effect on it scaled
-alike. Where that is under the residual's threshold, the quiet residual says nothing about the
-fault: its 1 is *weak* there, and the fault is judged on the residuals it can move.
+the step's: the part of each one's peak above its own peak before the fault, when that is known,
+for noise and a relay's switching spikes are not the fault's); at that size a quiet residual it
+enters would move by the step's effect on it scaled alike. Where that is under the residual's
+threshold, the quiet residual says nothing about the fault: its 1 is *weak* there, and the fault
+is judged on the residuals it can move.
 
 On the CyCab, a gain fault of the steering-wheel encoder beta_theta1 enters ARR1 and ARR2; if it
 would move ARR1 to 0.41 of its threshold only, a quiet ARR1 no longer exonerates it, and it
@@ -89,14 +91,19 @@ def perturbed(model: Model, fault: str, nominal: Mapping[str, float],
 
 def weak_entries(model: Model, residuals: list[Residual], raw: Mapping[str, np.ndarray], ts: float, window: float,
                  fsm: FSM, coherence: tuple[int, ...], thresholds: np.ndarray, crop: slice,
-                 values: Mapping[str, object] | None = None) -> list[Weakness]:
+                 values: Mapping[str, object] | None = None,
+                 quiet_level: np.ndarray | None = None) -> list[Weakness]:
     """The (fault, quiet residual) pairs whose structural 1 the data cannot confirm (module doc).
     ``raw``: the signals of the decision window, ``crop`` the samples judged; ``values``: mode
-    values (commanded modes)."""
+    values (commanded modes); ``quiet_level``: each residual's peak |r| before the fault (its noise
+    and spikes, e.g. at a relay's switchings), which the fault's size is read above."""
     c = [int(x) for x in coherence]
     nominal = {k: float(v) for k, v in model.nominal_by_name().items()}
     base_values = dict(values or {})
     r0 = evaluate(model, residuals, raw, ts, window=window, values=base_values)[:, crop]
+    observed = np.nanmax(np.abs(r0), axis=-1)
+    if quiet_level is not None:          # the part of each peak above the residual's own level is the fault's
+        observed = np.maximum(observed - np.nan_to_num(np.asarray(quiet_level, dtype=float), nan=0.0), 0.0)
     out: list[Weakness] = []
     for row in fsm.rows:
         quiet = [j for j, (s, cj) in enumerate(zip(row.nominal, c)) if s and not cj]
@@ -110,7 +117,6 @@ def weak_entries(model: Model, residuals: list[Residual], raw: Mapping[str, np.n
         r1 = evaluate(model, residuals, raw, ts, window=window, values={**base_values, **params}, betas=betas,
                       biases=biases)[:, crop]
         effect = np.nanmax(np.abs(r1 - r0), axis=-1)                 # the step's peak effect on each residual
-        observed = np.nanmax(np.abs(r0), axis=-1)
         scales = [observed[i] / effect[i] for i in fired
                   if effect[i] > 0 and np.isfinite(effect[i]) and np.isfinite(observed[i])]
         if not scales:
