@@ -334,7 +334,7 @@ def widen(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, results: list, est: Est
         return d, results
     have, extra, weak, left = set(d.candidates), [], None, 0
     if m.config.exoneration == "structural":
-        eff, weak = weakened(p, det, fsm)
+        eff, weak = weakened(p, det, fsm, r)
         if weak:
             extra = [c for c in fitted_sets(m.model, candidate_sets(eff, det.final_coherence, True, o.max_set))
                      if c not in have]
