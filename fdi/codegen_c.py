@@ -194,11 +194,12 @@ def _tables(p: Plan) -> list[str]:
                 body[-1] += ","
             lines += body
         lines.append("};")
-    lines += ["", "typedef struct { int n, half, p, orders, out; const double *kernel; } channel_t;",
+    lines += ["", "typedef struct { int n, half, p, orders, out, edge; const double *kernel; } channel_t;",
               "", "static const channel_t CHANNELS[CHANNELS_N] = {"]
     for i, c in enumerate(p.channels):
         what = f"signal {c.name} ({c.unit})" if c.kind == "signal" else c.name
-        lines.append(f"    {{{c.n}, {c.n // 2}, {c.p}, {c.orders}, {c.out}, SG_{c.n}_{c.p}}},   "
+        edge = derivatives.edge_trim(c.n, c.p, c.orders)
+        lines.append(f"    {{{c.n}, {c.n // 2}, {c.p}, {c.orders}, {c.out}, {edge}, SG_{c.n}_{c.p}}},   "
                      f"/* {i}: {comment(what, 80)}, derivatives 0..{c.orders} */")
     lines.append("};")
     return lines
@@ -380,17 +381,23 @@ static void fit_centre(${P}_state *s, int c, int64_t centre)
 
 /* Sample j of channel c has arrived, in the stretch that began at sample a (fdi.residuals._piecewise):
  * the window centred half a window back is complete; with the stretch's first window, its first
- * half window from a one-sided fit; the values are final up to the centre when the stretch is the
- * data's first or has grown four windows long (a shorter one keeps no one-sided fit). */
+ * half window from a one-sided fit (after a switch, its first edge samples NaN: the fit is too
+ * noisy there, fdi.derivatives.edge_trim); the values are final up to the centre when the stretch
+ * is the data's first or has grown four windows long (a shorter one keeps no one-sided fit). */
 static void arrive(${P}_state *s, int c, int64_t a, int64_t j)
 {
     const channel_t *ch = &CHANNELS[c];
     int64_t length = j - a + 1;
+    int skip = a > 0 ? ch->edge : 0, o, pos;
     if (length < ch->n)
         return;
     fit_centre(s, c, j - ch->half);
-    if (length == ch->n)
-        fit_edge(s, c, a, 0, ch->half);
+    if (length == ch->n) {
+        fit_edge(s, c, a, skip, ch->half);
+        for (pos = 0; pos < skip; pos++)
+            for (o = 0; o <= ch->orders; o++)
+                s->priv.d[ch->out + o][SLOT(a + pos)] = NAN;
+    }
     if (a == 0 || length >= SHORT_STRETCH * (int64_t)ch->n)
         s->priv.frontier[c] = j - ch->half + 1;
 }
@@ -404,10 +411,11 @@ static void finish(${P}_state *s, int c, int64_t a, int64_t b, int at_end)
     int o;
     if (length >= ch->n) {
         int whole = length >= SHORT_STRETCH * (int64_t)ch->n;
-        lo = a + ((a > 0 && !whole) ? ch->half : 0);
-        hi = b - ((!at_end && !whole) ? ch->half : 0);
-        if (hi == b)
-            fit_edge(s, c, b - ch->n, ch->n - ch->half, ch->n);
+        int trim = whole ? ch->edge : ch->half;
+        lo = a + (a > 0 ? trim : 0);
+        hi = b - (!at_end ? trim : 0);
+        if (hi > b - ch->half)
+            fit_edge(s, c, b - ch->n, ch->n - ch->half, ch->n - (int)(b - hi));
     }
     for (k = s->priv.frontier[c]; k < b; k++)
         if (k < lo || k >= hi)

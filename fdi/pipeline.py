@@ -20,7 +20,7 @@ from bondgraph.errors import ModelError
 
 from .data import DataError, Measurements, commanded, signals_from_data
 from .decide import alternatives, effective_samples, information, select_winner, significant
-from .derivatives import DEFAULT_ORDER, window_samples
+from .derivatives import DEFAULT_ORDER, edge_trim, window_samples
 from .detect import Detection, detect, settling, thresholds_for
 from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide, since_detection
 from .estimators import (Estimators, Search, date_onsets, evidence_onsets, evidence_start, refit_early_onsets,
@@ -185,7 +185,8 @@ def blind(p: Prepared, r: np.ndarray) -> str | None:
         # derivative order: its window is the longest) are not reported
         order = max(derivative_orders(list(p.monitor.residuals)).values(), default=0)
         designed = np.ones(t.size, dtype=bool)
-        for _, keep in stretches(t.size, breaks, window_samples(p.window_s, p.meas.ts, max(DEFAULT_ORDER, order))):
+        need = window_samples(p.window_s, p.meas.ts, max(DEFAULT_ORDER, order))
+        for _, keep in stretches(t.size, breaks, need, edge_trim(need, max(DEFAULT_ORDER, order), order)):
             designed[keep] = False
         if empty and designed.all():
             return (f"{', '.join(empty)} had no sample: every stretch between two mode switches is shorter than the "

@@ -308,23 +308,25 @@ def _piecewise(x: np.ndarray, ts: float, order: int, window: float, breaks: np.n
     left out give NaN, which detection, calibration and identification skip."""
     out = [np.full(x.shape, np.nan) for _ in range(order + 1)]
     need = derivatives.window_samples(window, ts, max(polyorder, order))
-    for (a, b), keep in stretches(x.shape[-1], breaks, need):
+    for (a, b), keep in stretches(x.shape[-1], breaks, need, derivatives.edge_trim(need, max(polyorder, order), order)):
         for k, d in enumerate(derivatives.estimate(x[..., a:b], ts, order, window, polyorder=polyorder)):
             out[k][..., keep] = d[..., keep.start - a:keep.stop - a]
     return out
 
 
-def stretches(size: int, breaks: np.ndarray, need: int) -> list[tuple[tuple[int, int], slice]]:
+def stretches(size: int, breaks: np.ndarray, need: int, edge: int = 0) -> list[tuple[tuple[int, int], slice]]:
     """The stretches between mode switches that :func:`_piecewise` estimates, each (its samples
     [a, b), the samples kept): none shorter than the filter's window (``need`` samples); in fast
-    switching (shorter than SHORT_STRETCH windows) half a window trimmed at each switch. The other
-    samples are NaN by design (the report's note on residuals that are not finite leaves them out)."""
+    switching (shorter than SHORT_STRETCH windows) half a window trimmed at each switch, in a longer
+    one ``edge`` samples (where the one-sided fit is too noisy: :func:`fdi.derivatives.edge_trim`).
+    The other samples are NaN by design (the report's note on residuals that are not finite leaves
+    them out)."""
     edges = np.r_[0, breaks, size]
     out = []
     for a, b in zip(edges[:-1].tolist(), edges[1:].tolist()):
         if b - a < need:
             continue
-        trim = need // 2 if b - a < SHORT_STRETCH * need else 0
+        trim = need // 2 if b - a < SHORT_STRETCH * need else edge
         out.append(((a, b), slice(a + trim if a > 0 else a, b - trim if b < size else b)))
     return out
 
