@@ -47,7 +47,8 @@ from __future__ import annotations
 
 import functools
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from itertools import product
 from typing import Callable, Iterable, Mapping
 
 import sympy as sp
@@ -70,6 +71,7 @@ TARGETS_PER_ROUND = 2         # missed (fault, other fault) targets searched bef
 PLAN_TRIES = 24               # residual equations tried for a plan before an MSO set is passed over
 SEEDS_PER_TARGET = 3          # equations of a fault tried as the seed of a local search
 BALL_LIMIT = 60               # MSO sets listed around one seed
+OPERATING_MODES = 16          # combinations of switching modes a missed fault is looked for in, at most
 TIES_REALISED = 4             # structurally equal best candidates realised to compare their expressions' size
 
 
@@ -184,11 +186,27 @@ def derivative_order(system: EquationSystem, residual: int, p: dict) -> int:
     return max((order.get(u, 0) for u in eq.variables), default=0)
 
 
-def expression_faults(model: Model, arr: ARR, mode: Mapping[str, int],
+def operating_modes(model: Model) -> list[dict[str, int]]:
+    """The modes the plant runs in: every combination of its commanded and autonomous mode
+    variables (the others, which only a fault changes, at their nominal values), the nominal one
+    first; the nominal one alone beyond OPERATING_MODES combinations."""
+    switching = [n for n, m in model.modes.items() if m.column or m.autonomous]
+    nominal = nominal_mode(model)
+    if not switching or 2 ** len(switching) > OPERATING_MODES:
+        return [nominal]
+    combos = sorted(product((1, 0), repeat=len(switching)),
+                    key=lambda c: (c != tuple(nominal[n] for n in switching), [-x for x in c]))
+    return [{**nominal, **dict(zip(switching, c))} for c in combos]
+
+
+def expression_faults(model: Model, arr: ARR, mode: Mapping[str, int] | list[Mapping[str, int]],
                       fault_symbols: Mapping[str, frozenset]) -> frozenset[str]:
-    """The faults a residual reacts to structurally in ``mode``: the symbols of its expression
-    (its column of :func:`fdi.signatures.fault_signature_matrix`, from one pass over them) and of
-    the right-hand sides of its integrated states (mixed causality: a fault there moves X(t))."""
+    """The faults a residual reacts to structurally in ``mode`` (or in any of a list of modes): the
+    symbols of its expression (its column of :func:`fdi.signatures.fault_signature_matrix`, from
+    one pass over them) and of the right-hand sides of its integrated states (mixed causality: a
+    fault there moves X(t))."""
+    if isinstance(mode, list):
+        return frozenset().union(*(expression_faults(model, arr, m, fault_symbols) for m in mode))
     modes = {model.symbols[m]: sp.Integer(v) for m, v in mode.items()}
     present = free_symbols(arr.expr.xreplace(modes) if modes else arr.expr)     # each shared part once
     for _, rhs in arr.states:
@@ -240,6 +258,7 @@ def select(model: Model, causality: str = DERIVATIVE, budget: float = BUDGET) ->
     picks = search.complete(picks, search.shortfall, targeted=True)
     picks = search.prune(picks)
     picks = search.lower(picks)
+    picks = search.operating(picks)
     k = len(scaph)
     out = []
     for p in picks:
@@ -304,6 +323,27 @@ class _Search:
     @property
     def fe(self) -> Mapping[str, frozenset]:
         return self.best.fault_equations
+
+    def operating(self, picks: list[_Pick]) -> list[_Pick]:
+        """Residuals for the faults no chosen residual reacts to in any mode the plant runs in
+        (:func:`operating_modes`), judged there: the choice above judges residuals in the nominal
+        mode, where a switched-off branch's faults enter no residual (an EV's precharge resistor,
+        its contactor open at rest: no residual held it, though the loop through it is one while
+        the contactor is closed). Only the faults missed everywhere are asked for, so a model
+        whose nominal mode sees every fault keeps its residuals."""
+        modes = operating_modes(self.model)
+        missed = self.shortfall(picks).undetected if len(modes) > 1 else ()
+        if not missed:
+            return picks
+        nominal, self.mode = self.mode, modes
+        judged = [replace(p, faults=self.faults_of(p.arr)) for p in picks]
+        if not self.shortfall(judged).undetected:         # each detected in some mode the plant runs in
+            self.mode = nominal
+            return picks
+        self.realised = {k: replace(p, faults=self.faults_of(p.arr)) for k, p in self.realised.items()}
+        self.notes.append(f"no residual chosen in the nominal mode reacts to {', '.join(missed)}: residuals added "
+                          f"for them, judged in every combination of the switching modes")
+        return self.complete(judged, lambda chosen: Shortfall(self.shortfall(chosen).undetected, ()), targeted=True)
 
     def faults_of(self, arr: ARR) -> frozenset[str]:
         return expression_faults(self.model, arr, self.mode, self.fault_symbols)

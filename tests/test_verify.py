@@ -34,6 +34,9 @@ def _verified(path: Path):
     return verify(load_model(path))
 
 
+# A model whose nominal mode is a plant at rest: an ARR relating what moves only in other modes is
+# unverified there (the note says so) and verified in a mode that moves it
+AT_REST = {"ev_precharge": "contactors open at rest: no battery current, the precharge loop reads 0 = 0"}
 LIMITS: dict[str, str] = {}     # a correct model the verification's numerics do not resolve: why
 # (the LC ladder was here until its stored quantities' second derivatives were filtered at the
 # signals' order: a cubic over 5 samples converged as the square of the step)
@@ -48,7 +51,9 @@ def test_every_shipped_model_passes_with_a_clear_margin(path):
     for c in v.checks:
         if c.passed:
             assert c.violation < THRESHOLD / 10, (c.arr, c.mode_text, c.violation)
-        if c.mode == nominal:
+        if c.mode == nominal and path.stem in AT_REST and c.passed is None:
+            assert "at rest" in c.note and any(o.passed for o in v.checks if o.arr == c.arr), (c.arr, c.note)
+        elif c.mode == nominal:
             assert c.passed, (c.arr, c.note)                    # every ARR is checked in the nominal mode
     assert not v.notes
 
