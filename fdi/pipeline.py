@@ -390,7 +390,9 @@ def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects) 
     win = window(p.meas.t, p.raw, det.time, p.samples, p.window_s)
     variables = sorted({mode_variable(model, s) for s in suspects})
     e = estimate_mode(model, p.monitor.residuals, win, p.weights, p.options.seed, p.window_s, variables, p.modes)
-    changed = [v for v in e.mode if e.mode[v] != mode[v]]
+    # no mode fault where no mode explains the data finitely (a sample of 1e308 the residuals
+    # overflow on: every mode's cost infinite, and the first mode tried was named a stuck contactor)
+    changed = [v for v in e.mode if e.mode[v] != mode[v]] if e.cost is not None and np.isfinite(e.cost) else []
     faults = tuple(faults_of({"name": mode_fault_name(model, v, e.mode[v]), "type": "mode", "value": e.mode[v]}
                              for v in changed))
     return ModeFault(dict(e.mode), e.cost, tuple(e.table or ()), faults)

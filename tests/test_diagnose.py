@@ -372,3 +372,28 @@ def test_a_residual_empty_on_long_stretches_between_switches_is_not_blamed_on_th
     monkeypatch.setattr(pipeline, "mode_breaks", lambda model, raw: np.arange(10, 1000, 10))   # 10-sample stretches
     assert pipeline.blind(p, np.full((2, 1000), np.nan)).startswith(
         "ARR1, ARR2 had no sample: every stretch between two mode switches is shorter than the derivative window")
+
+
+def test_no_mode_fault_is_named_where_no_mode_explains_the_data(monkeypatch):
+    """A sample of 1e308 V in an EV precharge record (a user trial) made every residual overflow
+    in every mode: the fault-mode estimator's costs were all infinite, it kept the first mode it
+    tried, and the report named a stuck main contactor (exit 0, confident). A mode is estimated
+    only where some mode's cost is finite; the two-tank's valve commanded open (v = 1), every
+    mode costing inf: no mode fault."""
+    from types import SimpleNamespace
+
+    from bondgraph.loader import load_model
+    from fdi import pipeline
+
+    from .conftest import MODELS
+    model = load_model(MODELS / "two_tank_commanded.yaml")
+    t = np.arange(200) * 0.1
+    p = SimpleNamespace(monitor=SimpleNamespace(model=model, residuals=[]), meas=SimpleNamespace(t=t, ts=0.1),
+                        raw={}, samples=100, window_s=1.0, weights=None, options=SimpleNamespace(seed=0), modes=None)
+    monkeypatch.setattr(pipeline, "window", lambda *a: None)
+    det = SimpleNamespace(time=5.0)
+    for cost, named in ((float("inf"), ()), (12.5, ("v_closed",))):
+        monkeypatch.setattr(pipeline, "estimate_mode",
+                            lambda *a, cost=cost: SimpleNamespace(mode={"v": 0}, cost=cost, table=None))
+        mf = pipeline.estimate_modes(p, det, {"v": 1}, ["v_closed"])
+        assert tuple(f.name for f in mf.faults) == named
