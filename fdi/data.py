@@ -531,6 +531,22 @@ def signals_from_data(model: Model, data: Measurements) -> dict[str, np.ndarray]
     return out
 
 
+def unread_columns(model: Model) -> list[str]:
+    """The columns ``data: columns`` declares that no sensor, input or commanded mode reads: a
+    command column a mode was meant to follow (``m_cmd`` beside a mode ``m`` without ``column:``
+    is held at its nominal value, and every switch of the real contactor looks like a fault).
+
+    >>> from bondgraph.loader import load_model
+    >>> unread_columns(load_model("models/two_tank_commanded.yaml"))
+    []
+    """
+    read = {"t"} | {i.column for i in model.inputs.values() if i.column} | {
+        m.column for m in model.modes.values() if m.column}
+    for s in model.sensors.values():
+        read |= {str(x) for x in s.signal.free_symbols}
+    return [c for c in model.columns if c not in read]
+
+
 def autonomous_modes(model: Model, signals: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Each autonomous mode, sample by sample: 1 where its condition (``positive``) is above zero."""
     out = {}

@@ -11,7 +11,7 @@ from bondgraph.errors import ModelError
 from bondgraph.loader import load_model, load_model_text
 from fdi.app.cli import main
 
-from .conftest import CYCAB, SHIPPED
+from .conftest import CYCAB, MODELS, SHIPPED
 
 BASE = """\
 name: rc
@@ -266,3 +266,21 @@ def test_a_two_port_of_modulus_zero_or_infinite_is_refused_with_its_value(kind, 
     assert "elements.tf.modulus" in str(err) and "couples nothing" in str(err)
     load_model_text(text.replace(f"n: {{value: {value}}}", "n: {value: 0.5}").replace("modulus: '0'", "modulus: '0.5'")
                     .replace("modulus: 'n - n'", "modulus: 'n'"))
+
+
+def test_check_names_a_command_column_no_mode_reads(tmp_path, capsys):
+    """A mode meant to follow its command but given no ``column:`` is held at its nominal value
+    (a user's EV precharge model: the main contactor's m_cmd beside a mode m without column, and
+    every closing of the contactor was diagnosed as a fault). It is legal (a mode only a fault
+    changes, as the CyCab's), so check says what drives each mode and names the column nothing reads."""
+    text = (MODELS / "two_tank_commanded.yaml").read_text(encoding="utf-8")
+    given = ', column: v_cmd, expr: "heaviside(300 - t)"'
+    assert given in text
+    model = tmp_path / "forgot.yaml"
+    model.write_text(text.replace(given, ""), encoding="utf-8")
+    assert main(["check", str(model)]) == 0
+    out = capsys.readouterr().out
+    assert "v (1 unless a fault" in out and "data column v_cmd is read by nothing" in out
+    assert main(["check", str(MODELS / "two_tank_commanded.yaml")]) == 0
+    out = capsys.readouterr().out
+    assert "v (commanded: v_cmd)" in out and "read by nothing" not in out

@@ -8,6 +8,7 @@ from bondgraph.causality import DIAGNOSIS, SIMULATION, Causality, assign
 from bondgraph.errors import CausalityError
 from bondgraph.model import Model
 
+from ..data import unread_columns
 from .progress import stage
 
 
@@ -75,7 +76,9 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
         "junctions": [{"name": j.name, "kind": j.kind, "mode": j.mode} for j in model.junctions.values()],
         "sensors": [{"name": s.name, "kind": s.kind, "junction": s.junction, "measures": s.measures, "unit": s.unit}
                     for s in model.sensors.values()],
-        "modes": [{"name": m.name, "nominal": m.nominal} for m in model.modes.values()],
+        "modes": [{"name": m.name, "nominal": m.nominal, "column": m.column, "autonomous": bool(m.autonomous)}
+                  for m in model.modes.values()],
+        "unread_columns": unread_columns(model),
         "faults": [{"name": f.name, "kind": f.kind, "targets": list(f.targets)} for f in model.faults.values()],
         "two_ports": two_port_laws(model),
         "diagnosis": _causality(model, diag),

@@ -336,8 +336,12 @@ def _print_summary(model: Model, path: str) -> None:
     print(f"  bonds      {len(model.bonds)}")
     print(f"  sensors    {len(model.sensors)}: " + ", ".join(
         f"{s.name} ({s.kind} on {s.junction}, {s.measures})" for s in model.sensors.values()))
-    print(f"  modes      {len(model.modes)}: " + (", ".join(model.modes) or "none")
-          + f" -> {2 ** len(model.modes)} mode(s)")
+    print(f"  modes      {len(model.modes)}: " + (", ".join(f"{m.name} ({_driven(m)})" for m in model.modes.values())
+                                                   or "none") + f" -> {2 ** len(model.modes)} mode(s)")
+    from ..data import unread_columns
+    for c in unread_columns(model):
+        print(f"  note: data column {c} is read by nothing: a sensor's, an input's or a commanded mode's "
+              f"column (modes: <name>: {{column: {c}}})?")
     print(f"  faults     {len(model.faults)}: " + ", ".join(
         f"{f.name} ({f.kind}: {', '.join(f.targets)})" for f in model.faults.values()))
     from .two_ports import laws
@@ -346,6 +350,16 @@ def _print_summary(model: Model, path: str) -> None:
         print(f"  two-ports  {len(ports)} (bond variables e[k], f[k]; power from the first node to the second):")
         for p in ports:
             print(f"    {p['name']} ({p['kind']}, {p['from']} -> {p['to']}): {', '.join(p['laws'])}")
+
+
+def _driven(mode) -> str:
+    """What sets a mode variable, as `check` lists it: its command column, its condition, or only a
+    fault (held at its nominal value otherwise)."""
+    if mode.column:
+        return f"commanded: {mode.column}"
+    if mode.autonomous:
+        return "autonomous"
+    return f"{mode.nominal} unless a fault"
 
 
 def _print_diagnostic_causality(model: Model, args: argparse.Namespace) -> list:
