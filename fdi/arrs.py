@@ -111,6 +111,35 @@ def arr_unit(model: Model, arr: ARR) -> str:
     return _junction_unit(model, arr)
 
 
+def units_by_mode(model: Model, arr: ARR, modes: list[dict[str, int]]) -> dict[str, list[dict[str, int]]]:
+    """The unit ``arr`` sums in each of ``modes`` (its expression reduced there), by unit: more than
+    one entry when a residual rebuilt mode by mode joins forms of different units (an EV precharge
+    circuit's link residual: a voltage loop while a contactor is closed, the battery current, in A,
+    while both are open). One threshold then judges volts and amperes alike; calibrate sets it from
+    the noisier, and a fault in the other mode goes undetected. Modes whose terms cannot be read
+    are left out.
+
+    >>> from bondgraph.loader import load_model
+    >>> from fdi.signatures import all_modes
+    >>> m = load_model("models/two_tank_commanded.yaml")
+    >>> [list(units_by_mode(m, a, all_modes(m))) for a in select_arrs(m).arrs]
+    [['m^3/s'], ['m^3/s'], ['m^3/s']]
+    """
+    from dataclasses import replace
+
+    from bondgraph.units import format_dimension
+
+    out: dict[str, list[dict[str, int]]] = {}
+    for mode in modes:
+        expr = arr.expr.xreplace({model.symbols[m]: v for m, v in mode.items()}) if mode else arr.expr
+        if expr == 0:
+            continue
+        d = _residual_dimension(model, replace(arr, expr=expr))
+        if d is not None:
+            out.setdefault(format_dimension(d), []).append(dict(mode))
+    return out
+
+
 def _residual_dimension(model: Model, arr: ARR) -> dict[str, float] | None:
     """The dimension of the terms ``arr.expr`` sums; None when no term can be read or they disagree."""
     from bondgraph.units import dimension

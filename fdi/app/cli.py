@@ -393,7 +393,27 @@ def _print_diagnostic_causality(model: Model, args: argparse.Namespace) -> list:
     print(f"residuals ({args.causality} causality): " + ", ".join(f"{a.name} ({_origin(a)})" for a in arrs))
     for note in chosen.notes:
         print(f"  note: {note}")
+    for note in mixed_units(model, arrs):
+        print(f"  note: {note}")
     return arrs
+
+
+def mixed_units(model: Model, arrs: list) -> list[str]:
+    """One note per residual whose modes sum different units (:func:`fdi.arrs.units_by_mode`)."""
+    from ..arrs import units_by_mode
+    from ..signatures import all_modes
+
+    if not model.modes or len(model.modes) > 4:
+        return []
+    notes = []
+    for a in arrs:
+        units = units_by_mode(model, a, all_modes(model))
+        if len(units) > 1:
+            where = "; ".join(f"{u} in {', '.join(' '.join(f'{k}={v}' for k, v in m.items()) for m in ms)}"
+                              for u, ms in units.items())
+            notes.append(f"{a.name} sums different units by mode ({where}): one threshold judges them all, set by "
+                         f"the noisier; a fault that moves it only in the other modes may go undetected")
+    return notes
 
 
 def _origin(a) -> str:
