@@ -232,6 +232,14 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
         d = replace(d, mode_fault=mf)
         if mf.faults and not iso.candidates:
             return replace(d, mode=dict(mf.mode), faults=mf.faults)
+        if mf.faults and iso.weak and explains(p, r, mf.cost, d.detection) and not candidate_sets(
+                p.monitor.fsm(d.mode), d.detection.final_coherence, p.options.exoneration, p.options.max_set):
+            # the mode change matches the coherence vector as it is; the sets only weak entries admit
+            # would be identified to lose to it (a stuck valve: 8 sets, 16 s, for the same answer)
+            note = (f"the fault mode explains the data ({mf.cost / nominal_cost(p, r, d.detection.time):.2g} times "
+                    "the residuals' nominal level): the candidate sets that only weak entries admit were not identified")
+            return replace(d, isolation=replace(iso, candidates=(), pruned=0), mode=dict(mf.mode), faults=mf.faults,
+                           note=note)
     if not iso.candidates and p.options.exoneration:
         relaxed = relaxed_sets(fsm, d.detection.final_coherence, p.options.max_set)
         if relaxed:
@@ -294,6 +302,13 @@ def weakened(p: Prepared, det: Detection, fsm, r: np.ndarray | None = None):
 
 
 LACK_OF_FIT = 5.0   # a best fit whose cost is this many times the residuals' nominal level explains nothing
+
+
+def explains(p: Prepared, r: np.ndarray, cost: float | None, det: Detection) -> bool:
+    """Whether a fit of ``cost`` leaves the residuals within LACK_OF_FIT times their nominal level
+    (:func:`nominal_cost`; False where that level is unknown)."""
+    level = nominal_cost(p, r, det.time)
+    return cost is not None and np.isfinite(cost) and np.isfinite(level) and level > 0 and cost <= LACK_OF_FIT * level
 
 
 def nominal_cost(p: Prepared, r: np.ndarray, t_d: float) -> float:
