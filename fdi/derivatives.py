@@ -167,24 +167,29 @@ EDGE_GAIN = 2.0
 @lru_cache(maxsize=256)
 def edge_trim(n: int, polyorder: int, order: int) -> int:
     """How many samples at a stretch's end (a mode switch) a one-sided fit of ``n`` samples leaves
-    out: those where the fit's noise gain for derivative ``order`` (the norm of its taps) exceeds
-    EDGE_GAIN times the centred filter's. The end sample's fit is several times noisier than the
-    centre's (a cubic over 101 samples: 3.9 times for a first derivative, 5.9 for a second); on a
-    thermostat's 251 switches a day those samples set the calibrated thresholds (a building's zone
-    balance: 2 024 W at a switch, 609 W at the 99th percentile elsewhere), ten times what the
-    heater's 900 W loss moves it by.
+    out for a channel that needs derivatives 0..``order``: past the last position where the fit's
+    noise gain for one of them (the norm of its taps) exceeds EDGE_GAIN times the centred
+    filter's. The end sample's fit is several times noisier than the centre's (a cubic over 101
+    samples: 3.9 times for a first derivative, 5.9 for a second); on a thermostat's 251 switches a
+    day those samples set the calibrated thresholds (a building's zone balance: 2 024 W at a
+    switch, 609 W at the 99th percentile elsewhere), ten times what the heater's 900 W loss moves
+    it by. A derivative of the polynomial's own order is flat across the window (a gain of 1).
 
-    >>> edge_trim(101, 3, 1), edge_trim(101, 3, 2), edge_trim(101, 3, 0) <= edge_trim(101, 3, 1)
-    (13, 36, True)
+    >>> [edge_trim(101, 3, k) for k in range(4)]
+    [4, 13, 36, 36]
     """
+    if not 0 <= order <= polyorder < n:
+        raise ValueError(f"a derivative of order {order} needs a polynomial of at least that order and fewer "
+                         f"than {n} samples (polyorder {polyorder})")
     half = n // 2
     j = np.arange(n, dtype=float)
-    gains = []
+    gains = np.empty((order + 1, half + 1))
     for pos in range(half + 1):
-        design = np.vander(j - pos, polyorder + 1, increasing=True)
-        taps = np.linalg.pinv(design)[order] * factorial(order)
-        gains.append(float(np.sqrt(np.dot(taps, taps))))
-    return next(i for i, g in enumerate(gains) if g <= EDGE_GAIN * gains[-1])
+        pinv = np.linalg.pinv(np.vander(j - pos, polyorder + 1, increasing=True))
+        for k in range(order + 1):
+            gains[k, pos] = float(np.sqrt(np.dot(pinv[k], pinv[k]))) * factorial(k)
+    over = gains > EDGE_GAIN * gains[:, -1:]
+    return int(np.flatnonzero(over.any(axis=0)).max() + 1) if over.any() else 0
 
 
 def fir(x: np.ndarray, half: np.ndarray, start: int, count: int, stride: int = 1) -> np.ndarray:

@@ -20,7 +20,7 @@ from bondgraph.errors import ModelError
 
 from .data import DataError, Measurements, commanded, signals_from_data
 from .decide import alternatives, effective_samples, information, select_winner, significant
-from .derivatives import DEFAULT_ORDER, edge_trim, window_samples
+from .derivatives import DEFAULT_ORDER, window_samples
 from .detect import Detection, detect, settling, thresholds_for
 from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide, since_detection
 from .estimators import (Estimators, Search, date_onsets, evidence_onsets, evidence_start, refit_early_onsets,
@@ -31,7 +31,7 @@ from .mode_estimation import estimate_mode, mode_variable
 from .objective import nominal, window
 from .options import MIN_WINDOW_S, Options, check_samples
 from .prognose import prognose
-from .residuals import derivative_orders, evaluate, mode_breaks, stretches
+from .residuals import designed_gaps, evaluate, mode_breaks
 from .scales import check_derivative_window
 from .results import Alternative, Diagnosis, Isolation, ModeFault, Prognosis, faults_of
 from .sensitivity import effective, weak_entries
@@ -181,13 +181,8 @@ def blind(p: Prepared, r: np.ndarray) -> str | None:
     empty = [n for n, f in zip(names, finite) if not f.any()]
     breaks = mode_breaks(p.monitor.model, p.raw)
     if len(breaks):
-        # the samples the evaluator leaves out by design (fdi.residuals.stretches, at the highest
-        # derivative order: its window is the longest) are not reported
-        order = max(derivative_orders(list(p.monitor.residuals)).values(), default=0)
-        designed = np.ones(t.size, dtype=bool)
-        need = window_samples(p.window_s, p.meas.ts, max(DEFAULT_ORDER, order))
-        for _, keep in stretches(t.size, breaks, need, edge_trim(need, max(DEFAULT_ORDER, order), order)):
-            designed[keep] = False
+        # the samples the evaluator leaves out by design (fdi.residuals.designed_gaps) are not reported
+        designed = designed_gaps(list(p.monitor.residuals), t.size, breaks, p.window_s, p.meas.ts)
         if empty and designed.all():
             return (f"{', '.join(empty)} had no sample: every stretch between two mode switches is shorter than the "
                     f"derivative window ({p.window_s:g} s); shorten diagnosis.derivative_window or sample faster")
@@ -274,17 +269,17 @@ def isolate(p: Prepared, det: Detection, mode: dict[str, int], r: np.ndarray | N
 
 
 def quiet_level(p: Prepared, r: np.ndarray | None, t_d: float) -> np.ndarray | None:
-    """Each residual's peak |r| on the trusted data before the detection (less a derivative window,
-    the filter's look-ahead): its noise and spikes without the fault; None when there are too few
-    such samples (a fault from the start) to say."""
+    """Each residual's peak |r| on the trusted data just before the detection (less a derivative
+    window, the filter's look-ahead; over as many samples as the identification window, so that a
+    long record's rare spike does not count): its noise and spikes without the fault; None when
+    there are too few such samples (a fault from the start) to say, NaN for a residual with none."""
     if r is None:
         return None
     t = p.meas.t
-    before = (t >= p.first_trusted) & (t < t_d - p.window_s)
-    if before.sum() < max(10, window_samples(p.window_s, p.meas.ts, DEFAULT_ORDER)):
+    before = np.flatnonzero((t >= p.first_trusted) & (t < t_d - p.window_s))[-p.samples:]
+    if before.size < max(10, window_samples(p.window_s, p.meas.ts, DEFAULT_ORDER)):
         return None
-    with np.errstate(invalid="ignore"):
-        return np.nanmax(np.abs(np.asarray(r)[:, before]), axis=1)
+    return np.fmax.reduce(np.abs(np.asarray(r)[:, before]), axis=1)      # NaN skipped, no warning
 
 
 def weakened(p: Prepared, det: Detection, fsm, r: np.ndarray | None = None):
@@ -407,10 +402,12 @@ def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects) 
     e = estimate_mode(model, p.monitor.residuals, win, p.weights, p.options.seed, p.window_s, variables, p.modes)
     # no mode fault where no mode explains the data finitely (a sample of 1e308 the residuals
     # overflow on: every mode's cost infinite, and the first mode tried was named a stuck contactor)
-    changed = [v for v in e.mode if e.mode[v] != mode[v]] if e.cost is not None and np.isfinite(e.cost) else []
-    faults = tuple(faults_of({"name": mode_fault_name(model, v, e.mode[v]), "type": "mode", "value": e.mode[v]}
+    finite = e.cost is not None and np.isfinite(e.cost)
+    estimate = dict(e.mode) if finite else {v: mode[v] for v in e.mode}     # no estimate: the mode at t_D
+    changed = [v for v in estimate if estimate[v] != mode[v]]
+    faults = tuple(faults_of({"name": mode_fault_name(model, v, estimate[v]), "type": "mode", "value": estimate[v]}
                              for v in changed))
-    return ModeFault(dict(e.mode), e.cost, tuple(e.table or ()), faults)
+    return ModeFault(estimate, e.cost, tuple(e.table or ()), faults)
 
 
 def stuck_sensors(p: Prepared, d: Diagnosis) -> Diagnosis:

@@ -314,6 +314,35 @@ def _piecewise(x: np.ndarray, ts: float, order: int, window: float, breaks: np.n
     return out
 
 
+def channel_orders(residuals: list["Residual"]) -> set[int]:
+    """Every derivative order the residuals filter a channel at: each signal's highest (as
+    :func:`derivative_orders`) and each stored quantity's rate (``composites``, nested ones too)."""
+    out = set(derivative_orders(residuals).values())
+    todo = list(residuals)
+    while todo:
+        r = todo.pop()
+        for order, inner in r.composites:
+            out.add(order)
+            todo.append(inner)
+    return out
+
+
+def designed_gaps(residuals: list["Residual"], size: int, breaks: np.ndarray, window: float, ts: float,
+                  polyorder: int = derivatives.DEFAULT_ORDER) -> np.ndarray:
+    """The samples some residual leaves NaN by design at mode switches (:func:`_piecewise` on each of
+    its channels, :func:`stretches`): True there. Every channel's order counts, for each has its own
+    window and edge trim (a stored quantity's first rate beside signals read undifferentiated)."""
+    gaps = np.zeros(size, dtype=bool)
+    for order in channel_orders(residuals) | {0}:
+        p = max(polyorder, order)
+        need = derivatives.window_samples(window, ts, p)
+        kept = np.zeros(size, dtype=bool)
+        for _, keep in stretches(size, breaks, need, derivatives.edge_trim(need, p, order)):
+            kept[keep] = True
+        gaps |= ~kept
+    return gaps
+
+
 def stretches(size: int, breaks: np.ndarray, need: int, edge: int = 0) -> list[tuple[tuple[int, int], slice]]:
     """The stretches between mode switches that :func:`_piecewise` estimates, each (its samples
     [a, b), the samples kept): none shorter than the filter's window (``need`` samples); in fast

@@ -341,9 +341,14 @@ class _Search:
             self.mode = nominal
             return picks
         self.realised = {k: replace(p, faults=self.faults_of(p.arr)) for k, p in self.realised.items()}
-        self.notes.append(f"no residual chosen in the nominal mode reacts to {', '.join(missed)}: residuals added "
-                          f"for them, judged in every combination of the switching modes")
-        return self.complete(judged, lambda chosen: Shortfall(self.shortfall(chosen).undetected, ()), targeted=True)
+        left = self.shortfall(judged).undetected
+        picks = self.complete(judged, lambda chosen: Shortfall(self.shortfall(chosen).undetected, ()), targeted=True)
+        found = [f for f in left if f not in self.shortfall(picks).undetected]
+        if found:
+            self.notes.append(f"no residual chosen in the nominal mode reacts to {', '.join(found)} in any mode: "
+                              f"residuals added for {'it' if len(found) == 1 else 'them'}, judged in every "
+                              f"combination of the switching modes")
+        return picks          # (self.mode stays the list: the picks' faults and the final shortfall are judged there)
 
     def faults_of(self, arr: ARR) -> frozenset[str]:
         return expression_faults(self.model, arr, self.mode, self.fault_symbols)

@@ -101,9 +101,9 @@ def weak_entries(model: Model, residuals: list[Residual], raw: Mapping[str, np.n
     nominal = {k: float(v) for k, v in model.nominal_by_name().items()}
     base_values = dict(values or {})
     r0 = evaluate(model, residuals, raw, ts, window=window, values=base_values)[:, crop]
-    observed = np.nanmax(np.abs(r0), axis=-1)
+    observed = np.fmax.reduce(np.abs(r0), axis=-1)                  # NaN skipped, no warning
     if quiet_level is not None:          # the part of each peak above the residual's own level is the fault's
-        observed = np.maximum(observed - np.nan_to_num(np.asarray(quiet_level, dtype=float), nan=0.0), 0.0)
+        observed = observed - np.nan_to_num(np.asarray(quiet_level, dtype=float), nan=0.0)
     out: list[Weakness] = []
     for row in fsm.rows:
         quiet = [j for j, (s, cj) in enumerate(zip(row.nominal, c)) if s and not cj]
@@ -116,9 +116,9 @@ def weak_entries(model: Model, residuals: list[Residual], raw: Mapping[str, np.n
         params, betas, biases = moved
         r1 = evaluate(model, residuals, raw, ts, window=window, values={**base_values, **params}, betas=betas,
                       biases=biases)[:, crop]
-        effect = np.nanmax(np.abs(r1 - r0), axis=-1)                 # the step's peak effect on each residual
-        scales = [observed[i] / effect[i] for i in fired
-                  if effect[i] > 0 and np.isfinite(effect[i]) and np.isfinite(observed[i])]
+        effect = np.fmax.reduce(np.abs(r1 - r0), axis=-1)            # the step's peak effect on each residual
+        scales = [observed[i] / effect[i] for i in fired      # a peak not above its own level reads no size
+                  if effect[i] > 0 and np.isfinite(effect[i]) and np.isfinite(observed[i]) and observed[i] > 0]
         if not scales:
             continue
         k = min(scales)                 # the smallest size that explains one residual that fired

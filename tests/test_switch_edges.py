@@ -53,3 +53,35 @@ def test_a_stretch_shorter_than_four_windows_still_loses_half_a_window_at_each_s
     assert (keep.start, keep.stop) == (300 + N // 2, 500 - N // 2)
     long, = [s for s in stretches(2000, np.array([300, 1000]), N, edge_trim(N, 3, 1)) if s[0][0] == 300]
     assert (long[1].start, long[1].stop) == (313, 987)
+
+
+def test_the_gaps_left_by_design_count_every_channel_a_stored_quantitys_rate_too():
+    """The EV precharge link residual filters the capacitor's charge C (vdc - Resr iC) for its first
+    rate while reading the signals undifferentiated: its gaps at a switch are the first rate's (3
+    samples each side of a 25-sample window), not the smoothed values' (1). The report's note on
+    samples that are not finite counted only the signals' orders and called those 8 samples an
+    overflow of the record."""
+    from types import SimpleNamespace
+    from pathlib import Path
+
+    from bondgraph.loader import load_model
+    from fdi import pipeline
+    from fdi.monitor import derive
+    from fdi.residuals import designed_gaps, evaluate
+
+    model = load_model(Path(__file__).parent / "data" / "ev_precharge.yaml")
+    _, residuals = derive(model)
+    n, ts, window = 4000, 1e-3, 0.025
+    rng = np.random.default_rng(1)
+    t = np.arange(n) * ts
+    modes = {"p": (t >= 1.0).astype(float), "m": (t >= 2.5).astype(float), "d": np.zeros(n)}
+    raw = {"Vb": 400 + rng.normal(0, 0.1, n), "iinv": rng.normal(0, 0.1, n), "ib": rng.normal(0, 0.1, n),
+           "vdc": 300 + rng.normal(0, 0.1, n), **modes}
+    r = evaluate(model, list(residuals), raw, ts, window=window, values=modes)
+    gaps = designed_gaps(list(residuals), n, np.array([1000, 2500]), window, ts)
+    assert np.flatnonzero(gaps).tolist() == [997, 998, 999, 1000, 1001, 1002, 2497, 2498, 2499, 2500, 2501, 2502]
+    assert not (~np.isfinite(r) & ~gaps).any()
+    p = SimpleNamespace(monitor=SimpleNamespace(names=[x.name for x in residuals], model=model,
+                                                residuals=list(residuals)),
+                        meas=SimpleNamespace(t=t, ts=ts), raw=raw, window_s=window)
+    assert pipeline.blind(p, r) is None

@@ -26,9 +26,10 @@ from bondgraph.errors import CausalityError, ModelError
 
 if TYPE_CHECKING:                      # networkx (causality) and sympy (model) only where a command derives
     from bondgraph.causality import Causality
-    from bondgraph.model import Model
+    from bondgraph.model import Mode, Model
 
     from ..monitor import Monitor
+    from ..scaph import ARR
 
 from ..errors import UsageError
 from ..data import DataError
@@ -352,7 +353,7 @@ def _print_summary(model: Model, path: str) -> None:
             print(f"    {p['name']} ({p['kind']}, {p['from']} -> {p['to']}): {', '.join(p['laws'])}")
 
 
-def _driven(mode) -> str:
+def _driven(mode: Mode) -> str:
     """What sets a mode variable, as `check` lists it: its command column, its condition, or only a
     fault (held at its nominal value otherwise)."""
     if mode.column:
@@ -398,16 +399,19 @@ def _print_diagnostic_causality(model: Model, args: argparse.Namespace) -> list:
     return arrs
 
 
-def mixed_units(model: Model, arrs: list) -> list[str]:
-    """One note per residual whose modes sum different units (:func:`fdi.arrs.units_by_mode`)."""
+def mixed_units(model: Model, arrs: list[ARR]) -> list[str]:
+    """One note per residual whose modes sum different units (:func:`fdi.arrs.units_by_mode`), in
+    the modes the plant runs in (:func:`fdi.selection.operating_modes`: the switching modes'
+    combinations, up to 16; a fault-only mode is a fault, not a mode a threshold is set in)."""
     from ..arrs import units_by_mode
-    from ..signatures import all_modes
+    from ..selection import operating_modes
 
-    if not model.modes or len(model.modes) > 4:
+    modes = operating_modes(model)
+    if len(modes) < 2:
         return []
     notes = []
     for a in arrs:
-        units = units_by_mode(model, a, all_modes(model))
+        units = units_by_mode(model, a, modes)
         if len(units) > 1:
             where = "; ".join(f"{u} in {', '.join(' '.join(f'{k}={v}' for k, v in m.items()) for m in ms)}"
                               for u, ms in units.items())
