@@ -329,7 +329,9 @@ def _print_summary(model: Model, path: str) -> None:
     jkinds = Counter(j.kind for j in model.junctions.values())
     print(f"model {model.name} ({path})")
     if model.reference:
-        print(f"  reference: {model.reference}")
+        import textwrap
+        print(textwrap.fill(model.reference, width=100, initial_indent="  reference: ", subsequent_indent=" " * 13,
+                            break_on_hyphens=False, break_long_words=False))
     print(f"  elements   {len(model.elements)}: " + ", ".join(f"{k} {v}" for k, v in sorted(kinds.items())))
     ctrl = [f"{j.name} ({j.kind}, mode {j.mode})" for j in model.junctions.values() if j.controlled]
     print(f"  junctions  {len(model.junctions)}: " + ", ".join(f"{k}: {v}" for k, v in sorted(jkinds.items()))
