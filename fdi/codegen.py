@@ -9,8 +9,8 @@ to detection, sample by sample:
 - their Savitzky-Golay derivatives (:mod:`fdi.derivatives`: the same window in samples, polynomial
   and coefficients, computed here and emitted as constants), broken at mode switches as
   :func:`fdi.residuals.corrected_signals` breaks them (one-sided fits at the ends of stretches
-  four windows long or more but for the samples at a switch where they are more than twice as
-  noisy as the centred filter, :func:`fdi.derivatives.edge_trim`; nothing within half a window of
+  four windows long or more but for the samples at a switch where they are more than 1.5 times
+  as noisy as the centred filter, :func:`fdi.derivatives.edge_trim`; nothing within half a window of
   the switches of shorter ones);
 - the rates of stored quantities ``d(C e)/dt`` (``Residual.composites``): C e computed per
   sample and filtered on the whole stream;

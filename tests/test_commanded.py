@@ -31,8 +31,10 @@ def test_the_command_is_simulated_and_logged():
 
 def test_a_valve_stuck_open_against_its_command_is_a_mode_fault():
     _, report = _diagnose("stuck_open")
-    # stuck open from 250 s: unseen while the command is open too, seen when it closes the valve at 300 s
-    assert 300 <= report["detection"]["time"] < 301
+    # stuck open from 250 s: unseen while the command is open too, seen when it closes the valve at 300 s,
+    # after the samples whose one-sided fits are too noisy (fdi.derivatives.edge_trim: 9 of the 51-sample
+    # window, 0.9 s)
+    assert 300.9 <= report["detection"]["time"] < 302
     assert report["diagnosis"]["faults"] == [{"name": "v_open", "type": "mode", "value": 1}]
     # the mode change matches the coherence vector exactly and explains the data: the parametric
     # sets that only weak entries admit are not identified (8 of them, 16 s, lost to it)

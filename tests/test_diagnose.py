@@ -326,8 +326,8 @@ def test_the_non_finite_note_leaves_out_what_mode_switches_leave_out(monkeypatch
     """With mode switches, the evaluator leaves NaN by design (fdi.residuals._piecewise): a stretch
     between switches shorter than the filter's window, half a window at each switch of a stretch
     shorter than four windows (fast switching), and at a switch of a longer one the samples whose
-    one-sided fit is more than twice as noisy as the centred filter (a cubic's smoothed value over
-    25 samples: the end sample, 2.3 times): not reported; a NaN elsewhere is. A record of 1 000
+    one-sided fit is more than 1.5 times as noisy as the centred filter (a cubic's smoothed value
+    over 25 samples: the last two, 2.3 and 1.7 times): not reported; a NaN elsewhere is. A record of 1 000
     samples at 1 ms, a 25-sample window, switches at samples 10 (a first stretch shorter than the
     window), 500 and 560 (a 60-sample stretch: 12 samples trimmed at each end)."""
     from types import SimpleNamespace
@@ -337,15 +337,15 @@ def test_the_non_finite_note_leaves_out_what_mode_switches_leave_out(monkeypatch
     t = np.arange(1000) * 1e-3
     r = np.ones((2, 1000))
     r[:, :10] = np.nan
-    r[:, 499:512] = np.nan                  # the long stretch's end sample, the short one's half window
+    r[:, 498:512] = np.nan                  # the long stretch's last two samples, the short one's half window
     r[:, 548:560] = np.nan
     p = SimpleNamespace(monitor=SimpleNamespace(names=["ARR1", "ARR2"], model=None, residuals=[]),
                         meas=SimpleNamespace(t=t, ts=1e-3), raw={}, window_s=0.025)
     assert pipeline.blind(p, r) is None
     r[1, 700] = np.nan                      # a spike's NaN far from any switch
-    r[0, 498] = np.nan                      # and one beside a switch, in a long stretch (fitted to its end)
+    r[0, 497] = np.nan                      # and one beside a switch, in a long stretch (fitted to its end)
     assert pipeline.blind(p, r) == (
-        "ARR1 is not finite at 1 sample(s) from 0.498 s to 0.498 s: the record holds values it overflows on or "
+        "ARR1 is not finite at 1 sample(s) from 0.497 s to 0.497 s: the record holds values it overflows on or "
         "leaves its domain at there (no threshold judges them); ARR2 is not finite at 1 sample(s) from 0.7 s to "
         "0.7 s: the record holds values it overflows on or leaves its domain at there (no threshold judges them)")
 
