@@ -32,8 +32,8 @@ from . import criterion, derivatives, encoding, hints, kernels, profiles, scales
 from .config import MonitorConfig
 from .data import commanded
 from .encoding import FaultSpace
-from .residuals import (Estimates, Residual, corrected_signals, corrects_signal, derivative_orders, parameter_values,
-                        samples_of)
+from .residuals import (Estimates, Residual, corrected_signals, corrects_signal, derivative_orders, designed_gaps,
+                        mode_breaks, parameter_values, samples_of)
 
 ROWS = 256             # individuals per objective block (bounds memory on wide screening calls)
 WINDOW_VALUES = 1 << 18  # ... and at most this many individual-samples per block: a 10 kHz window of 5 000
@@ -308,6 +308,9 @@ class Objective:
         for series in self.base_signals.values():
             for x in series:
                 self.gaps |= np.isnan(np.asarray(x, dtype=float)).reshape(-1, win.t.size).any(axis=0)
+        breaks = mode_breaks(model, win.raw)           # and a stored quantity's rate's, wider at a switch
+        if len(breaks):
+            self.gaps |= designed_gaps(list(residuals), win.t.size, breaks, window_s, win.ts)
         self._constant: dict[int, float] = {}
         self._rates: dict = {}
         self._blocks: dict = {}

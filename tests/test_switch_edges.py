@@ -85,3 +85,30 @@ def test_the_gaps_left_by_design_count_every_channel_a_stored_quantitys_rate_too
                                                 residuals=list(residuals)),
                         meas=SimpleNamespace(t=t, ts=ts), raw=raw, window_s=window)
     assert pipeline.blind(p, r) is None
+
+
+def test_a_sensor_faults_fit_across_a_switch_skips_the_rates_gaps():
+    """The identification's objective left out the samples its signals' filters leave NaN at a mode
+    switch, not the wider gaps of a stored quantity's rate: a set with the precharge current
+    sensor's gain (its corrected signal filtered again) summed NaN and cost infinity, so it never
+    competed (the trial's precharge resistor won by that alone). The cost is finite, and at the
+    designed truth (no fault: beta 1, the record is nominal) it is the noise's."""
+    from pathlib import Path
+
+    from bondgraph.loader import load_model
+    from fdi.monitor import derive
+    from fdi.objective import Objective, window
+
+    model = load_model(Path(__file__).parent / "data" / "ev_precharge.yaml")
+    _, residuals = derive(model)
+    n, ts, window_s = 4000, 1e-3, 0.025
+    rng = np.random.default_rng(2)
+    t = np.arange(n) * ts
+    modes = {"p_cmd": (t >= 1.0).astype(float), "m_cmd": (t >= 2.5).astype(float), "d_cmd": np.zeros(n)}
+    raw = {"Vb": 400 + rng.normal(0, 0.1, n), "iinv": rng.normal(0, 0.1, n), "ib": rng.normal(0, 0.1, n),
+           "vdc": 300 + rng.normal(0, 0.1, n), "p": modes["p_cmd"], "m": modes["m_cmd"], "d": modes["d_cmd"]}
+    win = window(t, raw, 2.0, 1000, window_s)                      # 2 to 3 s: the main contactor closes at 2.5 s
+    obj = Objective(model, tuple(residuals), win, ("beta_ib",), np.ones(len(residuals)), window_s)
+    real, bits = obj.encode([{"name": "beta_ib", "type": "abrupt", "value": 1.0, "t0": 2.0}])
+    cost = obj(np.atleast_2d(real), np.atleast_2d(bits))
+    assert np.isfinite(cost).all() and cost.max() > 0
