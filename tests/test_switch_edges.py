@@ -55,6 +55,29 @@ def test_a_stretch_shorter_than_four_windows_still_loses_half_a_window_at_each_s
     assert (long[1].start, long[1].stop) == (318, 982)
 
 
+PRECHARGE_N, PRECHARGE_TS, PRECHARGE_WINDOW = 4000, 1e-3, 0.025
+
+
+def _precharge(seed: int):
+    """The EV precharge model (tests/data/ev_precharge.yaml), its residuals, and 4 s of signals at
+    1 kHz around its switches: white noise on levels, the precharge contactor closing at 1.0 s and
+    the main one at 2.5 s (a residual's gaps, not its values, are what is tested)."""
+    from pathlib import Path
+
+    from bondgraph.loader import load_model
+    from fdi.monitor import derive
+
+    model = load_model(Path(__file__).parent / "data" / "ev_precharge.yaml")
+    _, residuals = derive(model)
+    n = PRECHARGE_N
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * PRECHARGE_TS
+    modes = {"p": (t >= 1.0).astype(float), "m": (t >= 2.5).astype(float), "d": np.zeros(n)}
+    raw = {"Vb": 400 + rng.normal(0, 0.1, n), "iinv": rng.normal(0, 0.1, n), "ib": rng.normal(0, 0.1, n),
+           "vdc": 300 + rng.normal(0, 0.1, n), **modes}
+    return model, list(residuals), t, raw, modes
+
+
 def test_the_gaps_left_by_design_count_every_channel_a_stored_quantitys_rate_too():
     """The EV precharge link residual filters the capacitor's charge C (vdc - Resr iC) for its first
     rate while reading the signals undifferentiated: its gaps at a switch are the first rate's (4
@@ -62,27 +85,18 @@ def test_the_gaps_left_by_design_count_every_channel_a_stored_quantitys_rate_too
     samples that are not finite counted only the signals' orders and called the difference an
     overflow of the record."""
     from types import SimpleNamespace
-    from pathlib import Path
 
-    from bondgraph.loader import load_model
     from fdi import pipeline
-    from fdi.monitor import derive
     from fdi.residuals import designed_gaps, evaluate
 
-    model = load_model(Path(__file__).parent / "data" / "ev_precharge.yaml")
-    _, residuals = derive(model)
-    n, ts, window = 4000, 1e-3, 0.025
-    rng = np.random.default_rng(1)
-    t = np.arange(n) * ts
-    modes = {"p": (t >= 1.0).astype(float), "m": (t >= 2.5).astype(float), "d": np.zeros(n)}
-    raw = {"Vb": 400 + rng.normal(0, 0.1, n), "iinv": rng.normal(0, 0.1, n), "ib": rng.normal(0, 0.1, n),
-           "vdc": 300 + rng.normal(0, 0.1, n), **modes}
-    r = evaluate(model, list(residuals), raw, ts, window=window, values=modes)
-    gaps = designed_gaps(list(residuals), n, np.array([1000, 2500]), window, ts)
+    model, residuals, t, raw, modes = _precharge(1)
+    n, ts, window = PRECHARGE_N, PRECHARGE_TS, PRECHARGE_WINDOW
+    r = evaluate(model, residuals, raw, ts, window=window, values=modes)
+    gaps = designed_gaps(residuals, n, np.array([1000, 2500]), window, ts)
     assert np.flatnonzero(gaps).tolist() == [*range(996, 1004), *range(2496, 2504)]
     assert not (~np.isfinite(r) & ~gaps).any()
     p = SimpleNamespace(monitor=SimpleNamespace(names=[x.name for x in residuals], model=model,
-                                                residuals=list(residuals)),
+                                                residuals=residuals),
                         meas=SimpleNamespace(t=t, ts=ts), raw=raw, window_s=window)
     assert pipeline.blind(p, r) is None
 
@@ -93,20 +107,10 @@ def test_a_sensor_faults_fit_across_a_switch_skips_the_rates_gaps():
     sensor's gain (its corrected signal filtered again) summed NaN and cost infinity, so it never
     competed (the trial's precharge resistor won by that alone). The cost is finite, and at the
     designed truth (no fault: beta 1, the record is nominal) it is the noise's."""
-    from pathlib import Path
-
-    from bondgraph.loader import load_model
-    from fdi.monitor import derive
     from fdi.objective import Objective, window
 
-    model = load_model(Path(__file__).parent / "data" / "ev_precharge.yaml")
-    _, residuals = derive(model)
-    n, ts, window_s = 4000, 1e-3, 0.025
-    rng = np.random.default_rng(2)
-    t = np.arange(n) * ts
-    modes = {"p_cmd": (t >= 1.0).astype(float), "m_cmd": (t >= 2.5).astype(float), "d_cmd": np.zeros(n)}
-    raw = {"Vb": 400 + rng.normal(0, 0.1, n), "iinv": rng.normal(0, 0.1, n), "ib": rng.normal(0, 0.1, n),
-           "vdc": 300 + rng.normal(0, 0.1, n), "p": modes["p_cmd"], "m": modes["m_cmd"], "d": modes["d_cmd"]}
+    model, residuals, t, raw, _ = _precharge(2)
+    window_s = PRECHARGE_WINDOW
     win = window(t, raw, 2.0, 1000, window_s)                      # 2 to 3 s: the main contactor closes at 2.5 s
     obj = Objective(model, tuple(residuals), win, ("beta_ib",), np.ones(len(residuals)), window_s)
     real, bits = obj.encode([{"name": "beta_ib", "type": "abrupt", "value": 1.0, "t0": 2.0}])
