@@ -140,6 +140,26 @@ def units_by_mode(model: Model, arr: ARR, modes: list[dict[str, int]]) -> dict[s
     return out
 
 
+def mixed_unit_notes(model: Model, arrs: list[ARR]) -> list[str]:
+    """One note per residual whose modes sum different units (:func:`units_by_mode`), in the modes
+    the plant runs in (:func:`fdi.signatures.operating_modes`: a fault-only mode is a fault, not a
+    mode a threshold is set in); ``check`` prints them with the residuals."""
+    from .signatures import operating_modes
+
+    modes = operating_modes(model)
+    if len(modes) < 2:
+        return []
+    notes = []
+    for a in arrs:
+        units = units_by_mode(model, a, modes)
+        if len(units) > 1:
+            where = "; ".join(f"{u} in {', '.join(' '.join(f'{k}={v}' for k, v in m.items()) for m in ms)}"
+                              for u, ms in units.items())
+            notes.append(f"{a.name} sums different units by mode ({where}): one threshold judges them all, set by "
+                         f"the noisier; a fault that moves it only in the other modes may go undetected")
+    return notes
+
+
 def _residual_dimension(model: Model, arr: ARR) -> dict[str, float] | None:
     """The dimension of the terms ``arr.expr`` sums; None when no term can be read or they disagree."""
     from bondgraph.units import dimension

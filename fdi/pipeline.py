@@ -227,12 +227,13 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
         d = replace(d, mode_fault=mf)
         if mf.faults and not iso.candidates:
             return replace(d, mode=dict(mf.mode), faults=mf.faults)
-        if mf.faults and iso.weak and explains(p, r, mf.cost, d.detection) and not candidate_sets(
-                p.monitor.fsm(d.mode), d.detection.final_coherence, p.options.exoneration, p.options.max_set):
+        level = nominal_cost(p, r, d.detection.time) if mf.faults and iso.weak else float("inf")
+        if explains(mf.cost, level) and not candidate_sets(p.monitor.fsm(d.mode), d.detection.final_coherence,
+                                                           p.options.exoneration, p.options.max_set):
             # the mode change matches the coherence vector as it is; the sets only weak entries admit
             # would be identified to lose to it (a stuck valve: 8 sets, 16 s, for the same answer)
-            note = (f"the fault mode explains the data ({mf.cost / nominal_cost(p, r, d.detection.time):.2g} times "
-                    "the residuals' nominal level): the candidate sets that only weak entries admit were not identified")
+            note = (f"the fault mode explains the data ({mf.cost / level:.2g} times the residuals' nominal level): "
+                    "the candidate sets that only weak entries admit were not identified")
             return replace(d, isolation=replace(iso, candidates=(), pruned=0), mode=dict(mf.mode), faults=mf.faults,
                            note=note)
     if not iso.candidates and p.options.exoneration:
@@ -268,18 +269,24 @@ def isolate(p: Prepared, det: Detection, mode: dict[str, int], r: np.ndarray | N
                           o.max_set, False, weak)
 
 
+def nominal_span(p: Prepared, t_d: float) -> np.ndarray | None:
+    """The samples that show the residuals without the fault: trusted, before the detection less a
+    derivative window (the filter's look-ahead); None when there are too few (a fault from the
+    start) to say."""
+    t = p.meas.t
+    before = np.flatnonzero((t >= p.first_trusted) & (t < t_d - p.window_s))
+    return before if before.size >= max(10, window_samples(p.window_s, p.meas.ts, DEFAULT_ORDER)) else None
+
+
 def quiet_level(p: Prepared, r: np.ndarray | None, t_d: float) -> np.ndarray | None:
     """Each residual's peak |r| on the trusted data just before the detection (less a derivative
     window, the filter's look-ahead; over as many samples as the identification window, so that a
     long record's rare spike does not count): its noise and spikes without the fault; None when
     there are too few such samples (a fault from the start) to say, NaN for a residual with none."""
-    if r is None:
+    before = None if r is None else nominal_span(p, t_d)
+    if before is None:
         return None
-    t = p.meas.t
-    before = np.flatnonzero((t >= p.first_trusted) & (t < t_d - p.window_s))[-p.samples:]
-    if before.size < max(10, window_samples(p.window_s, p.meas.ts, DEFAULT_ORDER)):
-        return None
-    return np.fmax.reduce(np.abs(np.asarray(r)[:, before]), axis=1)      # NaN skipped, no warning
+    return np.fmax.reduce(np.abs(np.asarray(r)[:, before[-p.samples:]]), axis=1)      # NaN skipped, no warning
 
 
 def weakened(p: Prepared, det: Detection, fsm, r: np.ndarray | None = None):
@@ -299,10 +306,9 @@ def weakened(p: Prepared, det: Detection, fsm, r: np.ndarray | None = None):
 LACK_OF_FIT = 5.0   # a best fit whose cost is this many times the residuals' nominal level explains nothing
 
 
-def explains(p: Prepared, r: np.ndarray, cost: float | None, det: Detection) -> bool:
+def explains(cost: float | None, level: float) -> bool:
     """Whether a fit of ``cost`` leaves the residuals within LACK_OF_FIT times their nominal level
-    (:func:`nominal_cost`; False where that level is unknown)."""
-    level = nominal_cost(p, r, det.time)
+    ``level`` (:func:`nominal_cost`; False where that level is unknown, inf)."""
     return cost is not None and np.isfinite(cost) and np.isfinite(level) and level > 0 and cost <= LACK_OF_FIT * level
 
 
@@ -310,10 +316,10 @@ def nominal_cost(p: Prepared, r: np.ndarray, t_d: float) -> float:
     """What noise alone costs over the identification window: N samples times the weighted mean
     |residual| of the trusted data before the detection (less a derivative window, the filter's
     look-ahead); inf when there are too few such samples (a fault from the start) to say."""
-    t = p.meas.t
-    before = (t >= p.first_trusted) & (t < t_d - p.window_s)
-    if before.sum() < max(10, window_samples(p.window_s, p.meas.ts, DEFAULT_ORDER)):
+    before = nominal_span(p, t_d)
+    if before is None:
         return float("inf")
+    t = p.meas.t
     level = np.nanmean(np.abs(np.asarray(r)[:, before]), axis=1)
     return float(min(p.samples, t.size - int(np.searchsorted(t, t_d - 1e-9))) * np.dot(p.weights.reshape(-1), level))
 

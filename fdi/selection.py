@@ -48,7 +48,6 @@ from __future__ import annotations
 import functools
 import time
 from dataclasses import dataclass, field, replace
-from itertools import product
 from typing import Callable, Iterable, Mapping
 
 import sympy as sp
@@ -62,7 +61,7 @@ from bondgraph.structure import (DERIVATIVE, EquationSystem, Structure, derivati
 
 from .isolability import Shortfall, StructuralBest
 from .scaph import ARR, binary_modes, derive_arrs, storage_fault_parameters, structural_system
-from .signatures import nominal_mode
+from .signatures import nominal_mode, operating_modes
 
 ORDER_WINDOW = 1              # candidates more derivatives above the lowest that still adds something wait
 BUDGET = 30.0                 # s of computing for the whole selection (SCAPH included); notes say when it cuts
@@ -71,7 +70,6 @@ TARGETS_PER_ROUND = 2         # missed (fault, other fault) targets searched bef
 PLAN_TRIES = 24               # residual equations tried for a plan before an MSO set is passed over
 SEEDS_PER_TARGET = 3          # equations of a fault tried as the seed of a local search
 BALL_LIMIT = 60               # MSO sets listed around one seed
-OPERATING_MODES = 16          # combinations of switching modes a missed fault is looked for in, at most
 TIES_REALISED = 4             # structurally equal best candidates realised to compare their expressions' size
 
 
@@ -184,19 +182,6 @@ def derivative_order(system: EquationSystem, residual: int, p: dict) -> int:
         x, dx = eq.differential
         return max(order.get(dx, 0), order.get(x, 0) + 1)
     return max((order.get(u, 0) for u in eq.variables), default=0)
-
-
-def operating_modes(model: Model) -> list[dict[str, int]]:
-    """The modes the plant runs in: every combination of its commanded and autonomous mode
-    variables (the others, which only a fault changes, at their nominal values), the nominal one
-    first; the nominal one alone beyond OPERATING_MODES combinations."""
-    switching = [n for n, m in model.modes.items() if m.column or m.autonomous]
-    nominal = nominal_mode(model)
-    if not switching or 2 ** len(switching) > OPERATING_MODES:
-        return [nominal]
-    combos = sorted(product((1, 0), repeat=len(switching)),
-                    key=lambda c: (c != tuple(nominal[n] for n in switching), [-x for x in c]))
-    return [{**nominal, **dict(zip(switching, c))} for c in combos]
 
 
 def expression_faults(model: Model, arr: ARR, mode: Mapping[str, int] | list[Mapping[str, int]],
@@ -337,11 +322,11 @@ class _Search:
             return picks
         nominal, self.mode = self.mode, modes
         judged = [replace(p, faults=self.faults_of(p.arr)) for p in picks]
-        if not self.shortfall(judged).undetected:         # each detected in some mode the plant runs in
+        left = self.shortfall(judged).undetected
+        if not left:                                      # each detected in some mode the plant runs in
             self.mode = nominal
             return picks
         self.realised = {k: replace(p, faults=self.faults_of(p.arr)) for k, p in self.realised.items()}
-        left = self.shortfall(judged).undetected
         picks = self.complete(judged, lambda chosen: Shortfall(self.shortfall(chosen).undetected, ()), targeted=True)
         found = [f for f in left if f not in self.shortfall(picks).undetected]
         if found:

@@ -78,12 +78,27 @@ class MCSM:
         return mcsm_html(self)
 
 
-def all_modes(model: Model) -> list[dict[str, int]]:
-    """Every combination of mode values, the nominal one first."""
-    names = list(model.modes)
-    nominal = tuple(model.modes[n].nominal for n in names)
+def all_modes(model: Model, names: list[str] | None = None) -> list[dict[str, int]]:
+    """Every combination of the values of the mode variables ``names`` (all by default; the others
+    at their nominal values), the nominal one first."""
+    names = list(model.modes) if names is None else list(names)
+    base = nominal_mode(model)
+    nominal = tuple(base[n] for n in names)
     combos = sorted(product((1, 0), repeat=len(names)), key=lambda c: (c != nominal, [-x for x in c]))
-    return [dict(zip(names, c)) for c in combos]
+    return [{**base, **dict(zip(names, c))} for c in combos]
+
+
+OPERATING_MODES = 16          # combinations of switching modes judged, at most (beyond: the nominal mode alone)
+
+
+def operating_modes(model: Model) -> list[dict[str, int]]:
+    """The modes the plant runs in: every combination of its commanded and autonomous mode
+    variables (the others, which only a fault changes, at their nominal values), the nominal one
+    first; the nominal one alone beyond OPERATING_MODES combinations."""
+    switching = [n for n, m in model.modes.items() if m.column or m.autonomous]
+    if 2 ** len(switching) > OPERATING_MODES:
+        return [nominal_mode(model)]
+    return all_modes(model, switching)
 
 
 def nominal_mode(model: Model) -> dict[str, int]:

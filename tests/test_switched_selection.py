@@ -64,8 +64,7 @@ def test_a_residual_whose_modes_sum_different_units_is_named():
     current (ib = 0, in A) while both are open: one threshold cannot judge both (the trial's
     calibrated 56.8 V, set by the precharge's Rp ib noise, left a 4 V sensor offset undetected in
     the main contactor's mode). By hand: V wherever p or m is 1, A where both are 0."""
-    from fdi.app.cli import mixed_units
-    from fdi.arrs import units_by_mode
+    from fdi.arrs import mixed_unit_notes, units_by_mode
 
     model = load_model(PRECHARGE)
     arrs = list(select_arrs(model).arrs)
@@ -74,4 +73,4 @@ def test_a_residual_whose_modes_sum_different_units_is_named():
     units = units_by_mode(model, loops[0], all_modes(model))
     assert set(units) == {"V", "A"}
     assert all(m["p"] or m["m"] for m in units["V"]) and all(not m["p"] and not m["m"] for m in units["A"])
-    assert [n.split(" ")[0] for n in mixed_units(model, arrs)] == [loops[0].name]
+    assert [n.split(" ")[0] for n in mixed_unit_notes(model, arrs)] == [loops[0].name]

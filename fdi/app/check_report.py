@@ -39,7 +39,7 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
     undefined in some mode, is a CausalityError as for the text report. With ``verify_seed``
     (``--verify``), the residuals are also verified on the simulated model (``verification``,
     :mod:`fdi.app.verify_report`; null otherwise)."""
-    from ..arrs import select_arrs, undefined_in_modes
+    from ..arrs import mixed_unit_notes, select_arrs, undefined_in_modes
     from ..signatures import all_modes
 
     from ..config import load
@@ -87,7 +87,7 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
             "from_structure": not diag.ok,
             "msos": chosen.msos if not diag.ok else None,
             "arrs": [{"name": a.name, "origin": a.origin, "sensor": a.sensor, "junction": a.junction} for a in arrs],
-            "notes": list(chosen.notes),
+            "notes": list(chosen.notes) + mixed_unit_notes(model, arrs),
         },
         "simulation": _causality(model, sim),
         "monitor": _monitor(config),

@@ -29,7 +29,6 @@ if TYPE_CHECKING:                      # networkx (causality) and sympy (model) 
     from bondgraph.model import Mode, Model
 
     from ..monitor import Monitor
-    from ..scaph import ARR
 
 from ..errors import UsageError
 from ..data import DataError
@@ -368,7 +367,7 @@ def _driven(mode: Mode) -> str:
 def _print_diagnostic_causality(model: Model, args: argparse.Namespace) -> list:
     """SCAPH's assignment, the residuals chosen (SCAPH's, or MSO residuals where it falls short),
     checked defined in every mode; returns the residuals."""
-    from ..arrs import select_arrs, undefined_in_modes
+    from ..arrs import mixed_unit_notes, select_arrs, undefined_in_modes
     from ..signatures import all_modes
 
     with stage("diagnostic causality (SCAPH)"):
@@ -396,30 +395,9 @@ def _print_diagnostic_causality(model: Model, args: argparse.Namespace) -> list:
     print(f"residuals ({args.causality} causality): " + ", ".join(f"{a.name} ({_origin(a)})" for a in arrs))
     for note in chosen.notes:
         print(f"  note: {note}")
-    for note in mixed_units(model, arrs):
+    for note in mixed_unit_notes(model, arrs):
         print(f"  note: {note}")
     return arrs
-
-
-def mixed_units(model: Model, arrs: list[ARR]) -> list[str]:
-    """One note per residual whose modes sum different units (:func:`fdi.arrs.units_by_mode`), in
-    the modes the plant runs in (:func:`fdi.selection.operating_modes`: the switching modes'
-    combinations, up to 16; a fault-only mode is a fault, not a mode a threshold is set in)."""
-    from ..arrs import units_by_mode
-    from ..selection import operating_modes
-
-    modes = operating_modes(model)
-    if len(modes) < 2:
-        return []
-    notes = []
-    for a in arrs:
-        units = units_by_mode(model, a, modes)
-        if len(units) > 1:
-            where = "; ".join(f"{u} in {', '.join(' '.join(f'{k}={v}' for k, v in m.items()) for m in ms)}"
-                              for u, ms in units.items())
-            notes.append(f"{a.name} sums different units by mode ({where}): one threshold judges them all, set by "
-                         f"the noisier; a fault that moves it only in the other modes may go undetected")
-    return notes
 
 
 def _origin(a) -> str:
