@@ -41,7 +41,11 @@ def test_check_json_has_the_sensors_modes_and_residuals_of_the_paper(check_json)
         ("theta1", "Df", "J_13"), ("dp", "De", "J_01"), ("theta2", "Df", "J_15")]
     assert [(m["name"], m["nominal"]) for m in d["modes"]] == [("a1", 1), ("a2", 1)]
     # eqs. (5), (9), (13): one AGARR per sensor, at its junction, from SCAPH
-    assert d["residuals"] == {"causality": "derivative", "from_structure": False, "msos": None, "notes": [],
+    residuals = dict(d["residuals"])
+    noise = residuals.pop("noise")      # one operating mode (a1, a2 change only by a fault): one prediction each
+    assert noise["derivative_window"] == d["monitor"]["derivative_window"]
+    assert {k: len(v) for k, v in noise["by_residual"].items()} == {"ARR1": 1, "ARR2": 1, "ARR3": 1}
+    assert residuals == {"causality": "derivative", "from_structure": False, "msos": None, "notes": [],
                               "arrs": [{"name": "ARR1", "origin": "SCAPH", "sensor": "theta1", "junction": "J_13"},
                                        {"name": "ARR2", "origin": "SCAPH", "sensor": "dp", "junction": "J_01"},
                                        {"name": "ARR3", "origin": "SCAPH", "sensor": "theta2", "junction": "J_15"}]}

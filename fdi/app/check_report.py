@@ -40,6 +40,7 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
     (``--verify``), the residuals are also verified on the simulated model (``verification``,
     :mod:`fdi.app.verify_report`; null otherwise)."""
     from ..arrs import mixed_unit_notes, select_arrs, undefined_in_modes
+    from ..noise import noise_notes, predicted_for, to_json as noise_json
     from ..signatures import all_modes
 
     from ..config import load
@@ -61,6 +62,10 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
         raise CausalityError(bad)
     with stage("simulation causality (SCAP)"):
         sim = assign(model, SIMULATION)
+    window, predicted = None, {}
+    if causality == "derivative":
+        with stage("noise predicted by mode"):
+            window, predicted = predicted_for(model, config, arrs)
     verification = None
     if verify_seed is not None:
         from ..verify import verify
@@ -87,7 +92,8 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
             "from_structure": not diag.ok,
             "msos": chosen.msos if not diag.ok else None,
             "arrs": [{"name": a.name, "origin": a.origin, "sensor": a.sensor, "junction": a.junction} for a in arrs],
-            "notes": list(chosen.notes) + mixed_unit_notes(model, arrs),
+            "notes": list(chosen.notes) + mixed_unit_notes(model, arrs) + noise_notes(model, arrs, predicted, window),
+            "noise": {"derivative_window": window, "by_residual": noise_json(predicted)} if predicted else None,
         },
         "simulation": _causality(model, sim),
         "monitor": _monitor(config),

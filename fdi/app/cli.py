@@ -295,9 +295,9 @@ def cmd_check(args: argparse.Namespace) -> int:
     from ..config import load
 
     with stage("load"):
-        model, _ = load(args.model)              # the bond graph and the monitor settings both checked
+        model, config = load(args.model)         # the bond graph and the monitor settings both checked
     _print_summary(model, shown(args.model))
-    arrs = _print_diagnostic_causality(model, args)
+    arrs = _print_diagnostic_causality(model, args, config)
     sim = assign(model, SIMULATION)
     print()
     print("causality for simulation (SCAP, integral causality preferred)")
@@ -364,10 +364,12 @@ def _driven(mode: Mode) -> str:
     return f"{mode.nominal} unless a fault"
 
 
-def _print_diagnostic_causality(model: Model, args: argparse.Namespace) -> list:
+def _print_diagnostic_causality(model: Model, args: argparse.Namespace, config) -> list:
     """SCAPH's assignment, the residuals chosen (SCAPH's, or MSO residuals where it falls short),
-    checked defined in every mode; returns the residuals."""
+    checked defined in every mode, with notes on units and noise that differ by mode; returns the
+    residuals."""
     from ..arrs import mixed_unit_notes, select_arrs, undefined_in_modes
+    from ..noise import noise_notes, predicted_for
     from ..signatures import all_modes
 
     with stage("diagnostic causality (SCAPH)"):
@@ -397,6 +399,11 @@ def _print_diagnostic_causality(model: Model, args: argparse.Namespace) -> list:
         print(f"  note: {note}")
     for note in mixed_unit_notes(model, arrs):
         print(f"  note: {note}")
+    if args.causality == "derivative":
+        with stage("noise predicted by mode"):
+            window, predicted = predicted_for(model, config, arrs)
+        for note in noise_notes(model, arrs, predicted, window):
+            print(f"  note: {note}")
     return arrs
 
 

@@ -48,6 +48,7 @@ from .. import profiles
 from ..data import input_values
 from ..errors import UsageError
 from ..inputs import NoWriter, open_binary
+from ..measure import SeveralColumns, sensor_columns
 
 TYPES = ("abrupt", "intermittent", "incipient", "mode")
 METHODS = ("auto", "ros2", "LSODA", "Radau", "BDF", "RK45")
@@ -540,7 +541,6 @@ def _run(model: Model, scenario: Scenario, progress, method: str,
                     progress=progress, method=method, vectorised=True, stages=stages)
     rng = np.random.default_rng(scenario.seed)
     cols: dict[str, np.ndarray] = {"t": traj.t}
-    nominal = {s: v for s, v in model.nominal_values().items()}
     for name, inp in model.inputs.items():
         cols[inp.column or name] = input_values(model, name, traj.t)
     for m in model.modes.values():                 # the command, as the controller logged it
@@ -556,20 +556,10 @@ def _run(model: Model, scenario: Scenario, progress, method: str,
         if s.name in stuck:
             k = min(int(np.searchsorted(traj.t, stuck[s.name])), traj.t.size - 1)
             measured = np.where(traj.t >= stuck[s.name], measured[k], measured)
-        mapping = s.column_values(None)
-        if mapping is None:
-            raise ScenarioError(f"{model.path}: sensors.{s.name}: it reads several columns; add columns: "
-                                "{<column>: <expression of " + s.name + ">} to say how simulation makes them")
-        for col, expr in mapping.items():
-            fn = sp.lambdify([sp.Symbol(s.name, real=True)], expr.xreplace(nominal), modules="numpy")
-            x = np.asarray(fn(measured), dtype=float) * np.ones_like(traj.t)
-            sigma = scenario.noise.get(col, s.noise.get(col, 0.0))
-            if sigma:
-                x = x + sigma * rng.standard_normal(x.shape)
-            res = scenario.resolution.get(col, s.resolution.get(col, 0.0))
-            if res:
-                x = np.round(x / res) * res
-            cols[col] = x
+        try:
+            cols.update(sensor_columns(model, s, measured, rng, scenario.noise, scenario.resolution))
+        except SeveralColumns as exc:
+            raise ScenarioError(str(exc)) from None
     order = [c for c in model.columns if c in cols] or list(cols)
     return {c: cols[c] for c in order + [c for c in cols if c not in order]}
 
