@@ -52,6 +52,7 @@ from . import derivatives, scales
 from .arrs import arr_unit
 from .data import DataError, Measurements, commanded, read_csv, signals_from_data
 from .monitor import compiled
+from .noise import mode_text
 from .detect import settling, trusted
 from .residuals import evaluate
 from .window_choice import DETECT_GOAL, WindowScore, choose_window, chosen
@@ -82,6 +83,8 @@ class Calibration:
     blind: tuple[str, ...] = ()         # why the rule's window follows no time constant the data show
     spikes: tuple[tuple[str, float, str], ...] = ()   # (residual, its peak / its median, the run):
                                                      # a peak rule's threshold set by a spike (SPIKE)
+    noise: tuple[dict, ...] = ()        # per residual and mode the runs visit: their level against the
+                                        # noise the sensors' declared noise predicts (fdi.noise)
 
     @property
     def false_alarm_rate(self) -> float | None:
@@ -96,15 +99,22 @@ def nominal_residuals(model_path: str, data: str | Measurements, settle: float |
     """|r| of every residual on one run, on the samples detection looks at (the derivative
     filter's edges left out, at least ``settle`` s at the start): (residuals, samples). ``window``
     (s): the derivative window, else the file's or the rule's."""
+    return _nominal(model_path, data, settle, window)[0]
+
+
+def _nominal(model_path: str, data: str | Measurements, settle: float | None,
+             window: float | None) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """:func:`nominal_residuals` and the commanded and autonomous modes' values on the same samples."""
     c = compiled(model_path)
     model = c.model
     meas = data if isinstance(data, Measurements) else read_csv(data)
     config = c.config if window is None else replace(c.config, derivative_window=float(window))
     sc = scales.for_model(model, config, meas.ts)
     raw = signals_from_data(model, meas)
-    r = evaluate(model, list(c.residuals), raw, meas.ts, window=sc.window, values=commanded(model, raw))
+    modes = commanded(model, raw)
+    r = evaluate(model, list(c.residuals), raw, meas.ts, window=sc.window, values=modes)
     keep = trusted(meas.t, settling(settle, sc.settle), sc.end_edge)
-    return np.abs(np.asarray(r))[:, keep]
+    return np.abs(np.asarray(r))[:, keep], {k: np.broadcast_to(v, meas.t.shape)[keep] for k, v in modes.items()}
 
 
 def _threshold(samples: list[np.ndarray], quantile: float | None, margin: float) -> np.ndarray:
@@ -144,7 +154,8 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
     scores = (choose_window(model_path, data, lambda s: _threshold(s, quantile, margin), settle)
               if window == "auto" else None)
     pick = chosen(scores).window if scores else None
-    samples = [nominal_residuals(model_path, meas, settle, pick) for meas in data]
+    runs_modes = [_nominal(model_path, meas, settle, pick) for meas in data]
+    samples = [r for r, _ in runs_modes]
     used = scales.for_model(model, c.config if pick is None else replace(c.config, derivative_window=pick),
                             data[0].ts).window     # the file's, the rule's (from the data's sampling time) or the chosen
     thresholds = _threshold(samples, quantile, margin)
@@ -185,6 +196,8 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
     blind = _blind(scales.model_time_scales(model), data[0].ts) if c.config.derivative_window is None else ()
     if blind:
         blind += _operating_point(model, data)
+    noise = noise_against_prediction(replace(model, sampling_time=data[0].ts), config, arrs, c.residuals,
+                                     runs_modes, float(sc.window))
     return Calibration(model.name, names, [arr_unit(model, a) for a in arrs],
                        [[_peak(row) for row in s] for s in samples], [float(x) for x in thresholds],
                        "peak" if quantile is None else f"quantile {quantile:g}", margin, false_alarms,
@@ -192,7 +205,47 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                        int(derivatives.window_samples(sc.window, data[0].ts, derivatives.DEFAULT_ORDER)),
                        c.config.derivative_window is not None,
                        max((r.highest_order() for r in c.residuals), default=0), pick is not None, scores, blind,
-                       spikes)
+                       spikes, noise)
+
+
+NOISE_EXCESS = 5.0       # runs whose residual varies this much more than the declared noise explains: a note
+MODE_SAMPLES = 100       # samples of a mode in the runs (at least two derivative windows) to compare it
+MEDIAN_SIGMA = 0.6744897501960817     # median |x| of a standard normal x
+
+
+def noise_against_prediction(model, config, arrs, residuals, runs: list[tuple[np.ndarray, dict[str, np.ndarray]]],
+                             window: float) -> tuple[dict, ...]:
+    """Per residual and per operating mode the runs visit (:data:`MODE_SAMPLES` samples at least,
+    two derivative windows), the residual's level on the runs beside its noise predicted from the
+    sensors' declared noise (:func:`fdi.noise.predicted_noise`, at the calibrated window):
+    ``{"residual", "mode", "samples", "level", "predicted"}``. The level is the median |r| over
+    0.6745, the standard deviation of Gaussian noise and robust to a spike (which the peak rule's
+    note names); an offset the model leaves counts in it. Where the level is several times the
+    prediction, the thresholds are set by what the model does not explain (a parameter's value,
+    a law, an unmodelled input or disturbance), or by noise the file understates; where they agree,
+    by the sensors' noise, and only better sensors or a longer window lower them. Empty when no
+    sensor declares noise."""
+    from .noise import predicted_noise
+    predicted = predicted_noise(model, residuals, window, model.sampling_time)
+    if not predicted:
+        return ()
+    width = derivatives.window_samples(window, model.sampling_time, derivatives.DEFAULT_ORDER)
+    out = []
+    for i, a in enumerate(arrs):
+        for row in predicted.get(a.name, ()):
+            parts = []
+            for r, values in runs:
+                here = np.ones(r.shape[1], dtype=bool)
+                for name, v in values.items():
+                    here &= (np.asarray(v) >= 0.5) == bool(row.mode.get(name, 0))
+                x = r[i][here]
+                parts.append(x[np.isfinite(x)])
+            x = np.concatenate(parts) if parts else np.zeros(0)
+            if x.size < max(MODE_SAMPLES, 2 * width) or row.std is None:
+                continue
+            out.append({"residual": a.name, "mode": dict(row.mode), "samples": int(x.size),
+                        "level": float(np.median(x) / MEDIAN_SIGMA), "predicted": float(row.std)})
+    return tuple(out)
 
 
 def _peak(row: np.ndarray) -> float | None:
@@ -320,6 +373,13 @@ def format_calibration(c: Calibration) -> str:
     for name, ratio, run in c.spikes:
         lines.append(f"note: {name}'s peak is {ratio:.3g} times its median, in {run}: a spike or a fault in a run "
                      "meant to be fault-free sets its threshold; check that run, or calibrate with --quantile 0.99")
+    for x in c.noise:
+        if x["predicted"] > 0 and x["level"] >= NOISE_EXCESS * x["predicted"]:
+            where = f" in {mode_text(x['mode'])}" if len({tuple(y['mode'].items()) for y in c.noise}) > 1 else ""
+            lines.append(f"note: {x['residual']}{where} varies {x['level'] / x['predicted']:.3g}x more on the runs "
+                         f"({x['level']:.4g}, median |r| / 0.6745) than the sensors' declared noise explains ({x['predicted']:.4g}, "
+                         f"fdi.noise): its threshold is set by what the model does not explain (a parameter's value, a "
+                         f"law, an unmodelled input or disturbance) or by noise the file understates")
     lines.append("thresholds: {" + ", ".join(f"{n}: {t:.4g}" for n, t in zip(c.names, c.thresholds)) + "}")
     return "\n".join(lines) + "\n"
 

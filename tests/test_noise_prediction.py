@@ -107,3 +107,49 @@ def test_check_prints_and_serialises_the_prediction():
     text = subprocess.run([sys.executable, "-m", "fdi", "check", str(MODEL)], capture_output=True, text=True,
                           cwd=ROOT, timeout=120).stdout
     assert "noise predicted from the sensors' declared noise" in text
+
+
+# ---------------------------------------------------------------- calibrate: runs against the prediction
+RC = ROOT / "tests" / "data" / "rc_two_sensors.yaml"
+
+
+def _rc_run(seed: int, rl_true: float = 200.0, seconds: float = 6.0):
+    """The RC circuit with its load (u -> R -> node with C and RL; i through R, v across C) from
+    Kirchhoff's laws, integrated by scipy (tight tolerances) and sampled at 1 kHz, with the file's
+    sensor noise (i: 1e-5 A, v: 1e-3 V); ``rl_true``: the load the plant really has."""
+    from scipy.integrate import solve_ivp
+
+    from fdi.data import Measurements
+    R, C = 100.0, 1.0e-3
+    t = np.arange(0.0, seconds, 1e-3)
+
+    def u(x):
+        return 5 + 2 * np.sin(3 * x)
+    sol = solve_ivp(lambda x, v: [((u(x) - v[0]) / R - v[0] / rl_true) / C], (0, t[-1]), [5 * rl_true / (R + rl_true)],
+                    t_eval=t, rtol=1e-11, atol=1e-13, method="LSODA")
+    v = sol.y[0]
+    rng = np.random.default_rng(seed)
+    i = (u(t) - v) / R
+    return Measurements(f"rc-{seed}.csv", t, {"t": t, "u": u(t), "i": i + 1e-5 * rng.standard_normal(t.size),
+                                               "v": v + 1e-3 * rng.standard_normal(t.size)})
+
+
+def test_calibrate_finds_the_runs_noise_as_declared():
+    from fdi.calibrate import calibrate, format_calibration
+    c = calibrate(str(RC), [_rc_run(seed) for seed in (1, 2, 3)])
+    assert {x["residual"] for x in c.noise} == {"ARR1", "ARR2"}
+    for x in c.noise:      # the runs' noise is the file's: level and prediction agree
+        assert 0.7 < x["level"] / x["predicted"] < 1.4, x
+    assert "sensors' declared noise explains" not in format_calibration(c)
+
+
+def test_calibrate_names_the_residual_the_model_does_not_explain():
+    """The plant's load is 180 Ohm where the file says 200: the node balance ARR2 (i - C v' - v/RL)
+    carries v (1/180 - 1/200), about 2 mA, tens of times what noise explains; the loop ARR1
+    (u - R i - v) does not contain RL and stays at its noise."""
+    from fdi.calibrate import calibrate, format_calibration
+    c = calibrate(str(RC), [_rc_run(seed, rl_true=180.0) for seed in (1, 2)])
+    ratio = {x["residual"]: x["level"] / x["predicted"] for x in c.noise}
+    assert ratio["ARR1"] < 1.4 and ratio["ARR2"] > 20
+    notes = [line for line in format_calibration(c).splitlines() if "declared noise explains" in line]
+    assert len(notes) == 1 and notes[0].startswith("note: ARR2 varies")
