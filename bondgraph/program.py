@@ -11,6 +11,7 @@ A line's right-hand side is a sympy expression or, for the many linear ones, a
 """
 from __future__ import annotations
 
+import functools
 import math
 from typing import Callable, Sequence
 
@@ -207,6 +208,6 @@ def compile_lines(args: Sequence, program: Sequence[Line], outputs: Sequence[sp.
              for name, expr in kept]
     body.append(f"return [{', '.join(_code(printer, o) for o in outputs)}]")
     source = f"def generated({', '.join(names)}):\n" + "".join(f"    {line}\n" for line in body)
-    namespace = {"math": math, "numpy": numpy}
+    namespace = {"math": math, "numpy": numpy, "functools": functools}   # numpy's printer: max/min as functools.reduce
     exec(compile(source, "<bondgraph.program>", "exec"), namespace)
     return namespace["generated"]

@@ -42,7 +42,8 @@ from __future__ import annotations
 
 import os
 import re
-from dataclasses import asdict, dataclass, replace
+import itertools
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -52,7 +53,8 @@ from . import derivatives, scales
 from .arrs import arr_unit
 from .data import DataError, Measurements, commanded, read_csv, signals_from_data
 from .monitor import compiled
-from .noise import mode_text
+from .mode_thresholds import key_text
+from .noise import mode_text, predicted_noise
 from .detect import settling, trusted
 from .residuals import evaluate
 from .window_choice import DETECT_GOAL, WindowScore, choose_window, chosen
@@ -85,6 +87,10 @@ class Calibration:
                                                      # a peak rule's threshold set by a spike (SPIKE)
     noise: tuple[dict, ...] = ()        # per residual and mode the runs visit: their level against the
                                         # noise the sensors' declared noise predicts (fdi.noise)
+    mode_thresholds: dict = field(default_factory=dict)   # by residual: {"p=0 m=1": threshold, ...}, what -o
+                                        # writes (fdi.mode_thresholds); ``thresholds`` keeps one per residual
+    unvisited: dict = field(default_factory=dict)   # by residual: the combinations no run visits (scaled from
+                                        # the visited ones by the predicted noise)
 
     @property
     def false_alarm_rate(self) -> float | None:
@@ -112,7 +118,7 @@ def _nominal(model_path: str, data: str | Measurements, settle: float | None,
     sc = scales.for_model(model, config, meas.ts)
     raw = signals_from_data(model, meas)
     modes = commanded(model, raw)
-    r = evaluate(model, list(c.residuals), raw, meas.ts, window=sc.window, values=modes)
+    r = evaluate(model, list(c.arr_residuals), raw, meas.ts, window=sc.window, values=modes)
     keep = trusted(meas.t, settling(settle, sc.settle), sc.end_edge)
     return np.abs(np.asarray(r))[:, keep], {k: np.broadcast_to(v, meas.t.shape)[keep] for k, v in modes.items()}
 
@@ -125,10 +131,13 @@ def _threshold(samples: list[np.ndarray], quantile: float | None, margin: float)
 
 
 def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quantile: float | None = None,
-              settle: float | None = None, window: str | None = None) -> Calibration:
+              settle: float | None = None, window: str | None = None, by_mode: bool = False) -> Calibration:
     """Thresholds from nominal ``runs`` (paths or Measurements); see the module doc. ``window="auto"``
     also chooses the derivative window (:func:`fdi.window_choice.choose_window`) and calibrates at it; a model file
-    that sets diagnosis.derivative_window keeps its own (a ValueError says so)."""
+    that sets diagnosis.derivative_window keeps its own (a ValueError says so). Thresholds by mode
+    (:mod:`fdi.mode_thresholds`) for the residuals whose form switches with a commanded or
+    autonomous mode and whose unit, or predicted noise (:data:`fdi.noise.SPREAD` times), differs
+    between modes; with ``by_mode``, for every residual whose form switches."""
     c = compiled(model_path)
     model, arrs = c.model, c.arrs
     names = [a.name for a in arrs]
@@ -181,23 +190,39 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
         raise DataError(f"{model_path}: {', '.join(zero)} would get a threshold of 0 (the residual is exactly 0 on "
                         "every sample of the runs: noise-free data?); a zero threshold alarms on any noise: "
                         "calibrate on runs recorded with the sensors' noise")
+    config = c.config if pick is None else replace(c.config, derivative_window=pick)
+    sc = scales.for_model(model, config, data[0].ts)
+    timed = replace(model, sampling_time=data[0].ts)
+    predicted = predicted_noise(timed, c.arr_residuals, float(sc.window), data[0].ts)
+    need = max(MODE_SAMPLES, 2 * derivatives.window_samples(sc.window, data[0].ts, derivatives.DEFAULT_ORDER))
+    modal = _by_mode(model, arrs, predicted, [m for _, m in runs_modes], by_mode)
+    tables, unvisited = {}, {}
+    for j, variables in modal.items():
+        got = _mode_table([s[j] for s in samples], [m for _, m in runs_modes], variables, quantile, margin, need,
+                          predicted.get(names[j], ()))
+        if got is not None:
+            tables[j], unvisited[names[j]] = got
     false_alarms = worst = None
     if len(samples) > 1:
         false_alarms, worst = [], []
         for i, left in enumerate(samples):
             others = _threshold(samples[:i] + samples[i + 1:], quantile, margin)
+            limit = np.broadcast_to(others[:, None], left.shape).copy()
+            for j in tables:                # each sample judged with the others' threshold of its mode
+                kept = [k for k in range(len(samples)) if k != i]
+                got = _mode_table([samples[k][j] for k in kept], [runs_modes[k][1] for k in kept], modal[j],
+                                  quantile, margin, need, predicted.get(names[j], ()))
+                if got is not None:
+                    limit[j] = _per_sample(got[0], runs_modes[i][1], modal[j], left.shape[1])
             with np.errstate(all="ignore"):
-                ratio = np.nanmax(np.where(np.isnan(left), -np.inf, left), axis=1) / others   # -inf: no sample
-            false_alarms.append(bool((left > others[:, None]).any()))
+                ratio = np.nanmax(np.where(np.isnan(left), -np.inf, left / limit), axis=1)   # -inf: no sample
+            false_alarms.append(bool((left > limit).any()))
             worst.append((names[int(np.argmax(ratio))], float(ratio.max())))
     spikes = _spikes(names, samples, [m.path for m in data]) if quantile is None else ()
-    config = c.config if pick is None else replace(c.config, derivative_window=pick)
-    sc = scales.for_model(model, config, data[0].ts)
     blind = _blind(scales.model_time_scales(model), data[0].ts) if c.config.derivative_window is None else ()
     if blind:
         blind += _operating_point(model, data)
-    noise = noise_against_prediction(replace(model, sampling_time=data[0].ts), config, arrs, c.residuals,
-                                     runs_modes, float(sc.window))
+    noise = noise_against_prediction(timed, arrs, runs_modes, predicted, need)
     return Calibration(model.name, names, [arr_unit(model, a) for a in arrs],
                        [[_peak(row) for row in s] for s in samples], [float(x) for x in thresholds],
                        "peak" if quantile is None else f"quantile {quantile:g}", margin, false_alarms,
@@ -205,7 +230,76 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                        int(derivatives.window_samples(sc.window, data[0].ts, derivatives.DEFAULT_ORDER)),
                        c.config.derivative_window is not None,
                        max((r.highest_order() for r in c.residuals), default=0), pick is not None, scores, blind,
-                       spikes, noise)
+                       spikes, noise, {names[j]: {key_text(k): float(v) for k, v in t.items()} for j, t in tables.items()},
+                       {n: [key_text(k) for k in u] for n, u in unvisited.items() if u})
+
+
+def _by_mode(model, arrs, predicted, modes: list[dict], every: bool) -> dict[int, tuple[str, ...]]:
+    """The residuals to calibrate by mode, by index, with the commanded or autonomous mode variables
+    their form switches on (in the model's order; those the runs record): every such residual with
+    ``every``, else those whose unit differs between modes or whose predicted noise differs
+    :data:`fdi.noise.SPREAD` times between modes of one unit."""
+    from .arrs import units_by_mode
+    from .noise import SPREAD, spreads
+    from .signatures import operating_modes
+    recorded = set.intersection(*(set(m) for m in modes)) if modes else set()
+    switching = [n for n, m in model.modes.items() if (m.column or m.autonomous) and n in recorded]
+    flagged = {a.name for a, _, lo, hi in spreads(model, arrs, predicted) if hi.std >= SPREAD * lo.std}
+    operating = operating_modes(model)
+    out = {}
+    for j, a in enumerate(arrs):
+        present = {s.name for s in a.expr.free_symbols}
+        variables = tuple(n for n in switching if model.symbols[n].name in present)
+        if not variables:
+            continue
+        if every or a.name in flagged or len(units_by_mode(model, a, operating)) > 1:
+            out[j] = variables
+    return out
+
+
+def _mask(modes: dict[str, np.ndarray], key: tuple, n: int) -> np.ndarray:
+    """The samples of a run (its kept samples' mode values) in the combination ``key``."""
+    here = np.ones(n, dtype=bool)
+    for name, bit in key:
+        here &= (np.asarray(modes[name]) >= 0.5) == bool(bit)
+    return here
+
+
+def _mode_table(rows: list[np.ndarray], modes: list[dict], variables: tuple[str, ...], quantile: float | None,
+                margin: float, need: int, predicted) -> tuple[dict[tuple, float], list[tuple]] | None:
+    """One residual's threshold in each combination of ``variables``: the rule on the runs' samples
+    in it (``need`` finite ones at least), and for a combination the runs do not visit enough the
+    visited ones' scaled by the predicted noise (the largest; the largest visited without a
+    prediction); with the unvisited combinations. None when no combination is visited enough."""
+    table: dict[tuple, float] = {}
+    combos = [tuple(zip(variables, bits)) for bits in itertools.product((0, 1), repeat=len(variables))]
+    for key in combos:
+        x = np.concatenate([row[_mask(m, key, row.size)] for row, m in zip(rows, modes)])
+        x = x[np.isfinite(x)]
+        if x.size >= need:
+            table[key] = margin * float(np.max(x) if quantile is None else np.quantile(x, quantile))
+    if not table:
+        return None
+    sigma: dict[tuple, float] = {}
+    for row in predicted:
+        if row.std is not None and row.std > 0:
+            key = tuple((v, int(row.mode.get(v, 0))) for v in variables)
+            sigma[key] = max(sigma.get(key, 0.0), row.std)
+    unvisited = [k for k in combos if k not in table]
+    visited = dict(table)
+    for key in unvisited:
+        scaled = [t * sigma[key] / sigma[v] for v, t in visited.items() if key in sigma and v in sigma]
+        table[key] = max(scaled) if scaled else max(visited.values())
+    return table, unvisited
+
+
+def _per_sample(table: dict[tuple, float], modes: dict[str, np.ndarray], variables: tuple[str, ...], n: int
+                ) -> np.ndarray:
+    """Each of a run's ``n`` kept samples' threshold from a table by mode."""
+    out = np.empty(n)
+    for key, value in table.items():
+        out[_mask(modes, key, n)] = value
+    return out
 
 
 NOISE_EXCESS = 5.0       # runs whose residual varies this much more than the declared noise explains: a note
@@ -213,8 +307,8 @@ MODE_SAMPLES = 100       # samples of a mode in the runs (at least two derivativ
 MEDIAN_SIGMA = 0.6744897501960817     # median |x| of a standard normal x
 
 
-def noise_against_prediction(model, config, arrs, residuals, runs: list[tuple[np.ndarray, dict[str, np.ndarray]]],
-                             window: float) -> tuple[dict, ...]:
+def noise_against_prediction(model, arrs, runs: list[tuple[np.ndarray, dict[str, np.ndarray]]], predicted,
+                             need: int) -> tuple[dict, ...]:
     """Per residual and per operating mode the runs visit (:data:`MODE_SAMPLES` samples at least,
     two derivative windows), the residual's level on the runs beside its noise predicted from the
     sensors' declared noise (:func:`fdi.noise.predicted_noise`, at the calibrated window):
@@ -224,12 +318,10 @@ def noise_against_prediction(model, config, arrs, residuals, runs: list[tuple[np
     prediction, the thresholds are set by what the model does not explain (a parameter's value,
     a law, an unmodelled input or disturbance), or by noise the file understates; where they agree,
     by the sensors' noise, and only better sensors or a longer window lower them. Empty when no
-    sensor declares noise."""
-    from .noise import predicted_noise
-    predicted = predicted_noise(model, residuals, window, model.sampling_time)
+    sensor declares noise. ``predicted``: :func:`fdi.noise.predicted_noise`'s, at the calibrated
+    window; ``need``: the samples a mode needs."""
     if not predicted:
         return ()
-    width = derivatives.window_samples(window, model.sampling_time, derivatives.DEFAULT_ORDER)
     out = []
     for i, a in enumerate(arrs):
         for row in predicted.get(a.name, ()):
@@ -241,7 +333,7 @@ def noise_against_prediction(model, config, arrs, residuals, runs: list[tuple[np
                 x = r[i][here]
                 parts.append(x[np.isfinite(x)])
             x = np.concatenate(parts) if parts else np.zeros(0)
-            if x.size < max(MODE_SAMPLES, 2 * width) or row.std is None:
+            if x.size < need or row.std is None:
                 continue
             out.append({"residual": a.name, "mode": dict(row.mode), "samples": int(x.size),
                         "level": float(np.median(x) / MEDIAN_SIGMA), "predicted": float(row.std)})
@@ -323,7 +415,13 @@ def format_calibration(c: Calibration) -> str:
              f"{'residual':<10}{'unit':<10}{'largest |r|':>14}{'threshold':>14}"]
     for i, name in enumerate(c.names):
         peak = max(p[i] for p in c.peaks if p[i] is not None)
-        lines.append(f"{name:<10}{c.units[i]:<10}{peak:>14.4g}{c.thresholds[i]:>14.4g}")
+        table = c.mode_thresholds.get(name)
+        lines.append(f"{name:<10}{c.units[i]:<10}{peak:>14.4g}" + (f"{'by mode':>14}" if table else
+                                                                   f"{c.thresholds[i]:>14.4g}"))
+        for key, value in (table or {}).items():
+            note = " (no run visits it: scaled from the others by the predicted noise)" \
+                if key in c.unvisited.get(name, ()) else ""
+            lines.append(f"  {key:<32}{value:>14.4g}{note}")
     if c.false_alarms is None:
         lines.append("false alarms: give two runs or more to estimate them (each is left out in turn)")
     else:
@@ -380,8 +478,19 @@ def format_calibration(c: Calibration) -> str:
                          f"({x['level']:.4g}, median |r| / 0.6745) than the sensors' declared noise explains ({x['predicted']:.4g}, "
                          f"fdi.noise): its threshold is set by what the model does not explain (a parameter's value, a "
                          f"law, an unmodelled input or disturbance) or by noise the file understates")
-    lines.append("thresholds: {" + ", ".join(f"{n}: {t:.4g}" for n, t in zip(c.names, c.thresholds)) + "}")
+    if c.mode_thresholds:
+        lines.append(f"thresholds by mode for {', '.join(c.mode_thresholds)}: each monitored divided by its mode's "
+                     f"threshold, against 1 (their noise or unit differs between modes; docs/patterns.md)")
+    lines.append(_thresholds_line(c))
     return "\n".join(lines) + "\n"
+
+
+def _thresholds_line(c: Calibration) -> str:
+    """``thresholds: {ARR1: {p=0 m=1: 120, other: 0.8}, ARR2: 56.8}`` (YAML flow)."""
+    def value(name: str, t: float) -> str:
+        table = c.mode_thresholds.get(name)
+        return "{" + ", ".join(f"{k}: {v:.4g}" for k, v in table.items()) + "}" if table else f"{t:.4g}"
+    return "thresholds: {" + ", ".join(f"{n}: {value(n, t)}" for n, t in zip(c.names, c.thresholds)) + "}"
 
 
 def with_thresholds(text: str, c: Calibration) -> str:
@@ -390,7 +499,7 @@ def with_thresholds(text: str, c: Calibration) -> str:
     chosen by ``--window auto`` is written as diagnosis.derivative_window (:func:`with_window`)."""
     if c.window_chosen and c.window is not None:
         text = with_window(text, c.window)
-    line = "thresholds: {" + ", ".join(f"{n}: {t:.4g}" for n, t in zip(c.names, c.thresholds)) + "}"
+    line = _thresholds_line(c)
     line += f"   # bgfdi calibrate: {c.rule} of |r| x {c.margin:g} over {len(c.runs)} nominal run(s)\n"
     pattern = re.compile(r"^thresholds:.*\n(?:[ \t]+.*\n)*", re.M)      # the key and its indented lines
     if pattern.search(text):

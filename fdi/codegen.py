@@ -189,7 +189,8 @@ def plan(monitor, ts: float | None = None, options=None, prefix: str | None = No
     from .monitor import monitor_of
     from .options import Options
     o = options or Options()
-    monitor = monitor_of(monitor).with_config(o.settings)
+    from .pipeline import with_overrides
+    monitor = with_overrides(monitor_of(monitor).with_config(o.settings), o.thresholds)
     model = monitor.model
     where = model.path or model.name
     ts = sampling_time(model, ts)

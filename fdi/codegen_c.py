@@ -128,6 +128,7 @@ typedef struct {
         int64_t n, a, done, read;
         int64_t frontier[${U}_CHANNELS];
         int64_t computed[${U}_CHANNELS];
+        int64_t from[${U}_CHANNELS];         /* where each stored quantity's stretch began (its last switch) */
         int closed;
         double t0, t_last, ts, scale[8];
         double t[${U}_RING];
@@ -226,8 +227,15 @@ def _function(name: str, ret: str, args: str, body: tuple[str, ...], doc: list[s
 
 
 def _reads(text: str, name: str) -> bool:
+    """Whether C code ``text`` uses the identifier ``name``, its comments and strings left out (a
+    comment naming a mode ``p`` hid that the parameter block ``p`` was unused: -Werror refused it).
+
+    >>> _reads("/* commanded mode p */ mode[0] = col[3] >= 0.5;", "p"), _reads("x[0] = p->R * col[1];", "p")
+    (False, True)
+    """
     import re
-    return re.search(rf"(?<![\w.>]){re.escape(name)}\b", text) is not None
+    code = re.sub(r'/\*.*?\*/|"(?:\\.|[^"\\])*"', " ", text, flags=re.S)
+    return re.search(rf"(?<![\w.>]){re.escape(name)}\b", code) is not None
 
 
 def _model_code(p: Plan) -> list[str]:
@@ -424,6 +432,16 @@ static void finish(${P}_state *s, int c, int64_t a, int64_t b, int at_end)
     s->priv.frontier[c] = b;
 }
 
+/* Whether a per-sample mode changes between samples k - 1 and k (fdi.residuals.mode_breaks). */
+static int switched(const ${P}_state *s, int64_t k)
+{
+    int i;
+    for (i = 0; i < MODES_N; i++)
+        if (s->priv.mode[i][SLOT(k)] != s->priv.mode[i][SLOT(k - 1)])
+            return 1;
+    return 0;
+}
+
 /* Every filtered value and mode of sample k, in the order the kernels read them. */
 static void gather(const ${P}_state *s, int64_t k, double *v)
 {
@@ -502,15 +520,19 @@ static int advance(${P}_state *s, int at_end)
                 ready = s->priv.frontier[in[i]];
         while (s->priv.computed[c] < ready) {
             k = s->priv.computed[c];
+            if (k > s->priv.from[c] && switched(s, k)) {    /* its rate broken at a switch, as the signals' */
+                finish(s, c, s->priv.from[c], k, 0);        /* (fdi.residuals.Residual._rate) */
+                s->priv.from[c] = k;
+            }
             gather(s, k, v);
             for (i = 0; i < SIGNALS_N; i++)     /* a stored quantity reads its signals as sampled */
                 v[OUTPUTS + MODES_N + i] = s->priv.x[i][SLOT(k)];
             s->priv.x[c][SLOT(k)] = STORED[c - SIGNALS_N](v, &s->params);
             s->priv.computed[c] = k + 1;
-            arrive(s, c, 0, k);
+            arrive(s, c, s->priv.from[c], k);
         }
         if (at_end)
-            finish(s, c, 0, s->priv.n, 1);
+            finish(s, c, s->priv.from[c], s->priv.n, 1);
     }
 #endif
     ready = s->priv.n;
@@ -598,16 +620,10 @@ int ${P}_step(${P}_state *s, const double sample[${U}_COLUMNS])
     for (i = 0; i < MODES_N; i++)
         s->priv.mode[i][SLOT(j)] = mode[i];
     s->priv.n = j + 1;
-    if (j > 0) {
-        int switched = 0;
-        for (i = 0; i < MODES_N; i++)
-            if (s->priv.mode[i][SLOT(j)] != s->priv.mode[i][SLOT(j - 1)])
-                switched = 1;
-        if (switched) {                     /* fdi.residuals.mode_breaks: no window straddles a switch */
-            for (c = 0; c < SIGNALS_N; c++)
-                finish(s, c, s->priv.a, j, 0);
-            s->priv.a = j;
-        }
+    if (j > 0 && switched(s, j)) {          /* fdi.residuals.mode_breaks: no window straddles a switch */
+        for (c = 0; c < SIGNALS_N; c++)
+            finish(s, c, s->priv.a, j, 0);
+        s->priv.a = j;
     }
     for (c = 0; c < SIGNALS_N; c++)
         arrive(s, c, s->priv.a, j);

@@ -74,6 +74,15 @@ class MonitorConfig:
     exoneration: str = "sensitivity"        # or "structural": the paper's (every structural 1 exonerates)
     persistence: float | None = None        # threshold-seconds of evidence before a residual is latched
                                             # (fdi.detect); None: one derivative window
+    mode_thresholds: Mapping[str, Mapping[tuple, float]] = field(default_factory=dict)
+    """Thresholds by mode (:mod:`fdi.mode_thresholds`): by residual name, the threshold in each
+    combination of some mode variables, keyed ((mode, 0 or 1), ...), and () for every other
+    combination; such a residual is monitored divided by its mode's threshold, against 1 (its
+    entry in ``thresholds``)."""
+
+    def __post_init__(self) -> None:
+        if self.mode_thresholds:            # a residual divided by its mode's threshold is judged against 1
+            object.__setattr__(self, "thresholds", {**self.thresholds, **dict.fromkeys(self.mode_thresholds, 1.0)})
 
     def bounds(self, fault: str) -> tuple[float, float] | None:
         """The search bounds of ``fault`` given in the file, or None."""
@@ -86,9 +95,13 @@ class MonitorConfig:
         return None if s is None else s.failure
 
     def replace(self, **changes) -> "MonitorConfig":
-        """A copy with some fields changed (``thresholds`` merged by name into the file's)."""
+        """A copy with some fields changed (``thresholds`` merged by name into the file's; a residual
+        given one threshold there loses its thresholds by mode)."""
         if "thresholds" in changes:
-            changes["thresholds"] = {**self.thresholds, **changes["thresholds"]}
+            given = changes["thresholds"]
+            changes["thresholds"] = {**self.thresholds, **given}
+            if "mode_thresholds" not in changes:
+                changes["mode_thresholds"] = {k: v for k, v in self.mode_thresholds.items() if k not in given}
         return _replace(self, **changes)
 
 
@@ -114,23 +127,32 @@ def read_config(doc: Document, model: Model) -> MonitorConfig:
                                  "weighted by |r|/threshold, before it is confirmed; 0 = the first crossing)", minimum=0, maximum=MAX_TIME)
     samples = int(doc.number(diag.get("samples", DEFAULT_SAMPLES), ("diagnosis", "samples"), "samples",
                              integer=True, minimum=2, maximum=MAX_SAMPLES))
-    return MonitorConfig(thresholds=_thresholds(doc, model), waiting_time=waiting, samples=samples,
+    thresholds, by_mode = _thresholds(doc, model)
+    return MonitorConfig(thresholds=thresholds, waiting_time=waiting, samples=samples,
                          derivative_window=window, faults=_fault_settings(doc, model), exoneration=str(exoneration),
-                         persistence=persistence)
+                         persistence=persistence, mode_thresholds=by_mode)
 
 
-def _thresholds(doc: Document, model: Model) -> dict[str, float]:
+def _thresholds(doc: Document, model: Model) -> tuple[dict[str, float], dict[str, dict[tuple, float]]]:
     """Thresholds by residual name (ARR1, ARR2, ...: which residuals exist is decided by the
-    residual selection, and checked when the diagnosis starts) or by the sensor of an AGARR."""
+    residual selection, and checked when the diagnosis starts) or by the sensor of an AGARR; a
+    residual's may be a mapping by mode (``{p=1 m=0: 0.9, other: 550}``: :mod:`fdi.mode_thresholds`),
+    which sets its entry to 1 (it is monitored divided by its mode's threshold)."""
+    from .mode_thresholds import parse_table
     by_sensor = {s: f"ARR{i + 1}" for i, s in enumerate(model.sensors)}
     out: dict[str, float] = {}
+    by_mode: dict[str, dict[tuple, float]] = {}
     for key, value in doc.mapping(doc.data.get("thresholds"), ("thresholds",)).items():
         arr = by_sensor.get(key, key)
         if not (isinstance(arr, str) and re.fullmatch(r"ARR[1-9][0-9]*", arr)):
             raise doc.error(("thresholds", key), f"'{key}' is no residual (use ARR1, ARR2, ... as `bgfdi tables` "
                                                  f"names them, or a sensor name: {', '.join(model.sensors) or 'none'})")
-        out[arr] = doc.number(value, ("thresholds", key), "threshold", above=0)
-    return out
+        if isinstance(value, dict):
+            by_mode[arr] = parse_table(doc, model, value, ("thresholds", key))
+            out[arr] = 1.0
+        else:
+            out[arr] = doc.number(value, ("thresholds", key), "threshold", above=0)
+    return out, by_mode
 
 
 def _fault_settings(doc: Document, model: Model) -> dict[str, FaultSettings]:

@@ -169,7 +169,7 @@ def _from_disk(path: str, source: bytes | None) -> "Monitor | None":
     except Exception:                               # noqa: BLE001 - an unreadable entry is rebuilt, never trusted
         return None
     m._disk = (path, source, _persisted_size(m), m.config)
-    _derived[m.key] = (m._arrs, m.residuals)
+    _derived[m.key] = (m._arrs, m._residuals)
     return m
 
 
@@ -229,6 +229,31 @@ class Monitor:
         self._arrs = value
 
     @property
+    def residuals(self) -> tuple[Residual, ...]:
+        """The residual kernels monitored: each AGARR's, divided by its mode's threshold where the
+        settings give thresholds by mode (:mod:`fdi.mode_thresholds`; compiled once per table)."""
+        tables = self.config.mode_thresholds
+        if not tables:
+            return self._residuals
+        key = tuple(sorted((name, tuple(sorted(t.items()))) for name, t in tables.items()))
+        hit = self.__dict__.get("_scaled")
+        if hit is None or hit[0] != key or hit[1] is not self._residuals:
+            from .residuals import divided_by_mode
+            hit = (key, self._residuals, divided_by_mode(self.model, self.arrs, self._residuals, tables))
+            self.__dict__["_scaled"] = hit
+        return hit[2]
+
+    @residuals.setter
+    def residuals(self, value: tuple[Residual, ...]) -> None:
+        self._residuals = value
+
+    @property
+    def arr_residuals(self) -> tuple[Residual, ...]:
+        """The AGARRs' residual kernels, undivided (in their units, whatever the settings):
+        what calibration measures."""
+        return self._residuals
+
+    @property
     def names(self) -> tuple[str, ...]:
         """The residuals' names (ARR1, ARR2, ...): each residual is its AGARR's."""
         return tuple(r.name for r in self.residuals)
@@ -239,7 +264,8 @@ class Monitor:
         if "units" not in self._matrices:
             from .arrs import arr_unit
             self._matrices["units"] = tuple(arr_unit(self.model, a) for a in self.arrs)
-        return self._matrices["units"]
+        tables = self.config.mode_thresholds        # divided by its mode's threshold: in thresholds
+        return tuple("1" if r.name in tables else u for r, u in zip(self._residuals, self._matrices["units"]))
 
     @property
     def coinciding(self) -> tuple["Coincidence", ...]:
@@ -330,7 +356,7 @@ def _unpack(payload: bytes) -> Monitor:
         _derived.move_to_end(m.key)
         m._arrs, m.residuals = _derived[m.key]
     else:
-        _remember(_derived, m.key, (m._arrs, m.residuals))
+        _remember(_derived, m.key, (m._arrs, m._residuals))
     return m
 
 

@@ -135,14 +135,13 @@ def mode_text(mode: Mapping[str, int]) -> str:
     return " ".join(f"{k}={v}" for k, v in mode.items())
 
 
-def noise_notes(model: Model, arrs: Sequence, predicted: Mapping[str, list[ModeNoise]], window: float) -> list[str]:
-    """One note per residual whose predicted noise differs by :data:`SPREAD` or more between two
-    modes that sum the same unit (a residual of mixed units has its own note,
-    :func:`fdi.arrs.mixed_unit_notes`), naming the quietest and noisiest modes and the sensor that
-    dominates the noisiest."""
+def spreads(model: Model, arrs: Sequence, predicted: Mapping[str, list[ModeNoise]]) -> list[tuple]:
+    """Per residual and per unit its modes sum (a residual of mixed units: each apart,
+    :func:`fdi.arrs.units_by_mode`), its quietest and noisiest predicted modes: (arr, unit, quietest,
+    noisiest), where two modes at least have a positive prediction."""
     from .arrs import units_by_mode
 
-    notes = []
+    out = []
     for a in arrs:
         rows = [x for x in predicted.get(a.name, ()) if x.std is not None and x.std > 0]
         if len(rows) < 2:
@@ -150,21 +149,29 @@ def noise_notes(model: Model, arrs: Sequence, predicted: Mapping[str, list[ModeN
         units = units_by_mode(model, a, [dict(x.mode) for x in rows]) or {"": [dict(x.mode) for x in rows]}
         for unit, modes in units.items():
             group = [x for x in rows if dict(x.mode) in modes]
-            if len(group) < 2:
-                continue
-            lo, hi = min(group, key=lambda x: x.std), max(group, key=lambda x: x.std)
-            ratio = hi.std / lo.std
-            if ratio < SPREAD:
-                continue
+            if len(group) >= 2:
+                out.append((a, unit, min(group, key=lambda x: x.std), max(group, key=lambda x: x.std)))
+    return out
+
+
+def noise_notes(model: Model, arrs: Sequence, predicted: Mapping[str, list[ModeNoise]], window: float) -> list[str]:
+    """One note per residual whose predicted noise differs by :data:`SPREAD` or more between two
+    modes that sum the same unit (a residual of mixed units has its own note,
+    :func:`fdi.arrs.mixed_unit_notes`), naming the quietest and noisiest modes and the sensor that
+    dominates the noisiest."""
+    notes = []
+    for a, unit, lo, hi in spreads(model, arrs, predicted):
+        ratio = hi.std / lo.std
+        if ratio >= SPREAD:
             top = max(hi.shares, key=hi.shares.get) if hi.shares else None
             cause = f" ({top} {100 * hi.shares[top]:.0f} %)" if top else ""
             u = f" {unit}" if unit else ""
             notes.append(f"{a.name}'s noise predicted from the sensors' declared noise (derivative window "
                          f"{window:.3g} s): {hi.std:.3g}{u} in {mode_text(hi.mode)}{cause}, {lo.std:.3g}{u} in "
-                         f"{mode_text(lo.mode)}, {ratio:.0f}x apart; its one threshold is set by the noisiest mode, "
-                         f"so a fault seen only in the quietest must move it {ratio:.0f}x more to be detected (look "
-                         f"in the noisy mode's form, `bgfdi tables`, for a small parameter dividing a measured "
-                         f"difference)")
+                         f"{mode_text(lo.mode)}, {ratio:.0f}x apart: one threshold, set by the noisiest mode, needs "
+                         f"a fault {ratio:.0f}x larger in the quietest (bgfdi calibrate gives it thresholds by "
+                         f"mode; or look in the noisy mode's form, `bgfdi tables`, for a small parameter dividing "
+                         f"a measured difference)")
     return notes
 
 

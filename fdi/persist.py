@@ -15,7 +15,7 @@ authenticates them (an HMAC under this user's private key) before anything is un
 >>> from fdi.monitor import Monitor
 >>> m = Monitor("models/two_tank_valve.yaml")
 >>> back = restore(pack(m))
->>> back["_arrs"].get() == m.arrs and back["residuals"][0].expr == m.residuals[0].expr
+>>> back["_arrs"].get() == m.arrs and back["_residuals"][0].expr == m.residuals[0].expr
 True
 """
 from __future__ import annotations
@@ -118,7 +118,7 @@ def pack(monitor: Any, config=None) -> bytes | None:
     hit = timescales._CACHE.get(id(monitor.model))
     scales = hit[1] if hit is not None and hit[0] is monitor.model else None
     try:
-        residuals = tuple(_spec(r) for r in monitor.residuals)
+        residuals = tuple(_spec(r) for r in monitor._residuals)     # the AGARRs' (a table by mode: per settings)
         signals = _signal_specs(monitor.model)
     except (NotPortable, OSError, TypeError):
         return None
@@ -166,7 +166,7 @@ def restore(payload: bytes) -> dict[str, Any]:
         raise ValueError("not a compiled monitor of this format")
     model = record["model"]
     out = {"model": model, "config": record["config"], "key": record["key"], "_arrs": Pickled(record["arrs"]),
-           "residuals": tuple(_residual(s) for s in record["residuals"]), "_matrices": dict(record["matrices"])}
+           "_residuals": tuple(_residual(s) for s in record["residuals"]), "_matrices": dict(record["matrices"])}
     if record["time_scales"] is not None:
         from bondgraph import timescales
         if len(timescales._CACHE) > 32:

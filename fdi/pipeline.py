@@ -146,10 +146,18 @@ def with_samples(monitor: "Monitor", samples: int | None) -> "Monitor":
     return monitor.with_config(monitor.config.replace(samples=samples))
 
 
+def with_overrides(monitor: "Monitor", thresholds: dict | None) -> "Monitor":
+    """``monitor`` without the thresholds by mode of the residuals the options give one threshold
+    (``--threshold ARR1=...``): those are monitored undivided, against that number."""
+    tables = monitor.config.mode_thresholds
+    given = {k: v for k, v in (thresholds or {}).items() if k in tables}
+    return monitor.with_config(monitor.config.replace(thresholds=given)) if given else monitor
+
+
 def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     """The monitor resolved for the data's sampling time, the data checked against the window
     the derivatives need, the thresholds (the file's, overridden by name), T_wt and N."""
-    monitor, sc = with_samples(monitor, o.samples).scaled(meas.ts)    # every caller's: the prognosis' refits too
+    monitor, sc = with_overrides(with_samples(monitor, o.samples), o.thresholds).scaled(meas.ts)  # the prognosis' refits too
     model, config = monitor.model, monitor.config
     w = config.derivative_window
     check_samples(o.samples, meas.ts, min_period=sc.min_period)

@@ -32,7 +32,7 @@ True
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable, Mapping
+from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -134,13 +134,20 @@ class Residual:
         measured = {s: Estimates([samples_of(v)] + list(v[1:]), samples_of(v), getattr(v, "breaks", None))
                     for s, v in signals.items()}
         x = np.asarray(inner(measured, values, ts, window, rates=rates, polyorder=polyorder), dtype=float)
-        bad = ~np.isfinite(x).all(axis=-1, keepdims=True)    # an individual past a pole: no residual
+        finite = np.isfinite(x)
+        # a sample no row has (a signal's derivative left out at a mode switch by design, a spike in
+        # the data) leaves the rate NaN only where the filter reads it, as the generated C monitor's
+        # does; a row alone not finite somewhere is an individual past a pole: no residual for it
+        # (until 2026-11 any sample made the whole record NaN: one contact of an end stop, whose
+        # stored quantity reads a derivative, blinded the residual on every sample)
+        common = ~finite if x.ndim == 1 else ~finite.any(axis=tuple(range(x.ndim - 1)))
+        bad = (~finite & ~common).any(axis=-1, keepdims=True)
+        x = np.where(common, np.nan, np.where(finite, x, 0.0))
         breaks = next((b.breaks for b in signals.values() if isinstance(b, Estimates) and len(b.breaks)), None)
         if breaks is not None:       # its rate broken at the mode switches, as the signals' derivatives are
-            d = _piecewise(np.where(np.isfinite(x), x, 0.0), ts, order, window, breaks, polyorder)[order]
+            d = _piecewise(x, ts, order, window, breaks, polyorder)[order]
         else:
-            d = derivatives.estimate(np.where(np.isfinite(x), x, 0.0), ts, order, window, polyorder=polyorder,
-                                     at=crop)[order]
+            d = derivatives.estimate(x, ts, order, window, polyorder=polyorder, at=crop)[order]
         rate = np.where(bad, np.nan, d[..., crop] if crop is not None else d)
         if rates is not None:
             rates.setdefault(key, []).append((reads, rate))
@@ -248,6 +255,27 @@ def compile_residuals(model: Model, arrs: list[ARR]) -> list[Residual]:
     return [compile_residual(model, a) for a in arrs]
 
 
+def divided_by_mode(model: Model, arrs: Sequence[ARR], residuals: Sequence[Residual],
+                    tables: Mapping[str, Mapping[tuple, float]]) -> tuple[Residual, ...]:
+    """``residuals`` with each one that has a table of thresholds by mode (:mod:`fdi.mode_thresholds`)
+    replaced by its ARR divided by its mode's threshold (:func:`fdi.mode_thresholds.weight`),
+    compiled as any residual (:func:`compile_residual`)."""
+    if not tables:
+        return tuple(residuals)
+    from .mode_thresholds import weight
+    by_name = {a.name: a for a in arrs}
+    out = []
+    for r in residuals:
+        table = tables.get(r.name)
+        if table is None:
+            out.append(r)
+            continue
+        arr = by_name[r.name]
+        expr = numeric_form(model, arr.exact if arr.exact is not None else arr.expr) * weight(model, table)
+        out.append(_compile(model, expr, arr.name, arr.sensor))
+    return tuple(out)
+
+
 def derivative_orders(residuals: list[Residual]) -> dict[str, int]:
     """The highest derivative of each signal that any residual needs."""
     orders: dict[str, int] = {}
@@ -332,15 +360,51 @@ def designed_gaps(residuals: list["Residual"], size: int, breaks: np.ndarray, wi
     """The samples some residual leaves NaN by design at mode switches (:func:`_piecewise` on each of
     its channels, :func:`stretches`): True there. Every channel's order counts, for each has its own
     window and edge trim (a stored quantity's first rate beside signals read undifferentiated)."""
-    gaps = np.zeros(size, dtype=bool)
-    for order in channel_orders(residuals) | {0}:
+    def trimmed(order: int) -> np.ndarray:
         p = max(polyorder, order)
         need = derivatives.window_samples(window, ts, p)
         kept = np.zeros(size, dtype=bool)
         for _, keep in stretches(size, breaks, need, derivatives.edge_trim(need, p, order)):
             kept[keep] = True
-        gaps |= ~kept
+        return ~kept
+
+    gaps = np.zeros(size, dtype=bool)
+    for order in channel_orders(residuals) | {0}:
+        gaps |= trimmed(order)
+    if len(breaks):
+        highest = derivative_orders(residuals)
+        todo = [c for r in residuals for c in r.composites]
+        while todo:
+            order, inner = todo.pop()
+            todo += list(inner.composites)
+            gaps |= _rate_gaps(order, inner, highest, trimmed, size, breaks, window, ts, polyorder)
     return gaps
+
+
+def _rate_gaps(order: int, inner: "Residual", highest: Mapping[str, int], trimmed: Callable, size: int,
+               breaks: np.ndarray, window: float, ts: float, polyorder: int) -> np.ndarray:
+    """Where a stored quantity's rate is NaN because the quantity is (:meth:`Residual._rate`: it
+    reads a signal's derivative, left out near a switch, or an inner quantity's rate): the rate's
+    filter reads such a sample from half a window away, and a stretch's edge fit from its first or
+    last whole window."""
+    x = np.zeros(size, dtype=bool)
+    for sig, k in inner.signals:
+        if k >= 1:
+            x |= trimmed(highest.get(sig, k))
+    for o, q in inner.composites:
+        x |= _rate_gaps(o, q, highest, trimmed, size, breaks, window, ts, polyorder)
+    if not x.any():
+        return x
+    n = derivatives.window_samples(window, ts, max(polyorder, order))
+    half = n // 2
+    out = np.zeros(size, dtype=bool)
+    hits = np.r_[0, np.cumsum(x)]              # hits[j] - hits[i]: NaN samples of x in [i, j)
+    for (a, b), _ in stretches(size, breaks, n):
+        i = np.arange(a + half, b - half)
+        out[i] = hits[i + half + 1] - hits[i - half] > 0
+        out[a:a + half] = hits[a + n] - hits[a] > 0
+        out[b - half:b] = hits[b] - hits[b - n] > 0
+    return out
 
 
 def stretches(size: int, breaks: np.ndarray, need: int, edge: int = 0) -> list[tuple[tuple[int, int], slice]]:

@@ -64,7 +64,7 @@ from .carry import Carried
 from .data import DataError, Measurements, check_header, checked
 from .detect import confirmed, evidence, evidence_samples, settling, span_start, thresholds_for
 from .options import Options
-from .pipeline import refresh_prognosis, with_samples
+from .pipeline import refresh_prognosis, with_overrides, with_samples
 from .results import Diagnosis, plain
 
 HISTORY_SAMPLES = 360_000   # samples kept before a detection when no history in seconds is given
@@ -186,7 +186,8 @@ class Stream:
     def __post_init__(self) -> None:
         self.options = self.options or Options()
         self.options.check()
-        self.monitor = with_samples(self.monitor.with_config(self.options.settings), self.options.samples)
+        self.monitor = with_overrides(with_samples(self.monitor.with_config(self.options.settings),
+                                                   self.options.samples), self.options.thresholds)
         c = self.monitor
         self.model, self.config, self.compiled = c.model, c.config, c.residuals
         self.names = list(c.names)

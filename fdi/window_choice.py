@@ -107,7 +107,7 @@ def choose_window(model_path: str, data: list[Measurements], thresholds_of: Call
     calibration's rule, |r| on the trusted samples of each run -> one threshold per residual
     (:func:`fdi.calibrate.calibrate` passes its margin and quantile)."""
     c = compiled(model_path)
-    model, residuals = c.model, list(c.residuals)
+    model, residuals = c.model, list(c.arr_residuals)
     ts = data[0].ts
     rule = scales.for_model(model, c.config, ts).window
     longest = min(meas.t.size for meas in data) / 10 * ts          # at least ten windows per run

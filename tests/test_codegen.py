@@ -380,3 +380,25 @@ def test_the_driver_refuses_data_it_cannot_use(cycab_monitor, tmp_path):
         csv.write_text("\n".join(text) + "\n")
         done = subprocess.run([str(exe), str(csv)], capture_output=True, text=True)
         assert done.returncode == 2 and words in done.stderr and len(done.stderr.strip().splitlines()) == 1, name
+
+
+# ------------------------------------------------------------------ thresholds by mode
+
+def test_thresholds_by_mode_divide_the_residual_in_c_as_in_python(tmp_path):
+    """The EV precharge's link balance with a threshold by contactor state (fdi.mode_thresholds):
+    the generated monitor divides it by its mode's threshold sample by sample, as Python does,
+    on a run of the plant simulated apart from bgfdi (tests/precharge_plant.py)."""
+    import re
+
+    from . import precharge_plant as plant
+    text = (Path(__file__).parent / "data" / "ev_precharge.yaml").read_text(encoding="utf-8")
+    text = re.sub(r"^thresholds:.*\n", "", text, flags=re.M)
+    model = tmp_path / "ev_precharge.yaml"
+    model.write_text(text + "\nthresholds: {ARR1: {p=0 m=1: 480.0, p=1 m=0: 1.0, other: 0.75}, ARR2: 70.0}\n",
+                     encoding="utf-8")
+    monitor = compiled(model)
+    assert monitor.units[0] == "1"
+    p, exe = build(tmp_path, monitor)
+    t, cols, _ = plant.simulate(T=4.0, seed=5, faults=[{"target": "Rp", "t0": 3.05, "value": 75.0}])
+    found = check(monitor, p, exe, write_csv({"t": t, **cols}, tmp_path / "run.csv"))
+    assert found["worst"][0] <= TOLERANCE

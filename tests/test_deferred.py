@@ -66,7 +66,7 @@ def test_a_residual_read_back_keeps_its_identity_without_its_expression():
     from fdi.monitor import Monitor
     from fdi.persist import pack, restore
     m = Monitor(str(ROOT / "models" / "hydraulic_actuator.yaml"))
-    back = restore(pack(m))["residuals"]
+    back = restore(pack(m))["_residuals"]
     inner = [(r.name, q) for r in m.residuals for _, q in r.composites]
     assert inner                                                      # the chambers' stored quantities
     read = [q for r in back for _, q in r.composites]

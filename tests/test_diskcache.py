@@ -410,7 +410,7 @@ def test_a_kernel_read_back_computes_what_sympy_computes(cache):
     from fdi.persist import pack, restore
     m = Monitor(str(ROOT / "models" / "two_tank_valve.yaml"))
     back = restore(pack(m))
-    for fresh, read in zip(m.residuals, back["residuals"]):
+    for fresh, read in zip(m.residuals, back["_residuals"]):
         assert read.signals == fresh.signals and read.symbols == fresh.symbols
         rng = np.random.default_rng(1)
         args = [rng.uniform(0.5, 2.0, 7) for _ in range(len(fresh.signals) + len(fresh.composites) + len(fresh.symbols))]
@@ -432,7 +432,7 @@ def test_a_monitor_read_from_disk_is_packed_again_for_workers(cache, monkeypatch
     assert getattr(warm, "_disk", None) is not None and warm is not fresh
     again = pack(warm)
     assert again is not None
-    back = restore(again)["residuals"]
+    back = restore(again)["_residuals"]
     rng = np.random.default_rng(2)
     for f, b in zip(fresh.residuals, back):
         args = [rng.uniform(0.5, 2.0, 5) for _ in range(len(f.signals) + len(f.composites) + len(f.symbols))]

@@ -208,6 +208,8 @@ def test_the_monitor_keeps_reading_while_it_identifies(tmp_path):
     began = ended - decision["identification_s"]
     during = [e for w, e in stamped if began < w < ended and e["event"] != "decision"]
     assert [e["event"] for e in during] == ["coherence"] and during[0]["coherence"] == [1, 1, 1]
-    # stamped in stream time too: the coherence change was known before the decision was
-    assert during[0]["known_at"] < decision["known_at"] and decision["coherence"] == [0, 1, 1]
+    # stamped in stream time too: the coherence change was known no later than the decision (the
+    # same block of rows when the identification ends while that block is read: stream time moves
+    # a block at a time, and half the runs on this host ended there; the wall clock above orders them)
+    assert during[0]["known_at"] <= decision["known_at"] and decision["coherence"] == [0, 1, 1]
     assert decision["identification_s"] > 0.0       # how long it took is reported (its speed is bench's)

@@ -238,3 +238,44 @@ def test_r4_onset_agrees_with_radau_at_tight_tolerances(cycab, name):
     err = {s: np.abs(ours.signals[s] - radau.signals[s]) for s in ("theta1", "theta2", "dp")}
     assert err["theta1"].max() < 6.3e-4 and err["theta2"].max() < 7.7e-4
     assert err["dp"].max() < 5e3
+
+
+STIFFENING_CAP = """
+name: stiffening_cap
+parameters:
+  C:  {value: 1.0e-3, unit: F}
+  C2: {value: 1.0e-4, unit: F}
+  Q0: {value: 2.0e-3, unit: C}
+  R:  {value: 10.0, unit: Ohm}
+data: {columns: [t, i, v], sampling_time: 0.001}
+inputs: {i: {unit: A, column: i, expr: "sin(2*pi*5*t)"}}
+elements:
+  src: {type: MSf, input: i}
+  cap: {type: C, effort: "q/C + max(q - Q0, 0)/C2", displacement: "min(e*C, (e + Q0/C2)/(1/C + 1/C2))"}
+  load: {type: R, parameter: R}
+junctions: {j: {type: "0"}}
+sensors: {v: {type: De, junction: j, column: v, unit: V}}
+bonds: {1: [src, j], 2: [j, cap], 3: [j, load]}
+"""
+
+
+def test_a_law_with_max_simulates_as_scipy_integrates_it():
+    """A capacitor that stiffens beyond a charge Q0 (v = q/C + max(q - Q0, 0)/C2) fed a current and
+    discharged through R: the law's max and min reach the generated program (numpy's printer writes
+    functools.reduce: a NameError until 2026-11, in `simulate` and `check --verify` alike) and the
+    run is scipy's of q' = i - v(q)/R."""
+    from scipy.integrate import solve_ivp
+
+    from bondgraph.loader import load_model_text
+    model = load_model_text(STIFFENING_CAP, "stiffening_cap.yaml")
+    t = np.linspace(0.0, 0.6, 601)
+    values = {s.name: v for s, v in model.nominal_values().items()}
+    traj = simulate(model, t, values=lambda tt: values)
+
+    def volts(q):
+        return q / 1.0e-3 + max(q - 2.0e-3, 0.0) / 1.0e-4
+    ref = solve_ivp(lambda s, q: [np.sin(2 * np.pi * 5 * s) - volts(q[0]) / 10.0], (0, 0.6), [0.0],
+                    t_eval=t, rtol=1e-10, atol=1e-13, max_step=1e-3)
+    v = np.array([volts(q) for q in ref.y[0]])
+    assert v.max() > 2.0e-3 / 1.0e-3                    # the stiff part is reached
+    np.testing.assert_allclose(traj.signals["v"], v, atol=2e-3 * np.ptp(v))

@@ -106,9 +106,14 @@ def _finite(x: float | None) -> float | None:
 
 
 def _monitor(config) -> dict:
-    """The monitor settings of the file (SI: times in s; thresholds in each residual's unit;
-    an unbounded end of a fault's search bounds is null)."""
-    return {"thresholds": dict(config.thresholds), "waiting_time": config.waiting_time, "samples": config.samples,
+    """The monitor settings of the file (SI: times in s; thresholds in each residual's unit, 1 for a
+    residual with thresholds by mode, whose table is in mode_thresholds; an unbounded end of a
+    fault's search bounds is null)."""
+    from ..mode_thresholds import key_text
+    return {"thresholds": dict(config.thresholds),
+            "mode_thresholds": {name: {key_text(k): v for k, v in table.items()}
+                                for name, table in config.mode_thresholds.items()},
+            "waiting_time": config.waiting_time, "samples": config.samples,
             "derivative_window": config.derivative_window,
             "faults": {name: {"bounds": None if f.bounds is None else [_finite(b) for b in f.bounds],
                               "failure": _finite(f.failure)} for name, f in config.faults.items()}}

@@ -772,7 +772,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from ..monitor import compiled
 
     compiled(args.model)                                   # the model checked before the runs are read
-    c = calibrate(args.model, args.runs, args.margin, args.quantile, window=args.window)
+    c = calibrate(args.model, args.runs, args.margin, args.quantile, window=args.window, by_mode=args.by_mode)
     text = _json_text(c.to_dict()) if args.json else format_calibration(c)
     if args.output:
         try:
@@ -1243,6 +1243,9 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--window", choices=["auto"],
                      help="auto: also choose the derivative window (the rule's up to 16 times it) where the faults "
                           "need the smallest changes to be detected, and calibrate at it (written with -o)")
+    cal.add_argument("--by-mode", action="store_true",
+                     help="thresholds by mode for every residual whose form switches with a commanded or autonomous "
+                          "mode (default: those whose unit, or predicted noise tenfold, differs between modes)")
     cal.add_argument("--json", action="store_true", help="print the calibration as JSON")
     cal.add_argument("-o", "--output", help="write a copy of the model with the calibrated thresholds")
     cal.set_defaults(func=cmd_calibrate)

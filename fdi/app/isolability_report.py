@@ -65,8 +65,10 @@ def analyse(model: Model, causality: str = DERIVATIVE, modes: list[dict] | None 
         from ..residuals import compile_residuals
         from ..sensitivity import nominal_sensitivities
         try:
-            kernels = compile_residuals(model, list(chosen.arrs))
-            sensitivities = tuple(nominal_sensitivities(model, kernels, dict(config.thresholds),
+            from ..residuals import divided_by_mode
+            kernels = divided_by_mode(model, chosen.arrs, compile_residuals(model, list(chosen.arrs)),
+                                      config.mode_thresholds)
+            sensitivities = tuple(nominal_sensitivities(model, list(kernels), dict(config.thresholds),
                                                         config.derivative_window))
         except Exception as exc:                   # noqa: BLE001  the analysis stands without it; say why
             notes.append(f"weak detectability not assessed: {str(exc).splitlines()[0]}")
