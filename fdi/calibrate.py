@@ -192,8 +192,7 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                         "calibrate on runs recorded with the sensors' noise")
     config = c.config if pick is None else replace(c.config, derivative_window=pick)
     sc = scales.for_model(model, config, data[0].ts)
-    timed = replace(model, sampling_time=data[0].ts)
-    predicted = predicted_noise(timed, c.arr_residuals, float(sc.window), data[0].ts)
+    predicted = predicted_noise(model, c.arr_residuals, float(sc.window), data[0].ts)
     need = max(MODE_SAMPLES, 2 * derivatives.window_samples(sc.window, data[0].ts, derivatives.DEFAULT_ORDER))
     modal = _by_mode(model, arrs, predicted, [m for _, m in runs_modes], by_mode)
     tables, unvisited = {}, {}
@@ -222,14 +221,14 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
     blind = _blind(scales.model_time_scales(model), data[0].ts) if c.config.derivative_window is None else ()
     if blind:
         blind += _operating_point(model, data)
-    noise = noise_against_prediction(timed, arrs, runs_modes, predicted, need)
+    noise = noise_against_prediction(arrs, runs_modes, predicted, need)
     return Calibration(model.name, names, [arr_unit(model, a) for a in arrs],
                        [[_peak(row) for row in s] for s in samples], [float(x) for x in thresholds],
                        "peak" if quantile is None else f"quantile {quantile:g}", margin, false_alarms,
                        [m.path for m in data], worst, float(sc.window),
                        int(derivatives.window_samples(sc.window, data[0].ts, derivatives.DEFAULT_ORDER)),
                        c.config.derivative_window is not None,
-                       max((r.highest_order() for r in c.residuals), default=0), pick is not None, scores, blind,
+                       max((r.highest_order() for r in c.arr_residuals), default=0), pick is not None, scores, blind,
                        spikes, noise, {names[j]: {key_text(k): float(v) for k, v in t.items()} for j, t in tables.items()},
                        {n: [key_text(k) for k in u] for n, u in unvisited.items() if u})
 
@@ -270,14 +269,16 @@ def _mode_table(rows: list[np.ndarray], modes: list[dict], variables: tuple[str,
     """One residual's threshold in each combination of ``variables``: the rule on the runs' samples
     in it (``need`` finite ones at least), and for a combination the runs do not visit enough the
     visited ones' scaled by the predicted noise (the largest; the largest visited without a
-    prediction); with the unvisited combinations. None when no combination is visited enough."""
+    prediction), as for one where the residual is exactly 0 on every sample (a threshold of 0 would
+    alarm on any noise); with those combinations. None when no combination gets a threshold."""
     table: dict[tuple, float] = {}
     combos = [tuple(zip(variables, bits)) for bits in itertools.product((0, 1), repeat=len(variables))]
     for key in combos:
         x = np.concatenate([row[_mask(m, key, row.size)] for row, m in zip(rows, modes)])
         x = x[np.isfinite(x)]
-        if x.size >= need:
-            table[key] = margin * float(np.max(x) if quantile is None else np.quantile(x, quantile))
+        level = margin * float(np.max(x) if quantile is None else np.quantile(x, quantile)) if x.size >= need else 0.0
+        if level > 0:           # 0: exactly 0 on every sample of the mode (a reading quantised to 0): as unvisited
+            table[key] = level
     if not table:
         return None
     sigma: dict[tuple, float] = {}
@@ -307,7 +308,7 @@ MODE_SAMPLES = 100       # samples of a mode in the runs (at least two derivativ
 MEDIAN_SIGMA = 0.6744897501960817     # median |x| of a standard normal x
 
 
-def noise_against_prediction(model, arrs, runs: list[tuple[np.ndarray, dict[str, np.ndarray]]], predicted,
+def noise_against_prediction(arrs, runs: list[tuple[np.ndarray, dict[str, np.ndarray]]], predicted,
                              need: int) -> tuple[dict, ...]:
     """Per residual and per operating mode the runs visit (:data:`MODE_SAMPLES` samples at least,
     two derivative windows), the residual's level on the runs beside its noise predicted from the
@@ -432,7 +433,8 @@ def format_calibration(c: Calibration) -> str:
         lines.append(f"  an estimate of the chance that a new fault-free run as long as these alarms (in steps of "
                      f"1/{n}; pessimistic: one run fewer)")
         for run, alarmed, (name, ratio) in zip(c.runs, c.false_alarms, c.worst or ()):
-            lines.append(f"  {run}: {name} reaches {ratio:.2f} x the others' threshold"
+            shown = f"{ratio:.2f}" if ratio < 1e6 else f"{ratio:.3g}"      # a spike's: no 300-digit number
+            lines.append(f"  {run}: {name} reaches {shown} x the others' threshold"
                          + (" (an alarm)" if alarmed else ""))
     if c.window is not None and c.window_chosen and c.window_scores and chosen(c.window_scores) is c.window_scores[0]:
         rule = c.window_scores[0]

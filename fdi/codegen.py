@@ -227,6 +227,8 @@ def plan(monitor, ts: float | None = None, options=None, prefix: str | None = No
         shown = numeric_form(model, arr.exact if arr.exact is not None else arr.expr)
         what = (f"the AGARR of sensor {arr.sensor}" if arr.origin == "SCAPH" and arr.sensor else
                 f"the MSO residual at junction {arr.junction} (sensors {arr.sensor})")
+        if arr.name in config.mode_thresholds:          # fdi.mode_thresholds: the function divides it
+            what += ", divided by its threshold in each mode (thresholds by mode; judged against 1)"
         kernels.append(Kernel(arr.name, what, unit, float(eps), sp.sstr(shown), body))
     take, take_helpers, modes = _take(model, column_index, builder, per_sample)
     channels = tuple(builder.channels)

@@ -96,7 +96,13 @@ class MonitorConfig:
 
     def replace(self, **changes) -> "MonitorConfig":
         """A copy with some fields changed (``thresholds`` merged by name into the file's; a residual
-        given one threshold there loses its thresholds by mode)."""
+        given one threshold there loses its thresholds by mode; a table dropped from
+        ``mode_thresholds`` needs its residual's threshold in ``thresholds``, or it would be judged
+        undivided against 1)."""
+        if "mode_thresholds" in changes:
+            dropped = set(self.mode_thresholds) - set(changes["mode_thresholds"]) - set(changes.get("thresholds", ()))
+            if dropped:
+                raise ValueError(f"give thresholds for {', '.join(sorted(dropped))} with their tables by mode dropped")
         if "thresholds" in changes:
             given = changes["thresholds"]
             changes["thresholds"] = {**self.thresholds, **given}

@@ -131,8 +131,9 @@ def predicted_noise(model: Model, residuals: Sequence, window: float, ts: float,
 
 
 def mode_text(mode: Mapping[str, int]) -> str:
-    """``p=1 m=0`` (the MD-FSM tables' spelling)."""
-    return " ".join(f"{k}={v}" for k, v in mode.items())
+    """``p=1 m=0`` (the MD-FSM tables' spelling, :func:`fdi.mode_thresholds.key_text`'s)."""
+    from .mode_thresholds import key_text
+    return key_text(tuple(mode.items()))
 
 
 def spreads(model: Model, arrs: Sequence, predicted: Mapping[str, list[ModeNoise]]) -> list[tuple]:
@@ -178,15 +179,19 @@ def noise_notes(model: Model, arrs: Sequence, predicted: Mapping[str, list[ModeN
 def predicted_for(model: Model, config, arrs: Sequence) -> tuple[float | None, dict[str, list[ModeNoise]]]:
     """The derivative window a diagnosis of data sampled at the file's ``data: sampling_time`` uses
     (``diagnosis.derivative_window``, else the rule's: :func:`fdi.scales.resolve`) and the
-    predictions for the AGARRs ``arrs`` there; (None, {}) for a file without a sampling time or
-    residuals that integrate states (mixed causality: not evaluated on data)."""
+    predictions for the AGARRs ``arrs`` there; (None, {}) for a file without a sampling time,
+    residuals that integrate states (mixed causality: not evaluated on data), or a measurement the
+    prediction cannot simulate (check stands without it)."""
     from .residuals import compile_residuals
     from .scales import resolve
     ts = model.sampling_time
     if not ts or not arrs or any(a.states for a in arrs):
         return None, {}
     window = float(resolve(config, model, ts).derivative_window)
-    return window, predicted_noise(model, compile_residuals(model, list(arrs)), window, ts)
+    try:
+        return window, predicted_noise(model, compile_residuals(model, list(arrs)), window, ts)
+    except Exception:                       # noqa: BLE001 - a prediction beside check's analysis: none, not a failure
+        return None, {}
 
 
 def to_json(predicted: Mapping[str, list[ModeNoise]]) -> dict:

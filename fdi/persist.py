@@ -157,7 +157,7 @@ def warm(monitor: Any) -> None:
 
 def restore(payload: bytes) -> dict[str, Any]:
     """What :func:`pack` stored, as the monitor's attributes (``model``, ``config``, ``key``,
-    ``_arrs``: :class:`Pickled`, ``residuals``, ``_matrices``), the model's time scales and signal functions given
+    ``_arrs``: :class:`Pickled`, ``_residuals`` (the AGARRs' kernels, undivided), ``_matrices``), the model's time scales and signal functions given
     back to the caches that keep them (raises on anything else: the caller derives it afresh).
     The payload comes from :func:`fdi.diskcache.fetch` (authenticated) or from this user's own
     pickle stream (:meth:`fdi.monitor.Monitor.__reduce__`)."""

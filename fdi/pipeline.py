@@ -381,7 +381,10 @@ def widen(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, results: list, est: Est
                    [(det.time, onsets[1])] * len(extra))
     more = refit_early_onsets(est, p.meas.t, p.raw, det.time, p.samples, extra, more, p.weights, o.seed + 104723,
                               onsets, p.first_trusted)
-    note = (f"the best explanation exoneration left had residuals {best / level:.0f} times their nominal "
+    ratio = best / level
+    note = (f"the best explanation exoneration left had residuals {ratio:.0f}" if ratio < 1e6 else
+            f"the best explanation exoneration left had residuals {ratio:.3g}")      # no 150-digit number
+    note = (f"{note} times their nominal "
             f"level; " + (COVERING_NOTE + (f" ({len(extra)} of them, the {left} whose faults enter more quiet "
                                            "residuals left out)" if left else "") if covering else
                           "sets a quiet residual could not have exonerated were identified too"))

@@ -137,7 +137,9 @@ class Residual:
         finite = np.isfinite(x)
         # a sample no row has (a signal's derivative left out at a mode switch by design, a spike in
         # the data) leaves the rate NaN only where the filter reads it, as the generated C monitor's
-        # does; a row alone not finite somewhere is an individual past a pole: no residual for it
+        # does; a row alone not finite somewhere is an individual past a pole: no residual for it (an
+        # individual evaluated alone keeps its NaN local: outside the designed gaps that makes its
+        # cost infinite all the same, fdi.objective)
         # (until 2026-11 any sample made the whole record NaN: one contact of an end stop, whose
         # stored quantity reads a derivative, blinded the residual on every sample)
         common = ~finite if x.ndim == 1 else ~finite.any(axis=tuple(range(x.ndim - 1)))
@@ -391,8 +393,8 @@ def _rate_gaps(order: int, inner: "Residual", highest: Mapping[str, int], trimme
     for sig, k in inner.signals:
         if k >= 1:
             x |= trimmed(highest.get(sig, k))
-    for o, q in inner.composites:
-        x |= _rate_gaps(o, q, highest, trimmed, size, breaks, window, ts, polyorder)
+    for o, q in inner.composites:          # an inner rate: its own trim at each switch and what it inherits
+        x |= trimmed(o) | _rate_gaps(o, q, highest, trimmed, size, breaks, window, ts, polyorder)
     if not x.any():
         return x
     n = derivatives.window_samples(window, ts, max(polyorder, order))

@@ -161,23 +161,28 @@ THREE_FAULTS = {"seed": 7, "T": 80, "fs": 100, "theta2_0": -0.15, "faults": [
     {"target": "beta_theta1", "type": "abrupt", "t0": 30, "value": 0.5}]}
 
 
-def _paced(header, table, speed: float, start: float, block: int = 50):
+def _paced(header, table, speed: float, start: float, block: int = 50, burst: float | None = None):
     """Blocks of rows as a live source gives them: the first ``start`` seconds at once, then at
-    ``speed`` times real time (a sleep before each block until its last sample is due)."""
+    ``speed`` times real time (a sleep before each block until its last sample is due); the blocks
+    up to ``burst`` s as fast as the monitor takes them (a source catching up)."""
     i0 = int(np.searchsorted(table[:, 0], start))
     yield table[:i0]
-    wall = time.perf_counter()
+    wall, t_ref = time.perf_counter(), table[i0, 0]
     for a in range(i0, table.shape[0], block):
         rows = table[a:a + block]
-        wait = wall + (rows[-1, 0] - table[i0, 0]) / speed - time.perf_counter()
+        if burst is not None and rows[-1, 0] <= burst:
+            yield rows
+            wall, t_ref = time.perf_counter(), rows[-1, 0]
+            continue
+        wait = wall + (rows[-1, 0] - t_ref) / speed - time.perf_counter()
         if wait > 0:
             time.sleep(wait)
         yield rows
 
 
 def test_the_monitor_keeps_reading_while_it_identifies(tmp_path):
-    """Fed at 10x real time, the stream's coherence event comes while the first decision is being
-    identified (in the worker), and the decision follows with how long it took; the worker ends
+    """Fed while the first decision is identified (in the worker), the stream's coherence event comes
+    during that identification, and the decision follows with how long it took; the worker ends
     with the stream (no process left)."""
     from bondgraph.loader import load_model
     from fdi import kernels
@@ -197,7 +202,10 @@ def test_the_monitor_keeps_reading_while_it_identifies(tmp_path):
     stamped: list[tuple[float, dict]] = []
     mon = compiled(CYCAB).stream(lambda e: stamped.append((time.perf_counter(), e)), Options(workers=1))
     try:
-        for rows in _paced(header, table, speed=10.0, start=14.0):
+        # the rows up to 31 s at once, then 10x real time: the coherence change at 30 s reaches the
+        # monitor while the first decision is identified however fast that is (0.4 s once a process
+        # has identified on these data before: another test in the same worker; 3.4 s the first time)
+        for rows in _paced(header, table, speed=10.0, start=14.0, burst=31.0):
             mon.feed(header, rows)
             if any(e["event"] == "decision" for _, e in stamped):
                 break
@@ -205,11 +213,10 @@ def test_the_monitor_keeps_reading_while_it_identifies(tmp_path):
         mon.stop(now=True)
     assert not multiprocessing.active_children()
     (ended, decision), = [(w, e) for w, e in stamped if e["event"] == "decision"]
-    began = ended - decision["identification_s"]
-    during = [e for w, e in stamped if began < w < ended and e["event"] != "decision"]
+    # read while the decision was pending: emitted before it, about data after it came due
+    during = [e for w, e in stamped
+              if w < ended and e["event"] != "decision" and e.get("known_at", -1.0) > decision["t"]]
     assert [e["event"] for e in during] == ["coherence"] and during[0]["coherence"] == [1, 1, 1]
-    # stamped in stream time too: the coherence change was known no later than the decision (the
-    # same block of rows when the identification ends while that block is read: stream time moves
-    # a block at a time, and half the runs on this host ended there; the wall clock above orders them)
-    assert during[0]["known_at"] <= decision["known_at"] and decision["coherence"] == [0, 1, 1]
+    # stamped in stream time too: the coherence change was known before the decision was
+    assert during[0]["known_at"] < decision["known_at"] and decision["coherence"] == [0, 1, 1]
     assert decision["identification_s"] > 0.0       # how long it took is reported (its speed is bench's)

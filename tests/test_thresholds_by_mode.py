@@ -132,3 +132,19 @@ def test_the_precharge_resistor_is_told_from_the_current_sensor(calibrated, tmp_
     assert [sorted(s) for s in d.candidates] == [["Rp"]]
     (fault,) = d.faults
     assert fault.name == "Rp" and fault.value == pytest.approx(75.0, rel=0.02)
+
+
+def test_a_mode_where_the_residual_is_exactly_zero_gets_no_zero_threshold():
+    """A reading quantised to 0 while a contactor is open makes the residual exactly 0 there: a
+    threshold of 0 would alarm on any noise (and the file written would not load); that mode is
+    judged as one the runs never visited (the visited mode's threshold, scaled by the predicted noise)."""
+    from fdi.calibrate import _mode_table
+    from fdi.noise import ModeNoise
+    rng = np.random.default_rng(3)
+    p = np.r_[np.zeros(500), np.ones(500)]
+    row = np.where(p == 1, np.abs(rng.normal(0, 1.0, 1000)), 0.0)
+    predicted = [ModeNoise({"p": 0}, 0.5, {}), ModeNoise({"p": 1}, 1.0, {})]
+    table, unvisited = _mode_table([row], [{"p": p}], ("p",), None, 1.5, 100, predicted)
+    high = 1.5 * row.max()
+    assert table == {(("p", 1),): pytest.approx(high), (("p", 0),): pytest.approx(high * 0.5)}
+    assert unvisited == [(("p", 0),)]

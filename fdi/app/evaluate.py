@@ -300,7 +300,8 @@ def held_check(model_path: str, meas: Measurements, o: Options, events: list[Fau
               for e in events]
 
     def cost(fs: list[dict]) -> float:
-        return float(Objective(c.model, c.residuals, win, (), p.weights, p.window_s, fixed=fs, config=c.config,
+        m = p.monitor                # the options' thresholds (a table by mode dropped for one given) as p.weights
+        return float(Objective(m.model, m.residuals, win, (), p.weights, p.window_s, fixed=fs, config=m.config,
                                modes=p.modes).constant())
     ours, theirs = cost(design), cost([dict(f) for f in faults])
     ic_design, ic_answer = information(ours, design, n_eff), information(theirs, list(faults), n_eff)
