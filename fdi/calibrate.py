@@ -443,7 +443,7 @@ def format_calibration(c: Calibration) -> str:
             lines.append(head + "no fault can be moved to score the windows (stuck and mode faults only)")
         else:
             worst = max(rule.detectable, key=rule.detectable.get)
-            largest = f"{worst}, {100 * rule.detectable[worst]:.3g} %"
+            largest = f"{worst}, {_change(rule.detectable[worst])}"
             lines.append(head + (f"every fault is detected from a change of at most {100 * DETECT_GOAL:g} % there "
                                  f"(the largest: {largest})" if rule.detectable[worst] <= DETECT_GOAL else
                                  f"no other window does better (shorter: down to a quarter of it, "
@@ -458,7 +458,7 @@ def format_calibration(c: Calibration) -> str:
                      f"the smallest change each fault needs to be detected, geometric mean "
                      f"{100 * rule.score:.3g} % at the rule's, {100 * pick.score:.3g} % at this one")
         for f in pick.detectable:
-            lines.append(f"  {f}: {100 * rule.detectable[f]:.3g} % -> {100 * pick.detectable[f]:.3g} %")
+            lines.append(f"  {f}: {_change(rule.detectable[f])} -> {_change(pick.detectable[f])}")
     elif c.window is not None:
         lines.append(f"derivative window: {c.window:.4g} s ({c.window_samples} samples), "
                      + ("diagnosis.derivative_window" if c.window_given else
@@ -485,6 +485,17 @@ def format_calibration(c: Calibration) -> str:
                      f"threshold, against 1 (their noise or unit differs between modes; docs/patterns.md)")
     lines.append(_thresholds_line(c))
     return "\n".join(lines) + "\n"
+
+
+def _change(size: float) -> str:
+    """A fault's smallest detectable change, relative (an offset's: to its signal's RMS), as the
+    text prints it; beyond a thousandfold, no residual moves with the fault at that window (an
+    offset read only through derivatives), and a percentage of 1e15 says nothing.
+
+    >>> _change(0.123), _change(5e12)
+    ('12.3 %', 'none seen (no residual moves with it)')
+    """
+    return f"{100 * size:.3g} %" if size <= 1e3 else "none seen (no residual moves with it)"
 
 
 def _thresholds_line(c: Calibration) -> str:
