@@ -140,6 +140,41 @@ def units_by_mode(model: Model, arr: ARR, modes: list[dict[str, int]]) -> dict[s
     return out
 
 
+def unit_clash_notes(model: Model, arrs: list[ARR]) -> list[str]:
+    """One note per residual that adds terms of different units (read from the units the file gives
+    its parameters, inputs and sensors, as :func:`arr_unit` reads them): a unit in the file, or a
+    law, is wrong (a user's isolator gave its spring stiffness N*s/m: its force balance added m/s
+    and m/s^2, and calibrate labelled the residual N, the junction's unit, without a word).
+
+    >>> from bondgraph.loader import load_model
+    >>> m = load_model("models/two_tank_valve.yaml")
+    >>> unit_clash_notes(m, list(select_arrs(m).arrs))
+    []
+    """
+    from dataclasses import replace
+
+    from bondgraph.units import format_dimension
+
+    from .signatures import operating_modes
+
+    modes = operating_modes(model)
+    notes = []
+    for a in arrs:
+        clashes: list = []
+        for mode in modes:                  # each mode's own form (a residual rebuilt by mode joins forms of
+            expr = a.expr.xreplace({model.symbols[m]: v for m, v in mode.items()}) if mode else a.expr
+            _residual_dimension(model, replace(a, expr=expr), clashes)     # other units: mixed_unit_notes)
+            if clashes:
+                break
+        if clashes:
+            (t1, d1), (t2, d2) = clashes[0]
+            shown = [str(x) if len(str(x)) <= 60 else str(x)[:57] + "..." for x in (t1, t2)]
+            notes.append(f"{a.name} adds terms of different units: {shown[0]} in {format_dimension(d1) or '1'}, "
+                         f"{shown[1]} in {format_dimension(d2) or '1'}; a unit in the file (a parameter's, an "
+                         f"input's, a sensor's) or a law is wrong, and its residual's unit cannot be trusted")
+    return notes
+
+
 def mixed_unit_notes(model: Model, arrs: list[ARR]) -> list[str]:
     """One note per residual whose modes sum different units (:func:`units_by_mode`), in the modes
     the plant runs in (:func:`fdi.signatures.operating_modes`: a fault-only mode is a fault, not a
@@ -160,8 +195,10 @@ def mixed_unit_notes(model: Model, arrs: list[ARR]) -> list[str]:
     return notes
 
 
-def _residual_dimension(model: Model, arr: ARR) -> dict[str, float] | None:
-    """The dimension of the terms ``arr.expr`` sums; None when no term can be read or they disagree."""
+def _residual_dimension(model: Model, arr: ARR, clashes: list | None = None) -> dict[str, float] | None:
+    """The dimension of the terms ``arr.expr`` sums; None when no term can be read or they disagree.
+    ``clashes`` (a list) receives, for each sum whose readable terms disagree, (term, its
+    dimension) of two that do."""
     from bondgraph.units import dimension
 
     units: dict[str, str] = {p.name: p.unit for p in model.parameters.values()}
@@ -173,8 +210,8 @@ def _residual_dimension(model: Model, arr: ARR) -> dict[str, float] | None:
     second = {"s": 1.0}
 
     def unit(name: str) -> dict[str, float] | None:
-        if name in dimensionless or name.startswith("beta_"):
-            return {}
+        if name in dimensionless or (name.startswith("beta_") and name not in model.parameters):
+            return {}                      # (a parameter named beta_e, a bulk modulus, has its unit)
         text = units.get(name)
         if text is None:
             return None
@@ -201,7 +238,15 @@ def _residual_dimension(model: Model, arr: ARR) -> dict[str, float] | None:
             order = sum(int(c) for v, c in e.variable_count if v == t)
             return None if inner is None else _times(inner, second, -order)
         if isinstance(e, sp.Add):
-            return _agree([dim(a) for a in e.args if not a.is_number])
+            terms = [a for a in e.args if not a.is_number]
+            dims = [dim(a) for a in terms]
+            common = _agree(dims)
+            if common is None and clashes is not None:
+                known = [(a, d) for a, d in zip(terms, dims) if d is not None]
+                other = next(((a, d) for a, d in known[1:] if _agree([known[0][1], d]) is None), None)
+                if other is not None:
+                    clashes.append((known[0], other))
+            return common
         if isinstance(e, sp.Mul):
             out: dict[str, float] = {}
             for a in e.args:

@@ -45,3 +45,26 @@ def test_an_integrated_state_carries_its_rate_times_seconds():
     assert any(a.states for a in arrs) and {arr_unit(tanks, a) for a in arrs} <= {"Pa", "m^3/s"}
     masses = load_model(ROOT / "models" / "two_mass_positions.yaml")
     assert {arr_unit(masses, a) for a in select_arrs(masses, "mixed").arrs} <= {"m/s", "m", "N"}
+
+
+def test_a_wrong_unit_in_the_file_is_named_by_the_sum_it_breaks():
+    """The RC circuit with its capacitance given in F*s (a typing slip): its node balance
+    i - C dv/dt - v/RL adds C dv/dt in F*s*V/s = A*s beside i in A; its loop u - R i - v, which does
+    not read C, adds volts to volts (by hand, Kirchhoff's laws)."""
+    from bondgraph.loader import load_model_text
+    from fdi.arrs import unit_clash_notes
+    text = (ROOT / "tests" / "data" / "rc_two_sensors.yaml").read_text(encoding="utf-8")
+    wrong = text.replace("C:  {value: 1.0e-3, unit: F}", "C:  {value: 1.0e-3, unit: F*s}")
+    assert wrong != text
+    model = load_model_text(wrong, "rc.yaml")
+    notes = unit_clash_notes(model, list(select_arrs(model).arrs))
+    assert len(notes) == 1 and notes[0].startswith("ARR2 adds terms of different units") and " in s*A" in notes[0]
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "models").glob("*.yaml")), ids=lambda p: p.stem)
+def test_no_shipped_model_adds_terms_of_different_units(path):
+    """Every shipped model's residuals add like terms in each mode the plant runs in (a parameter
+    named beta_e, a bulk modulus, has its unit: only an efficiency factor's beta is a pure number)."""
+    from fdi.arrs import unit_clash_notes
+    model = load_model(path)
+    assert unit_clash_notes(model, list(select_arrs(model).arrs)) == []

@@ -39,7 +39,7 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
     undefined in some mode, is a CausalityError as for the text report. With ``verify_seed``
     (``--verify``), the residuals are also verified on the simulated model (``verification``,
     :mod:`fdi.app.verify_report`; null otherwise)."""
-    from ..arrs import mixed_unit_notes, select_arrs, undefined_in_modes
+    from ..arrs import mixed_unit_notes, select_arrs, undefined_in_modes, unit_clash_notes
     from ..noise import noise_notes, predicted_for, to_json as noise_json
     from ..signatures import all_modes
 
@@ -92,7 +92,8 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
             "from_structure": not diag.ok,
             "msos": chosen.msos if not diag.ok else None,
             "arrs": [{"name": a.name, "origin": a.origin, "sensor": a.sensor, "junction": a.junction} for a in arrs],
-            "notes": list(chosen.notes) + mixed_unit_notes(model, arrs) + noise_notes(model, arrs, predicted, window),
+            "notes": (list(chosen.notes) + unit_clash_notes(model, arrs) + mixed_unit_notes(model, arrs)
+                      + noise_notes(model, arrs, predicted, window)),
             "noise": {"derivative_window": window, "by_residual": noise_json(predicted)} if predicted else None,
         },
         "simulation": _causality(model, sim),

@@ -368,7 +368,7 @@ def _print_diagnostic_causality(model: Model, args: argparse.Namespace, config) 
     """SCAPH's assignment, the residuals chosen (SCAPH's, or MSO residuals where it falls short),
     checked defined in every mode, with notes on units and noise that differ by mode; returns the
     residuals."""
-    from ..arrs import mixed_unit_notes, select_arrs, undefined_in_modes
+    from ..arrs import mixed_unit_notes, select_arrs, undefined_in_modes, unit_clash_notes
     from ..noise import noise_notes, predicted_for
     from ..signatures import all_modes
 
@@ -397,7 +397,7 @@ def _print_diagnostic_causality(model: Model, args: argparse.Namespace, config) 
     print(f"residuals ({args.causality} causality): " + ", ".join(f"{a.name} ({_origin(a)})" for a in arrs))
     for note in chosen.notes:
         print(f"  note: {note}")
-    for note in mixed_unit_notes(model, arrs):
+    for note in unit_clash_notes(model, arrs) + mixed_unit_notes(model, arrs):
         print(f"  note: {note}")
     if args.causality == "derivative":
         with stage("noise predicted by mode"):
