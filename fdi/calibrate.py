@@ -433,6 +433,13 @@ def format_calibration(c: Calibration) -> str:
         lines.append(f"  an estimate of the chance that a new fault-free run as long as these alarms (in steps of "
                      f"1/{n}; pessimistic: one run fewer)")
         for run, alarmed, (name, ratio) in zip(c.runs, c.false_alarms, c.worst or ()):
+            if ratio < 0:                                  # -inf: no sample of any residual in the run
+                lines.append(f"  {run}: no residual has a sample to judge")
+                continue
+            if np.isnan(ratio):                            # inf over inf: spikes in it and in the others
+                lines.append(f"  {run}: {name} cannot be compared (not finite in it and in the others' threshold: "
+                             "a spike, see the notes below)")
+                continue
             shown = f"{ratio:.2f}" if ratio < 1e6 else f"{ratio:.3g}"      # a spike's: no 300-digit number
             lines.append(f"  {run}: {name} reaches {shown} x the others' threshold"
                          + (" (an alarm)" if alarmed else ""))
