@@ -60,6 +60,9 @@ from .residuals import evaluate
 from .window_choice import DETECT_GOAL, WindowScore, choose_window, chosen
 
 DEFAULT_MARGIN = 1.5
+NOISE_EXCESS = 5.0       # runs whose residual varies this much more than the declared noise explains: a note
+MODE_SAMPLES = 100       # samples of a mode in the runs (at least two derivative windows) to compare or calibrate it
+MEDIAN_SIGMA = 0.6744897501960817     # median |x| of a standard normal x
 
 
 @dataclass
@@ -165,8 +168,9 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
     pick = chosen(scores).window if scores else None
     runs_modes = [_nominal(model_path, meas, settle, pick) for meas in data]
     samples = [r for r, _ in runs_modes]
-    used = scales.for_model(model, c.config if pick is None else replace(c.config, derivative_window=pick),
-                            data[0].ts).window     # the file's, the rule's (from the data's sampling time) or the chosen
+    config = c.config if pick is None else replace(c.config, derivative_window=pick)
+    sc = scales.for_model(model, config, data[0].ts)
+    used = sc.window        # the file's, the rule's (from the data's sampling time) or the chosen
     thresholds = _threshold(samples, quantile, margin)
     joined = np.concatenate(samples, axis=1)
     spiked = [n for n, v, row in zip(names, thresholds, joined) if not np.isfinite(v) and np.isfinite(row).any()]
@@ -190,8 +194,6 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
         raise DataError(f"{model_path}: {', '.join(zero)} would get a threshold of 0 (the residual is exactly 0 on "
                         "every sample of the runs: noise-free data?); a zero threshold alarms on any noise: "
                         "calibrate on runs recorded with the sensors' noise")
-    config = c.config if pick is None else replace(c.config, derivative_window=pick)
-    sc = scales.for_model(model, config, data[0].ts)
     predicted = predicted_noise(model, c.arr_residuals, float(sc.window), data[0].ts)
     need = max(MODE_SAMPLES, 2 * derivatives.window_samples(sc.window, data[0].ts, derivatives.DEFAULT_ORDER))
     modal = _by_mode(model, arrs, predicted, [m for _, m in runs_modes], by_mode)
@@ -207,8 +209,8 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
         for i, left in enumerate(samples):
             others = _threshold(samples[:i] + samples[i + 1:], quantile, margin)
             limit = np.broadcast_to(others[:, None], left.shape).copy()
+            kept = [k for k in range(len(samples)) if k != i]
             for j in tables:                # each sample judged with the others' threshold of its mode
-                kept = [k for k in range(len(samples)) if k != i]
                 got = _mode_table([samples[k][j] for k in kept], [runs_modes[k][1] for k in kept], modal[j],
                                   quantile, margin, need, predicted.get(names[j], ()))
                 if got is not None:
@@ -239,11 +241,11 @@ def _by_mode(model, arrs, predicted, modes: list[dict], every: bool) -> dict[int
     ``every``, else those whose unit differs between modes or whose predicted noise differs
     :data:`fdi.noise.SPREAD` times between modes of one unit."""
     from .arrs import units_by_mode
-    from .noise import SPREAD, spreads
+    from .noise import spreads
     from .signatures import operating_modes
     recorded = set.intersection(*(set(m) for m in modes)) if modes else set()
     switching = [n for n, m in model.modes.items() if (m.column or m.autonomous) and n in recorded]
-    flagged = {a.name for a, _, lo, hi in spreads(model, arrs, predicted) if hi.std >= SPREAD * lo.std}
+    flagged = {a.name for a, _, _, _ in spreads(model, arrs, predicted)}
     operating = operating_modes(model)
     out = {}
     for j, a in enumerate(arrs):
@@ -303,10 +305,6 @@ def _per_sample(table: dict[tuple, float], modes: dict[str, np.ndarray], variabl
     return out
 
 
-NOISE_EXCESS = 5.0       # runs whose residual varies this much more than the declared noise explains: a note
-MODE_SAMPLES = 100       # samples of a mode in the runs (at least two derivative windows) to compare it
-MEDIAN_SIGMA = 0.6744897501960817     # median |x| of a standard normal x
-
 
 def noise_against_prediction(arrs, runs: list[tuple[np.ndarray, dict[str, np.ndarray]]], predicted,
                              need: int) -> tuple[dict, ...]:
@@ -328,10 +326,7 @@ def noise_against_prediction(arrs, runs: list[tuple[np.ndarray, dict[str, np.nda
         for row in predicted.get(a.name, ()):
             parts = []
             for r, values in runs:
-                here = np.ones(r.shape[1], dtype=bool)
-                for name, v in values.items():
-                    here &= (np.asarray(v) >= 0.5) == bool(row.mode.get(name, 0))
-                x = r[i][here]
+                x = r[i][_mask(values, tuple((name, row.mode.get(name, 0)) for name in values), r.shape[1])]
                 parts.append(x[np.isfinite(x)])
             x = np.concatenate(parts) if parts else np.zeros(0)
             if x.size < need or row.std is None:
@@ -484,8 +479,8 @@ def format_calibration(c: Calibration) -> str:
         if x["predicted"] > 0 and x["level"] >= NOISE_EXCESS * x["predicted"]:
             where = f" in {mode_text(x['mode'])}" if len({tuple(y['mode'].items()) for y in c.noise}) > 1 else ""
             lines.append(f"note: {x['residual']}{where} varies {x['level'] / x['predicted']:.3g}x more on the runs "
-                         f"({x['level']:.4g}, median |r| / 0.6745) than the sensors' declared noise explains ({x['predicted']:.4g}, "
-                         f"fdi.noise): its threshold is set by what the model does not explain (a parameter's value, a "
+                         f"({x['level']:.4g}, median |r| / 0.6745) than the sensors' declared noise explains "
+                         f"({x['predicted']:.4g}, fdi.noise): its threshold is set by what the model does not explain (a parameter's value, a "
                          f"law, an unmodelled input or disturbance) or by noise the file understates")
     if c.mode_thresholds:
         lines.append(f"thresholds by mode for {', '.join(c.mode_thresholds)}: each monitored divided by its mode's "

@@ -45,7 +45,7 @@ from . import derivatives, scales
 from .codegen_names import comment, identifier
 from .codegen_printer import Body, CodegenError, c_function_body
 from .detect import evidence_samples, settling, thresholds_for
-from .residuals import Residual, derivative_orders, numeric_form, parameter_values
+from .residuals import Residual, derivative_orders, evaluated_form, parameter_values
 
 LANGUAGES = ("c",)
 MAX_ORDER = 7               # derivatives the C filter computes (its MAX_P)
@@ -224,7 +224,7 @@ def plan(monitor, ts: float | None = None, options=None, prefix: str | None = No
     for r, arr, unit, eps in zip(residuals, monitor.arrs, monitor.units, thresholds):
         expr = builder.numeric(r, f"{arr.name}")
         body = _body(expr, builder, f"{where}: {arr.name}")
-        shown = numeric_form(model, arr.exact if arr.exact is not None else arr.expr)
+        shown = evaluated_form(model, arr)
         what = (f"the AGARR of sensor {arr.sensor}" if arr.origin == "SCAPH" and arr.sensor else
                 f"the MSO residual at junction {arr.junction} (sensors {arr.sensor})")
         if arr.name in config.mode_thresholds:          # fdi.mode_thresholds: the function divides it

@@ -15,8 +15,8 @@ was reported as the current sensor's gain). ``bgfdi check`` names such residuals
 The prediction simulates the measurement alone: every sensor held at its operating value (the
 file's ``initial`` reading of it, else 0) and every input at its expression, the modes held, each
 sensor's columns made with its noise (:func:`fdi.measure.sensor_columns`, as ``bgfdi simulate``
-makes them; a resolution as its uniform quantisation noise, step^2/12, which a varying signal meets), the residuals evaluated as a diagnosis evaluates them
-(:func:`fdi.residuals.evaluate`: the same derivative filter and window), less their values on
+makes them; a resolution as its uniform quantisation noise, step^2/12, which a varying signal
+meets), the residuals evaluated as a diagnosis evaluates them (:func:`fdi.residuals.evaluate`: the same derivative filter and window), less their values on
 the noise-free record: what remains is the noise's response at that operating point, linear or
 not. Each sensor's share of the variance: the same with its noise alone.
 
@@ -40,6 +40,7 @@ from bondgraph.model import Model
 
 from . import derivatives
 from .measure import SeveralColumns, sensor_columns
+from .mode_thresholds import key_text
 
 SPREAD = 10.0            # a residual whose noise differs this much between modes of one unit is named
 WINDOWS = 40             # the simulated record: this many derivative windows ...
@@ -57,15 +58,14 @@ class ModeNoise:
     shares: Mapping[str, float]
 
 
-def _operating_record(model: Model, n: int, ts: float) -> tuple[np.ndarray, dict[str, float], dict[str, np.ndarray]]:
-    """The times, each sensor's operating value and each input's values on ``n`` samples."""
+def _operating_record(model: Model, n: int, ts: float) -> tuple[dict[str, float], dict[str, np.ndarray]]:
+    """Each sensor's operating value and each input's values on ``n`` samples."""
     from .data import input_values
     t = np.arange(n) * ts
     level = {s: float(model.initial.get(s, 0.0)) for s in model.sensors}
-    inputs = {}
-    for name, inp in model.inputs.items():
-        inputs[name] = input_values(model, name, t) if inp.expr is not None else np.zeros(n)
-    return t, level, inputs
+    inputs = {name: input_values(model, name, t) if inp.expr is not None else np.zeros(n)
+              for name, inp in model.inputs.items()}
+    return level, inputs
 
 
 def _signals(model: Model, level: Mapping[str, float], noisy: set[str], n: int, rng: np.random.Generator,
@@ -102,7 +102,7 @@ def predicted_noise(model: Model, residuals: Sequence, window: float, ts: float,
     modes = modes if modes is not None else operating_modes(model)
     width = derivatives.window_samples(window, ts, derivatives.DEFAULT_ORDER)
     n = max(MIN_SAMPLES, WINDOWS * width)
-    t, level, inputs = _operating_record(model, n, ts)
+    level, inputs = _operating_record(model, n, ts)
     keep = slice(width, n - width)                 # the filter's edge samples are noisier: the interior only
     try:
         records = {"": _signals(model, level, set(), n, np.random.default_rng(seed))}
@@ -132,14 +132,13 @@ def predicted_noise(model: Model, residuals: Sequence, window: float, ts: float,
 
 def mode_text(mode: Mapping[str, int]) -> str:
     """``p=1 m=0`` (the MD-FSM tables' spelling, :func:`fdi.mode_thresholds.key_text`'s)."""
-    from .mode_thresholds import key_text
     return key_text(tuple(mode.items()))
 
 
 def spreads(model: Model, arrs: Sequence, predicted: Mapping[str, list[ModeNoise]]) -> list[tuple]:
     """Per residual and per unit its modes sum (a residual of mixed units: each apart,
-    :func:`fdi.arrs.units_by_mode`), its quietest and noisiest predicted modes: (arr, unit, quietest,
-    noisiest), where two modes at least have a positive prediction."""
+    :func:`fdi.arrs.units_by_mode`), its quietest and noisiest predicted modes where they are
+    :data:`SPREAD` times apart or more: (arr, unit, quietest, noisiest)."""
     from .arrs import units_by_mode
 
     out = []
@@ -150,8 +149,9 @@ def spreads(model: Model, arrs: Sequence, predicted: Mapping[str, list[ModeNoise
         units = units_by_mode(model, a, [dict(x.mode) for x in rows]) or {"": [dict(x.mode) for x in rows]}
         for unit, modes in units.items():
             group = [x for x in rows if dict(x.mode) in modes]
-            if len(group) >= 2:
-                out.append((a, unit, min(group, key=lambda x: x.std), max(group, key=lambda x: x.std)))
+            lo, hi = min(group, key=lambda x: x.std), max(group, key=lambda x: x.std)
+            if len(group) >= 2 and hi.std >= SPREAD * lo.std:
+                out.append((a, unit, lo, hi))
     return out
 
 
@@ -163,16 +163,15 @@ def noise_notes(model: Model, arrs: Sequence, predicted: Mapping[str, list[ModeN
     notes = []
     for a, unit, lo, hi in spreads(model, arrs, predicted):
         ratio = hi.std / lo.std
-        if ratio >= SPREAD:
-            top = max(hi.shares, key=hi.shares.get) if hi.shares else None
-            cause = f" ({top} {100 * hi.shares[top]:.0f} %)" if top else ""
-            u = f" {unit}" if unit else ""
-            notes.append(f"{a.name}'s noise predicted from the sensors' declared noise (derivative window "
-                         f"{window:.3g} s): {hi.std:.3g}{u} in {mode_text(hi.mode)}{cause}, {lo.std:.3g}{u} in "
-                         f"{mode_text(lo.mode)}, {ratio:.0f}x apart: one threshold, set by the noisiest mode, needs "
-                         f"a fault {ratio:.0f}x larger in the quietest (bgfdi calibrate gives it thresholds by "
-                         f"mode; or look in the noisy mode's form, `bgfdi tables`, for a small parameter dividing "
-                         f"a measured difference)")
+        top = max(hi.shares, key=hi.shares.get) if hi.shares else None
+        cause = f" ({top} {100 * hi.shares[top]:.0f} %)" if top else ""
+        u = f" {unit}" if unit else ""
+        notes.append(f"{a.name}'s noise predicted from the sensors' declared noise (derivative window "
+                     f"{window:.3g} s): {hi.std:.3g}{u} in {mode_text(hi.mode)}{cause}, {lo.std:.3g}{u} in "
+                     f"{mode_text(lo.mode)}, {ratio:.0f}x apart: one threshold, set by the noisiest mode, needs "
+                     f"a fault {ratio:.0f}x larger in the quietest (bgfdi calibrate gives it thresholds by "
+                     f"mode; or look in the noisy mode's form, `bgfdi tables`, for a small parameter dividing "
+                     f"a measured difference)")
     return notes
 
 

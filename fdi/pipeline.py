@@ -382,12 +382,11 @@ def widen(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, results: list, est: Est
     more = refit_early_onsets(est, p.meas.t, p.raw, det.time, p.samples, extra, more, p.weights, o.seed + 104723,
                               onsets, p.first_trusted)
     ratio = best / level
-    note = (f"the best explanation exoneration left had residuals {ratio:.0f}" if ratio < 1e6 else
-            f"the best explanation exoneration left had residuals {ratio:.3g}")      # no 150-digit number
-    note = (f"{note} times their nominal "
-            f"level; " + (COVERING_NOTE + (f" ({len(extra)} of them, the {left} whose faults enter more quiet "
-                                           "residuals left out)" if left else "") if covering else
-                          "sets a quiet residual could not have exonerated were identified too"))
+    times = f"{ratio:.0f}" if ratio < 1e6 else f"{ratio:.3g}"        # a spike's: no 150-digit number
+    tail = (COVERING_NOTE + (f" ({len(extra)} of them, the {left} whose faults enter more quiet residuals left out)"
+                             if left else "") if covering else
+            "sets a quiet residual could not have exonerated were identified too")
+    note = f"the best explanation exoneration left had residuals {times} times their nominal level; {tail}"
     iso = replace(d.isolation, candidates=tuple(d.candidates) + tuple(extra), weak=weak or d.isolation.weak,
                   relaxed=d.isolation.relaxed or covering)
     return replace(d, isolation=iso, note=f"{d.note}; {note}" if d.note else note), list(results) + list(more)

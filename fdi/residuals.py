@@ -196,7 +196,13 @@ def compile_residual(model: Model, arr: ARR) -> Residual:
     if arr.states:
         raise ValueError(f"{arr.name} integrates states (mixed causality); bgfdi evaluates residuals in "
                          "derivative causality on data: use the derivative-causality residual set")
-    return _compile(model, numeric_form(model, arr.exact if arr.exact is not None else arr.expr), arr.name, arr.sensor)
+    return _compile(model, evaluated_form(model, arr), arr.name, arr.sensor)
+
+
+def evaluated_form(model: Model, arr: ARR) -> sp.Expr:
+    """The expression of ``arr`` a residual kernel evaluates: its exact form where it has one (a
+    storage law with a fault parameter), efficiency factors at 1 (:func:`numeric_form`)."""
+    return numeric_form(model, arr.exact if arr.exact is not None else arr.expr)
 
 
 def _compile(model: Model, expr: sp.Expr, name: str, sensor: str | None) -> Residual:
@@ -273,7 +279,7 @@ def divided_by_mode(model: Model, arrs: Sequence[ARR], residuals: Sequence[Resid
             out.append(r)
             continue
         arr = by_name[r.name]
-        expr = numeric_form(model, arr.exact if arr.exact is not None else arr.expr) * weight(model, table)
+        expr = evaluated_form(model, arr) * weight(model, table)
         out.append(_compile(model, expr, arr.name, arr.sensor))
     return tuple(out)
 
@@ -375,11 +381,9 @@ def designed_gaps(residuals: list["Residual"], size: int, breaks: np.ndarray, wi
         gaps |= trimmed(order)
     if len(breaks):
         highest = derivative_orders(residuals)
-        todo = [c for r in residuals for c in r.composites]
-        while todo:
-            order, inner = todo.pop()
-            todo += list(inner.composites)
-            gaps |= _rate_gaps(order, inner, highest, trimmed, size, breaks, window, ts, polyorder)
+        for r in residuals:                 # (a rate inside a rate: through the outer one, _rate_gaps)
+            for order, inner in r.composites:
+                gaps |= _rate_gaps(order, inner, highest, trimmed, size, breaks, window, ts, polyorder)
     return gaps
 
 
