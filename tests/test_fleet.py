@@ -109,6 +109,28 @@ def test_a_local_cluster_from_the_command_line(jobs_lines):
     assert code == 0 and out == jobs_lines.splitlines(keepends=True)[0]
 
 
+def test_a_local_cluster_starts_with_the_quick_poll_and_leaves_dask_as_it_was(monkeypatch):
+    """The nannies of a LocalCluster the command starts look for their workers every INIT_POLL_S
+    (dask's 50 ms made a 2-worker start 0.07 s, 0.04 s with it); dask's class attribute is dask's
+    again once the cluster is up, and a dask without it is left alone."""
+    pytest.importorskip("distributed")
+    from distributed.nanny import WorkerProcess
+    before = WorkerProcess.__dict__["_init_msg_interval"]
+    seen = []
+    real = WorkerProcess.start
+
+    async def start(self):
+        seen.append(self._init_msg_interval)
+        return await real(self)
+    monkeypatch.setattr(WorkerProcess, "start", start)
+    with fleet.Cluster("local", 1, 1) as client:
+        assert client.submit(sum, [1, 2]).result() == 3
+    assert seen == [fleet.INIT_POLL_S] and WorkerProcess.__dict__["_init_msg_interval"] == before
+    monkeypatch.delattr(WorkerProcess, "_init_msg_interval")
+    with fleet._quick_start():
+        assert "_init_msg_interval" not in WorkerProcess.__dict__
+
+
 def test_no_scheduler_at_the_address(capsys, monkeypatch):
     pytest.importorskip("distributed")
     with socket.socket() as s:                          # a port nobody listens on
