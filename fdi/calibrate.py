@@ -57,6 +57,7 @@ from .mode_thresholds import key_text
 from .noise import mode_text, predicted_noise
 from .detect import settling, trusted
 from .residuals import evaluate
+from .spikes import despiked
 from .window_choice import DETECT_GOAL, WindowScore, choose_window, chosen
 
 DEFAULT_MARGIN = 1.5
@@ -94,6 +95,7 @@ class Calibration:
                                         # writes (fdi.mode_thresholds); ``thresholds`` keeps one per residual
     unvisited: dict = field(default_factory=dict)   # by residual: the combinations no run visits (scaled from
                                         # the visited ones by the predicted noise)
+    glitches: tuple[tuple[str, str], ...] = ()   # (run, what fdi.spikes found in its sensor columns and did)
 
     @property
     def false_alarm_rate(self) -> float | None:
@@ -116,7 +118,7 @@ def _nominal(model_path: str, data: str | Measurements, settle: float | None,
     """:func:`nominal_residuals` and the commanded and autonomous modes' values on the same samples."""
     c = compiled(model_path)
     model = c.model
-    meas = data if isinstance(data, Measurements) else read_csv(data)
+    meas = despiked(model, data if isinstance(data, Measurements) else read_csv(data))[0]   # (calibrate's: done)
     config = c.config if window is None else replace(c.config, derivative_window=float(window))
     sc = scales.for_model(model, config, meas.ts)
     raw = signals_from_data(model, meas)
@@ -157,6 +159,9 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                 raise DataError(f"{run}: given twice (also as {seen[key]}); give each nominal run once")
             seen[key] = str(run)
     data = [run if isinstance(run, Measurements) else read_csv(run) for run in runs]
+    repaired = [despiked(model, meas, advice="the diagnosis reads them so too") for meas in data]
+    data = [meas for meas, _ in repaired]
+    glitches = tuple((meas.path, words) for meas, words in repaired if words)
     for meas in data:
         scales.check_derivative_window(model, c.config.derivative_window, meas.ts, meas.path)
         if all(np.ptp(v) == 0 for k, v in meas.columns.items() if k != "t"):
@@ -232,7 +237,7 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                        c.config.derivative_window is not None,
                        max((r.highest_order() for r in c.arr_residuals), default=0), pick is not None, scores, blind,
                        spikes, noise, {names[j]: {key_text(k): float(v) for k, v in t.items()} for j, t in tables.items()},
-                       {n: [key_text(k) for k in u] for n, u in unvisited.items() if u})
+                       {n: [key_text(k) for k in u] for n, u in unvisited.items() if u}, glitches)
 
 
 def _by_mode(model, arrs, predicted, modes: list[dict], every: bool) -> dict[int, tuple[str, ...]]:
@@ -472,6 +477,8 @@ def format_calibration(c: Calibration) -> str:
     if c.blind and not c.window_chosen:
         lines.append(f"note: the rule's window follows no time constant of the data ({'; '.join(c.blind)}): "
                      f"calibrate --window auto chooses one from the runs")
+    for run, words in c.glitches:
+        lines.append(f"note: {run}: {words}")
     for name, ratio, run in c.spikes:
         lines.append(f"note: {name}'s peak is {ratio:.3g} times its median, in {run}: a spike or a fault in a run "
                      "meant to be fault-free sets its threshold; check that run, or calibrate with --quantile 0.99")

@@ -46,6 +46,7 @@ class Options:
     persistence: float | None = None   # threshold-seconds before a residual is latched (None: the model's)
     mode: Mapping[str, int] | None = None
     settings: MonitorConfig | None = None   # the monitor settings to use instead of the model file's
+    keep_spikes: bool = False          # read one-sample spikes of sensor columns as recorded (fdi.spikes)
 
     def check(self) -> None:
         """Refuse settings that would crash a worker or give a nonsense diagnosis (a population
@@ -68,6 +69,8 @@ class Options:
             _real(f"thresholds[{name}]", value, 0.0, strict=True)
         for name, value in self.failures.items():
             _real(f"failures[{name}]", value)
+        if not isinstance(self.keep_spikes, bool):
+            raise UsageError(f"Options.keep_spikes: must be True or False, got {self.keep_spikes!r}")
         if self.weights not in ("thresholds", "none"):
             raise UsageError(f"Options.weights: must be 'thresholds' or 'none', got {self.weights!r}")
 

@@ -36,6 +36,7 @@ from .scales import check_derivative_window
 from .results import Alternative, Diagnosis, Isolation, ModeFault, Prognosis, faults_of
 from .sensitivity import effective, weak_entries
 from .signatures import mode_fault_name, nominal_mode
+from .spikes import despiked
 from .stuck import stuck_from
 
 if TYPE_CHECKING:
@@ -58,6 +59,7 @@ class Prepared:
     settle: float
     weights: np.ndarray
     options: Options
+    spikes: str | None = None         # what fdi.spikes found in the sensor columns and did (the report's note)
 
     @property
     def first_trusted(self) -> float:
@@ -127,7 +129,8 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
     r = evaluate(p.monitor.model, list(p.monitor.residuals), p.raw, meas.ts, window=p.window_s, values=p.values(p.raw))
     clock.lap("residuals")
     det = detect(r, meas.t, p.thresholds, p.wait, p.settle, p.scales.end_edge, *p.rule)
-    base = Diagnosis(p.monitor.model.name, dict(o.mode or nominal_mode(p.monitor.model)), note=blind(p, r),
+    base = Diagnosis(p.monitor.model.name, dict(o.mode or nominal_mode(p.monitor.model)),
+                     note="; ".join(n for n in (p.spikes, blind(p, r)) if n) or None,
                      t=meas.t, residuals=r, thresholds=p.thresholds, names=p.monitor.names, units=p.monitor.units,
                      timings=clock.times,
                      bond_graph=p.monitor.model)
@@ -161,6 +164,7 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     model, config = monitor.model, monitor.config
     w = config.derivative_window
     check_samples(o.samples, meas.ts, min_period=sc.min_period)
+    meas, spiked = despiked(model, meas, o.keep_spikes)
     raw = signals_from_data(model, meas)
     check_derivative_window(model, w, meas.ts, meas.path)
     need = window_samples(w, meas.ts, DEFAULT_ORDER) + 1
@@ -174,7 +178,8 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     wait = config.waiting_time if o.waiting_time is None else o.waiting_time
     samples = o.samples or max(config.samples, sc.min_samples())     # N ts covers the shortest period
     weights = 1.0 / thresholds if o.weights == "thresholds" else np.ones(len(monitor.names))
-    return Prepared(monitor, sc, meas, raw, thresholds, wait, samples, settling(o.settle, sc.settle), weights, o)
+    return Prepared(monitor, sc, meas, raw, thresholds, wait, samples, settling(o.settle, sc.settle), weights, o,
+                    spiked)
 
 
 def blind(p: Prepared, r: np.ndarray) -> str | None:

@@ -223,8 +223,10 @@ def test_a_spike_in_a_fault_free_run_is_named_not_learnt_silently():
     """The peak rule learns a threshold from a run's largest |r|: one cell of 1e200 V in a nominal
     run set the RC circuit's thresholds near 1e199 (a faulty run then raised nothing), and calibrate
     said nothing. Now it names each residual whose peak stands 1000 times above its median |r|,
-    and the run; the same run without the spike gets no such note. The runs: the RC circuit under
-    u = 5 + 2 sin(3 t) by scipy, the sensors' noise seeded."""
+    and the run; the same run without the spike gets no such note. A cell alone is a sensor's
+    glitch, read as its neighbours' mean (fdi.spikes: the clean run's thresholds, and a note); two
+    in a row are left to the residuals' rule. The runs: the RC circuit under u = 5 + 2 sin(3 t) by
+    scipy, the sensors' noise seeded."""
     from fdi.calibrate import format_calibration
 
     from .independent import rc
@@ -235,6 +237,10 @@ def test_a_spike_in_a_fault_free_run_is_named_not_learnt_silently():
     assert clean.spikes == () and "note:" not in format_calibration(clean)
     spiked = v.copy()
     spiked[2000] = 1e200
+    glitch = calibrate(model, [Measurements("glitch", t, {**record, "v": spiked})])
+    assert glitch.thresholds == clean.thresholds and glitch.spikes == ()
+    assert format_calibration(glitch).count("note: glitch: 1 one-sample spike(s) read as their neighbours' mean: v at") == 1
+    spiked[2001] = 1e200
     c = calibrate(model, [Measurements("spiked", t, {**record, "v": spiked})])
     assert {name for name, _, _ in c.spikes} == {"ARR1", "ARR2"} and all(run == "spiked" for _, _, run in c.spikes)
     assert all(ratio > 1e100 for _, ratio, _ in c.spikes)

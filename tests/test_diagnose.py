@@ -268,7 +268,7 @@ def test_a_record_whose_values_overflow_every_fit_is_detected_and_not_identified
     rc.write(path, run)
     code = main(["diagnose", str(Path(__file__).parent / "data" / "rc_two_sensors.yaml"), str(path), "--workers", "1",
                  "--pop", "8", "--generations", "1", "--max-set", "1", "--threshold", "ARR1=0.01", "--threshold", "ARR2=0.001",
-                 "--json", "-q"])
+                 "--json", "-q", "--keep-spikes"])      # (as recorded: read alone, the sample is a glitch, test_spikes.py)
     out, err = capsys.readouterr()
     assert code == 0 and "Warning" not in err, err
 
@@ -289,7 +289,7 @@ def test_samples_a_residual_cannot_judge_are_reported_not_passed_over(tmp_path, 
     lines[600] = ",".join(cells) + "\n"
     path = tmp_path / "spike.csv"
     path.write_text("".join(lines), encoding="utf-8")
-    code = main(["diagnose", str(CYCAB), str(path), "--workers", "1", "--json", "-q"])
+    code = main(["diagnose", str(CYCAB), str(path), "--workers", "1", "--json", "-q", "--keep-spikes"])   # as recorded
     out, err = capsys.readouterr()
     r = json.loads(out)
     assert code == 0 and r["detection"] is None and "Warning" not in err
@@ -309,7 +309,7 @@ def test_a_fit_far_above_the_noise_with_nothing_left_to_try_is_said(tmp_path, ca
     run = rc.simulate(3.0, 7)
     model = str(Path(__file__).parent / "data" / "rc_two_sensors.yaml")
     options = ["--workers", "1", "--pop", "8", "--generations", "1", "--max-set", "1", "--threshold", "ARR1=0.01",
-               "--threshold", "ARR2=0.001", "--json", "-q"]
+               "--threshold", "ARR2=0.001", "--json", "-q", "--keep-spikes"]    # (the sample as recorded, not as a glitch)
     for spike, detected in ((None, False), (1e6, True)):
         w = run["v"].copy()
         if spike is not None:

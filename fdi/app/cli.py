@@ -621,7 +621,8 @@ def _options(args: argparse.Namespace, monitor: "Monitor"):
     options = Options(thresholds=thresholds, waiting_time=args.wait, persistence=args.persistence,
                       exoneration=not args.no_exoneration,
                       engine=args.engine, pop=args.pop, generations=args.generations, samples=args.samples,
-                      seed=args.seed, workers=args.workers, failures=failures, max_set=args.max_set)
+                      seed=args.seed, workers=args.workers, failures=failures, max_set=args.max_set,
+                      keep_spikes=getattr(args, "keep_spikes", False))
     options.check()
     return options
 
@@ -1233,6 +1234,9 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--fail-on-fault", action="store_true",
                    help="exit with status 3 when a fault is diagnosed in any file (for scripts and CI)")
     diagnosis_options(d)
+    d.add_argument("--keep-spikes", action="store_true",
+                   help="read one-sample spikes of the sensor columns as recorded (default: each read as the mean "
+                        "of its neighbours, and named in the note; fdi.spikes)")
     d.set_defaults(func=cmd_diagnose)
 
     cal = sub.add_parser("calibrate", help="thresholds from fault-free runs, each residual with its unit")
@@ -1258,6 +1262,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="scenarios evaluated at once, one process each, their estimators in it (default 1); "
                          "the scores are the same")
     diagnosis_options(ev)
+    ev.add_argument("--keep-spikes", action="store_true",
+                   help="read one-sample spikes of the sensor columns as recorded (default: each read as the mean "
+                        "of its neighbours, and named in the note; fdi.spikes)")
     ev.set_defaults(func=cmd_evaluate)
 
     mon = sub.add_parser("monitor", help="watch a measurement stream: JSON-lines events as the samples arrive")
