@@ -98,9 +98,13 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
         for k in range(POINTS):
             x = x0 if k == 0 else x0 * (1 + 0.5 * rng.standard_normal(len(x0))) + 1e-3 * rng.standard_normal(len(x0))
             try:
-                jac = _jacobian(system.f, 0.0, tuple(float(v) for v in x), c)
+                with np.errstate(all="ignore"):     # (a point outside a law's domain: skipped below)
+                    jac = _jacobian(system.f, 0.0, tuple(float(v) for v in x), c)
                 lam = np.linalg.eigvals(jac)
-            except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+            except (ArithmeticError, ValueError, TypeError, np.linalg.LinAlgError):
+                # a point outside a law's domain: a gas spring's (p0/pa)^(1/n) at a perturbed pa < 0
+                # is complex, which Python's math refuses with a TypeError (a user's accumulator
+                # model: check, calibrate, diagnose and simulate died with a traceback)
                 continue
             except NameError as exc:         # a function the compiled equations lack (besselj)
                 notes.append(f"mode {dict(mode)}: not linearised (its equations cannot be evaluated: {exc})")

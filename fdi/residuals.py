@@ -100,7 +100,16 @@ class Residual:
         (one objective evaluation): a stored quantity's rate is filtered once there and reused by
         every residual that reads it with the same inputs (the CyCab's and the RC filter's ARR2 and
         ARR3 share d(C1 v)/dt; a linear fault's unit step leaves it unchanged)."""
-        out = self.func(*self.arguments(signals, values, crop, ts, window, rates, polyorder))
+        args = self.arguments(signals, values, crop, ts, window, rates, polyorder)
+        try:
+            out = self.func(*args)
+        except OverflowError:
+            # a constant beyond a double in Python's own arithmetic (a parameter of 1e299 squared raises
+            # where numpy gives inf: a user's model crashed diagnose with a traceback): the same
+            # operations on numpy's doubles, whose overflow is inf (the report then says the residual
+            # is not finite, and where)
+            with np.errstate(all="ignore"):
+                out = self.func(*[np.float64(a) if isinstance(a, float) else a for a in args])
         return np.asarray(out, dtype=float)
 
     def arguments(self, signals: Mapping[str, list[np.ndarray]], values: Mapping[str, object],

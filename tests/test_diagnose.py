@@ -398,3 +398,29 @@ def test_no_mode_fault_is_named_where_no_mode_explains_the_data(monkeypatch):
         mf = pipeline.estimate_modes(p, det, {"v": 1}, ["v_closed"])
         assert tuple(f.name for f in mf.faults) == named
         assert mf.mode == {"v": 0 if named else 1}              # no estimate: the mode at t_D, not the first tried
+
+
+def test_a_parameter_whose_square_overflows_is_read_as_numpy_reads_it(tmp_path):
+    """A user's accumulator circuit (tests/data/unverified/accumulator_check_valve.yaml: its pump
+    line, a nonlinear algebraic loop, is beyond the simulator, so it stays apart from the models
+    the verify tests simulate) with its load orifice's coefficient Kv typed 1e299: the valve's residual divides Ql^2 by Kv^2, which Python's arithmetic
+    refuses (OverflowError: a traceback from diagnose) where numpy's gives inf. Now the residual is
+    evaluated as numpy reads it: with the valve open ARR3 = pa - Ql^2 sign(Ql) / Kv^2 = pa (by hand);
+    shut, Ql. The record: designed (constant readings, the pump on, the valve open for 2 s, then shut)."""
+    from pathlib import Path
+
+    from fdi.data import Measurements, commanded, signals_from_data
+    from fdi.monitor import compiled
+    from fdi.residuals import evaluate
+    text = (Path(__file__).parent / "data" / "unverified" / "accumulator_check_valve.yaml").read_text(encoding="utf-8")
+    path = tmp_path / "huge.yaml"
+    path.write_text(text.replace("Kv:    {value: 7.2e-8,", "Kv:    {value: 1e299,"), encoding="utf-8")
+    monitor = compiled(str(path))
+    assert float(monitor.model.nominal_by_name()["Kv"]) == 1e299
+    t = np.arange(400) * 0.01
+    cols = {"t": t, "Qp": np.full(400, 3.333e-4), "v_cmd": (t < 2.0).astype(float), "pp": np.full(400, 1.25e7),
+            "pa": np.full(400, 1.2e7), "Ql": np.full(400, 2.5e-4)}
+    raw = signals_from_data(monitor.model, Measurements("designed", t, cols))
+    arr3 = monitor.arr_residuals[list(monitor.names).index("ARR3")]
+    r = evaluate(monitor.model, [arr3], raw, 0.01, window=0.3, values=commanded(monitor.model, raw))[0]
+    assert np.allclose(r[50:150], 1.2e7) and np.allclose(r[250:350], 2.5e-4)
