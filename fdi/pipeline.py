@@ -128,9 +128,13 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
     clock.lap("load")
     r = evaluate(p.monitor.model, list(p.monitor.residuals), p.raw, meas.ts, window=p.window_s, values=p.values(p.raw))
     clock.lap("residuals")
+    blinded = blind(p, r)
+    if r.size and not np.isfinite(r).any():
+        # nothing was monitored: "nothing detected" (exit 0, --fail-on-fault passed) would read as healthy
+        raise DataError(f"{meas.path}: no residual has a sample to judge, so nothing can be detected: {blinded}")
     det = detect(r, meas.t, p.thresholds, p.wait, p.settle, p.scales.end_edge, *p.rule)
     base = Diagnosis(p.monitor.model.name, dict(o.mode or nominal_mode(p.monitor.model)),
-                     note="; ".join(n for n in (p.spikes, blind(p, r)) if n) or None,
+                     note="; ".join(n for n in (p.spikes, blinded) if n) or None,
                      t=meas.t, residuals=r, thresholds=p.thresholds, names=p.monitor.names, units=p.monitor.units,
                      timings=clock.times,
                      bond_graph=p.monitor.model)

@@ -10,7 +10,7 @@ from fdi.app.cli import main
 from fdi.api import Options, diagnose
 from fdi.prognose import end_of_life
 
-from .conftest import CYCAB, DATA
+from .conftest import CYCAB, DATA, ROOT
 
 REPORTS: dict = {}
 
@@ -424,3 +424,33 @@ def test_a_parameter_whose_square_overflows_is_read_as_numpy_reads_it(tmp_path):
     arr3 = monitor.arr_residuals[list(monitor.names).index("ARR3")]
     r = evaluate(monitor.model, [arr3], raw, 0.01, window=0.3, values=commanded(monitor.model, raw))[0]
     assert np.allclose(r[50:150], 1.2e7) and np.allclose(r[250:350], 2.5e-4)
+
+
+def test_a_record_no_residual_can_judge_is_refused_not_passed_as_healthy(tmp_path, capsys):
+    """A record whose command toggles every 2 s under the two-tank's 5 s derivative window leaves no
+    residual a sample (each is evaluated half a window clear of every switch): the report said
+    "nothing detected", exit 0, and --fail-on-fault passed it (a user trial: time stamps typed a
+    tenth of their value). Now it is one line naming the file and why, exit 2; the steady record
+    is diagnosed (exit 0 or 3: its designed levels are not the tanks' balance, so a fault may be
+    named). The records: designed (level pressures with seeded noise; only the command differs),
+    as in test_calibrate.py."""
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 60.0, 0.1)
+    base = {"t": t, "Qin": 1.0e-4 * (1 + 0.5 * np.sin(0.01 * t)),
+            "p1": 2.0e4 + 20 * rng.standard_normal(t.size), "p2": 1.5e4 + 20 * rng.standard_normal(t.size)}
+    model = str(ROOT / "models" / "two_tank_commanded.yaml")
+    for name, command, codes in (("steady.csv", np.ones(t.size), (0, 3)),
+                                 ("toggled.csv", (np.floor(t / 2.0) % 2 == 0).astype(float), (2,))):
+        path = tmp_path / name
+        cols = {**base, "v_cmd": command}
+        head = ["t", "Qin", "v_cmd", "p1", "p2"]
+        np.savetxt(path, np.column_stack([cols[h] for h in head]), delimiter=",", header=",".join(head), comments="")
+        assert main(["diagnose", model, str(path), "--workers", "1", "--fail-on-fault", "-q",
+                     "--pop", "8", "--generations", "1"]) in codes
+        out, err = capsys.readouterr()
+        if codes == (2,):
+            assert out == "" and err.count("\n") == 1
+            assert err.startswith(f"bgfdi: error: {path}: no residual has a sample to judge, so nothing can be "
+                                  "detected: ARR")
+            assert "had no sample: every stretch between two mode switches is shorter than the derivative window " \
+                   "(5 s)" in err
