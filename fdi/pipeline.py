@@ -59,7 +59,8 @@ class Prepared:
     settle: float
     weights: np.ndarray
     options: Options
-    spikes: str | None = None         # what fdi.spikes found in the sensor columns and did (the report's note)
+    read: str | None = None           # what the reading found (fdi.spikes' spikes, a sampling time other than
+                                      # the file's): the report's note
 
     @property
     def first_trusted(self) -> float:
@@ -134,7 +135,7 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
         raise DataError(f"{meas.path}: no residual has a sample to judge, so nothing can be detected: {blinded}")
     det = detect(r, meas.t, p.thresholds, p.wait, p.settle, p.scales.end_edge, *p.rule)
     base = Diagnosis(p.monitor.model.name, dict(o.mode or nominal_mode(p.monitor.model)),
-                     note="; ".join(n for n in (p.spikes, blinded) if n) or None,
+                     note="; ".join(n for n in (p.read, blinded) if n) or None,
                      t=meas.t, residuals=r, thresholds=p.thresholds, names=p.monitor.names, units=p.monitor.units,
                      timings=clock.times,
                      bond_graph=p.monitor.model)
@@ -169,6 +170,7 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     w = config.derivative_window
     check_samples(o.samples, meas.ts, min_period=sc.min_period)
     meas, spiked = despiked(model, meas, o.keep_spikes)
+    spiked = "; ".join(n for n in (spiked, sampled_otherwise(model, meas)) if n) or None
     raw = signals_from_data(model, meas)
     check_derivative_window(model, w, meas.ts, meas.path)
     need = window_samples(w, meas.ts, DEFAULT_ORDER) + 1
@@ -184,6 +186,23 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     weights = 1.0 / thresholds if o.weights == "thresholds" else np.ones(len(monitor.names))
     return Prepared(monitor, sc, meas, raw, thresholds, wait, samples, settling(o.settle, sc.settle), weights, o,
                     spiked)
+
+
+SAMPLING_SLACK = 0.01   # a record's step this far (relative) from the file's data.sampling_time is named
+
+
+def sampled_otherwise(model, meas: Measurements) -> str | None:
+    """The note when the record's sampling time differs from the model file's ``data:
+    sampling_time`` by over 1 %: the diagnosis follows the record (its windows and filters come from
+    its own step), but what the file's time was used for does not (``check``'s noise prediction,
+    the generated C monitor's filters), and a record decimated or stamped in the wrong unit looks
+    just like this (a user trial: a record at 5 times the file's step, not a word)."""
+    given = getattr(model, "sampling_time", None)
+    if not given or abs(meas.ts - given) <= SAMPLING_SLACK * given:
+        return None
+    return (f"the record is sampled every {meas.ts:g} s, the model file's data.sampling_time is {given:g} s: the "
+            f"diagnosis follows the record; check's noise prediction and generated code follow the file (set it to "
+            f"{meas.ts:g} if the record is right)")
 
 
 def blind(p: Prepared, r: np.ndarray) -> str | None:

@@ -454,3 +454,21 @@ def test_a_record_no_residual_can_judge_is_refused_not_passed_as_healthy(tmp_pat
                                   "detected: ARR")
             assert "had no sample: every stretch between two mode switches is shorter than the derivative window " \
                    "(5 s)" in err
+
+
+def test_a_record_sampled_otherwise_than_the_file_says_is_named():
+    """The CyCab's file says data.sampling_time 0.01 s; its nominal run taken every other row (0.02 s,
+    as a logger set to 50 Hz writes it) is diagnosed at its own step, and the note says the two
+    differ (a user trial: a record at 5 times the file's step, not a word); the run as recorded gets
+    no such note."""
+    from dataclasses import replace
+
+    from fdi.data import read_csv
+    meas = read_csv(DATA / "nominal.csv")
+    half = replace(meas, t=meas.t[::2], columns={k: v[::2] for k, v in meas.columns.items()})
+    d = diagnose(str(CYCAB), half, Options(workers=1))
+    assert d.detection is None
+    assert d.note == ("the record is sampled every 0.02 s, the model file's data.sampling_time is 0.01 s: the "
+                      "diagnosis follows the record; check's noise prediction and generated code follow the file "
+                      "(set it to 0.02 if the record is right)")
+    assert diagnose(str(CYCAB), meas, Options(workers=1)).note is None

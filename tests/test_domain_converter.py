@@ -52,10 +52,11 @@ def test_each_designed_fault_is_found_typed_and_sized(thresholds, fault, true, d
 
 def test_switching_faster_than_the_derivative_window_is_said_not_silent():
     """A 20 kHz PWM leaves 25 us between switches; with a 40 us window no residual has a sample,
-    and the report says so and what to change, instead of 'nothing detected' alone."""
+    and the record is refused saying so and what to change, instead of 'nothing detected' (which
+    read as healthy: exit 0, --fail-on-fault passed)."""
     from fdi.config import load
+    from fdi.data import DataError
     _, config = load(MODEL)
-    report = diagnose(MODEL, run(5), Options(workers=1, seed=0, thresholds={"ARR1": 1.5, "ARR2": 1.4},
-                                                    settings=config.replace(derivative_window=4e-5))).to_dict()
-    assert report["detection"] is None
-    assert "no sample" in report["note"] and "derivative_window" in report["note"]
+    with pytest.raises(DataError, match=r"no residual has a sample to judge, .*had no sample: .*derivative_window"):
+        diagnose(MODEL, run(5), Options(workers=1, seed=0, thresholds={"ARR1": 1.5, "ARR2": 1.4},
+                                        settings=config.replace(derivative_window=4e-5)))
