@@ -372,9 +372,13 @@ def _filled(parts: Iterator[tuple[list[str], np.ndarray]], bound: int | None) ->
     return header, table[:rows]
 
 
-def checked(path: str, header: list[str], table: np.ndarray) -> Measurements:
+def checked(path: str, header: list[str], table: np.ndarray, in_memory: bool = False) -> Measurements:
     """Measurements from a parsed table (rows x columns of ``header``), after the checks every
-    source of data gets: two samples at least, no NaN, time increasing on a uniform axis."""
+    source of data gets: two samples at least, no NaN, time increasing on a uniform axis. A bad
+    sample is named by its line of the file (the header is line 1), or with ``in_memory`` (arrays,
+    a DataFrame) by its row index from 0."""
+    def at(i: int) -> str:
+        return f"row {i}" if in_memory else f"line {i + 2}"
     check_header(path, list(header))
     if table.shape[0] < 2:
         raise DataError(f"{path}: needs a header row and at least two samples")
@@ -385,7 +389,7 @@ def checked(path: str, header: list[str], table: np.ndarray) -> Measurements:
         finite &= np.isfinite(column)
     bad = np.flatnonzero(~finite)
     if bad.size:
-        raise DataError(f"{path}: {bad.size} row(s) with NaN, infinite or missing values, first at line {bad[0] + 2}; "
+        raise DataError(f"{path}: {bad.size} row(s) with NaN, infinite or missing values, first at {at(int(bad[0]))}; "
                         "remove or fill them")
     time = cols["t"]
     largest = max(time.max(), -time.min())                        # max |t|, without an array of |t|
@@ -395,11 +399,11 @@ def checked(path: str, header: list[str], table: np.ndarray) -> Measurements:
     dt = np.diff(time)
     if not (dt > 0).all():
         i = int(np.flatnonzero(dt <= 0)[0])
-        raise DataError(f"{path}: time does not increase at line {i + 3} (t = {time[i + 1]:g} s)")
+        raise DataError(f"{path}: time does not increase at {at(i + 1)} (t = {time[i + 1]:g} s)")
     mean = dt.mean()
     if max(dt.max() - mean, mean - dt.min()) > 1e-6 * max(1.0, abs(mean)) + 1e-3 * mean:   # max |dt - mean|
         i = int(np.argmax(np.abs(dt - mean)))
-        raise DataError(f"{path}: non-uniform time axis (step {dt[i]:g} s at line {i + 3}, mean {mean:g} s); "
+        raise DataError(f"{path}: non-uniform time axis (step {dt[i]:g} s at {at(i + 1)}, mean {mean:g} s); "
                         "resample to a constant sampling time")
     return Measurements(str(path), time, cols)
 

@@ -63,7 +63,7 @@ def measurements(data: Any, name: str = "data") -> Measurements:
                         f"not {type(data).__name__}")
     if "t" not in header:
         raise DataError(f"{name}: no 't' column (time in s) among {', '.join(header)}")
-    return checked(name, header, table)
+    return checked(name, header, table, in_memory=True)
 
 
 def _real(name: str, values, what: str) -> np.ndarray:
