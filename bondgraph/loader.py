@@ -133,6 +133,10 @@ def _named_fifo(path: Path) -> bool:
 
 def read_document(path: str | Path) -> Document:
     """Read a model file safely (at most 1 MB of UTF-8 YAML, measured before it is constructed)."""
+    if isinstance(path, str) and ("\n" in path or "\r" in path) and not Path(path).exists():
+        # YAML text given where a path goes (the message printed the text as the file's name)
+        raise ModelError("text with line ends, not a file name; give the path of the model file, or read the text "
+                         "with bondgraph.loader.load_model_text", file="<model>")
     p = Path(path)
     try:
         if p.is_dir():

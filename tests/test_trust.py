@@ -8,6 +8,7 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -334,6 +335,18 @@ def test_notebook_data_that_would_be_read_wrong_is_refused():
     assert "\n" not in str(err.value) and "text with line ends, not a file name" in str(err.value)
     column = measurements({"t": t, "p": (2 * t).reshape(-1, 1)})
     assert np.array_equal(column.columns["p"], 2 * t)
+
+
+def test_model_text_given_as_a_path_is_one_line():
+    """load_model("name: x\n...") printed the YAML text as the file's name, across lines (a user
+    trial); now one line saying what to give. The text itself still loads with load_model_text."""
+    from bondgraph.errors import ModelError
+    from bondgraph.loader import load_model, load_model_text
+    text = (Path(__file__).parent / "data" / "rc_two_sensors.yaml").read_text(encoding="utf-8")
+    with pytest.raises(ModelError) as err:
+        load_model(text)
+    assert "\n" not in str(err.value) and "text with line ends, not a file name" in str(err.value)
+    assert load_model_text(text).sensors
 
 
 def test_arrays_name_a_bad_sample_by_its_row_index_not_a_file_line(tmp_path):
