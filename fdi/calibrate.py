@@ -159,7 +159,7 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                 raise DataError(f"{run}: given twice (also as {seen[key]}); give each nominal run once")
             seen[key] = str(run)
     data = [run if isinstance(run, Measurements) else read_csv(run) for run in runs]
-    repaired = [despiked(model, meas, advice="the diagnosis reads them so too") for meas in data]
+    repaired = [despiked(model, meas, advice="diagnose reads them so too, unless --keep-spikes") for meas in data]
     data = [meas for meas, _ in repaired]
     glitches = tuple((meas.path, words) for meas, words in repaired if words)
     for meas in data:

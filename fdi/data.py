@@ -376,9 +376,9 @@ def checked(path: str, header: list[str], table: np.ndarray, in_memory: bool = F
     """Measurements from a parsed table (rows x columns of ``header``), after the checks every
     source of data gets: two samples at least, no NaN, time increasing on a uniform axis. A bad
     sample is named by its line of the file (the header is line 1), or with ``in_memory`` (arrays,
-    a DataFrame) by its row index from 0."""
+    a DataFrame) by its position from 0 (a DataFrame's own index labels are not read)."""
     def at(i: int) -> str:
-        return f"row {i}" if in_memory else f"line {i + 2}"
+        return f"position {i}" if in_memory else f"line {i + 2}"
     check_header(path, list(header))
     if table.shape[0] < 2:
         raise DataError(f"{path}: needs a header row and at least two samples")

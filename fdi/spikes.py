@@ -22,8 +22,10 @@ row are not found (the rule reads one). A column with more spikes than
 ``max(MIN_MANY, samples // MANY_PER)`` is left as recorded: so many excursions are the signal (a
 switching current sampled below its switching rate), not glitches; the note says so.
 
-A spike is read as the mean of its two neighbours (``Options(spikes="keep")``, ``--keep-spikes``:
-as recorded) and named in the report's note with its time, its size and its size in noise.
+A spike is read as the mean of its two neighbours (``Options(keep_spikes=True)``, ``--keep-spikes``:
+as recorded) and named in the report's note with its time, its size and its size in noise. The first
+and last ``REACH`` samples are not searched (the rule needs them on both sides). The streaming
+monitor reads every sample as recorded (its filters carry state from block to block).
 
 >>> import numpy as np
 >>> t = np.arange(0.0, 1.0, 0.01)
@@ -77,7 +79,9 @@ def _spread(x: np.ndarray, d: np.ndarray, noise: float, resolution: float) -> fl
     mad = float(np.median(np.abs(d - np.median(d))))
     steps = np.abs(np.diff(x))
     steps = steps[steps > 0]
-    quantum = float(steps.min()) if steps.size else 0.0
+    # the quantum only where the column moves by it: on a flat column the few steps there are the
+    # glitches' own (a steady quantised sensor's one glitch floored itself away)
+    quantum = float(steps.min()) if steps.size > 2 * max(MIN_MANY, x.size // MANY_PER) + 2 else 0.0
     floor = max(noise * np.sqrt(1.5), resolution, quantum, np.finfo(float).tiny)
     return max(1.4826 * mad, floor)
 
@@ -101,20 +105,26 @@ def search(t: np.ndarray, columns: Mapping[str, np.ndarray], noise: Mapping[str,
     docstring; ``noise`` and ``resolution`` are the sensors' declared ones, by column."""
     spikes: list[Spike] = []
     many: list[tuple[str, int]] = []
-    for name, values in columns.items():
-        x = np.asarray(values, dtype=float)
-        if x.size < 5 or not np.isfinite(x).all():
-            continue
-        d = x[1:-1] - (x[:-2] + x[2:]) / 2
-        s = _spread(x, d, (noise or {}).get(name, 0.0), (resolution or {}).get(name, 0.0))
-        apart = np.abs(d)
-        hit = np.flatnonzero((apart > SPIKE_SIGMAS * s) & (apart > AGREE * np.abs(x[2:] - x[:-2])))
-        hit = np.array([i for i in hit if _continues(x, i + 1, s)], dtype=int)
-        if hit.size > max(MIN_MANY, x.size // MANY_PER):
-            many.append((name, int(hit.size)))
-            continue
-        spikes += [Spike(name, int(i) + 1, float(t[i + 1]), float(d[i]), float(apart[i] / s)) for i in hit]
+    with np.errstate(all="ignore"):          # a value near the double's limit: its ratios overflow to inf
+        for name, values in columns.items():
+            _search_column(t, name, values, noise, resolution, spikes, many)
     return Found(tuple(sorted(spikes, key=lambda s: (s.index, s.column))), tuple(many))
+
+
+def _search_column(t, name, values, noise, resolution, spikes: list, many: list) -> None:
+    """:func:`search` on one column, its spikes and its count of too many appended."""
+    x = np.asarray(values, dtype=float)
+    if x.size < 5 or not np.isfinite(x).all():
+        return
+    d = x[1:-1] - (x[:-2] + x[2:]) / 2
+    s = _spread(x, d, (noise or {}).get(name, 0.0), (resolution or {}).get(name, 0.0))
+    apart = np.abs(d)
+    hit = np.flatnonzero((apart > SPIKE_SIGMAS * s) & (apart > AGREE * np.abs(x[2:] - x[:-2])))
+    hit = np.array([i for i in hit if _continues(x, i + 1, s)], dtype=int)
+    if hit.size > max(MIN_MANY, x.size // MANY_PER):
+        many.append((name, int(hit.size)))
+        return
+    spikes.extend(Spike(name, int(i) + 1, float(t[i + 1]), float(d[i]), float(apart[i] / s)) for i in hit)
 
 
 def find(t: np.ndarray, columns: Mapping[str, np.ndarray], noise: Mapping[str, float] | None = None,
@@ -187,7 +197,7 @@ def despiked(model, meas, keep: bool = False, advice: str = KEEP):
     if keep:
         if not found.spikes:
             return meas, None
-        return meas, (f"{len(found.spikes)} one-sample spike(s) read as recorded (--keep-spikes): "
+        return meas, (f"{len(found.spikes)} one-sample spike(s) read as recorded: "
                       + ", ".join(f"{s.column} at {s.time:.6g} s" for s in found.spikes[:SHOWN])
                       + (" and more" if len(found.spikes) > SHOWN else ""))
     if found.spikes:

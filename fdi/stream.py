@@ -184,7 +184,9 @@ class Stream:
     closed: Callable[[], None] | None = None   # called after the summary (Monitor.stream: fdi.monitor.persist)
 
     def __post_init__(self) -> None:
-        self.options = self.options or Options()
+        # the stream's detection reads every sample as recorded (its filters carry state block to block),
+        # so its decisions do too: a glitch the diagnosis repaired was announced, then never decided
+        self.options = replace(self.options or Options(), keep_spikes=True)
         self.options.check()
         self.monitor = with_overrides(with_samples(self.monitor.with_config(self.options.settings),
                                                    self.options.samples), self.options.thresholds)

@@ -126,6 +126,13 @@ def test_a_local_cluster_starts_with_the_quick_poll_and_leaves_dask_as_it_was(mo
     with fleet.Cluster("local", 1, 1) as client:
         assert client.submit(sum, [1, 2]).result() == 3
     assert seen == [fleet.INIT_POLL_S] and WorkerProcess.__dict__["_init_msg_interval"] == before
+    a, b = fleet._quick_start(), fleet._quick_start()      # two clusters starting at once (threads): the
+    a.__enter__()                                          # first one up leaves the second's poll quick, the
+    b.__enter__()                                          # last one up restores dask's (the final review)
+    a.__exit__(None, None, None)
+    assert WorkerProcess._init_msg_interval == fleet.INIT_POLL_S
+    b.__exit__(None, None, None)
+    assert WorkerProcess.__dict__["_init_msg_interval"] == before
     monkeypatch.delattr(WorkerProcess, "_init_msg_interval")
     with fleet._quick_start():
         assert "_init_msg_interval" not in WorkerProcess.__dict__

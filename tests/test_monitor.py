@@ -220,3 +220,25 @@ def test_the_monitor_keeps_reading_while_it_identifies(tmp_path):
     # stamped in stream time too: the coherence change was known before the decision was
     assert during[0]["known_at"] < decision["known_at"] and decision["coherence"] == [0, 1, 1]
     assert decision["identification_s"] > 0.0       # how long it took is reported (its speed is bench's)
+
+
+def test_a_stream_decides_a_glitch_as_it_detected_it():
+    """The stream's detection reads every sample as recorded (its filters carry state); its decisions
+    and summary diagnosed the same samples with one-sample spikes repaired (fdi.spikes), so a glitch
+    was announced and then never decided, the summary saying nothing was detected (the final review
+    of session 33). Now the stream's diagnoses read the samples as recorded too. The record: the
+    paper's nominal run with a designed 0.5 rad miscount of the motor encoder at 20 s."""
+    m, header, table = _table("nominal")
+    table = table.copy()
+    i = int(np.argmin(np.abs(m.t - 20.0)))
+    table[i, header.index("theta1")] += 0.5
+    events: list[dict] = []
+    mon = compiled(CYCAB).stream(events.append, Options(workers=1, pop=12, generations=5))
+    mon.feed(header, table)
+    mon.close()
+    kinds = [e["event"] for e in events]
+    assert "detection" in kinds and kinds[-1] == "summary"
+    detected = next(e for e in events if e["event"] == "detection")
+    summary = events[-1]
+    assert summary["detection"] is not None and summary["detection"]["time"] == pytest.approx(detected["t"])
+    assert "1 one-sample spike(s) read as recorded: theta1 at 20 s" in summary["note"]

@@ -69,6 +69,36 @@ def test_an_excursion_where_the_course_changes_is_the_plant():
     assert [s.index for s in spikes.find(T, {"x": x})] == [500]
 
 
+def test_a_glitch_on_a_flat_quantised_column_is_found():
+    """A steady sensor reads one value; its one glitch is the column's only step, and that step set
+    the column's quantum, which floored the spread at the glitch's own size (the final review)."""
+    x = np.full(T.size, 2.0)
+    x[500] = 3.0
+    (s,) = spikes.find(T, {"x": x})
+    assert (s.index, s.size) == (500, 1.0)
+
+
+def test_a_value_at_the_double_s_limit_is_found_without_a_warning():
+    import warnings
+    x = _noisy()
+    x[500] = 1e308
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        (s,) = spikes.find(T, {"x": x})
+    assert s.index == 500 and "over 1e+300 times its spread" in spikes.note(spikes.Found((s,)))
+
+
+def test_the_first_and_last_samples_are_not_searched():
+    """The rule reads three samples on each side (documented): a glitch at 2 or n - 3 stays."""
+    for i in (1, 2, T.size - 3, T.size - 2):
+        x = _noisy()
+        x[i] += 0.5
+        assert spikes.find(T, {"x": x}) == (), i
+    x = _noisy()
+    x[3] += 0.5
+    assert [s.index for s in spikes.find(T, {"x": x})] == [3]
+
+
 def test_two_glitches_in_a_row_are_not_read_as_one():
     x = _noisy()
     x[400:402] += 0.5
@@ -107,7 +137,7 @@ def test_a_miscount_of_the_motor_encoder_is_not_a_fault(tmp_path):
     assert d.note.startswith("1 one-sample spike(s) read as their neighbours' mean: theta1 at 20 s (+0.5")
     kept = diagnose(str(CYCAB), glitched, replace(cheap, keep_spikes=True))      # as recorded: what it did before
     assert kept.detection is not None and 19.5 < kept.detection.time < 20.5
-    assert "read as recorded (--keep-spikes): theta1 at 20 s" in kept.note
+    assert "1 one-sample spike(s) read as recorded: theta1 at 20 s" in kept.note
 
 
 def test_a_fault_after_a_miscount_is_still_found(tmp_path):

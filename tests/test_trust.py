@@ -349,19 +349,19 @@ def test_model_text_given_as_a_path_is_one_line():
     assert load_model_text(text).sensors
 
 
-def test_arrays_name_a_bad_sample_by_its_row_index_not_a_file_line(tmp_path):
+def test_arrays_name_a_bad_sample_by_its_position_not_a_file_line(tmp_path):
     """A NaN at index 6 of a dict of arrays was said to be "first at line 8" (a file's numbering: the
-    header, then rows from 1; a user trial); arrays have no lines. Now it is its row index, and a
-    file of the same numbers still gives its line."""
+    header, then rows from 1; a user trial); arrays have no lines. Now it is its position from 0, and
+    a file of the same numbers still gives its line."""
     from fdi.api import measurements
     from fdi.data import DataError, read_csv
     t, p = np.arange(10) * 0.1, np.ones(10)
     p[6] = np.nan
-    with pytest.raises(DataError, match=r"^data: 1 row\(s\) with NaN, infinite or missing values, first at row 6;"):
+    with pytest.raises(DataError, match=r"^data: 1 row\(s\) with NaN, infinite or missing values, first at position 6;"):
         measurements({"t": t, "p": p})
     stuck = t.copy()
     stuck[7] = stuck[6]
-    with pytest.raises(DataError, match=r"^data: time does not increase at row 7 \(t = 0.6 s\)"):
+    with pytest.raises(DataError, match=r"^data: time does not increase at position 7 \(t = 0.6 s\)"):
         measurements({"t": stuck, "p": np.ones(10)})
     path = tmp_path / "run.csv"
     path.write_text("t,p\n" + "".join(f"{a:g},{b}\n" for a, b in zip(t, p)), encoding="utf-8")

@@ -31,6 +31,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import re
+import threading
 from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
@@ -324,6 +325,8 @@ class Cluster:
             self.cluster.close()
 
 
+_POLL_LOCK = threading.Lock()
+_POLL_SAVED: list = []          # [dask's value, then one None per cluster starting now]
 INIT_POLL_S = 0.002            # s between a nanny's looks for its new worker's first message (dask's own: 0.05)
 
 
@@ -340,15 +343,27 @@ def _quick_start():
     except ImportError:
         yield
         return
-    old = WorkerProcess.__dict__.get("_init_msg_interval")
-    if not isinstance(old, (int, float)):
-        yield
-        return
-    WorkerProcess._init_msg_interval = min(old, INIT_POLL_S)
+    with _POLL_LOCK:                     # clusters starting at once in threads: dask's value saved by the first
+        if not _POLL_SAVED:
+            old = WorkerProcess.__dict__.get("_init_msg_interval")
+            if not isinstance(old, (int, float)):
+                old = None
+            else:
+                _POLL_SAVED.append(old)
+        if _POLL_SAVED:
+            _POLL_SAVED.append(None)     # one entry per cluster starting (the first is dask's value)
+            WorkerProcess._init_msg_interval = min(_POLL_SAVED[0], INIT_POLL_S)
+            quick = True
+        else:
+            quick = False
     try:
         yield
     finally:
-        WorkerProcess._init_msg_interval = old
+        if quick:
+            with _POLL_LOCK:
+                _POLL_SAVED.pop()
+                if len(_POLL_SAVED) == 1:        # the last one up: dask's value back
+                    WorkerProcess._init_msg_interval = _POLL_SAVED.pop()
 
 
 def workers_of(client) -> int:
