@@ -96,6 +96,8 @@ class Calibration:
     unvisited: dict = field(default_factory=dict)   # by residual: the combinations no run visits (scaled from
                                         # the visited ones by the predicted noise)
     glitches: tuple[tuple[str, str], ...] = ()   # (run, what fdi.spikes found in its sensor columns and did)
+    rises: tuple[tuple[str, str, float, str], ...] = ()   # (residual, mode, ratio, run): its level rose within
+                                                         # the run (RISE): a fault in a nominal run
 
     @property
     def false_alarm_rate(self) -> float | None:
@@ -225,6 +227,7 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
             false_alarms.append(bool((left > limit).any()))
             worst.append((names[int(np.argmax(ratio))], float(ratio.max())))
     spikes = _spikes(names, samples, [m.path for m in data]) if quantile is None else ()
+    rises = _rises(names, samples, [m for _, m in runs_modes], [m.path for m in data], need)
     blind = _blind(scales.model_time_scales(model), data[0].ts) if c.config.derivative_window is None else ()
     if blind:
         blind += _operating_point(model, data)
@@ -237,7 +240,7 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                        c.config.derivative_window is not None,
                        max((r.highest_order() for r in c.arr_residuals), default=0), pick is not None, scores, blind,
                        spikes, noise, {names[j]: {key_text(k): float(v) for k, v in t.items()} for j, t in tables.items()},
-                       {n: [key_text(k) for k in u] for n, u in unvisited.items() if u}, glitches)
+                       {n: [key_text(k) for k in u] for n, u in unvisited.items() if u}, glitches, rises)
 
 
 def _by_mode(model, arrs, predicted, modes: list[dict], every: bool) -> dict[int, tuple[str, ...]]:
@@ -351,6 +354,36 @@ SPIKE = 1000.0   # a residual's peak this many times its median |r| is a spike, 
                  # a million samples is 8 times its median |r|, heavy tails and a nominal run's transients tens
                  # (the median: one bad sample spreads over a derivative window, a share no quantile near 1 is
                  # safe from on a short run)
+
+
+RISE = 10.0    # a residual whose median |r| in a mode is this many times higher over a run's last third than
+               # over its first: the run changed within (a nominal run's levels move by 1.0-1.6x: the
+               # CyCab's, the precharge's and the accumulator's runs, from their own simulators)
+
+
+def _rises(names: list[str], samples: list[np.ndarray], modes: list[dict], runs: list[str],
+           need: int) -> tuple[tuple[str, str, float, str], ...]:
+    """(residual, mode, ratio, run) where a residual's level (median |r|) in one combination of the
+    runs' mode variables rises ``RISE`` times from a run's first third of samples in it to its last
+    third (``need`` samples each at least): a fault in a run meant to be fault-free. The peak note
+    (:func:`_spikes`) misses it (the median rises with the fault), and the noise note names the
+    residual without the run: a trial's run with the load orifice clogged from half-way set ARR3's
+    threshold 40 times higher, and calibrate named ARR1's spike at the valve."""
+    out = []
+    for r, values, run in zip(samples, modes, runs):
+        names_m = sorted(values)
+        for key in itertools.product((0, 1), repeat=len(names_m)):
+            here = np.flatnonzero(_mask(values, tuple(zip(names_m, key)), r.shape[1]))
+            for i, name in enumerate(names):
+                x = r[i, here]
+                x = x[np.isfinite(x)]
+                third = x.size // 3
+                if third < need:
+                    continue
+                first, last = float(np.median(x[:third])), float(np.median(x[-third:]))
+                if first > 0 and last > RISE * first:
+                    out.append((name, mode_text(dict(zip(names_m, key))) if names_m else "", last / first, run))
+    return tuple(out)
 
 
 def _spikes(names: list[str], samples: list[np.ndarray], runs: list[str]) -> tuple[tuple[str, float, str], ...]:
@@ -479,6 +512,10 @@ def format_calibration(c: Calibration) -> str:
                      f"calibrate --window auto chooses one from the runs")
     for run, words in c.glitches:
         lines.append(f"note: {run}: {words}")
+    for name, mode, ratio, run in c.rises:
+        lines.append(f"note: {name}{' in ' + mode if mode else ''} rises {ratio:.3g}x within {run} (median |r| over its "
+                     f"last third against its first): a fault in a run meant to be fault-free sets its threshold; "
+                     f"check that run, or leave it out")
     for name, ratio, run in c.spikes:
         lines.append(f"note: {name}'s peak is {ratio:.3g} times its median, in {run}: a spike or a fault in a run "
                      "meant to be fault-free sets its threshold; check that run, or calibrate with --quantile 0.99")

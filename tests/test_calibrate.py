@@ -287,3 +287,32 @@ def test_a_run_given_twice_is_refused(tmp_path):
     model = str(Path(__file__).parent / "data" / "rc_two_sensors.yaml")
     with pytest.raises(DataError, match=r"run.csv: given twice \(also as .*run.csv\); give each nominal run once"):
         calibrate(model, [str(path), os.path.join(str(tmp_path), ".", "run.csv")])
+
+
+def test_a_fault_inside_a_nominal_run_is_named_with_its_run():
+    """A run meant to be fault-free with a fault from half-way: the residual's level rises with it, so
+    the peak note (a spike over the median) says nothing, and the noise note names the residual
+    without the run (a user trial calibrated on a run whose orifice clogged half-way: ARR3's
+    threshold 40 times higher, and only ARR1's spike at a valve was named). Now each residual whose
+    level in a mode rises RISE times from the run's first third to its last is named, with the run.
+    The runs: the paper's CyCab nominal run (none) and scenario 1 (R4 and beta_theta1 from 32 s of
+    60 s); scipy's RC circuit, clean (none) and with the current sensor reading 0.5 mA high (50 times
+    its noise) from half-way (the residuals that read i)."""
+    from fdi.calibrate import RISE, format_calibration
+    from fdi.data import read_csv
+
+    from .independent import rc
+    assert calibrate(str(CYCAB), [read_csv(DATA / "nominal.csv")]).rises == ()
+    c = calibrate(str(CYCAB), [read_csv(DATA / "nominal.csv"), read_csv(DATA / "scenario1.csv")])
+    assert c.rises and {run for _, _, _, run in c.rises} == {str(DATA / "scenario1.csv")}
+    assert all(ratio > RISE for _, _, ratio, _ in c.rises)
+    assert "rises" in format_calibration(c) and "within " + str(DATA / "scenario1.csv") in format_calibration(c)
+    record = rc.simulate(4.0, 5)
+    model = str(Path(__file__).parent / "data" / "rc_two_sensors.yaml")
+    assert calibrate(model, [Measurements("clean", record["t"], record)]).rises == ()
+    offset = record["i"] + np.where(record["t"] >= 2.0, 5e-4, 0.0)
+    got = calibrate(model, [Measurements("offset", record["t"], {**record, "i": offset})])
+    from fdi.arrs import select_arrs
+    reading_i = {a.name for a in select_arrs(load_model(model)).arrs if "i(t)" in str(a.expr)}
+    assert got.rises and {run for _, _, _, run in got.rises} == {"offset"}
+    assert reading_i and {name for name, _, _, _ in got.rises} <= reading_i
