@@ -524,8 +524,9 @@ def format_calibration(c: Calibration) -> str:
             where = f" in {mode_text(x['mode'])}" if len({tuple(y['mode'].items()) for y in c.noise}) > 1 else ""
             lines.append(f"note: {x['residual']}{where} varies {x['level'] / x['predicted']:.3g}x more on the runs "
                          f"({x['level']:.4g}, median |r| / 0.6745) than the sensors' declared noise explains "
-                         f"({x['predicted']:.4g}, fdi.noise): its threshold is set by what the model does not explain (a parameter's value, a "
-                         f"law, an unmodelled input or disturbance) or by noise the file understates")
+                         f"({x['predicted']:.4g}, fdi.noise): its threshold is set by what the model does not "
+                         f"explain (a parameter's value, a law, an unmodelled input or disturbance) or by noise the "
+                         f"file understates")
     if c.mode_thresholds:
         lines.append(f"thresholds by mode for {', '.join(c.mode_thresholds)}: each monitored divided by its mode's "
                      f"threshold, against 1 (their noise or unit differs between modes; docs/patterns.md)")

@@ -16,9 +16,9 @@ The prediction simulates the measurement alone: every sensor held at its operati
 file's ``initial`` reading of it, else 0) and every input at its expression, the modes held, each
 sensor's columns made with its noise (:func:`fdi.measure.sensor_columns`, as ``bgfdi simulate``
 makes them; a resolution as its uniform quantisation noise, step^2/12, which a varying signal
-meets), the residuals evaluated as a diagnosis evaluates them (:func:`fdi.residuals.evaluate`: the same derivative filter and window), less their values on
-the noise-free record: what remains is the noise's response at that operating point, linear or
-not. Each sensor's share of the variance: the same with its noise alone.
+meets), the residuals evaluated as a diagnosis evaluates them (:func:`fdi.residuals.evaluate`:
+the same derivative filter and window), less their values on the noise-free record: what remains
+is the noise's response at that operating point, linear or not. Each sensor's share of the variance: the same with its noise alone.
 
 >>> from bondgraph.loader import load_model
 >>> from fdi.arrs import select_arrs

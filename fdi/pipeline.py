@@ -170,7 +170,7 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     w = config.derivative_window
     check_samples(o.samples, meas.ts, min_period=sc.min_period)
     meas, spiked = despiked(model, meas, o.keep_spikes)
-    spiked = "; ".join(n for n in (spiked, sampled_otherwise(model, meas)) if n) or None
+    read = "; ".join(n for n in (spiked, sampled_otherwise(model, meas)) if n) or None
     raw = signals_from_data(model, meas)
     check_derivative_window(model, w, meas.ts, meas.path)
     need = window_samples(w, meas.ts, DEFAULT_ORDER) + 1
@@ -185,7 +185,7 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     samples = o.samples or max(config.samples, sc.min_samples())     # N ts covers the shortest period
     weights = 1.0 / thresholds if o.weights == "thresholds" else np.ones(len(monitor.names))
     return Prepared(monitor, sc, meas, raw, thresholds, wait, samples, settling(o.settle, sc.settle), weights, o,
-                    spiked)
+                    read)
 
 
 SAMPLING_SLACK = 0.01   # a record's step this far (relative) from the file's data.sampling_time is named
@@ -197,7 +197,7 @@ def sampled_otherwise(model, meas: Measurements) -> str | None:
     its own step), but what the file's time was used for does not (``check``'s noise prediction,
     the generated C monitor's filters), and a record decimated or stamped in the wrong unit looks
     just like this (a user trial: a record at 5 times the file's step, not a word)."""
-    given = getattr(model, "sampling_time", None)
+    given = model.sampling_time
     if not given or abs(meas.ts - given) <= SAMPLING_SLACK * given:
         return None
     return (f"the record is sampled every {meas.ts:g} s, the model file's data.sampling_time is {given:g} s: the "

@@ -41,7 +41,7 @@ monitor reads every sample as recorded (its filters carry state from block to bl
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Mapping
 
 import numpy as np
@@ -160,9 +160,14 @@ def _times(x: float) -> str:
     return f"{x:.3g}" if x < 1e300 else "over 1e+300"
 
 
-def note(found: Found, units: Mapping[str, str] | None = None, advice: str = KEEP) -> str | None:
+def note(found: Found, units: Mapping[str, str] | None = None, advice: str = KEEP, kept: bool = False) -> str | None:
     """The report's words for what was found and done (None: nothing found); ``advice`` ends the
-    spikes' sentence (how to read them as recorded instead)."""
+    spikes' sentence (how to read them as recorded instead); ``kept``: the spikes were read as
+    recorded (named with their times only)."""
+    if kept:
+        return (f"{len(found.spikes)} one-sample spike(s) read as recorded: "
+                + ", ".join(f"{s.column} at {s.time:.6g} s" for s in found.spikes[:SHOWN])
+                + (" and more" if len(found.spikes) > SHOWN else "")) if found.spikes else None
     parts = []
     if found.spikes:
         shown = [f"{s.column} at {s.time:.6g} s ({s.size:+.4g}{' ' + units[s.column] if units and units.get(s.column) else ''}, "
@@ -181,8 +186,6 @@ def despiked(model, meas, keep: bool = False, advice: str = KEEP):
     """``meas`` (:class:`fdi.data.Measurements`) with the one-sample spikes of its sensor columns
     read as their neighbours' mean (none with ``keep``), and the note that says what was found
     (None when nothing was). A column is a sensor's when its signal reads it (``sensors``)."""
-    from dataclasses import replace
-
     from .data import _signal_functions      # each sensor's columns, without sympy (a compiled model carries them)
     functions = _signal_functions(model)
     noise, resolution, units, names = {}, {}, {}, []
@@ -194,12 +197,6 @@ def despiked(model, meas, keep: bool = False, advice: str = KEEP):
                 if c == s.name:             # the sensor's own column: its unit
                     units[c] = s.unit
     found = search(meas.t, {c: meas.columns[c] for c in names}, noise, resolution)
-    if keep:
-        if not found.spikes:
-            return meas, None
-        return meas, (f"{len(found.spikes)} one-sample spike(s) read as recorded: "
-                      + ", ".join(f"{s.column} at {s.time:.6g} s" for s in found.spikes[:SHOWN])
-                      + (" and more" if len(found.spikes) > SHOWN else ""))
-    if found.spikes:
+    if found.spikes and not keep:
         meas = replace(meas, columns={**meas.columns, **repaired(meas.columns, found.spikes)})
-    return meas, note(found, units, advice)
+    return meas, note(found, units, advice, kept=keep)

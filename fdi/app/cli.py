@@ -1189,6 +1189,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="print a JSON summary of the run on standard output (the CSV goes to -o FILE)")
     s.set_defaults(func=cmd_simulate)
 
+    def keep_spikes_option(p: argparse.ArgumentParser) -> None:      # diagnose and evaluate (not the stream)
+        p.add_argument("--keep-spikes", action="store_true",
+                       help="read one-sample spikes of the sensor columns as recorded (default: each read as the "
+                            "mean of its neighbours, and named in the note; fdi.spikes)")
+
     def diagnosis_options(p: argparse.ArgumentParser) -> None:
         p.add_argument("--threshold", action="append", type=pair(0, strict=True), metavar="ARRk=VALUE",
                        help="override a threshold (VALUE > 0)")
@@ -1234,9 +1239,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--fail-on-fault", action="store_true",
                    help="exit with status 3 when a fault is diagnosed in any file (for scripts and CI)")
     diagnosis_options(d)
-    d.add_argument("--keep-spikes", action="store_true",
-                   help="read one-sample spikes of the sensor columns as recorded (default: each read as the mean "
-                        "of its neighbours, and named in the note; fdi.spikes)")
+    keep_spikes_option(d)
     d.set_defaults(func=cmd_diagnose)
 
     cal = sub.add_parser("calibrate", help="thresholds from fault-free runs, each residual with its unit")
@@ -1262,9 +1265,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="scenarios evaluated at once, one process each, their estimators in it (default 1); "
                          "the scores are the same")
     diagnosis_options(ev)
-    ev.add_argument("--keep-spikes", action="store_true",
-                   help="read one-sample spikes of the sensor columns as recorded (default: each read as the mean "
-                        "of its neighbours, and named in the note; fdi.spikes)")
+    keep_spikes_option(ev)
     ev.set_defaults(func=cmd_evaluate)
 
     mon = sub.add_parser("monitor", help="watch a measurement stream: JSON-lines events as the samples arrive")

@@ -344,18 +344,12 @@ def _quick_start():
         yield
         return
     with _POLL_LOCK:                     # clusters starting at once in threads: dask's value saved by the first
-        if not _POLL_SAVED:
-            old = WorkerProcess.__dict__.get("_init_msg_interval")
-            if not isinstance(old, (int, float)):
-                old = None
-            else:
-                _POLL_SAVED.append(old)
-        if _POLL_SAVED:
+        if not _POLL_SAVED and isinstance(dask_value := WorkerProcess.__dict__.get("_init_msg_interval"), (int, float)):
+            _POLL_SAVED.append(dask_value)
+        quick = bool(_POLL_SAVED)
+        if quick:
             _POLL_SAVED.append(None)     # one entry per cluster starting (the first is dask's value)
             WorkerProcess._init_msg_interval = min(_POLL_SAVED[0], INIT_POLL_S)
-            quick = True
-        else:
-            quick = False
     try:
         yield
     finally:
