@@ -32,7 +32,7 @@ from .objective import nominal, window
 from .options import MIN_WINDOW_S, Options, check_samples
 from .prognose import prognose
 from .residuals import designed_gaps, evaluate, mode_breaks
-from .scales import check_derivative_window
+from .scales import STARTUP_DECAYS, check_derivative_window
 from .results import Alternative, Diagnosis, Isolation, ModeFault, Prognosis, faults_of
 from .sensitivity import effective, weak_entries
 from .signatures import mode_fault_name, nominal_mode
@@ -170,7 +170,8 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     w = config.derivative_window
     check_samples(o.samples, meas.ts, min_period=sc.min_period)
     meas, spiked = despiked(model, meas, o.keep_spikes)
-    read = "; ".join(n for n in (spiked, sampled_otherwise(model, meas)) if n) or None
+    settle = settling(o.settle, sc.settle)
+    read = "; ".join(n for n in (spiked, sampled_otherwise(model, meas), started_late(meas, sc, o.settle)) if n) or None
     raw = signals_from_data(model, meas)
     check_derivative_window(model, w, meas.ts, meas.path)
     need = window_samples(w, meas.ts, DEFAULT_ORDER) + 1
@@ -184,8 +185,7 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     wait = config.waiting_time if o.waiting_time is None else o.waiting_time
     samples = o.samples or max(config.samples, sc.min_samples())     # N ts covers the shortest period
     weights = 1.0 / thresholds if o.weights == "thresholds" else np.ones(len(monitor.names))
-    return Prepared(monitor, sc, meas, raw, thresholds, wait, samples, settling(o.settle, sc.settle), weights, o,
-                    read)
+    return Prepared(monitor, sc, meas, raw, thresholds, wait, samples, settle, weights, o, read)
 
 
 SAMPLING_SLACK = 0.01   # a record's step this far (relative) from the file's data.sampling_time is named
@@ -203,6 +203,28 @@ def sampled_otherwise(model, meas: Measurements) -> str | None:
     return (f"the record is sampled every {meas.ts:g} s, the model file's data.sampling_time is {given:g} s: the "
             f"diagnosis follows the record; check's noise prediction and generated code follow the file (set it to "
             f"{meas.ts:g} if the record is right)")
+
+
+LATE_SHARE = 0.05       # a start-up settling that leaves this share of the record unjudged is named
+
+
+def started_late(meas: Measurements, sc: "Scales", given: float | None) -> str | None:
+    """The note when detection starts late for the model's own reason: the start-up settling
+    (:func:`fdi.scales.settle`: 7 decay times of the modes the derivative window cannot follow,
+    longer than the filter's half window) leaves 5 % of the record or more unjudged. A fault that
+    begins there is seen only as long as it lasts, and the onset estimated for one present from the
+    start is the settling's end, so the report says where judging began and what would move it (a
+    user trial: the first 3.5 s of a 10 s record skipped without a word). None when ``--settle``
+    (``given``) set it as long or longer: the user chose it."""
+    if sc.settle <= sc.window / 2 * (1 + 1e-9) or (given is not None and given >= sc.settle):
+        return None
+    span = float(meas.t[-1] - meas.t[0])
+    if span <= 0 or sc.settle < LATE_SHARE * span:
+        return None
+    return (f"detection starts {sc.settle:.3g} s after the data start ({sc.settle / span:.0%} of the record): 7 decay times "
+            f"({sc.settle / STARTUP_DECAYS:.3g} s each) of the modes the {sc.window:.3g} s derivative window cannot "
+            f"differentiate, whose start-up transient would read as a fault; a fault before then is seen only as it "
+            f"lasts (a shorter diagnosis.derivative_window in the model file starts it sooner)")
 
 
 def blind(p: Prepared, r: np.ndarray) -> str | None:
