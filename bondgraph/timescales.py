@@ -34,6 +34,8 @@ from .model import Model
 
 MAX_MODE_COMBINATIONS = 16
 POINTS = 7          # operating points per mode: the model's initial state and six drawn around it
+GROWTH = 1e-6       # an eigenvalue's real part above this share of the largest |lambda| grows (not a
+                    # finite difference's error: every shipped and test model's stays under 1e-9 of it)
 
 
 @dataclass(frozen=True)
@@ -45,6 +47,7 @@ class TimeScales:
     slowest: float
     eigenvalues: tuple[complex, ...] = ()
     notes: tuple[str, ...] = ()
+    growing: tuple[tuple[tuple[tuple[str, int], ...], complex], ...] = ()   # (mode, eigenvalue): see growth_notes
 
     @property
     def known(self) -> bool:
@@ -78,6 +81,7 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
     model = _inputs_held(model)
     eigs: list[complex] = []
     notes: list[str] = []
+    growing: list[tuple[tuple[tuple[str, int], ...], complex]] = []
     fastest: list[float] = []
     slowest: list[float] = []
     for mode in modes or [{m: model.modes[m].nominal for m in model.modes}]:
@@ -111,6 +115,10 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
                 break
             lam = [complex(v) for v in lam if np.isfinite(v)]
             eigs += lam
+            if k == 0 and lam:              # at the initial state itself: does the plant grow there?
+                top = max(lam, key=lambda v: v.real)
+                if top.real > GROWTH * max(abs(v) for v in lam):
+                    growing.append((tuple(sorted((str(n), int(v)) for n, v in mode.items())), top))
             mags = [abs(v) for v in lam if abs(v) > 1e-12]
             if mags:
                 fastest_here.append(1.0 / max(mags))
@@ -123,8 +131,30 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
             fastest.append(float(np.median(fastest_here)))
             slowest.append(float(np.median(slowest_here)))
     if not fastest:
-        return TimeScales(math.inf, math.inf, tuple(eigs), tuple(notes))
-    return TimeScales(min(fastest), max(slowest), tuple(eigs), tuple(notes))
+        return TimeScales(math.inf, math.inf, tuple(eigs), tuple(notes), tuple(growing))
+    return TimeScales(min(fastest), max(slowest), tuple(eigs), tuple(notes), tuple(growing))
+
+
+def growth_notes(scales: TimeScales) -> list[str]:
+    """What ``check`` says of the modes in which the state equations, linearised at the model's
+    initial state, have an eigenvalue with a positive real part: a disturbance there grows instead
+    of decaying. A passive plant (springs, masses, capacitors, tanks, resistors of positive values)
+    cannot; a storage law whose parameter has the wrong sign can (a gas spring with a negative
+    volume: every check passed, and a diagnosis read nominal data as a precharge fault). Some
+    plants are unstable (an inverted pendulum): their residuals still hold, so this is a note.
+
+    >>> growth_notes(TimeScales(0.016, 0.016, growing=(((), 61.8 + 0j),)))[0][:70]
+    'the state equations grow at the initial state (eigenvalue +61.8 1/s: a'
+    """
+    out = []
+    for mode, lam in scales.growing:
+        where = f"in mode {', '.join(f'{n}={v}' for n, v in mode)}, " if mode else ""
+        shown = f"{lam.real:+.3g}" + (f" {lam.imag:+.3g}j" if abs(lam.imag) > 1e-12 * abs(lam) else "")
+        out.append(f"{where}the state equations grow at the initial state (eigenvalue {shown} 1/s: a disturbance "
+                   f"doubles every {math.log(2) / lam.real:.3g} s; a passive plant's decays): a storage law's "
+                   f"parameter of the wrong sign (a negative volume, compliance, inertia or resistance) or a sign "
+                   f"in a law? (an unstable plant is possible: its residuals still hold)")
+    return out
 
 
 def _inputs_held(model: Model) -> Model:
@@ -199,7 +229,8 @@ def model_time_scales(model: Model) -> TimeScales:
     per_mode = [time_scales(model, [mode]) for mode in mode_combinations(model)]
     known = [s for s in per_mode if s.known] or per_mode
     scales = TimeScales(min(s.fastest for s in known), max(s.slowest for s in known),
-                        tuple(v for s in per_mode for v in s.eigenvalues), tuple(n for s in per_mode for n in s.notes))
+                        tuple(v for s in per_mode for v in s.eigenvalues), tuple(n for s in per_mode for n in s.notes),
+                        tuple(g for s in per_mode for g in s.growing))
     if len(_CACHE) > 32:
         _CACHE.clear()
     _CACHE[id(model)] = (model, scales)

@@ -7,6 +7,7 @@ import math
 from bondgraph.causality import DIAGNOSIS, SIMULATION, Causality, assign
 from bondgraph.errors import CausalityError
 from bondgraph.model import Model
+from bondgraph.timescales import growth_notes, model_time_scales
 
 from ..data import unread_columns
 from .progress import stage
@@ -96,7 +97,7 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
                       + noise_notes(model, arrs, predicted, window)),
             "noise": {"derivative_window": window, "by_residual": noise_json(predicted)} if predicted else None,
         },
-        "simulation": _causality(model, sim),
+        "simulation": {**_causality(model, sim), "growing": growth_notes(model_time_scales(model))},
         "monitor": _monitor(config),
         "verification": verification,
     }

@@ -298,11 +298,14 @@ def cmd_check(args: argparse.Namespace) -> int:
         model, config = load(args.model)         # the bond graph and the monitor settings both checked
     _print_summary(model, shown(args.model))
     arrs = _print_diagnostic_causality(model, args, config)
+    from bondgraph.timescales import growth_notes, model_time_scales
     sim = assign(model, SIMULATION)
+    with stage("time scales"):
+        growing = growth_notes(model_time_scales(model))
     print()
     print("causality for simulation (SCAP, integral causality preferred)")
     print("  storage: " + (", ".join(f"{k} {v}" for k, v in sim.storage.items()) or "none"))
-    for p in list(sim.problems) + list(sim.loops):
+    for p in list(sim.problems) + list(sim.loops) + growing:
         print(f"  note: {p}")
     return _print_verification(model, arrs, args) if args.verify else 0
 
