@@ -452,7 +452,12 @@ def _number(ctx: _Ctx, value: Any, where: tuple, what: str, *, infinite: bool = 
     resistance of a healthy part); at least ``minimum``, more than ``above``, at most ``maximum``."""
     number = None
     if isinstance(value, (int, float)) and not isinstance(value, bool):
-        number = float(value)
+        try:
+            number = float(value)
+        except OverflowError:           # an integer literal of over 308 digits (YAML reads it exactly)
+            raise ctx.error(where, f"{what} {str(value)[:12]}... ({len(str(abs(value)))} digits) is beyond the range "
+                                   f"of a double (1.8e308); give it in SI units as a float (1e300)"
+                                   f"{', or .inf for infinity' if infinite else ''}") from None
     elif isinstance(value, str):
         try:
             number = float(value)

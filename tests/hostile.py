@@ -94,6 +94,7 @@ CASES: list[tuple[str, dict, list[str], str]] = [
     ("controlled-junction-one-bond", *check(tank("  5: [Jv, J2]\n", "").replace("  4: [Jv, valve]\n", "")
                                             .replace("  valve:  {type: R, parameter: R12}\n", "")), "error"),
     ("value-overflow", *check(tank("value: 1.0e7,", "value: 1e999999,")), "error"),
+    ("value-integer-overflow", *check(tank("value: 1.0e7,", "value: 1" + "0" * 400 + ",")), "error"),
     ("value-nan", *check(tank("value: 1.0e7,", "value: .nan,")), "error"),
     ("value-string", *check(tank("value: 1.0e7,", "value: big,")), "error"),
     ("window-huge", *check(tank("derivative_window: 5.0", "derivative_window: 1e300")), "error"),
