@@ -138,7 +138,7 @@ def test_verbose_adds_stage_timings(capsys):
     assert all("(cache off)" in line or "read from" not in line for line in cache)    # the tests run it off
     stages = [re.match(r"\[ *[\d.]+ s\] (.+): [\d.]+ s$", line).group(1) for line in err if line not in cache]
     assert stages == ["load", "diagnostic causality (SCAPH)", "residual selection (derivative causality)",
-                      "noise predicted by mode"]
+                      "noise predicted by mode", "time scales"]
     assert main(["-v", "tables", str(CYCAB), "--json"]) == 0
     assert "signature matrices (4 mode(s))" in capsys.readouterr().err
 
