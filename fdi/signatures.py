@@ -25,7 +25,7 @@ from __future__ import annotations
 import html
 from dataclasses import dataclass
 from itertools import product
-from typing import TYPE_CHECKING, Mapping
+from typing import TYPE_CHECKING, Mapping, Sequence
 
 from bondgraph.model import Model
 
@@ -128,6 +128,30 @@ def fault_signature_matrix(model: Model, arrs: list[ARR], mode: Mapping[str, int
                         for st, e in zip(structural, exprs))
         rows.append(FaultRow(fault.name, structural, numeric))
     return FSM(mode, tuple(a.name for a in arrs), tuple(rows))
+
+
+def over_modes(fsms: Sequence[FSM]) -> FSM:
+    """The signatures over several modes a record went through: a fault enters a residual if it
+    does in any of them (each row's entries OR-ed; the mode is the first's). A later decision's
+    coherence vector gathers residuals lit in different modes: a sensor offset that a pump line's
+    residual reads only while the check valve conducts lit it when the pump started, and the FSM of
+    the mode at t_D (valve shut) left that residual to another fault (a trial's accumulator: a
+    spurious pump leak beside the right offset).
+
+    >>> a = FSM({"c": 0}, ("ARR1", "ARR2"), (FaultRow("bias", (0, 1), (0, 1)),))
+    >>> b = FSM({"c": 1}, ("ARR1", "ARR2"), (FaultRow("bias", (1, 1), (1, 1)),))
+    >>> over_modes([a, b]).row("bias").structural, over_modes([a]) is a
+    ((1, 1), True)
+    """
+    if len(fsms) == 1:
+        return fsms[0]
+    first = fsms[0]
+    rows = []
+    for row in first.rows:
+        others = [f.row(row.fault) for f in fsms[1:]]
+        rows.append(FaultRow(row.fault, tuple(int(any(x)) for x in zip(row.structural, *(o.structural for o in others))),
+                             tuple(int(any(x)) for x in zip(row.nominal, *(o.nominal for o in others)))))
+    return FSM(first.mode, first.columns, tuple(rows))
 
 
 def _safe_subs(expr: sp.Expr, values: Mapping[sp.Symbol, sp.Expr]) -> sp.Expr:
