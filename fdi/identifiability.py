@@ -80,9 +80,12 @@ def read_together(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol, constant
     separates them); the parameters are drawn too (positive), not taken at their nominal values: a
     leak's infinite resistance has no value to put there.
 
-    Not found: a pair the residual reads as a quotient with a sensor's gain (i/beta_i against
-    (u - v)/R, where the data determine beta_i/R only): there the ratio is one value only where
-    the residual vanishes, not at every point of the signals."""
+    The ratio is compared where the residual vanishes, which is where data are: a residual that
+    reads a signal linearly (most do: a sensor's reading over its gain) has that signal solved from
+    r = 0 at each point (:func:`_zero_set`), the others drawn. A pair read as a quotient with a
+    sensor's gain (a load cell F/beta_F against the load's mass, F/beta_F - m_L (g + z''): the
+    data determine beta_F m_L only) has one ratio there and not elsewhere (a trial's hoist: a
+    heavier load diagnosed as a load cell's gain, the margin "clear", no alternative named)."""
     rng = random.Random(seed)
     constants = set(constants)
     exprs = list(exprs)
@@ -95,11 +98,18 @@ def read_together(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol, constant
         da, db = sp.diff(e, a), sp.diff(e, b)
         if da == 0 or db == 0:
             return False
-        signals = sorted((set(_signals(da)) | set(_signals(db)) | da.free_symbols | db.free_symbols) - set(base),
+        x, solved = _zero_set(e)
+        signals = sorted((set(_signals(e)) | set(_signals(da)) | set(_signals(db)) | e.free_symbols | da.free_symbols
+                          | db.free_symbols) - set(base) - {x},
                          key=sp.default_sort_key)      # with the mode variables: any symbol not drawn once
         for k in range(DRAWS):        # all signals positive, all negative, then signs at random
             signs = [1 if k == 0 else -1 if k == 1 else rng.choice((-1, 1)) for _ in signals]
             point = {**base, **{s: sp.Float(sign * rng.uniform(0.2, 1.0)) for s, sign in zip(signals, signs)}}
+            if x is not None:
+                value = _value(solved, point)
+                if value is None or abs(value.imag) > TOL * max(1.0, abs(value)):
+                    return False
+                point[x] = sp.Float(value.real)
             num, den = _value(da, point), _value(db, point)
             if num is None or den is None or den == 0:
                 return False
@@ -112,16 +122,50 @@ def read_together(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol, constant
     return seen
 
 
+def _zero_set(e: sp.Expr) -> tuple[sp.Expr | None, sp.Expr | None]:
+    """A signal ``e`` reads linearly and its value where ``e`` vanishes (the others free): the
+    residual's zero set, where data from the model lie. (None, None) when ``e`` reads no signal
+    linearly (the ratio is then compared at free points, as the zero set is not parameterised).
+
+    >>> t, m, bF, g = sp.Symbol("t"), *sp.symbols("m_L beta_F g")
+    >>> F, z = sp.Function("F")(t), sp.Function("z")(t)
+    >>> _zero_set(F / bF - m * (g + z.diff(t, 2)))
+    (F(t), beta_F*m_L*(g + Derivative(z(t), (t, 2))))
+    """
+    for x in _signals(e):
+        if not (isinstance(x, sp.core.function.AppliedUndef)
+                or isinstance(x, sp.Derivative) and isinstance(x.expr, sp.core.function.AppliedUndef)):
+            continue                      # time itself, or the rate of an expression (d/dt(C Q^2/Kv^2)) as written
+        slope = sp.diff(e, x)
+        if slope == 0 or x in slope.free_symbols or slope.has(x) or sp.count_ops(e) > MAX_OPS:
+            continue
+        rest = e.xreplace({x: sp.Integer(0)})
+        if rest.has(x):
+            continue
+        return x, -rest / slope
+    return None, None
+
+
 def ratio(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol) -> sp.Expr | None:
-    """dr/da / dr/db of the first residual of ``exprs`` that reads ``a``, simplified (sympy's
-    ``cancel``) when its derivatives are small (``MAX_OPS``), else None. For pairs
-    :func:`read_together` found: the ratio is then the same in every residual."""
+    """dr/da / dr/db of the first residual of ``exprs`` that reads ``a``, on its zero set
+    (:func:`_zero_set`: the signal it reads linearly replaced by its value there), simplified
+    (sympy's ``cancel``) when its derivatives are small (``MAX_OPS``), else None. For pairs
+    :func:`read_together` found: the ratio is then the same in every residual.
+
+    >>> t, m, bF, g = sp.Symbol("t"), *sp.symbols("m_L beta_F g")
+    >>> F, z = sp.Function("F")(t), sp.Function("z")(t)
+    >>> hoist = [F / bF - m * (g + z.diff(t, 2))]
+    >>> read_together(hoist, m, bF, {"m_L", "beta_F", "g"}), ratio(hoist, m, bF)
+    (True, beta_F/m_L)
+    """
     for e in exprs:
         if a in e.free_symbols:
             da, db = sp.diff(e, a), sp.diff(e, b)
             if sp.count_ops(da) + sp.count_ops(db) > MAX_OPS:
                 return None
-            return sp.cancel(da / db)
+            x, solved = _zero_set(e)
+            slope = da / db if x is None else (da / db).xreplace({x: solved})
+            return sp.cancel(slope)
     return None
 
 

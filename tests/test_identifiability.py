@@ -255,3 +255,17 @@ def test_a_rul_checkpoint_refits_the_design_where_the_report_named_its_partner(m
         else:
             assert refitted == [] and all(p["rul"] is None for p in points)
             assert all(p["note"] == "the fault is not diagnosed incipient at this point" for p in points)
+
+
+def test_a_source_gain_and_a_sensor_gain_read_as_a_product_where_the_residual_vanishes():
+    """By hand (tests/data/cstr.yaml): the reactor's balance beta_F F = (V c' + c/Rrx + c/Rout)/beta_c
+    holds on the data for every pair with the same beta_F beta_c (a feed 10 % high makes the
+    concentration 10 % high in this linear plant, which a 10 % high analyser also shows): only the
+    product is read. Compared at free points of the signals, the ratio of the partial derivatives,
+    -F beta_c^2 / (V c' + c/Rrx + c/Rout), moves with them, and the pair was not named."""
+    pairs = {frozenset(c.faults): c for c in compiled(str(DATA / "cstr.yaml")).coinciding}
+    pair = pairs[frozenset({"feed_meter", "analyser"})]
+    names = dict(zip(pair.faults, pair.symbols))
+    feed, analyser = names["feed_meter"], names["analyser"]
+    assert _function_of(pair.combination, (feed, analyser), sp.Symbol(feed) * sp.Symbol(analyser))
+    assert frozenset({"catalyst", "holdup"}) not in pairs          # Rrx and V: separated by c' (by hand)
