@@ -29,7 +29,7 @@ from .estimators import (Estimators, Search, date_onsets, evidence_onsets, evide
 from .ingest import measurements
 from .isolate import COVERING_NOTE, candidate_sets, fitted_sets, new_mode_changes, pruned_sets, relaxed_sets, suspected_mode_changes
 from .mode_estimation import estimate_mode, mode_variable
-from .objective import nominal, window
+from .objective import fault_space, nominal, window
 from .options import MIN_WINDOW_S, Options, check_samples
 from .prognose import prognose
 from .residuals import designed_gaps, evaluate, mode_breaks
@@ -638,7 +638,37 @@ def significance(p: Prepared, d: Diagnosis, now: float) -> Diagnosis:
     start, span = since_detection(p.meas.t, d.detection.time, now, p.samples, MAX_GROWTH)
     kept, dropped = significant(p.monitor, p.meas, p.raw, start, span, [f.to_dict() for f in d.faults], p.weights,
                                 p.modes)
-    return replace(d, faults=faults_of(kept), insignificant=dropped) if dropped else d
+    d = replace(d, faults=faults_of(kept), insignificant=dropped) if dropped else d
+    pinned = at_bounds(p, d.faults)
+    return replace(d, note=f"{d.note}; {pinned}" if d.note else pinned) if pinned else d
+
+
+BOUND_SLACK = 1e-3      # a value within this share of its search range (of its decades, on a log range) is at a bound
+
+
+def at_bounds(p: Prepared, faults) -> str | None:
+    """The note naming the final faults whose value (abrupt, intermittent) sits at a bound of its
+    search (:func:`fdi.objective.fault_space`): the data asked for a value the search did not
+    allow, so the number is the bound, not a measurement, and the fault may be another one (a
+    trial: a block of readings at 1e300 diagnosed as a cable stiffness and a load cell's gain,
+    each at its bound; a pump leak intermittent at its bound beside a transducer's offset)."""
+    out = []
+    for f in faults:
+        if f.type not in ("abrupt", "intermittent") or f.value is None or f.name not in p.monitor.model.faults:
+            continue
+        try:
+            space = fault_space(p.monitor.model, f.name, config=p.monitor.config)
+        except ModelError:
+            continue
+        lo, hi = space.bounds
+        where = ((np.log10(f.value) - np.log10(lo)) / (np.log10(hi) - np.log10(lo)) if space.log and f.value > 0
+                 else (f.value - lo) / (hi - lo) if hi > lo else 0.5)
+        side = "lower" if where <= BOUND_SLACK else "upper" if where >= 1 - BOUND_SLACK else None
+        if side:
+            out.append(f"{f.name}'s value {f.value:.5g} is the {side} bound of its search [{lo:g}, {hi:g}]: the data "
+                       f"asked for a value beyond it, so it is not a measurement (widen faults.{f.name}.bounds in the "
+                       f"model if the value is plausible, or suspect another fault)")
+    return "; ".join(out) or None
 
 
 def prognoses(p: Prepared, d: Diagnosis, now: float, clock: Clock) -> Diagnosis:

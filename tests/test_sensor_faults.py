@@ -125,3 +125,20 @@ def test_lack_of_fit_widens_to_covering_sets_but_a_stuck_sensor_is_never_fitted(
     fitted = [tuple(e["candidate"]) for e in report["estimators"]]
     assert ("RL",) in fitted and ("beta_v",) in fitted and ("bias_v",) in fitted
     assert not any("stuck_v" in c for c in fitted) and ["stuck_v"] not in report["candidates"]
+
+
+def test_an_offset_beyond_its_search_bounds_is_named_as_the_bound_not_a_measurement():
+    """Designed truth: the voltage sensor reads 3 V high from 3 s, past the model's bounds for the
+    offset, [-2, 2] V. Whatever the search settles on, a value pinned at a bound of its search is
+    the bound, and the report says so (the earlier 0.3 V offset's report says nothing of bounds)."""
+    data = circuit(6.0, seed=1, bias=(3.0, 3.0))
+    report = diagnose(str(MODEL), Measurements("big offset", data["t"], data),
+                      Options(workers=1, seed=0, thresholds=thresholds())).to_dict()
+    faults = report["diagnosis"]["faults"]
+    pinned = [f for f in faults if f["name"] == "bias_v"]
+    assert pinned and pinned[0]["value"] == pytest.approx(2.0, rel=1e-3)
+    assert "bias_v's value 2 is the upper bound of its search [-2, 2]" in report["note"]
+    small = circuit(6.0, seed=1, bias=(3.0, 0.3))
+    quiet = diagnose(str(MODEL), Measurements("offset", small["t"], small), Options(workers=1, seed=0,
+                                                                                    thresholds=thresholds()))
+    assert quiet.note is None or "bound of its search" not in quiet.note
