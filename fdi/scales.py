@@ -244,6 +244,13 @@ def check_derivative_window(model: Model, window: float | None, ts: float, data:
     sample of the record ``data``: the filter would be widened to its least (5 samples), a window the
     thresholds were not set for (1e-300 s gave a false fault). diagnose and calibrate ask alike."""
     if window is not None and window < ts:
+        given = model.sampling_time
+        if given and ts > 1.01 * given:     # the record, not the file, is likely wrong: name the record
+            from .data import DataError
+            raise DataError(f"{data}: sampled every {ts:g} s, {ts / given:.4g} times the model file's data.sampling_time "
+                            f"({given:g} s) and longer than its derivative window ({window:g} s): are the time stamps "
+                            f"in another unit (ms for s)? Time is in seconds (SI); if the record is right, give the "
+                            f"model a window of a few of its samples (diagnosis.derivative_window: {5 * ts:g})")
         raise ModelError(f"{window:g} s is shorter than one sample of {data} ({ts:g} s): the derivatives would be "
                          "a 5-sample filter the thresholds were not set for; give at least a few samples "
                          f"({5 * ts:g} s), or leave it out (bgfdi calibrate --window auto chooses one)",

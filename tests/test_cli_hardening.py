@@ -355,3 +355,18 @@ def test_the_models_thresholds_name_only_its_residuals_and_monitor_says_so_in_on
             assert main(command) == 2
             err = capsys.readouterr().err.strip()
             assert err.startswith(f"bgfdi: error: {model}: thresholds: ") and said in err and "\n" not in err
+
+
+def test_a_record_stamped_in_milliseconds_is_named_not_the_model(tmp_path, capsys):
+    """A record whose step is 1000 times the model file's sampling time and longer than its derivative
+    window: the record is the likely mistake (ms for s), so the one line names it (a trial: the
+    message blamed the model's window)."""
+    rows = ["t,u,i,v"] + [f"{k},{5.0:.3f},{0.01:.4f},{3.3:.3f}" for k in range(400)]     # t in ms
+    csv = tmp_path / "ms.csv"
+    csv.write_text("\n".join(rows) + "\n")
+    code = main(["diagnose", str(ROOT / "tests" / "data" / "rc_two_sensors.yaml"), str(csv), "--threshold", "ARR1=1",
+                 "--threshold", "ARR2=1", "--workers", "1"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1
+    assert err[0].startswith(f"bgfdi: error: {csv}: sampled every 1 s, 1000 times the model file's data.sampling_time")
+    assert "ms for s" in err[0]
