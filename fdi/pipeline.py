@@ -172,7 +172,8 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     check_samples(o.samples, meas.ts, min_period=sc.min_period)
     meas, spiked = despiked(model, meas, o.keep_spikes)
     settle = settling(o.settle, sc.settle)
-    read = "; ".join(n for n in (spiked, sampled_otherwise(model, meas), started_late(meas, sc, o.settle)) if n) or None
+    read = "; ".join(n for n in (spiked, sampled_otherwise(model, meas), commands_read(model, meas),
+                                 started_late(meas, sc, o.settle)) if n) or None
     raw = signals_from_data(model, meas)
     check_derivative_window(model, w, meas.ts, meas.path)
     need = window_samples(w, meas.ts, DEFAULT_ORDER) + 1
@@ -204,6 +205,25 @@ def sampled_otherwise(model, meas: Measurements) -> str | None:
     return (f"the record is sampled every {meas.ts:g} s, the model file's data.sampling_time is {given:g} s: the "
             f"diagnosis follows the record; check's noise prediction and generated code follow the file (set it to "
             f"{meas.ts:g} if the record is right)")
+
+
+def commands_read(model, meas: Measurements) -> str | None:
+    """The note when a mode's command column holds values other than 0 and 1: each sample is read
+    as 1 from 0.5 up, 0 below (docs/model-format.md), which a column of 0 and 2, of percent or of a
+    valve's opening in between reads without a word otherwise (a trial: a brake column of 2 and of
+    0.5 read as engaged, silently)."""
+    out = []
+    for m in model.modes.values():
+        if not m.column or m.column not in meas.columns:
+            continue
+        x = np.asarray(meas.columns[m.column], dtype=float)
+        odd = np.flatnonzero(np.isfinite(x) & (x != 0.0) & (x != 1.0))
+        if odd.size:
+            k = int(odd[0])
+            out.append(f"column {m.column} (mode {m.name}) holds values other than 0 and 1 ({odd.size} sample(s), the "
+                       f"first {x[k]:g} at {meas.t[k]:g} s): each is read as 1 from 0.5 up and 0 below; write the "
+                       f"mode as 0 or 1 if that is not what it means")
+    return "; ".join(out) or None
 
 
 LATE_SHARE = 0.05       # a start-up settling that leaves this share of the record unjudged is named
