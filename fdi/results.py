@@ -98,14 +98,17 @@ class Fault:
         return out
 
     def describe(self) -> str:
-        """The fault in words, as the text report and the notebook table show it."""
+        """The fault in words, as the text report and the notebook table show it (with its onset:
+        a trial's user found it only in the JSON)."""
+        since = f", from {self.t0:.6g} s" if self.t0 is not None else ""
         if self.type == "abrupt":
-            return f"{self.name}: abrupt, value {self.value:.5g}"
+            return f"{self.name}: abrupt, value {self.value:.5g}{since}"
         if self.type == "intermittent":
-            return f"{self.name}: intermittent, value {self.value:.5g}, period {self.period:.4g} s"
+            return f"{self.name}: intermittent, value {self.value:.5g}, period {self.period:.4g} s{since}"
         if self.type == "incipient":
             b = ", ".join(f"{x:.5g}" for x in self.b)
-            return f"{self.name}: incipient, model {self.model} (eq. {15 + self.model}, eta {_vec(self.eta)}), b = [{b}]"
+            return (f"{self.name}: incipient, model {self.model} (eq. {15 + self.model}, eta {_vec(self.eta)}), "
+                    f"b = [{b}]{since}")
         if self.type == "stuck":
             return f"{self.name}: stuck at {self.value:.5g} from {self.t0:.4g} s"
         return f"{self.name}: fault mode ({self.name} = {self.value if self.value is not None else 0})"
