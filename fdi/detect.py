@@ -192,11 +192,35 @@ def coherence_over_time(residuals: np.ndarray, t: np.ndarray, thresholds: np.nda
     return alarms(residuals, t, thresholds, settle, edge, persistence, span).latched(t.size).astype(int)
 
 
-def thresholds_for(model_thresholds: Mapping[str, float], names: list[str], overrides: Mapping[str, float] | None = None) -> np.ndarray:
+def stray_thresholds(model_thresholds: Mapping[str, float], names: list[str]) -> str | None:
+    """The message for thresholds that name no residual of the model (a residual renamed or gone
+    since calibrate wrote them: ignored, a threshold would be lost silently); None when every one
+    names a residual. ``check`` refuses them as ``diagnose`` does.
+
+    >>> stray_thresholds({"ARR1": 1.0, "ARR9": 2.0}, ["ARR1", "ARR2"])[:40]
+    'ARR9 name(s) no residual of the model (i'
+    """
     stray = [n for n in model_thresholds if n not in names]
-    if stray:          # a residual renamed or gone since calibrate wrote them: ignored, a threshold is lost silently
-        raise ValueError(f"{', '.join(map(str, stray))} name(s) no residual of the model (its residuals: "
-                         f"{', '.join(names)}); correct or remove them, or run bgfdi calibrate again")
+    if not stray:
+        return None
+    return (f"{', '.join(map(str, stray))} name(s) no residual of the model (its residuals: "
+            f"{', '.join(names)}); correct or remove them, or run bgfdi calibrate again")
+
+
+def missing_thresholds(model_thresholds: Mapping[str, float], names: list[str]) -> str | None:
+    """``check``'s note for residuals the file gives no threshold (``diagnose`` refuses to run
+    without one for each, unless --threshold gives it)."""
+    missing = [n for n in names if n not in model_thresholds]
+    if not missing:
+        return None
+    return (f"no threshold for {', '.join(missing)} in the file: diagnose needs one for each residual (bgfdi "
+            f"calibrate learns them from fault-free runs; --threshold gives one for a run)")
+
+
+def thresholds_for(model_thresholds: Mapping[str, float], names: list[str], overrides: Mapping[str, float] | None = None) -> np.ndarray:
+    stray = stray_thresholds(model_thresholds, names)
+    if stray:
+        raise ValueError(stray)
     loose = [n for n in (overrides or {}) if n not in names]
     if loose:          # the options' (the command line checks its own --threshold names first)
         raise UsageError(f"thresholds: {', '.join(map(str, loose))} name(s) no residual of the model (its residuals: "

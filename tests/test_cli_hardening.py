@@ -370,3 +370,21 @@ def test_a_record_stamped_in_milliseconds_is_named_not_the_model(tmp_path, capsy
     assert code == 2 and len(err) == 1
     assert err[0].startswith(f"bgfdi: error: {csv}: sampled every 1 s, 1000 times the model file's data.sampling_time")
     assert "ms for s" in err[0]
+
+
+def test_check_refuses_a_threshold_for_no_residual_and_names_residuals_without_one(tmp_path, capsys):
+    """What diagnose refuses, check refuses (a trial: check passed a threshold for ARR9 of a model
+    with five residuals, diagnose then stopped); residuals without a threshold are a note (a model
+    before calibration is valid)."""
+    text = (ROOT / "tests" / "data" / "rc_two_sensors.yaml").read_text()
+    stray = tmp_path / "stray.yaml"
+    stray.write_text(text + "thresholds: {ARR1: 1.0, ARR9: 2.0}\n")
+    assert main(["check", str(stray)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "thresholds: ARR9 name(s) no residual of the model (its residuals: ARR1, ARR2)" in err[0]
+    assert main(["check", str(stray), "--json"]) == 2
+    capsys.readouterr()
+    half = tmp_path / "half.yaml"
+    half.write_text(text + "thresholds: {ARR1: 1.0}\n")
+    assert main(["check", str(half)]) == 0
+    assert "note: no threshold for ARR2 in the file" in capsys.readouterr().out

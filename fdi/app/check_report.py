@@ -63,8 +63,15 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
         raise CausalityError(bad)
     with stage("simulation causality (SCAP)"):
         sim = assign(model, SIMULATION)
-    window, predicted = None, {}
+    window, predicted, missing = None, {}, None
     if causality == "derivative":
+        from bondgraph.errors import ModelError
+
+        from ..detect import missing_thresholds, stray_thresholds
+        names = [a.name for a in arrs]
+        if (stray := stray_thresholds(config.thresholds, names)) is not None:
+            raise ModelError(stray, file=model.path, where="thresholds")
+        missing = missing_thresholds(config.thresholds, names)
         with stage("noise predicted by mode"):
             window, predicted = predicted_for(model, config, arrs)
     verification = None
@@ -94,7 +101,7 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
             "msos": chosen.msos if not diag.ok else None,
             "arrs": [{"name": a.name, "origin": a.origin, "sensor": a.sensor, "junction": a.junction} for a in arrs],
             "notes": (list(chosen.notes) + unit_clash_notes(model, arrs) + mixed_unit_notes(model, arrs)
-                      + noise_notes(model, arrs, predicted, window)),
+                      + noise_notes(model, arrs, predicted, window) + ([missing] if missing else [])),
             "noise": {"derivative_window": window, "by_residual": noise_json(predicted)} if predicted else None,
         },
         "simulation": {**_causality(model, sim), "growing": growth_notes(model_time_scales(model))},

@@ -403,6 +403,12 @@ def _print_diagnostic_causality(model: Model, args: argparse.Namespace, config) 
     for note in unit_clash_notes(model, arrs) + mixed_unit_notes(model, arrs):
         print(f"  note: {note}")
     if args.causality == "derivative":
+        from ..detect import missing_thresholds, stray_thresholds
+        names = [a.name for a in arrs]
+        if (stray := stray_thresholds(config.thresholds, names)) is not None:
+            raise ModelError(stray, file=model.path, where="thresholds")
+        if (missing := missing_thresholds(config.thresholds, names)) is not None:
+            print(f"  note: {missing}")
         with stage("noise predicted by mode"):
             window, predicted = predicted_for(model, config, arrs)
         for note in noise_notes(model, arrs, predicted, window):
