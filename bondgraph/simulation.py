@@ -47,7 +47,14 @@ from .timescales import model_integration_step
 
 
 class SimulationError(Exception):
-    """The model cannot be simulated as given (the message says why and what to change)."""
+    """The model cannot be simulated as given (the message says why and what to change).
+    ``where``: the model file's key at fault when the model itself is the cause (an input without
+    an expression, an algebraic loop: ``"elements"``), None when the run is (its span, its values):
+    a caller names the model file or the scenario accordingly."""
+
+    def __init__(self, message: str, where: str | None = None) -> None:
+        super().__init__(message)
+        self.where = where
 
 
 @dataclass
@@ -163,7 +170,7 @@ def _known_values(spec: Model, opened: frozenset[str]) -> dict[str, sp.Expr]:
             inp = spec.inputs[e.input]
             if inp.expr is None:
                 raise SimulationError(f"input '{e.input}' has no expr: give inputs.{e.input}.expr (a function of t) "
-                                      "to simulate")
+                                      "to simulate", where=f"inputs.{e.input}")
             base = inp.expr
         else:
             base = e.value
@@ -213,7 +220,7 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     try:
         values_ = resolve(rels, wanted + flows + loop_inputs, program=program)
     except ValueError as exc:
-        raise SimulationError(str(exc)) from None
+        raise SimulationError(str(exc), where="elements") from None
     # each torn variable z of an algebraic loop: its own law once more, z = g(..., z), an unknown
     # solved with the state derivatives (linear loops; the solver's linear system)
     z_fun = [z for z, _ in torn]
@@ -223,7 +230,7 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
                      for _, line in program.lines if not isinstance(line, Linear)):
         raise SimulationError("a storage element in derivative causality needs the rate of a variable of an "
                               "algebraic loop; bgfdi solves loops for values only: add a small storage element "
-                              "to break the loop")
+                              "to break the loop", where="elements")
     n_st = len(integral)
     sensor_vals = {s.name: values_[w] for s, w in zip(spec.sensors.values(), wanted[n_st:])}
     derivs = [values_[w] for w in wanted[:n_st]] + [sensor_vals[s.name] for s in integrals]
@@ -238,7 +245,7 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     leftovers = sorted(s.name[9:] for s in used if s.name.startswith("__signal_"))
     if leftovers:
         raise SimulationError(f"a modulated element uses signal(s) {leftovers} that are not "
-                              "displacements or momenta; measure them as such or use a parameter")
+                              "displacements or momenta; measure them as such or use a parameter", where="elements")
     params = sorted({s for s in used if not s.name.startswith("__v") and s != t and s not in z_sym}
                     | {spec.symbols[k] for k in spec.parameters} | {spec.symbols[m] for m in spec.modes}
                     | {spec.symbols[f"beta_{e.input or e.name}"] for e in spec.sources() if e.name not in opened},
@@ -260,9 +267,9 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
         if torn:
             raise SimulationError("algebraic loop through " + ", ".join(f"{v[0]}{v[1]}" for v, _ in
                                   ((r.output, r) for _, r in torn)) + " is nonlinear; bgfdi solves linear loops: "
-                                  "add a storage element (a small capacitance or inertia) to break it") from None
+                                  "add a storage element (a small capacitance or inertia) to break it", where="elements") from None
         raise SimulationError("the state equations are not linear in the state derivatives; "
-                              "this dependent storage cannot be reduced") from None
+                              "this dependent storage cannot be reduced", where="elements") from None
     coefficients = {i: {unknowns.index(u): c for u, c in grad.get(r, {}).items()} for i, r in enumerate(residual)}
     at_rest, folded = substitute(lines + coeff_lines, {d: sp.Integer(0) for d in unknowns})
     residual = [r.xreplace(folded) for r in residual]

@@ -388,3 +388,18 @@ def test_check_refuses_a_threshold_for_no_residual_and_names_residuals_without_o
     half.write_text(text + "thresholds: {ARR1: 1.0}\n")
     assert main(["check", str(half)]) == 0
     assert "note: no threshold for ARR2 in the file" in capsys.readouterr().out
+
+
+def test_simulate_names_the_model_for_what_the_model_lacks(tmp_path, capsys):
+    """An input without an expression is the model's to fix: the one line names the model file and
+    its key, not the scenario (a trial: 'sc.json: input u has no expr')."""
+    text = (ROOT / "tests" / "data" / "rc_two_sensors.yaml").read_text()
+    model = tmp_path / "rc.yaml"
+    model.write_text(text.replace('u: {column: u, expr: "5 + 2*sin(3*t)", unit: V}', "u: {column: u, unit: V}"))
+    scenario = tmp_path / "sc.json"
+    scenario.write_text('{"seed": 1, "T": 0.5}')
+    out = tmp_path / "out.csv"
+    assert main(["simulate", str(model), str(scenario), "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"bgfdi: error: {model}") and "inputs.u" in err[0]
+    assert "sc.json" not in err[0] and not out.exists()

@@ -40,6 +40,7 @@ import numpy as np
 import sympy as sp
 import yaml
 
+from bondgraph.errors import ModelError
 from bondgraph.model import Model
 from bondgraph.simulation import SimulationError, simulate
 from bondgraph.timescales import model_integration_step
@@ -495,6 +496,8 @@ def run(model: Model, scenario: Scenario, *, progress=None, method: str = "auto"
         try:
             cols = _run(model, scenario, progress, method, stages)
         except SimulationError as exc:
+            if exc.where is not None:            # the model, not the run: name its file and key
+                raise ModelError(str(exc), file=model.path, where=exc.where) from None
             raise ScenarioError(f"{scenario.path}: {exc}") from None
         except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
             if isinstance(exc, UsageError):
