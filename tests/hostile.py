@@ -89,6 +89,7 @@ CASES: list[tuple[str, dict, list[str], str]] = [
     ("input-list", *check(tank("pump:   {type: MSf, input: Qin}", "pump:   {type: MSf, input: [Qin]}")), "error"),
     ("parameters-number", *check("name: x\nparameters: 1.5\n"), "error"),
     ("columns-number", *check(tank("columns: [t, Qin, p1, p2]", "columns: 5")), "error"),
+    ("columns-without-time", *check(tank("columns: [t, Qin, p1, p2]", "columns: [Qin, p1, p2]")), "error"),
     ("c-without-law", *check(tank('tank2:  {type: C, effort: "rho*g*q/A2", displacement: "A2*e/(rho*g)"}',
                                   "tank2:  {type: C}")), "error"),
     ("controlled-junction-one-bond", *check(tank("  5: [Jv, J2]\n", "").replace("  4: [Jv, valve]\n", "")
