@@ -499,6 +499,10 @@ def format_calibration(c: Calibration) -> str:
                      f"{100 * rule.score:.3g} % at the rule's, {100 * pick.score:.3g} % at this one")
         for f in pick.detectable:
             lines.append(f"  {f}: {_change(rule.detectable[f])} -> {_change(pick.detectable[f])}")
+        if pick is max(c.window_scores, key=lambda x: x.window) and len(c.window_scores) > 1:
+            lines.append(f"  the longest window scored won: the scores may still fall beyond it, where no window was "
+                         f"tried (at most a tenth of a run, clear of the model's modes, under half a run without "
+                         f"residuals): longer nominal runs let longer windows be tried")
     elif c.window is not None:
         lines.append(f"derivative window: {c.window:.4g} s ({c.window_samples} samples), "
                      + ("diagnosis.derivative_window" if c.window_given else

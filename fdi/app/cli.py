@@ -1257,7 +1257,7 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--margin", type=real(1.0, high=1e6), default=1.5, help="factor on the level (default 1.5)")
     cal.add_argument("--quantile", type=real(0.5, high=1.0), help="use this quantile of |r| instead of its peak")
     cal.add_argument("--window", choices=["auto"],
-                     help="auto: also choose the derivative window (the rule's up to 16 times it) where the faults "
+                     help="auto: also choose the derivative window (a quarter of the rule's up to 16 times it, at most a tenth of the shortest run) where the faults "
                           "need the smallest changes to be detected, and calibrate at it (written with -o)")
     cal.add_argument("--by-mode", action="store_true",
                      help="thresholds by mode for every residual whose form switches with a commanded or autonomous "
