@@ -98,6 +98,8 @@ class Calibration:
     glitches: tuple[tuple[str, str], ...] = ()   # (run, what fdi.spikes found in its sensor columns and did)
     rises: tuple[tuple[str, str, float, str], ...] = ()   # (residual, mode, ratio, run): its level rose within
                                                          # the run (RISE): a fault in a nominal run
+    mode_units: dict = field(default_factory=dict)   # by residual calibrated by mode: {"brake=0": "N*m", ...}
+                                        # where its unit differs between modes (arr_unit says "?" for it)
 
     @property
     def false_alarm_rate(self) -> float | None:
@@ -240,7 +242,26 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                        c.config.derivative_window is not None,
                        max((r.highest_order() for r in c.arr_residuals), default=0), pick is not None, scores, blind,
                        spikes, noise, {names[j]: {key_text(k): float(v) for k, v in t.items()} for j, t in tables.items()},
-                       {n: [key_text(k) for k in u] for n, u in unvisited.items() if u}, glitches, rises)
+                       {n: [key_text(k) for k in u] for n, u in unvisited.items() if u}, glitches, rises,
+                       _mode_units(model, arrs, names, tables))
+
+
+def _mode_units(model, arrs, names: list[str], tables: dict) -> dict[str, dict[str, str]]:
+    """The unit of each residual calibrated by mode in each of its table's modes, where one unit
+    does not hold for all (the table then says what each threshold is in: a trial's user read "?";
+    the EV precharge's loop was labelled V, and is in A with both contactors open)."""
+    from .arrs import units_by_mode
+    from .signatures import nominal_mode
+    out = {}
+    for j, table in tables.items():
+        units = {}
+        for key in table:
+            found = units_by_mode(model, arrs[j], [{**nominal_mode(model), **dict(key)}])
+            if len(found) == 1:
+                units[key_text(key)] = next(iter(found))
+        if len(set(units.values())) > 1:
+            out[names[j]] = units
+    return out
 
 
 def _by_mode(model, arrs, predicted, modes: list[dict], every: bool) -> dict[int, tuple[str, ...]]:
@@ -450,12 +471,14 @@ def format_calibration(c: Calibration) -> str:
     for i, name in enumerate(c.names):
         peak = max(p[i] for p in c.peaks if p[i] is not None)
         table = c.mode_thresholds.get(name)
-        lines.append(f"{name:<10}{c.units[i]:<10}{peak:>14.4g}" + (f"{'by mode':>14}" if table else
-                                                                   f"{c.thresholds[i]:>14.4g}"))
+        units = c.mode_units.get(name, {})
+        unit = "by mode" if units else c.units[i]
+        lines.append(f"{name:<10}{unit:<10}{peak:>14.4g}" + (f"{'by mode':>14}" if table else
+                                                               f"{c.thresholds[i]:>14.4g}"))
         for key, value in (table or {}).items():
             note = " (no run visits it: scaled from the others by the predicted noise)" \
                 if key in c.unvisited.get(name, ()) else ""
-            lines.append(f"  {key:<32}{value:>14.4g}{note}")
+            lines.append(f"  {key:<22}{units.get(key, ''):<10}{value:>14.4g}{note}")
     if c.false_alarms is None:
         lines.append("false alarms: give two runs or more to estimate them (each is left out in turn)")
     else:

@@ -121,6 +121,19 @@ def test_calibrate_gives_the_link_balance_thresholds_by_mode(calibrated):
     assert config.mode_thresholds["ARR1"][(("p", 1), ("m", 0), ("d", 0))] == pytest.approx(precharging, rel=1e-3)
 
 
+def test_each_threshold_of_the_loop_says_its_unit(calibrated):
+    """By hand (tests/test_switched_selection.py): the precharge loop balances volts while a
+    contactor is closed and reads the battery current, in A, while both are open; its table gives
+    each mode's unit (one label, V, was wrong for two of its thresholds)."""
+    from fdi.calibrate import format_calibration
+    c, _ = calibrated
+    (name,) = c.mode_units
+    units = c.mode_units[name]
+    assert units and all(u == ("V" if ("p=1" in k or "m=1" in k) else "A") for k, u in units.items())
+    text = format_calibration(c)
+    assert f"{name:<10}{'by mode':<10}" in text and "  p=0 m=0 d=0           A" in text
+
+
 def test_the_precharge_resistor_is_told_from_the_current_sensor(calibrated, tmp_path):
     from fdi.api import diagnose
     from fdi.data import Measurements
