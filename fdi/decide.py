@@ -28,25 +28,14 @@ if TYPE_CHECKING:
     from .monitor import Monitor
 
 
-def select_winner(results: list[Estimate], n_eff: float, level: float = math.inf) -> Estimate:
+def select_winner(results: list[Estimate], n_eff: float) -> Estimate:
     """The explanation with the smallest information criterion: a larger candidate set wins only
     when its better fit pays for the parameters it adds (measured on CyCab scenario 2: R5 as a
     no-op fault bought 0.03 % of cost for two parameters, far below the 0.8 % per parameter that
     N_eff = 120 asks). A difference below ``NO_PREFERENCE`` is a tie (Kass & Raftery 1995: not
     worth more than a bare mention), and ties go to the smaller set: an eq. (18) drift on the
     reference plant, fitted from its detection, was explained as well (criterion 0.1 lower) with
-    a tiny leak and a 0.5 % piston-area change beside it.
-
-    ``level``: what the residuals cost without a fault over the same window (their nominal level
-    before the detection, :func:`fdi.pipeline.nominal_cost`). A set that fits at or below it has
-    explained all the data can show, and a set containing it gains only by fitting the noise and
-    the model's own error, which Schwarz's criterion (independent errors, the truth among the
-    models) takes for signal: such supersets do not compete. Measured on a trial's accumulator: a
-    pressure-sensor offset alone fitted at 0.91 times the nominal level, and a pump leak
-    intermittent at its bound with the load valve's period beside it at 0.76 won by the criterion."""
-    explained = [e for e in results if e.cost <= level] if math.isfinite(level) else []     # (inf: unknown)
-    if explained:
-        results = [e for e in results if not any(set(f.candidate) < set(e.candidate) for f in explained)]
+    a tiny leak and a 0.5 % piston-area change beside it."""
     crit = [information(e.cost, list(e.faults), n_eff) for e in results]
     finite = [c for c in crit if math.isfinite(c)]
     if not finite:          # (callers leave such results out: the smallest set, not an error)

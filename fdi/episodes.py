@@ -62,7 +62,7 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
              fsm, known: list[dict], t_change: float, t_decision: float, coherence: tuple[int, ...],
              samples: int, episode: int, mode_changes: list[tuple[str, int]] = (),
              modes: dict[str, float] | None = None, onsets: tuple[float, float] | None = None,
-             earliest: float | None = None, rate: float = float("inf")) -> Episode:
+             earliest: float | None = None) -> Episode:
     """A later decision: the coherence vector gained a residual at ``t_change`` after the diagnosis
     ``known`` was made. Candidate sets come from the new coherence vector; every set is fitted on
     the data since the first onset (t_D to the new decision, at most MAX_GROWTH windows), so their
@@ -83,8 +83,7 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
     for a drift back to ``earliest``): a slow drift first seen in one residual and decided again when
     a second joins started before t_D (measured: an eq. (19) encoder drift from 20 s, detected at
     25.8 s, decided again at 40.3 s: fitted from t_D, {R4, R5, beta_theta2} won with beta_theta2 as
-    eq. (17)). ``rate``: what noise alone costs a sample (:func:`fdi.pipeline.nominal_rate`): a set
-    containing one that fits the window at that level does not compete (:func:`fdi.decide.select_winner`)."""
+    eq. (17))."""
     w = est.monitor.config.derivative_window
     names = {f["name"] for f in known}
     model = est.monitor.model
@@ -125,6 +124,6 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
         return Episode(t_change, t_decision, tuple(coherence), tuple(known), tuple(full),
                        tuple(f["name"] for f in known), tuple(known))
     n_eff = effective_samples(span, len(est.monitor.residuals), meas.ts, w)
-    best = select_winner(finite, n_eff, rate * span)
+    best = select_winner(finite, n_eff)
     return Episode(t_change, t_decision, tuple(coherence), tuple(known), tuple(full), tuple(best.candidate),
                    tuple(best.faults))

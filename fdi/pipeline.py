@@ -11,7 +11,6 @@ returns a typed value of :mod:`fdi.results`. The result is a :class:`fdi.results
 from __future__ import annotations
 
 import time
-import warnings
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Callable
 
@@ -392,24 +391,15 @@ def explains(cost: float | None, level: float) -> bool:
 
 
 def nominal_cost(p: Prepared, r: np.ndarray, t_d: float) -> float:
-    """What noise alone costs over the identification window: N samples times
-    :func:`nominal_rate`; inf when that is unknown."""
-    t = p.meas.t
-    return float(min(p.samples, t.size - int(np.searchsorted(t, t_d - 1e-9))) * nominal_rate(p, r, t_d))
-
-
-def nominal_rate(p: Prepared, r: np.ndarray, t_d: float) -> float:
-    """What noise alone costs a sample: the weighted mean |residual| of the trusted data before the
-    detection (less a derivative window, the filter's look-ahead); inf when there are too few such
-    samples (a fault from the start) to say."""
+    """What noise alone costs over the identification window: N samples times the weighted mean
+    |residual| of the trusted data before the detection (less a derivative window, the filter's
+    look-ahead); inf when there are too few such samples (a fault from the start) to say."""
     before = nominal_span(p, t_d)
     if before is None:
         return float("inf")
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)         # (a residual with no sample there: NaN)
-        level = np.nanmean(np.abs(np.asarray(r)[:, before]), axis=1)
-    rate = float(np.dot(p.weights.reshape(-1), level))
-    return rate if np.isfinite(rate) else float("inf")
+    t = p.meas.t
+    level = np.nanmean(np.abs(np.asarray(r)[:, before]), axis=1)
+    return float(min(p.samples, t.size - int(np.searchsorted(t, t_d - 1e-9))) * np.dot(p.weights.reshape(-1), level))
 
 
 def widen(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, results: list, est: Estimators, onsets) -> tuple:
@@ -558,7 +548,7 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
         note = (f"no candidate set's fit has a finite cost on the window from {det.time:g} s: the residuals "
                 "overflow on these data (look for a value no sensor reads, or a spike, near the detection)")
         return replace(d, estimates=tuple(results), note=f"{d.note}; {note}" if d.note else note)
-    won = select_winner(results, n_eff, nominal_cost(p, r, det.time))
+    won = select_winner(results, n_eff)
     mode_faults = [f.to_dict() for f in mf.faults] if mf else []
     if mf is not None and information(mf.cost, mode_faults, n_eff) <= information(won.cost, list(won.faults), n_eff):
         # the fault mode explains the data better than any component fault once parameters are
@@ -598,7 +588,6 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
     winner = d.winner
     mcsm = p.monitor.mcsm(d.mode)
     onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, p.first_trusted)
-    rate = nominal_rate(p, r, det.time)
     while (change := next_change(lit, j)) is not None:
         k, j = change, decision_index(t, change, p.wait)
         coherence = tuple(int(x) for x in lit[:, j])
@@ -608,7 +597,7 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
         changes = mode_changes_at(p, new_mode_changes(mcsm, before, coherence, p.covering), onset, faults)
         now_fsm = over_modes([fsm] + [p.monitor.fsm(m) for m in visited_modes(p, i0, j) if m != d.mode])
         e = redecide(est, p.meas, p.raw, det, p.weights, p.options, now_fsm, faults, float(t[onset]), float(t[j]),
-                     coherence, p.samples, len(episodes) + 1, changes, p.modes, onsets, p.first_trusted, rate)
+                     coherence, p.samples, len(episodes) + 1, changes, p.modes, onsets, p.first_trusted)
         episodes.append(e)
         faults, winner = list(e.faults), e.winner
         now = float(t[j])

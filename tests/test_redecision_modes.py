@@ -1,5 +1,4 @@
-"""A later decision reads the residuals a fault enters in every mode the record went through, and
-a fit at the residuals' nominal level is the whole explanation.
+"""A later decision reads the residuals a fault enters in every mode the record went through.
 
 Designed truth: the accumulator circuit of tests/data/unverified/accumulator_check_valve.yaml (a
 user trial's domain), simulated by the trial's own scipy plant (tests/accumulator_plant.py), with
@@ -7,8 +6,7 @@ the accumulator's pressure transducer reading 3 bar high from 30 s. The pump lin
 reads pa only while the check valve conducts (MD-FSM: pa_bias is [0 1 1] with the pump off,
 [1 1 1] with it delivering), so when the pump starts at 33 s that residual lights too. Decided
 again with the FSM of the mode at t_D (pump off), only sets with a pump fault covered it, and a
-pump leak intermittent with the load valve's period was reported beside the offset (seed 13);
-with the offset alone fitting at the noise's own level, a larger set can only fit noise.
+pump leak intermittent with the load valve's period was reported beside the offset (seed 13).
 """
 from __future__ import annotations
 

@@ -35,18 +35,6 @@ def test_a_larger_set_must_pay_for_its_parameters():
     assert information(100 * threshold, [ABRUPT, NOOP], n_eff) == pytest.approx(information(100, [ABRUPT], n_eff))
 
 
-def test_a_set_fitting_at_the_noise_level_leaves_its_supersets_nothing_to_explain():
-    # the criterion alone takes a 5 % better fit for two more parameters (above); when the smaller
-    # set already fits at what the residuals cost without a fault, the larger one only fits noise
-    n_eff = effective_samples(1000, 3, 0.01, 0.25)
-    small = SimpleNamespace(cost=100.0, faults=[ABRUPT], candidate=("R4",))
-    better = SimpleNamespace(cost=95.0, faults=[ABRUPT, NOOP], candidate=("R4", "R5"))
-    other = SimpleNamespace(cost=90.0, faults=[NOOP], candidate=("R5",))      # not a superset: competes
-    assert select_winner([small, better], n_eff, level=120.0) is small
-    assert select_winner([small, better], n_eff, level=99.0) is better        # above the level: the criterion
-    assert select_winner([small, better, other], n_eff, level=120.0) is other
-
-
 def test_a_capped_candidate_search_counts_what_it_leaves_out(cycab, cycab_arrs):
     fsm = fault_signature_matrix(cycab, list(cycab_arrs), nominal_mode(cycab))
     coherence = (1, 1, 1)
