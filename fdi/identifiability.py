@@ -99,6 +99,8 @@ def read_together(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol, constant
         if da == 0 or db == 0:
             return False
         x, solved = _zero_set(e)
+        if x is not None and not _solvable(solved, e, da, db, base, x, rng):
+            x = None                      # a zero set not real at the draws (a square root of a signal): free points
         signals = sorted((set(_signals(e)) | set(_signals(da)) | set(_signals(db)) | e.free_symbols | da.free_symbols
                           | db.free_symbols) - set(base) - {x},
                          key=sp.default_sort_key)      # with the mode variables: any symbol not drawn once
@@ -136,6 +138,8 @@ def _zero_set(e: sp.Expr) -> tuple[sp.Expr | None, sp.Expr | None]:
         if not (isinstance(x, sp.core.function.AppliedUndef)
                 or isinstance(x, sp.Derivative) and isinstance(x.expr, sp.core.function.AppliedUndef)):
             continue                      # time itself, or the rate of an expression (d/dt(C Q^2/Kv^2)) as written
+        if any(d != x and d.has(x) for d in e.atoms(sp.Derivative)):
+            continue                      # read differentiated too (i and i'): its value is not free of them
         slope = sp.diff(e, x)
         if slope == 0 or x in slope.free_symbols or slope.has(x) or sp.count_ops(e) > MAX_OPS:
             continue
@@ -144,6 +148,23 @@ def _zero_set(e: sp.Expr) -> tuple[sp.Expr | None, sp.Expr | None]:
             continue
         return x, -rest / slope
     return None, None
+
+
+def _solvable(solved: sp.Expr, e: sp.Expr, da: sp.Expr, db: sp.Expr, base: dict, x: sp.Expr,
+              rng: random.Random) -> bool:
+    """Whether the zero set's ``solved`` value of ``x`` is real and finite at draws of the other
+    signals like those :func:`read_together` makes (every sign pattern it uses: all positive, all
+    negative, mixed), so that the comparison can be made there; a state of ``rng`` is not used up."""
+    probe = random.Random(rng.random())
+    signals = sorted((set(_signals(e)) | set(_signals(da)) | set(_signals(db)) | e.free_symbols | da.free_symbols
+                      | db.free_symbols) - set(base) - {x}, key=sp.default_sort_key)
+    for k in range(DRAWS):
+        signs = [1 if k == 0 else -1 if k == 1 else probe.choice((-1, 1)) for _ in signals]
+        point = {**base, **{s: sp.Float(sign * probe.uniform(0.2, 1.0)) for s, sign in zip(signals, signs)}}
+        value = _value(solved, point)
+        if value is None or abs(value.imag) > TOL * max(1.0, abs(value)):
+            return False
+    return True
 
 
 def ratio(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol) -> sp.Expr | None:

@@ -269,3 +269,19 @@ def test_a_source_gain_and_a_sensor_gain_read_as_a_product_where_the_residual_va
     feed, analyser = names["feed_meter"], names["analyser"]
     assert _function_of(pair.combination, (feed, analyser), sp.Symbol(feed) * sp.Symbol(analyser))
     assert frozenset({"catalyst", "holdup"}) not in pairs          # Rrx and V: separated by c' (by hand)
+
+
+def test_the_zero_set_is_used_only_where_it_is_free_and_real():
+    """By hand: a motor's loop u - k1 k2 w - R i - L i' reads its torque constant's two factors only
+    as k1 k2 (solving i from r = 0 would also change i': that signal is not free there); an
+    orifice Q - Cd A sqrt(2 p / rho) reads Cd A only (its zero set is complex for p < 0: compared at
+    free points); an RL loop reads R and L apart (i and i' are independent at an instant)."""
+    from fdi.identifiability import ratio, read_together
+    t = sp.Symbol("t")
+    u, w, i, Q, p = (sp.Function(n)(t) for n in ("u", "w", "i", "Q", "p"))
+    k1, k2, R, L, Cd, A, rho = sp.symbols("k1 k2 R L Cd A rho")
+    motor = [u - k1 * k2 * w - R * i - L * i.diff(t)]
+    orifice = [Q - Cd * A * sp.sqrt(2 * p / rho)]
+    assert read_together(motor, k1, k2, {"k1", "k2", "R", "L"}) and sp.simplify(ratio(motor, k1, k2) - k2 / k1) == 0
+    assert read_together(orifice, Cd, A, {"Cd", "A", "rho"})
+    assert not read_together([u - R * i - L * i.diff(t)], R, L, {"R", "L"})
