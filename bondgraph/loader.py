@@ -603,13 +603,12 @@ def _check_initial(ctx: _Ctx, initial: Mapping[str, float], elements: Mapping, s
 
 
 def _check_columns(ctx: _Ctx, columns: tuple[str, ...]) -> None:
-    """data.columns: time ``t`` first (every record's first column, in s), each name once, also
-    once Unicode-normalised (NFKC)."""
-    if columns and columns[0] != "t":
-        where = ("data", "columns", columns.index("t")) if "t" in columns else ("data", "columns")
-        raise ctx.error(where, f"the first column must be time t (in s), as every record's first column is; got "
-                               f"{list(columns)[:4]}{' ...' if len(columns) > 4 else ''}: write [t, "
-                               f"{', '.join(c for c in columns[:3] if c != 't')}, ...]")
+    """data.columns: time ``t`` among them (every record has it, in s), each name once, also once
+    Unicode-normalised (NFKC)."""
+    if columns and "t" not in columns:
+        raise ctx.error(("data", "columns"), f"no time column t (in s), which every record has; got "
+                                             f"{list(columns)[:4]}{' ...' if len(columns) > 4 else ''}: write "
+                                             f"[t, {', '.join(columns[:3])}, ...]")
     pair = same_name(columns)
     if pair:
         i, j = pair

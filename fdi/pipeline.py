@@ -171,7 +171,7 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     check_samples(o.samples, meas.ts, min_period=sc.min_period)
     meas, spiked = despiked(model, meas, o.keep_spikes)
     settle = settling(o.settle, sc.settle)
-    read = "; ".join(n for n in (spiked, sampled_otherwise(model, meas), commands_read(model, meas),
+    read = "; ".join(n for n in (spiked, sampled_otherwise(model, meas), commands_read(model, meas, o.mode),
                                  started_late(meas, sc, o.settle)) if n) or None
     raw = signals_from_data(model, meas)
     check_derivative_window(model, w, meas.ts, meas.path)
@@ -206,14 +206,15 @@ def sampled_otherwise(model, meas: Measurements) -> str | None:
             f"{meas.ts:g} if the record is right)")
 
 
-def commands_read(model, meas: Measurements) -> str | None:
+def commands_read(model, meas: Measurements, fixed=None) -> str | None:
     """The note when a mode's command column holds values other than 0 and 1: each sample is read
     as 1 from 0.5 up, 0 below (docs/model-format.md), which a column of 0 and 2, of percent or of a
     valve's opening in between reads without a word otherwise (a trial: a brake column of 2 and of
-    0.5 read as engaged, silently)."""
+    0.5 read as engaged, silently). ``fixed``: the mode variables the options fix (their columns are
+    not read)."""
     out = []
     for m in model.modes.values():
-        if not m.column or m.column not in meas.columns:
+        if not m.column or m.column not in meas.columns or m.name in (fixed or {}):
             continue
         x = np.asarray(meas.columns[m.column], dtype=float)
         odd = np.flatnonzero(np.isfinite(x) & (x != 0.0) & (x != 1.0))
@@ -236,9 +237,15 @@ def started_late(meas: Measurements, sc: "Scales", given: float | None) -> str |
     start is the settling's end, so the report says where judging began and what would move it (a
     user trial: the first 3.5 s of a 10 s record skipped without a word). None when ``--settle``
     (``given``) set it as long or longer: the user chose it."""
+    span = float(meas.t[-1] - meas.t[0])
+    if span > 0 and settling(given, sc.settle) >= span - sc.end_edge:
+        # nothing judged: "nothing detected" (exit 0, --fail-on-fault passed) would read as healthy
+        raise DataError(f"{meas.path}: the record ({span:.3g} s) ends before detection starts ("
+                        f"{settling(given, sc.settle):.3g} s after its start, and the last {sc.end_edge:.3g} s are the "
+                        f"derivative filter's edge): no sample can be judged; record longer, or shorten "
+                        f"diagnosis.derivative_window" + (" or --settle" if given is not None else ""))
     if sc.settle <= sc.window / 2 * (1 + 1e-9) or (given is not None and given >= sc.settle):
         return None
-    span = float(meas.t[-1] - meas.t[0])
     if span <= 0 or sc.settle < LATE_SHARE * span:
         return None
     return (f"detection starts {sc.settle:.3g} s after the data start ({sc.settle / span:.0%} of the record): 7 decay times "
@@ -670,13 +677,14 @@ def at_bounds(p: Prepared, faults) -> str | None:
         except ModelError:
             continue
         lo, hi = space.bounds
-        where = ((np.log10(f.value) - np.log10(lo)) / (np.log10(hi) - np.log10(lo)) if space.log and f.value > 0
+        logged = space.log and lo > 0 and f.value > 0          # (a range from 0 is read linearly)
+        where = ((np.log10(f.value) - np.log10(lo)) / (np.log10(hi) - np.log10(lo)) if logged
                  else (f.value - lo) / (hi - lo) if hi > lo else 0.5)
         side = "lower" if where <= BOUND_SLACK else "upper" if where >= 1 - BOUND_SLACK else None
         if side:
-            out.append(f"{f.name}'s value {f.value:.5g} is the {side} bound of its search [{lo:g}, {hi:g}]: the data "
-                       f"asked for a value beyond it, so it is not a measurement (widen faults.{f.name}.bounds in the "
-                       f"model if the value is plausible, or suspect another fault)")
+            out.append(f"{f.name}'s value {f.value:.5g} is at the {side} bound of its search [{lo:g}, {hi:g}]: the "
+                       f"fit pressed against it, so the number is the bound's, not a measurement (if the bound is "
+                       f"no physical limit, widen faults.{f.name}.bounds in the model; else suspect another fault)")
     return "; ".join(out) or None
 
 

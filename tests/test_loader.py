@@ -284,3 +284,11 @@ def test_check_names_a_command_column_no_mode_reads(tmp_path, capsys):
     assert main(["check", str(MODELS / "two_tank_commanded.yaml")]) == 0
     out = capsys.readouterr().out
     assert "v (commanded: v_cmd)" in out and "read by nothing" not in out
+
+
+def test_the_time_column_may_stand_anywhere_but_must_be_there():
+    """Records need a t column, not in first place (fdi.data finds it by name): a model listing it
+    second loads; one without it is refused naming data.columns (a trial's model passed check)."""
+    assert load_model_text(BASE.replace("columns: [t, u, v]", "columns: [u, t, v]"), "rc.yaml").columns == ("u", "t", "v")
+    err = _err(BASE.replace("columns: [t, u, v]", "columns: [u, v]"))
+    assert "data.columns" in str(err) and "no time column t" in str(err)

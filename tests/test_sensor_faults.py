@@ -137,7 +137,7 @@ def test_an_offset_beyond_its_search_bounds_is_named_as_the_bound_not_a_measurem
     faults = report["diagnosis"]["faults"]
     pinned = [f for f in faults if f["name"] == "bias_v"]
     assert pinned and pinned[0]["value"] == pytest.approx(2.0, rel=1e-3)
-    assert "bias_v's value 2 is the upper bound of its search [-2, 2]" in report["note"]
+    assert "bias_v's value 2 is at the upper bound of its search [-2, 2]" in report["note"]
     small = circuit(6.0, seed=1, bias=(3.0, 0.3))
     quiet = diagnose(str(MODEL), Measurements("offset", small["t"], small), Options(workers=1, seed=0,
                                                                                     thresholds=thresholds()))

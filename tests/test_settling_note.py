@@ -47,3 +47,11 @@ def test_no_note_when_the_settling_is_a_small_share_or_the_user_set_it(model):
     assert d.note is None or "detection starts" not in d.note
     d = diagnose(model, _record(10.0), Options(workers=1, settle=3.0, thresholds=LOOSE))    # --settle 3: the user's choice
     assert d.note is None or "detection starts" not in d.note
+
+
+def test_a_record_that_ends_before_detection_starts_is_refused(model):
+    """2 s of data against 2.8 s of settling: no sample is judged, and "nothing detected" would read
+    as a healthy plant (the review: exit 0 with a note saying 140 % of the record)."""
+    from fdi.data import DataError
+    with pytest.raises(DataError, match=r"ends before detection starts \(2.8 s after its start"):
+        diagnose(model, _record(2.0), Options(workers=1, thresholds=LOOSE))

@@ -333,8 +333,8 @@ def _warm_for_fork() -> None:
     worker sends the scheduler when it registers (``distributed.versions`` keeps them per process,
     read from package metadata: ~30 ms in each new worker; the scheduler and the client here ask
     for them anyway) and ``numpy.random``, which dask's worker start reseeds (its import: ~13 ms in
-    each worker). A fresh process's first 2-worker cluster answered its first task 0.116-0.146 s
-    after the start began, 0.105-0.114 s with this."""
+    each worker). A fresh process's first 2-worker cluster answered its first task 0.123-0.142 s
+    after the start began, 0.100-0.122 s with this (6 fresh processes each, interleaved)."""
     import numpy.random  # noqa: F401  (imported for the forked workers)
     try:
         from distributed.versions import get_versions
