@@ -171,8 +171,6 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     check_samples(o.samples, meas.ts, min_period=sc.min_period)
     meas, spiked = despiked(model, meas, o.keep_spikes)
     settle = settling(o.settle, sc.settle)
-    read = "; ".join(n for n in (spiked, sampled_otherwise(model, meas), commands_read(model, meas, o.mode),
-                                 started_late(meas, sc, o.settle)) if n) or None
     raw = signals_from_data(model, meas)
     check_derivative_window(model, w, meas.ts, meas.path)
     need = window_samples(w, meas.ts, DEFAULT_ORDER) + 1
@@ -183,6 +181,8 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
         thresholds = thresholds_for(config.thresholds, list(monitor.names), o.thresholds)
     except ValueError as exc:
         raise ModelError(str(exc), file=model.path, where="thresholds") from None
+    read = "; ".join(n for n in (spiked, sampled_otherwise(model, meas), commands_read(model, meas, o.mode),
+                                 started_late(meas, sc, o.settle)) if n) or None
     wait = config.waiting_time if o.waiting_time is None else o.waiting_time
     samples = o.samples or max(config.samples, sc.min_samples())     # N ts covers the shortest period
     weights = 1.0 / thresholds if o.weights == "thresholds" else np.ones(len(monitor.names))

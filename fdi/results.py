@@ -15,7 +15,7 @@ where the diagnosis did not reach it (docs/report.schema.json).
     >>> Fault.from_dict(f.to_dict()) == f
     True
     >>> f.describe()
-    'R4: abrupt, value 2.4e+09'
+    'R4: abrupt, value 2.4e+09, from 31.88 s'
 """
 from __future__ import annotations
 
