@@ -392,7 +392,10 @@ class Stream:
         shifted once as many have aged out as are kept (amortised: each row is copied once); the
         margin the next residual block needs stays. A stream no longer than ``history`` keeps
         every sample, and its summary is ``bgfdi diagnose`` on the whole file."""
-        keep = max(self._kept(ts), 4 * margin)
+        # a decision diagnoses the rows kept, and detection there waits the settling time from their
+        # first one again: keep it and four windows beyond (--history 1 s against a mass-spring's 2.8 s
+        # start-up settling: the fault never detected, the summary "nothing detected")
+        keep = max(self._kept(ts), 4 * margin, int(math.ceil((self.settle + 4 * self.window) / ts)))
         if self.t_detect is not None or self.n < 2 * keep:
             return
         drop = min(self.n - keep, self.done - 2 * margin)

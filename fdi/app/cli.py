@@ -1287,7 +1287,8 @@ def build_parser() -> argparse.ArgumentParser:
                           "identification window, N ts: 10 s for the CyCab)")
     mon.add_argument("--history", type=real(1.0, high=1e9), default=None,
                      help="seconds of samples kept before a detection: memory stays bounded on an endless "
-                          "stream (default: 360 000 samples, an hour at 100 Hz, 36 s at 10 kHz)")
+                          "stream (default: 360 000 samples, an hour at 100 Hz, 36 s at 10 kHz; at least the "
+                          "settling time and four derivative windows)")
     diagnosis_options(mon)
     mon.set_defaults(func=cmd_monitor)
 
