@@ -207,6 +207,17 @@ def stray_thresholds(model_thresholds: Mapping[str, float], names: list[str]) ->
             f"{', '.join(names)}); correct or remove them, or run bgfdi calibrate again")
 
 
+def checked_thresholds(model, model_thresholds: Mapping[str, float], names: list[str]) -> str | None:
+    """``check``'s reading of the file's thresholds against its residuals ``names`` (text and
+    --json alike): a ModelError for one naming no residual, as ``diagnose`` refuses it; the note
+    naming residuals without one (:func:`missing_thresholds`), or None."""
+    stray = stray_thresholds(model_thresholds, names)
+    if stray is not None:
+        from bondgraph.errors import ModelError
+        raise ModelError(stray, file=model.path, where="thresholds")
+    return missing_thresholds(model_thresholds, names)
+
+
 def missing_thresholds(model_thresholds: Mapping[str, float], names: list[str]) -> str | None:
     """``check``'s note for residuals the file gives no threshold (``diagnose`` refuses to run
     without one for each, unless --threshold gives it)."""

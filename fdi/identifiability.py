@@ -98,15 +98,15 @@ def read_together(exprs: Iterable[sp.Expr], a: sp.Symbol, b: sp.Symbol, constant
         da, db = sp.diff(e, a), sp.diff(e, b)
         if da == 0 or db == 0:
             return False
-        x, solved = _zero_set(e)
-        if x is not None and not _solvable(solved, e, da, db, base, x, rng):
+        drawn = sorted((set(_signals(e)) | set(_signals(da)) | set(_signals(db)) | e.free_symbols | da.free_symbols
+                        | db.free_symbols) - set(base), key=sp.default_sort_key)    # with the mode variables:
+        x, solved = _zero_set(e)                                                     # any symbol not drawn once
+        if x is not None and not _real_at_draws(solved, [s for s in drawn if s != x], base,
+                                                random.Random(rng.random())):
             x = None                      # a zero set not real at the draws (a square root of a signal): free points
-        signals = sorted((set(_signals(e)) | set(_signals(da)) | set(_signals(db)) | e.free_symbols | da.free_symbols
-                          | db.free_symbols) - set(base) - {x},
-                         key=sp.default_sort_key)      # with the mode variables: any symbol not drawn once
-        for k in range(DRAWS):        # all signals positive, all negative, then signs at random
-            signs = [1 if k == 0 else -1 if k == 1 else rng.choice((-1, 1)) for _ in signals]
-            point = {**base, **{s: sp.Float(sign * rng.uniform(0.2, 1.0)) for s, sign in zip(signals, signs)}}
+        signals = [s for s in drawn if s != x]
+        for k in range(DRAWS):
+            point = _point(signals, base, rng, k)
             if x is not None:
                 value = _value(solved, point)
                 if value is None or abs(value.imag) > TOL * max(1.0, abs(value)):
@@ -134,6 +134,8 @@ def _zero_set(e: sp.Expr) -> tuple[sp.Expr | None, sp.Expr | None]:
     >>> _zero_set(F / bF - m * (g + z.diff(t, 2)))
     (F(t), beta_F*m_L*(g + Derivative(z(t), (t, 2))))
     """
+    if sp.count_ops(e) > MAX_OPS:
+        return None, None
     for x in _signals(e):
         if not (isinstance(x, sp.core.function.AppliedUndef)
                 or isinstance(x, sp.Derivative) and isinstance(x.expr, sp.core.function.AppliedUndef)):
@@ -141,7 +143,7 @@ def _zero_set(e: sp.Expr) -> tuple[sp.Expr | None, sp.Expr | None]:
         if any(d != x and d.has(x) for d in e.atoms(sp.Derivative)):
             continue                      # read differentiated too (i and i'): its value is not free of them
         slope = sp.diff(e, x)
-        if slope == 0 or x in slope.free_symbols or slope.has(x) or sp.count_ops(e) > MAX_OPS:
+        if slope == 0 or slope.has(x):
             continue
         rest = e.xreplace({x: sp.Integer(0)})
         if rest.has(x):
@@ -150,18 +152,18 @@ def _zero_set(e: sp.Expr) -> tuple[sp.Expr | None, sp.Expr | None]:
     return None, None
 
 
-def _solvable(solved: sp.Expr, e: sp.Expr, da: sp.Expr, db: sp.Expr, base: dict, x: sp.Expr,
-              rng: random.Random) -> bool:
-    """Whether the zero set's ``solved`` value of ``x`` is real and finite at draws of the other
-    signals like those :func:`read_together` makes (every sign pattern it uses: all positive, all
-    negative, mixed), so that the comparison can be made there; a state of ``rng`` is not used up."""
-    probe = random.Random(rng.random())
-    signals = sorted((set(_signals(e)) | set(_signals(da)) | set(_signals(db)) | e.free_symbols | da.free_symbols
-                      | db.free_symbols) - set(base) - {x}, key=sp.default_sort_key)
+def _point(signals: list, base: dict, rng: random.Random, k: int) -> dict:
+    """The ``k``-th random point of :func:`read_together`: ``base`` and each signal drawn in
+    [0.2, 1] in size, all positive (k = 0), all negative (k = 1), then signs at random."""
+    signs = [1 if k == 0 else -1 if k == 1 else rng.choice((-1, 1)) for _ in signals]
+    return {**base, **{s: sp.Float(sign * rng.uniform(0.2, 1.0)) for s, sign in zip(signals, signs)}}
+
+
+def _real_at_draws(solved: sp.Expr, signals: list, base: dict, rng: random.Random) -> bool:
+    """Whether the zero set's ``solved`` value is real and finite at draws of ``signals`` like those
+    :func:`read_together` makes (its own ``rng``: the comparison's draws are not used up)."""
     for k in range(DRAWS):
-        signs = [1 if k == 0 else -1 if k == 1 else probe.choice((-1, 1)) for _ in signals]
-        point = {**base, **{s: sp.Float(sign * probe.uniform(0.2, 1.0)) for s, sign in zip(signals, signs)}}
-        value = _value(solved, point)
+        value = _value(solved, _point(signals, base, rng, k))
         if value is None or abs(value.imag) > TOL * max(1.0, abs(value)):
             return False
     return True

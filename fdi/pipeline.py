@@ -181,6 +181,7 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
         thresholds = thresholds_for(config.thresholds, list(monitor.names), o.thresholds)
     except ValueError as exc:
         raise ModelError(str(exc), file=model.path, where="thresholds") from None
+    check_judged(meas, sc, settle, o.settle is not None)
     read = "; ".join(n for n in (spiked, sampled_otherwise(model, meas), commands_read(model, meas, o.mode),
                                  started_late(meas, sc, o.settle)) if n) or None
     wait = config.waiting_time if o.waiting_time is None else o.waiting_time
@@ -229,6 +230,19 @@ def commands_read(model, meas: Measurements, fixed=None) -> str | None:
 LATE_SHARE = 0.05       # a start-up settling that leaves this share of the record unjudged is named
 
 
+def check_judged(meas: Measurements, sc: "Scales", settle: float, given: bool) -> None:
+    """Refuse (DataError) a record that ends before detection starts: ``settle`` s after its
+    start, and the derivative filter's edge before its end, leave no sample to judge, and "nothing
+    detected" (exit 0, --fail-on-fault passed) would read as a healthy plant (the review: a 2 s
+    record against a 2.8 s settling). ``given``: --settle set it."""
+    span = float(meas.t[-1] - meas.t[0])
+    if span > 0 and settle >= span - sc.end_edge:
+        raise DataError(f"{meas.path}: the record ({span:.3g} s) ends before detection starts ({settle:.3g} s after "
+                        f"its start, and the last {sc.end_edge:.3g} s are the derivative filter's edge): no sample "
+                        f"can be judged; record longer, or shorten diagnosis.derivative_window"
+                        + (" or --settle" if given else ""))
+
+
 def started_late(meas: Measurements, sc: "Scales", given: float | None) -> str | None:
     """The note when detection starts late for the model's own reason: the start-up settling
     (:func:`fdi.scales.settle`: 7 decay times of the modes the derivative window cannot follow,
@@ -237,15 +251,9 @@ def started_late(meas: Measurements, sc: "Scales", given: float | None) -> str |
     start is the settling's end, so the report says where judging began and what would move it (a
     user trial: the first 3.5 s of a 10 s record skipped without a word). None when ``--settle``
     (``given``) set it as long or longer: the user chose it."""
-    span = float(meas.t[-1] - meas.t[0])
-    if span > 0 and settling(given, sc.settle) >= span - sc.end_edge:
-        # nothing judged: "nothing detected" (exit 0, --fail-on-fault passed) would read as healthy
-        raise DataError(f"{meas.path}: the record ({span:.3g} s) ends before detection starts ("
-                        f"{settling(given, sc.settle):.3g} s after its start, and the last {sc.end_edge:.3g} s are the "
-                        f"derivative filter's edge): no sample can be judged; record longer, or shorten "
-                        f"diagnosis.derivative_window" + (" or --settle" if given is not None else ""))
     if sc.settle <= sc.window / 2 * (1 + 1e-9) or (given is not None and given >= sc.settle):
         return None
+    span = float(meas.t[-1] - meas.t[0])
     if span <= 0 or sc.settle < LATE_SHARE * span:
         return None
     return (f"detection starts {sc.settle:.3g} s after the data start ({sc.settle / span:.0%} of the record): 7 decay times "
@@ -291,12 +299,7 @@ def blind(p: Prepared, r: np.ndarray) -> str | None:
 def mode_at(p: Prepared, det: Detection) -> dict[str, int]:
     """The mode at t_D: the options' mode variables, the commanded ones as commanded then, the
     others nominal."""
-    model, o = p.monitor.model, p.options
-    mode = dict(o.mode or nominal_mode(model))
-    for name, values in commanded(model, p.raw).items():
-        if not o.mode or name not in o.mode:
-            mode[name] = int(values[det.index])
-    return mode
+    return visited_modes(p, det.index, det.index)[0]
 
 
 def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, memo) -> Diagnosis:

@@ -65,13 +65,8 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
         sim = assign(model, SIMULATION)
     window, predicted, missing = None, {}, None
     if causality == "derivative":
-        from bondgraph.errors import ModelError
-
-        from ..detect import missing_thresholds, stray_thresholds
-        names = [a.name for a in arrs]
-        if (stray := stray_thresholds(config.thresholds, names)) is not None:
-            raise ModelError(stray, file=model.path, where="thresholds")
-        missing = missing_thresholds(config.thresholds, names)
+        from ..detect import checked_thresholds
+        missing = checked_thresholds(model, config.thresholds, [a.name for a in arrs])
         with stage("noise predicted by mode"):
             window, predicted = predicted_for(model, config, arrs)
     verification = None

@@ -403,11 +403,8 @@ def _print_diagnostic_causality(model: Model, args: argparse.Namespace, config) 
     for note in unit_clash_notes(model, arrs) + mixed_unit_notes(model, arrs):
         print(f"  note: {note}")
     if args.causality == "derivative":
-        from ..detect import missing_thresholds, stray_thresholds
-        names = [a.name for a in arrs]
-        if (stray := stray_thresholds(config.thresholds, names)) is not None:
-            raise ModelError(stray, file=model.path, where="thresholds")
-        if (missing := missing_thresholds(config.thresholds, names)) is not None:
+        from ..detect import checked_thresholds
+        if (missing := checked_thresholds(model, config.thresholds, [a.name for a in arrs])) is not None:
             print(f"  note: {missing}")
         with stage("noise predicted by mode"):
             window, predicted = predicted_for(model, config, arrs)
