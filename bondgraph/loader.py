@@ -1123,6 +1123,10 @@ def _faults(ctx, data, parameters, sensors, elements, modes) -> dict[str, Fault]
             for p in targets:
                 if p not in parameters:
                     raise ctx.error(where + ("parameters",), f"undefined parameter '{p}' in fault '{name}'")
+            twice = sorted({p for p in targets if targets.count(p) > 1})
+            if twice:
+                raise ctx.error(where + ("parameters",), f"{', '.join(twice)} listed twice in fault '{name}': "
+                                "name each parameter once")
         else:
             key = kind
             target = spec.get(key)

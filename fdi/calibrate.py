@@ -125,6 +125,8 @@ def _nominal(model_path: str, data: str | Measurements, settle: float | None,
     meas = despiked(model, data if isinstance(data, Measurements) else read_csv(data))[0]   # (calibrate's: done)
     config = c.config if window is None else replace(c.config, derivative_window=float(window))
     sc = scales.for_model(model, config, meas.ts)
+    scales.check_record_length(model, sc.window, derivatives.window_samples(sc.window, meas.ts, derivatives.DEFAULT_ORDER)
+                               + 1, meas.ts, meas.t.size, meas.path)
     raw = signals_from_data(model, meas)
     modes = commanded(model, raw)
     r = evaluate(model, list(c.arr_residuals), raw, meas.ts, window=sc.window, values=modes)
@@ -172,6 +174,12 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
             raise DataError(f"{meas.path}: every column is constant: no sensor noise and nothing moving, so no "
                             "threshold can be learnt from it (it would be 0, or miss the noise every real run "
                             "has); calibrate on fault-free runs recorded from the plant, noise included")
+        frozen = sorted({c for s in model.sensors.values() for c, sd in s.noise.items()
+                         if sd > 0 and c in meas.columns and np.ptp(meas.columns[c]) == 0})
+        if frozen:      # a stuck sensor is a fault: a trial's frozen thermometers raised the thresholds 40-75 %
+            raise DataError(f"{meas.path}: the sensor column(s) {', '.join(frozen)} never change, though the model "
+                            "gives them noise: a frozen (stuck) sensor is a fault, not a nominal run; leave the run "
+                            "out, or check the sensor")
     scores = (choose_window(model_path, data, lambda s: _threshold(s, quantile, margin), settle)
               if window == "auto" else None)
     pick = chosen(scores).window if scores else None
@@ -499,7 +507,8 @@ def format_calibration(c: Calibration) -> str:
             shown = f"{ratio:.2f}" if ratio < 1e6 else f"{ratio:.3g}"      # a spike's: no 300-digit number
             lines.append(f"  {run}: {name} reaches {shown} x the others' threshold"
                          + (" (an alarm)" if alarmed else ""))
-    if c.window is not None and c.window_chosen and c.window_scores and chosen(c.window_scores) is c.window_scores[0]:
+    if (c.window is not None and c.window_chosen and c.window_scores and c.window_scores[0].rule
+            and chosen(c.window_scores) is c.window_scores[0]):
         rule = c.window_scores[0]
         head = f"derivative window: {c.window:.4g} s ({c.window_samples} samples), the rule's, kept by --window auto: "
         if not rule.detectable:
@@ -515,13 +524,22 @@ def format_calibration(c: Calibration) -> str:
                                  f"largest change to detect: {largest}"))
     elif c.window is not None and c.window_chosen and c.window_scores:
         rule, pick = c.window_scores[0], chosen(c.window_scores)
-        lines.append(f"derivative window: {c.window:.4g} s ({c.window_samples} samples), chosen by --window auto from "
-                     f"{len(c.window_scores)} ({min(x.window for x in c.window_scores):.4g} s to "
-                     f"{max(x.window for x in c.window_scores):.4g} s; the rule's {rule.window:.4g} s): "
-                     f"the smallest change each fault needs to be detected, geometric mean "
-                     f"{100 * rule.score:.3g} % at the rule's, {100 * pick.score:.3g} % at this one")
-        for f in pick.detectable:
-            lines.append(f"  {f}: {_change(rule.detectable[f])} -> {_change(pick.detectable[f])}")
+        span = (f"{len(c.window_scores)} ({min(x.window for x in c.window_scores):.4g} s to "
+                f"{max(x.window for x in c.window_scores):.4g} s")
+        if rule.rule:
+            lines.append(f"derivative window: {c.window:.4g} s ({c.window_samples} samples), chosen by --window auto "
+                         f"from {span}; the rule's {rule.window:.4g} s): the smallest change each fault needs to be "
+                         f"detected, geometric mean {100 * rule.score:.3g} % at the rule's, {100 * pick.score:.3g} % "
+                         f"at this one")
+            for f in pick.detectable:
+                lines.append(f"  {f}: {_change(rule.detectable[f])} -> {_change(pick.detectable[f])}")
+        else:               # the rule's window left over half a run without residuals: not scored
+            lines.append(f"derivative window: {c.window:.4g} s ({c.window_samples} samples), chosen by --window auto "
+                         f"from {span}): the rule's window left over half a run without residuals (the stretches "
+                         f"between mode switches are shorter than it); the smallest change each fault needs to be "
+                         f"detected, geometric mean {100 * pick.score:.3g} % at this one")
+            for f in pick.detectable:
+                lines.append(f"  {f}: {_change(pick.detectable[f])}")
         if pick is max(c.window_scores, key=lambda x: x.window) and len(c.window_scores) > 1:
             lines.append(f"  the longest window scored won: the scores may still fall beyond it, where no window was "
                          f"tried (at most a tenth of a run, clear of the model's modes, under half a run without "

@@ -167,6 +167,41 @@ def _edge(x: np.ndarray, polyorder: int, orders: int, ts: float, positions: rang
 EDGE_GAIN = 1.5
 
 
+EXACT_EDGE = 2001   # windows up to this many samples: each position's pseudo-inverse (0.56 s at 2 001)
+
+
+def _edge_gains(n: int, polyorder: int, order: int) -> np.ndarray:
+    """(order + 1, n // 2 + 1): the noise gain of a one-sided fit of ``n`` samples at each position
+    from the end to the centre, per derivative order: the norm of its taps (a pseudo-inverse each)."""
+    half = n // 2
+    j = np.arange(n, dtype=float)
+    gains = np.empty((order + 1, half + 1))
+    for pos in range(half + 1):
+        pinv = np.linalg.pinv(np.vander(j - pos, polyorder + 1, increasing=True))
+        for k in range(order + 1):
+            gains[k, pos] = float(np.sqrt(np.dot(pinv[k], pinv[k]))) * factorial(k)
+    return gains
+
+
+def _edge_gains_by_moments(n: int, polyorder: int, order: int) -> np.ndarray:
+    """:func:`_edge_gains` from the normal equations, every position at once: the squared norm of
+    derivative k's taps is (M^-1)_kk with M_ab = sum_j (j - pos)^(a + b), the sums expanded about
+    the centre c, sum_j ((j - c) + (c - pos))^m = sum_i C(m, i) (c - pos)^(m - i) sum_j (j - c)^i, whose
+    terms are all of one sign up to the centre (odd central sums vanish): no cancellation. O(n p)
+    where the pseudo-inverses cost O(n^2 p^2): a 39 601-sample window (660 s sampled every 1/60 s,
+    a record stamped in hours) took 114 s, 0.08 s this way; the trims agree with the pseudo-inverses'
+    at every 40th size from 2 001 to 3 000 samples, polyorder 3 and 4."""
+    half, scale = n // 2, float(n)
+    x = (np.arange(n, dtype=float) - (n - 1) / 2) / scale
+    central = [float(np.sum(x ** i)) for i in range(2 * polyorder + 1)]
+    d = ((n - 1) / 2 - np.arange(half + 1, dtype=float)) / scale
+    sums = np.stack([sum(comb(m, i) * d ** (m - i) * central[i] for i in range(m + 1))
+                     for m in range(2 * polyorder + 1)], axis=-1)
+    inverse = np.linalg.inv(sums[:, np.add.outer(np.arange(polyorder + 1), np.arange(polyorder + 1))])
+    k = np.arange(order + 1)
+    return (np.sqrt(inverse[:, k, k]) * np.array([factorial(i) for i in k], dtype=float) / scale ** k).T
+
+
 @lru_cache(maxsize=256)
 def edge_trim(n: int, polyorder: int, order: int) -> int:
     """How many samples at a stretch's end (a mode switch) a one-sided fit of ``n`` samples leaves
@@ -184,13 +219,7 @@ def edge_trim(n: int, polyorder: int, order: int) -> int:
     if not 0 <= order <= polyorder < n:
         raise ValueError(f"a derivative of order {order} needs a polynomial of at least that order and fewer "
                          f"than {n} samples (polyorder {polyorder})")
-    half = n // 2
-    j = np.arange(n, dtype=float)
-    gains = np.empty((order + 1, half + 1))
-    for pos in range(half + 1):
-        pinv = np.linalg.pinv(np.vander(j - pos, polyorder + 1, increasing=True))
-        for k in range(order + 1):
-            gains[k, pos] = float(np.sqrt(np.dot(pinv[k], pinv[k]))) * factorial(k)
+    gains = _edge_gains(n, polyorder, order) if n <= EXACT_EDGE else _edge_gains_by_moments(n, polyorder, order)
     over = gains > EDGE_GAIN * gains[:, -1:]
     return int(np.flatnonzero(over.any(axis=0)).max() + 1) if over.any() else 0
 

@@ -32,8 +32,8 @@ from .objective import fault_space, nominal, window
 from .options import MIN_WINDOW_S, Options, check_samples
 from .prognose import prognose
 from .residuals import designed_gaps, evaluate, mode_breaks
-from .scales import STARTUP_DECAYS, check_derivative_window
-from .results import Alternative, Diagnosis, Isolation, ModeFault, Prognosis, faults_of
+from .scales import STARTUP_DECAYS, check_derivative_window, check_record_length
+from .results import DETERMINED, Alternative, Diagnosis, Isolation, ModeFault, Prognosis, faults_of
 from .sensitivity import effective, weak_entries
 from .signatures import mode_fault_name, nominal_mode, over_modes
 from .spikes import despiked
@@ -173,10 +173,7 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     settle = settling(o.settle, sc.settle)
     raw = signals_from_data(model, meas)
     check_derivative_window(model, w, meas.ts, meas.path)
-    need = window_samples(w, meas.ts, DEFAULT_ORDER) + 1
-    if meas.t.size < need:
-        raise DataError(f"{meas.path}: {meas.t.size} samples are too few: the derivative window of {model.name} "
-                        f"({w:g} s) needs at least {need}")
+    check_record_length(model, w, window_samples(w, meas.ts, DEFAULT_ORDER) + 1, meas.ts, meas.t.size, meas.path)
     try:
         thresholds = thresholds_for(config.thresholds, list(monitor.names), o.thresholds)
     except ValueError as exc:
@@ -262,6 +259,9 @@ def started_late(meas: Measurements, sc: "Scales", given: float | None) -> str |
             f"lasts (a shorter diagnosis.derivative_window in the model file starts it sooner)")
 
 
+SPARSE = 0.5     # a record with more than this share of its samples left out at mode switches is noted
+
+
 def blind(p: Prepared, r: np.ndarray) -> str | None:
     """What to change when a residual has samples it cannot judge: with mode switches in the record,
     none at all when every stretch between two switches is shorter than the derivative window (its
@@ -281,6 +281,12 @@ def blind(p: Prepared, r: np.ndarray) -> str | None:
                     f"derivative window ({p.window_s:g} s); shorten diagnosis.derivative_window or sample faster")
         finite = finite | designed          # (a residual empty on long stretches too: not finite there, below)
     notes = []
+    if len(breaks) and designed.mean() > SPARSE:
+        # most of the record left out by design: "nothing detected" there would read as healthy (a
+        # thermostat's 20-minute stretches against a 2 232 s window: 8 of 2 881 samples judged)
+        notes.append(f"only {int((~designed).sum())} of {t.size} samples have a residual: most stretches between mode "
+                     f"switches are shorter than the derivative window ({p.window_s:g} s), whose half at each switch "
+                     f"is left out; shorten diagnosis.derivative_window (bgfdi calibrate --window auto chooses one)")
     if empty:
         notes.append(f"{', '.join(empty)} {'is' if len(empty) == 1 else 'are'} not finite on any sample: a law of "
                      "the model overflows a double or leaves its domain on these data (a constant, a parameter "
@@ -653,13 +659,33 @@ def mode_changes_at(p: Prepared, suspects: list[str], k: int, known: list[dict])
 
 
 def significance(p: Prepared, d: Diagnosis, now: float) -> Diagnosis:
-    """The final faults that earn their parameters on the data since t_D (:func:`fdi.decide.significant`)."""
+    """The final faults that earn their parameters on the data since t_D, and the criterion's change
+    without them all (:func:`fdi.decide.significant`)."""
     start, span = since_detection(p.meas.t, d.detection.time, now, p.samples, MAX_GROWTH)
-    kept, dropped = significant(p.monitor, p.meas, p.raw, start, span, [f.to_dict() for f in d.faults], p.weights,
-                                p.modes)
-    d = replace(d, faults=faults_of(kept), insignificant=dropped) if dropped else d
-    pinned = at_bounds(p, d.faults)
-    return replace(d, note=f"{d.note}; {pinned}" if d.note else pinned) if pinned else d
+    kept, dropped, without = significant(p.monitor, p.meas, p.raw, start, span, [f.to_dict() for f in d.faults],
+                                          p.weights, p.modes)
+    d = replace(d, faults=faults_of(kept), insignificant=dropped or None, criterion_without=without)
+    notes = [n for n in (undetermined(p, d), at_bounds(p, d.faults)) if n]
+    return replace(d, note="; ".join(([d.note] if d.note else []) + notes)) if notes else d
+
+
+def undetermined(p: Prepared, d: Diagnosis) -> str | None:
+    """The note when the data since t_D do not determine the final fit (the criterion without its
+    faults under ``DETERMINED`` above the fit's): its numbers are not measurements. Where the detection
+    came at a mode switch, it says that identification leaves those samples out (a departure seen
+    only in switching transients: the derivative filter may not straddle a switch)."""
+    if d.determined is not False:
+        return None
+    note = (f"the data since the detection do not determine the fit: the fault-free model explains them nearly "
+            f"as well (criterion {d.criterion_without:+.2f}; {DETERMINED:g} or more is strong), so its values are not "
+            f"measurements")
+    t, det = p.meas.t, d.detection
+    near = [float(t[i]) for i in mode_breaks(p.monitor.model, p.raw) if abs(float(t[i]) - det.time) <= p.window_s]
+    if near:
+        note += (f"; the detection came at a mode switch ({near[0]:g} s), whose samples identification leaves out "
+                 f"(within half a derivative window of a switch): a fault seen only in switching transients is "
+                 f"not sized there")
+    return note + "; a longer record after the detection, or more excitation, would decide"
 
 
 BOUND_SLACK = 1e-3      # a value within this share of its search range (of its decades, on a log range) is at a bound
@@ -694,7 +720,7 @@ def at_bounds(p: Prepared, faults) -> str | None:
 def prognoses(p: Prepared, d: Diagnosis, now: float, clock: Clock) -> Diagnosis:
     """The end of life and RUL at ``now`` of every incipient fault with a failure value."""
     incipient = [f for f in d.faults if f.type == "incipient"]
-    if not incipient:
+    if not incipient or d.determined is False:        # (an undetermined drift's end of life is no forecast)
         return d
     clock.restart()
     t, o, model = p.meas.t, p.options, p.monitor.model

@@ -35,6 +35,7 @@ REPORT_KEYS = ("detection", "mode", "candidates", "estimators", "diagnosis", "pr
                "mode_fault_cost", "exoneration_relaxed", "alternatives", "winner", "episodes", "window",
                "insignificant")
 FAULT_TYPES = ("abrupt", "intermittent", "incipient", "stuck", "mode")
+DETERMINED = 6.0     # the least criterion without a final fit minus with it (Kass & Raftery 1995: "strong")
 
 
 def plain(x: Any) -> Any:
@@ -309,6 +310,7 @@ class Diagnosis:
     episodes: tuple[Episode, ...] | None = None
     window: tuple[float, float] | None = None
     insignificant: tuple[Dropped, ...] | None = None
+    criterion_without: float | None = None       # the criterion without the final faults minus with them
     prognosis: tuple[Prognosis, ...] = ()
     note: str | None = None
     t: np.ndarray = field(default=None, repr=False)
@@ -318,6 +320,13 @@ class Diagnosis:
     units: tuple[str, ...] = ()                  # each residual's unit (fdi.arrs.arr_unit)
     timings: Mapping[str, float] = field(default_factory=dict, repr=False)
     bond_graph: Any = field(default=None, repr=False)     # the Model diagnosed (for plots)
+
+    @property
+    def determined(self) -> bool | None:
+        """Whether the data since t_D determine the final fit: the fault-free model's Schwarz criterion
+        exceeds the fit's strongly, ``DETERMINED`` or more
+        (:func:`fdi.decide.significant`); None without a fit."""
+        return None if self.criterion_without is None else self.criterion_without >= DETERMINED
 
     @property
     def candidates(self) -> list[tuple[str, ...]]:
@@ -332,7 +341,7 @@ class Diagnosis:
             "mode": dict(self.mode),
             "candidates": [list(c) for c in self.candidates],
             "estimators": [e.to_dict() for e in self.estimates],
-            "diagnosis": {"faults": [f.to_dict() for f in self.faults]},
+            "diagnosis": {"faults": [f.to_dict() for f in self.faults], "criterion_without": self.criterion_without},
             "prognosis": [p.to_dict() for p in self.prognosis],
             "note": self.note,
             "weakly_detectable": None if iso is None or not iso.weak else {k: list(v) for k, v in iso.weak.items()},
@@ -410,6 +419,8 @@ class Diagnosis:
                       for g in partners(offered, f.name, {g.name for g in self.faults}, self.winner)]
         if d is not None and not self.faults:
             lines.append("  no fault identified" + (f" ({self.note})" if self.note else ""))
+        elif self.determined is False:
+            lines.append(f"  not determined by these data (criterion {self.criterion_without:+.2f}: the note says why)")
         lines += [f"  RUL of {p.name}: {p.rul:.4g} s at {p.at:.4g} s (band {p.rul_low:.4g} to {p.rul_high:.4g} s)"
                   for p in self.prognosis if math.isfinite(p.rul)]
         return "\n".join(lines)
@@ -419,7 +430,8 @@ class Diagnosis:
         rows = [("detection", "none" if d is None else
                  f"t<sub>D</sub> = {d.time:.2f} s, coherence {list(d.coherence)}; at {d.decision_time:.2f} s: "
                  f"{list(d.final_coherence)}")]
-        rows += [(f.name, f.describe().split(": ", 1)[1]) for f in self.faults] or [("diagnosis", "no fault")]
+        rows += [(f.name, f.describe().split(": ", 1)[1]) for f in self.faults] or [
+            ("diagnosis", "no fault" if d is None else "no fault identified")]
         rows += [(f"RUL of {p.name}", f"{p.rul:.2f} s at {p.at:.2f} s (EOL {p.eol:.2f} s)")
                  for p in self.prognosis if math.isfinite(p.rul)]
         body = "".join(f"<tr><th style='text-align:left'>{html.escape(str(k))}</th><td style='text-align:left'>"

@@ -40,6 +40,7 @@ import numpy as np
 
 from bondgraph.model import Model
 
+from . import derivatives
 from .data import input_values
 from .residuals import Residual, corrects_signal, evaluate
 from .signatures import FSM
@@ -101,7 +102,13 @@ def weak_entries(model: Model, residuals: list[Residual], raw: Mapping[str, np.n
     nominal = {k: float(v) for k, v in model.nominal_by_name().items()}
     base_values = dict(values or {})
     r0 = evaluate(model, residuals, raw, ts, window=window, values=base_values)[:, crop]
-    observed = np.fmax.reduce(np.abs(r0), axis=-1)                  # NaN skipped, no warning
+    # the fault's size is read past the first derivative window: a step of a signal (an offset, a
+    # gain) jumps its derivative, and the spike the filter makes of it at the onset is no effect of
+    # the constant step probed here (a thermometer's 1.5 K offset read as 33 K from a zone balance's
+    # 10 kW spike, its steady effect 1 kW: the wall balance it moves by 187 W "would have fired")
+    lead = derivatives.window_samples(window, ts, derivatives.DEFAULT_ORDER)
+    past = slice(lead if r0.shape[-1] > 2 * lead else 0, None)
+    observed = np.fmax.reduce(np.abs(r0[..., past]), axis=-1)      # NaN skipped, no warning
     if quiet_level is not None:          # the part of each peak above the residual's own level is the fault's
         observed = observed - np.nan_to_num(np.asarray(quiet_level, dtype=float), nan=0.0)
     out: list[Weakness] = []
@@ -116,7 +123,7 @@ def weak_entries(model: Model, residuals: list[Residual], raw: Mapping[str, np.n
         params, betas, biases = moved
         r1 = evaluate(model, residuals, raw, ts, window=window, values={**base_values, **params}, betas=betas,
                       biases=biases)[:, crop]
-        effect = np.fmax.reduce(np.abs(r1 - r0), axis=-1)            # the step's peak effect on each residual
+        effect = np.fmax.reduce(np.abs(r1 - r0)[..., past], axis=-1)  # the step's peak effect on each residual
         scales = [observed[i] / effect[i] for i in fired      # a peak not above its own level reads no size
                   if effect[i] > 0 and np.isfinite(effect[i]) and np.isfinite(observed[i]) and observed[i] > 0]
         if not scales:

@@ -51,11 +51,12 @@ class WindowScore:
     """One candidate derivative window (s, and samples of the first run) and, per fault, the
     smallest relative change of it the calibrated thresholds detect on the nominal runs (the
     change whose RMS effect on its most telling residual equals that residual's threshold; 0.1 is
-    10 %); ``score`` is their geometric mean."""
+    10 %); ``score`` is their geometric mean; ``rule``: the rule's window (scored first)."""
     window: float
     samples: int
     detectable: dict[str, float]
     score: float
+    rule: bool = False
 
 
 def cutoff(samples: int, ts: float, polyorder: int = derivatives.DEFAULT_ORDER) -> float:
@@ -137,8 +138,11 @@ def choose_window(model_path: str, data: list[Measurements], thresholds_of: Call
             continue                      # its settling (7 decay times of the modes it spans) leaves too little
         nominal_r = [np.asarray(evaluate(model, residuals, raw, meas.ts, window=window, values=modes))[:, keep]
                      for (meas, raw, modes), keep in zip(runs, keeps)]
-        if factor > 1 and max(float(np.isnan(r0).any(axis=0).mean()) for r0 in nominal_r) > MAX_GAPS:
-            break                         # longer windows leave more of a run without residuals still
+        if max(float(np.isnan(r0).any(axis=0).mean()) if r0.size else 1.0 for r0 in nominal_r) > MAX_GAPS:
+            if factor > 1:
+                break                     # longer windows leave more of a run without residuals still
+            continue                      # (the rule's too: a thermostat's stretches shorter than it, 8 of 2 881
+                                          # samples with a residual, their thresholds from those alone)
         thresholds = thresholds_of([np.abs(r0) for r0 in nominal_r])
         detectable = {}
         for f, rms in _effects(model, residuals, runs, keeps, nominal_r, window, nominal).items():
@@ -152,7 +156,7 @@ def choose_window(model_path: str, data: list[Measurements], thresholds_of: Call
         if any(f not in detectable for f in faults):
             continue
         score = float(np.exp(np.mean(np.log([detectable[f] for f in faults])))) if faults else float("inf")
-        out.append(WindowScore(float(window), samples, {f: detectable[f] for f in faults}, score))
+        out.append(WindowScore(float(window), samples, {f: detectable[f] for f in faults}, score, factor == 1.0))
     return out
 
 
@@ -177,10 +181,10 @@ def _effects(model, residuals, runs, keeps, nominal_r, window: float, nominal: d
 
 
 def chosen(scores: list[WindowScore]) -> WindowScore:
-    """The rule's window (the first) when it detects a change of DETECT_GOAL of every fault; else
-    the window with the smallest score, or the shortest within WINDOW_TIE of it."""
+    """The rule's window (the first, when it was scored) when it detects a change of DETECT_GOAL of
+    every fault; else the window with the smallest score, or the shortest within WINDOW_TIE of it."""
     rule = scores[0]
-    if rule.detectable and max(rule.detectable.values()) <= DETECT_GOAL:
+    if rule.rule and rule.detectable and max(rule.detectable.values()) <= DETECT_GOAL:
         return rule
     best = min(s.score for s in scores)
     return next(s for s in sorted(scores, key=lambda s: s.window) if s.score <= best * (1 + WINDOW_TIE))

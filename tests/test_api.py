@@ -133,7 +133,7 @@ def test_yaml_text_as_the_model():
     m = read_csv(DATA / "nominal.csv")
     text = CYCAB.read_text(encoding="utf-8")
     d = diagnose(text, {k: v[:1500] for k, v in m.columns.items()}, workers=1)
-    assert d.detection is None and d.to_dict()["diagnosis"] == {"faults": []}
+    assert d.detection is None and d.to_dict()["diagnosis"] == {"faults": [], "criterion_without": None}
 
 
 @pytest.mark.skipif(importlib.util.find_spec("matplotlib") is None, reason="the plot extra is not installed")

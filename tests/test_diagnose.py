@@ -127,7 +127,7 @@ def test_json_report_shape(capsys):
     assert main(["diagnose", "models/cycab_steering.yaml", str(DATA / "nominal.csv"), "--json"]) == 0
     r = json.loads(capsys.readouterr().out)
     assert set(r) >= {"detection", "mode", "candidates", "estimators", "diagnosis", "prognosis"}
-    assert r["detection"] is None and r["diagnosis"] == {"faults": []}
+    assert r["detection"] is None and r["diagnosis"] == {"faults": [], "criterion_without": None}
 
 
 def test_end_of_life_closed_forms():

@@ -93,6 +93,8 @@ def _err(text: str) -> ModelError:
     ("  R: {value: 100.0, unit: Ohm}", "  R: {value: 100.0, unit: Ohm, description: leak (wet, aged)}",
      ["unknown key 'aged)'", "quote the text"]),
     ("  R: {value: 100.0, unit: Ohm}", "  R: {value: 100.0, unti: Ohm}", ["unknown key 'unti'", "allowed: "]),
+    ("  4: [j0, cap]", "  4: [j0, cap]\nfaults:\n  fR: {kind: parametric, parameters: [R, R]}",
+     ["faults.fR.parameters", "R listed twice", "name each parameter once"]),
     ("  4: [j0, cap]", "  4: [j0, cap]\ninitial: {vv: 1.0}",
      ["initial.vv", "'vv' is no storage element or sensor", "storage element's name", ": cap, v"]),
 ])

@@ -116,3 +116,16 @@ def test_a_sensor_faults_fit_across_a_switch_skips_the_rates_gaps():
     real, bits = obj.encode([{"name": "beta_ib", "type": "abrupt", "value": 1.0, "t0": 2.0}])
     cost = obj(np.atleast_2d(real), np.atleast_2d(bits))
     assert np.isfinite(cost).all() and cost.max() > 0
+
+
+@pytest.mark.parametrize("n, polyorder", [(2003, 3), (2401, 4)])
+def test_long_windows_trim_from_the_normal_equations_as_the_pseudo_inverses_do(n, polyorder):
+    """Windows over EXACT_EDGE samples take their noise gains from the normal equations (a record
+    stamped in hours asked for a 39 601-sample window: two minutes of pseudo-inverses); the
+    reference is the pseudo-inverse of every position's Vandermonde matrix."""
+    from fdi.derivatives import _edge_gains, _edge_gains_by_moments
+    exact, moments = _edge_gains(n, polyorder, polyorder), _edge_gains_by_moments(n, polyorder, polyorder)
+    assert np.allclose(moments, exact, rtol=1e-4, atol=0)
+    for k in range(polyorder + 1):
+        over = [g[:k + 1] > EDGE_GAIN * g[:k + 1, -1:] for g in (exact, moments)]
+        assert [int(np.flatnonzero(o.any(axis=0)).max() + 1) for o in over] == [edge_trim(n, polyorder, k)] * 2

@@ -434,6 +434,32 @@ def test_calibrating_on_constant_data_is_refused_with_the_reason(tmp_path, capsy
     _one_line(err, "flat.csv", "every column is constant", "no threshold can be learnt")
 
 
+def test_calibrating_on_a_run_whose_noisy_sensors_are_frozen_is_refused(tmp_path, capsys):
+    """A trial's run with both thermometers frozen (a stuck sensor: a fault) was taken as nominal
+    and raised the thresholds 40-75 %; the model gives p1 and p2 noise, so a constant reading is no
+    nominal run."""
+    run = tmp_path / "frozen.csv"
+    run.write_text("t,Qin,p1,p2\n" + "".join(f"{i / 10:.1f},{1e-4 * (1 + i % 7)},2000,1000\n" for i in range(600)),
+                   encoding="utf-8")
+    code, err = _cli(["calibrate", MODELS / "two_tank_valve.yaml", run], capsys)
+    assert code == 2
+    _one_line(err, "frozen.csv", "p1, p2 never change", "stuck")
+
+
+def test_calibrating_on_a_record_stamped_in_hours_is_refused_at_once_with_the_unit_asked(tmp_path, capsys):
+    """The model samples every 0.1 s with a 5 s window (51 samples); a record stamped in hours
+    (0.1 s = 2.8e-5 h) spans 1.8e5 samples of it per window: calibrate filtered a window many times the
+    record's length for minutes before saying no residual had a sample. Refused like diagnose does,
+    and the unit is asked."""
+    run = tmp_path / "hours.csv"
+    run.write_text("t,Qin,p1,p2\n" + "".join(f"{i * 0.1 / 3600!r},{1e-4 * (1 + i % 7)},{2000 + i % 5},{1000 + i % 3}\n"
+                                              for i in range(600)), encoding="utf-8")
+    code, err = _cli(["calibrate", MODELS / "two_tank_valve.yaml", run], capsys)
+    assert code == 2
+    _one_line(err, "hours.csv", "600 samples are too few", "1/3600 of the model file's data.sampling_time",
+              "h or min for s")
+
+
 # ------------------------------------------------------------------ 4. bounded memory and time
 
 @pytest.mark.parametrize("shape, window", [((5000,), 0.4001), ((3, 4000), 0.1001), ((2, 2, 3000), 0.0501)])

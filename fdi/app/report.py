@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 
 from ..isolate import COVERING_NOTE
-from ..results import Coincidence, Fault, _vec, partners
+from ..results import DETERMINED, Coincidence, Fault, _vec, partners
 
 
 def describe_fault(f: dict) -> str:
@@ -103,6 +103,10 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
         out += [f"    or {describe_fault(g)} (read together with {f['name']}: one fit)"
                 for g in partners(report.get("alternatives"), f["name"], {g["name"] for g in faults},
                                   report.get("winner"))]
+    without = report["diagnosis"].get("criterion_without")
+    if faults and without is not None and without < DETERMINED:
+        out.append(f"  (not determined by these data: criterion {without:+.2f} without these faults, under "
+                   f"{DETERMINED:g}; the note says why)")
     for p in report.get("prognosis") or []:
         band = ""
         if p.get("rul_low") is not None and p.get("rul_high") is not None and p["rul_high"] != p["rul_low"]:
