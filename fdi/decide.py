@@ -86,7 +86,7 @@ def swapped(winner: set[str], other: set[str], coinciding: Sequence[Coincidence]
 
 def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float, span: int,
                 faults: list[dict], weights: np.ndarray,
-                modes: dict[str, float] | None = None) -> tuple[list[dict], tuple[Dropped, ...], float | None]:
+                modes: dict[str, float] | None = None) -> tuple[list[dict], tuple[Dropped, ...], float | None, float]:
     """The faults of a final diagnosis that earn their parameters on the ``span`` samples from
     ``start``, and those that do not. Each fault is held at its fit and removed in turn; while the
     information criterion is no worse without one, the least useful goes (a first decision's fault
@@ -100,7 +100,8 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
     only through C dv/dt, whose departure is in the switching transients identification leaves
     out, fitted at 0.010076 for 0.01 F with the capacitance 32 % low: +1.98; a shaft's load brake
     read through b2 dw2/dt at a steady speed: -9.44 (its value 0.138 for 0.15, loosely fixed);
-    every fault of the CyCab suite and the golden reports +124 or more."""
+    every fault of the CyCab suite and the golden reports +124 or more. Last, what the final fit
+    leaves: the residuals' mean |r| in thresholds (eq. (24)'s weights) over the span."""
     model, residuals, w = monitor.model, monitor.residuals, monitor.config.derivative_window
     win = window(meas.t, raw, start, span, w)
     n_eff = effective_samples(span, len(residuals), meas.ts, w)
@@ -123,4 +124,5 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
     without = None
     if kept:        # the final fit against the fault-free model (mode faults held in both)
         without = information(cost([]), [], n_eff) - information(cost(kept), kept, n_eff)
-    return mode_faults + kept, tuple(dropped), without
+    left = cost(kept) / (span * len(residuals)) if span and residuals else 0.0
+    return mode_faults + kept, tuple(dropped), without, left

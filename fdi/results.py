@@ -414,7 +414,7 @@ class Diagnosis:
                                        f"at {d.decision_time:.4g} s: {_vec(d.final_coherence)}")]
         offered = [a.to_dict() for a in self.alternatives or ()]
         for f in self.faults:
-            lines.append(f"  {f.describe()}" + (f" from {f.t0:.4g} s" if f.t0 is not None and f.type != "stuck" else ""))
+            lines.append(f"  {f.describe()}")        # (its onset in it)
             lines += [f"    or {Fault.from_dict(g).describe()} (read together with {f.name}: one fit)"
                       for g in partners(offered, f.name, {g.name for g in self.faults}, self.winner)]
         if d is not None and not self.faults:

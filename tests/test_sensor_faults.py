@@ -142,3 +142,18 @@ def test_an_offset_beyond_its_search_bounds_is_named_as_the_bound_not_a_measurem
     quiet = diagnose(str(MODEL), Measurements("offset", small["t"], small), Options(workers=1, seed=0,
                                                                                     thresholds=thresholds()))
     assert quiet.note is None or "bound of its search" not in quiet.note
+
+
+def test_a_record_no_fault_explains_is_said_so():
+    """Designed truth: the source's column reads 1e300 from 3 s (a value no input reaches: a unit or
+    scale gone wrong). Whatever fits best leaves the residuals ~1e302 thresholds away; a trial's
+    building with its outdoor temperature so was 'explained' by two envelope drifts, nothing said."""
+    data = dict(circuit(6.0, seed=1))
+    data["u"] = np.where(data["t"] >= 3.0, 1e300, data["u"])
+    d = diagnose(str(MODEL), Measurements("garbage", data["t"], data), Options(workers=1, seed=0,
+                                                                               thresholds=thresholds()))
+    assert "no candidate explains these data" in d.note
+    small = circuit(6.0, seed=1, bias=(3.0, 0.3))
+    clean = diagnose(str(MODEL), Measurements("offset", small["t"], small), Options(workers=1, seed=0,
+                                                                                    thresholds=thresholds()))
+    assert clean.faults and "no candidate explains" not in (clean.note or "")
