@@ -186,10 +186,31 @@ def format_dimension(dims: dict[str, float]) -> str:
             return name
     if not dims:
         return "-"
+    if dims.get("kg") == 1:
+        # a named unit times a little rest where that is shorter (a thermal term of a wrong unit:
+        # W*K/s, not kg*m^2*K/s^4)
+        best = None
+        for name in FACTORS:
+            rest = combine((dims, 1), (DERIVED[name], -1))
+            size = sum(abs(v) for v in rest.values())
+            if size < sum(abs(v) for v in dims.values()) - 2 and (best is None or size < best[0]):
+                best = (size, name, rest)
+        if best is not None:
+            return best[1] + _base_text(best[2], lead="*")
+    return _base_text(dims)
 
+
+FACTORS = ("W", "J", "N", "Pa", "V")   # the named units a composite unit is told through
+
+
+def _base_text(dims: dict[str, float], lead: str = "") -> str:
+    """``dims`` in base symbols (``m^3/s``), after ``lead`` (a named unit's ``*``) when it has a
+    numerator; "" for no dimension after a lead."""
     def power(k: str, v: float) -> str:
         v = abs(v)
         return k if v == 1 else f"{k}^{int(v) if float(v).is_integer() else v:g}"
     num = [power(k, v) for k in BASE if (v := dims.get(k, 0)) > 0]
     den = [power(k, v) for k in BASE if (v := dims.get(k, 0)) < 0]
+    if lead:
+        return (lead + "*".join(num) if num else "") + ("/" + "*".join(den) if den else "")
     return ("*".join(num) or "1") + ("/" + "*".join(den) if den else "")

@@ -42,3 +42,14 @@ def test_other_units(text, expected):
 def test_what_is_not_a_unit_is_refused_with_where_it_stops(text, message):
     with pytest.raises(UnitError, match=re.escape(message)):
         check_unit(text)
+
+
+@pytest.mark.parametrize("text, shown", [
+    ("kg*m^2*K/s^4", "W*K/s"),        # a trial's thermal term with a wrong unit: was kg*m^2*K/s^4
+    ("J/K", "J/K"), ("kg*m^2/s", "J*s"), ("V*K", "V*K"),
+    ("kg/s", "kg/s"), ("kg/m^3", "kg/m^3"), ("m^3/s", "m^3/s"), ("W", "W"), ("N*m", "N*m"),
+])
+def test_a_unit_is_shown_through_a_named_unit_where_that_is_shorter(text, shown):
+    from bondgraph.units import format_dimension
+    assert format_dimension(dimension(text)) == shown
+    assert dimension(shown) == dimension(text)         # and it reads back as the same dimension
