@@ -85,7 +85,7 @@ class Calibration:
     window_given: bool = True           # from diagnosis.derivative_window (else the rule's, fdi.scales)
     highest_order: int = 0              # the highest derivative the residuals take
     window_chosen: bool = False         # chosen by ``--window auto`` (fdi.window_choice): written with -o
-    window_scores: list[WindowScore] | None = None    # every candidate window's, the rule's first
+    window_scores: list[WindowScore] | None = None    # every candidate window's, the rule's first when scored
     blind: tuple[str, ...] = ()         # why the rule's window follows no time constant the data show
     spikes: tuple[tuple[str, float, str], ...] = ()   # (residual, its peak / its median, the run):
                                                      # a peak rule's threshold set by a spike (SPIKE)
@@ -174,8 +174,9 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
             raise DataError(f"{meas.path}: every column is constant: no sensor noise and nothing moving, so no "
                             "threshold can be learnt from it (it would be 0, or miss the noise every real run "
                             "has); calibrate on fault-free runs recorded from the plant, noise included")
-        frozen = sorted({c for s in model.sensors.values() for c, sd in s.noise.items()
-                         if sd > 0 and c in meas.columns and np.ptp(meas.columns[c]) == 0})
+        frozen = sorted({c for s in model.sensors.values() for c, sd in s.noise.items()      # (a quantised one
+                         if sd > 0 and not s.resolution.get(c) and c in meas.columns  # may read one count)
+                         and np.ptp(meas.columns[c]) == 0})
         if frozen:      # a stuck sensor is a fault: a trial's frozen thermometers raised the thresholds 40-75 %
             raise DataError(f"{meas.path}: the sensor column(s) {', '.join(frozen)} never change, though the model "
                             "gives them noise: a frozen (stuck) sensor is a fault, not a nominal run; leave the run "
@@ -535,8 +536,9 @@ def format_calibration(c: Calibration) -> str:
                 lines.append(f"  {f}: {_change(rule.detectable[f])} -> {_change(pick.detectable[f])}")
         else:               # the rule's window left over half a run without residuals: not scored
             lines.append(f"derivative window: {c.window:.4g} s ({c.window_samples} samples), chosen by --window auto "
-                         f"from {span}): the rule's window left over half a run without residuals (the stretches "
-                         f"between mode switches are shorter than it); the smallest change each fault needs to be "
+                         f"from {span}): the rule's window left over half a run without residuals (stretches "
+                         f"between mode switches shorter than it, or a settling as long as a run); the smallest "
+                         f"change each fault needs to be "
                          f"detected, geometric mean {100 * pick.score:.3g} % at this one")
             for f in pick.detectable:
                 lines.append(f"  {f}: {_change(pick.detectable[f])}")

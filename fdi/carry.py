@@ -45,7 +45,7 @@ from bondgraph.model import Model
 
 from . import derivatives
 from .data import Measurements, commanded, signals_from_data
-from .residuals import Residual, corrected_signals, derivative_orders, evaluate, parameter_values
+from .residuals import SHORT_STRETCH, Residual, corrected_signals, derivative_orders, evaluate, parameter_values
 
 
 class Carried:
@@ -65,12 +65,15 @@ class Carried:
 
     def behind(self, ts: float) -> int:
         """Samples before the first one asked for that the filters read (their carried state):
-        half the longest derivative window, or two windows and a sample on the whole-segment path."""
+        half the longest derivative window, or on the whole-segment path two windows and a sample
+        and the fast-switching bound (:meth:`tail`): a stretch cut by the segment's start looked
+        short, and its samples before the next switch were left out where the file's long stretch
+        keeps them."""
         known = self._behind.get(ts)
         if known is not None:
             return known
         if not self.cropped:
-            out = 2 * (int(math.ceil(self.window / ts)) + 1)
+            out = 2 * (int(math.ceil(self.window / ts)) + 1) + self.tail(ts)
         else:
             n = [derivatives.window_samples(self.window, ts, max(derivatives.DEFAULT_ORDER, k))
                  for k in self.orders.values()]
@@ -103,6 +106,15 @@ class Carried:
         for row, r in zip(out, self.kernels):
             row[:] = r(sig, values, ts, self.window)
         return out
+
+
+    def tail(self, ts: float) -> int:
+        """SHORT_STRETCH of the longest filter windows and one: the rows that tell whether the
+        stretch before a switch is a long one, whose samples up to the switch the file keeps
+        (one-sided fits), or a short one (half a window left out)."""
+        need = max(derivatives.window_samples(self.window, ts, max(derivatives.DEFAULT_ORDER, k))
+                   for k in list(self.orders.values()) + [0])
+        return SHORT_STRETCH * need + 1
 
 
 def filtered(x: np.ndarray, ts: float, order: int, window: float, lo: int, hi: int) -> list[np.ndarray]:

@@ -95,7 +95,7 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
     no-op is reported apart, not hidden.
 
     Also returns the criterion's change without all the faults kept (the
-    fault-free model, mode faults held), or None without any. Under ``DETERMINED`` (Kass &
+    fault-free model, mode faults held), or None without any (or where a cost is not finite). Under ``DETERMINED`` (Kass &
     Raftery's "strong"; :data:`fdi.results.DETERMINED`) the data since t_D do not determine the fit: a DC link's capacitance read
     only through C dv/dt, whose departure is in the switching transients identification leaves
     out, fitted at 0.010076 for 0.01 F with the capacitance 32 % low: +1.98; a shaft's load brake
@@ -121,8 +121,10 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
             break
         kept = [g for g in kept if g is not f]
         dropped.append(Dropped(f, best - current))
+    final = cost(kept)
     without = None
     if kept:        # the final fit against the fault-free model (mode faults held in both)
-        without = information(cost([]), [], n_eff) - information(cost(kept), kept, n_eff)
-    left = cost(kept) / (span * len(residuals)) if span and residuals else 0.0
+        without = information(cost([]), [], n_eff) - information(final, kept, n_eff)
+        without = without if math.isfinite(without) else None      # (either cost infinite: no comparison)
+    left = final / (span * len(residuals)) if span and residuals else 0.0
     return mode_faults + kept, tuple(dropped), without, left

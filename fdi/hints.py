@@ -91,7 +91,8 @@ def square_waves(x: np.ndarray, ts: float, low: float, high: float, count: int =
         if any(abs(period - w.period) <= REFINE * w.period for w in out):
             continue
         T, phase = refine(y, ts, period, low / 3, high)
-        out.append(SquareWave(T, phase, float(p[k] / local[int(k)])))
+        with np.errstate(invalid="ignore"):         # (a record at 1e300: inf / inf)
+            out.append(SquareWave(T, phase, float(p[k] / local[int(k)])))
         if len(out) == count:
             break
     return tuple(out)

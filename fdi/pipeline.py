@@ -664,7 +664,8 @@ def significance(p: Prepared, d: Diagnosis, now: float) -> Diagnosis:
     start, span = since_detection(p.meas.t, d.detection.time, now, p.samples, MAX_GROWTH)
     kept, dropped, without, left = significant(p.monitor, p.meas, p.raw, start, span,
                                                 [f.to_dict() for f in d.faults], p.weights, p.modes)
-    d = replace(d, faults=faults_of(kept), insignificant=dropped or None, criterion_without=without)
+    d = replace(d, faults=faults_of(kept) if dropped else d.faults, insignificant=dropped or None,
+                criterion_without=without)
     unexplained = None
     if left > UNEXPLAINED and p.options.weights == "thresholds":
         # (a trial's outdoor temperature at 1e300 on every row: two drifts at -600 /s reported, nothing said)

@@ -445,7 +445,7 @@ class Diagnosis:
 
 
 ROW_KEYS = ("file", "error", "detection_time", "fault", "type", "value", "period", "model", "b", "t0", "rul", "rul_low",
-            "rul_high")
+            "rul_high", "criterion_without")
 
 
 def fault_rows(reports) -> list[dict]:
@@ -454,7 +454,7 @@ def fault_rows(reports) -> list[dict]:
     report without a fault gives one row with ``fault`` None, so every file of a fleet shows.
 
     >>> fault_rows([{"file": "a.csv", "detection": None, "diagnosis": {"faults": []}, "prognosis": []}])
-    [{'file': 'a.csv', 'error': None, 'detection_time': None, 'fault': None, 'type': None, 'value': None, 'period': None, 'model': None, 'b': None, 't0': None, 'rul': None, 'rul_low': None, 'rul_high': None}]
+    [{'file': 'a.csv', 'error': None, 'detection_time': None, 'fault': None, 'type': None, 'value': None, 'period': None, 'model': None, 'b': None, 't0': None, 'rul': None, 'rul_low': None, 'rul_high': None, 'criterion_without': None}]
     """
     out = []
     for r in reports:
@@ -462,7 +462,8 @@ def fault_rows(reports) -> list[dict]:
         det = report.get("detection")
         life = {p["name"]: p for p in report.get("prognosis") or []}
         base = {"file": report.get("file"), "error": report.get("error"),
-                "detection_time": None if det is None else det["time"]}
+                "detection_time": None if det is None else det["time"],
+                "criterion_without": (report.get("diagnosis") or {}).get("criterion_without")}
         faults = (report.get("diagnosis") or {}).get("faults") or [None]
         for f in faults:
             row = dict.fromkeys(ROW_KEYS)

@@ -242,15 +242,15 @@ def resolve(config: MonitorConfig, model: Model, ts: float) -> MonitorConfig:
 def check_record_length(model: Model, window: float, need: int, ts: float, samples: int, data: str) -> None:
     """Refuse (DataError) a record of fewer ``samples`` than the ``need`` the derivative window of
     ``window`` s spans: no residual sample could be filtered (and calibrate's filter of a window 14
-    times the record's length took two minutes to say so). A record sampled far faster than the
-    model file's data.sampling_time is likely stamped in another unit (h or min for s): the
-    message asks."""
+    times the record's length took two minutes to say so). A record sampled over 30 times faster
+    than the model file's data.sampling_time is likely stamped in another unit (h or min for s):
+    the message asks."""
     from .data import DataError
     if samples >= need:
         return
     given = model.sampling_time
     hint = (f" (sampled every {ts:g} s, 1/{given / ts:.4g} of the model file's data.sampling_time, {given:g} s: are "
-            f"the time stamps in another unit, h or min for s? Time is in seconds, SI)" if given and ts < given / 1.01 else "")
+            f"the time stamps in another unit, h or min for s? Time is in seconds, SI)" if given and ts < given / 30 else "")
     raise DataError(f"{data}: {samples} samples are too few: the derivative window of {model.name} ({window:g} s) "
                     f"needs at least {need}{hint}")
 

@@ -573,8 +573,10 @@ class Stream:
             event = {"event": "decision", **d, "known_at": known_at}
             if d is decisions[-1]:
                 event["faults"] = report["diagnosis"]["faults"]
+                event["criterion_without"] = report["diagnosis"].get("criterion_without")
                 event["mode"] = report["mode"]
                 event["prognosis"] = report["prognosis"]
+                event["note"] = report.get("note")
             elif d["faults"] is None:
                 event.pop("faults")
             if seconds is not None:

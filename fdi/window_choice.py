@@ -127,6 +127,10 @@ def choose_window(model_path: str, data: list[Measurements], thresholds_of: Call
         samples = derivatives.window_samples(window, ts, derivatives.DEFAULT_ORDER)
         if factor < 1 and samples < scales.min_window_samples():
             continue                      # below the rule's fewest samples
+        if samples >= min(meas.t.size for meas in data):
+            if factor > 1:
+                break
+            continue                      # longer than a run: no residual sample (the rule's too; shorter ones may do)
         if factor > 1 and not clear_of_modes(samples, ts, eigenvalues):
             continue
         config = replace(c.config, derivative_window=float(window))

@@ -50,3 +50,14 @@ def test_a_capacitance_seen_only_in_switching_transients_is_not_determined(optio
     assert "do not determine the fit" in d.note and "mode switch" in d.note
     assert d.prognosis == ()
     assert d.to_dict()["diagnosis"]["criterion_without"] == d.criterion_without
+
+
+def test_an_undetermined_drift_gets_no_prognosis():
+    """An end of life from a fit the data do not determine is no forecast: the prognosis step
+    returns the diagnosis as it is (the capacitor above is fitted abrupt, so it asks nothing)."""
+    from fdi.pipeline import prognoses
+    from fdi.results import Diagnosis, Fault
+    drift = Fault.from_dict({"name": "C", "type": "incipient", "model": 1, "eta": [1, 0], "b": [-0.05], "t0": 5.0})
+    d = Diagnosis("dc_microgrid", {}, faults=(drift,), criterion_without=1.98)
+    assert d.determined is False
+    assert prognoses(None, d, 15.0, None) is d           # before the prognosis reads any data

@@ -25,8 +25,11 @@ def t_out(t, mean: float = 278.15, amp: float = 5.0):
 
 
 def simulate(seed: int, offset: tuple[float, float] | None = None, mean: float = 278.15, amp: float = 5.0,
-             windows=((7.0, 7.5), (18.0, 18 + 1 / 3))) -> np.ndarray:
-    """Rows of ``HEAD``. ``offset``: (onset s, K) added to the T2 thermometer's readings from then."""
+             windows=((7.0, 7.5), (18.0, 18 + 1 / 3)), noise: float = NOISE,
+             heater: tuple[float, float] | None = None) -> np.ndarray:
+    """Rows of ``HEAD``. ``offset``: (onset s, K) added to the T2 thermometer's readings from then;
+    ``heater``: (onset s, factor) of the heater's power from then;
+    ``noise``: the thermometers' (K; less noise, fewer relay chatters and longer stretches)."""
     rng = np.random.default_rng(seed)
     n = int(HOURS * 3600 / TS) + 1
     t = np.arange(n) * TS
@@ -35,8 +38,8 @@ def simulate(seed: int, offset: tuple[float, float] | None = None, mean: float =
     h = 1
     for k in range(n):
         tk = t[k]
-        T1m = x[0] + NOISE * rng.standard_normal()
-        T2m = x[1] + NOISE * rng.standard_normal()
+        T1m = x[0] + noise * rng.standard_normal()
+        T2m = x[1] + noise * rng.standard_normal()
         if offset is not None and tk >= offset[0]:
             T2m += offset[1]
         To = t_out(tk, mean, amp) + 0.05 * rng.standard_normal()
@@ -50,9 +53,11 @@ def simulate(seed: int, offset: tuple[float, float] | None = None, mean: float =
         if k == n - 1:
             break
 
-        def f(s, y, h=h, w=w):
+        power = PH * (heater[1] if heater is not None and tk >= heater[0] else 1.0)
+
+        def f(s, y, h=h, w=w, power=power):
             To = t_out(s, mean, amp)
-            return [(h * PH - (y[0] - To) / R1A - (y[0] - y[1]) / R12) / C1,
+            return [(h * power - (y[0] - To) / R1A - (y[0] - y[1]) / R12) / C1,
                     ((y[0] - y[1]) / R12 - (y[1] - To) / R2A - w * (y[1] - To) / RV) / C2]
         x = solve_ivp(f, (tk, tk + TS), x, method="RK45", rtol=1e-10, atol=1e-9).y[:, -1]
     return rows
