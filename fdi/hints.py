@@ -65,7 +65,13 @@ def square_waves(x: np.ndarray, ts: float, low: float, high: float, count: int =
     """Up to ``count`` square waves of period in [low / 3, high] (s) in the magnitude signal ``x``
     (sampled every ``ts`` s; time 0 at its first sample), strongest first; none when no peak of its
     periodogram stands ``SIGNIFICANCE`` times above the periodogram's median from half to twice its
-    frequency (``LOCAL``)."""
+    frequency (``LOCAL``). A record near a double's range (1e300) overflows the periodogram: no
+    wave, no warning."""
+    with np.errstate(all="ignore"):
+        return _square_waves(x, ts, low, high, count)
+
+
+def _square_waves(x: np.ndarray, ts: float, low: float, high: float, count: int) -> tuple[SquareWave, ...]:
     x = np.asarray(x, dtype=float)
     x = x[np.isfinite(x)] if not np.isfinite(x).all() else x
     n = x.size
@@ -91,8 +97,7 @@ def square_waves(x: np.ndarray, ts: float, low: float, high: float, count: int =
         if any(abs(period - w.period) <= REFINE * w.period for w in out):
             continue
         T, phase = refine(y, ts, period, low / 3, high)
-        with np.errstate(invalid="ignore"):         # (a record at 1e300: inf / inf)
-            out.append(SquareWave(T, phase, float(p[k] / local[int(k)])))
+        out.append(SquareWave(T, phase, float(p[k] / local[int(k)])))
         if len(out) == count:
             break
     return tuple(out)
