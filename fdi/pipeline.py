@@ -691,7 +691,7 @@ def undetermined(p: Prepared, d: Diagnosis) -> str | None:
         return None
     note = (f"the data since the detection do not determine the fit: the fault-free model explains them nearly "
             f"as well (criterion {d.criterion_without:+.2f}; {DETERMINED:g} or more is strong), so its values are not "
-            f"measurements")
+            f"reliable measurements (the fault may be another candidate, or sized far from its value)")
     t, det = p.meas.t, d.detection
     near = [float(t[i]) for i in mode_breaks(p.monitor.model, p.raw) if abs(float(t[i]) - det.time) <= p.window_s]
     if near:
