@@ -75,9 +75,7 @@ class Carried:
         if not self.cropped:
             out = 2 * (int(math.ceil(self.window / ts)) + 1) + self.tail(ts)
         else:
-            n = [derivatives.window_samples(self.window, ts, max(derivatives.DEFAULT_ORDER, k))
-                 for k in self.orders.values()]
-            out = max(n, default=1) // 2
+            out = self._longest(ts) // 2 if self.orders else 0
         if len(self._behind) > 64:                  # a stream's sampling time is one number, give or take round-off
             self._behind.clear()
         self._behind[ts] = out
@@ -107,14 +105,16 @@ class Carried:
             row[:] = r(sig, values, ts, self.window)
         return out
 
-
     def tail(self, ts: float) -> int:
         """SHORT_STRETCH of the longest filter windows and one: the rows that tell whether the
         stretch before a switch is a long one, whose samples up to the switch the file keeps
         (one-sided fits), or a short one (half a window left out)."""
-        need = max(derivatives.window_samples(self.window, ts, max(derivatives.DEFAULT_ORDER, k))
-                   for k in list(self.orders.values()) + [0])
-        return SHORT_STRETCH * need + 1
+        return SHORT_STRETCH * self._longest(ts) + 1
+
+    def _longest(self, ts: float) -> int:
+        """The longest filter window in samples over the derivative orders the kernels take."""
+        return max(derivatives.window_samples(self.window, ts, max(derivatives.DEFAULT_ORDER, k))
+                   for k in [0, *self.orders.values()])
 
 
 def filtered(x: np.ndarray, ts: float, order: int, window: float, lo: int, hi: int) -> list[np.ndarray]:

@@ -94,14 +94,15 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
     that a transient of ARR1 had asked for). A fault that is structurally needed but numerically a
     no-op is reported apart, not hidden.
 
-    Also returns the criterion's change without all the faults kept (the
-    fault-free model, mode faults held), or None without any (or where a cost is not finite). Under ``DETERMINED`` (Kass &
-    Raftery's "strong"; :data:`fdi.results.DETERMINED`) the data since t_D do not determine the fit: a DC link's capacitance read
-    only through C dv/dt, whose departure is in the switching transients identification leaves
-    out, fitted at 0.010076 for 0.01 F with the capacitance 32 % low: +1.98; a shaft's load brake
-    read through b2 dw2/dt at a steady speed: -9.44 (its value 0.138 for 0.15, loosely fixed);
-    every fault of the CyCab suite and the golden reports +124 or more. Last, what the final fit
-    leaves: the residuals' mean |r| in thresholds (eq. (24)'s weights) over the span."""
+    Also returns the criterion's change without all the faults kept (the fault-free model, mode
+    faults held), or None without any (or where a cost is not finite). Under
+    :data:`fdi.results.DETERMINED` (Kass & Raftery's "strong") the data since t_D do not determine
+    the fit: a DC link's capacitance read only through C dv/dt, whose departure is in the switching
+    transients identification leaves out, fitted at 0.010076 for 0.01 F with the capacitance 32 %
+    low: +1.98; a shaft's load brake read through b2 dw2/dt at a steady speed: -9.44 (its value
+    0.138 for 0.15, loosely fixed); every fault of the CyCab suite and the golden reports +124 or
+    more. Last, what the final fit leaves: the residuals' mean |r| in thresholds (eq. (24)'s
+    weights) over the span."""
     model, residuals, w = monitor.model, monitor.residuals, monitor.config.derivative_window
     win = window(meas.t, raw, start, span, w)
     n_eff = effective_samples(span, len(residuals), meas.ts, w)

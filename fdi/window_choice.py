@@ -111,7 +111,8 @@ def choose_window(model_path: str, data: list[Measurements], thresholds_of: Call
     model, residuals = c.model, list(c.arr_residuals)
     ts = data[0].ts
     rule = scales.for_model(model, c.config, ts).window
-    longest = min(meas.t.size for meas in data) / 10 * ts          # at least ten windows per run
+    shortest = min(meas.t.size for meas in data)                    # samples of the shortest run
+    longest = shortest / 10 * ts                                     # at least ten windows per run
     eigenvalues = model_time_scales(model).eigenvalues
     nominal = {k: float(v) for k, v in model.nominal_by_name().items()}
     runs = []
@@ -127,7 +128,7 @@ def choose_window(model_path: str, data: list[Measurements], thresholds_of: Call
         samples = derivatives.window_samples(window, ts, derivatives.DEFAULT_ORDER)
         if factor < 1 and samples < scales.min_window_samples():
             continue                      # below the rule's fewest samples
-        if samples >= min(meas.t.size for meas in data):
+        if samples >= shortest:
             if factor > 1:
                 break
             continue                      # longer than a run: no residual sample (the rule's too; shorter ones may do)
