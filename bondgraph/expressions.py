@@ -258,4 +258,5 @@ def _suggest(name: str, symbols: Mapping[str, sp.Expr]) -> str:
     close = difflib.get_close_matches(name, list(symbols), n=1)
     if close:
         return f"; did you mean '{close[0]}'?"
-    return "; define it under parameters, inputs or sensors"
+    return ("; define it under parameters, inputs, modes, sensors or definitions (a definition may use the "
+            "definitions listed before it, none after it or itself)")

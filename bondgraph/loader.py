@@ -36,6 +36,7 @@ from .units import UnitError, check_unit
 
 MONITOR_KEYS = {"thresholds", "diagnosis"}      # read by fdi.config, not by the bond graph
 MONITOR_FAULT_KEYS = {"bounds", "failure"}      # ditto, in each fault
+MAX_NAME = 200                                   # characters of a model's name
 _TOP_KEYS = {"name", "description", "reference", "parameters", "definitions", "inputs", "modes",
              "elements", "junctions", "sensors", "bonds", "faults", "data", "initial"} | MONITOR_KEYS
 _RESERVED = {"t"}
@@ -579,6 +580,9 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
     if not str(name).isprintable():           # (printed in every report: a terminal would obey its escapes)
         raise ctx.error(("name",), "the model's name holds control characters (escapes, line breaks); "
                                    "write it as plain text on one line")
+    if len(str(name)) > MAX_NAME:             # (every report's first line: a title, not a text)
+        raise ctx.error(("name",), f"the model's name is {len(str(name)):,} characters long; keep it within "
+                                   f"{MAX_NAME} (put the rest under description:)")
     plain = {k: v for k, v in symbols.items() if isinstance(v, sp.Symbol)}
     plain.update(mode_exprs)      # a junction's mode written as an expression (1 - s), under its text
     return Model(name=str(name), path=ctx.path, description=_text(data, "description"),
@@ -831,6 +835,9 @@ def _elements(ctx, data, symbols, claim, inputs, sensors, parameters) -> dict[st
         if not isinstance(spec, dict):
             raise ctx.error(where, "must be a mapping such as {type: R, parameter: R1}")
         kind = spec.get("type")
+        if kind is None:
+            raise ctx.error(where, f"has no type: give one, such as {{type: R, parameter: R1}} "
+                                   f"(types: {', '.join(ELEMENT_KINDS)})")
         if kind not in ELEMENT_KINDS:
             raise ctx.error(where + ("type",),
                             f"unknown element type '{kind}' (use one of {', '.join(ELEMENT_KINDS)}; "

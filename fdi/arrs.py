@@ -9,6 +9,7 @@ The AGARRs' own derivation lives in :mod:`fdi.scaph`; its names (:class:`ARR`,
 """
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import sympy as sp
@@ -50,15 +51,23 @@ def select_arrs(model: Model, causality: str = DERIVATIVE, *, budget: float | No
 
 def _zero_divisors(model: Model, arrs) -> None:
     """A parameter of value 0 that a residual divides by (a wall's thermal resistance R12: 0.0, a
-    user trial) makes the residual infinite on every sample: refused with its key, as the loader
-    refuses a TF's modulus of 0. Only models with such a parameter pay for the check."""
-    zero = [name for name, p in model.parameters.items() if p.value == 0]
-    for name in zero:
+    user trial), or of value ``.inf`` that it multiplies by (an inertia J1: .inf, another), makes
+    the residual infinite on every sample: refused with its key, as the loader refuses a TF's
+    modulus of 0. Only models with such a parameter pay for the check."""
+    for name, p in model.parameters.items():
+        if p.value != 0 and not math.isinf(p.value):
+            continue
         sym = model.symbols[name]
+        value = sp.Integer(0) if p.value == 0 else sp.oo if p.value > 0 else -sp.oo
         for a in arrs:
-            if sym in a.expr.free_symbols and a.expr.xreplace({sym: sp.Integer(0)}).has(sp.zoo, sp.nan):
-                raise ModelError(f"parameter '{name}' is 0, and {a.name} divides by it (its residual would be "
-                                 f"infinite on every sample): give its value in SI units, nonzero",
+            if sym in a.expr.free_symbols and a.expr.xreplace({sym: value}).has(sp.zoo, sp.nan, sp.oo, -sp.oo):
+                if p.value == 0:
+                    raise ModelError(f"parameter '{name}' is 0, and {a.name} divides by it (its residual would be "
+                                     f"infinite on every sample): give its value in SI units, nonzero",
+                                     file=getattr(model, "path", None), where=f"parameters.{name}.value")
+                raise ModelError(f"parameter '{name}' is infinite, and {a.name} multiplies by it (its residual "
+                                 f"would be infinite on every sample): give its value in SI units, finite "
+                                 f"(.inf suits a parameter residuals divide by, such as a leakage resistance)",
                                  file=getattr(model, "path", None), where=f"parameters.{name}.value")
 
 

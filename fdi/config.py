@@ -7,7 +7,7 @@ window, and per fault the search bounds and the failure value a prognosis runs t
     thresholds: {ARR1: 0.012, theta2: 0.003}     # by residual name or by the sensor of its AGARR
     diagnosis: {waiting_time: 2.0, samples: 1000, derivative_window: 0.25}
     faults:
-      R4_leak: {kind: parametric, parameters: [R4], bounds: [1e5, .inf], failure: 2e6}
+      R4_leak: {kind: parametric, parameters: [R4], bounds: [1e5, 1e9], failure: 2e6}
 
 >>> from bondgraph.loader import read_document_text
 >>> text = '''
@@ -170,8 +170,12 @@ def _fault_settings(doc: Document, model: Model) -> dict[str, FaultSettings]:
             if not isinstance(bounds, list) or len(bounds) != 2:
                 raise doc.error(where + ("bounds",), "bounds must be [low, high]")
             bounds = tuple(doc.number(b, where + ("bounds",), "bound", infinite=True) for b in bounds)
-            if not all(math.isfinite(b) for b in bounds) and model.faults[name].kind != "parametric":
-                raise doc.error(where + ("bounds",), "bounds must be finite")
+            if not all(math.isfinite(b) for b in bounds):
+                # the search draws values between the bounds: an open side has no draws (a leakage
+                # resistance's healthy .inf is its nominal value, not a bound)
+                raise doc.error(where + ("bounds",), "bounds must be finite: the identification searches between "
+                                                     "them; give the farthest value to search (e.g. 100 times the "
+                                                     "nominal value)")
             if not bounds[0] < bounds[1]:
                 raise doc.error(where + ("bounds",), "bounds must be [low, high] with low < high")
         failure = spec.get("failure")

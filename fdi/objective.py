@@ -73,6 +73,9 @@ def fault_space(model: Model, name: str, span: float | None = None,
     f = model.faults[name]
     value, given = nominal(model, name), config.bounds(name) if config else None
     if given is not None:
+        if not all(np.isfinite(given)):
+            raise ModelError(f"bounds {list(given)} are not finite: the identification searches between them",
+                             file=model.path, where=f"faults.{name}.bounds")
         bounds = given
     elif f.effect == "bias":
         raise ModelError("a bias fault needs bounds: [low, high], the offsets to search, in the unit of "

@@ -294,3 +294,46 @@ def test_the_time_column_may_stand_anywhere_but_must_be_there():
     assert load_model_text(BASE.replace("columns: [t, u, v]", "columns: [u, t, v]"), "rc.yaml").columns == ("u", "t", "v")
     err = _err(BASE.replace("columns: [t, u, v]", "columns: [u, v]"))
     assert "data.columns" in str(err) and "no time column t" in str(err)
+
+
+def _check_line(tmp_path, capsys, text: str) -> tuple[int, str]:
+    path = tmp_path / "m.yaml"
+    path.write_text(text, encoding="utf-8")
+    code = main(["check", str(path)])
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    return code, err
+
+
+def test_an_infinite_parameter_a_residual_multiplies_by_is_refused_with_its_key(tmp_path, capsys):
+    """A capacitance of .inf (a user trial: an inertia J1 of .inf) makes the RC's residual, which
+    reads C1 dv/dt, infinite on every sample: the diagnosis said "nothing detected". Refused as a
+    divisor of 0 is; the CyCab's leakage resistance R4 of .inf, which its residuals divide by, loads."""
+    code, err = _check_line(tmp_path, capsys, BASE.replace("C1: {value: 1.0e-3", "C1: {value: .inf"))
+    assert code == 2
+    assert "parameters.C1.value: parameter 'C1' is infinite, and ARR1 multiplies by it" in err
+    assert main(["check", str(CYCAB)]) == 0
+
+
+def test_search_bounds_must_be_finite(tmp_path, capsys):
+    """A fault's bounds of [0.01, .inf] passed the loader and crashed the diagnosis at the first fault
+    (a user trial): the search draws values between the bounds."""
+    text = BASE + "faults:\n  R_up: {kind: parametric, parameters: [R], bounds: [1.0, .inf]}\n"
+    code, err = _check_line(tmp_path, capsys, text)
+    assert code == 2 and "faults.R_up.bounds: bounds must be finite" in err
+
+
+@pytest.mark.parametrize("old, new, words", [
+    ("  cap: {type: C, parameter: C1}", "  cap: {parameter: C1}", ["elements.cap: has no type", "type: R"]),
+    ("  j0: {type: \"0\"}", "  j0: {type: \"0c\", mode: s}", ["junctions.j0.mode: undefined symbol 's'", "modes"]),
+    ("name: rc", "name: " + "r" * 201, ["name: the model's name is 201 characters long", "description"]),
+])
+def test_a_model_mistake_says_what_to_change(tmp_path, capsys, old, new, words):
+    """What a user trial met: a missing element type was "unknown element type 'None'", an undefined
+    mode variable was to be defined "under parameters, inputs or sensors", and a name of 100 000
+    characters was echoed in every report."""
+    assert old in BASE
+    code, err = _check_line(tmp_path, capsys, BASE.replace(old, new))
+    assert code == 2
+    for w in words:
+        assert w in err, (w, err)

@@ -847,3 +847,27 @@ def test_a_fifo_whose_writer_has_already_left_is_read_whole(tmp_path, capsys):
     code = _within(60, lambda: _cli(["simulate", MODELS / "two_tank_valve.yaml", fifo, "-o", out], capsys))[0]
     assert code == 0
     assert len(out.read_text(encoding="utf-8").splitlines()) == 1 + 2 * 100 + 1
+
+
+def test_standard_output_closed_is_one_line_before_the_work_and_an_output_file_still_written(tmp_path, capsys,
+                                                                                                 monkeypatch):
+    """``bgfdi tables model >&-`` (Python gives sys.stdout None) ended in an AttributeError traceback,
+    exit 1; a diagnosis ran its whole search first. Now one line, exit 2, before the work; with
+    -o the command writes its file."""
+    import sys
+    monkeypatch.setattr(sys, "stdout", None)
+    code, err = _cli(["tables", MODELS / "two_tank_valve.yaml"], capsys)
+    assert code == 2
+    _one_line(err, "standard output is closed", "-o")
+    monkeypatch.setattr(sys, "stdout", None)
+    code, err = _cli(["tables", MODELS / "two_tank_valve.yaml", "-o", tmp_path / "t.txt"], capsys)
+    assert code == 0 and "ARR1" in (tmp_path / "t.txt").read_text(encoding="utf-8")
+
+
+def test_standard_error_closed_still_gives_the_exit_code(monkeypatch):
+    """``2>&-``: nothing can be told, but a user mistake still exits 2 (it raised inside the log
+    handler: exit 1)."""
+    import sys
+    monkeypatch.setattr(sys, "stderr", None)
+    from fdi.app.cli import main
+    assert main(["tables", "no-such-model.yaml"]) == 2

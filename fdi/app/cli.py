@@ -1356,6 +1356,10 @@ def main(argv: list[str] | None = None) -> int:
     """Run one command; its exit code. A closed standard output (``| head``) ends it quietly with
     code 1, as the Python documentation recommends (SIGPIPE is not restored: a worker process
     could die of it)."""
+    if sys.stdout is None:                     # started with standard output closed (``>&-``)
+        sys.stdout = _ClosedOutput()
+    if sys.stderr is None:                     # standard error closed (``2>&-``): nothing can be told,
+        sys.stderr = open(os.devnull, "w", encoding="utf-8")     # but the exit code still says it
     try:
         code = _run(argv)
         sys.stdout.flush()
@@ -1373,11 +1377,35 @@ def main(argv: list[str] | None = None) -> int:
                   "(LC_ALL=C.UTF-8), or write to a file with -o (always UTF-8)")
         return 2
     except OSError as exc:                     # a write to standard output failed: a full disk, /dev/full
-        if not (_stdout_failed() or (exc.filename is None and exc.errno in WRITE_ERRORS)):
+        if not (_stdout_failed() or isinstance(sys.stdout, _ClosedOutput)
+                or (exc.filename is None and exc.errno in WRITE_ERRORS)):
             raise                              # files' errors are one-line errors where they are opened
         _silence_stdout()
-        LOG.error(f"standard output: cannot write ({exc.strerror or exc}); free space or write to a file with -o")
+        if exc.errno == errno.EBADF:
+            LOG.error(CLOSED_STDOUT)
+        else:
+            LOG.error(f"standard output: cannot write ({exc.strerror or exc}); free space or write to a file with -o")
         return 2
+
+
+CLOSED_STDOUT = "standard output is closed; give the command somewhere to write (no '>&-'), or write to a file with -o"
+
+
+class _ClosedOutput:
+    """What ``sys.stdout`` is when the process started without one (Python gives None): every write
+    fails as a closed descriptor's would (EBADF), so a command that prints says so in one line,
+    and one that writes only its ``-o`` file runs."""
+
+    encoding = "utf-8"
+
+    def write(self, text: str) -> int:
+        raise OSError(errno.EBADF, "standard output is closed")
+
+    def flush(self) -> None:
+        pass
+
+    def fileno(self) -> int:
+        raise OSError(errno.EBADF, "standard output is closed")
 
 
 WRITE_ERRORS = {getattr(errno, name) for name in ("ENOSPC", "EDQUOT", "EFBIG", "EIO") if hasattr(errno, name)}
@@ -1438,6 +1466,9 @@ def _run_parsed(args: argparse.Namespace) -> int:
         with _removed_on_signal(sources) if sources.folder is not None else contextlib.nullcontext():
             check_model_input(args)
             check_outputs(args)
+            if isinstance(sys.stdout, _ClosedOutput) and getattr(args, "output", None) in (None, "-") \
+                    and not hasattr(args, "folder"):      # the answer would be lost after the work: said first
+                raise UsageError(CLOSED_STDOUT)
             if getattr(args, "no_cache", False):
                 from .. import diskcache
                 diskcache.disable()

@@ -37,8 +37,10 @@ class _Stderr(logging.Handler):
     test's captured stream or a redirected one is honoured)."""
 
     def emit(self, record: logging.LogRecord) -> None:
+        stream = sys.stderr
+        if stream is None:                     # started with standard error closed (``2>&-``)
+            return
         try:
-            stream = sys.stderr
             stream.write(self.format(record) + "\n")
             stream.flush()
         except (OSError, ValueError):          # standard error closed: nothing left to tell
