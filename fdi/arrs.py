@@ -34,6 +34,7 @@ def select_arrs(model: Model, causality: str = DERIVATIVE, *, budget: float | No
     _zero_divisors(model, chosen.arrs)
     arrs, checks = check_modes(model, list(chosen.arrs))
     rebuilt = sorted({c.arr for c in checks if not c.holds})
+    chosen = _with_mode_residuals(model, chosen, arrs)
     if not rebuilt:
         return chosen
     where = {name: ", ".join(" ".join(f"{k}={v}" for k, v in c.mode.items()) for c in checks
@@ -47,6 +48,27 @@ def select_arrs(model: Model, causality: str = DERIVATIVE, *, budget: float | No
         notes = chosen.notes + tuple(f"{name} rebuilt mode by mode: the one-causality form is wrong in {w}"
                                      for name, w in where.items())
     return replace(chosen, arrs=tuple(arrs), notes=notes)
+
+
+def _with_mode_residuals(model: Model, chosen: ResidualSet, arrs: list) -> ResidualSet:
+    """``chosen`` with the residuals of single modes :func:`fdi.modewise.complete_by_mode` added
+    (the last of ``arrs``), each said in a note; the selection's note that the set falls short of
+    the best structural isolability is dropped when they close the gap."""
+    added = [a for a in arrs if " in mode " in a.origin]
+    if not added:
+        return chosen
+    from .selection import shortfall_of
+    notes = [n for n in chosen.notes if "best structural isolability" not in n]
+    for a in added:
+        notes.append(f"{a.name} holds in mode {a.origin.split(' in mode ')[1]} only (0 in the others): "
+                     f"that mode's own ARR of {a.sensor}, which the diagnostic bond graph's one causality "
+                     f"does not give (a relation of that mode alone)")
+    short = shortfall_of(model, list(chosen.arrs) + added, chosen.causality)
+    if short:
+        notes.append("the computable residuals do not reach the best structural isolability "
+                     f"(undetected: {', '.join(short.undetected) or 'none'}; pairs not told apart: "
+                     f"{len(short.pairs)})")
+    return replace(chosen, arrs=tuple(chosen.arrs) + tuple(added), notes=tuple(notes))
 
 
 def _zero_divisors(model: Model, arrs) -> None:

@@ -45,8 +45,8 @@ from bondgraph.model import Model, t
 from bondgraph.modes import in_mode
 
 from .scaph import ARR, binary_modes, derive_arrs, sensor_value
-from .selection import select
-from .signatures import all_modes
+from .selection import _deficit, _gain, expression_faults, select
+from .signatures import all_modes, operating_modes
 
 TRIALS = 2            # independent draws of the parameters
 SPARE = 6             # random points beyond the number of the mode's ARRs
@@ -246,7 +246,7 @@ def check_modes(model: Model, arrs: list[ARR], modes: list[Mapping[str, int]] | 
     if any(not c.holds for c in checks):
         by_sensor = _by_sensor(model, own_sets)
         if by_sensor is not None:
-            return by_sensor, checks
+            return by_sensor + complete_by_mode(model, by_sensor, own_sets), checks
     out = []
     for a in arrs:
         if all(c.holds for c in checks if c.arr == a.name):
@@ -260,4 +260,65 @@ def check_modes(model: Model, arrs: list[ARR], modes: list[Mapping[str, int]] | 
                  if any(exacts[a.name][k] != forms[a.name][k] for k in forms[a.name]) else None)
         out.append(replace(a, expr=binary_modes(combined, mode_syms), exact=exact,
                            origin=a.origin + "+modes"))
-    return out, checks
+    return out + complete_by_mode(model, out, own_sets), checks
+
+
+def mode_label(mode: Mapping[str, int]) -> str:
+    """``c=1``, ``a=0 b=1``: a mode combination as the tables name it."""
+    return " ".join(f"{k}={v}" for k, v in sorted(mode.items()))
+
+
+def complete_by_mode(model: Model, arrs: list[ARR], own_sets: Mapping[tuple, list[ARR]]) -> list[ARR]:
+    """Residuals of one mode, ``chi_m(a) r_m``, for what the set misses in every mode the plant runs
+    in (:func:`fdi.signatures.operating_modes`): where the ARRs of the modes' own bond graphs detect
+    a fault that no residual of the set detects in any of those modes, or tell apart a pair the
+    set never does, the mode's ARR that adds most (new detections, then pairs; the fewest time
+    derivatives on a tie) joins the set times its mode's indicator: that ARR where the mode holds,
+    0 elsewhere, so it is an ARR in every mode. The one-causality form can miss a relation that
+    holds in one mode only: a clutch's spring read through a torque sensor on the switched
+    junction divides by the clutch's mode (a user trial: the clutch's stiffness and damping were
+    undetectable in both modes; engaged, the plain bond graph's SCAPH gives the clutch's ARR).
+    A model whose set sees every fault somewhere keeps its residuals. Residuals that integrate
+    states of their mode's graph are not taken (their states are not the model's). Returns the
+    residuals added, named after the set's."""
+    names = [f for f, v in model.faults.items() if v.kind != "mode"]
+    if not names:
+        return []
+    symbols = {f: frozenset(model.symbols[s] for s in model.faults[f].symbols if s in model.symbols) for f in names}
+    mode_syms = [model.symbols[m] for m in model.modes]
+    keys = [tuple(sorted(m.items())) for m in operating_modes(model)]
+    pool = [(key, r, _faults_in(model, r, dict(key), symbols))
+            for key in keys for r in own_sets.get(key, ()) if not r.states]
+    target = {f: frozenset((key, j) for j, (key, _, fs) in enumerate(pool) if f in fs) for f in names}
+    have = {f: set() for f in names}
+    for k, a in enumerate(arrs):
+        for key in keys:
+            for f in _faults_in(model, a, dict(key), symbols):
+                have[f].add((key, k))
+    added: list[ARR] = []
+    while True:
+        short = _deficit({f: frozenset(v) for f, v in have.items()}, target)
+        if not short:
+            break
+        partners: dict[str, set] = {}
+        for fa, fb in short.pairs:
+            partners.setdefault(fa, set()).add(fb)
+            partners.setdefault(fb, set()).add(fa)
+        gains = [(_gain(fs, short, partners), -_order(r.expr), -j) for j, (_, r, fs) in enumerate(pool)]
+        best = max(range(len(pool)), key=lambda j: gains[j])
+        if gains[best][0] == (0, 0):
+            break
+        key, r, fs = pool[best]
+        mode = dict(key)
+        chi = _indicator(model, mode)
+        k = len(arrs) + len(added)
+        origin = ("SCAPH" if r.origin == "SCAPH" or r.name.startswith("zero:") else "MSO") + f" in mode {mode_label(mode)}"
+        added.append(ARR(f"ARR{k + 1}", r.sensor, r.junction, binary_modes(chi * r.expr, mode_syms), origin,
+                         exact=None if r.exact is None else binary_modes(chi * r.exact, mode_syms)))
+        for f in fs:
+            have[f].add((key, k))
+    return added
+
+
+def _faults_in(model: Model, arr: ARR, mode: Mapping[str, int], symbols: Mapping[str, frozenset]) -> frozenset[str]:
+    return expression_faults(model, arr, mode, symbols)

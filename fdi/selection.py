@@ -61,7 +61,7 @@ from bondgraph.structure import (DERIVATIVE, EquationSystem, Structure, derivati
 
 from .isolability import Shortfall, StructuralBest
 from .scaph import ARR, binary_modes, derive_arrs, storage_fault_parameters, structural_system
-from .signatures import nominal_mode, operating_modes
+from .signatures import all_modes, nominal_mode, operating_modes
 
 ORDER_WINDOW = 1              # candidates more derivatives above the lowest that still adds something wait
 BUDGET = 30.0                 # s of computing for the whole selection (SCAPH included); notes say when it cuts
@@ -264,6 +264,15 @@ def select(model: Model, causality: str = DERIVATIVE, budget: float = BUDGET) ->
                      "(a law given in one form only, or an algebraic loop sympy cannot solve)")
     return ResidualSet(tuple(out), causality, diag.ok, problems, len(search.pool), len(search.described),
                        search.enumerated and search.enumeration_complete, search.mso_seconds, tuple(notes))
+
+
+def shortfall_of(model: Model, arrs: list[ARR], causality: str = DERIVATIVE):
+    """What ``arrs`` miss of the model's best structural isolability, each judged in every mode
+    combination (:class:`fdi.isolability.Shortfall`; empty when nothing)."""
+    diag = assign(model, DIAGNOSIS)
+    search = _Search(model, lambda: structural_system(model, diag), causality, time.perf_counter() + BUDGET)
+    search.mode = all_modes(model)
+    return search.shortfall([_Pick(a, search.faults_of(a)) for a in arrs])
 
 
 class _Search:

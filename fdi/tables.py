@@ -142,6 +142,10 @@ def to_text(arrs: list[ARR], fsms: list[FSM], mcsm: MCSM) -> str:
         elif a.origin == "SCAPH by mode":
             out.append(f"{a.name}  [sensor {a.sensor} on junction {a.junction}; each mode's own SCAPH ARR, "
                        "joined by mode indicators]")
+        elif " in mode " in a.origin:
+            out.append(f"{a.name}  [{a.origin.split(' in mode ')[0]} residual of mode {a.origin.split(' in mode ')[1]}'s "
+                       f"own bond graph at {a.junction}; sensors {a.sensor}; times the mode's indicator: 0 in the "
+                       "other modes]")
         elif a.origin.endswith("+modes"):
             out.append(f"{a.name}  [{a.origin[:-6]} residual at {a.junction}; sensors {a.sensor}; rebuilt mode by "
                        "mode where the one-causality form is wrong]")

@@ -419,12 +419,13 @@ def _origin(a) -> str:
     per sensor joined by mode indicators; "+modes" the mode's own ARRs joined in place of one).
 
     >>> from types import SimpleNamespace as A
-    >>> [_origin(A(origin=o, sensor="T1", junction="J1")) for o in ("SCAPH", "SCAPH by mode", "MSO", "MSO+modes")]
-    ['SCAPH, T1', 'SCAPH by mode, T1', 'MSO at J1', 'MSO at J1, rebuilt mode by mode']
+    >>> [_origin(A(origin=o, sensor="T1", junction="J1")) for o in ("SCAPH", "SCAPH by mode", "MSO", "MSO+modes",
+    ...                                                               "MSO in mode c=1")]
+    ['SCAPH, T1', 'SCAPH by mode, T1', 'MSO at J1', 'MSO at J1, rebuilt mode by mode', 'MSO at J1, mode c=1 only']
     """
-    base = a.origin.removesuffix("+modes")
+    base, _, mode = a.origin.removesuffix("+modes").partition(" in mode ")
     text = f"{base}, {a.sensor}" if base.startswith("SCAPH") else f"MSO at {a.junction}"
-    return text + (", rebuilt mode by mode" if a.origin.endswith("+modes") else "")
+    return text + (", rebuilt mode by mode" if a.origin.endswith("+modes") else "") + (f", mode {mode} only" if mode else "")
 
 
 def _print_assignment(model: Model, diag: Causality) -> None:

@@ -1,0 +1,66 @@
+"""A vehicle driveline whose clutch switches (tests/data/driveline_clutch.yaml), graded on its own
+scipy plant (tests/driveline_plant.py).
+
+A user trial put the shaft torque sensor on the switched 0c junction, as the physics invites: the
+diagnostic bond graph then gave no residual for the clutch's spring and damper (its one-causality
+form of that relation divides by the clutch's mode), and k_c and c_c were undetectable in both
+modes without a word but the generic "do not reach the best structural isolability". The engaged
+mode's own bond graph has the relation (Karnopp, Margolis & Rosenberg, ch. 4: an engaged clutch's
+torque T = k_c th + c_c (w1 - w2), th' = w1 - w2); times the mode's indicator it is an ARR in both
+modes, and it joins the residual set (fdi.modewise.complete_by_mode).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from bondgraph.loader import load_model
+from bondgraph.model import t as time_symbol
+from fdi.api import Options, diagnose
+from fdi.arrs import select_arrs
+from fdi.data import Measurements
+from fdi.signatures import fault_signature_matrix
+
+from . import driveline_plant as plant
+
+MODEL = str(Path(__file__).parent / "data" / "driveline_clutch.yaml")
+
+
+def test_the_engaged_clutch_s_own_relation_joins_the_residual_set():
+    model = load_model(MODEL)
+    chosen = select_arrs(model)
+    (clutch,) = [a for a in chosen.arrs if a.origin.endswith(" in mode c=1")]
+    s = {n: sp.Symbol(n) for n in ("k_c", "c_c", "c")}
+    w1, w2, T = (sp.Function(n)(time_symbol) for n in ("w1", "w2", "T"))
+    nominal = {model.symbols[f"beta_{n}"]: 1 for n in ("w1", "w2", "T")}
+    got = clutch.expr.xreplace(nominal)
+    # the textbook's relation, differentiated: T' = k_c (w1 - w2) + c_c (w1' - w2'), engaged only
+    hand = s["c"] * (T.diff(time_symbol) - s["k_c"] * (w1 - w2) - s["c_c"] * (w1 - w2).diff(time_symbol))
+    names = {str(x): x for x in got.free_symbols}
+    signals = {f.func.__name__: f for f in got.atoms(sp.core.function.AppliedUndef)}
+    hand = hand.xreplace({s[n]: names[n] for n in s}).subs({w1: signals["w1"], w2: signals["w2"], T: signals["T"]})
+    assert sp.expand(got * names["k_c"] + hand) == 0 or sp.expand(got * names["k_c"] - hand) == 0, got
+    assert got.xreplace({names["c"]: 0}) == 0                     # nothing asked of the open clutch
+    engaged = {r.fault: r.structural for r in fault_signature_matrix(model, list(chosen.arrs), {"c": 1}).rows}
+    opened = {r.fault: r.structural for r in fault_signature_matrix(model, list(chosen.arrs), {"c": 0}).rows}
+    k = chosen.arrs.index(clutch)
+    assert engaged["k_c"][k] and engaged["c_c"][k] and not opened["k_c"][k]
+    assert not any("best structural isolability" in n for n in chosen.notes)
+
+
+def _measurements(name: str, rows: np.ndarray) -> Measurements:
+    return Measurements(name, rows[:, 0].copy(), {h: rows[:, i].copy() for i, h in enumerate(plant.HEAD)})
+
+
+def test_a_clutch_spring_s_fatigue_is_found_and_sized_on_an_independent_plant():
+    """k_c 500 -> 300 N m/rad at 15 s: only the clutch's residual reads it."""
+    rows = plant.simulate(25.0, 3, {"name": "k_c", "factor": 0.6, "t0": 15.0})
+    d = diagnose(MODEL, _measurements("kc", rows), Options(workers=1, seed=0))
+    assert abs(d.detection.time - 15.0) < 0.1
+    (fault,) = d.faults
+    assert fault.name == "k_c" and fault.type == "abrupt"
+    assert fault.value == pytest.approx(300.0, rel=0.03)
+    assert abs(fault.t0 - 15.0) < 0.05
