@@ -884,6 +884,77 @@ def date_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t
     return replace(winner, faults=r.faults, evaluations=winner.evaluations + r.evaluations)
 
 
+def step_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], fit: Estimate,
+                    thresholds: np.ndarray, earliest: float) -> Estimate:
+    """``fit`` with the onset band of its steps (each fault's ``t0_band``: [earliest onset the data
+    allow, onset]) where the data before the onset do not tell when they began. The identification
+    window starts at t_D, so a step that began earlier changes nothing its cost reads: a fault that
+    shows only when the plant is excited (a clutch's damper, read through the slip's acceleration,
+    doubled at 20 s while the clutch stayed engaged, seen at the re-engagement at 28.5 s: a user
+    trial) was dated 28.48 s with nothing said.
+
+    The rule is the detector's: had the fit's faults begun at an earlier sample, each residual
+    would have read their effect from there on, the fit's residual minus the nominal one on the
+    same data (to first order), their step's own transient included; where that effect exceeds a
+    residual's threshold for half a derivative window or longer, the detector would have fired
+    before t_D, so they began later. Onsets are tried back from the fit's, two derivative windows
+    doubling each time, down to ``earliest`` (the first trusted sample; at most
+    :data:`STEP_LOOKBACK` samples back), then between the last allowed and the first refused; the
+    band reaches the earliest onset allowed with every one tried after it. (The fit's cost is no
+    guide here: a damper read through noisy derivatives makes its residual noisier as it grows, so
+    on quiet data the true value costs more than the nominal one.) Only fits all of whose faults
+    are steps (one onset); the band is given where it reaches more than two derivative windows
+    before the onset."""
+    if not fit.faults or any(f["type"] != "abrupt" or f.get("t0") is None for f in fit.faults):
+        return fit
+    w = est.monitor.config.derivative_window
+    ts = float(t[1] - t[0])
+    t0 = float(min(f["t0"] for f in fit.faults))
+    start = max(float(earliest), float(t[0]) + w, t0 - STEP_LOOKBACK * ts)
+    if t0 - start <= 2 * w:
+        return fit
+    i0, i1 = int(np.searchsorted(t, start - 1e-9)), int(np.searchsorted(t, t0 - 1e-9))
+    win = window(t, raw, start, i1 - i0, w)
+    thresholds = np.asarray(thresholds, dtype=float).reshape(-1)
+    obj = Objective(est.monitor.model, est.monitor.residuals, win, tuple(fit.candidate), 1.0 / thresholds, w,
+                    onset=(start, t0), config=est.monitor.config, modes=dict(est.modes))
+    real, bits = obj.encode(list(fit.faults))
+    run = max(1, int(round(w / 2 / ts)))
+
+    def refused(onsets: list[float]) -> np.ndarray:
+        """Whether the detector would have fired before t0 had the faults begun at each onset."""
+        rows = np.tile(real, (len(onsets) + 1, 1))
+        rows[:, -1] = [np.inf] + list(onsets)            # the first: never begun (the nominal residuals)
+        b = np.tile(bits, (rows.shape[0], 1))
+        with np.errstate(all="ignore"):
+            ps = encoding.profiles(obj.spaces, encoding.decode(obj.spaces, rows[:, :-1], b), obj.win.t, rows[:, -1])
+            values, signals, _ = obj.inputs(ps)
+            out = np.zeros(len(onsets), dtype=bool)
+            for i in obj.active:
+                r = obj.residual_values(obj.residuals[i], signals, values, rows.shape[0])
+                over = np.abs(r[1:] - r[0]) > thresholds[i]
+                c = np.concatenate([np.zeros((over.shape[0], 1)), np.cumsum(over, axis=1)], axis=1)
+                out |= ((c[:, run:] - c[:, :-run]) >= run).any(axis=1)     # ``run`` samples in a row
+        return out
+
+    tries = [t0 - 2 * w * 2 ** k for k in range(64) if t0 - 2 * w * 2 ** k > start] + [start]
+    no = refused(tries)
+    first = int(np.argmax(no)) if no.any() else len(tries)
+    low = tries[first - 1] if first else t0
+    if first < len(tries):                                # refine between the last allowed and the first refused
+        between = list(np.linspace(low, tries[first], 10)[1:-1])
+        for onset, bad in zip(between, refused(between)):
+            if bad:
+                break
+            low = float(onset)
+    if low > t0 - 2 * w:
+        return fit
+    return replace(fit, faults=tuple({**f, "t0_band": [float(low), float(f["t0"])]} for f in fit.faults))
+
+
+STEP_LOOKBACK = 200_000    # samples before a step's onset its band looks back over at most (step_onset_band)
+
+
 def _refit(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t_d: float, samples: int,
            candidates: list, out: list[Estimate], weights: np.ndarray, seed: int, redo: list[int],
            spans: list[tuple[float, float]], seeds: list[list[list[dict]]]) -> list[Estimate]:

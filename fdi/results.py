@@ -103,6 +103,8 @@ class Fault:
         a trial's user found it only in the JSON)."""
         since = f", from {self.t0:.6g} s" if self.t0 is not None else ""
         if self.type == "abrupt":
+            if self.t0_band is not None and self.t0 is not None and self.t0_band[0] < self.t0:
+                since += f" (or as early as {self.t0_band[0]:.6g} s: the data before it do not tell)"
             return f"{self.name}: abrupt, value {self.value:.5g}{since}"
         if self.type == "intermittent":
             return f"{self.name}: intermittent, value {self.value:.5g}, period {self.period:.4g} s{since}"
