@@ -125,5 +125,10 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
                        tuple(f["name"] for f in known), tuple(known))
     n_eff = effective_samples(span, len(est.monitor.residuals), meas.ts, w)
     best = select_winner(finite, n_eff)
+    k = next((i for i, e in enumerate(full) if e is best), None)
+    if earliest is not None and k is not None and k < len(plan) and not plan[k][1]:
+        # a set fitted afresh (nothing held): its drifts' bands past the onset search's bound
+        from .estimators import drift_onset_band
+        best = drift_onset_band(est, meas.t, raw, start, span, best, weights, earliest)
     return Episode(t_change, t_decision, tuple(coherence), tuple(known), tuple(full), tuple(best.candidate),
                    tuple(best.faults))

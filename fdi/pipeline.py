@@ -24,7 +24,7 @@ from .derivatives import DEFAULT_ORDER, window_samples
 from .detect import Detection, detect, settling, thresholds_for
 from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide, since_detection
 from .estimators import (Estimators, Search, date_onsets, evidence_onsets, evidence_start, refit_early_onsets,
-                         step_onset_band, steps_at_window_start)
+                         drift_onset_band, step_onset_band, steps_at_window_start)
 from .ingest import measurements
 from .isolate import COVERING_NOTE, candidate_sets, fitted_sets, new_mode_changes, pruned_sets, relaxed_sets, suspected_mode_changes
 from .mode_estimation import estimate_mode, mode_variable
@@ -578,6 +578,7 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
     best = date_onsets(est, t, p.raw, det.time, p.samples, won, p.weights, o.seed, onsets,
                        evidence_start(p.monitor, r, t, p.thresholds, earliest), earliest)
     best = step_onset_band(est, t, p.raw, best, p.thresholds, earliest)
+    best = drift_onset_band(est, t, p.raw, det.time, p.samples, best, p.weights, earliest)
     results = [best if e is won else e for e in results]
     clock.lap("identification")
     d = replace(d, estimates=tuple(results))

@@ -38,7 +38,8 @@ def throttle(t):
 def _params(t: float, fault: dict | None) -> dict:
     p = dict(P)
     if fault and t >= fault["t0"]:
-        p[fault["name"]] = P[fault["name"]] * fault["factor"]
+        p[fault["name"]] = P[fault["name"]] * (np.exp(fault["rate"] * (t - fault["t0"])) if "rate" in fault
+                                               else fault["factor"])
     return p
 
 
@@ -58,7 +59,8 @@ def _rhs(t, x, engaged, fault):
 
 def simulate(t_end: float, seed: int, fault: dict | None = None) -> np.ndarray:
     """Rows of HEAD at TS from 0 to ``t_end``, from the engaged equilibrium; ``fault``:
-    ``{"name": "k_c", "factor": 0.6, "t0": 12.0}``, a parameter's step."""
+    ``{"name": "k_c", "factor": 0.6, "t0": 12.0}``, a parameter's step, or ``{"name": "b2", "rate": 0.05,
+    "t0": 3.0}``, its drift P0 exp(rate (t - t0)) (the paper's eq. 16)."""
     t = np.round(np.arange(0.0, t_end + TS / 2, TS), 9)
     u0 = throttle(0.0)
     w = brentq(lambda w: u0 - (P["b1"] + P["b2"]) * w - P["Tr"] - P["ca"] * w * w, 1, 1000)
