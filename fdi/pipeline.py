@@ -218,8 +218,8 @@ def commands_read(model, meas: Measurements, fixed=None) -> str | None:
         odd = np.flatnonzero(np.isfinite(x) & (x != 0.0) & (x != 1.0))
         if odd.size:
             k = int(odd[0])
-            out.append(f"column {m.column} (mode {m.name}) holds values other than 0 and 1 ({odd.size} sample(s), the "
-                       f"first {x[k]:g} at {meas.t[k]:g} s): each is read as 1 from 0.5 up and 0 below; write the "
+            out.append(f"column {m.column} (mode {m.name}) holds values other than 0 and 1 ({odd.size} sample(s); "
+                       f"at {meas.t[k]:g} s the first: {x[k]:g}): each is read as 1 from 0.5 up and 0 below; write the "
                        f"mode as 0 or 1 if that is not what it means")
     return "; ".join(out) or None
 

@@ -26,5 +26,5 @@ def test_a_command_of_zeros_and_ones_says_nothing():
 def test_a_command_in_another_scale_is_named_with_how_it_is_read():
     meas = _record(np.r_[np.zeros(3), np.full(4, 2.0), np.full(3, 0.4)])
     note = commands_read(MODEL, meas)
-    assert note.startswith("column v_cmd (mode v) holds values other than 0 and 1 (7 sample(s), the first 2 at 0.3 s)")
+    assert note.startswith("column v_cmd (mode v) holds values other than 0 and 1 (7 sample(s); at 0.3 s the first: 2)")
     assert signals_from_data(MODEL, meas)["v"].tolist() == [0, 0, 0, 1, 1, 1, 1, 0, 0, 0]     # 2 -> 1, 0.4 -> 0
