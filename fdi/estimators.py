@@ -987,17 +987,23 @@ def drift_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarra
         return fit
     onsets = [t0 - 2 * w * 2 ** k for k in range(64) if t0 - 2 * w * 2 ** k > earliest] + [float(earliest)]
     times = win.t[win.crop]
-    rows = []
-    for onset in onsets:
-        moved = hints.translate(obj.spaces, real[:-1], bits, bits, times, t0, 0, t0_to=onset)
-        rows.append(np.append(np.where(np.isnan(moved), real[:-1], moved), onset))
-    cost = obj(np.array(rows), np.tile(bits, (len(rows), 1)))
     limit = plausible_limit(obj, base)
+
+    def moved(onset: float) -> np.ndarray:
+        x = hints.translate(obj.spaces, real[:-1], bits, bits, times, t0, 0, t0_to=onset)
+        return np.append(np.where(np.isnan(x), real[:-1], x), onset)
+
     kept = []
-    for x, c in zip(rows, cost):
-        if not (np.isfinite(c) and c <= limit):
+    for part in (onsets[:1], onsets[1:]):      # the nearest alone first: where it is refused, nothing more is translated
+        rows = [moved(onset) for onset in part]
+        if not rows:
             break
-        kept.append(x)
+        cost = obj(np.array(rows), np.tile(bits, (len(rows), 1)))
+        plausible = np.isfinite(cost) & (cost <= limit)
+        run = len(rows) if plausible.all() else int(np.argmin(plausible))     # the run of plausible ones
+        kept += rows[:run]
+        if run < len(rows):
+            break
     if not kept:
         return fit
     out = [dict(f) for f in fit.faults]
