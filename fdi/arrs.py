@@ -35,6 +35,7 @@ def select_arrs(model: Model, causality: str = DERIVATIVE, *, budget: float | No
     arrs, checks = check_modes(model, list(chosen.arrs))
     rebuilt = sorted({c.arr for c in checks if not c.holds})
     chosen = _with_mode_residuals(model, chosen, arrs)
+    _zero_divisors(model, [a for a in chosen.arrs if " in mode " in a.origin])     # (a mode's own, added)
     if not rebuilt:
         return chosen
     where = {name: ", ".join(" ".join(f"{k}={v}" for k, v in c.mode.items()) for c in checks
@@ -58,7 +59,7 @@ def _with_mode_residuals(model: Model, chosen: ResidualSet, arrs: list) -> Resid
     if not added:
         return chosen
     from .selection import shortfall_of
-    notes = [n for n in chosen.notes if "best structural isolability" not in n]
+    notes = [n for n in chosen.notes if not n.startswith("the computable residuals do not reach")]
     for a in added:
         notes.append(f"{a.name} holds in mode {a.origin.split(' in mode ')[1]} only (0 in the others): "
                      f"that mode's own ARR of {a.sensor}, which the diagnostic bond graph's one causality "

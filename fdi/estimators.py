@@ -20,7 +20,7 @@ import numpy as np
 import optim
 from optim.core import fitness
 
-from . import criterion, encoding, hints, profiles
+from . import criterion, detect, encoding, hints, profiles
 from .objective import Objective, Window, acted_on, linear_transform, window
 from .results import Estimate
 
@@ -885,7 +885,7 @@ def date_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t
 
 
 def step_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], fit: Estimate,
-                    thresholds: np.ndarray, earliest: float) -> Estimate:
+                    thresholds: np.ndarray, earliest: float, rule: tuple[float, float] = (0.0, 0.0)) -> Estimate:
     """``fit`` with the onset band of its steps (each fault's ``t0_band``: [earliest onset the data
     allow, onset]) where the data before the onset do not tell when they began. The identification
     window starts at t_D, so a step that began earlier changes nothing its cost reads: a fault that
@@ -895,12 +895,13 @@ def step_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray
 
     The rule is the detector's: had the fit's faults begun at an earlier sample, each residual
     would have read their effect from there on, the fit's residual minus the nominal one on the
-    same data (to first order), their step's own transient included; where that effect exceeds a
-    residual's threshold for half a derivative window or longer, the detector would have fired
-    before t_D, so they began later. Onsets are tried back from the fit's, two derivative windows
+    same data (to first order), their step's own transient included; where that effect would have
+    confirmed an alarm by the detector's own rule (``rule``: its persistence and span,
+    :func:`fdi.detect.confirmed`), the detector would have fired before t_D, so they began later. Onsets are tried back from the fit's, two derivative windows
     doubling each time, down to ``earliest`` (the first trusted sample; at most
-    :data:`STEP_LOOKBACK` samples back), then between the last allowed and the first refused; the
-    band reaches the earliest onset allowed with every one tried after it. (The fit's cost is no
+    :data:`STEP_LOOKBACK` samples are looked at: where all of those allow it, the band reaches
+    ``earliest``, the data before them unread), then between the last allowed and the first
+    refused; the band reaches the earliest onset allowed with every one tried after it. (The fit's cost is no
     guide here: a damper read through noisy derivatives makes its residual noisier as it grows, so
     on quiet data the true value costs more than the nominal one.) Only fits all of whose faults
     are steps (one onset); the band is given where it reaches more than two derivative windows
@@ -919,7 +920,8 @@ def step_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray
     obj = Objective(est.monitor.model, est.monitor.residuals, win, tuple(fit.candidate), 1.0 / thresholds, w,
                     onset=(start, t0), config=est.monitor.config, modes=dict(est.modes))
     real, bits = obj.encode(list(fit.faults))
-    run = max(1, int(round(w / 2 / ts)))
+    persistence, span = rule
+    n = detect.evidence_samples(span, ts)
 
     def refused(onsets: list[float]) -> np.ndarray:
         """Whether the detector would have fired before t0 had the faults begun at each onset."""
@@ -932,15 +934,16 @@ def step_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray
             out = np.zeros(len(onsets), dtype=bool)
             for i in obj.active:
                 r = obj.residual_values(obj.residuals[i], signals, values, rows.shape[0])
-                over = np.abs(r[1:] - r[0]) > thresholds[i]
-                c = np.concatenate([np.zeros((over.shape[0], 1)), np.cumsum(over, axis=1)], axis=1)
-                out |= ((c[:, run:] - c[:, :-run]) >= run).any(axis=1)     # ``run`` samples in a row
+                z = detect.evidence(r[1:] - r[0], np.full(len(onsets), thresholds[i]), ts)
+                out |= detect.confirmed(z, n, persistence).any(axis=1)
         return out
 
     tries = [t0 - 2 * w * 2 ** k for k in range(64) if t0 - 2 * w * 2 ** k > start] + [start]
     no = refused(tries)
     first = int(np.argmax(no)) if no.any() else len(tries)
     low = tries[first - 1] if first else t0
+    if first == len(tries):                               # every onset looked at allowed: the unread data too
+        low = min(low, max(float(earliest), float(t[0]) + w))
     if first < len(tries):                                # refine between the last allowed and the first refused
         between = list(np.linspace(low, tries[first], 10)[1:-1])
         for onset, bad in zip(between, refused(between)):
@@ -954,15 +957,14 @@ def step_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray
 
 def drift_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t_d: float, samples: int,
                      fit: Estimate, weights: np.ndarray, earliest: float) -> Estimate:
-    """``fit`` with the bands of its drifts reaching back past the onset search's bound where the
-    data allow it. A drift is searched from where the evidence begins (:func:`evidence_onsets`), and
-    the bands of its coefficients and onset (:func:`coefficient_band`) are sampled within that
-    search's bounds; but a slow drift leaves its residuals' noise band long after it starts, and on
-    a short window its onset and rate trade off along a long valley (a user trial: a bearing's
-    friction drifting as eq. (16), b = 0.02/s from 25 s, detected at 52 s, fitted b = 0.0324 from
-    36.05 s, the search's bound, with bands [0.0315, 0.0388] and [36.05, 38.87]: both excluding the
-    truth, said with confidence). Where a drift's onset band stops at that bound and the trusted
-    data begin more than a derivative window earlier, the fit is re-expressed as drifts that started
+    """``fit`` with the bands of its drifts reaching back along the onset-rate valley where the data
+    allow it. The bands of a drift's coefficients and onset (:func:`coefficient_band`) are sampled
+    in a box around the fit; but a slow drift leaves its residuals' noise band long after it starts,
+    and on a short window its onset and rate trade off along a long curved valley the box does not
+    follow (a user trial: a bearing's friction drifting as eq. (16), b = 0.02/s from 25 s, detected
+    at 52 s, fitted b = 0.0324 from 36.05 s, with bands [0.0315, 0.0388] and [36.05, 38.87]: both
+    excluding the truth, said with confidence). Where a drift's onset band starts more than a
+    derivative window after the first trusted sample, the fit is re-expressed as drifts that started
     earlier (:func:`fdi.hints.translate`, the same degradation models; onsets two derivative
     windows back, doubling, down to ``earliest``) and costed on the fit's own window: the onset band
     reaches back to the earliest of a run of them within the likelihood-ratio limit
@@ -972,10 +974,9 @@ def drift_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarra
     if not drifts:
         return fit
     w = est.monitor.config.derivative_window
-    ts = float(t[1] - t[0])
     t0 = float(fit.faults[drifts[0]]["t0"])
     bound = min(float(fit.faults[k]["t0_band"][0]) for k in drifts)
-    if bound > t0 + 1.5 * ts or bound - float(earliest) <= w:       # not stopped at the search's bound
+    if bound - float(earliest) <= w:                   # the band already reaches the first trusted sample
         return fit
     win = window(t, raw, t_d, samples, w)
     obj = Objective(est.monitor.model, est.monitor.residuals, win, tuple(fit.candidate), np.asarray(weights), w,

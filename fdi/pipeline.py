@@ -577,7 +577,7 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
     # the winner's steps dated from the evidence before t_D (its estimator's entry too)
     best = date_onsets(est, t, p.raw, det.time, p.samples, won, p.weights, o.seed, onsets,
                        evidence_start(p.monitor, r, t, p.thresholds, earliest), earliest)
-    best = step_onset_band(est, t, p.raw, best, p.thresholds, earliest)
+    best = step_onset_band(est, t, p.raw, best, p.thresholds, earliest, p.rule)
     best = drift_onset_band(est, t, p.raw, det.time, p.samples, best, p.weights, earliest)
     results = [best if e is won else e for e in results]
     clock.lap("identification")

@@ -115,3 +115,18 @@ def test_a_slow_drift_s_bands_hold_the_truth():
     (low, high), = fault.b_band
     assert low <= 0.05 <= high
     assert fault.t0_band[0] <= 3.0 <= fault.t0_band[1]
+
+
+def test_a_stiffness_step_while_the_clutch_is_open_is_dated_at_the_engagement_with_a_band_to_the_opening():
+    """k_c 500 -> 300 N m/rad at 20.3 s, the clutch open from 20 to 21 s: nothing reads the spring
+    while it is open, so the step shows at the engagement and is dated there; the diagnosis says
+    it may have begun as early as the opening (before it, engaged, the torque's rate would have
+    shown it), and the band holds the true 20.3 s."""
+    rows = plant.simulate(25.0, 3, {"name": "k_c", "factor": 0.6, "t0": 20.3})
+    d = diagnose(MODEL, _measurements("kc", rows), Options(workers=1, seed=0))
+    (fault,) = d.faults
+    assert fault.name == "k_c" and fault.type == "abrupt"
+    assert fault.value == pytest.approx(300.0, rel=0.03)
+    low, high = fault.t0_band
+    assert 19.9 <= low <= 20.3 <= high and high == fault.t0 and fault.t0 > 20.9
+    assert "or as early as" in fault.describe()

@@ -337,3 +337,13 @@ def test_a_model_mistake_says_what_to_change(tmp_path, capsys, old, new, words):
     assert code == 2
     for w in words:
         assert w in err, (w, err)
+
+
+def test_a_zero_divisor_in_a_residual_of_one_mode_is_refused(tmp_path, capsys):
+    """The driveline's clutch residual (added from the engaged mode's own bond graph) divides by
+    k_c: a stiffness of 0 was checked fine, then calibrated and diagnosed blind (a review)."""
+    from .conftest import ROOT
+    text = (ROOT / "tests" / "data" / "driveline_clutch.yaml").read_text(encoding="utf-8")
+    assert "  k_c: {value: 500.0," in text
+    code, err = _check_line(tmp_path, capsys, text.replace("  k_c: {value: 500.0,", "  k_c: {value: 0.0,"))
+    assert code == 2 and "parameter 'k_c' is 0, and ARR3 divides by it" in err

@@ -871,3 +871,13 @@ def test_standard_error_closed_still_gives_the_exit_code(monkeypatch):
     monkeypatch.setattr(sys, "stderr", None)
     from fdi.app.cli import main
     assert main(["tables", "no-such-model.yaml"]) == 2
+
+
+def test_standard_output_closed_with_an_output_folder_is_no_error(tmp_path, capsys, monkeypatch):
+    """codegen -o DIR >&- wrote its files, then said 'standard output is closed ... use -o' and exited
+    2 (a review): what a command prints beside its output file has nowhere to go, and that is fine."""
+    import sys
+    monkeypatch.setattr(sys, "stdout", None)
+    code, err = _cli(["codegen", MODELS / "two_tank_valve.yaml", "-o", tmp_path / "c"], capsys)
+    assert code == 0, err
+    assert any((tmp_path / "c").iterdir())

@@ -1467,9 +1467,11 @@ def _run_parsed(args: argparse.Namespace) -> int:
         with _removed_on_signal(sources) if sources.folder is not None else contextlib.nullcontext():
             check_model_input(args)
             check_outputs(args)
-            if isinstance(sys.stdout, _ClosedOutput) and getattr(args, "output", None) in (None, "-") \
-                    and not hasattr(args, "folder"):      # the answer would be lost after the work: said first
-                raise UsageError(CLOSED_STDOUT)
+            if isinstance(sys.stdout, _ClosedOutput):
+                if getattr(args, "output", None) in (None, "-") and not hasattr(args, "folder"):
+                    raise UsageError(CLOSED_STDOUT)       # the answer would be lost after the work: said first
+                sys.stdout = open(os.devnull, "w", encoding="utf-8")   # the answer goes to its file: what
+                # the command says of it beside ("wrote ...") has nowhere to go, and that is no error
             if getattr(args, "no_cache", False):
                 from .. import diskcache
                 diskcache.disable()
