@@ -470,7 +470,8 @@ def _number(ctx: _Ctx, value: Any, where: tuple, what: str, *, infinite: bool = 
     if math.isnan(number):
         raise ctx.error(where, f"{what} is NaN; give a number")
     if math.isinf(number) and isinstance(value, str) and not re.fullmatch(r"[-+]?\.?inf(inity)?", value.strip(), re.I):
-        raise ctx.error(where, f"{what} {value[:30]} is beyond the range of a double (1.8e308); write .inf for infinity")
+        raise ctx.error(where, f"{what} {value[:30]} is beyond the range of a double (1.8e308)"
+                               + ("; write .inf for infinity" if infinite else "; give a finite number"))
     if math.isinf(number) and not infinite:
         raise ctx.error(where, f"{what} must be finite, got {value}")
     if integer and number != int(number):

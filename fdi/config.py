@@ -30,7 +30,6 @@ window, and per fault the search bounds and the failure value a prognosis runs t
 """
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass, field, replace as _replace
 from pathlib import Path
@@ -169,16 +168,16 @@ def _fault_settings(doc: Document, model: Model) -> dict[str, FaultSettings]:
         if bounds is not None:
             if not isinstance(bounds, list) or len(bounds) != 2:
                 raise doc.error(where + ("bounds",), "bounds must be [low, high]")
-            bounds = tuple(doc.number(b, where + ("bounds",), "bound", infinite=True) for b in bounds)
-            if not all(math.isfinite(b) for b in bounds):
-                # the search draws values between the bounds: an open side has no draws (a leakage
-                # resistance's healthy .inf is its nominal value, not a bound)
-                raise doc.error(where + ("bounds",), "bounds must be finite: the identification searches between "
-                                                     "them; give the farthest value to search (e.g. 100 times the "
-                                                     "nominal value)")
+            if model.faults[name].kind == "mode":
+                raise doc.error(where + ("bounds",), "a mode fault has no magnitude to search: remove its bounds")
+            # finite: the search draws values between the bounds (a leakage resistance's healthy .inf
+            # is its nominal value, not a bound; [0.01, .inf] crashed the diagnosis at the first fault)
+            bounds = tuple(doc.number(b, where + ("bounds",), "bound") for b in bounds)
             if not bounds[0] < bounds[1]:
                 raise doc.error(where + ("bounds",), "bounds must be [low, high] with low < high")
         failure = spec.get("failure")
+        if failure is not None and model.faults[name].kind == "mode":
+            raise doc.error(where + ("failure",), "a mode fault has no degradation to prognose: remove its failure value")
         if failure is not None:
             failure = doc.number(failure, where + ("failure",), "failure")
         if bounds is not None or failure is not None:

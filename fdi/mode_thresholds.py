@@ -35,7 +35,7 @@ from bondgraph.model import Model
 
 OTHER = "other"
 MAX_VARIABLES = 6          # mode variables one table may key on (64 combinations)
-_PAIR = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)=([01])$")
+_PAIR = re.compile(r"^([^\W\d]\w*)=([01])$")        # a mode's name as the loader takes it (Unicode too: κ=0)
 
 
 def key_text(key: tuple) -> str:

@@ -610,7 +610,9 @@ class _Runner:
                 initial = dict(self.model.initial)
             else:
                 i = int(self.rng.integers(len(next(iter(pool.values()))))) if pool else 0
-                initial = {s: float(v[i] * math.exp(0.3 * self.rng.standard_normal())
+                # (i % len(v): a state's pool may be shorter than the first, a momentum read on a
+                # switched junction's sensor: an IndexError traceback in a user trial)
+                initial = {s: float(v[i % len(v)] * math.exp(0.3 * self.rng.standard_normal())
                                     + 0.5 * np.ptp(v) * self.rng.standard_normal()) for s, v in pool.items()}
             try:
                 traj = self.simulate(inputs, initial)

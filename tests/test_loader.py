@@ -320,7 +320,7 @@ def test_search_bounds_must_be_finite(tmp_path, capsys):
     (a user trial): the search draws values between the bounds."""
     text = BASE + "faults:\n  R_up: {kind: parametric, parameters: [R], bounds: [1.0, .inf]}\n"
     code, err = _check_line(tmp_path, capsys, text)
-    assert code == 2 and "faults.R_up.bounds: bounds must be finite" in err
+    assert code == 2 and "faults.R_up.bounds: bound must be finite" in err
 
 
 @pytest.mark.parametrize("old, new, words", [
@@ -347,3 +347,28 @@ def test_a_zero_divisor_in_a_residual_of_one_mode_is_refused(tmp_path, capsys):
     assert "  k_c: {value: 500.0," in text
     code, err = _check_line(tmp_path, capsys, text.replace("  k_c: {value: 500.0,", "  k_c: {value: 0.0,"))
     assert code == 2 and "parameter 'k_c' is 0, and ARR3 divides by it" in err
+
+
+def test_thresholds_by_mode_take_a_mode_named_in_unicode():
+    """calibrate --by-mode wrote {κ=0: ..., κ=1: ...} for a mode named κ, and the file it wrote was
+    then refused ("'κ=0' is no mode combination": the keys took ASCII names only; a user trial)."""
+    from fdi.config import load_text
+
+    from .conftest import ROOT
+    text = (ROOT / "tests" / "data" / "driveline_clutch.yaml").read_text(encoding="utf-8")
+    text = text.replace("  c: {nominal: 1, column: c_cmd", "  \u03ba: {nominal: 1, column: c_cmd")
+    text = text.replace("mode: c,", "mode: \u03ba,")
+    text = text.replace("ARR3: 0.453}", "ARR3: {\u03ba=0: 0.4, \u03ba=1: 0.453}}")
+    _, config = load_text(text, "k.yaml")
+    assert config.mode_thresholds["ARR3"] == {(("\u03ba", 0),): 0.4, (("\u03ba", 1),): 0.453}
+
+
+def test_a_mode_fault_takes_no_bounds_and_no_failure(tmp_path, capsys):
+    """A mode fault's bounds and failure value were accepted and ignored (a user trial)."""
+    text = CYCAB.read_text(encoding="utf-8")
+    line = "  a1:          {kind: mode, mode: a1, value: 0, description: burnt driver or motor}"
+    assert line in text
+    for extra, words in (("bounds: [0.0, 1.0]", "faults.a1.bounds: a mode fault has no magnitude to search"),
+                         ("failure: 1.0", "faults.a1.failure: a mode fault has no degradation to prognose")):
+        code, err = _check_line(tmp_path, capsys, text.replace(line, line.replace("value: 0,", f"value: 0, {extra},")))
+        assert code == 2 and words in err, err

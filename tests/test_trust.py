@@ -881,3 +881,26 @@ def test_standard_output_closed_with_an_output_folder_is_no_error(tmp_path, caps
     code, err = _cli(["codegen", MODELS / "two_tank_valve.yaml", "-o", tmp_path / "c"], capsys)
     assert code == 0, err
     assert any((tmp_path / "c").iterdir())
+
+
+@pytest.mark.parametrize("ending", ["/", "/."])
+def test_an_output_path_ending_as_a_folder_is_refused_and_the_file_of_that_name_kept(tmp_path, capsys, ending):
+    """-o precious.txt/ wrote the tables over the existing file precious.txt (Path drops the
+    ending), and -o nosuchdir/ made a file 'nosuchdir' (a user trial)."""
+    precious = tmp_path / "precious.txt"
+    precious.write_text("keep", encoding="utf-8")
+    code, err = _cli(["tables", MODELS / "two_tank_valve.yaml", "-o", str(precious) + ending], capsys)
+    assert code == 2
+    _one_line(err, "names a folder", "name a file")
+    assert precious.read_text(encoding="utf-8") == "keep"
+    code, err = _cli(["tables", MODELS / "two_tank_valve.yaml", "-o", str(tmp_path / "nosuchdir") + ending], capsys)
+    assert code == 2 and not (tmp_path / "nosuchdir").exists()
+
+
+def test_verify_on_a_momentum_sensor_at_a_switched_junction_gives_a_verdict_not_a_traceback(capsys):
+    """A user trial's e-bike freewheel (autonomous mode) whose torque sensor reads the momentum on
+    the switched 0c: `check --verify` drew a scouting sample's index from one state's pool and read
+    a shorter one's (IndexError, every seed)."""
+    from .conftest import ROOT
+    code, err = _cli(["check", ROOT / "tests" / "data" / "ebike_freewheel_momentum.yaml", "--verify"], capsys)
+    assert code in (0, 1) and "Traceback" not in err, err

@@ -1469,7 +1469,8 @@ def _run_parsed(args: argparse.Namespace) -> int:
             check_outputs(args)
             if isinstance(sys.stdout, _ClosedOutput):
                 if getattr(args, "output", None) in (None, "-") and not hasattr(args, "folder"):
-                    raise UsageError(CLOSED_STDOUT)       # the answer would be lost after the work: said first
+                    # the answer would be lost after the work: said first (-o named only where there is one)
+                    raise UsageError(CLOSED_STDOUT if hasattr(args, "output") else CLOSED_STDOUT.split(", or")[0])
                 sys.stdout = open(os.devnull, "w", encoding="utf-8")   # the answer goes to its file: what
                 # the command says of it beside ("wrote ...") has nowhere to go, and that is no error
             if getattr(args, "no_cache", False):

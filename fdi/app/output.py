@@ -32,6 +32,12 @@ def check_output(path: str | Path, option: str = "-o") -> None:
         return
     if str(path).strip() == "":
         raise OutputError(f"{option}: the path is empty; name a file (or - for standard output)")
+    last = os.path.basename(str(path))
+    if last in ("", ".", "..") or (os.altsep and str(path).endswith(os.altsep)):
+        # 'out/' and 'out/.' name a folder; Path() drops the ending, and the file 'out' was written
+        # (over an existing file of that name: a user trial)
+        raise OutputError(f"{option}: '{path}' names a folder (it ends with '{str(path)[-1] if last == '' else last}'); "
+                          "name a file (or - for standard output)")
     p = Path(path)
     long = next((part for part in p.parts if len(os.fsencode(part)) > 255), None)
     if long is not None:
