@@ -10,7 +10,7 @@ on the data since the detection, and the diagnosis follows the last decision.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import TYPE_CHECKING
+from typing import Callable, TYPE_CHECKING
 
 import numpy as np
 
@@ -62,7 +62,7 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
              fsm, known: list[dict], t_change: float, t_decision: float, coherence: tuple[int, ...],
              samples: int, episode: int, mode_changes: list[tuple[str, int]] = (),
              modes: dict[str, float] | None = None, onsets: tuple[float, float] | None = None,
-             earliest: float | None = None) -> Episode:
+             earliest: float | None = None, progress: Callable | None = None) -> Episode:
     """A later decision: the coherence vector gained a residual at ``t_change`` after the diagnosis
     ``known`` was made. Candidate sets come from the new coherence vector; every set is fitted on
     the data since the first onset (t_D to the new decision, at most MAX_GROWTH windows), so their
@@ -104,7 +104,7 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
     fresh = [i for i, p in enumerate(plan) if not p[1]]
     ts = float(meas.t[1] - meas.t[0])
     refitted = set(fresh) if onsets is not None else set()     # their final checks wait for the fit kept
-    results = est.run(meas.t, raw, start, span, [p[0] for p in plan], weights, o.seed + 7919 * episode, None,
+    results = est.run(meas.t, raw, start, span, [p[0] for p in plan], weights, o.seed + 7919 * episode, progress,
                       [p[1] for p in plan], [p[2] for p in plan], [[known] for _ in plan],
                       lambda i, e: i in refitted and steps_at_window_start(e, start, ts)) if plan else []
     if onsets is not None and fresh:

@@ -586,12 +586,12 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
     d = replace(d, alternatives=alternatives(results, best.cost, list(best.faults), n_eff, extra, skip=best,
                                              coinciding=lambda: p.monitor.coinciding),
                 faults=faults_of(best.faults), winner=tuple(best.candidate))
-    d, now = later_decisions(p, d, fsm, r, est, clock)
+    d, now = later_decisions(p, d, fsm, r, est, clock, progress)
     return prognoses(p, significance(p, d, now), now, clock)
 
 
 def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators,
-                    clock: Clock) -> tuple[Diagnosis, float]:
+                    clock: Clock, progress: Callable | None = None) -> tuple[Diagnosis, float]:
     """Every later change of the latched coherence vector decided again T_wt after it
     (:func:`fdi.episodes.redecide`); the diagnosis follows the last. Returns it and the time of
     the data the final fit saw."""
@@ -615,7 +615,8 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
         changes = mode_changes_at(p, new_mode_changes(mcsm, before, coherence, p.covering), onset, faults)
         now_fsm = over_modes([fsm] + [p.monitor.fsm(m) for m in visited_modes(p, i0, j) if m != d.mode])
         e = redecide(est, p.meas, p.raw, det, p.weights, p.options, now_fsm, faults, float(t[onset]), float(t[j]),
-                     coherence, p.samples, len(episodes) + 1, changes, p.modes, onsets, p.first_trusted)
+                     coherence, p.samples, len(episodes) + 1, changes, p.modes, onsets, p.first_trusted,
+                     progress)     # (a later decision's sets on a longer window: minutes on a model its data defy)
         episodes.append(e)
         faults, winner = list(e.faults), e.winner
         now = float(t[j])
