@@ -938,13 +938,13 @@ def step_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray
                 out |= detect.confirmed(z, n, persistence).any(axis=1)
         return out
 
-    tries = [t0 - 2 * w * 2 ** k for k in range(64) if t0 - 2 * w * 2 ** k > start] + [start]
+    tries = _earlier(t0, w, start)
     no = refused(tries)
     first = int(np.argmax(no)) if no.any() else len(tries)
     low = tries[first - 1] if first else t0
     if first == len(tries):                               # every onset looked at allowed: the unread data too
         low = min(low, max(float(earliest), float(t[0]) + w))
-    if first < len(tries):                                # refine between the last allowed and the first refused
+    else:                                                 # refine between the last allowed and the first refused
         between = list(np.linspace(low, tries[first], 10)[1:-1])
         for onset, bad in zip(between, refused(between)):
             if bad:
@@ -986,7 +986,7 @@ def drift_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarra
     base = float(obj(real[None, :], bits[None, :])[0])
     if not np.isfinite(base):
         return fit
-    onsets = [t0 - 2 * w * 2 ** k for k in range(64) if t0 - 2 * w * 2 ** k > earliest] + [float(earliest)]
+    onsets = _earlier(t0, w, float(earliest))
     times = win.t[win.crop]
     limit = plausible_limit(obj, base)
 
@@ -1009,8 +1009,9 @@ def drift_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarra
         return fit
     out = [dict(f) for f in fit.faults]
     low = float(kept[-1][-1])
+    described = [encoding.describe(obj.spaces, x[:-1], bits) for x in kept]
     for k in drifts:
-        entries = [encoding.describe(obj.spaces, x[:-1], bits)[k] for x in kept]
+        entries = [d[k] for d in described]
         out[k]["t0_band"] = [min(low, float(out[k]["t0_band"][0])), float(out[k]["t0_band"][1])]
         if out[k].get("b_band") is not None:
             out[k]["b_band"] = [[min([lo] + [float(e["b"][j]) for e in entries]), max([hi] + [float(e["b"][j]) for e in entries])]
@@ -1019,6 +1020,16 @@ def drift_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarra
 
 
 STEP_LOOKBACK = 200_000    # samples before a step's onset its band looks back over at most (step_onset_band)
+
+
+def _earlier(t0: float, w: float, lowest: float) -> list[float]:
+    """Onsets before ``t0`` that the bands try: two derivative windows ``w`` back, doubling, then
+    ``lowest`` (the earliest that may be tried).
+
+    >>> _earlier(10.0, 0.5, 2.5)
+    [9.0, 8.0, 6.0, 2.5]
+    """
+    return [t0 - 2 * w * 2 ** k for k in range(64) if t0 - 2 * w * 2 ** k > lowest] + [lowest]
 
 
 def _refit(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t_d: float, samples: int,

@@ -45,8 +45,8 @@ from bondgraph.model import Model, t
 from bondgraph.modes import in_mode
 
 from .scaph import ARR, binary_modes, derive_arrs, sensor_value
-from .selection import _deficit, _gain, expression_faults, select
-from .signatures import all_modes, operating_modes
+from .selection import _deficit, _gain, expression_faults, fault_symbols, select
+from .signatures import _mode_label, all_modes, operating_modes
 
 TRIALS = 2            # independent draws of the parameters
 SPARE = 6             # random points beyond the number of the mode's ARRs
@@ -263,11 +263,6 @@ def check_modes(model: Model, arrs: list[ARR], modes: list[Mapping[str, int]] | 
     return out + complete_by_mode(model, out, own_sets), checks
 
 
-def mode_label(mode: Mapping[str, int]) -> str:
-    """``c=1``, ``a=0 b=1``: a mode combination as the tables name it."""
-    return " ".join(f"{k}={v}" for k, v in sorted(mode.items()))
-
-
 def complete_by_mode(model: Model, arrs: list[ARR], own_sets: Mapping[tuple, list[ARR]]) -> list[ARR]:
     """Residuals of one mode, ``chi_m(a) r_m``, for what the set misses in every mode the plant runs
     in (:func:`fdi.signatures.operating_modes`): where the ARRs of the modes' own bond graphs detect
@@ -284,16 +279,16 @@ def complete_by_mode(model: Model, arrs: list[ARR], own_sets: Mapping[tuple, lis
     names = [f for f, v in model.faults.items() if v.kind != "mode"]
     if not names:
         return []
-    symbols = {f: frozenset(model.symbols[s] for s in model.faults[f].symbols if s in model.symbols) for f in names}
+    symbols = fault_symbols(model, names)
     mode_syms = [model.symbols[m] for m in model.modes]
     keys = [tuple(sorted(m.items())) for m in operating_modes(model)]
-    pool = [(key, r, _faults_in(model, r, dict(key), symbols))
+    pool = [(key, r, expression_faults(model, r, dict(key), symbols))
             for key in keys for r in own_sets.get(key, ()) if not r.states]
     target = {f: frozenset((key, j) for j, (key, _, fs) in enumerate(pool) if f in fs) for f in names}
     have = {f: set() for f in names}
     for k, a in enumerate(arrs):
         for key in keys:
-            for f in _faults_in(model, a, dict(key), symbols):
+            for f in expression_faults(model, a, dict(key), symbols):
                 have[f].add((key, k))
     added: list[ARR] = []
     while True:
@@ -312,13 +307,9 @@ def complete_by_mode(model: Model, arrs: list[ARR], own_sets: Mapping[tuple, lis
         mode = dict(key)
         chi = _indicator(model, mode)
         k = len(arrs) + len(added)
-        origin = ("SCAPH" if r.origin == "SCAPH" or r.name.startswith("zero:") else "MSO") + f" in mode {mode_label(mode)}"
+        origin = ("SCAPH" if r.origin == "SCAPH" or r.name.startswith("zero:") else "MSO") + f" in mode {_mode_label(mode)}"
         added.append(ARR(f"ARR{k + 1}", r.sensor, r.junction, binary_modes(chi * r.expr, mode_syms), origin,
                          exact=None if r.exact is None else binary_modes(chi * r.exact, mode_syms)))
         for f in fs:
             have[f].add((key, k))
     return added
-
-
-def _faults_in(model: Model, arr: ARR, mode: Mapping[str, int], symbols: Mapping[str, frozenset]) -> frozenset[str]:
-    return expression_faults(model, arr, mode, symbols)

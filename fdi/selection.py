@@ -266,6 +266,11 @@ def select(model: Model, causality: str = DERIVATIVE, budget: float = BUDGET) ->
                        search.enumerated and search.enumeration_complete, search.mso_seconds, tuple(notes))
 
 
+def fault_symbols(model: Model, names: Iterable[str]) -> dict[str, frozenset]:
+    """The model's symbols each fault of ``names`` acts through (what :func:`expression_faults` looks for)."""
+    return {f: frozenset(model.symbols[s] for s in model.faults[f].symbols if s in model.symbols) for f in names}
+
+
 def shortfall_of(model: Model, arrs: list[ARR], causality: str = DERIVATIVE):
     """What ``arrs`` miss of the model's best structural isolability, each judged in every mode
     combination (:class:`fdi.isolability.Shortfall`; empty when nothing)."""
@@ -283,8 +288,7 @@ class _Search:
         self.model, self._system, self.causality, self.deadline = model, system, causality, deadline
         self.fault_names = [f for f, v in model.faults.items() if v.kind != "mode"]
         self.mode = nominal_mode(model)
-        self.fault_symbols = {f: frozenset(model.symbols[s] for s in model.faults[f].symbols if s in model.symbols)
-                              for f in self.fault_names}
+        self.fault_symbols = fault_symbols(model, self.fault_names)
         self.described: dict[frozenset, Candidate | None] = {}
         self.pool: dict[frozenset, Candidate] = {}
         self.realised: dict[frozenset, _Pick] = {}
