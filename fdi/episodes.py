@@ -62,7 +62,8 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
              fsm, known: list[dict], t_change: float, t_decision: float, coherence: tuple[int, ...],
              samples: int, episode: int, mode_changes: list[tuple[str, int]] = (),
              modes: dict[str, float] | None = None, onsets: tuple[float, float] | None = None,
-             earliest: float | None = None, progress: Callable | None = None) -> Episode:
+             earliest: float | None = None, progress: Callable | None = None,
+             floors: np.ndarray | None = None) -> Episode:
     """A later decision: the coherence vector gained a residual at ``t_change`` after the diagnosis
     ``known`` was made. Candidate sets come from the new coherence vector; every set is fitted on
     the data since the first onset (t_D to the new decision, at most MAX_GROWTH windows), so their
@@ -118,7 +119,7 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
             for e, p in zip(results, plan)]
     if mode_changes:
         win = window(meas.t, raw, start, span, w)
-        full += mode_change_fits(est.monitor, win, weights, known, list(mode_changes), t_change, modes)
+        full += mode_change_fits(est.monitor, win, weights, known, list(mode_changes), t_change, modes, floors)
     finite = [e for e in full if np.isfinite(e.cost)]
     if not finite:                       # nothing to try (or every fit overflowed): the diagnosis stands
         return Episode(t_change, t_decision, tuple(coherence), tuple(known), tuple(full),

@@ -316,7 +316,7 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
     clock.lap("isolation")
     d = replace(d, isolation=iso)
     if iso.suspected:
-        mf = estimate_modes(p, d.detection, d.mode, iso.suspected)
+        mf = estimate_modes(p, d.detection, d.mode, iso.suspected, noise_floors(p, r, d.detection.time))
         clock.lap("mode estimation")
         d = replace(d, mode_fault=mf)
         if mf.faults and not iso.candidates:
@@ -381,6 +381,28 @@ def quiet_level(p: Prepared, r: np.ndarray | None, t_d: float) -> np.ndarray | N
     if before is None:
         return None
     return np.fmax.reduce(np.abs(np.asarray(r)[:, before[-p.samples:]]), axis=1)      # NaN skipped, no warning
+
+
+def noise_floors(p: Prepared, r: np.ndarray | None, t_d: float) -> np.ndarray | None:
+    """Each residual's noise floor, the weighted cost of a sample where it holds (the charge for a
+    sample a mode hypothesis switches it off, :mod:`fdi.mode_estimation`): its mean |r| on the
+    trusted samples before the detection (less a derivative window; the last identification
+    window's worth) where its mode has it on, else its median |r| over every trusted sample where
+    it is on (robust while the fault holds fewer than half of them); NaN for a residual never on."""
+    if r is None:
+        return None
+    r = np.abs(np.asarray(r, dtype=float))
+    on = (r != 0) & np.isfinite(r)
+    trusted = p.meas.t >= p.first_trusted
+    before = nominal_span(p, t_d)
+    floors = np.full(r.shape[0], np.nan)
+    least = window_samples(p.window_s, p.meas.ts, DEFAULT_ORDER)
+    for i in range(r.shape[0]):
+        if before is not None and (k := before[-p.samples:][on[i, before[-p.samples:]]]).size >= least:
+            floors[i] = float(r[i, k].mean())
+        elif (k := np.flatnonzero(on[i] & trusted)).size:
+            floors[i] = float(np.median(r[i, k]))
+    return floors
 
 
 def weakened(p: Prepared, det: Detection, fsm, r: np.ndarray | None = None):
@@ -495,13 +517,16 @@ def switching(p: Prepared, det: Detection, suspect: str) -> bool:
     return seen.size > 0 and bool(np.any(seen != seen[0]))
 
 
-def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects) -> ModeFault:
+def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects,
+                   floors: np.ndarray | None = None) -> ModeFault:
     """The fault-mode estimator over the suspected mode variables (Sec. III-C), and the mode faults
-    its estimate implies (none when it agrees with the mode at t_D)."""
+    its estimate implies (none when it agrees with the mode at t_D); ``floors``: the residuals'
+    noise floors (:func:`noise_floors`), charged where a mode switches a residual off."""
     model = p.monitor.model
     win = window(p.meas.t, p.raw, det.time, p.samples, p.window_s)
     variables = sorted({mode_variable(model, s) for s in suspects})
-    e = estimate_mode(model, p.monitor.residuals, win, p.weights, p.options.seed, p.window_s, variables, p.modes)
+    e = estimate_mode(model, p.monitor.residuals, win, p.weights, p.options.seed, p.window_s, variables, p.modes,
+                      floors)
     # no mode fault where no mode explains the data finitely (a sample of 1e308 the residuals
     # overflow on: every mode's cost infinite, and the first mode tried was named a stuck contactor)
     finite = e.cost is not None and np.isfinite(e.cost)
@@ -606,6 +631,7 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
     winner = d.winner
     mcsm = p.monitor.mcsm(d.mode)
     onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, p.first_trusted)
+    floors = noise_floors(p, r, det.time)
     while (change := next_change(lit, j)) is not None:
         k, j = change, decision_index(t, change, p.wait)
         coherence = tuple(int(x) for x in lit[:, j])
@@ -616,7 +642,7 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
         now_fsm = over_modes([fsm] + [p.monitor.fsm(m) for m in visited_modes(p, i0, j) if m != d.mode])
         e = redecide(est, p.meas, p.raw, det, p.weights, p.options, now_fsm, faults, float(t[onset]), float(t[j]),
                      coherence, p.samples, len(episodes) + 1, changes, p.modes, onsets, p.first_trusted,
-                     progress)     # (a later decision's sets on a longer window: minutes on a model its data defy)
+                     progress, floors)     # (a later decision's sets on a longer window: minutes on a model its data defy)
         episodes.append(e)
         faults, winner = list(e.faults), e.winner
         now = float(t[j])

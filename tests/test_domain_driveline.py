@@ -130,3 +130,46 @@ def test_a_stiffness_step_while_the_clutch_is_open_is_dated_at_the_engagement_wi
     low, high = fault.t0_band
     assert 19.9 <= low <= 20.3 <= high and high == fault.t0 and fault.t0 > 20.9
     assert "or as early as" in fault.describe()
+
+
+def test_the_fault_mode_estimator_gets_no_credit_for_switching_the_clutch_s_relation_off():
+    """The clutch's relation holds engaged only (c * ARR3): the open clutch makes it identically zero,
+    and eq. (24) alone charged nothing for it there. On the plant's nominal data (engaged, no fault)
+    with the wheels' balance left out (weight 0: the other residual the clutch enters), the open
+    clutch then explained the relation's noise away and beat the mode the clutch is in. Charged a
+    noise floor per sample it switches off (fdi.mode_estimation), designed here as the relation's
+    own mean |r| on the window, the open clutch costs exactly what the engaged one does, and the
+    estimator keeps the engaged clutch. The floors the diagnosis measures before a detection
+    (fdi.pipeline.noise_floors) are the residuals' noise on that stationary record."""
+    from fdi.mode_estimation import estimate_mode, residual_rows
+    from fdi.monitor import monitor_of
+    from fdi.objective import Objective, window
+    from fdi.pipeline import noise_floors, prepare
+    from fdi.residuals import evaluate
+
+    rows = plant.simulate(14.0, 5, None)
+    monitor = monitor_of(MODEL)
+    p = prepare(monitor, _measurements("nominal", rows), Options(workers=1))
+    residuals, w = p.monitor.residuals, p.window_s
+    names = [r.name for r in residuals]
+    clutch = next(i for i, a in enumerate(select_arrs(load_model(MODEL)).arrs) if a.origin.endswith(" in mode c=1"))
+    wheels = names.index("ARR1")
+    weights = np.array(p.weights, dtype=float)
+    weights[wheels] = 0.0
+    win = window(p.meas.t, p.raw, 11.0, 1000, w)                 # engaged from 9.5 s to 20 s
+    held = residual_rows(Objective(p.monitor.model, residuals, win, (), weights, w, config=p.monitor.config))
+    floors = np.array([np.abs(row).mean() for row in held])
+
+    free = estimate_mode(p.monitor.model, residuals, win, weights, 0, w, ["c"])
+    costs = {row["mode"]["c"]: row["cost"] for row in free.table}
+    assert costs[0] < costs[1] and free.mode["c"] == 0              # eq. (24) alone: the relation's noise dropped
+
+    charged = estimate_mode(p.monitor.model, residuals, win, weights, 0, w, ["c"], floors=floors)
+    costs = {row["mode"]["c"]: row["cost"] for row in charged.table}
+    assert costs[0] == pytest.approx(costs[1], rel=1e-9)
+    assert charged.mode["c"] == 1
+
+    r = evaluate(p.monitor.model, list(residuals), p.raw, p.meas.ts, window=w, values=p.values(p.raw))
+    measured = noise_floors(p, r, 12.0)
+    assert measured[clutch] == pytest.approx(floors[clutch], rel=0.25)
+    assert measured[names.index("ARR2")] == pytest.approx(floors[names.index("ARR2")], rel=0.25)
