@@ -508,6 +508,26 @@ def _expr(ctx: _Ctx, text: Any, where: tuple, symbols: Mapping[str, sp.Expr]) ->
         raise ctx.error(where, str(exc)) from None
 
 
+_VAR_WORDS = {"e": "its effort", "f": "its flow", "q": "its displacement", "p": "its momentum"}
+
+
+def _law(ctx: _Ctx, text: Any, where: tuple, kind: str, law: str, params: Mapping[str, sp.Expr]) -> sp.Expr:
+    """An element's constitutive law ``law`` (effort, flow, displacement or momentum), written in
+    its one local variable (:data:`_LAW_VARS`); another law variable in it is named as such, with
+    the key that takes a law in that variable (a trial wrote an R's effort as a function of e)."""
+    var = _LAW_VARS[(kind, law)]
+    try:
+        return parse_expression(text, ChainMap({var: LAW_VARIABLES[var]}, params))
+    except ExpressionError as exc:
+        other = next((v for v in _VAR_WORDS if v != var and str(exc).startswith(f"undefined symbol '{v}'")), None)
+        if other is None:
+            raise ctx.error(where, str(exc)) from None
+        keys = [k for (kd, k), v in _LAW_VARS.items() if kd == kind and v == other]
+        instead = f"; a law in {other} is written under '{keys[0]}'" if keys else ""
+        raise ctx.error(where, f"'{other}' in '{text}': a {kind} element's {law} law is written in {var} "
+                               f"({_VAR_WORDS[var]}), not {other}{instead}") from None
+
+
 def _unit(ctx: _Ctx, text: Any, where: tuple) -> str:
     try:
         return check_unit(text)
@@ -862,8 +882,7 @@ def _elements(ctx, data, symbols, claim, inputs, sensors, parameters) -> dict[st
             laws = {}
             for law in _ELEMENT_KEYS[kind] - {"parameter"}:
                 if spec.get(law) is not None:
-                    var = _LAW_VARS[(kind, law)]
-                    laws[law] = _expr(ctx, spec[law], where + (law,), ChainMap({var: LAW_VARIABLES[var]}, params))
+                    laws[law] = _law(ctx, spec[law], where + (law,), kind, law, params)
             if kind in ("C", "I"):
                 laws = _storage_laws(ctx, where, kind, laws, fields.get("parameter"))
             elif len(laws) == 2:

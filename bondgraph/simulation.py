@@ -153,6 +153,20 @@ def _vanishes(law: sp.Expr) -> bool:
     return sp.simplify(law) == 0
 
 
+def _signal_laws(spec: Model, names: list[str]) -> str:
+    """Why a model whose element laws read measured signals the simulator cannot compute (an
+    effort or a flow sensor's reading: it integrates displacements and momenta) is not simulated,
+    naming the elements (a trial's brake law kb*pc*tanh(w/w0) on the caliper pressure pc)."""
+    wanted = {spec.symbols[n] for n in names if n in spec.symbols}
+    users = [e.name for e in spec.elements.values()
+             if any(isinstance(x, sp.Basic) and x.free_symbols & wanted
+                    for x in (*e.laws.values(), e.modulus, e.value))]
+    where = f"element(s) {', '.join(users)} read" if users else "a modulated element reads"
+    return (f"{where} the measured signal(s) {', '.join(names)}, which the simulator cannot compute (it "
+            "integrates displacements and momenta): write the law in a storage element's state (a pressure "
+            "as q/C of its capacitance), give the signal as an input, or measure a displacement or momentum")
+
+
 def build_system(model: Model, values: Mapping[str, float]) -> System:
     """Derive and compile the state equations of the configuration these parameter values imply."""
     with collector_paused():     # bondgraph.deep: 0.63 -> 0.54 s CPU for a 2000-element chain, peak memory alike
@@ -244,8 +258,7 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     used = set().union(*(e.free_symbols for _, e in program.lines), *(e.free_symbols for e in outputs))
     leftovers = sorted(s.name[9:] for s in used if s.name.startswith("__signal_"))
     if leftovers:
-        raise SimulationError(f"a modulated element uses signal(s) {leftovers} that are not "
-                              "displacements or momenta; measure them as such or use a parameter", where="elements")
+        raise SimulationError(_signal_laws(spec, leftovers), where="elements")
     params = sorted({s for s in used if not s.name.startswith("__v") and s != t and s not in z_sym}
                     | {spec.symbols[k] for k in spec.parameters} | {spec.symbols[m] for m in spec.modes}
                     | {spec.symbols[f"beta_{e.input or e.name}"] for e in spec.sources() if e.name not in opened},

@@ -80,7 +80,7 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
     base.update(values or {})
     model = _inputs_held(model)
     eigs: list[complex] = []
-    notes: list[str] = []
+    failed: dict[str, list[dict]] = {}     # why a mode is not linearised -> the modes it keeps out
     growing: list[tuple[tuple[tuple[str, int], ...], complex]] = []
     fastest: list[float] = []
     slowest: list[float] = []
@@ -92,7 +92,7 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
             c = system.prepare(p)
             x0 = _initial_state(system, model.initial, 0.0, vals)
         except (SimulationError, CausalityError, ValueError, KeyError) as exc:
-            notes.append(f"mode {dict(mode)}: not linearised ({exc})")
+            failed.setdefault(str(exc), []).append(dict(mode))
             continue
         if not len(x0):
             continue
@@ -111,7 +111,7 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
                 # model: check, calibrate, diagnose and simulate died with a traceback)
                 continue
             except NameError as exc:         # a function the compiled equations lack (besselj)
-                notes.append(f"mode {dict(mode)}: not linearised (its equations cannot be evaluated: {exc})")
+                failed.setdefault(f"its equations cannot be evaluated: {exc}", []).append(dict(mode))
                 break
             lam = [complex(v) for v in lam if np.isfinite(v)]
             eigs += lam
@@ -130,6 +130,10 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
         if fastest_here:
             fastest.append(float(np.median(fastest_here)))
             slowest.append(float(np.median(slowest_here)))
+    asked = len(modes) if modes else 1
+    notes = [f"{'every mode' if len(ms) == asked > 1 else ', '.join(f'mode {m}' if m else 'the model' for m in ms)}: "
+             f"not linearised ({why})"
+             for why, ms in failed.items()]     # one note per reason (an ABS's four modes gave it four times)
     if not fastest:
         return TimeScales(math.inf, math.inf, tuple(eigs), tuple(notes), tuple(growing))
     return TimeScales(min(fastest), max(slowest), tuple(eigs), tuple(notes), tuple(growing))

@@ -30,6 +30,7 @@ window, and per fault the search bounds and the failure value a prognosis runs t
 """
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field, replace as _replace
 from pathlib import Path
@@ -175,6 +176,7 @@ def _fault_settings(doc: Document, model: Model) -> dict[str, FaultSettings]:
             bounds = tuple(doc.number(b, where + ("bounds",), "bound") for b in bounds)
             if not bounds[0] < bounds[1]:
                 raise doc.error(where + ("bounds",), "bounds must be [low, high] with low < high")
+            _same_sign(doc, model, name, bounds, where + ("bounds",))
         failure = spec.get("failure")
         if failure is not None and model.faults[name].kind == "mode":
             raise doc.error(where + ("failure",), "a mode fault has no degradation to prognose: remove its failure value")
@@ -183,6 +185,24 @@ def _fault_settings(doc: Document, model: Model) -> dict[str, FaultSettings]:
         if bounds is not None or failure is not None:
             out[str(name)] = FaultSettings(bounds, failure)
     return out
+
+
+def _same_sign(doc: Document, model: Model, name: str, bounds: tuple[float, float], where: tuple) -> None:
+    """A parametric fault's bounds keep its parameters' sign (0 allowed: a friction or a heater's
+    power that vanishes): a resistance searched through 0 to negative values is a passive element
+    turned active, no fault of it (a trial's [-1e14, 1e14] on a valve's resistance was taken
+    without a word, and half the search spent there)."""
+    fault = model.faults[name]
+    if fault.kind != "parametric":
+        return
+    for p in fault.targets:
+        value = getattr(model.parameters.get(p), "value", None)
+        if not isinstance(value, (int, float)) or value == 0 or not math.isfinite(value):
+            continue
+        if (value > 0 and bounds[0] < 0) or (value < 0 and bounds[1] > 0):
+            side = "a lower bound of 0 or more" if value > 0 else "an upper bound of 0 or less"
+            raise doc.error(where, f"bounds [{bounds[0]:g}, {bounds[1]:g}] cross 0 from {p} = {value:g}: the search "
+                                   f"would change the parameter's sign (a passive element turned active); give {side}")
 
 
 def load(path: str | Path) -> tuple[Model, MonitorConfig]:

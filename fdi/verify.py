@@ -493,7 +493,8 @@ def verify(model: Model, arrs: Sequence[ARR] | None = None, *, seed: int = 0,
         reason = ("the simulator cannot linearise it for its time constants: " + "; ".join(scales.notes)
                   if scales.notes else "it has no time constant to set the simulation's step (no storage in "
                   "integral causality, or only integrators)")
-        return Verification(model.name, seed, tuple(_unchecked(a.name, m, reason) for m in modes for a in arrs),
+        row = "the simulator cannot linearise the model (the note says why)" if scales.notes else reason  # once, in the note
+        return Verification(model.name, seed, tuple(_unchecked(a.name, m, row) for m in modes for a in arrs),
                             tuple(notes) + (f"not verified in any mode: {reason}",), None)
     tau = scales.fastest
     ts = tau / STEPS_PER_TAU

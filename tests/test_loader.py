@@ -78,6 +78,9 @@ def _err(text: str) -> ModelError:
     ("  R: {value: 100.0, unit: Ohm}", "  R: {value: 100.0, unit: Ohms}", ["unknown unit 'Ohms'"]),
     ("  R: {value: 100.0, unit: Ohm}", "  R: {value: 100.0, unit: 'N**x'}", ["cannot read unit"]),
     ("res: {type: R, parameter: R}", "res: {type: R, effort: 'Rr*f'}", ["undefined symbol 'Rr'", "did you mean 'R'"]),
+    ("res: {type: R, parameter: R}", "res: {type: R, effort: 'R*tanh(e)'}",
+     ["elements.res.effort", "effort law is written in f (its flow), not e", "under 'flow'"]),
+    ("cap: {type: C, parameter: C1}", "cap: {type: C, effort: 'e/C1'}", ["effort law is written in q", "not e"]),
     ("res: {type: R, parameter: R}", "res: {type: R, effort: \"__import__('os').getcwd()\"}", ["not allowed"]),
     ("res: {type: R, parameter: R}", "res: {type: R, effort: 'R.real'}", ["not allowed"]),
     ("v: {type: De, junction: j0, column: v, unit: V}", "v: {type: De, column: v, unit: V}", ["on no junction"]),
@@ -321,6 +324,19 @@ def test_search_bounds_must_be_finite(tmp_path, capsys):
     text = BASE + "faults:\n  R_up: {kind: parametric, parameters: [R], bounds: [1.0, .inf]}\n"
     code, err = _check_line(tmp_path, capsys, text)
     assert code == 2 and "faults.R_up.bounds: bound must be finite" in err
+
+
+def test_search_bounds_keep_the_parameter_s_sign(tmp_path, capsys):
+    """A trial's [-1e14, 1e14] on a valve's resistance was taken without a word (half the search spent on
+    negative resistances); down to 0 stays allowed (a friction or a heater's power that vanishes)."""
+    text = BASE + "faults:\n  R_up: {kind: parametric, parameters: [R], bounds: [-100.0, 1000.0]}\n"
+    code, err = _check_line(tmp_path, capsys, text)
+    assert code == 2 and "faults.R_up.bounds: bounds [-100, 1000] cross 0 from R = 100" in err
+    assert "lower bound of 0 or more" in err
+    path = tmp_path / "zero.yaml"
+    path.write_text(BASE + "faults:\n  R_up: {kind: parametric, parameters: [R], bounds: [0.0, 1000.0]}\n",
+                    encoding="utf-8")
+    assert main(["check", str(path)]) == 0
 
 
 @pytest.mark.parametrize("old, new, words", [

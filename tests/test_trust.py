@@ -904,3 +904,27 @@ def test_verify_on_a_momentum_sensor_at_a_switched_junction_gives_a_verdict_not_
     from .conftest import ROOT
     code, err = _cli(["check", ROOT / "tests" / "data" / "ebike_freewheel_momentum.yaml", "--verify"], capsys)
     assert code in (0, 1) and "Traceback" not in err, err
+
+
+def test_check_that_fails_at_the_residuals_prints_no_half_report(tmp_path, capsys):
+    """A user trial: a capacitance of .inf (its ARR multiplies by it) was refused after the model's
+    summary and the causality had gone to standard output: twelve lines of a report, then the error."""
+    text = (MODELS / "three_tank.yaml").read_text(encoding="utf-8")
+    model = tmp_path / "inf_c.yaml"
+    model.write_text(text.replace("CT1: {value: 1.5698e-6", "CT1: {value: .inf"), encoding="utf-8")
+    from fdi.app.cli import main
+    code = main(["check", str(model)])
+    out, err = capsys.readouterr()
+    assert code == 2 and out == ""
+    _one_line(err, "CT1", "infinite")
+
+
+def test_monitor_with_standard_input_not_readable_is_one_line(tmp_path):
+    """``bgfdi monitor M - 0>file`` (standard input open for writing only): a traceback before."""
+    import subprocess
+    import sys
+    with open(tmp_path / "w.txt", "wb") as sink:
+        done = subprocess.run([sys.executable, "-m", "fdi", "monitor", str(MODELS / "three_tank.yaml"), "-"],
+                              stdin=sink, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and done.stdout == ""
+    _one_line(done.stderr, "cannot read standard input")

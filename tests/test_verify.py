@@ -137,7 +137,9 @@ bonds: {1: [src, j1], 2: [j1, res], 3: [j1, tf], 4: [tf, j0], 5: [j0, cap]}
 """)
     v = verify(model)
     assert v.ok and not v.complete and all(c.passed is None for c in v.checks)
-    assert "not verified" in v.notes[0] and "displacements or momenta" in v.notes[0]
+    assert "not verified" in v.notes[0] and "displacements and momenta" in v.notes[0]
+    assert "element(s) tf read the measured signal(s) v" in v.notes[0]         # the element named (a trial)
+    assert all(c.note == "the simulator cannot linearise the model (the note says why)" for c in v.checks)
 
 
 # ------------------------------------------------------------------ bgfdi check --verify

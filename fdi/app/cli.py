@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import errno
+import io
 import logging
 import math
 import os
@@ -296,18 +297,22 @@ def cmd_check(args: argparse.Namespace) -> int:
 
     with stage("load"):
         model, config = load(args.model)         # the bond graph and the monitor settings both checked
-    _print_summary(model, shown(args.model))
-    arrs = _print_diagnostic_causality(model, args, config)
-    from bondgraph.timescales import growth_notes, model_time_scales
-    sim = assign(model, SIMULATION)
-    with stage("time scales"):
-        growing = growth_notes(model_time_scales(model))
-    print()
-    print("causality for simulation (SCAP, integral causality preferred)")
-    print("  storage: " + (", ".join(f"{k} {v}" for k, v in sim.storage.items()) or "none"))
-    for p in list(sim.problems) + list(sim.loops) + growing:
-        print(f"  note: {p}")
-    return _print_verification(model, arrs, args) if args.verify else 0
+    report = io.StringIO()                       # printed whole once made: an error half-way prints no half report
+    with contextlib.redirect_stdout(report):     # (a parameter of .inf refused at the residuals, after the summary)
+        _print_summary(model, shown(args.model))
+        arrs = _print_diagnostic_causality(model, args, config)
+        from bondgraph.timescales import growth_notes, model_time_scales
+        sim = assign(model, SIMULATION)
+        with stage("time scales"):
+            growing = growth_notes(model_time_scales(model))
+        print()
+        print("causality for simulation (SCAP, integral causality preferred)")
+        print("  storage: " + (", ".join(f"{k} {v}" for k, v in sim.storage.items()) or "none"))
+        for p in list(sim.problems) + list(sim.loops) + growing:
+            print(f"  note: {p}")
+        code = _print_verification(model, arrs, args) if args.verify else 0
+    sys.stdout.write(report.getvalue())
+    return code
 
 
 def _check_json(args: argparse.Namespace) -> int:
@@ -910,7 +915,11 @@ def cmd_monitor(args: argparse.Namespace) -> int:
         fh = open_text(args.data)
     elif hasattr(sys.stdin, "buffer") and hasattr(sys.stdin.buffer, "peek"):
         from ..data import text_of         # as a file is read: a byte-order mark, UTF-16, gzip
-        fh = text_of(sys.stdin.buffer)
+        try:
+            fh = text_of(sys.stdin.buffer)
+        except OSError as exc:              # a descriptor not open for reading (0>file)
+            raise UsageError(f"monitor: cannot read standard input ({exc.strerror or exc}); pipe the CSV stream "
+                             "in (header first), or give a file") from None
     else:
         fh = sys.stdin                      # a text stream given as such (a test's capture)
     monitor = None
