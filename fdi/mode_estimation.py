@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from typing import Iterable
 
 import numpy as np
 
@@ -26,11 +27,12 @@ from optim import bde
 from optim.core import fitness
 
 from .data import commanded
-from .objective import Objective, Window
+from .objective import Objective, Window, window_gaps
 from .residuals import Residual, corrected_signals, derivative_orders, parameter_values
 from .results import Estimate
 
 MODE_TABLE = 4     # suspected mode variables up to which every combination's cost is reported (16 rows)
+COMMANDED = "commanded"   # the table's value of a variable commanded to switch that follows its command
 
 
 @dataclass(frozen=True)
@@ -41,6 +43,7 @@ class ModeEstimate:
     mode: dict[str, int]
     cost: float
     table: list[dict]
+    stuck: tuple[str, ...] = ()          # variables commanded to switch that the data say stayed put
 
 
 def switched_off(hypothesis: np.ndarray, data: np.ndarray) -> np.ndarray:
@@ -72,12 +75,21 @@ def off_charge(hypothesis: np.ndarray, data: np.ndarray, floor: float | None) ->
 
 def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, weights: np.ndarray,
                   seed: int, window_s: float, variables: list[str] | None = None,
-                  modes: dict[str, float] | None = None, floors: np.ndarray | None = None) -> ModeEstimate:
+                  modes: dict[str, float] | None = None, floors: np.ndarray | None = None,
+                  following: Iterable[str] = ()) -> ModeEstimate:
     """The fault-mode estimator: BDE over the suspected mode variables (Sec. III-C: the MCSM names
     them; the others keep their current values), same cost as eq. (24), each sample a hypothesis
     switches a residual off charged that residual's noise floor (``floors``, per residual, in its
-    own units: the module's docstring)."""
+    own units: the module's docstring).
+
+    ``following``: variables commanded to switch within the window (a PWM switch, an ABS valve).
+    A value held over the window is then a valve stuck there, not the mode it should be in; the
+    mode it should be in is its command, sample by sample, and a held value is reported
+    (``ModeEstimate.stuck``) only where it explains the data better than the command does (a
+    trial's ABS inlet valve stuck open under a command switching 18 times a second was never
+    considered)."""
     names = list(variables or model.modes)
+    follow_all = frozenset(following) & set(names)
     nominal = parameter_values(model)
     nominal.update(commanded(model, win.raw))        # commanded modes follow their command sample by sample
     nominal.update(modes or {})                      # the mode variables the caller knows
@@ -87,41 +99,54 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
     current = {m: int(np.asarray(nominal[m]).reshape(-1)[c.start]) if np.ndim(nominal[m]) else int(nominal[m])
                for m in model.modes}                # a mode the caller fixed (Options.mode) is that mode
 
+    gaps = window_gaps(model, residuals, win, signals, window_s)[c]    # samples no hypothesis is judged on
     data = [None] * len(residuals)
     if floors is not None:               # each residual under the data's own modes: where it holds
         data = [samples_of(r(signals, nominal, win.ts, window_s), win.t.size)[c] for r in residuals]
 
-    def cost(real: np.ndarray, bits: np.ndarray) -> np.ndarray:
+    def cost(real: np.ndarray, bits: np.ndarray, follow: frozenset = frozenset()) -> np.ndarray:
         values = dict(nominal)
         for j, n in enumerate(names):
-            values[n] = bits[:, j:j + 1].astype(float)
+            if n not in follow:          # (a variable that follows keeps its command)
+                values[n] = bits[:, j:j + 1].astype(float)
         total = np.zeros(bits.shape[0])
         for i, r in enumerate(residuals):
             out = np.broadcast_to(np.asarray(r(signals, values, win.ts, window_s), dtype=float),
                                   (bits.shape[0], win.t.size))[:, c]
+            if gaps.any():               # (a switching command leaves a gap at each switch: NaN there)
+                out = np.where(gaps, 0.0, out)
             total += weights[i] * np.abs(out).sum(axis=1)
             if data[i] is not None:
                 total += weights[i] * off_charge(out, data[i], floors[i])
         return total
     r = bde.minimize(cost, len(names), pop=max(8, 4 * len(names)), generations=20, seed=seed)
     # a mode variable the data cannot see (a2 once a burnt driver has stopped the motor) is put back:
-    # one fault mode at a time, as the paper assumes, unless the data need more (cost within 1 %)
+    # one fault mode at a time, as the paper assumes, unless the data need more (cost within 1 %);
+    # a variable commanded to switch is put back to its command
     best = r.bits.copy()
     best_cost = float(r.cost)
+    follow: frozenset = frozenset()
     for j in range(len(names)):
-        if best[j] != bool(current[names[j]]):
+        if names[j] in follow_all:
+            trial_cost = float(cost(np.zeros((1, 0)), best[None, :], follow | {names[j]})[0])
+            if trial_cost <= 1.01 * best_cost:
+                follow, best_cost = follow | {names[j]}, min(best_cost, trial_cost)
+        elif best[j] != bool(current[names[j]]):
             trial = best.copy()
             trial[j] = bool(current[names[j]])
-            trial_cost = float(cost(np.zeros((1, 0)), trial[None, :])[0])
+            trial_cost = float(cost(np.zeros((1, 0)), trial[None, :], follow)[0])
             if trial_cost <= 1.01 * best_cost:
                 best, best_cost = trial, min(best_cost, trial_cost)
-    current.update({n: int(b) for n, b in zip(names, best)})
+    current.update({n: int(b) for n, b in zip(names, best) if n not in follow})
     table = []
-    if len(names) <= MODE_TABLE:
-        combos = np.array(list(itertools.product((0, 1), repeat=len(names))), dtype=bool)
-        table = [{"mode": {n: int(v) for n, v in zip(names, row)}, "cost": float(c)}
-                 for row, c in zip(combos, cost(np.zeros((len(combos), 0)), combos))]
-    return ModeEstimate(current, best_cost, table)
+    if len(names) <= MODE_TABLE:          # every combination; a variable commanded to switch also as commanded
+        choices = [(0, 1, COMMANDED) if n in follow_all else (0, 1) for n in names]
+        for row in itertools.product(*choices):
+            held = frozenset(n for n, v in zip(names, row) if v == COMMANDED)
+            bits = np.array([[v == 1 for v in row]], dtype=bool)
+            table.append({"mode": {n: (v if v == COMMANDED else int(v)) for n, v in zip(names, row)},
+                          "cost": float(cost(np.zeros((1, 0)), bits, held)[0])})
+    return ModeEstimate(current, best_cost, table, tuple(n for n in names if n in follow_all - follow))
 
 
 def mode_variable(model: Model, name: str) -> str:

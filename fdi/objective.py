@@ -268,6 +268,21 @@ def window(t: np.ndarray, raw: Mapping[str, np.ndarray], t0: float, samples: int
     return Window(t[a:b], {k: np.asarray(v)[a:b] for k, v in raw.items()}, ts, float(t[i0]), slice(i0 - a, i0 - a + n))
 
 
+def window_gaps(model: Model, residuals, win: Window, signals: Mapping, window_s: float) -> np.ndarray:
+    """The samples of ``win`` the data leave without a residual: a signal NaN there (within half a
+    derivative window of a commanded or autonomous switch, :func:`fdi.residuals.mode_breaks`, the
+    filters do not straddle it), or a stored quantity's rate's wider trim at a switch. They count
+    for no hypothesis, in the estimators as in the fault-mode estimator."""
+    gaps = np.zeros(win.t.size, dtype=bool)
+    for series in signals.values():
+        for x in series:
+            gaps |= np.isnan(np.asarray(x, dtype=float)).reshape(-1, win.t.size).any(axis=0)
+    breaks = mode_breaks(model, win.raw)
+    if len(breaks):
+        gaps |= designed_gaps(list(residuals), win.t.size, breaks, window_s, win.ts)
+    return gaps
+
+
 class Objective:
     """cost(real, bits) of one candidate set on one data window (vectorised over the population)."""
 
@@ -305,15 +320,7 @@ class Objective:
                        for j, f in enumerate(candidate)}
         self.base_signals = corrected_signals(model, win.raw, win.ts, self.orders, fixed_betas or None, window_s,
                                               biases=fixed_biases or None)
-        # samples the data leave without a residual (within half a derivative window of a commanded or
-        # autonomous switch: fdi.residuals.mode_breaks): they count for nobody
-        self.gaps = np.zeros(win.t.size, dtype=bool)
-        for series in self.base_signals.values():
-            for x in series:
-                self.gaps |= np.isnan(np.asarray(x, dtype=float)).reshape(-1, win.t.size).any(axis=0)
-        breaks = mode_breaks(model, win.raw)           # and a stored quantity's rate's, wider at a switch
-        if len(breaks):
-            self.gaps |= designed_gaps(list(residuals), win.t.size, breaks, window_s, win.ts)
+        self.gaps = window_gaps(model, residuals, win, self.base_signals, window_s)
         self._constant: dict[int, float] = {}
         self._rates: dict = {}
         self._blocks: dict = {}

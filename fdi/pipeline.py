@@ -357,8 +357,7 @@ def isolate(p: Prepared, det: Detection, mode: dict[str, int], r: np.ndarray | N
         fsm, weak = weakened(p, det, fsm, r)
     candidates = candidate_sets(fsm, det.final_coherence, o.exoneration, o.max_set)
     pruned = pruned_sets(fsm, det.final_coherence, o.exoneration, o.max_set)
-    suspects = [s for s in suspected_mode_changes(m.mcsm(mode), det.final_coherence, p.covering)
-                if not switching(p, det, s)]
+    suspects = suspected_mode_changes(m.mcsm(mode), det.final_coherence, p.covering)
     return fsm, Isolation(tuple(map(tuple, candidates)), tuple(suspects), int(pruned or 0),
                           o.max_set, False, weak)
 
@@ -505,8 +504,9 @@ MAX_COVERING = 6     # covering sets identified at most when the exact ones fit 
 
 def switching(p: Prepared, det: Detection, suspect: str) -> bool:
     """Whether a suspected mode change's variable is commanded to switch within the identification
-    window (a PWM switch): one value over the window explains nothing there, so the fault-mode
-    estimator leaves it out."""
+    window (a PWM switch, an ABS valve): the mode it should be in is then its command sample by
+    sample, and a value held over the window is a switch stuck there (the fault-mode estimator's
+    ``following``)."""
     model = p.monitor.model
     var = mode_variable(model, suspect)
     cmd = commanded(model, p.raw).get(var)
@@ -525,13 +525,16 @@ def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects,
     model = p.monitor.model
     win = window(p.meas.t, p.raw, det.time, p.samples, p.window_s)
     variables = sorted({mode_variable(model, s) for s in suspects})
+    held = {v for v in variables if switching(p, det, v)}
     e = estimate_mode(model, p.monitor.residuals, win, p.weights, p.options.seed, p.window_s, variables, p.modes,
-                      floors)
+                      floors, held)
     # no mode fault where no mode explains the data finitely (a sample of 1e308 the residuals
     # overflow on: every mode's cost infinite, and the first mode tried was named a stuck contactor)
     finite = e.cost is not None and np.isfinite(e.cost)
     estimate = dict(e.mode) if finite else {v: mode[v] for v in e.mode}     # no estimate: the mode at t_D
-    changed = [v for v in estimate if estimate[v] != mode[v]]
+    # a switch commanded to switch is faulty where it stayed put (whatever its value at t_D), another
+    # where its estimate is not its mode at t_D
+    changed = [v for v in estimate if (finite and v in e.stuck) or (v not in held and estimate[v] != mode[v])]
     faults = tuple(faults_of({"name": mode_fault_name(model, v, estimate[v]), "type": "mode", "value": estimate[v]}
                              for v in changed))
     return ModeFault(estimate, e.cost, tuple(e.table or ()), faults)

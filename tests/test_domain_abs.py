@@ -1,0 +1,66 @@
+"""A one-wheel ABS brake modulator whose valves' commands switch ten times a second
+(tests/data/abs_modulator.yaml), graded on its own scipy plant (tests/abs_plant.py).
+
+A user trial's inlet valve stuck open under a switching command was never considered: the
+fault-mode estimator left out every mode variable commanded to switch within the window, and the
+samples a commanded switch leaves without a residual (its derivative filters do not straddle it)
+were NaN in its cost, so every mode cost NaN whenever any valve switched in the window. A variable
+commanded to switch is now estimated against its command (held at 0 or 1 over the window, or
+following the command), the switch gaps count for no hypothesis, and a value held against a
+switching command is a stuck valve.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fdi.api import Options, diagnose
+from fdi.data import Measurements
+
+from . import abs_plant as plant
+
+MODEL = str(Path(__file__).parent / "data" / "unverified" / "abs_modulator.yaml")   # (its brake law reads pc: not simulated)
+
+
+def _diagnose(fault: str | None, seed: int):
+    rows = plant.simulate(7.0, seed, fault)
+    meas = Measurements(str(fault), rows[:, 0].copy(), {h: rows[:, i].copy() for i, h in enumerate(plant.HEAD)})
+    return diagnose(MODEL, meas, Options(workers=1, seed=0)), rows
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
+def test_an_inlet_valve_stuck_open_is_what_the_fault_mode_estimator_finds(seed):
+    """The inlet valve stuck open from 5 s: the fault-mode estimator names it on every seed (before:
+    on seed 3 alone, whose window saw no commanded switch; the others cost NaN)."""
+    d, rows = _diagnose("in_stuck_open", seed)
+    assert abs(d.detection.time - 5.0) < 0.05
+    assert "in_stuck_open" in d.isolation.suspected
+    assert [(f.name, f.value) for f in d.mode_fault.faults] == [("in_stuck_open", 1)]
+    assert np.isfinite(d.mode_fault.cost)
+    costs = {tuple(sorted(r["mode"].items())): r["cost"] for r in d.mode_fault.table}
+    assert all(np.isfinite(c) for c in costs.values())
+    # the estimate is the inlet held open beside the outlet as commanded: the lowest cost of the table
+    assert d.mode_fault.cost == pytest.approx(min(costs.values()), rel=1e-12)
+
+
+@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.xfail(strict=True, reason=(
+    "a pair {Rout, Cc} with Cc at its lower bound costs less: shrinking Cc removes the noisy Cc pc' term "
+    "(eq. 24 does not know a residual's noise scales with its parameters)"))),
+    pytest.param(3, marks=pytest.mark.xfail(strict=True, reason="as seed 2")), 4])
+def test_an_inlet_valve_stuck_open_is_the_diagnosis(seed):
+    d, _ = _diagnose("in_stuck_open", seed)
+    assert [(f.name, f.type, f.value) for f in d.faults] == [("in_stuck_open", "mode", 1)]
+    assert d.mode["a_in"] == 1
+
+
+def test_a_healthy_record_and_a_clogged_inlet_are_not_read_as_stuck_valves():
+    """Estimating the switching valves against their commands names no stuck valve on healthy data,
+    and leaves the inlet's clogging (Rin x 3 from 5 s, seen at its next opening) to the estimators."""
+    d, _ = _diagnose(None, 1)
+    assert d.detection is None
+    d, _ = _diagnose("rin", 1)
+    (fault,) = d.faults
+    assert fault.name == "Rin" and fault.type == "abrupt"
+    assert fault.value == pytest.approx(3 * plant.P["Rin"], rel=0.05)
