@@ -141,7 +141,24 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
                      bond_graph=p.monitor.model)
     if det is None:
         return base
-    return decide(p, replace(base, detection=det, mode=mode_at(p, det)), r, clock, progress, memo)
+    d = decide(p, replace(base, detection=det, mode=mode_at(p, det)), r, clock, progress, memo)
+    note = from_the_start(p, det)
+    return replace(d, note=f"{d.note}; {note}" if d.note else note) if note and d.faults else d
+
+
+START_WINDOWS = 2.0   # a detection within this many derivative windows of the first trusted sample: at the start
+
+
+def from_the_start(p: Prepared, det: Detection) -> str | None:
+    """The note when the detection comes with the first samples that are trusted: the fault was
+    there from the start, or the data do not match the model. A user trial's records in bar for
+    Pa, with two columns swapped, or of another valve law were each diagnosed as faults "from
+    0.04 s", with nothing to say the model and the data disagree from their first samples."""
+    if det.time - p.first_trusted > START_WINDOWS * p.window_s:
+        return None
+    return (f"detected at t_D = {det.time:.4g} s, with the first samples judged (from {p.first_trusted:.4g} s): "
+            "the fault was there from the start, or these data do not match the model (a column's unit or "
+            "order, a command's polarity, another model); a record of the same system in health tells which")
 
 
 def with_samples(monitor: "Monitor", samples: int | None) -> "Monitor":

@@ -64,3 +64,16 @@ def test_a_healthy_record_and_a_clogged_inlet_are_not_read_as_stuck_valves():
     (fault,) = d.faults
     assert fault.name == "Rin" and fault.type == "abrupt"
     assert fault.value == pytest.approx(3 * plant.P["Rin"], rel=0.05)
+
+
+def test_data_that_defy_the_model_from_their_first_samples_say_so():
+    """The trial's healthy record with the caliper pressure in bar (the model reads Pa) was diagnosed
+    as a wheel-speed sensor drift "from 0.04 s", nothing said; a detection with the first samples
+    judged now says the data may not match the model. A fault later in a record is not so noted."""
+    rows = plant.simulate(3.0, 1)
+    rows[:, plant.HEAD.index("pc")] /= 1e5
+    meas = Measurements("bar", rows[:, 0].copy(), {h: rows[:, i].copy() for i, h in enumerate(plant.HEAD)})
+    d = diagnose(MODEL, meas, Options(workers=1, seed=0))
+    assert d.faults and "do not match the model" in d.note
+    d, _ = _diagnose("rin", 2)
+    assert d.faults and "do not match the model" not in (d.note or "")
