@@ -333,12 +333,12 @@ class _Search:
         missed = self.shortfall(picks).undetected if len(modes) > 1 else ()
         if not missed:
             return picks
-        nominal, self.mode = self.mode, modes
+        self.mode = modes
         judged = [replace(p, faults=self.faults_of(p.arr)) for p in picks]
         left = self.shortfall(judged).undetected
-        if not left:                                      # each detected in some mode the plant runs in
-            self.mode = nominal
-            return picks
+        if not left:         # each detected in some mode the plant runs in: the residuals stay, and the final
+            return judged    # shortfall is judged in those modes too (in the nominal mode alone, an ABS's
+                             # outlet restriction, closed at rest, read as a shortfall `isolability` denied)
         self.realised = {k: replace(p, faults=self.faults_of(p.arr)) for k, p in self.realised.items()}
         picks = self.complete(judged, lambda chosen: Shortfall(self.shortfall(chosen).undetected, ()), targeted=True)
         found = [f for f in left if f not in self.shortfall(picks).undetected]

@@ -77,3 +77,17 @@ def test_data_that_defy_the_model_from_their_first_samples_say_so():
     assert d.faults and "do not match the model" in d.note
     d, _ = _diagnose("rin", 2)
     assert d.faults and "do not match the model" not in (d.note or "")
+
+
+def test_the_residual_set_s_note_agrees_with_the_isolability_of_every_mode():
+    """The outlet's restriction enters no residual while the outlet is closed, as it is at rest: judged
+    in that mode alone, the selection noted that its residuals "do not reach the best structural
+    isolability", which `bgfdi isolability` (every mode the plant runs in) denied. Now both judge the
+    operating modes."""
+    from bondgraph.loader import load_model
+    from fdi.arrs import select_arrs
+    from fdi.selection import shortfall_of
+    model = load_model(MODEL)
+    chosen = select_arrs(model)
+    assert not shortfall_of(model, list(chosen.arrs))
+    assert not any("best structural isolability" in n for n in chosen.notes)
