@@ -100,6 +100,8 @@ class Calibration:
                                                          # the run (RISE): a fault in a nominal run
     mode_units: dict = field(default_factory=dict)   # by residual calibrated by mode: {"brake=0": "N*m", ...}
                                         # where its unit differs between modes (arr_unit says "?" for it)
+    unscored: tuple[str, ...] = ()      # with --window auto: parametric faults no window scores (a nominal value
+                                        # infinite or zero: no relative change of it, fdi.sensitivity.perturbed)
 
     @property
     def false_alarm_rate(self) -> float | None:
@@ -252,7 +254,15 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                        max((r.highest_order() for r in c.arr_residuals), default=0), pick is not None, scores, blind,
                        spikes, noise, {names[j]: {key_text(k): float(v) for k, v in t.items()} for j, t in tables.items()},
                        {n: [key_text(k) for k in u] for n, u in unvisited.items() if u}, glitches, rises,
-                       _mode_units(model, arrs, names, tables))
+                       _mode_units(model, arrs, names, tables), _unscored(model) if scores else ())
+
+
+def _unscored(model) -> tuple[str, ...]:
+    """The parametric faults whose size ``--window auto`` cannot score: a parameter whose nominal
+    value is infinite or zero (a healthy leak's resistance) has no relative change to detect."""
+    nominal = model.nominal_by_name()
+    return tuple(f for f, v in model.faults.items() if v.kind == "parametric"
+                 and any(not np.isfinite(nominal.get(p, np.nan)) or nominal.get(p) == 0 for p in v.targets))
 
 
 def _mode_units(model, arrs, names: list[str], tables: dict) -> dict[str, dict[str, str]]:
@@ -474,6 +484,13 @@ def _operating_point(model, data: list[Measurements]) -> tuple[str, ...]:
     return (f"at the runs' medians, initial: {{{shown}}}, the fastest time constant is {tau.fastest:.3g} s",)
 
 
+def _not_scored(c: Calibration) -> str:
+    if not c.unscored:
+        return ""
+    return (f"; not scored: {', '.join(c.unscored)} (a nominal value infinite or zero: no relative change of "
+            f"{'it' if len(c.unscored) == 1 else 'them'} to detect)")
+
+
 def format_calibration(c: Calibration) -> str:
     lines = [f"thresholds of {c.model} from {len(c.runs)} nominal run(s): {c.rule} of |r| x {c.margin:g}",
              f"{'residual':<10}{'unit':<10}{'largest |r|':>14}{'threshold':>14}"]
@@ -522,7 +539,7 @@ def format_calibration(c: Calibration) -> str:
                                  f"no other window does better (shorter: down to a quarter of it, "
                                  f"{scales.min_window_samples()} samples at least; longer: at most a tenth of a "
                                  f"run, clear of the model's modes, under half a run without residuals); the "
-                                 f"largest change to detect: {largest}"))
+                                 f"largest change to detect: {largest}") + _not_scored(c))
     elif c.window is not None and c.window_chosen and c.window_scores:
         rule, pick = c.window_scores[0], chosen(c.window_scores)
         span = (f"{len(c.window_scores)} ({min(x.window for x in c.window_scores):.4g} s to "
@@ -542,6 +559,8 @@ def format_calibration(c: Calibration) -> str:
                          f"detected, geometric mean {100 * pick.score:.3g} % at this one")
             for f in pick.detectable:
                 lines.append(f"  {f}: {_change(pick.detectable[f])}")
+            if c.unscored:
+                lines.append(f"  {_not_scored(c)[2:]}")
         if pick is max(c.window_scores, key=lambda x: x.window) and len(c.window_scores) > 1:
             lines.append(f"  the longest window scored won: the scores may still fall beyond it, where no window was "
                          f"tried (at most a tenth of a run, clear of the model's modes, under half a run without "

@@ -91,3 +91,20 @@ def test_the_residual_set_s_note_agrees_with_the_isolability_of_every_mode():
     chosen = select_arrs(model)
     assert not shortfall_of(model, list(chosen.arrs))
     assert not any("best structural isolability" in n for n in chosen.notes)
+
+
+def test_window_auto_says_which_faults_it_cannot_score(tmp_path):
+    """The caliper's leak resistance is infinite in health: no relative change of it to score a window
+    by. --window auto left it out of its scores without a word (a trial read "the largest change to
+    detect: Rout" as covering every fault); it now names it."""
+    from fdi.calibrate import calibrate, format_calibration
+    runs = []
+    for seed in (11, 12):
+        rows = plant.simulate(3.0, seed)
+        path = tmp_path / f"nominal{seed}.csv"
+        np.savetxt(path, rows, delimiter=",", header=",".join(plant.HEAD), comments="", fmt="%.9g")
+        runs.append(str(path))
+    c = calibrate(MODEL, runs, window="auto")
+    assert c.unscored == ("Rleak",)
+    assert all("Rleak" not in s.detectable for s in c.window_scores)
+    assert "not scored: Rleak" in format_calibration(c)
