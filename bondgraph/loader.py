@@ -524,7 +524,8 @@ def _law(ctx: _Ctx, text: Any, where: tuple, kind: str, law: str, params: Mappin
             raise ctx.error(where, str(exc)) from None
         keys = [k for (kd, k), v in _LAW_VARS.items() if kd == kind and v == other]
         instead = f"; a law in {other} is written under '{keys[0]}'" if keys else ""
-        raise ctx.error(where, f"'{other}' in '{text}': a {kind} element's {law} law is written in {var} "
+        raise ctx.error(where, f"'{other}' in '{text}': {'an' if kind in 'RI' else 'a'} {kind} element's {law} law "
+                               f"is written in {var} "
                                f"({_VAR_WORDS[var]}), not {other}{instead}") from None
 
 

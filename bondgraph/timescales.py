@@ -69,10 +69,19 @@ def mode_combinations(model: Model, limit: int = MAX_MODE_COMBINATIONS) -> list[
     return out
 
 
+def not_linearised(failed: Mapping[str, list[dict]], asked: int) -> list[str]:
+    """One note per reason a mode could not be linearised (``failed``: reason -> its modes, of
+    ``asked`` modes tried): an ABS's four modes gave the same reason four times."""
+    return [f"{'every mode' if len(ms) == asked > 1 else ', '.join(f'mode {m}' if m else 'the model' for m in ms)}: "
+            f"not linearised ({why})" for why, ms in failed.items()]
+
+
 def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
-                values: Mapping[str, float] | None = None) -> TimeScales:
+                values: Mapping[str, float] | None = None,
+                failed: dict[str, list[dict]] | None = None) -> TimeScales:
     """The fastest and slowest time constants of ``model`` over ``modes`` (default: the nominal
-    mode only), at its nominal parameter values updated by ``values``."""
+    mode only), at its nominal parameter values updated by ``values``. ``failed`` (reason -> modes)
+    collects why modes could not be linearised, for a caller that asks mode by mode."""
     from .errors import CausalityError
     from .simulation import SimulationError, _initial_state, _jacobian, build_system
 
@@ -80,7 +89,7 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
     base.update(values or {})
     model = _inputs_held(model)
     eigs: list[complex] = []
-    failed: dict[str, list[dict]] = {}     # why a mode is not linearised -> the modes it keeps out
+    failed = {} if failed is None else failed   # why a mode is not linearised -> the modes it keeps out
     growing: list[tuple[tuple[tuple[str, int], ...], complex]] = []
     fastest: list[float] = []
     slowest: list[float] = []
@@ -130,10 +139,7 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
         if fastest_here:
             fastest.append(float(np.median(fastest_here)))
             slowest.append(float(np.median(slowest_here)))
-    asked = len(modes) if modes else 1
-    notes = [f"{'every mode' if len(ms) == asked > 1 else ', '.join(f'mode {m}' if m else 'the model' for m in ms)}: "
-             f"not linearised ({why})"
-             for why, ms in failed.items()]     # one note per reason (an ABS's four modes gave it four times)
+    notes = not_linearised(failed, len(modes) if modes else 1)
     if not fastest:
         return TimeScales(math.inf, math.inf, tuple(eigs), tuple(notes), tuple(growing))
     return TimeScales(min(fastest), max(slowest), tuple(eigs), tuple(notes), tuple(growing))
@@ -230,10 +236,12 @@ def model_time_scales(model: Model) -> TimeScales:
     hit = _CACHE.get(id(model))
     if hit is not None and hit[0] is model:
         return hit[1]
-    per_mode = [time_scales(model, [mode]) for mode in mode_combinations(model)]
+    failed: dict[str, list[dict]] = {}
+    modes = list(mode_combinations(model))
+    per_mode = [time_scales(model, [mode], failed=failed) for mode in modes]
     known = [s for s in per_mode if s.known] or per_mode
     scales = TimeScales(min(s.fastest for s in known), max(s.slowest for s in known),
-                        tuple(v for s in per_mode for v in s.eigenvalues), tuple(n for s in per_mode for n in s.notes),
+                        tuple(v for s in per_mode for v in s.eigenvalues), tuple(not_linearised(failed, len(modes))),
                         tuple(g for s in per_mode for g in s.growing))
     if len(_CACHE) > 32:
         _CACHE.clear()

@@ -31,7 +31,8 @@ from .objective import Objective, Window, window_gaps
 from .residuals import Residual, corrected_signals, derivative_orders, parameter_values
 from .results import Estimate
 
-MODE_TABLE = 4     # suspected mode variables up to which every combination's cost is reported (16 rows)
+MODE_TABLE = 4     # suspected mode variables up to which every combination's cost is reported and the estimate read
+                   # from it (16 rows; 81 with four commanded to switch, each also as commanded)
 COMMANDED = "commanded"   # the table's value of a variable commanded to switch that follows its command
 
 
@@ -44,6 +45,8 @@ class ModeEstimate:
     cost: float
     table: list[dict]
     stuck: tuple[str, ...] = ()          # variables commanded to switch that the data say stayed put
+    following: tuple[str, ...] = ()      # variables commanded to switch that follow their command (their
+                                         # ``mode`` entry is then the command at the window's start)
 
 
 def switched_off(hypothesis: np.ndarray, data: np.ndarray) -> np.ndarray:
@@ -60,14 +63,22 @@ def switched_off(hypothesis: np.ndarray, data: np.ndarray) -> np.ndarray:
 
 
 def samples_of(value, n: int) -> np.ndarray:
-    """A residual's value over ``n`` samples as one row: a (1, n) or (n,) array, or a constant."""
+    """A residual's value over ``n`` samples as one row: a (1, n) or (n,) array, or a constant.
+
+    >>> samples_of(2.0, 3).tolist(), samples_of(np.ones((1, 3)), 3).shape
+    ([2.0, 2.0, 2.0], (3,))
+    """
     a = np.asarray(value, dtype=float)
-    return a.reshape(-1) if a.size == n else np.broadcast_to(a.reshape(-1)[:1] if a.size else a, (n,))
+    if a.size == n:
+        return a.reshape(-1)
+    if a.size == 1:
+        return np.broadcast_to(a.reshape(-1), (n,))
+    raise ValueError(f"a residual of {a.size} values on a window of {n} samples")
 
 
 def off_charge(hypothesis: np.ndarray, data: np.ndarray, floor: float | None) -> np.ndarray | float:
-    """What a residual's switched-off samples (:func:`switched_off`) cost: its noise ``floor`` each
-    (the weighted cost of a sample where it holds); 0 without a floor."""
+    """What a residual's switched-off samples (:func:`switched_off`) cost, before its weight: its
+    noise ``floor`` each (its mean |r| where it holds); 0 without a floor."""
     if floor is None or not np.isfinite(floor) or floor <= 0:
         return 0.0
     return floor * switched_off(hypothesis, data)
@@ -77,10 +88,13 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
                   seed: int, window_s: float, variables: list[str] | None = None,
                   modes: dict[str, float] | None = None, floors: np.ndarray | None = None,
                   following: Iterable[str] = ()) -> ModeEstimate:
-    """The fault-mode estimator: BDE over the suspected mode variables (Sec. III-C: the MCSM names
+    """The fault-mode estimator over the suspected mode variables (Sec. III-C: the MCSM names
     them; the others keep their current values), same cost as eq. (24), each sample a hypothesis
     switches a residual off charged that residual's noise floor (``floors``, per residual, in its
-    own units: the module's docstring).
+    own units: the module's docstring). Up to :data:`MODE_TABLE` variables every combination is
+    costed (the report's table) and the estimate read from it, the optimum BDE converges to; beyond,
+    BDE (Sec. III-C) searches them. Of the hypotheses within 1 % of the best, the one with the
+    fewest variables away from their default (their command, or their value at the window's start).
 
     ``following``: variables commanded to switch within the window (a PWM switch, an ABS valve).
     A value held over the window is then a valve stuck there, not the mode it should be in; the
@@ -102,7 +116,8 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
     gaps = window_gaps(model, residuals, win, signals, window_s)[c]    # samples no hypothesis is judged on
     data = [None] * len(residuals)
     if floors is not None:               # each residual under the data's own modes: where it holds
-        data = [samples_of(r(signals, nominal, win.ts, window_s), win.t.size)[c] for r in residuals]
+        data = [np.where(gaps, np.nan, samples_of(r(signals, nominal, win.ts, window_s), win.t.size)[c])
+                for r in residuals]      # (a gap is judged for no hypothesis: charged for none)
 
     def cost(real: np.ndarray, bits: np.ndarray, follow: frozenset = frozenset()) -> np.ndarray:
         values = dict(nominal)
@@ -119,34 +134,50 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
             if data[i] is not None:
                 total += weights[i] * off_charge(out, data[i], floors[i])
         return total
-    r = bde.minimize(cost, len(names), pop=max(8, 4 * len(names)), generations=20, seed=seed)
-    # a mode variable the data cannot see (a2 once a burnt driver has stopped the motor) is put back:
-    # one fault mode at a time, as the paper assumes, unless the data need more (cost within 1 %);
-    # a variable commanded to switch is put back to its command
-    best = r.bits.copy()
-    best_cost = float(r.cost)
-    follow: frozenset = frozenset()
-    for j in range(len(names)):
-        if names[j] in follow_all:
-            trial_cost = float(cost(np.zeros((1, 0)), best[None, :], follow | {names[j]})[0])
-            if trial_cost <= 1.01 * best_cost:
-                follow, best_cost = follow | {names[j]}, min(best_cost, trial_cost)
-        elif best[j] != bool(current[names[j]]):
-            trial = best.copy()
-            trial[j] = bool(current[names[j]])
-            trial_cost = float(cost(np.zeros((1, 0)), trial[None, :], follow)[0])
-            if trial_cost <= 1.01 * best_cost:
-                best, best_cost = trial, min(best_cost, trial_cost)
-    current.update({n: int(b) for n, b in zip(names, best) if n not in follow})
+    # each variable's value when it is not at fault: its command (one that switches within the window:
+    # followed sample by sample), else its value at the window's start
+    default = {n: COMMANDED if n in follow_all else current[n] for n in names}
+
+    def costs(rows: list[tuple]) -> np.ndarray:
+        """The cost of each row (a value per variable of ``names``: 0, 1 or COMMANDED)."""
+        out = np.empty(len(rows))
+        groups: dict[frozenset, list[int]] = {}
+        for k, row in enumerate(rows):
+            groups.setdefault(frozenset(n for n, v in zip(names, row) if v == COMMANDED), []).append(k)
+        for follow, ks in groups.items():          # one vectorised call per set of variables that follow
+            bits = np.array([[v == 1 for v in rows[k]] for k in ks], dtype=bool)
+            out[ks] = cost(np.zeros((len(ks), 0)), bits, follow)
+        return out
+
     table = []
-    if len(names) <= MODE_TABLE:          # every combination; a variable commanded to switch also as commanded
-        choices = [(0, 1, COMMANDED) if n in follow_all else (0, 1) for n in names]
-        for row in itertools.product(*choices):
-            held = frozenset(n for n, v in zip(names, row) if v == COMMANDED)
-            bits = np.array([[v == 1 for v in row]], dtype=bool)
-            table.append({"mode": {n: (v if v == COMMANDED else int(v)) for n, v in zip(names, row)},
-                          "cost": float(cost(np.zeros((1, 0)), bits, held)[0])})
-    return ModeEstimate(current, best_cost, table, tuple(n for n in names if n in follow_all - follow))
+    if len(names) <= MODE_TABLE:
+        # every combination (a variable commanded to switch also as commanded): the estimate is read from
+        # the table, the optimum BDE converges to, with no search noise
+        rows = list(itertools.product(*[(0, 1, COMMANDED) if n in follow_all else (0, 1) for n in names]))
+        row_costs = costs(rows)
+        table = [{"mode": dict(zip(names, row)), "cost": float(c)} for row, c in zip(rows, row_costs)]
+    else:
+        r = bde.minimize(cost, len(names), pop=max(8, 4 * len(names)), generations=20, seed=seed)
+        best = tuple(int(b) for b in r.bits)
+        rows = [best] + [tuple(default[n] if k == j else v for k, (n, v) in enumerate(zip(names, best)))
+                         for j in range(len(names))]
+        rows.append(tuple(default[n] for n in names))
+        row_costs = costs(rows)
+    # a mode variable the data cannot see (a2 once a burnt driver has stopped the motor) is put back, and
+    # one commanded to switch follows its command: of the rows within 1 % of the best, the one with the
+    # fewest variables away from their default (one fault mode at a time, as the paper assumes, unless the
+    # data need more), the cheapest of those; its own cost is the estimate's
+    finite = np.isfinite(row_costs)
+    if not finite.any():
+        return ModeEstimate(current, float("inf"), table)
+    lowest = float(row_costs[finite].min())
+    near = [k for k in range(len(rows)) if finite[k] and row_costs[k] <= 1.01 * lowest]
+    pick = min(near, key=lambda k: (sum(v != default[n] for n, v in zip(names, rows[k])), row_costs[k]))
+    chosen = dict(zip(names, rows[pick]))
+    current.update({n: int(v) for n, v in chosen.items() if v != COMMANDED})
+    return ModeEstimate(current, float(row_costs[pick]), table,
+                        tuple(n for n in names if n in follow_all and chosen[n] != COMMANDED),
+                        tuple(n for n in names if chosen[n] == COMMANDED))
 
 
 def mode_variable(model: Model, name: str) -> str:

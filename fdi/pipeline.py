@@ -157,8 +157,8 @@ def from_the_start(p: Prepared, det: Detection) -> str | None:
     if det.time - p.first_trusted > START_WINDOWS * p.window_s:
         return None
     return (f"detected at t_D = {det.time:.4g} s, with the first samples judged (from {p.first_trusted:.4g} s): "
-            "the fault was there from the start, or these data do not match the model (a column's unit or "
-            "order, a command's polarity, another model); a record of the same system in health tells which")
+            "unless the fault began that early, these data may not match the model (a column's unit or order, a "
+            "command's polarity, another model); a record of the same system in health tells")
 
 
 def with_samples(monitor: "Monitor", samples: int | None) -> "Monitor":
@@ -399,12 +399,16 @@ def quiet_level(p: Prepared, r: np.ndarray | None, t_d: float) -> np.ndarray | N
     return np.fmax.reduce(np.abs(np.asarray(r)[:, before[-p.samples:]]), axis=1)      # NaN skipped, no warning
 
 
+MEAN_OVER_MEDIAN = 1.1829   # mean |x| / median |x| of Gaussian noise: sqrt(2/pi) / 0.67449
+
+
 def noise_floors(p: Prepared, r: np.ndarray | None, t_d: float) -> np.ndarray | None:
-    """Each residual's noise floor, the weighted cost of a sample where it holds (the charge for a
-    sample a mode hypothesis switches it off, :mod:`fdi.mode_estimation`): its mean |r| on the
-    trusted samples before the detection (less a derivative window; the last identification
+    """Each residual's noise floor, what a sample where it holds costs before its weight (the charge
+    for a sample a mode hypothesis switches it off, :mod:`fdi.mode_estimation`): its mean |r| on
+    the trusted samples before the detection (less a derivative window; the last identification
     window's worth) where its mode has it on, else its median |r| over every trusted sample where
-    it is on (robust while the fault holds fewer than half of them); NaN for a residual never on."""
+    it is on (robust while the fault holds fewer than half of them) times Gaussian noise's mean over
+    median (:data:`MEAN_OVER_MEDIAN`); NaN for a residual never on."""
     if r is None:
         return None
     r = np.abs(np.asarray(r, dtype=float))
@@ -417,7 +421,7 @@ def noise_floors(p: Prepared, r: np.ndarray | None, t_d: float) -> np.ndarray | 
         if before is not None and (k := before[-p.samples:][on[i, before[-p.samples:]]]).size >= least:
             floors[i] = float(r[i, k].mean())
         elif (k := np.flatnonzero(on[i] & trusted)).size:
-            floors[i] = float(np.median(r[i, k]))
+            floors[i] = MEAN_OVER_MEDIAN * float(np.median(r[i, k]))
     return floors
 
 
@@ -542,19 +546,19 @@ def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects,
     model = p.monitor.model
     win = window(p.meas.t, p.raw, det.time, p.samples, p.window_s)
     variables = sorted({mode_variable(model, s) for s in suspects})
-    held = {v for v in variables if switching(p, det, v)}
+    following = {v for v in variables if switching(p, det, v)}
     e = estimate_mode(model, p.monitor.residuals, win, p.weights, p.options.seed, p.window_s, variables, p.modes,
-                      floors, held)
+                      floors, following)
     # no mode fault where no mode explains the data finitely (a sample of 1e308 the residuals
     # overflow on: every mode's cost infinite, and the first mode tried was named a stuck contactor)
     finite = e.cost is not None and np.isfinite(e.cost)
     estimate = dict(e.mode) if finite else {v: mode[v] for v in e.mode}     # no estimate: the mode at t_D
     # a switch commanded to switch is faulty where it stayed put (whatever its value at t_D), another
     # where its estimate is not its mode at t_D
-    changed = [v for v in estimate if (finite and v in e.stuck) or (v not in held and estimate[v] != mode[v])]
+    changed = [v for v in estimate if (finite and v in e.stuck) or (v not in following and estimate[v] != mode[v])]
     faults = tuple(faults_of({"name": mode_fault_name(model, v, estimate[v]), "type": "mode", "value": estimate[v]}
                              for v in changed))
-    return ModeFault(estimate, e.cost, tuple(e.table or ()), faults)
+    return ModeFault(estimate, e.cost, tuple(e.table or ()), faults, tuple(e.following) if finite else ())
 
 
 def stuck_sensors(p: Prepared, d: Diagnosis) -> Diagnosis:

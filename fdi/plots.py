@@ -272,16 +272,11 @@ def _mode_figure(plt, report: dict, model=None):
     before = {k: (1 - v if k in faulted and v in (0, 1) else v) for k, v in estimate.items()}
     if not faulted:
         before = {k: report["mode"].get(k) for k in estimate}
-    # a variable commanded to switch (rows "commanded", fdi.mode_estimation.COMMANDED, a text where the
-    # others hold 0 or 1): the estimate follows its command unless it is a stuck valve
-    following = {k for r in rows for k, v in r["mode"].items() if isinstance(v, str)}
-    before.update({k: next(v for r in rows for kk, v in r["mode"].items() if kk == k and isinstance(v, str))
-                   for k in following})
-
-    def chosen(k, v) -> bool:
-        return isinstance(v, str) if k in following and k not in faulted else estimate.get(k) == v
+    # a variable commanded to switch (its rows "commanded", fdi.mode_estimation.COMMANDED, a text where the
+    # others hold 0 or 1) was, at t_D, following its command; the estimate says whether it still does
+    before.update({k: v for r in rows for k, v in r["mode"].items() if isinstance(v, str)})
     fig, ax = plt.subplots(figsize=(7, 0.5 * len(rows) + 1.6))
-    is_estimate = [all(chosen(k, v) for k, v in r["mode"].items()) for r in rows]
+    is_estimate = [all(estimate.get(k) == v for k, v in r["mode"].items()) for r in rows]
     ax.barh(range(len(rows)), costs, color=["C3" if e else "C0" for e in is_estimate])
     ax.set_yticks(range(len(rows)), labels)
     for i, r in enumerate(rows):

@@ -143,6 +143,8 @@ class ModeFault:
     cost: float
     table: tuple[Mapping, ...]
     faults: tuple[Fault, ...]
+    following: tuple[str, ...] = ()    # variables commanded to switch estimated to follow their command (``mode``
+                                       # holds their command at the window's start; the report says "commanded")
 
 
 @dataclass(frozen=True)
@@ -349,7 +351,8 @@ class Diagnosis:
             "weakly_detectable": None if iso is None or not iso.weak else {k: list(v) for k, v in iso.weak.items()},
             "pruned": None if iso is None or not iso.pruned else {"max_set": iso.max_set, "sets": iso.pruned},
             "suspected_mode_changes": None if iso is None else list(iso.suspected),
-            "mode_estimate": None if mf is None else dict(mf.mode),
+            "mode_estimate": None if mf is None else {k: "commanded" if k in mf.following else v
+                                                      for k, v in mf.mode.items()},
             "mode_costs": None if mf is None or not mf.table else [dict(r) for r in mf.table],
             "mode_fault_cost": None if mf is None or not mf.faults else mf.cost,
             "exoneration_relaxed": None if iso is None or not iso.relaxed else True,

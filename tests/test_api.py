@@ -304,3 +304,24 @@ def test_thresholds_given_in_the_options_name_residuals_of_the_model():
     with pytest.raises(UsageError, match=r"^thresholds: ARR9 name\(s\) no residual of the model \(its residuals: "
                                          r"ARR1, ARR2\)$"):
         diagnose(model, rc.simulate(0.5, 1), workers=1, thresholds={"ARR1": 0.01, "ARR2": 0.002, "ARR9": 1.0})
+
+
+@pytest.mark.skipif(importlib.util.find_spec("matplotlib") is None, reason="the plot extra is not installed")
+@pytest.mark.parametrize("estimate, red", [({"s": 1}, 1), ({"s": "commanded"}, 2)])
+def test_the_mode_figure_marks_the_estimator_s_answer(estimate, red):
+    """A switch commanded to switch has a "commanded" row: the bar marked is the estimator's answer
+    (held at 1, or following), not one read from the final diagnosis (which a component fault won)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import to_rgba
+
+    from fdi.plots import _mode_figure
+    report = {"mode_costs": [{"mode": {"s": 0}, "cost": 100.0}, {"mode": {"s": 1}, "cost": 50.0},
+                             {"mode": {"s": "commanded"}, "cost": 500.0}],
+              "mode_estimate": estimate, "mode": {"s": 1},
+              "diagnosis": {"faults": [{"name": "rL", "type": "abrupt", "value": 2.0, "t0": 1.0}]}}
+    fig = _mode_figure(plt, report)
+    bars = fig.axes[0].patches
+    assert [k for k, b in enumerate(bars) if b.get_facecolor() == to_rgba("C3")] == [red]
+    plt.close(fig)
