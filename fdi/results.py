@@ -98,9 +98,10 @@ class Fault:
                             else list(v) if isinstance(v, tuple) else v)
         return out
 
-    def describe(self) -> str:
+    def describe(self, variable: str | None = None) -> str:
         """The fault in words, as the text report and the notebook table show it (with its onset:
-        a trial's user found it only in the JSON)."""
+        a trial's user found it only in the JSON); ``variable``: a mode fault's mode variable (the
+        fault's name is not: a user read ``out_stuck_closed = 0``)."""
         since = f", from {self.t0:.6g} s" if self.t0 is not None else ""
         if self.type == "abrupt":
             if self.t0_band is not None and self.t0 is not None and self.t0_band[0] < self.t0:
@@ -114,7 +115,7 @@ class Fault:
                     f"b = [{b}]{since}")
         if self.type == "stuck":
             return f"{self.name}: stuck at {self.value:.5g} from {self.t0:.4g} s"
-        return f"{self.name}: fault mode ({self.name} = {self.value if self.value is not None else 0})"
+        return f"{self.name}: fault mode ({variable or self.name} = {self.value if self.value is not None else 0})"
 
 
 def faults_of(entries) -> tuple[Fault, ...]:
@@ -411,6 +412,11 @@ class Diagnosis:
         frame.attrs.update({"model": self.model, "units": {"t": "s", **dict(zip(self.names, self.units))}})
         return frame
 
+    def _variable(self, fault: str) -> str | None:
+        """The mode variable of mode fault ``fault`` (None for another fault or without the model)."""
+        f = getattr(self.bond_graph, "faults", {}).get(fault)
+        return f.targets[0] if f is not None and f.kind == "mode" else None
+
     def summary(self) -> str:
         """The diagnosis in a few lines: detection, faults, RULs."""
         d = self.detection
@@ -419,7 +425,7 @@ class Diagnosis:
                                        f"at {d.decision_time:.4g} s: {_vec(d.final_coherence)}")]
         offered = [a.to_dict() for a in self.alternatives or ()]
         for f in self.faults:
-            lines.append(f"  {f.describe()}")        # (its onset in it)
+            lines.append(f"  {f.describe(self._variable(f.name))}")        # (its onset in it)
             lines += [f"    or {Fault.from_dict(g).describe()} (read together with {f.name}: one fit)"
                       for g in partners(offered, f.name, {g.name for g in self.faults}, self.winner)]
         if d is not None and not self.faults:
@@ -435,7 +441,7 @@ class Diagnosis:
         rows = [("detection", "none" if d is None else
                  f"t<sub>D</sub> = {d.time:.2f} s, coherence {list(d.coherence)}; at {d.decision_time:.2f} s: "
                  f"{list(d.final_coherence)}")]
-        rows += [(f.name, f.describe().split(": ", 1)[1]) for f in self.faults] or [
+        rows += [(f.name, f.describe(self._variable(f.name)).split(": ", 1)[1]) for f in self.faults] or [
             ("diagnosis", "no fault" if d is None else "no fault identified")]
         rows += [(f"RUL of {p.name}", f"{p.rul:.2f} s at {p.at:.2f} s (EOL {p.eol:.2f} s)")
                  for p in self.prognosis if math.isfinite(p.rul)]

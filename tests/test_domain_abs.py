@@ -129,6 +129,10 @@ def test_a_valve_stuck_against_a_switching_command_is_named_stuck():
     chosen = next(r for r in report["mode_costs"] if r["mode"] == {"a_in": 1, "a_out": "commanded"})
     assert chosen["cost"] == report["mode_fault_cost"] == min(r["cost"] for r in report["mode_costs"])
     assert [(f.name, f.value) for f in d.faults] == [("in_stuck_open", 1)]
+    # in words, the variable it sets (a trial read "in_stuck_open = 1"), in the summary and the CLI's text
+    from fdi.app.report import to_text
+    assert "in_stuck_open: fault mode (a_in = 1)" in d.summary()
+    assert "in_stuck_open: fault mode (a_in = 1)" in to_text(report, "abs", "stuck", {"in_stuck_open": "a_in"})
 
 
 def test_on_healthy_data_switching_valves_follow_their_commands():

@@ -173,3 +173,29 @@ def test_the_fault_mode_estimator_gets_no_credit_for_switching_the_clutch_s_rela
     measured = noise_floors(p, r, 12.0)
     assert measured[clutch] == pytest.approx(floors[clutch], rel=0.25)
     assert measured[names.index("ARR2")] == pytest.approx(floors[names.index("ARR2")], rel=0.25)
+
+
+def test_a_later_decision_s_mode_change_is_charged_for_the_relation_it_switches_off():
+    """A later decision's mode change (fdi.mode_estimation.mode_change_fits) pays the same charge as the
+    first decision's estimator: the clutch opened at 12 s on the plant's engaged data switches its
+    relation off from there; each such sample costs the relation's floor (here 1 per sample, its
+    weight 1), so the change costs what it cost without the charge plus the samples switched off."""
+    from fdi.mode_estimation import mode_change_fits
+    from fdi.monitor import monitor_of
+    from fdi.objective import window
+    from fdi.pipeline import prepare
+
+    rows = plant.simulate(14.0, 5, None)
+    p = prepare(monitor_of(MODEL), _measurements("nominal", rows), Options(workers=1))
+    clutch = next(i for i, a in enumerate(select_arrs(load_model(MODEL)).arrs) if a.origin.endswith(" in mode c=1"))
+    weights = np.zeros(len(p.monitor.residuals))
+    weights[clutch] = 1.0                                         # the clutch's relation alone
+    win = window(p.meas.t, p.raw, 11.5, 1000, p.window_s)
+    floors = np.zeros(len(weights))
+    floors[clutch] = 1.0
+    (free,) = mode_change_fits(p.monitor, win, weights, [], [("c", 0)], 12.0)
+    (charged,) = mode_change_fits(p.monitor, win, weights, [], [("c", 0)], 12.0, floors=floors)
+    onset = charged.faults[-1]["t0"]
+    t = win.t[win.crop]
+    switched = int(np.count_nonzero(t >= onset))                  # the relation is on over the whole window
+    assert charged.cost >= free.cost + 0.9 * switched and switched > 400

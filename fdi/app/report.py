@@ -2,14 +2,16 @@
 from __future__ import annotations
 
 import math
+from typing import Mapping
 
 from ..isolate import COVERING_NOTE
 from ..results import DETERMINED, Coincidence, Fault, _vec, partners
 
 
-def describe_fault(f: dict) -> str:
-    """One fault of a report in words."""
-    return Fault.from_dict(f).describe()
+def describe_fault(f: dict, variables: Mapping[str, str] | None = None) -> str:
+    """One fault of a report in words; ``variables``: each mode fault's mode variable (the report's
+    entry names the fault, ``in_stuck_open``; the text says which variable it sets)."""
+    return Fault.from_dict(f).describe((variables or {}).get(f["name"]))
 
 
 def _confidence(margin) -> str:
@@ -28,7 +30,7 @@ def _raced_out(e: dict) -> str:
             f"{100 * SET_STALL:g} % in its last rung")
 
 
-def to_text(report: dict, model_name: str, data_name: str) -> str:
+def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[str, str] | None = None) -> str:
     out = [f"bgfdi diagnosis of {data_name} with model {model_name}"]
     det = report.get("detection")
     if det is None:
@@ -70,7 +72,7 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
     for a in report.get("alternatives") or []:
         tie = ": lower, but within 2 is a tie and the smaller set wins" if a["criterion"] < 0 else ""
         out.append(f"  nearly as good: {{{', '.join(a['candidate'])}}} (criterion {a['criterion']:+.2f}{tie}; cost "
-                   f"{a['cost']:.4g}): " + "; ".join(describe_fault(f) for f in a["faults"]))
+                   f"{a['cost']:.4g}): " + "; ".join(describe_fault(f, variables) for f in a["faults"]))
         if a.get("coincides"):
             out.append(f"    (one fit: {Coincidence.from_dict(a['coincides']).describe()}: a constant fault of either "
                        f"is fitted as well by the other within their ranges; bgfdi isolability proposes sensors that "
@@ -88,7 +90,7 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
                        f"set(s): {{{', '.join(e['winner'])}}}")
     faults = report["diagnosis"]["faults"]
     for f in report.get("insignificant") or []:
-        out.append(f"  left out: {describe_fault(f)} (its parameters do not pay on the data since the detection: "
+        out.append(f"  left out: {describe_fault(f, variables)} (its parameters do not pay on the data since the detection: "
                    f"criterion {f['criterion_without']:+.2f} without it)")
     if report.get("note"):
         out.append(f"note: {report['note']}")
@@ -99,8 +101,8 @@ def to_text(report: dict, model_name: str, data_name: str) -> str:
     else:
         out.append("diagnosis: no fault explains the coherence vector")
     for f in faults:
-        out.append(f"  {describe_fault(f)}")
-        out += [f"    or {describe_fault(g)} (read together with {f['name']}: one fit)"
+        out.append(f"  {describe_fault(f, variables)}")
+        out += [f"    or {describe_fault(g, variables)} (read together with {f['name']}: one fit)"
                 for g in partners(report.get("alternatives"), f["name"], {g["name"] for g in faults},
                                   report.get("winner"))]
     without = report["diagnosis"].get("criterion_without")
