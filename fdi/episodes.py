@@ -63,7 +63,7 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
              samples: int, episode: int, mode_changes: list[tuple[str, int]] = (),
              modes: dict[str, float] | None = None, onsets: tuple[float, float] | None = None,
              earliest: float | None = None, progress: Callable | None = None,
-             floors: np.ndarray | None = None) -> Episode:
+             floors: np.ndarray | None = None, quiet: tuple | None = None) -> Episode:
     """A later decision: the coherence vector gained a residual at ``t_change`` after the diagnosis
     ``known`` was made. Candidate sets come from the new coherence vector; every set is fitted on
     the data since the first onset (t_D to the new decision, at most MAX_GROWTH windows), so their
@@ -74,7 +74,8 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
     Larger sets that drop a known fault are not tried. Beside them, each mode change of
     ``mode_changes`` (fault name, value) that could explain the new residuals, with the known
     faults held (:func:`fdi.mode_estimation.mode_change_fits`: no parameter, its onset near the
-    change): a burnt driver after a leak. The winner is chosen as at the first decision; when no set
+    change; ``floors``, the residuals' noise floors, charged where it switches a residual off): a
+    burnt driver after a leak. The winner is chosen as at the first decision; when no set
     matches the new vector exactly, the smallest sets covering it are tried (as the first decision
     does) with the known set refitted beside them (a piezoelectric stack's capacitance drift lit a
     second residual the signature did not give it: the covering set alone, the coupling's modulus,
@@ -84,7 +85,8 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
     for a drift back to ``earliest``): a slow drift first seen in one residual and decided again when
     a second joins started before t_D (measured: an eq. (19) encoder drift from 20 s, detected at
     25.8 s, decided again at 40.3 s: fitted from t_D, {R4, R5, beta_theta2} won with beta_theta2 as
-    eq. (17))."""
+    eq. (17)); ``quiet`` (thresholds, the detector's rule): such a refit that the quiet data before
+    t_D contradict is not kept (:func:`fdi.estimators.contradicted`)."""
     w = est.monitor.config.derivative_window
     names = {f["name"] for f in known}
     model = est.monitor.model
@@ -111,7 +113,8 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
     if onsets is not None and fresh:
         refits = refit_early_onsets(est, meas.t, raw, start, span, [plan[i][0] for i in fresh],
                                     [results[i] for i in fresh], weights, o.seed + 7919 * episode, onsets, earliest,
-                                    [[[f for f in known if f["name"] in plan[i][0]]] for i in fresh], pinned=False)
+                                    [[[f for f in known if f["name"] in plan[i][0]]] for i in fresh], pinned=False,
+                                    quiet=quiet)
         results = list(results)
         for i, r in zip(fresh, refits):
             results[i] = r

@@ -776,7 +776,8 @@ def within(results: list[Estimate], i: int) -> list[list[dict]]:
 def refit_early_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t_d: float, samples: int,
                        candidates: list, results: list[Estimate], weights: np.ndarray, seed: int,
                        onsets: tuple[float, float], earliest: float | None = None,
-                       seeds: list[list[list[dict]]] | None = None, pinned: bool = True) -> list[Estimate]:
+                       seeds: list[list[list[dict]]] | None = None, pinned: bool = True,
+                       quiet: tuple | None = None) -> list[Estimate]:
     """Estimators fitted with their onset at t_D, the earliest the first search allows, refitted from
     their fit (and the structures one decision away: an abrupt fault may be a drift seen late) with
     the onset free over ``onsets``, the interval the evidence allows (:func:`evidence_onsets`); the
@@ -798,6 +799,8 @@ def refit_early_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndar
     A set seeded with a drift is refitted from ``earliest`` at once, as a drift fitted at first is.
     ``pinned``: a drift whose refitted onset stays at the evidence's bound is refitted once more from
     ``earliest`` (a re-decision, whose sets are seeded with the earlier diagnosis, passes False).
+    ``quiet`` (thresholds, the detector's rule): a refit the quiet data before t_D contradict
+    (:func:`contradicted`) is not kept.
     A first pass whose final check was put off (``Estimators.run``'s ``defer``: steps dated at t_D,
     :func:`steps_at_window_start`) enters here unchecked: it is compared, and refitted from, as its first
     pass left it, and checked at the end only if it is kept (``Estimators.settle``)."""
@@ -818,12 +821,13 @@ def refit_early_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndar
     # refitted from the start of the trusted data, as a drift fitted at first is (measured: the
     # tutorial's capacitor ageing from 5 s refitted as eq. (17) from the bound, 8.04 s, at 1696
     # while the design costs 1675)
-    out = _refit(est, t, raw, t_d, samples, candidates, list(results), weights, seed + 15485863, redo, spans, seeds)
+    out = _refit(est, t, raw, t_d, samples, candidates, list(results), weights, seed + 15485863, redo, spans, seeds,
+                 quiet)
     again = [i for i in redo if pinned and earliest is not None and growing(out[i]) and onsets[0] > earliest + ts
              and min(f["t0"] for f in out[i].faults) <= onsets[0] + 1.5 * ts]
     if again:
         out = _refit(est, t, raw, t_d, samples, candidates, out, weights, seed + 32452843, again,
-                     [(earliest, onsets[1])] * len(again), seeds)
+                     [(earliest, onsets[1])] * len(again), seeds, quiet)
     return est.settle(out)
 
 
@@ -882,6 +886,49 @@ def date_onsets(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t
     if sorted((f["name"], f["type"]) for f in r.faults) != sorted((f["name"], f["type"]) for f in winner.faults):
         return winner
     return replace(winner, faults=r.faults, evaluations=winner.evaluations + r.evaluations)
+
+
+def contradicted(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], fit: Estimate, t_d: float,
+                 thresholds: np.ndarray, rule: tuple[float, float] = (0.0, 0.0)) -> bool:
+    """Whether ``fit``'s faults, begun at their onset before t_D, would have confirmed an alarm on the
+    data before t_D by the detector's own rule (``rule``, :func:`fdi.detect.confirmed`, as
+    :func:`step_onset_band` asks): then the detector would have fired earlier, and the quiet data
+    contradict the fit, however well it explains the window after t_D, which is all its cost reads.
+    The effect is the fit's residuals minus the nominal ones on the same data (to first order), up
+    to two derivative windows before t_D (the filters' look-ahead), over at most
+    :data:`STEP_LOOKBACK` samples after the onset. A user trial: a stuck ABS outlet was refitted as
+    an outlet clogging and an air-filled caliper drifting from the first trusted sample, 5 s before
+    the detection; that fit put ARR1 above its threshold on 23 % of the quiet samples before it."""
+    onsets = {f.get("t0") for f in fit.faults}
+    if not fit.faults or len(onsets) != 1 or None in onsets:
+        return False
+    w = est.monitor.config.derivative_window
+    ts = float(t[1] - t[0])
+    t0 = float(onsets.pop())
+    start, stop = max(t0, float(t[0]) + w), t_d - 2 * w
+    stop = min(stop, start + STEP_LOOKBACK * ts)
+    if stop - start <= 2 * w:
+        return False
+    i0, i1 = int(np.searchsorted(t, start - 1e-9)), int(np.searchsorted(t, stop - 1e-9))
+    win = window(t, raw, start, i1 - i0, w)
+    thresholds = np.asarray(thresholds, dtype=float).reshape(-1)
+    obj = Objective(est.monitor.model, est.monitor.residuals, win, tuple(fit.candidate), 1.0 / thresholds, w,
+                    onset=(t0, t_d), config=est.monitor.config, modes=dict(est.modes))
+    real, bits = obj.encode(list(fit.faults))
+    rows = np.vstack([real, real])
+    rows[0, -1] = np.inf                                 # the first: never begun (the nominal residuals)
+    b = np.vstack([bits, bits])
+    persistence, span = rule
+    n = detect.evidence_samples(span, ts)
+    with np.errstate(all="ignore"):
+        ps = encoding.profiles(obj.spaces, encoding.decode(obj.spaces, rows[:, :-1], b), obj.win.t, rows[:, -1])
+        values, signals, _ = obj.inputs(ps)
+        for i in obj.active:
+            r = obj.residual_values(obj.residuals[i], signals, values, 2)
+            z = detect.evidence(r[1:] - r[0], np.full(1, thresholds[i]), ts)
+            if detect.confirmed(z, n, persistence).any():
+                return True
+    return False
 
 
 def step_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], fit: Estimate,
@@ -1034,12 +1081,15 @@ def _earlier(t0: float, w: float, lowest: float) -> list[float]:
 
 def _refit(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], t_d: float, samples: int,
            candidates: list, out: list[Estimate], weights: np.ndarray, seed: int, redo: list[int],
-           spans: list[tuple[float, float]], seeds: list[list[list[dict]]]) -> list[Estimate]:
+           spans: list[tuple[float, float]], seeds: list[list[list[dict]]],
+           quiet: tuple | None = None) -> list[Estimate]:
     """Sets ``redo`` refitted over ``spans`` from their fits (the better fits of the sets containing
-    them, and their ``seeds``); each keeps the better of its two fits (evaluations and histories added)."""
+    them, and their ``seeds``); each keeps the better of its two fits (evaluations and histories
+    added), a refit the quiet data before t_D contradict excepted (``quiet``: the thresholds and
+    the detector's rule, :func:`contradicted`)."""
     refits = est.run(t, raw, t_d, samples, [candidates[i] for i in redo], weights, seed, None, None,
                      spans, [[list(out[i].faults)] + within(out, i) + list(seeds[i]) for i in redo])
     for i, r in zip(redo, refits):
-        if r.cost < out[i].cost:
+        if r.cost < out[i].cost and not (quiet is not None and contradicted(est, t, raw, r, t_d, *quiet)):
             out[i] = replace(r, evaluations=r.evaluations + out[i].evaluations, history=out[i].history + r.history)
     return out

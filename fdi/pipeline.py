@@ -508,7 +508,7 @@ def widen(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, results: list, est: Est
     more = est.run(p.meas.t, p.raw, det.time, p.samples, extra, p.weights, o.seed + 104723, None, None,
                    [(det.time, onsets[1])] * len(extra))
     more = refit_early_onsets(est, p.meas.t, p.raw, det.time, p.samples, extra, more, p.weights, o.seed + 104723,
-                              onsets, p.first_trusted)
+                              onsets, p.first_trusted, quiet=(p.thresholds, p.rule))
     ratio = best / level
     times = f"{ratio:.0f}" if ratio < 1e6 else f"{ratio:.3g}"        # a spike's: no 150-digit number
     tail = (COVERING_NOTE + (f" ({len(extra)} of them, the {left} whose faults enter more quiet residuals left out)"
@@ -602,7 +602,7 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
                       [(det.time, onsets[1])] * len(d.candidates), None,
                       lambda i, e: steps_at_window_start(e, det.time, ts))
     results = refit_early_onsets(est, t, p.raw, det.time, p.samples, list(d.candidates), results, p.weights,
-                                 o.seed, onsets, earliest)
+                                 o.seed, onsets, earliest, quiet=(p.thresholds, p.rule))
     d, results = widen(p, d, fsm, r, results, est, onsets)
     n_eff = effective_samples(p.samples, len(p.monitor.residuals), p.meas.ts, p.window_s)
     mf = d.mode_fault if d.mode_fault is not None and d.mode_fault.faults else None
@@ -666,7 +666,7 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
         now_fsm = over_modes([fsm] + [p.monitor.fsm(m) for m in visited_modes(p, i0, j) if m != d.mode])
         e = redecide(est, p.meas, p.raw, det, p.weights, p.options, now_fsm, faults, float(t[onset]), float(t[j]),
                      coherence, p.samples, len(episodes) + 1, changes, p.modes, onsets, p.first_trusted,
-                     progress, floors)     # (a later decision's sets on a longer window: minutes on a model its data defy)
+                     progress, floors, (p.thresholds, p.rule))   # (a later decision's sets: minutes on a model its data defy)
         episodes.append(e)
         faults, winner = list(e.faults), e.winner
         now = float(t[j])

@@ -49,9 +49,10 @@ def test_an_inlet_valve_stuck_open_is_what_the_fault_mode_estimator_finds(seed):
 
 @pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.xfail(strict=True, reason=(
     "a pair {Rout, Cc} with Cc at its lower bound costs less: shrinking Cc removes the noisy Cc pc' term "
-    "(eq. 24 does not know a residual's noise scales with its parameters)"))),
-    pytest.param(3, marks=pytest.mark.xfail(strict=True, reason="as seed 2")), 4])
+    "(eq. 24 does not know a residual's noise scales with its parameters)"))), 3, 4])
 def test_an_inlet_valve_stuck_open_is_the_diagnosis(seed):
+    """Seed 3 lost to {Rout, Cc} drifting from the first trusted sample, 5 s before the detection, a fit
+    the quiet data before it contradict (fdi.estimators.contradicted): no longer kept."""
     d, _ = _diagnose("in_stuck_open", seed)
     assert [(f.name, f.type, f.value) for f in d.faults] == [("in_stuck_open", "mode", 1)]
     assert d.mode["a_in"] == 1

@@ -199,3 +199,28 @@ def test_a_later_decision_s_mode_change_is_charged_for_the_relation_it_switches_
     t = win.t[win.crop]
     switched = int(np.count_nonzero(t >= onset))                  # the relation is on over the whole window
     assert charged.cost >= free.cost + 0.9 * switched and switched > 400
+
+
+def test_a_fit_the_quiet_data_before_the_detection_contradict_is_known():
+    """fdi.estimators.contradicted: a fit whose faults, begun at its onset, would have confirmed an alarm
+    on the data before t_D by the detector's own rule is contradicted by those quiet data (a user trial's
+    ABS outlet was refitted as drifts from 5 s before the detection). On the plant's healthy record: the
+    clutch's spring at 300 N m/rad from 2 s, "detected" at 12 s, would have fired long before; the same
+    from 11.9 s (within the filters' look-ahead) and a change of 0.02 % from 2 s would not."""
+    from types import SimpleNamespace
+
+    from fdi.estimators import contradicted
+    from fdi.monitor import monitor_of
+    from fdi.pipeline import prepare
+    from fdi.results import Estimate
+
+    rows = plant.simulate(14.0, 5, None)
+    p = prepare(monitor_of(MODEL), _measurements("nominal", rows), Options(workers=1))
+    est = SimpleNamespace(monitor=p.monitor, modes={})
+
+    def fit(value, t0):
+        return Estimate(("k_c",), 1.0, 1.0, (), None, ({"name": "k_c", "type": "abrupt", "value": value, "t0": t0},),
+                        0, 0.0, 0.0)
+    assert contradicted(est, p.meas.t, p.raw, fit(300.0, 2.0), 12.0, p.thresholds, p.rule)
+    assert not contradicted(est, p.meas.t, p.raw, fit(300.0, 11.9), 12.0, p.thresholds, p.rule)
+    assert not contradicted(est, p.meas.t, p.raw, fit(499.9, 2.0), 12.0, p.thresholds, p.rule)
