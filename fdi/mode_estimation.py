@@ -47,6 +47,7 @@ class ModeEstimate:
     stuck: tuple[str, ...] = ()          # variables commanded to switch that the data say stayed put
     following: tuple[str, ...] = ()      # variables commanded to switch that follow their command (their
                                          # ``mode`` entry is then the command at the window's start)
+    ties: tuple[dict, ...] = ()          # other hypotheses as far from the defaults within 1 % of its cost
 
 
 def switched_off(hypothesis: np.ndarray, data: np.ndarray) -> np.ndarray:
@@ -172,12 +173,16 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
         return ModeEstimate(current, float("inf"), table)
     lowest = float(row_costs[finite].min())
     near = [k for k in range(len(rows)) if finite[k] and row_costs[k] <= 1.01 * lowest]
-    pick = min(near, key=lambda k: (sum(v != default[n] for n, v in zip(names, rows[k])), row_costs[k]))
+    away = [frozenset(n for n, v in zip(names, rows[k]) if v != default[n]) for k in range(len(rows))]
+    pick = min(near, key=lambda k: (len(away[k]), row_costs[k]))
     chosen = dict(zip(names, rows[pick]))
     current.update({n: int(v) for n, v in chosen.items() if v != COMMANDED})
+    # as many variables away from their default, other ones, within 1 %: the data hardly tell them apart
+    ties = tuple(dict(zip(names, rows[k])) for k in near
+                 if away[pick] and len(away[k]) == len(away[pick]) and away[k] != away[pick])
     return ModeEstimate(current, float(row_costs[pick]), table,
                         tuple(n for n in names if n in follow_all and chosen[n] != COMMANDED),
-                        tuple(n for n in names if chosen[n] == COMMANDED))
+                        tuple(n for n in names if chosen[n] == COMMANDED), ties)
 
 
 def mode_variable(model: Model, name: str) -> str:

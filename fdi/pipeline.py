@@ -142,8 +142,20 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
     if det is None:
         return base
     d = decide(p, replace(base, detection=det, mode=mode_at(p, det)), r, clock, progress, memo)
-    note = from_the_start(p, det)
-    return replace(d, note=f"{d.note}; {note}" if d.note else note) if note and d.faults else d
+    notes = "; ".join(n for n in (from_the_start(p, det) if d.faults else None, undecided_mode(d)) if n)
+    return replace(d, note=f"{d.note}; {notes}" if d.note else notes) if notes else d
+
+
+def undecided_mode(d: Diagnosis) -> str | None:
+    """The note when the diagnosis is the fault-mode estimator's answer and other fault modes cost
+    within 1 % of it (a user trial's ABS: the outlet stuck closed named within 0.3 % of the inlet
+    stuck open, the truth, in a window where both valves' commands switch)."""
+    mf = d.mode_fault
+    if mf is None or not mf.ties or not d.faults or {f.name for f in d.faults} != {f.name for f in mf.faults}:
+        return None
+    others = "; ".join(" ".join(f"{k}={v}" for k, v in tie.items()) for tie in mf.ties)
+    return (f"the fault mode is barely decided: {others} cost{'s' if len(mf.ties) == 1 else ''} within 1 % of it "
+            "(mode_costs): these data hardly tell them apart")
 
 
 START_WINDOWS = 2.0   # a detection within this many derivative windows of the first trusted sample: at the start
@@ -558,7 +570,8 @@ def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects,
     changed = [v for v in estimate if (finite and v in e.stuck) or (v not in following and estimate[v] != mode[v])]
     faults = tuple(faults_of({"name": mode_fault_name(model, v, estimate[v]), "type": "mode", "value": estimate[v]}
                              for v in changed))
-    return ModeFault(estimate, e.cost, tuple(e.table or ()), faults, tuple(e.following) if finite else ())
+    return ModeFault(estimate, e.cost, tuple(e.table or ()), faults, tuple(e.following) if finite else (),
+                     tuple(e.ties) if finite and faults else ())
 
 
 def stuck_sensors(p: Prepared, d: Diagnosis) -> Diagnosis:

@@ -146,6 +146,7 @@ class ModeFault:
     faults: tuple[Fault, ...]
     following: tuple[str, ...] = ()    # variables commanded to switch estimated to follow their command (``mode``
                                        # holds their command at the window's start; the report says "commanded")
+    ties: tuple[Mapping, ...] = ()     # other fault modes within 1 % of its cost (the report's note names them)
 
 
 @dataclass(frozen=True)

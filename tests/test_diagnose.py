@@ -394,7 +394,7 @@ def test_no_mode_fault_is_named_where_no_mode_explains_the_data(monkeypatch):
     det = SimpleNamespace(time=5.0)
     for cost, named in ((float("inf"), ()), (12.5, ("v_closed",))):
         monkeypatch.setattr(pipeline, "estimate_mode",
-                            lambda *a, cost=cost: SimpleNamespace(mode={"v": 0}, cost=cost, table=None, stuck=(),
+                            lambda *a, cost=cost: SimpleNamespace(mode={"v": 0}, cost=cost, table=None, stuck=(), ties=(),
                                                                   following=()))
         mf = pipeline.estimate_modes(p, det, {"v": 1}, ["v_closed"])
         assert tuple(f.name for f in mf.faults) == named
