@@ -258,11 +258,12 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
 
 
 def _unscored(model) -> tuple[str, ...]:
-    """The parametric faults whose size ``--window auto`` cannot score: a parameter whose nominal
-    value is infinite or zero (a healthy leak's resistance) has no relative change to detect."""
+    """The parametric faults whose size ``--window auto`` cannot score: one the window scores cannot
+    move (:func:`fdi.sensitivity.perturbed`: a parameter whose nominal value is infinite or zero, a
+    healthy leak's resistance, has no relative change to detect)."""
+    from .sensitivity import perturbed
     nominal = model.nominal_by_name()
-    return tuple(f for f, v in model.faults.items() if v.kind == "parametric"
-                 and any(not np.isfinite(nominal.get(p, np.nan)) or nominal.get(p) == 0 for p in v.targets))
+    return tuple(f for f, v in model.faults.items() if v.kind == "parametric" and perturbed(model, f, nominal, {}) is None)
 
 
 def _mode_units(model, arrs, names: list[str], tables: dict) -> dict[str, dict[str, str]]:

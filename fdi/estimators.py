@@ -908,16 +908,17 @@ def contradicted(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], 
     stop = min(stop, start + STEP_LOOKBACK * float(t[1] - t[0]))
     if stop - start <= 2 * w:
         return False
-    return bool(_would_alarm(est, t, raw, fit, thresholds, rule, start, stop, [t0], (t0, t_d))[0])
+    return bool(_would_alarm(est, t, raw, fit, thresholds, rule, start, stop, (t0, t_d))([t0])[0])
 
 
 def _would_alarm(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], fit: Estimate, thresholds: np.ndarray,
-                 rule: tuple[float, float], start: float, stop: float, onsets: list[float],
-                 bounds: tuple[float, float]) -> np.ndarray:
-    """Per onset of ``onsets``: whether ``fit``'s faults, begun there, would have confirmed an alarm
-    by the detector's rule (``rule``: its persistence and span, :func:`fdi.detect.confirmed`) on the
-    data from ``start`` to ``stop``: their effect on each residual is the fit's residuals minus the
-    nominal ones on the same data (to first order). ``bounds``: the onset's range for the encoding."""
+                 rule: tuple[float, float], start: float, stop: float,
+                 bounds: tuple[float, float]) -> Callable[[list[float]], np.ndarray]:
+    """A test of onsets, its window set up once: per onset, whether ``fit``'s faults, begun there,
+    would have confirmed an alarm by the detector's rule (``rule``: its persistence and span,
+    :func:`fdi.detect.confirmed`) on the data from ``start`` to ``stop``; their effect on each
+    residual is the fit's residuals minus the nominal ones on the same data (to first order).
+    ``bounds``: the onset's range for the encoding."""
     w = est.monitor.config.derivative_window
     ts = float(t[1] - t[0])
     i0, i1 = int(np.searchsorted(t, start - 1e-9)), int(np.searchsorted(t, stop - 1e-9))
@@ -928,18 +929,21 @@ def _would_alarm(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], 
     real, bits = obj.encode(list(fit.faults))
     persistence, span = rule
     n = detect.evidence_samples(span, ts)
-    rows = np.tile(real, (len(onsets) + 1, 1))
-    rows[:, -1] = [np.inf] + list(onsets)                # the first: never begun (the nominal residuals)
-    b = np.tile(bits, (rows.shape[0], 1))
-    out = np.zeros(len(onsets), dtype=bool)
-    with np.errstate(all="ignore"):
-        ps = encoding.profiles(obj.spaces, encoding.decode(obj.spaces, rows[:, :-1], b), obj.win.t, rows[:, -1])
-        values, signals, _ = obj.inputs(ps)
-        for i in obj.active:
-            r = obj.residual_values(obj.residuals[i], signals, values, rows.shape[0])
-            z = detect.evidence(r[1:] - r[0], np.full(len(onsets), thresholds[i]), ts)
-            out |= detect.confirmed(z, n, persistence).any(axis=1)
-    return out
+
+    def alarms(onsets: list[float]) -> np.ndarray:
+        rows = np.tile(real, (len(onsets) + 1, 1))
+        rows[:, -1] = [np.inf] + list(onsets)            # the first: never begun (the nominal residuals)
+        b = np.tile(bits, (rows.shape[0], 1))
+        out = np.zeros(len(onsets), dtype=bool)
+        with np.errstate(all="ignore"):
+            ps = encoding.profiles(obj.spaces, encoding.decode(obj.spaces, rows[:, :-1], b), obj.win.t, rows[:, -1])
+            values, signals, _ = obj.inputs(ps)
+            for i in obj.active:
+                r = obj.residual_values(obj.residuals[i], signals, values, rows.shape[0])
+                z = detect.evidence(r[1:] - r[0], np.full(len(onsets), thresholds[i]), ts)
+                out |= detect.confirmed(z, n, persistence).any(axis=1)
+        return out
+    return alarms
 
 
 def step_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray], fit: Estimate,
@@ -972,10 +976,7 @@ def step_onset_band(est: Estimators, t: np.ndarray, raw: Mapping[str, np.ndarray
     start = max(float(earliest), float(t[0]) + w, t0 - STEP_LOOKBACK * ts)
     if t0 - start <= 2 * w:
         return fit
-
-    def refused(onsets: list[float]) -> np.ndarray:
-        """Whether the detector would have fired before t0 had the faults begun at each onset."""
-        return _would_alarm(est, t, raw, fit, thresholds, rule, start, t0, onsets, (start, t0))
+    refused = _would_alarm(est, t, raw, fit, thresholds, rule, start, t0, (start, t0))  # would it have fired before t0
 
     tries = _earlier(t0, w, start)
     no = refused(tries)

@@ -29,11 +29,12 @@ from optim.core import fitness
 from .data import commanded
 from .objective import Objective, Window, window_gaps
 from .residuals import Residual, corrected_signals, derivative_orders, parameter_values
+from . import results
 from .results import Estimate
 
 MODE_TABLE = 4     # suspected mode variables up to which every combination's cost is reported and the estimate read
                    # from it (16 rows; 81 with four commanded to switch, each also as commanded)
-COMMANDED = "commanded"   # the table's value of a variable commanded to switch that follows its command
+COMMANDED = results.COMMANDED   # the table's value of a variable commanded to switch that follows its command
 
 
 @dataclass(frozen=True)
@@ -239,10 +240,11 @@ def mode_change_fits(monitor, win: Window, weights: np.ndarray, known: list[dict
             values = mode_values(model, win, known_modes + [f], modes)
             obj = Objective(model, monitor.residuals, win, (), weights, w, fixed=components, config=monitor.config,
                             modes=values)
-            c = obj.constant()
-            if data is not None:
-                c += float(sum(weights[i] * np.sum(off_charge(row, data[i], floors[i]))
-                               for i, row in enumerate(residual_rows(obj))))
+            if data is None:
+                c = obj.constant()
+            else:                        # what constant() sums, residual by residual, each evaluated once
+                c = float(sum(weights[i] * (np.nansum(np.abs(row)) + np.sum(off_charge(row, data[i], floors[i])))
+                              for i, row in enumerate(residual_rows(obj))))
             if c < best[0]:
                 best = (c, float(onset))
         fault = {"name": name, "type": "mode", "value": int(value), "t0": best[1]}

@@ -272,7 +272,7 @@ def _mode_figure(plt, report: dict, model=None):
     before = {k: (1 - v if k in faulted and v in (0, 1) else v) for k, v in estimate.items()}
     if not faulted:
         before = {k: report["mode"].get(k) for k in estimate}
-    # a variable commanded to switch (its rows "commanded", fdi.mode_estimation.COMMANDED, a text where the
+    # a variable commanded to switch (its rows "commanded", fdi.results.COMMANDED, a text where the
     # others hold 0 or 1) was, at t_D, following its command; the estimate says whether it still does
     before.update({k: v for r in rows for k, v in r["mode"].items() if isinstance(v, str)})
     fig, ax = plt.subplots(figsize=(7, 0.5 * len(rows) + 1.6))

@@ -136,6 +136,9 @@ class Isolation:
     weak: Mapping[str, tuple[str, ...]] | None = None
 
 
+COMMANDED = "commanded"   # a mode variable commanded to switch that follows its command: the report's value
+
+
 @dataclass(frozen=True)
 class ModeFault:
     """The fault-mode estimator's answer: the estimated ``mode``, its cost, the cost of every
@@ -353,7 +356,7 @@ class Diagnosis:
             "weakly_detectable": None if iso is None or not iso.weak else {k: list(v) for k, v in iso.weak.items()},
             "pruned": None if iso is None or not iso.pruned else {"max_set": iso.max_set, "sets": iso.pruned},
             "suspected_mode_changes": None if iso is None else list(iso.suspected),
-            "mode_estimate": None if mf is None else {k: "commanded" if k in mf.following else v
+            "mode_estimate": None if mf is None else {k: COMMANDED if k in mf.following else v
                                                       for k, v in mf.mode.items()},
             "mode_costs": None if mf is None or not mf.table else [dict(r) for r in mf.table],
             "mode_fault_cost": None if mf is None or not mf.faults else mf.cost,
