@@ -31,7 +31,7 @@ if TYPE_CHECKING:                       # networkx is imported where a graph is 
     import networkx as nx
 
 from .errors import CausalityError
-from .graph import BondKey, port_table, to_networkx
+from .graph import BondKey, measured_storage, port_table, to_networkx
 from .laws import bond_variables, model_laws, resistor_equation
 from .model import SOURCE_KINDS, Model
 
@@ -168,6 +168,7 @@ class _Assigner:
             self.fixed[s.name] = "gives" if gives else "receives"
         self.propagate()
         storage: dict[str, str] = {}
+        read = measured_storage(self.model) if diag else {}
         for e in self.model.elements.values():
             if e.kind not in ("C", "I"):
                 continue
@@ -190,8 +191,11 @@ class _Assigner:
                        f"{'flow' if e.kind == 'C' else 'effort'} is the rate of both; write them as one "
                        f"{e.kind} whose {'effort law in q' if e.kind == 'C' else 'flow law in p'} sums theirs, "
                        f"docs/model-format.md)" if twin else
-                       "(its state is not measured: residuals that eliminate it come from structural analysis, below; a "
-                       "sensor next to it would let SCAPH derive one)" if diag else
+                       (f"(its state is what sensor {read[e.name]} measures: the residuals that read it there come "
+                        f"from structural analysis, below)" if e.name in read else
+                        "(its state is not measured: residuals that eliminate it come from structural analysis, "
+                        "below; a sensor on its junction measuring its state (measures: displacement for a C on a "
+                        "1-junction, momentum for an I on a 0-junction) gives residuals that read it)") if diag else
                        "(a dependent storage element: the simulator reduces it, see bondgraph.simulation)"))
         self._free_controlled_junctions()
         resistors = self._resistors()

@@ -23,7 +23,7 @@ HAND = {
     "three_tank": {"ARR1": "m^3/s", "ARR2": "m^3/s"},
     "two_mass_spring_damper": {"ARR1": "m/s", "ARR2": "N", "ARR3": "m/s"},
     "two_mass_positions": {"ARR1": "m/s", "ARR2": "N", "ARR3": "m/s"},
-    "mass_spring_damper_two_sensors": {"ARR1": "m/s", "ARR2": "m/s"},
+    "mass_spring_damper_two_sensors": {"ARR1": "m/s", "ARR2": "N"},     # the force balance, the spring read from x
 }
 
 

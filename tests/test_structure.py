@@ -4,6 +4,7 @@ mechanical systems, and the paper's CyCab (SCAPH AGARRs kept where they suffice)
 from __future__ import annotations
 
 import json
+import re
 from collections import Counter
 from pathlib import Path
 
@@ -189,9 +190,9 @@ def test_mass_spring_damper_two_sensors_gives_the_sensor_redundancy_arr(capsys):
     assert any(_matches(a.expr, redundancy) for a in chosen.arrs)
     S = {n: sp.Symbol(n, positive=True) for n in m.parameters}
     F = sp.Symbol("beta_F", positive=True) * sp.Function("F", real=True)(t)
-    V = v / bv
-    momentum = sp.diff(F, t) - S["m"] * sp.diff(V, t, 2) - S["b"] * sp.diff(V, t) - V / S["Ck"]
-    assert any(_matches(a.expr, momentum) for a in chosen.arrs)
+    X = x / bx          # the position sensor on the mass's 1-junction reads the spring's displacement
+    balance = F - S["m"] * sp.diff(X, t, 2) - S["b"] * sp.diff(X, t) - X / S["Ck"]   # m x'' + b x' + k x = F
+    assert any(_matches(a.expr, balance) for a in chosen.arrs)
     assert main(["tables", str(MODELS / "mass_spring_damper_two_sensors.yaml")]) == 0
 
 
@@ -233,3 +234,41 @@ def test_two_tank_gains_the_total_mass_balance():
         - S["A2"] / (S["rho"] * S["g"]) * sp.diff(p2 / b2, t) - S["Cd"] * sp.sign(p2 / b2) * sp.sqrt(sp.Abs(p2 / b2))
     assert _matches(arrs[2].expr, total)
     assert not arrs[2].expr.has(sp.Symbol("v", real=True))          # valid whatever the valve does
+
+
+def _msd_text(initial: str = "", junction: str = '"1"') -> str:
+    text = (MODELS / "mass_spring_damper_two_sensors.yaml").read_text()
+    text = text.replace('J: {type: "1"', f"J: {{type: {junction}")
+    if initial:
+        text = re.sub(r"(?m)^initial:.*$", initial, text)
+    return text
+
+
+def test_a_position_sensor_reads_the_spring_on_its_junction_from_the_initial_values():
+    """KMR ch. 4: the spring's force is k x when the position x is measured from the spring's free
+    length. The model's initial values fix the two zeros (the simulator integrates both from them):
+    q = x - x(0) + q(0); the force balance is then m x'' + b x' + k (x - 0.01 + 0.002) = F, and
+    `check --verify` confirms it on the model's own simulation, from random states that keep
+    the sensor's zero where the model puts it."""
+    from bondgraph.graph import measured_storage
+    m = load_model_text(_msd_text("initial: {x: 0.01, spring: 0.002}"), "msd_offset.yaml")
+    assert measured_storage(m) == {"spring": "x"}
+    S = {n: sp.Symbol(n, positive=True) for n in m.parameters}
+    F = sp.Symbol("beta_F", positive=True) * sp.Function("F", real=True)(t)
+    X = sp.Function("x", real=True)(t) / sp.Symbol("beta_x", positive=True)
+    q = X - sp.Rational(1, 100) + sp.Rational(2, 1000)
+    balance = F - S["m"] * sp.diff(X, t, 2) - S["b"] * sp.diff(X, t) - q / S["Ck"]
+    chosen = select_arrs(m)
+    assert any(_matches(a.expr, balance) for a in chosen.arrs)
+    from fdi.verify import verify
+    result = verify(m, list(chosen.arrs), seed=1)
+    assert result.ok and result.complete, result.checks
+
+
+def test_a_position_sensor_on_a_switched_junction_does_not_read_the_spring():
+    """On a controlled 1-junction the spring's bond carries the junction's flow times its mode
+    variable, not the sensor's: the two integrals part at a switch, so neither is read from the other."""
+    from bondgraph.graph import measured_storage
+    text = _msd_text(junction='"1c", mode: a').replace("inputs:", "modes:\n  a: {nominal: 1, column: a}\ninputs:", 1)
+    text = text.replace("columns: [t, F, x, v]", "columns: [t, F, x, v, a]")
+    assert measured_storage(load_model_text(text, "msd_switched.yaml")) == {}
