@@ -31,8 +31,9 @@ if TYPE_CHECKING:                       # networkx is imported where a graph is 
     import networkx as nx
 
 from .errors import CausalityError
-from .graph import BondKey, measured_storage, port_table, to_networkx
+from .graph import BondKey, port_table, to_networkx
 from .laws import bond_variables, model_laws, resistor_equation
+from .measured import measured_storage
 from .model import SOURCE_KINDS, Model
 
 DIAGNOSIS = "diagnosis"
@@ -191,7 +192,7 @@ class _Assigner:
                        f"{'flow' if e.kind == 'C' else 'effort'} is the rate of both; write them as one "
                        f"{e.kind} whose {'effort law in q' if e.kind == 'C' else 'flow law in p'} sums theirs, "
                        f"docs/model-format.md)" if twin else
-                       (f"(its state is what sensor {read[e.name]} measures: the residuals that read it there come "
+                       (f"(its state is measured: {_readings(read[e.name])}; the residuals that read it there come "
                         f"from structural analysis, below)" if e.name in read else
                         "(its state is not measured: residuals that eliminate it come from structural analysis, "
                         "below; a sensor on its junction measuring its state (measures: displacement for a C on a "
@@ -349,3 +350,10 @@ def algebraic_loops(model: Model, causality: Causality) -> list[str]:
         if len(out) >= 20:
             break
     return out
+
+
+def _readings(coefficients: Mapping[str, object]) -> str:
+    """``x``, ``x1 - x2``: a storage element's state as the sum of readings that measures it."""
+    text = " ".join(("- " if a < 0 else "+ ") + (f"{abs(a)}*" if abs(a) != 1 else "") + name
+                    for name, a in coefficients.items())
+    return text[2:] if text.startswith("+ ") else "-" + text[2:]

@@ -67,30 +67,3 @@ def ports(g: nx.MultiDiGraph, node: str) -> list[tuple[BondKey, str, int]]:
     out += [(k, u, +1) for u, _, k in g.in_edges(node, keys=True)]
     return sorted(out, key=_port_order)
 
-
-def measured_storage(model: Model) -> dict[str, str]:
-    """The storage elements whose state a sensor reads: a ``measures: displacement`` Df on a plain
-    1-junction with one C bonded to it reads that C's displacement q, a ``measures: momentum`` De on
-    a plain 0-junction with one I bonded to it that I's momentum p (both are the time integral of the
-    junction's common variable, the C's rate or the I's). Element name -> sensor name; the first
-    such sensor of a junction. Up to a constant, which the model's ``initial`` values fix (the
-    simulator integrates both from them, 0 where not given): q = x - x(0) + q(0).
-
-    >>> from bondgraph.loader import load_model
-    >>> measured_storage(load_model("models/mass_spring_damper_two_sensors.yaml"))
-    {'spring': 'x'}
-    """
-    wanted = {"displacement": ("C", "1"), "momentum": ("I", "0")}
-    out: dict[str, str] = {}
-    for s in model.sensors.values():
-        if s.measures not in wanted:
-            continue
-        kind, base = wanted[s.measures]
-        j = model.junctions[s.junction]
-        if j.kind != base:                  # a controlled junction's bonds do not all carry its variable
-            continue
-        near = sorted({other for b in model.bonds for end, other in ((b.source, b.target), (b.target, b.source))
-                       if end == j.name and other in model.elements and model.elements[other].kind == kind})
-        if len(near) == 1 and near[0] not in out:
-            out[near[0]] = s.name
-    return out

@@ -38,9 +38,10 @@ from typing import Iterable, Mapping
 
 import sympy as sp
 
-from .graph import measured_storage, ports, to_networkx
+from .graph import ports, to_networkx
 from .laws import (Equation, bond_variables, equation, junction_equations, model_laws, resistor_equation,
                    source_equation, storage_equations, substitution, two_port_equations)
+from .measured import measured_storage, offset
 from .model import SOURCE_KINDS, Model, t
 
 MIXED = "mixed"
@@ -86,8 +87,7 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
     def law(key, build):
         return model_laws(model, key, lambda: build(sub)) if shared else build(sub)
 
-    states: dict[str, sp.Symbol] = {}
-    read = {sensor: element for element, sensor in measured_storage(model).items()}
+    read = measured_storage(model)      # storage elements whose state is a sum of sensors' readings
 
     for node, kind in g.nodes(data="kind"):
         ps = [p for p in ports(g, node) if not isinstance(p[0], str)]
@@ -105,7 +105,15 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
         elif kind in ("C", "I"):
             x, new_eqs = law(("storage", node), lambda s: storage_equations(model, model.elements[node], ps[0][0], s))
             variables.append(x)
-            states[node] = x
+            if node in read:
+                # its state is a sum of readings (q = x - x(0) + q(0) for a spring on a measured mass,
+                # q = x1 - x2 + ... between two): that relation in place of its rate, which the
+                # junctions and the sensors' own rates already give. The residuals read its law at the
+                # measured state: m x'' + b x' + k x = F, not its time derivative.
+                readings = sp.Add(*[a * sp.Symbol(f"x[{name}]", real=True) for name, a in read[node].items()])
+                value = readings + sp.Float(offset(model, node, read[node])) if offset(model, node, read[node]) else readings
+                new_eqs = [new_eqs[0], equation(f"{node}.state", node, x - value, {x} | value.free_symbols,
+                                                 linear=[x, *value.free_symbols])]
             eqs += new_eqs
         elif kind in ("TF", "MTF", "GY", "MGY"):
             eqs += law(("two-port", node), lambda s: two_port_equations(model.elements[node], ps, s))
@@ -115,14 +123,7 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
         e, f = bond_variables(ref)
         common = e if j.base == "0" else f
         value = sensors.get(s.name, sp.Function(s.name, real=True)(t))
-        if s.name in read and read[s.name] in states:
-            # the sensor reads a storage element's state (q of a C on its 1-junction, p of an I on its
-            # 0-junction): one algebraic equation, q = x - x(0) + q(0), in place of a state of its own
-            # (whose rate is the junction's, which q's own rate equation already says). A position
-            # sensor on a spring's mass gives the force balance m x'' + b x' + k x = F, not its derivative.
-            state, offset = states[read[s.name]], model.initial.get(read[s.name], 0.0) - model.initial.get(s.name, 0.0)
-            eqs.append(equation(s.name, s.name, state - value - sp.sympify(offset), {state}, linear=[state]))
-        elif s.measures in ("displacement", "momentum"):
+        if s.measures in ("displacement", "momentum"):
             x = sp.Symbol(f"x[{s.name}]", real=True)
             variables.append(x)
             eqs.append(equation(s.name, s.name, x - value, {x}, linear=[x]))

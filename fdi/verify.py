@@ -83,7 +83,7 @@ import numpy as np
 import sympy as sp
 
 from bondgraph.errors import CausalityError
-from bondgraph.graph import measured_storage
+from bondgraph.measured import measured_storage, offset
 from bondgraph.model import Model, t
 from bondgraph.simulation import SimulationError, Trajectory, simulate
 from bondgraph.timescales import mode_combinations, time_scales
@@ -616,10 +616,10 @@ class _Runner:
                 # switched junction's sensor: an IndexError traceback in a user trial)
                 initial = {s: float(v[i % len(v)] * math.exp(0.3 * self.rng.standard_normal())
                                     + 0.5 * np.ptp(v) * self.rng.standard_normal()) for s, v in pool.items()}
-                for element, sensor in measured_storage(self.model).items():
-                    if element in initial and sensor in initial:   # the sensor reads the element's state
-                        initial[sensor] = (initial[element] - self.model.initial.get(element, 0.0)
-                                           + self.model.initial.get(sensor, 0.0))
+                for element, readings in measured_storage(self.model).items():
+                    if element in initial and all(s in initial for s in readings):   # sensors read its state
+                        initial[element] = (sum(float(a) * initial[s] for s, a in readings.items())
+                                            + offset(self.model, element, readings))
             try:
                 traj = self.simulate(inputs, initial)
                 raw = _raw(traj, self.model, inputs)

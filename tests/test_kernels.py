@@ -490,14 +490,15 @@ def _simulated(name: str, T: float, fs: float) -> dict:
 
 
 @pytest.mark.parametrize("model, candidate", [("three_tank.yaml", ("fT1",)), ("three_tank.yaml", ("fT1", "fV2")),
-                                              ("two_mass_positions.yaml", ("m1",)),
-                                              ("two_mass_positions.yaml", ("beta_x1", "m1"))])
+                                              ("two_mass_spring_damper.yaml", ("m1",)),
+                                              ("two_mass_spring_damper.yaml", ("beta_v1", "m1"))])
 def test_stored_quantities_inside_stored_quantities_compiled_are_the_numpy_path_s(model, candidate):
     """A stored quantity whose rate enters another (the three tanks' d(CT2 (q1 - d(CT1 p1)/dt ...))/dt:
     tank 1's rate over the whole window, its edge half-windows fitted, inside tank 2's quantity;
-    the two-mass positions' momenta, m1 dx1/dt with the position sensor's efficiency factor a
-    candidate too: its corrected derivative filtered on every sample) is compiled level by level:
-    costs equal the numpy path's."""
+    the two-mass oscillator's by its speeds, with a speed sensor's efficiency factor a candidate
+    too: its corrected derivative filtered on every sample) is compiled level by level: costs equal
+    the numpy path's. (The two-mass oscillator by its positions had them until 2026-12; its
+    spring's compression is now read as x1 - x2.)"""
     pytest.importorskip("numba")
     from .conftest import ROOT
     fs = 10.0 if model == "three_tank.yaml" else 100.0

@@ -22,7 +22,7 @@ from .conftest import ROOT
 HAND = {
     "three_tank": {"ARR1": "m^3/s", "ARR2": "m^3/s"},
     "two_mass_spring_damper": {"ARR1": "m/s", "ARR2": "N", "ARR3": "m/s"},
-    "two_mass_positions": {"ARR1": "m/s", "ARR2": "N", "ARR3": "m/s"},
+    "two_mass_positions": {"ARR1": "N", "ARR2": "N", "ARR3": "N"},         # the spring's compression x1 - x2
     "mass_spring_damper_two_sensors": {"ARR1": "m/s", "ARR2": "N"},     # the force balance, the spring read from x
 }
 

@@ -127,7 +127,8 @@ def test_isolability_command_prints_both_causalities(capsys):
 
 def _mech(name, sensors, order):
     """Hand-derived MSO residuals of the two-mass oscillator (Karnopp et al.): total momentum,
-    and the coupling force eliminated through mass 1 or through mass 2 by one differentiation."""
+    and the coupling force eliminated through mass 1 or through mass 2 by one differentiation; with
+    the positions measured the spring's compression is x1 - x2 and each mass's balance needs none."""
     m = load_model(MODELS / name)
     S = {n: sp.Symbol(n, positive=True) for n in m.parameters}
     bF = sp.Symbol("beta_F", positive=True)
@@ -138,6 +139,10 @@ def _mech(name, sensors, order):
     total = F - S["m1"] * d(v1) - S["m2"] * d(v2)
     via2 = S["m2"] * d(d(v2)) - S["b"] * (d(v1) - d(v2)) - (v1 - v2) / S["Ck"]
     via1 = d(F) - S["m1"] * d(d(v1)) - S["b"] * (d(v1) - d(v2)) - (v1 - v2) / S["Ck"]
+    if order:    # positions measured: the spring's compression is x1 - x2, each mass's balance as it stands
+        x1, x2 = (sp.Function(s, real=True)(t) / sp.Symbol(f"beta_{s}", positive=True) for s in sensors)
+        return m, [total, S["m2"] * d(v2) - S["b"] * (v1 - v2) - (x1 - x2) / S["Ck"],
+                   F - S["m1"] * d(v1) - S["b"] * (v1 - v2) - (x1 - x2) / S["Ck"]]
     return m, [total, via2, via1]
 
 
@@ -250,9 +255,9 @@ def test_a_position_sensor_reads_the_spring_on_its_junction_from_the_initial_val
     q = x - x(0) + q(0); the force balance is then m x'' + b x' + k (x - 0.01 + 0.002) = F, and
     `check --verify` confirms it on the model's own simulation, from random states that keep
     the sensor's zero where the model puts it."""
-    from bondgraph.graph import measured_storage
+    from bondgraph.measured import measured_storage
     m = load_model_text(_msd_text("initial: {x: 0.01, spring: 0.002}"), "msd_offset.yaml")
-    assert measured_storage(m) == {"spring": "x"}
+    assert measured_storage(m) == {"spring": {"x": 1}}
     S = {n: sp.Symbol(n, positive=True) for n in m.parameters}
     F = sp.Symbol("beta_F", positive=True) * sp.Function("F", real=True)(t)
     X = sp.Function("x", real=True)(t) / sp.Symbol("beta_x", positive=True)
@@ -268,7 +273,20 @@ def test_a_position_sensor_reads_the_spring_on_its_junction_from_the_initial_val
 def test_a_position_sensor_on_a_switched_junction_does_not_read_the_spring():
     """On a controlled 1-junction the spring's bond carries the junction's flow times its mode
     variable, not the sensor's: the two integrals part at a switch, so neither is read from the other."""
-    from bondgraph.graph import measured_storage
+    from bondgraph.measured import measured_storage
     text = _msd_text(junction='"1c", mode: a').replace("inputs:", "modes:\n  a: {nominal: 1, column: a}\ninputs:", 1)
     text = text.replace("columns: [t, F, x, v]", "columns: [t, F, x, v, a]")
     assert measured_storage(load_model_text(text, "msd_switched.yaml")) == {}
+
+
+def test_a_spring_between_two_measured_masses_reads_their_difference():
+    """KMR's two-mass oscillator with both positions measured: the coupling spring sits on the
+    relative-velocity 1-junction, made by a 0-junction from the two masses' junctions; its
+    compression is x1 - x2 (the junction structure fixes its flow as v1 - v2), and `check` says so."""
+    from bondgraph.measured import measured_storage
+    m = load_model(MODELS / "two_mass_positions.yaml")
+    assert measured_storage(m) == {"spring": {"x1": 1, "x2": -1}}
+    assert max(len(a.expr.atoms(sp.Derivative)) and max(d.derivative_count for d in a.expr.atoms(sp.Derivative))
+               for a in select_arrs(m).arrs) == 2          # no x''' (the balances differentiated) any more
+    from bondgraph.causality import DIAGNOSIS, assign
+    assert any("its state is measured: x1 - x2" in p for p in assign(m, DIAGNOSIS).problems)

@@ -1,0 +1,101 @@
+"""Storage elements whose state the sensors measure.
+
+A sensor that ``measures: displacement`` reads the time integral of its 1-junction's flow; a C's
+displacement q is the time integral of its bond's flow. Where the junction structure makes the C's
+flow a fixed signed sum of such junctions' flows (the C on the sensor's own junction; a coupling
+spring on the relative-velocity junction of two measured masses: q = x1 - x2), q is that sum of
+the readings, up to a constant the model's ``initial`` values fix (the simulator integrates every
+state from them, 0 where not given). Dually for an I's momentum and ``measures: momentum`` sensors
+on 0-junctions. :func:`bondgraph.structure.equations` writes the relation in place of the storage
+element's rate, so that the residuals read its law at the measured state (a position sensor on a
+spring's mass gives m x'' + b x' + k x = F, not its derivative).
+
+>>> from bondgraph.loader import load_model
+>>> measured_storage(load_model("models/mass_spring_damper_two_sensors.yaml"))
+{'spring': {'x': 1}}
+>>> measured_storage(load_model("models/two_mass_positions.yaml"))
+{'spring': {'x1': 1, 'x2': -1}}
+"""
+from __future__ import annotations
+
+import sympy as sp
+
+from .graph import ports, to_networkx
+from .laws import bond_variables
+from .model import Model
+
+MAX_JUNCTIONS = 200     # junctions of plain structure searched around a storage element (a long chain's are not)
+WANTED = (("displacement", "C", "1"), ("momentum", "I", "0"))   # what a sensor measures, whose state, on which junction
+
+
+def measured_storage(model: Model) -> dict[str, dict[str, sp.Rational]]:
+    """Each storage element whose state is a fixed signed sum of sensors' readings: element name ->
+    {sensor: coefficient} (q = sum(coefficient * reading) + constant, :func:`offset`). Only plain
+    0- and 1-junctions carry the relation (a controlled junction multiplies its outputs by its mode
+    variable; a transformer by its modulus); a junction with two such sensors is read by its first."""
+    out: dict[str, dict[str, sp.Rational]] = {}
+    for measures, kind, base in WANTED:
+        sensors: dict[str, str] = {}
+        for s in model.sensors.values():
+            if s.measures == measures and model.junctions[s.junction].kind == base:
+                sensors.setdefault(s.junction, s.name)
+        if not sensors:
+            continue
+        g = to_networkx(model)
+        for el in model.elements.values():
+            if el.kind == kind:
+                got = _sum_of(model, g, el.name, base, sensors)
+                if got:
+                    out[el.name] = got
+    return out
+
+
+def offset(model: Model, element: str, readings: dict[str, sp.Rational]) -> float:
+    """The constant of ``q = sum(a * x) + constant``: the element's initial state less the readings'
+    initial values, each 0 where the model's ``initial`` gives none."""
+    return float(model.initial.get(element, 0.0) - sum(float(a) * model.initial.get(s, 0.0) for s, a in readings.items()))
+
+
+def _sum_of(model: Model, g, element: str, base: str, sensors: dict[str, str]) -> dict[str, sp.Rational] | None:
+    """The element's rate (flow of a C, effort of an I) as a signed sum of the sensors' junctions'
+    common variables, from the plain junctions joined to its own (a bond to anything else, a
+    controlled junction included, carries a rate they do not fix); None where they do not fix it."""
+    ps = [p for p in ports(g, element) if not isinstance(p[0], str)]
+    if len(ps) != 1 or ps[0][1] not in model.junctions or model.junctions[ps[0][1]].kind not in ("0", "1"):
+        return None
+    bond, start = ps[0][0], ps[0][1]
+    rate = 1 if base == "1" else 0                       # index of the rate in (e, f)
+    seen, todo = {start}, [start]
+    while todo:
+        for _, other, _ in ports(g, todo.pop()):
+            if other in model.junctions and model.junctions[other].kind in ("0", "1") and other not in seen:
+                seen.add(other)
+                todo.append(other)
+                if len(seen) > MAX_JUNCTIONS:
+                    return None
+    known = {}
+    eqs, unknowns = [], set()
+    for j in sorted(seen):
+        bonds = [(k, sign) for k, _, sign in ports(g, j) if not isinstance(k, str)]
+        xs = [bond_variables(k)[rate] for k, _ in bonds]
+        if j in sensors:
+            known[xs[0]] = sensors[j]                    # the junction's first bond: its common variable
+        unknowns.update(xs)
+        if model.junctions[j].kind == base:              # the common variable: equal on every bond
+            eqs += [x - xs[0] for x in xs[1:]]
+        else:                                            # the balance: signed sum zero
+            eqs.append(sp.Add(*[sign * x for (_, sign), x in zip(bonds, xs)]))
+    if not known:
+        return None
+    target = bond_variables(bond)[rate]
+    if target in known:
+        value = target
+    else:
+        solved = sp.solve(eqs, sorted(unknowns - set(known), key=str), dict=True)
+        if len(solved) != 1 or target not in solved[0]:
+            return None
+        value = solved[0][target]
+    if not value.free_symbols <= set(known):
+        return None
+    coefficients = {known[x]: sp.Rational(value.coeff(x)) for x in sorted(value.free_symbols, key=str)}
+    return {s: a for s, a in coefficients.items() if a != 0} or None
