@@ -354,6 +354,5 @@ def algebraic_loops(model: Model, causality: Causality) -> list[str]:
 
 def _readings(coefficients: Mapping[str, object]) -> str:
     """``x``, ``x1 - x2``: a storage element's state as the sum of readings that measures it."""
-    text = " ".join(("- " if a < 0 else "+ ") + (f"{abs(a)}*" if abs(a) != 1 else "") + name
-                    for name, a in coefficients.items())
-    return text[2:] if text.startswith("+ ") else "-" + text[2:]
+    import sympy as sp
+    return str(sp.Add(*[a * sp.Symbol(name) for name, a in coefficients.items()]))

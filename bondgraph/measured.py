@@ -21,19 +21,19 @@ from __future__ import annotations
 import sympy as sp
 
 from .graph import ports, to_networkx
-from .laws import bond_variables
+from .laws import bond_variables, two_port_equations
 from .model import Model
 
 MAX_JUNCTIONS = 200     # junctions of plain structure searched around a storage element (a long chain's are not)
 WANTED = (("displacement", "C", "1"), ("momentum", "I", "0"))   # what a sensor measures, whose state, on which junction
 
 
-def measured_storage(model: Model) -> dict[str, dict[str, sp.Rational]]:
+def measured_storage(model: Model) -> dict[str, dict[str, sp.Expr]]:
     """Each storage element whose state is a fixed signed sum of sensors' readings: element name ->
     {sensor: coefficient} (q = sum(coefficient * reading) + constant, :func:`offset`). Only plain
     0- and 1-junctions carry the relation (a controlled junction multiplies its outputs by its mode
     variable; a transformer by its modulus); a junction with two such sensors is read by its first."""
-    out: dict[str, dict[str, sp.Rational]] = {}
+    out: dict[str, dict[str, sp.Expr]] = {}
     for measures, kind, base in WANTED:
         sensors: dict[str, str] = {}
         for s in model.sensors.values():
@@ -50,32 +50,59 @@ def measured_storage(model: Model) -> dict[str, dict[str, sp.Rational]]:
     return out
 
 
-def offset(model: Model, element: str, readings: dict[str, sp.Rational]) -> float:
+def offset(model: Model, element: str, readings: dict[str, sp.Expr]) -> float:
     """The constant of ``q = sum(a * x) + constant``: the element's initial state less the readings'
-    initial values, each 0 where the model's ``initial`` gives none."""
-    return float(model.initial.get(element, 0.0) - sum(float(a) * model.initial.get(s, 0.0) for s, a in readings.items()))
+    initial values, each 0 where the model's ``initial`` gives none (a coefficient's parameters at
+    their values)."""
+    return float(model.initial.get(element, 0.0) - sum(coefficient(model, a) * model.initial.get(s, 0.0)
+                                                       for s, a in readings.items()))
 
 
-def _sum_of(model: Model, g, element: str, base: str, sensors: dict[str, str]) -> dict[str, sp.Rational] | None:
-    """The element's rate (flow of a C, effort of an I) as a signed sum of the sensors' junctions'
-    common variables, from the plain junctions joined to its own (a bond to anything else, a
-    controlled junction included, carries a rate they do not fix); None where they do not fix it."""
+def coefficient(model: Model, a: sp.Expr) -> float:
+    """A reading's coefficient as a number (a gearbox's 1/N at N's value)."""
+    values = model.nominal_by_name()
+    return float(sp.sympify(a).subs({x: values[str(x)] for x in sp.sympify(a).free_symbols if str(x) in values}))
+
+
+def _plain(model: Model, node: str) -> bool:
+    return node in model.junctions and model.junctions[node].kind in ("0", "1")
+
+
+def _sum_of(model: Model, g, element: str, base: str, sensors: dict[str, str]) -> dict[str, sp.Expr] | None:
+    """The element's rate (flow of a C, effort of an I) as a sum of the sensors' junctions' common
+    variables, from the plain junctions joined to its own, directly or through transformers of a
+    constant modulus no fault changes (a gearbox: the motor's angle over its ratio); a bond to
+    anything else (a controlled junction included) carries a rate they do not fix. None where they
+    do not fix it. (A modulus that changed would part the integrals: d(x/N)/dt is not x'/N.)"""
     ps = [p for p in ports(g, element) if not isinstance(p[0], str)]
-    if len(ps) != 1 or ps[0][1] not in model.junctions or model.junctions[ps[0][1]].kind not in ("0", "1"):
+    if len(ps) != 1 or not _plain(model, ps[0][1]):
         return None
     bond, start = ps[0][0], ps[0][1]
     rate = 1 if base == "1" else 0                       # index of the rate in (e, f)
-    seen, todo = {start}, [start]
+    faulted = {name for f in model.faults.values() if f.kind == "parametric" for name in f.targets}
+    seen, todo, eqs = {start}, [start], []
     while todo:
         for _, other, _ in ports(g, todo.pop()):
-            if other in model.junctions and model.junctions[other].kind in ("0", "1") and other not in seen:
+            if other in seen:
+                continue
+            if _plain(model, other):
                 seen.add(other)
                 todo.append(other)
-                if len(seen) > MAX_JUNCTIONS:
-                    return None
+            elif other in model.elements and model.elements[other].kind == "TF" and not (
+                    {str(x) for x in model.elements[other].modulus.free_symbols} & faulted):
+                two = [p for p in ports(g, other) if not isinstance(p[0], str)]
+                if len(two) == 2 and all(_plain(model, n) for _, n, _ in two):
+                    seen.add(other)                  # its rate relation: f2 = m f1, or e1 = m e2
+                    eqs.append(two_port_equations(model.elements[other], two)[rate].expr)
+                    for _, n, _ in two:
+                        if n not in seen:
+                            seen.add(n)
+                            todo.append(n)
+            if len(seen) > MAX_JUNCTIONS:
+                return None
     known = {}
-    eqs, unknowns = [], set()
-    for j in sorted(seen):
+    unknowns = set()
+    for j in sorted(n for n in seen if n in model.junctions):
         bonds = [(k, sign) for k, _, sign in ports(g, j) if not isinstance(k, str)]
         xs = [bond_variables(k)[rate] for k, _ in bonds]
         if j in sensors:
@@ -94,8 +121,13 @@ def _sum_of(model: Model, g, element: str, base: str, sensors: dict[str, str]) -
         solved = sp.solve(eqs, sorted(unknowns - set(known), key=str), dict=True)
         if len(solved) != 1 or target not in solved[0]:
             return None
-        value = solved[0][target]
-    if not value.free_symbols <= set(known):
+        value = sp.expand(solved[0][target])
+    if not value.free_symbols & set(known) or any(x not in known and not _parameter(model, x)
+                                                  for x in value.free_symbols):
         return None
-    coefficients = {known[x]: sp.Rational(value.coeff(x)) for x in sorted(value.free_symbols, key=str)}
+    coefficients = {known[x]: sp.simplify(value.coeff(x)) for x in sorted(set(known) & value.free_symbols, key=str)}
     return {s: a for s, a in coefficients.items() if a != 0} or None
+
+
+def _parameter(model: Model, symbol: sp.Symbol) -> bool:
+    return str(symbol) in model.parameters

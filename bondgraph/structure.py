@@ -110,10 +110,11 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
                 # q = x1 - x2 + ... between two): that relation in place of its rate, which the
                 # junctions and the sensors' own rates already give. The residuals read its law at the
                 # measured state: m x'' + b x' + k x = F, not its time derivative.
-                readings = sp.Add(*[a * sp.Symbol(f"x[{name}]", real=True) for name, a in read[node].items()])
-                value = readings + sp.Float(offset(model, node, read[node])) if offset(model, node, read[node]) else readings
-                new_eqs = [new_eqs[0], equation(f"{node}.state", node, x - value, {x} | value.free_symbols,
-                                                 linear=[x, *value.free_symbols])]
+                xs = {name: sp.Symbol(f"x[{name}]", real=True) for name in read[node]}
+                readings = sp.Add(*[a * xs[name] for name, a in read[node].items()])
+                c = offset(model, node, read[node])
+                new_eqs = [new_eqs[0], equation(f"{node}.state", node, x - readings - (sp.Float(c) if c else 0),
+                                                 {x, *xs.values()}, linear=[x, *xs.values()])]
             eqs += new_eqs
         elif kind in ("TF", "MTF", "GY", "MGY"):
             eqs += law(("two-port", node), lambda s: two_port_equations(model.elements[node], ps, s))

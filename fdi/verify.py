@@ -83,7 +83,7 @@ import numpy as np
 import sympy as sp
 
 from bondgraph.errors import CausalityError
-from bondgraph.measured import measured_storage, offset
+from bondgraph.measured import coefficient, measured_storage, offset
 from bondgraph.model import Model, t
 from bondgraph.simulation import SimulationError, Trajectory, simulate
 from bondgraph.timescales import mode_combinations, time_scales
@@ -618,7 +618,7 @@ class _Runner:
                                     + 0.5 * np.ptp(v) * self.rng.standard_normal()) for s, v in pool.items()}
                 for element, readings in measured_storage(self.model).items():
                     if element in initial and all(s in initial for s in readings):   # sensors read its state
-                        initial[element] = (sum(float(a) * initial[s] for s, a in readings.items())
+                        initial[element] = (sum(coefficient(self.model, a) * initial[s] for s, a in readings.items())
                                             + offset(self.model, element, readings))
             try:
                 traj = self.simulate(inputs, initial)

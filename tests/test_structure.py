@@ -290,3 +290,28 @@ def test_a_spring_between_two_measured_masses_reads_their_difference():
                for a in select_arrs(m).arrs) == 2          # no x''' (the balances differentiated) any more
     from bondgraph.causality import DIAGNOSIS, assign
     assert any("its state is measured: x1 - x2" in p for p in assign(m, DIAGNOSIS).problems)
+
+
+def test_a_shaft_behind_a_gearbox_reads_its_twist_from_both_encoders():
+    """A two-inertia servo drive (a user trial's model): the shaft's twist is theta_m/N - theta_L
+    (the gearbox's constant modulus 1/N carries the motor's angle to the shaft), so the motor's
+    balance reads it as it stands, by hand: Jm theta_m'' = Kt i - bm theta_m' - tau_s/N with
+    tau_s = ks (theta_m/N - theta_L) + cs (theta_m'/N - theta_L'); `check --verify` confirms it
+    on the model's own simulation. A ratio that is a candidate fault would part the integrals
+    (d(theta_m/N)/dt is not theta_m'/N while N changes): the twist is then not read."""
+    from bondgraph.measured import measured_storage
+    from fdi.verify import verify
+    path = Path(__file__).resolve().parent / "data" / "servo_gearbox.yaml"
+    m = load_model(path)
+    S = {n: sp.Symbol(n, positive=True) for n in m.parameters}
+    assert measured_storage(m) == {"spring": {"theta_L": -1, "theta_m": 1 / S["N"]}}
+    sig = {n: sp.Function(n, real=True)(t) / sp.Symbol(f"beta_{n}", positive=True) for n in ("i", "theta_m", "theta_L")}
+    th_m, th_L, d = sig["theta_m"], sig["theta_L"], lambda e, k=1: sp.diff(e, t, k)
+    tau = S["ks"] * (th_m / S["N"] - th_L) + S["cs"] * (d(th_m) / S["N"] - d(th_L))
+    motor = S["Kt"] * sig["i"] - S["Jm"] * d(th_m, 2) - S["bm"] * d(th_m) - tau / S["N"]
+    chosen = list(select_arrs(m).arrs)
+    assert any(_matches(a.expr, motor) for a in chosen)
+    result = verify(m, chosen, seed=2)
+    assert result.ok and result.complete, result.checks
+    faulted = path.read_text().replace("faults:\n", "faults:\n  gear_wear: {kind: parametric, parameters: [N]}\n", 1)
+    assert measured_storage(load_model_text(faulted, "servo_faulted_gear.yaml")) == {}
