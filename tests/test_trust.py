@@ -928,3 +928,25 @@ def test_monitor_with_standard_input_not_readable_is_one_line(tmp_path):
                               stdin=sink, capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and done.stdout == ""
     _one_line(done.stderr, "cannot read standard input")
+
+
+def test_a_large_file_padded_with_zeros_is_refused_in_bounded_memory(tmp_path):
+    """A user trial: a CSV's first rows, then zeros to 1 GB (``truncate -s 1G``): pandas' parser, which
+    reads files from 128 MiB, holds a line whole and took 10.6 GB and 34-50 s before the refusal.
+    Each MiB of a large file must hold a line end before pandas reads it; else the reader of every
+    source refuses the long line (here a 300 MiB sparse file: no disk written)."""
+    import resource
+    import subprocess
+    import sys
+    from fdi.data import PANDAS_BYTES, ends_every_mib
+    pytest.importorskip("pandas")
+    padded = tmp_path / "padded.csv"
+    padded.write_text(CYCAB_HEADER + "\n" + "0,0,0,0,0,0\n" * 5, encoding="utf-8")
+    os.truncate(padded, PANDAS_BYTES + (172 << 20))
+    assert not ends_every_mib(str(padded), padded.stat().st_size)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    run = subprocess.run([sys.executable, "-m", "fdi", "diagnose", str(MODELS / "cycab_steering.yaml"), str(padded)],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 2 and "line 7 is longer" in run.stderr and "Traceback" not in run.stderr
+    used = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss   # kB, the largest child's so far
+    assert used == before or used < 600 << 10           # this child's: the reader's lines, not the file
