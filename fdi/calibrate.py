@@ -61,6 +61,7 @@ from .spikes import despiked
 from .window_choice import DETECT_GOAL, WindowScore, choose_window, chosen
 
 DEFAULT_MARGIN = 1.5
+DISAGREE = 1000.0      # a residual this many times its predicted noise on fault-free runs: model and data disagree
 NOISE_EXCESS = 5.0       # runs whose residual varies this much more than the declared noise explains: a note
 MODE_SAMPLES = 100       # samples of a mode in the runs (at least two derivative windows) to compare or calibrate it
 MEDIAN_SIGMA = 0.6744897501960817     # median |x| of a standard normal x
@@ -592,8 +593,11 @@ def format_calibration(c: Calibration) -> str:
             lines.append(f"note: {x['residual']}{where} varies {x['level'] / x['predicted']:.3g}x more on the runs "
                          f"({x['level']:.4g}, median |r| / 0.6745) than the sensors' declared noise explains "
                          f"({x['predicted']:.4g}, fdi.noise): its threshold is set by what the model does not "
-                         f"explain (a parameter's value, a law, an unmodelled input or disturbance) or by noise the "
-                         f"file understates")
+                         f"explain (a parameter's value, a law, an unmodelled input or disturbance, a column's unit: "
+                         f"degrees for radians, mm for m, bar for Pa) or by noise the file understates"
+                         + (f"; at {x['level'] / x['predicted']:.3g}x the model and these runs disagree: the threshold "
+                            f"hides every fault smaller than that disagreement, find its cause before using it"
+                            if x["level"] >= DISAGREE * x["predicted"] else ""))
     if c.mode_thresholds:
         lines.append(f"thresholds by mode for {', '.join(c.mode_thresholds)}: each monitored divided by its mode's "
                      f"threshold, against 1 (their noise or unit differs between modes; docs/patterns.md)")

@@ -228,9 +228,13 @@ def sampled_otherwise(model, meas: Measurements) -> str | None:
     given = model.sampling_time
     if not given or abs(meas.ts - given) <= SAMPLING_SLACK * given:
         return None
-    return (f"the record is sampled every {meas.ts:g} s, the model file's data.sampling_time is {given:g} s: the "
-            f"diagnosis follows the record; check's noise prediction and generated code follow the file (set it to "
-            f"{meas.ts:g} if the record is right)")
+    ratio = meas.ts / given
+    unit = next((f", {ratio:.4g} times the file's: is the time column in {name}? (bgfdi reads seconds)"
+                 for factor, name in ((1e3, "ms"), (1e6, "us"), (1 / 60, "minutes"), (1 / 3600, "hours"))
+                 if abs(ratio - factor) <= SAMPLING_SLACK * factor), "")
+    return (f"the record is sampled every {meas.ts:g} s, the model file's data.sampling_time is {given:g} s{unit}: "
+            f"the diagnosis follows the record; check's noise prediction and generated code follow the file "
+            f"(set it to {meas.ts:g} if the record is right)")
 
 
 def commands_read(model, meas: Measurements, fixed=None) -> str | None:

@@ -473,3 +473,18 @@ def test_a_record_sampled_otherwise_than_the_file_says_is_named():
                       "diagnosis follows the record; check's noise prediction and generated code follow the file "
                       "(set it to 0.02 if the record is right)")
     assert diagnose(str(CYCAB), meas, Options(workers=1)).note is None
+
+
+def test_a_record_stamped_in_milliseconds_is_named_in_the_note():
+    """A trial's servo record with its time column in ms (1 per sample for the file's 0.001 s) was
+    diagnosed with a note that offered to set data.sampling_time to 1; the note now names the ratio
+    and the likely unit (the refusal of tests/test_cli_hardening.py covers records too short to run)."""
+    from fdi.pipeline import sampled_otherwise
+    from fdi.data import Measurements
+    from bondgraph.loader import load_model
+    model = load_model(ROOT / "tests" / "data" / "servo_gearbox.yaml")
+    t = np.arange(100.0)
+    note = sampled_otherwise(model, Measurements("ms.csv", t, {"t": t}))
+    assert "1000 times the file's: is the time column in ms? (bgfdi reads seconds)" in note
+    hours = sampled_otherwise(model, Measurements("h.csv", t / 3.6e6, {"t": t / 3.6e6}))
+    assert "is the time column in hours?" in hours

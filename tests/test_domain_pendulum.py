@@ -69,3 +69,24 @@ def test_each_fault_is_found_and_sized(thresholds, keywords, name, value, rel):
     (found,) = report["diagnosis"]["faults"]
     assert (found["name"], found["type"]) == (name, "abrupt")
     assert found["value"] == pytest.approx(value, rel=rel)
+
+
+def test_runs_recorded_in_degrees_are_named_before_their_thresholds_are_used():
+    """A trial's encoder columns in degrees: calibrate wrote a threshold thousands of times the noise
+    and said only that the model did not explain something. The encoder in degrees here (57.3 x the
+    radians): the momentum balance reads mgl sin(theta) at the wrong angle, and the note names the
+    disagreement, a column's unit among its causes, and what such a threshold hides."""
+    import numpy as np
+
+    from fdi.calibrate import calibrate, format_calibration
+    from fdi.data import Measurements
+    runs = []
+    for seed in (1, 2):
+        cols = dict(pendulum.simulate(seed))
+        cols["theta"] = np.degrees(cols["theta"])
+        runs.append(Measurements(f"deg{seed}", cols["t"], cols))
+    text = format_calibration(calibrate(str(MODEL), runs))
+    assert "a column's unit: degrees for radians" in text
+    assert "the model and these runs disagree: the threshold hides every fault smaller" in text
+    healthy = format_calibration(calibrate(str(MODEL), [_data("nominal", seed) for seed in (1, 2)]))
+    assert "disagree" not in healthy
