@@ -733,7 +733,8 @@ def significance(p: Prepared, d: Diagnosis, now: float) -> Diagnosis:
     without them all (:func:`fdi.decide.significant`)."""
     start, span = since_detection(p.meas.t, d.detection.time, now, p.samples, MAX_GROWTH)
     kept, dropped, without, left = significant(p.monitor, p.meas, p.raw, start, span,
-                                                [f.to_dict() for f in d.faults], p.weights, p.modes)
+                                                [f.to_dict() for f in d.faults], p.weights, p.modes,
+                                                quiet=(p.thresholds, p.rule))
     d = replace(d, faults=faults_of(kept) if dropped else d.faults, insignificant=dropped or None,
                 criterion_without=without)
     unexplained = None

@@ -252,12 +252,15 @@ class Alternative:
 
 @dataclass(frozen=True)
 class Dropped:
-    """A fault of the final fit that does not earn its parameters: the criterion's change without it."""
+    """A fault of the final fit that does not earn its parameters: the criterion's change without it;
+    ``unseen``: left out as its own effect on the residuals stays below what the detector confirms
+    (:func:`fdi.decide.unseen`), whatever the criterion says."""
     fault: dict
     criterion_without: float
+    unseen: bool = False
 
     def to_dict(self) -> dict:
-        return {**self.fault, "criterion_without": self.criterion_without}
+        return {**self.fault, "criterion_without": self.criterion_without, "unseen": self.unseen}
 
 
 @dataclass(frozen=True)
