@@ -1010,7 +1010,13 @@ def _initial_state(system: System, initial: Mapping[str, float], t0: float, vals
         if np.max(np.abs(sol.fun)) <= 1e-6:
             break
     if np.max(np.abs(sol.fun)) > 1e-6:
-        raise SimulationError(f"cannot meet the initial values of {', '.join(targets)}")
+        given = [n for n in system.states if n in initial and system.kinds[system.states.index(n)] == "storage"]
+        raise SimulationError(f"cannot meet the initial values of {', '.join(targets)} (initial: in the model file or "
+                              f"the scenario): no state of the storage elements left free reaches "
+                              + ("them" if len(targets) > 1 else "it")
+                              + (f"; the state(s) given ({', '.join(given)}) may fix "
+                                 f"{'them' if len(targets) > 1 else 'it'} otherwise: give the reading or the state, not both"
+                                 if given else ""))
     x[free] = sol.x
     return x
 

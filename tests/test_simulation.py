@@ -279,3 +279,18 @@ def test_a_law_with_max_simulates_as_scipy_integrates_it():
     v = np.array([volts(q) for q in ref.y[0]])
     assert v.max() > 2.0e-3 / 1.0e-3                    # the stiff part is reached
     np.testing.assert_allclose(traj.signals["v"], v, atol=2e-3 * np.ptp(v))
+
+
+def test_a_reading_that_a_given_state_contradicts_is_named_with_its_cause():
+    """A trial's `initial: {ind_a: 0, i: 5}`: the inductor's state fixes the current its sensor reads,
+    and no other state reaches it. The refusal named the reading only; it now says that a state
+    given fixes it otherwise, and which (the mass's momentum and its speed sensor here)."""
+    from bondgraph.loader import load_model_text
+    from bondgraph.simulation import SimulationError
+    from .conftest import MODELS
+    text = (MODELS / "mass_spring_damper_two_sensors.yaml").read_text().replace("initial: {}", "initial: {mass: 0.0, v: 3.0}")
+    model = load_model_text(text, "msd_initial.yaml")
+    with pytest.raises(SimulationError, match=r"cannot meet the initial values of v .*the state\(s\) given \(mass\) may fix "
+                                              r"it otherwise: give the reading or the state, not both"):
+        values = {s.name: v for s, v in model.nominal_values().items()}
+        simulate(model, np.linspace(0.0, 0.1, 11), values=lambda tt: values, initial=model.initial)
