@@ -804,6 +804,22 @@ def _sensors(ctx, data, symbols, claim, column_symbols, columns) -> dict[str, Se
         out[name] = Sensor(name, kind, str(spec["junction"]), measures, signal,
                            _unit(ctx, spec.get("unit"), where + ("unit",)), noise, resolution,
                            _text(spec, "description"), outputs)
+    for name, sensor in out.items():
+        # a signal computed only from columns other sensors read is theirs again (a user trial's
+        # 'theta_m/10 - theta_L' beside both encoders: a residual zero by construction, calibrated to
+        # 7e-11 and said to detect both encoders' faults)
+        if isinstance(sensor.signal, sp.Symbol):
+            continue
+        columns = {str(x) for x in sensor.signal.free_symbols}
+        readers = {c: [o for o, other in out.items() if o != name and c in {str(x) for x in other.signal.free_symbols}]
+                   for c in columns}
+        if columns and all(readers.values()):
+            raise ctx.error(("sensors", name, "expr"),
+                            f"sensor '{name}' computes '{sensor.signal}' from columns other sensors read ("
+                            + ", ".join(f"{c} by {readers[c][0]}" for c in sorted(columns))
+                            + "): no measurement of its own, and a residual comparing it with them is zero by "
+                              "construction; remove it (a storage element's state these sensors measure is read "
+                              "from them: docs/model-format.md, Sensors)")
     return out
 
 

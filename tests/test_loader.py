@@ -388,3 +388,20 @@ def test_a_mode_fault_takes_no_bounds_and_no_failure(tmp_path, capsys):
                          ("failure: 1.0", "faults.a1.failure: a mode fault has no degradation to prognose")):
         code, err = _check_line(tmp_path, capsys, text.replace(line, line.replace("value: 0,", f"value: 0, {extra},")))
         assert code == 2 and words in err, err
+
+
+def test_a_sensor_computed_from_other_sensors_columns_is_refused():
+    """A trial's 'twist' sensor, theta_m/10 - theta_L beside both encoders: its residual against them
+    is zero by construction (calibrated to 7e-11 and said to detect both encoders' faults). A signal
+    computed only from columns other sensors read is refused, naming them; one that reads a column
+    of its own (a differential transducer's p1 - p2 where only p1 is a sensor) is a measurement."""
+    from pathlib import Path
+    text = (Path(__file__).resolve().parent / "data" / "servo_gearbox.yaml").read_text()
+    derived = text.replace("sensors:\n", 'sensors:\n  twist: {type: Df, junction: J_tw, measures: displacement, '
+                                         'expr: "theta_m/10 - theta_L", unit: rad}\n', 1)
+    with pytest.raises(ModelError, match=r"sensors\.twist\.expr: sensor 'twist' computes .* from columns other "
+                                         r"sensors read \(theta_L by theta_L, theta_m by theta_m\)"):
+        load_model_text(derived, "servo_twist.yaml")
+    own = derived.replace('"theta_m/10 - theta_L"', '"theta_m/10 - theta_s"').replace(
+        "columns: [t, u, i, theta_m, theta_L]", "columns: [t, u, i, theta_m, theta_L, theta_s]")
+    assert "twist" in load_model_text(own, "servo_twist_own.yaml").sensors
