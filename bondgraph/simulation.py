@@ -483,7 +483,7 @@ def simulate(model: Model, t_eval: np.ndarray, *, values: Callable[[float], Mapp
     equations), ``integrate``, ``outputs``. ``autonomous``: False holds every autonomous mode at the
     value ``values`` gives (a diode held conducting: what checking each mode's ARRs needs)."""
     clock = _StageClock(stages)
-    initial = dict(initial or {})
+    initial = consistent_readings(model, dict(initial or {}))
     t_eval = np.asarray(t_eval, dtype=float)
     edges = sorted({float(t_eval[0]), float(t_eval[-1])} | {float(b) for b in breakpoints if t_eval[0] < b < t_eval[-1]})
     cache: dict[frozenset, System] = {}
@@ -968,6 +968,24 @@ def _jacobian(f: Callable, tt: float, x: tuple, c: tuple, f0: Sequence[float] | 
     if not np.isfinite(jac).all():
         jac = np.nan_to_num(jac, nan=0.0, posinf=0.0, neginf=0.0)
     return jac
+
+
+def consistent_readings(model: Model, initial: dict[str, float]) -> dict[str, float]:
+    """``initial`` with the readings of sensors that measure a storage element's state
+    (:mod:`bondgraph.measured`) kept where the model puts them relative to that state: a run that
+    starts the element elsewhere (a scenario's ``spring_0``) and gives one of its readings no value
+    starts that reading with it, as an absolute sensor would (the residuals read q = x - x(0) + q(0)
+    with the model's values; a reading left at the model's zero would show the displacement as a
+    constant offset in them, a review's false alarm). A run that gives both keeps both."""
+    from .measured import coefficient, measured_storage, offset
+    for element, readings in measured_storage(model).items():
+        missing = [s for s in readings if s not in initial]
+        if element not in initial or len(missing) != 1:
+            continue
+        (s,) = missing
+        known = sum(coefficient(model, a) * initial[o] for o, a in readings.items() if o != s)
+        initial[s] = (initial[element] - offset(model, element, readings) - known) / coefficient(model, readings[s])
+    return initial
 
 
 def _initial_state(system: System, initial: Mapping[str, float], t0: float, vals: Mapping[str, float]) -> np.ndarray:

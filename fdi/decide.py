@@ -105,12 +105,15 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
     more. Last, what the final fit leaves: the residuals' mean |r| in thresholds (eq. (24)'s
     weights) over the span.
 
-    ``quiet``: the detector's thresholds and rule (persistence, span). Of two faults or more, one
-    whose own effect (the residuals with every kept fault, less those without it) never confirms an
-    alarm by that rule is below what the monitor detects, and goes too, the one of least evidence
-    first (:func:`unseen`): a user trial's servo drive, its load encoder's offset of 0.05 rad found
-    with a shaft stiffness 1.1 % low beside it (2.5 % of cost bought by shrinking the term that
-    carries the encoders' quantisation: the criterion's N_eff cannot tell that from a fault)."""
+    ``quiet``: each residual's noise level (the pipeline gives its noise floor, mean |r| before the
+    detection) and the detector's rule (persistence, span). Of two faults or more, one whose own
+    effect (the residuals with every kept fault, less those without it) never rises above the noise
+    by that rule is one the data do not show, and goes too, the one of least evidence first
+    (:func:`unseen`): a user trial's servo drive, its load encoder's offset of 0.05 rad found with a
+    shaft stiffness 1.1 % low beside it (2.5 % of cost bought by shrinking the term that carries the
+    encoders' quantisation: the criterion's N_eff cannot tell that from a fault; its effect 0.14 of
+    the floor). Against the thresholds instead (1.5 x the noise's peak), a true 5 % stiffness loss
+    beside the offset went too (a review: criterion +261 without it)."""
     model, residuals, w = monitor.model, monitor.residuals, monitor.config.derivative_window
     win = window(meas.t, raw, start, span, w)
     n_eff = effective_samples(span, len(residuals), meas.ts, w)
@@ -150,16 +153,16 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
 
 
 def unseen(monitor: "Monitor", win, weights: np.ndarray, kept: list[dict], fault: dict, modes,
-           thresholds: np.ndarray, rule: tuple[float, float]) -> float | None:
+           levels: np.ndarray, rule: tuple[float, float]) -> float | None:
     """Whether ``fault``'s own effect on the residuals on ``win`` (with every ``kept`` fault held at
-    its fit, less without it) stays below what the detector confirms by its ``rule``: its largest
-    evidence (threshold-seconds over the rule's span) when it does, None when some residual would
-    confirm an alarm on it."""
+    its fit, less without it) stays below each residual's ``levels`` (its noise) by the detector's
+    ``rule``: its largest evidence (level-seconds over the rule's span) when it does, None when on
+    some residual it would confirm an alarm against them."""
     from .detect import confirmed, evidence, evidence_samples
     from .mode_estimation import residual_rows
     w = monitor.config.derivative_window
     persistence, span = rule
-    thresholds = np.asarray(thresholds, dtype=float).reshape(-1)
+    levels = np.asarray(levels, dtype=float).reshape(-1)
 
     def rows(fs: list[dict]) -> list[np.ndarray]:
         return residual_rows(Objective(monitor.model, monitor.residuals, win, (), weights, w, fixed=fs,
@@ -168,7 +171,7 @@ def unseen(monitor: "Monitor", win, weights: np.ndarray, kept: list[dict], fault
     most = 0.0
     with np.errstate(all="ignore"):
         for i, (a, b) in enumerate(zip(rows(kept), rows([g for g in kept if g is not fault]))):
-            z = evidence(np.atleast_2d(np.asarray(a, dtype=float) - np.asarray(b, dtype=float)), thresholds[i:i + 1],
+            z = evidence(np.atleast_2d(np.asarray(a, dtype=float) - np.asarray(b, dtype=float)), levels[i:i + 1],
                          win.ts)
             if confirmed(z, n, persistence).any():
                 return None

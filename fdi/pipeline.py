@@ -653,7 +653,7 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
                                              coinciding=lambda: p.monitor.coinciding),
                 faults=faults_of(best.faults), winner=tuple(best.candidate))
     d, now = later_decisions(p, d, fsm, r, est, clock, progress)
-    return prognoses(p, significance(p, d, now), now, clock)
+    return prognoses(p, significance(p, d, now, noise_floors(p, r, d.detection.time)), now, clock)
 
 
 def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators,
@@ -728,13 +728,17 @@ def mode_changes_at(p: Prepared, suspects: list[str], k: int, known: list[dict])
     return list(dict.fromkeys(out))
 
 
-def significance(p: Prepared, d: Diagnosis, now: float) -> Diagnosis:
+def significance(p: Prepared, d: Diagnosis, now: float, floors: np.ndarray | None = None) -> Diagnosis:
     """The final faults that earn their parameters on the data since t_D, and the criterion's change
-    without them all (:func:`fdi.decide.significant`)."""
+    without them all (:func:`fdi.decide.significant`); of two or more, those whose own effect stays
+    below the residuals' noise floors (:func:`noise_floors`; the thresholds where a floor is unknown)."""
     start, span = since_detection(p.meas.t, d.detection.time, now, p.samples, MAX_GROWTH)
+    levels = np.asarray(p.thresholds, dtype=float).reshape(-1)
+    if floors is not None:
+        levels = np.where(np.isfinite(floors) & (floors > 0), floors, levels)
     kept, dropped, without, left = significant(p.monitor, p.meas, p.raw, start, span,
                                                 [f.to_dict() for f in d.faults], p.weights, p.modes,
-                                                quiet=(p.thresholds, p.rule))
+                                                quiet=(levels, p.rule))
     d = replace(d, faults=faults_of(kept) if dropped else d.faults, insignificant=dropped or None,
                 criterion_without=without)
     unexplained = None

@@ -253,8 +253,8 @@ class Alternative:
 @dataclass(frozen=True)
 class Dropped:
     """A fault of the final fit that does not earn its parameters: the criterion's change without it;
-    ``unseen``: left out as its own effect on the residuals stays below what the detector confirms
-    (:func:`fdi.decide.unseen`), whatever the criterion says."""
+    ``unseen``: left out as its own effect on the residuals stays within their noise floor by the
+    detector's rule (:func:`fdi.decide.unseen`), whatever the criterion says."""
     fault: dict
     criterion_without: float
     unseen: bool = False

@@ -21,6 +21,12 @@ def u(t):
 
 def params(t, fault):
     p = dict(P)
+    if fault and "+" in fault:                  # several at once: each applied
+        for one in fault.split("+"):
+            p.update({k: v for k, v in params(t, one).items() if v != P[k]})
+        return p
+    if fault == "ks190" and t >= T0:            # a 5 % stiffness loss at once
+        p["ks"] = 190.0
     if fault == "Ra" and t >= T0:
         p["Ra"] = 1.5
     if fault == "bL" and t >= T0:
@@ -42,7 +48,7 @@ def run(fault, seed, T=20.0, fs=1000.0):
     t = np.arange(0, round(T*fs) + 1)/fs
     PH[:] = np.random.default_rng(1000 + seed).uniform(0, 2*np.pi, 4)   # input phases vary run to run
     x0 = [0, 0, 0, 0, 0]
-    if fault in ("Ra", "bL", "ks"):     # integrate in two pieces: fault onset is a breakpoint
+    if fault and any(f in ("Ra", "bL", "ks", "ks190") for f in fault.split("+")):   # in two pieces: the onset a breakpoint
         s1 = solve_ivp(rhs, (0, T0), x0, method="LSODA", t_eval=t[t <= T0], args=(None,), rtol=1e-10, atol=1e-12, max_step=1e-3)
         s2 = solve_ivp(rhs, (T0, T), s1.y[:, -1], method="LSODA", t_eval=t[t > T0], args=(fault,), rtol=1e-10, atol=1e-12, max_step=1e-3)
         y = np.hstack([s1.y, s2.y])
@@ -54,7 +60,7 @@ def run(fault, seed, T=20.0, fs=1000.0):
     i_m = i + NOISE_I*rng.standard_normal(t.size)
     if fault == "beta_theta_m":
         thm = np.where(t >= T0, 0.95*thm, thm)
-    if fault == "bias_theta_L":
+    if fault and "bias_theta_L" in fault.split("+"):
         thL = np.where(t >= T0, thL + 0.05, thL)
     thm_m = np.round(thm/RES)*RES
     thL_m = np.round(thL/RES)*RES

@@ -90,7 +90,7 @@ def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[st
                        f"set(s): {{{', '.join(e['winner'])}}}")
     faults = report["diagnosis"]["faults"]
     for f in report.get("insignificant") or []:
-        why = ("its own effect on the residuals stays below what the detector confirms" if f.get("unseen") else
+        why = ("its own effect on the residuals stays within their noise" if f.get("unseen") else
                f"its parameters do not pay on the data since the detection: criterion {f['criterion_without']:+.2f} "
                f"without it")
         out.append(f"  left out: {describe_fault(f, variables)} ({why})")
