@@ -327,15 +327,16 @@ def _by_pandas(path: str) -> tuple[list[str], np.ndarray] | None:
 
 
 def ends_every_mib(path: str, size: int) -> bool:
-    """Whether every MiB of the file holds a line end (\\n or \\r), so that no line is longer than
-    2 MiB: pandas' parser holds a line whole, and a file padded with a GB of zeros after its first rows
-    took 10.6 GB before its refusal (a user trial). Each MiB is searched from its start to its first
-    line end only (memory-mapped: a page or two per MiB, a few ms for 250 MB)."""
+    """Whether every whole MiB of the file holds a line end (\\n or \\r), so that no line is longer
+    than 2 MiB (the last, shorter piece needs none: the MiB before it bounds its line): pandas' parser
+    holds a line whole, and a file padded with a GB of zeros after its first rows took 10.6 GB before
+    its refusal (a user trial). Each MiB is searched from its start to its first line end only
+    (memory-mapped: a page or two per MiB, a few ms for 250 MB)."""
     import mmap
     step = 1 << 20
     try:
         with open(path, "rb") as raw, mmap.mmap(raw.fileno(), 0, access=mmap.ACCESS_READ) as mm:
-            for start in range(0, size, step):
+            for start in range(0, max(size - step, 0) + 1, step):
                 end = min(start + step, size)
                 if mm.find(b"\n", start, end) < 0 and mm.find(b"\r", start, end) < 0:
                     return False

@@ -315,3 +315,17 @@ def test_a_shaft_behind_a_gearbox_reads_its_twist_from_both_encoders():
     assert result.ok and result.complete, result.checks
     faulted = path.read_text().replace("faults:\n", "faults:\n  gear_wear: {kind: parametric, parameters: [N]}\n", 1)
     assert measured_storage(load_model_text(faulted, "servo_faulted_gear.yaml")) == {}
+
+
+def test_a_run_that_starts_a_measured_spring_elsewhere_starts_its_reading_with_it():
+    """A review's false alarm: a scenario's spring_0 = 0.02 alone left the position sensor's reading at
+    the model's zero, 0.02 m from the spring's, which the force balance (q read from x) showed as a
+    constant k * 0.02. The simulator starts an unset reading with the element (an absolute sensor);
+    readings given stay; through a gearbox the missing reading takes the ratio."""
+    from bondgraph.simulation import consistent_readings
+    msd = load_model(MODELS / "mass_spring_damper_two_sensors.yaml")
+    assert consistent_readings(msd, {"spring": 0.02}) == {"spring": 0.02, "x": 0.02}
+    assert consistent_readings(msd, {"spring": 0.02, "x": 0.0}) == {"spring": 0.02, "x": 0.0}
+    servo = load_model(Path(__file__).resolve().parent / "data" / "servo_gearbox.yaml")
+    got = consistent_readings(servo, {"spring": 0.01, "theta_L": 0.5})
+    assert got["theta_m"] == pytest.approx(10 * (0.01 + 0.5))          # theta_m/N - theta_L = q, N = 10

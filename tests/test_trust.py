@@ -935,7 +935,6 @@ def test_a_large_file_padded_with_zeros_is_refused_in_bounded_memory(tmp_path):
     reads files from 128 MiB, holds a line whole and took 10.6 GB and 34-50 s before the refusal.
     Each MiB of a large file must hold a line end before pandas reads it; else the reader of every
     source refuses the long line (here a 300 MiB sparse file: no disk written)."""
-    import resource
     import subprocess
     import sys
     from fdi.data import PANDAS_BYTES, ends_every_mib
@@ -944,9 +943,15 @@ def test_a_large_file_padded_with_zeros_is_refused_in_bounded_memory(tmp_path):
     padded.write_text(CYCAB_HEADER + "\n" + "0,0,0,0,0,0\n" * 5, encoding="utf-8")
     os.truncate(padded, PANDAS_BYTES + (172 << 20))
     assert not ends_every_mib(str(padded), padded.stat().st_size)
-    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    run = subprocess.run([sys.executable, "-m", "fdi", "diagnose", str(MODELS / "cycab_steering.yaml"), str(padded)],
+    whole = tmp_path / "whole.csv"          # rows over 3 MiB, then a last line of 0.6 MB across the last MiB's start
+    whole.write_bytes(b"0,1\n" * 786_432 + b"9" * 600_000)   # rows fill 3 MiB exactly
+    assert ends_every_mib(str(whole), whole.stat().st_size)
+    child = ("import resource, runpy, sys\n"
+             "sys.argv = ['bgfdi', 'diagnose', sys.argv[1], sys.argv[2]]\n"
+             "try:\n    runpy.run_module('fdi', run_name='__main__')\n"
+             "finally:\n    print('peak', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)\n")
+    run = subprocess.run([sys.executable, "-c", child, str(MODELS / "cycab_steering.yaml"), str(padded)],
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 2 and "line 7 is longer" in run.stderr and "Traceback" not in run.stderr
-    used = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss   # kB, the largest child's so far
-    assert used == before or used < 600 << 10           # this child's: the reader's lines, not the file
+    peak = int(run.stderr.split("peak ")[-1].split()[0])   # kB: the child's own resident peak
+    assert peak < 600 << 10                                 # the reader's lines, not the file (10.6 GB for 1 GB before)
