@@ -21,11 +21,16 @@ def _confidence(margin) -> str:
     return f"type decision margin {margin:.3f} (runner-up / best, each cost charged for its parameters; {word})"
 
 
-def _raced_out(e: dict) -> str:
+def _raced_out(e: dict, candidates: list | None = None) -> str:
     from ..estimators import SET_REACH, SET_STALL, SUBSET_GAIN   # the rules (imported only when a set was raced out)
     if e.get("outdone_by"):
+        # (a subset fitted only to start the set from, its faults alone, is no candidate of its own: a trial
+        # looked for "{ks}" among the estimators)
+        part = ("" if candidates is None or list(e["outdone_by"]) in [list(c) for c in candidates]
+                else ", fitted as a part to start it from, not a candidate")
         return (f"raced out: its race gained under {100 * SET_STALL:g} % in its last rung, its fit no better than "
-                f"{{{', '.join(e['outdone_by'])}}}'s (within {100 * SUBSET_GAIN:g} %), which the criterion prefers")
+                f"{{{', '.join(e['outdone_by'])}}}'s (within {100 * SUBSET_GAIN:g} %{part}), which the criterion "
+                f"prefers")
     return (f"raced out: it cost over {1 + SET_REACH:g}x the best set of its size and gained under "
             f"{100 * SET_STALL:g} % in its last rung")
 
@@ -65,7 +70,7 @@ def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[st
         winner = report.get("winner")
         for e in sorted(report["estimators"], key=lambda e: -e["fitness"]):
             mark = "*" if e["candidate"] == winner and not report.get("episodes") else " "
-            how = _raced_out(e) if e.get("raced_out") else _confidence(e["margin"])
+            how = _raced_out(e, cands) if e.get("raced_out") else _confidence(e["margin"])
             out.append(f" {mark} {{{', '.join(e['candidate'])}}}: fitness {e['fitness']:.4g}; {how}")
         out.append("  (* the winner: the smallest information criterion, 2 N_eff ln(cost) + ln(N_eff) per identified "
                    "parameter)")
