@@ -819,7 +819,8 @@ def _sensors(ctx, data, symbols, claim, column_symbols, columns) -> dict[str, Se
                             + ", ".join(f"{c} by {readers[c][0]}" for c in sorted(columns))
                             + "): no measurement of its own, and a residual comparing it with them is zero by "
                               "construction; remove it (a storage element's state these sensors measure is read "
-                              "from them: docs/model-format.md, Sensors)")
+                              "from them: docs/model-format.md, Sensors; a law relating these signals belongs in "
+                              "the model, as an element's)")
     return out
 
 
