@@ -110,7 +110,7 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
                 # q = x1 - x2 + ... between two): that relation in place of its rate, which the
                 # junctions and the sensors' own rates already give. The residuals read its law at the
                 # measured state: m x'' + b x' + k x = F, not its time derivative.
-                xs = {name: sp.Symbol(f"x[{name}]", real=True) for name in read[node]}
+                xs = {name: reading(name) for name in read[node]}
                 readings = sp.Add(*[a * xs[name] for name, a in read[node].items()])
                 c = offset(model, node, read[node])
                 new_eqs = [new_eqs[0], equation(f"{node}.state", node, x - readings - (sp.Float(c) if c else 0),
@@ -125,7 +125,7 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
         common = e if j.base == "0" else f
         value = sensors.get(s.name, sp.Function(s.name, real=True)(t))
         if s.measures in ("displacement", "momentum"):
-            x = sp.Symbol(f"x[{s.name}]", real=True)
+            x = reading(s.name)
             variables.append(x)
             eqs.append(equation(s.name, s.name, x - value, {x}, linear=[x]))
             eqs.append(equation(f"{s.name}.d/dt", s.name, common - sp.Derivative(x, t), {x, common},
@@ -136,6 +136,12 @@ def equations(model: Model, *, sources: Mapping[str, sp.Expr] | None = None,
         eqs = [e for e in eqs if e.variables or e.expr != 0]
     used = set().union(*(e.variables for e in eqs)) if eqs else set()
     return EquationSystem(model.name, tuple(eqs), tuple(v for v in variables if v in used), dict(mode or {}) or None)
+
+
+def reading(sensor: str) -> sp.Symbol:
+    """The unknown of a displacement or momentum sensor's reading, the integral its junction's rate
+    is the rate of (``x[theta1]``; a storage element measured by it reads it too)."""
+    return sp.Symbol(f"x[{sensor}]", real=True)
 
 
 def _reference_bond(g, junction, strong) -> int:

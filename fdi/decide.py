@@ -20,7 +20,7 @@ import numpy as np
 
 from .criterion import effective_samples, information, parameters
 from .data import Measurements
-from .mode_estimation import mode_values
+from .mode_estimation import mode_values, residual_rows
 from .objective import Objective, window
 from .results import Alternative, Coincidence, Dropped, Estimate
 
@@ -134,7 +134,9 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
         kept = [g for g in kept if g is not f]
         dropped.append(Dropped(f, best - current))
     while quiet is not None and len(kept) > 1:
-        evidence = {id(f): unseen(monitor, win, weights, kept, f, switched, *quiet) for f in kept}
+        every = residual_rows(Objective(model, residuals, win, (), weights, w, fixed=kept, config=monitor.config,
+                                        modes=switched))         # with all kept, once for each fault's test
+        evidence = {id(f): unseen(monitor, win, weights, kept, f, switched, *quiet, every=every) for f in kept}
         below = [f for f in kept if evidence[id(f)] is not None]
         if not below:
             break
@@ -153,13 +155,13 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
 
 
 def unseen(monitor: "Monitor", win, weights: np.ndarray, kept: list[dict], fault: dict, modes,
-           levels: np.ndarray, rule: tuple[float, float]) -> float | None:
+           levels: np.ndarray, rule: tuple[float, float], every: list[np.ndarray] | None = None) -> float | None:
     """Whether ``fault``'s own effect on the residuals on ``win`` (with every ``kept`` fault held at
     its fit, less without it) stays below each residual's ``levels`` (its noise) by the detector's
     ``rule``: its largest evidence (level-seconds over the rule's span) when it does, None when on
-    some residual it would confirm an alarm against them."""
-    from .detect import confirmed, evidence, evidence_samples
-    from .mode_estimation import residual_rows
+    some residual it would confirm an alarm against them. ``every``: the residuals with all of
+    ``kept`` (:func:`fdi.mode_estimation.residual_rows`), when the caller has them."""
+    from .detect import confirmed, evidence, evidence_samples, moving_sum
     w = monitor.config.derivative_window
     persistence, span = rule
     levels = np.asarray(levels, dtype=float).reshape(-1)
@@ -170,10 +172,11 @@ def unseen(monitor: "Monitor", win, weights: np.ndarray, kept: list[dict], fault
     n = evidence_samples(span, win.ts)
     most = 0.0
     with np.errstate(all="ignore"):
-        for i, (a, b) in enumerate(zip(rows(kept), rows([g for g in kept if g is not fault]))):
+        for i, (a, b) in enumerate(zip(every if every is not None else rows(kept),
+                                       rows([g for g in kept if g is not fault]))):
             z = evidence(np.atleast_2d(np.asarray(a, dtype=float) - np.asarray(b, dtype=float)), levels[i:i + 1],
                          win.ts)
             if confirmed(z, n, persistence).any():
                 return None
-            most = max(most, float(np.convolve(z[0], np.ones(max(1, n)), "valid").max(initial=0.0)) if z.size else 0.0)
+            most = max(most, float(moving_sum(z, max(1, n)).max(initial=0.0)))
     return most
