@@ -32,7 +32,7 @@ if TYPE_CHECKING:                       # networkx is imported where a graph is 
 
 from .errors import CausalityError
 from .graph import BondKey, port_table, to_networkx
-from .laws import bond_variables, model_laws, resistor_equation
+from .laws import STORAGE_KEYS, bond_variables, has_inverse, model_laws, resistor_equation
 from .measured import measured_storage
 from .model import SOURCE_KINDS, Model
 
@@ -174,7 +174,9 @@ class _Assigner:
             if e.kind not in ("C", "I"):
                 continue
             key, other = self._bond_of(e.name)
-            want = "derivative" if diag else "integral"
+            # derivative causality needs the law's inverse (q of e, p of f): without it, integral
+            can = has_inverse(e)
+            want = "derivative" if diag and can else "integral"
             # integral: C receives flow (gives effort), I receives effort; derivative is the reverse
             gives = (e.kind == "C") == (want == "integral")
             if key in self.effort_to:
@@ -184,7 +186,25 @@ class _Assigner:
                 self.set(key, other if gives else e.name, f"storage {e.name}")
                 self.propagate()
                 storage[e.name] = want
-            if storage[e.name] != want:
+            law_key, inv_key, energy, local = STORAGE_KEYS[e.kind]
+            add = f"add {inv_key}: <law in {local}> to elements.{e.name} (the {energy} of a given {local})"
+            if not can and storage[e.name] == "derivative":
+                # (diagnosis or simulation: the law is read backwards here; without that form no residual
+                # or simulation can be computed, however the other elements are assigned)
+                self.problems.append(f"storage {e.name} ({e.kind}) needs derivative causality here, and its "
+                                     f"'{law_key}' law gives {local} of {energy} only: {add}")
+            elif diag and not can and e.name not in read:
+                self.problems.append(
+                    f"storage {e.name} ({e.kind}) is held in integral causality: its '{law_key}' law gives {local} "
+                    f"of {energy} only (derivative causality needs the inverse), and its state is not measured: "
+                    f"the residuals that eliminate it come from structural analysis, below; {add}, or a sensor "
+                    f"on its junction measuring its state (measures: {'displacement for a C on a 1-junction' if e.kind == 'C' else 'momentum for an I on a 0-junction'}), "
+                    f"gives residuals that read it")
+            elif diag and not can:
+                self.problems.append(f"storage {e.name} ({e.kind}) is held in integral causality (its state is "
+                                     f"measured: {_readings(read[e.name])}; the residuals that read it there come "
+                                     f"from structural analysis, below)")
+            elif storage[e.name] != want:
                 twin = self._twin_storage(e.name, other) if diag else None
                 self.problems.append(
                     f"storage {e.name} ({e.kind}) is forced into {storage[e.name]} causality "

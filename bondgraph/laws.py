@@ -422,6 +422,26 @@ def energy_variable(el: Element) -> sp.Symbol:
     return sp.Symbol(f"{'q' if el.kind == 'C' else 'p'}[{el.name}]", real=True)
 
 
+STORAGE_KEYS = {"C": ("effort", "displacement", "q", "e"), "I": ("flow", "momentum", "p", "f")}
+"""A storage element's law keys and variables: its law (co-energy of energy), its inverse (energy of
+co-energy), the energy variable, the co-energy variable."""
+
+
+def has_inverse(el: Element) -> bool:
+    """Whether a storage element's law gives its energy variable of its co-energy variable in closed
+    form (q of e for a C, p of f for an I): derivative causality needs it, integral causality does
+    not. A parameter gives both ways; a law in q (p) alone gives it where the loader could solve
+    it (:mod:`bondgraph.loader`), or where the model gives the inverse.
+
+    >>> import sympy as sp
+    >>> from bondgraph.model import Element
+    >>> q = sp.Symbol("q")
+    >>> has_inverse(Element("spring", "C", parameter="c")), has_inverse(Element("spring", "C", laws={"effort": q + q**3}))
+    (True, False)
+    """
+    return (el.parameter is not None and not el.laws) or STORAGE_KEYS[el.kind][1] in el.laws
+
+
 def storage_law(model: Model, el: Element, bond, sub: Sub = _same) -> tuple[sp.Symbol, Equation]:
     """A storage element's energy variable x and its constitutive law: C: e = phi(q), I:
     f = phi(p), solved for the energy variable too where the model gives the inverse

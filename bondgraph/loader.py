@@ -31,6 +31,7 @@ from .expressions import MAX_CONSTANT, ExpressionError, parse_expression
 from .model import (LAW_VARIABLES, ELEMENT_KINDS, FAULT_KINDS, JUNCTION_KINDS, SENSOR_KINDS, SOURCE_KINDS,
                     TWO_PORT_KINDS, Bond, Element, Fault, Input, Junction, Model, Mode, Parameter,
                     Sensor, t)
+from .laws import STORAGE_KEYS
 from .names import same_name
 from .units import UnitError, check_unit
 
@@ -991,10 +992,12 @@ def _same_image(law: sp.Expr, values: dict, x: sp.Symbol, back: sp.Expr, out: sp
 
 
 def _storage_laws(ctx, where, kind: str, laws: dict, parameter: str | None) -> dict:
-    """A C (I) given by its effort (flow) law only gets the inverse law, solved symbolically, for
-    derivative causality; a pair given both ways is checked for consistency."""
-    law_key, inv_key, energy, local = (("effort", "displacement", "q", "e") if kind == "C"
-                                       else ("flow", "momentum", "p", "f"))
+    """A C (I) given by its effort (flow) law only gets the inverse law, solved symbolically where
+    sympy finds one solution, for derivative causality; a law it cannot invert (k q + k3 q^3: three
+    roots) is kept as given, and causality asks for the inverse only where it is needed
+    (:func:`bondgraph.laws.has_inverse`: a state no sensor reads, in derivative causality). A pair
+    given both ways is checked for consistency."""
+    law_key, inv_key, energy, local = STORAGE_KEYS[kind]
     if parameter is not None and laws:
         raise ctx.error(where, f"give either parameter: or laws ({law_key}/{inv_key}), not both")
     if law_key in laws and inv_key in laws:
@@ -1008,11 +1011,8 @@ def _storage_laws(ctx, where, kind: str, laws: dict, parameter: str | None) -> d
                 solved = sp.solve(sp.Eq(y, law), x, dict=False)
             except (NotImplementedError, TypeError, ValueError):   # pragma: no cover - sympy edge cases
                 solved = None
-        if not solved or len(solved) != 1:
-            raise ctx.error(where + (law_key,),
-                            f"cannot invert '{law_key}' for {energy} symbolically; add {inv_key}: <law in {local}> "
-                            f"(the {energy} of a given {local}, used in derivative causality)")
-        laws = {**laws, inv_key: solved[0]}
+        if solved and len(solved) == 1:
+            laws = {**laws, inv_key: solved[0]}
     elif inv_key in laws:
         raise ctx.error(where, f"{kind} element has {inv_key}: but no {law_key}: <law in {energy}>; add it "
                                "(the simulator integrates the energy variable)")
