@@ -20,7 +20,7 @@ import numpy as np
 
 from .criterion import effective_samples, information, parameters
 from .data import Measurements
-from .mode_estimation import mode_values, residual_rows
+from .mode_estimation import affine_modes, mode_values, residual_rows
 from .objective import Objective, window
 from .results import Alternative, Coincidence, Dropped, Estimate
 
@@ -50,10 +50,12 @@ NO_PREFERENCE = 2.0   # a difference of Schwarz's criterion below this is no pre
 
 def alternatives(results: list[Estimate], cost: float, faults: list[dict], n_eff: float,
                  extra: list[Alternative] = (), skip: Estimate | None = None,
-                 coinciding: Sequence[Coincidence] | Callable[[], Sequence[Coincidence]] = ()) -> tuple[Alternative, ...]:
+                 coinciding: Sequence[Coincidence] | Callable[[], Sequence[Coincidence]] = (),
+                 close: float = 0.0) -> tuple[Alternative, ...]:
     """Explanations the data hardly separate from the winner (of ``cost`` and ``faults``; criterion
     within 2 of it: a valve stuck closed and its conductance at zero), with their costs, for the
-    report. ``skip``: the estimator that is the winner; ``extra``: other explanations (the fault
+    report; with ``close``, also those whose cost is within that share of the winner's, whatever
+    their parameters cost (a fault mode's component twin). ``skip``: the estimator that is the winner; ``extra``: other explanations (the fault
     mode), criterion to be filled in. An explanation that is the winner with one fault swapped
     for one the residuals read together with it (``coinciding``, :mod:`fdi.identifiability`)
     carries that pair: the report says why no data separate them (a callable ``coinciding`` is
@@ -62,7 +64,7 @@ def alternatives(results: list[Estimate], cost: float, faults: list[dict], n_eff
     others = [(e.candidate, e.faults, e.cost) for e in results if e is not skip]
     others += [(a.candidate, a.faults, a.cost) for a in extra]
     out = [Alternative(tuple(c), tuple(fs), cost, information(cost, list(fs), n_eff) - best) for c, fs, cost in others]
-    out = sorted((a for a in out if a.criterion < 2.0), key=lambda a: a.criterion)
+    out = sorted((a for a in out if a.criterion < 2.0 or (close > 0 and a.cost <= (1.0 + close) * cost)), key=lambda a: a.criterion)
     won = {f["name"] for f in faults}
     if any(len(won ^ set(a.candidate)) == 2 and len(won) == len(a.candidate) for a in out):
         pairs = coinciding() if callable(coinciding) else coinciding
@@ -120,7 +122,8 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
 
     kept, dropped = [f for f in faults if f["type"] != "mode"], []
     mode_faults = [f for f in faults if f["type"] == "mode"]
-    switched = mode_values(model, win, mode_faults, modes) if mode_faults else modes    # held, never dropped
+    switched = (mode_values(model, win, mode_faults, modes, (w, affine_modes(model, residuals))) if mode_faults
+                else modes)                                                                 # held, never dropped
 
     def cost(fs: list[dict]) -> float:
         return Objective(model, residuals, win, (), weights, w, fixed=fs, config=monitor.config, modes=switched).constant()

@@ -29,7 +29,7 @@ from optim.core import fitness
 from .data import commanded
 from .objective import Objective, Window, window_gaps
 from .residuals import Residual, corrected_signals, derivative_orders, parameter_values
-from . import results
+from . import derivatives, results
 from .results import Estimate
 
 MODE_TABLE = 4     # suspected mode variables up to which every combination's cost is reported and the estimate read
@@ -192,18 +192,50 @@ def mode_variable(model: Model, name: str) -> str:
     return f.targets[0] if f is not None and f.kind == "mode" else name
 
 
-def mode_values(model: Model, win: Window, mode_faults: list[dict], modes: dict[str, float] | None = None) -> dict:
+def mode_values(model: Model, win: Window, mode_faults: list[dict], modes: dict[str, float] | None = None,
+                seen: tuple[float, frozenset[str]] | None = None) -> dict:
     """Mode variables over the window with mode faults switched in: each variable keeps its value
     (commanded sample by sample, fixed by the caller, or nominal) before its fault's ``t0`` and the
-    fault's value from it, (1, window samples) arrays for the residuals (:class:`fdi.objective.Objective`)."""
+    fault's value from it, (1, window samples) arrays for the residuals (:class:`fdi.objective.Objective`).
+
+    ``seen`` (the derivative window, s, and the variables every residual reads affinely,
+    :func:`affine_modes`): those variables' switches as the filtered residuals see them, blended
+    over the filter's window as a held component fault's step is (:func:`fdi.objective.seen_profile`):
+    the data's derivative terms spread a switch's effect over the window while a sharp step in the
+    mode variable would not, so a mode fault paid a mismatch its component twin did not (a relief
+    valve stuck open, its relation h v / Rr, cost 502 against 451 for a leak h / Rleak of the same
+    resistance, which won: a user trial)."""
     out: dict = {}
     known = {**commanded(model, win.raw), **(modes or {})}     # a mode the caller fixed wins over its command
     for f in mode_faults:
         var = mode_variable(model, f["name"])
         base = out.get(var, known.get(var, model.modes[var].nominal))
         base = np.broadcast_to(np.asarray(base, dtype=float).reshape(-1), win.t.shape)
-        out[var] = np.where(win.t >= f.get("t0", -np.inf), float(f["value"]), base)[None, :]
+        t0, value = float(f.get("t0", -np.inf)), float(f["value"])
+        if seen is not None and var in seen[1] and np.isfinite(t0):
+            step = derivatives.step_seen(win.t, np.array([t0]), derivatives.STEP_ORDER, seen[0], win.ts)[0]
+            out[var] = (base + (value - base) * step)[None, :]
+        else:
+            out[var] = np.where(win.t >= t0, value, base)[None, :]
     return {**(modes or {}), **out}
+
+
+_affine: dict[tuple, frozenset[str]] = {}
+
+
+def affine_modes(model: Model, residuals) -> frozenset[str]:
+    """The mode variables every residual reads affinely (a v r1 + r2, as a switch's indicator
+    multiplies its relation): their switches may be blended as the filter sees them
+    (:func:`mode_values`); one read otherwise (a division by it) is stepped sharply."""
+    import sympy as sp
+    key = (model.name, tuple(getattr(r, "ident", None) or str(r.expr) for r in residuals))
+    if key not in _affine:
+        if len(_affine) > 64:
+            _affine.clear()
+        syms = {m: model.symbols[m] for m in model.modes}
+        _affine[key] = frozenset(m for m, x in syms.items()
+                                 if all(sp.diff(r.expr, x, 2) == 0 for r in residuals if r.expr.has(x)))
+    return _affine[key]
 
 
 def residual_rows(obj: Objective) -> list[np.ndarray]:
@@ -223,31 +255,46 @@ def mode_change_fits(monitor, win: Window, weights: np.ndarray, known: list[dict
     (no parameter is identified: its cost is what the information criterion charges nothing for).
     The samples a change switches a residual off cost its noise floor (``floors``: the module's
     docstring)."""
+    w = monitor.config.derivative_window
+    steps = max(1, int(round(w / 2 / win.ts)))
+    grid = t_change + win.ts * np.arange(-steps, steps + 1, max(1, steps // 12))
+    out = []
+    for name, value in changes:
+        cost, onset = switched_at(monitor, win, weights, known, [{"name": name, "type": "mode", "value": int(value)}],
+                                  grid, modes, floors)
+        fault = {"name": name, "type": "mode", "value": int(value), "t0": onset}
+        out.append(Estimate(tuple(g["name"] for g in known) + (name,), cost, float(fitness(cost)), (), None,
+                            tuple(known) + (fault,), grid.size, 0.0, 0.0))
+    return out
+
+
+def switched_at(monitor, win: Window, weights: np.ndarray, known: list[dict], switches: list[dict], grid: np.ndarray,
+                modes: dict[str, float] | None = None, floors: np.ndarray | None = None) -> tuple[float, float]:
+    """The cost and onset of the mode faults ``switches`` (name, type mode, value) switched in together at
+    the onset of ``grid`` (s) that explains ``win``'s data best, the ``known`` faults held (the first at
+    the earliest onset of a tie). A mode fault's onset is searched as a component fault's is: a relief
+    valve stuck open from 250 s, detected at 249.2 s (a 5.3 s derivative window's look-ahead), cost 546
+    switched from t_D, where a leak of the valve's resistance dated 249.99 s cost 451 and won (a user
+    trial). The samples a switch turns a residual off cost its noise floor (``floors``: the module's
+    docstring)."""
     model, w = monitor.model, monitor.config.derivative_window
     components = [f for f in known if f["type"] != "mode"]
     known_modes = [f for f in known if f["type"] == "mode"]
-    steps = max(1, int(round(w / 2 / win.ts)))
-    grid = t_change + win.ts * np.arange(-steps, steps + 1, max(1, steps // 12))
+    seen = (w, affine_modes(model, monitor.residuals))
     data = None
     if floors is not None:               # the residuals with the known faults alone: where each holds
         data = residual_rows(Objective(model, monitor.residuals, win, (), weights, w, fixed=components,
-                                       config=monitor.config, modes=mode_values(model, win, known_modes, modes)))
-    out = []
-    for name, value in changes:
-        best = (np.inf, t_change)
-        for onset in grid:
-            f = {"name": name, "type": "mode", "value": int(value), "t0": float(onset)}
-            values = mode_values(model, win, known_modes + [f], modes)
-            obj = Objective(model, monitor.residuals, win, (), weights, w, fixed=components, config=monitor.config,
-                            modes=values)
-            if data is None:
-                c = obj.constant()
-            else:                        # what constant() sums, residual by residual, each evaluated once
-                c = float(sum(weights[i] * (np.nansum(np.abs(row)) + np.sum(off_charge(row, data[i], floors[i])))
-                              for i, row in enumerate(residual_rows(obj))))
-            if c < best[0]:
-                best = (c, float(onset))
-        fault = {"name": name, "type": "mode", "value": int(value), "t0": best[1]}
-        out.append(Estimate(tuple(g["name"] for g in known) + (name,), float(best[0]), float(fitness(best[0])), (), None,
-                            tuple(known) + (fault,), grid.size, 0.0, 0.0))
-    return out
+                                       config=monitor.config, modes=mode_values(model, win, known_modes, modes, seen)))
+    best = (np.inf, float(grid[0]))
+    for onset in grid:
+        values = mode_values(model, win, known_modes + [{**f, "t0": float(onset)} for f in switches], modes, seen)
+        obj = Objective(model, monitor.residuals, win, (), weights, w, fixed=components, config=monitor.config,
+                        modes=values)
+        if data is None:
+            c = obj.constant()
+        else:                            # what constant() sums, residual by residual, each evaluated once
+            c = float(sum(weights[i] * (np.nansum(np.abs(row)) + np.sum(off_charge(row, data[i], floors[i])))
+                          for i, row in enumerate(residual_rows(obj))))
+        if c < best[0]:
+            best = (c, float(onset))
+    return float(best[0]), best[1]

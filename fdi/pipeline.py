@@ -27,7 +27,7 @@ from .estimators import (Estimators, Search, date_onsets, evidence_onsets, evide
                          drift_onset_band, step_onset_band, steps_at_window_start)
 from .ingest import measurements
 from .isolate import COVERING_NOTE, candidate_sets, fitted_sets, new_mode_changes, pruned_sets, relaxed_sets, suspected_mode_changes
-from .mode_estimation import estimate_mode, mode_variable
+from .mode_estimation import estimate_mode, mode_variable, switched_at
 from .objective import fault_space, nominal, window
 from .options import MIN_WINDOW_S, Options, check_samples
 from .prognose import prognose
@@ -623,6 +623,9 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
     d, results = widen(p, d, fsm, r, results, est, onsets)
     n_eff = effective_samples(p.samples, len(p.monitor.residuals), p.meas.ts, p.window_s)
     mf = d.mode_fault if d.mode_fault is not None and d.mode_fault.faults else None
+    if mf is not None:
+        mf = dated_mode_fault(p, det, mf, onsets, r)
+        d = replace(d, mode_fault=mf)
     if mf is None and not any(np.isfinite(e.cost) for e in results):
         # every fit's residuals overflow (a sample no sensor reads, 1e308 in a record): detected and
         # isolated, not identified
@@ -638,7 +641,7 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
         # closed also looks like a clogged one, and a pair of component faults can over-fit the window)
         clock.lap("identification")
         return replace(d, estimates=tuple(results), mode=dict(mf.mode), faults=mf.faults,
-                       alternatives=alternatives(results, mf.cost, mode_faults, n_eff,
+                       alternatives=alternatives(results, mf.cost, mode_faults, n_eff, close=SAME_FIT,
                                                  coinciding=lambda: p.monitor.coinciding))
     # the winner's steps dated from the evidence before t_D (its estimator's entry too)
     best = date_onsets(est, t, p.raw, det.time, p.samples, won, p.weights, o.seed, onsets,
@@ -654,6 +657,36 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
                 faults=faults_of(best.faults), winner=tuple(best.candidate))
     d, now = later_decisions(p, d, fsm, r, est, clock, progress)
     return prognoses(p, significance(p, d, now, noise_floors(p, r, d.detection.time)), now, clock)
+
+
+SAME_FIT = 0.01       # a component fault set that fits within this share of a winning fault mode's cost is listed
+                      # beside it, whatever its parameters cost (a relief valve stuck open and a leak of its
+                      # resistance: one physics on the data, the criterion alone +8 for the leak's value and onset)
+ONSET_GRID = 24        # a mode fault's onset: first on this many steps over its band, then to the sample
+
+
+def dated_mode_fault(p: Prepared, det: Detection, mf: ModeFault, onsets: tuple[float, float],
+                     r: np.ndarray) -> ModeFault:
+    """The fault mode with its switch dated (:func:`fdi.mode_estimation.switched_at`): its mode faults'
+    common onset searched over the band a component fault's is first searched over (t_D to the end
+    of the filters' look-ahead, :func:`fdi.estimators.evidence_onsets`), on a coarse grid and then to
+    the sample; its cost the best onset's where that is lower than the estimator's (switched from t_D)."""
+    ts, lo = p.meas.ts, det.time
+    n = max(0, int(np.floor((max(lo, onsets[1]) - lo) / ts + 1e-9)))
+    if n == 0:
+        return mf
+    win = window(p.meas.t, p.raw, lo, p.samples, p.window_s)
+    switches, floors = [f.to_dict() for f in mf.faults], noise_floors(p, r, lo)
+    step = max(1, -(-n // ONSET_GRID))
+    cost, onset = switched_at(p.monitor, win, p.weights, [], switches, lo + ts * np.arange(0, n + 1, step), p.modes,
+                              floors)
+    if step > 1:
+        k = int(round((onset - lo) / ts))
+        fine = lo + ts * np.arange(max(0, k - step + 1), min(n, k + step - 1) + 1)
+        cost, onset = min((cost, onset), switched_at(p.monitor, win, p.weights, [], switches, fine, p.modes, floors))
+    if not cost < mf.cost:
+        return mf
+    return replace(mf, cost=cost, faults=faults_of({**f, "t0": onset} for f in switches))
 
 
 def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators,

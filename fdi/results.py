@@ -115,7 +115,7 @@ class Fault:
                     f"b = [{b}]{since}")
         if self.type == "stuck":
             return f"{self.name}: stuck at {self.value:.5g} from {self.t0:.4g} s"
-        return f"{self.name}: fault mode ({variable or self.name} = {self.value if self.value is not None else 0})"
+        return f"{self.name}: fault mode ({variable or self.name} = {self.value if self.value is not None else 0}){since}"
 
 
 def faults_of(entries) -> tuple[Fault, ...]:

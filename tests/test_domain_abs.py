@@ -44,15 +44,20 @@ def test_an_inlet_valve_stuck_open_is_what_the_fault_mode_estimator_finds(seed):
     costs = {tuple(sorted(r["mode"].items())): r["cost"] for r in d.mode_fault.table}
     assert all(np.isfinite(c) for c in costs.values())
     # the estimate is the inlet held open beside the outlet as commanded: the lowest cost of the table
-    assert d.mode_fault.cost == pytest.approx(min(costs.values()), rel=1e-12)
+    # (switched from t_D), then its switch dated (fdi.pipeline.dated_mode_fault) at a cost no higher
+    row = min(d.mode_fault.table, key=lambda r: r["cost"])
+    assert row["mode"]["a_in"] == 1
+    assert d.mode_fault.cost <= row["cost"]
+    (f,) = d.mode_fault.faults
+    assert f.t0 is None or abs(f.t0 - 5.0) < 0.05
 
 
-@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.xfail(strict=True, reason=(
-    "a pair {Rout, Cc} with Cc at its lower bound costs less: shrinking Cc removes the noisy Cc pc' term "
-    "(eq. 24 does not know a residual's noise scales with its parameters)"))), 3, 4])
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
 def test_an_inlet_valve_stuck_open_is_the_diagnosis(seed):
     """Seed 3 lost to {Rout, Cc} drifting from the first trusted sample, 5 s before the detection, a fit
-    the quiet data before it contradict (fdi.estimators.contradicted): no longer kept."""
+    the quiet data before it contradict (fdi.estimators.contradicted): no longer kept. Seed 2 lost to a
+    pair {Rout, Cc} with Cc at its lower bound until the fault mode's switch was dated and seen through
+    the filter as a component fault's step is (2026-12)."""
     d, _ = _diagnose("in_stuck_open", seed)
     assert [(f.name, f.type, f.value) for f in d.faults] == [("in_stuck_open", "mode", 1)]
     assert d.mode["a_in"] == 1
@@ -128,7 +133,8 @@ def test_a_valve_stuck_against_a_switching_command_is_named_stuck():
     report = d.to_dict()
     assert report["mode_estimate"] == {"a_in": 1, "a_out": "commanded"}
     chosen = next(r for r in report["mode_costs"] if r["mode"] == {"a_in": 1, "a_out": "commanded"})
-    assert chosen["cost"] == report["mode_fault_cost"] == min(r["cost"] for r in report["mode_costs"])
+    assert chosen["cost"] == min(r["cost"] for r in report["mode_costs"])
+    assert report["mode_fault_cost"] <= chosen["cost"]          # (its switch dated: no higher)
     assert [(f.name, f.value) for f in d.faults] == [("in_stuck_open", 1)]
     # in words, the variable it sets (a trial read "in_stuck_open = 1"), in the summary and the CLI's text
     from fdi.app.report import to_text

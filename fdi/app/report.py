@@ -68,12 +68,23 @@ def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[st
     if report.get("estimators"):
         out.append("estimators (fitness = 1/(sum_l sum_n |G_l|/threshold_l + 1e-12), higher is better):")
         winner = report.get("winner")
+        final = report["diagnosis"]["faults"]
+        mode_won = bool(final) and all(f["type"] == "mode" for f in final) and report.get("mode_fault_cost") is not None
+        starred = False
+        if mode_won and not report.get("episodes"):
+            out.append(f" * fault mode {' '.join(f'{k}={v}' for k, v in mode.items())}: fitness "
+                       f"{1.0 / (report['mode_fault_cost'] + 1e-12):.4g}; no parameter")
+            starred = True
         for e in sorted(report["estimators"], key=lambda e: -e["fitness"]):
-            mark = "*" if e["candidate"] == winner and not report.get("episodes") else " "
+            mark = "*" if e["candidate"] == winner and not report.get("episodes") and not mode_won else " "
+            starred = starred or mark == "*"
             how = _raced_out(e, cands) if e.get("raced_out") else _confidence(e["margin"])
             out.append(f" {mark} {{{', '.join(e['candidate'])}}}: fitness {e['fitness']:.4g}; {how}")
-        out.append("  (* the winner: the smallest information criterion, 2 N_eff ln(cost) + ln(N_eff) per identified "
-                   "parameter)")
+        if starred:
+            out.append("  (* the winner: the smallest information criterion, 2 N_eff ln(cost) + ln(N_eff) per "
+                       "identified parameter)")
+        elif report.get("episodes"):
+            out.append("  (the first decision's fits; the diagnosis comes from the later decision(s) below)")
     for a in report.get("alternatives") or []:
         tie = ": lower, but within 2 is a tie and the smaller set wins" if a["criterion"] < 0 else ""
         out.append(f"  nearly as good: {{{', '.join(a['candidate'])}}} (criterion {a['criterion']:+.2f}{tie}; cost "
