@@ -160,9 +160,17 @@ class Sensor:
         if self.columns:
             return {c: self.columns[c] for c in cols}
         import sympy as sp
-        if len(cols) == 1 and self.signal == sp.Symbol(cols[0], real=True):
-            return {cols[0]: sp.Symbol(self.name, real=True)}
-        return None
+        if len(cols) != 1:
+            return None
+        col, reading = sp.Symbol(cols[0], real=True), sp.Symbol(self.name, real=True)
+        if self.signal == col:
+            return {cols[0]: reading}
+        x = sp.Dummy("x", real=True)   # (the column may bear the sensor's own name: a level h read as 9810*h)
+        try:        # one column through an expression: its inverse, where sympy finds one
+            solved = sp.solve(sp.Eq(reading, self.signal.xreplace({col: x})), x)
+        except (NotImplementedError, TypeError, ValueError):
+            solved = []
+        return {cols[0]: solved[0]} if len(solved) == 1 else None
 
 
 @dataclass(frozen=True)

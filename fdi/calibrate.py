@@ -58,7 +58,7 @@ from .noise import mode_text, predicted_noise
 from .detect import settling, trusted
 from .residuals import evaluate
 from .spikes import despiked
-from .window_choice import DETECT_GOAL, WindowScore, choose_window, chosen
+from .window_choice import DETECT_GOAL, WindowScore, choose_window, chosen, set_aside
 
 DEFAULT_MARGIN = 1.5
 DISAGREE = 1000.0      # a residual this many times its predicted noise on fault-free runs: model and data disagree
@@ -563,6 +563,10 @@ def format_calibration(c: Calibration) -> str:
                 lines.append(f"  {f}: {_change(pick.detectable[f])}")
             if c.unscored:
                 lines.append(f"  {_not_scored(c)[2:]}")
+        aside = set_aside(c.window_scores)
+        if aside:
+            lines.append("  set aside whatever their scores: " + "; ".join(
+                f"{w:.4g} s: {why}" for w, why in sorted(aside.items())))
         if pick is max(c.window_scores, key=lambda x: x.window) and len(c.window_scores) > 1:
             lines.append(f"  the longest window scored won: the scores may still fall beyond it, where no window was "
                          f"tried (at most a tenth of a run, clear of the model's modes, under half a run without "

@@ -207,14 +207,37 @@ def stray_thresholds(model_thresholds: Mapping[str, float], names: list[str]) ->
             f"{', '.join(names)}); correct or remove them, or run bgfdi calibrate again")
 
 
+def stray_error(model, model_thresholds: Mapping[str, float], names: list[str]):
+    """The ModelError for thresholds that name no residual (:func:`stray_thresholds`), at the first
+    one's key and line in the model file (read again: the model keeps no lines); None when every
+    one names a residual."""
+    message = stray_thresholds(model_thresholds, names)
+    if message is None:
+        return None
+    from bondgraph.errors import ModelError
+    first = next(n for n in model_thresholds if n not in names)
+    return ModelError(message, file=model.path, where=f"thresholds.{first}", line=_line(model.path, ("thresholds", first)))
+
+
+def _line(path: str | None, where: tuple) -> int | None:
+    """The line of the key at ``where`` in the model file ``path``, when it is a file that reads."""
+    import os
+    if not path or not os.path.isfile(path):
+        return None
+    from bondgraph.errors import ModelError
+    from bondgraph.loader import read_document
+    try:
+        return read_document(path).lines.get(where)
+    except (ModelError, OSError, ValueError):
+        return None
+
+
 def checked_thresholds(model, model_thresholds: Mapping[str, float], names: list[str]) -> str | None:
     """``check``'s reading of the file's thresholds against its residuals ``names`` (text and
     --json alike): a ModelError for one naming no residual, as ``diagnose`` refuses it; the note
     naming residuals without one (:func:`missing_thresholds`), or None."""
-    stray = stray_thresholds(model_thresholds, names)
-    if stray is not None:
-        from bondgraph.errors import ModelError
-        raise ModelError(stray, file=model.path, where="thresholds")
+    if (error := stray_error(model, model_thresholds, names)) is not None:
+        raise error
     return missing_thresholds(model_thresholds, names)
 
 

@@ -37,7 +37,10 @@ def sensor_columns(model: Model, sensor: Sensor, measured: np.ndarray, rng: np.r
 
     mapping = sensor.column_values(None)
     if mapping is None:
-        raise SeveralColumns(f"{model.path}: sensors.{sensor.name}: it reads several columns; add columns: "
+        cols = sorted(str(s) for s in sensor.signal.free_symbols)
+        how = (f"it reads several columns ({', '.join(cols)})" if len(cols) > 1 else
+               f"it reads column {cols[0]} through {sensor.signal}, which bgfdi cannot solve for {cols[0]} in one way")
+        raise SeveralColumns(f"{model.path}: sensors.{sensor.name}: {how}; add columns: "
                              "{<column>: <expression of " + sensor.name + ">} to say how each is made from it")
     nominal = dict(model.nominal_values())
     measured = np.asarray(measured, dtype=float)

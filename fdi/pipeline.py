@@ -21,7 +21,7 @@ from bondgraph.errors import ModelError
 from .data import DataError, Measurements, commanded, signals_from_data
 from .decide import alternatives, effective_samples, information, select_winner, significant
 from .derivatives import DEFAULT_ORDER, window_samples
-from .detect import Detection, detect, settling, thresholds_for
+from .detect import Detection, detect, settling, stray_error, thresholds_for
 from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide, since_detection
 from .estimators import (Estimators, Search, date_onsets, evidence_onsets, evidence_start, refit_early_onsets,
                          drift_onset_band, step_onset_band, steps_at_window_start)
@@ -203,6 +203,8 @@ def prepare(monitor: "Monitor", meas: Measurements, o: Options) -> Prepared:
     raw = signals_from_data(model, meas)
     check_derivative_window(model, w, meas.ts, meas.path)
     check_record_length(model, w, window_samples(w, meas.ts, DEFAULT_ORDER) + 1, meas.ts, meas.t.size, meas.path)
+    if (stray := stray_error(model, config.thresholds, list(monitor.names))) is not None:
+        raise stray
     try:
         thresholds = thresholds_for(config.thresholds, list(monitor.names), o.thresholds)
     except ValueError as exc:

@@ -98,24 +98,50 @@ class Fault:
                             else list(v) if isinstance(v, tuple) else v)
         return out
 
-    def describe(self, variable: str | None = None) -> str:
+    def describe(self, variable: str | None = None, unit: str = "") -> str:
         """The fault in words, as the text report and the notebook table show it (with its onset:
         a trial's user found it only in the JSON); ``variable``: a mode fault's mode variable (the
-        fault's name is not: a user read ``out_stuck_closed = 0``)."""
+        fault's name is not: a user read ``out_stuck_closed = 0``); ``unit``: its value's
+        (:func:`value_unit`: a trial read an offset of 2950.3 as metres, its column's unit, where
+        the sensor's signal is in Pa)."""
         since = f", from {self.t0:.6g} s" if self.t0 is not None else ""
+        unit = f" {unit}" if unit else ""
         if self.type == "abrupt":
             if self.t0_band is not None and self.t0 is not None and self.t0_band[0] < self.t0:
                 since += f" (or as early as {self.t0_band[0]:.6g} s: the data before it do not tell)"
-            return f"{self.name}: abrupt, value {self.value:.5g}{since}"
+            return f"{self.name}: abrupt, value {self.value:.5g}{unit}{since}"
         if self.type == "intermittent":
-            return f"{self.name}: intermittent, value {self.value:.5g}, period {self.period:.4g} s{since}"
+            return f"{self.name}: intermittent, value {self.value:.5g}{unit}, period {self.period:.4g} s{since}"
         if self.type == "incipient":
             b = ", ".join(f"{x:.5g}" for x in self.b)
             return (f"{self.name}: incipient, model {self.model} (eq. {15 + self.model}, eta {_vec(self.eta)}), "
                     f"b = [{b}]{since}")
         if self.type == "stuck":
-            return f"{self.name}: stuck at {self.value:.5g} from {self.t0:.4g} s"
+            return f"{self.name}: stuck at {self.value:.5g}{unit} from {self.t0:.4g} s"
         return f"{self.name}: fault mode ({variable or self.name} = {self.value if self.value is not None else 0}){since}"
+
+
+NO_UNIT = ("", "-", "1")
+
+
+def value_unit(model, name: str) -> str:
+    """The unit of fault ``name``'s value as the report gives it: a parametric fault of one
+    parameter, its parameter's; an offset or a stuck reading of a sensor, its signal's (not its
+    columns': a level sensor read in m, its signal a pressure in Pa); of a source, its input's;
+    '' for an efficiency factor, a group's common factor, a mode, or a unit the model leaves out."""
+    f = getattr(model, "faults", {}).get(name)
+    if f is None:
+        return ""
+    unit = ""
+    if f.kind == "parametric" and len(f.targets) == 1:
+        unit = model.parameters[f.targets[0]].unit
+    elif f.kind == "sensor" and f.effect in ("bias", "stuck"):
+        unit = model.sensors[f.targets[0]].unit
+    elif f.kind == "source" and f.effect == "bias":
+        element = model.elements.get(f.targets[0])
+        source = model.inputs.get(element.input) if element is not None and element.input else None
+        unit = source.unit if source is not None else ""
+    return "" if unit in NO_UNIT else unit
 
 
 def faults_of(entries) -> tuple[Fault, ...]:
@@ -432,8 +458,9 @@ class Diagnosis:
                                        f"at {d.decision_time:.4g} s: {_vec(d.final_coherence)}")]
         offered = [a.to_dict() for a in self.alternatives or ()]
         for f in self.faults:
-            lines.append(f"  {f.describe(self._variable(f.name))}")        # (its onset in it)
-            lines += [f"    or {Fault.from_dict(g).describe()} (read together with {f.name}: one fit)"
+            lines.append(f"  {f.describe(self._variable(f.name), value_unit(self.bond_graph, f.name))}")  # (its onset in it)
+            lines += [f"    or {Fault.from_dict(g).describe(None, value_unit(self.bond_graph, g['name']))} "
+                      f"(read together with {f.name}: one fit)"
                       for g in partners(offered, f.name, {g.name for g in self.faults}, self.winner)]
         if d is not None and not self.faults:
             lines.append("  no fault identified" + (f" ({self.note})" if self.note else ""))
@@ -448,7 +475,8 @@ class Diagnosis:
         rows = [("detection", "none" if d is None else
                  f"t<sub>D</sub> = {d.time:.2f} s, coherence {list(d.coherence)}; at {d.decision_time:.2f} s: "
                  f"{list(d.final_coherence)}")]
-        rows += [(f.name, f.describe(self._variable(f.name)).split(": ", 1)[1]) for f in self.faults] or [
+        rows += [(f.name, f.describe(self._variable(f.name), value_unit(self.bond_graph, f.name)).split(": ", 1)[1])
+                 for f in self.faults] or [
             ("diagnosis", "no fault" if d is None else "no fault identified")]
         rows += [(f"RUL of {p.name}", f"{p.rul:.2f} s at {p.at:.2f} s (EOL {p.eol:.2f} s)")
                  for p in self.prognosis if math.isfinite(p.rul)]

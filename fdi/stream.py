@@ -62,7 +62,7 @@ from bondgraph.timescales import model_time_scales
 from . import scales
 from .carry import Carried
 from .data import DataError, Measurements, check_header, checked
-from .detect import confirmed, evidence, evidence_samples, settling, span_start, thresholds_for
+from .detect import confirmed, evidence, evidence_samples, settling, span_start, stray_error, thresholds_for
 from .options import Options
 from .pipeline import refresh_prognosis, with_overrides, with_samples
 from .results import Diagnosis, plain
@@ -193,6 +193,8 @@ class Stream:
         c = self.monitor
         self.model, self.config, self.compiled = c.model, c.config, c.residuals
         self.names = list(c.names)
+        if (stray := stray_error(self.model, self.config.thresholds, self.names)) is not None:
+            raise stray
         try:
             self.thresholds = thresholds_for(self.config.thresholds, self.names, self.options.thresholds)
         except ValueError as exc:           # the model's thresholds: one line naming the file and the key

@@ -57,6 +57,8 @@ class WindowScore:
     detectable: dict[str, float]
     score: float
     rule: bool = False
+    judged: float = 1.0                                # the share of the shortest run it judges (settling, ends)
+    modes: tuple[str, ...] = ()                        # the commanded modes where a residual has samples ("v=1")
 
 
 def cutoff(samples: int, ts: float, polyorder: int = derivatives.DEFAULT_ORDER) -> float:
@@ -161,8 +163,26 @@ def choose_window(model_path: str, data: list[Measurements], thresholds_of: Call
         if any(f not in detectable for f in faults):
             continue
         score = float(np.exp(np.mean(np.log([detectable[f] for f in faults])))) if faults else float("inf")
-        out.append(WindowScore(float(window), samples, {f: detectable[f] for f in faults}, score, factor == 1.0))
+        judged = min(float(k.mean()) for k in keeps)
+        out.append(WindowScore(float(window), samples, {f: detectable[f] for f in faults}, score, factor == 1.0,
+                               judged, _modes_with_residuals(runs, keeps, nominal_r)))
     return out
+
+
+def _modes_with_residuals(runs, keeps, nominal_r) -> tuple[str, ...]:
+    """The commanded modes ("v=1", "a=0,b=1") in which some residual has a sample on the
+    runs' judged samples: a window longer than a mode's stretches leaves that mode unwatched (a relief
+    valve open for 20 s of a run, under a 21 s window: its stuck-closed fault could not be detected)."""
+    seen = set()
+    for (_, _, modes), keep, r0 in zip(runs, keeps, nominal_r):
+        if not modes or not r0.size:
+            continue
+        has = np.isfinite(r0).any(axis=0)
+        names = sorted(modes)
+        rows = np.stack([np.broadcast_to(np.asarray(modes[n]).reshape(-1), keep.shape)[keep] for n in names], axis=1)
+        for row in np.unique(rows[has], axis=0):
+            seen.add(",".join(f"{n}={int(v)}" for n, v in zip(names, row)))
+    return tuple(sorted(seen))
 
 
 def _effects(model, residuals, runs, keeps, nominal_r, window: float, nominal: dict) -> dict[str, np.ndarray]:
@@ -185,11 +205,38 @@ def _effects(model, residuals, runs, keeps, nominal_r, window: float, nominal: d
         return {f: np.sqrt(total / count) for f, (total, count) in sums.items()}
 
 
+MAX_LOSS = 0.1     # a window may judge at most this share of a run less than the rule's (its longer settling)
+
+
+def set_aside(scores: list[WindowScore]) -> dict[float, str]:
+    """The candidate windows --window auto does not take whatever their scores, by window, and why:
+    one that judges over MAX_LOSS of the shortest run less than the rule's (its settling: a surge
+    tank's 21 s window left the first 262 s of 600 unjudged, a fault there undetected and every
+    detection dated after it) or leaves a commanded mode the rule's window watches without a
+    residual sample (a relief valve opened for 20 s: its stuck-closed fault undetectable). None
+    when the rule's window was not scored (it left over half a run without residuals)."""
+    rule = scores[0] if scores else None
+    if rule is None or not rule.rule:
+        return {}
+    out = {}
+    for s in scores[1:]:
+        lost = sorted(set(rule.modes) - set(s.modes))
+        if s.judged < rule.judged - MAX_LOSS:
+            out[s.window] = (f"it judges {100 * s.judged:.0f} % of the shortest run, the rule's "
+                             f"{100 * rule.judged:.0f} % (its settling)")
+        elif lost:
+            out[s.window] = "no residual while " + "; ".join(lost) + " (stretches shorter than it)"
+    return out
+
+
 def chosen(scores: list[WindowScore]) -> WindowScore:
     """The rule's window (the first, when it was scored) when it detects a change of DETECT_GOAL of
-    every fault; else the window with the smallest score, or the shortest within WINDOW_TIE of it."""
+    every fault; else, of the windows not set aside (:func:`set_aside`), the one with the smallest
+    score, or the shortest within WINDOW_TIE of it."""
     rule = scores[0]
     if rule.rule and rule.detectable and max(rule.detectable.values()) <= DETECT_GOAL:
         return rule
-    best = min(s.score for s in scores)
-    return next(s for s in sorted(scores, key=lambda s: s.window) if s.score <= best * (1 + WINDOW_TIE))
+    aside = set_aside(scores)
+    kept = [s for s in scores if s.window not in aside]
+    best = min(s.score for s in kept)
+    return next(s for s in sorted(kept, key=lambda s: s.window) if s.score <= best * (1 + WINDOW_TIE))

@@ -347,14 +347,16 @@ def test_the_models_thresholds_name_only_its_residuals_and_monitor_says_so_in_on
     data = tmp_path / "run.csv"
     from .independent import rc
     rc.write(data, rc.simulate(1.0, 1))
-    for extra, said in (("thresholds: {ARR1: 0.01, ARR2: 0.001, ARR9: 3}\n", "ARR9 name(s) no residual of the model"),
-                        ("", "no threshold for ARR1, ARR2")):
+    line = len(text.splitlines()) + 1                   # the appended thresholds' line
+    for extra, where, said in (("thresholds: {ARR1: 0.01, ARR2: 0.001, ARR9: 3}\n", f":{line}: thresholds.ARR9: ",
+                                "ARR9 name(s) no residual of the model"),
+                               ("", ": thresholds: ", "no threshold for ARR1, ARR2")):
         model = tmp_path / "m.yaml"
         model.write_text(text + extra)
         for command in (["diagnose", str(model), str(data), "--workers", "1"], ["monitor", str(model), str(data)]):
             assert main(command) == 2
             err = capsys.readouterr().err.strip()
-            assert err.startswith(f"bgfdi: error: {model}: thresholds: ") and said in err and "\n" not in err
+            assert err.startswith(f"bgfdi: error: {model}{where}") and said in err and "\n" not in err
 
 
 def test_a_record_stamped_in_milliseconds_is_named_not_the_model(tmp_path, capsys):
@@ -381,7 +383,9 @@ def test_check_refuses_a_threshold_for_no_residual_and_names_residuals_without_o
     stray.write_text(text + "thresholds: {ARR1: 1.0, ARR9: 2.0}\n")
     assert main(["check", str(stray)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "thresholds: ARR9 name(s) no residual of the model (its residuals: ARR1, ARR2)" in err[0]
+    line = len(text.splitlines()) + 1
+    assert len(err) == 1 and (f"{stray}:{line}: thresholds.ARR9: ARR9 name(s) no residual of the model (its "
+                              f"residuals: ARR1, ARR2)") in err[0]
     assert main(["check", str(stray), "--json"]) == 2
     capsys.readouterr()
     half = tmp_path / "half.yaml"

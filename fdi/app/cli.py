@@ -660,8 +660,10 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
     if args.json:
         text = _json_text(public)
     else:
+        from ..results import value_unit
         text = to_text(public, model.name, data_name, {n: f.targets[0] for n, f in model.faults.items()
-                                                         if f.kind == "mode"}) + (_timings_line(d) if args.timings else "")
+                                                         if f.kind == "mode"},
+                       {n: value_unit(model, n) for n in model.faults}) + (_timings_line(d) if args.timings else "")
     _emit(text, getattr(args, "output", None))
     if getattr(args, "plot", None):
         from ..plots import plot_diagnosis

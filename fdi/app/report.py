@@ -8,10 +8,11 @@ from ..isolate import COVERING_NOTE
 from ..results import DETERMINED, Coincidence, Fault, _vec, partners
 
 
-def describe_fault(f: dict, variables: Mapping[str, str] | None = None) -> str:
+def describe_fault(f: dict, variables: Mapping[str, str] | None = None, units: Mapping[str, str] | None = None) -> str:
     """One fault of a report in words; ``variables``: each mode fault's mode variable (the report's
-    entry names the fault, ``in_stuck_open``; the text says which variable it sets)."""
-    return Fault.from_dict(f).describe((variables or {}).get(f["name"]))
+    entry names the fault, ``in_stuck_open``; the text says which variable it sets); ``units``:
+    each fault's value's unit (:func:`fdi.results.value_unit`)."""
+    return Fault.from_dict(f).describe((variables or {}).get(f["name"]), (units or {}).get(f["name"], ""))
 
 
 def _confidence(margin) -> str:
@@ -35,7 +36,8 @@ def _raced_out(e: dict, candidates: list | None = None) -> str:
             f"{100 * SET_STALL:g} % in its last rung")
 
 
-def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[str, str] | None = None) -> str:
+def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[str, str] | None = None,
+            units: Mapping[str, str] | None = None) -> str:
     out = [f"bgfdi diagnosis of {data_name} with model {model_name}"]
     det = report.get("detection")
     if det is None:
@@ -88,7 +90,7 @@ def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[st
     for a in report.get("alternatives") or []:
         tie = ": lower, but within 2 is a tie and the smaller set wins" if a["criterion"] < 0 else ""
         out.append(f"  nearly as good: {{{', '.join(a['candidate'])}}} (criterion {a['criterion']:+.2f}{tie}; cost "
-                   f"{a['cost']:.4g}): " + "; ".join(describe_fault(f, variables) for f in a["faults"]))
+                   f"{a['cost']:.4g}): " + "; ".join(describe_fault(f, variables, units) for f in a["faults"]))
         if a.get("coincides"):
             out.append(f"    (one fit: {Coincidence.from_dict(a['coincides']).describe()}: a constant fault of either "
                        f"is fitted as well by the other within their ranges; bgfdi isolability proposes sensors that "
@@ -109,7 +111,7 @@ def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[st
         why = ("its own effect on the residuals stays within their noise" if f.get("unseen") else
                f"its parameters do not pay on the data since the detection: criterion {f['criterion_without']:+.2f} "
                f"without it")
-        out.append(f"  left out: {describe_fault(f, variables)} ({why})")
+        out.append(f"  left out: {describe_fault(f, variables, units)} ({why})")
     if report.get("note"):
         out.append(f"note: {report['note']}")
     if faults:
@@ -119,8 +121,8 @@ def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[st
     else:
         out.append("diagnosis: no fault explains the coherence vector")
     for f in faults:
-        out.append(f"  {describe_fault(f, variables)}")
-        out += [f"    or {describe_fault(g, variables)} (read together with {f['name']}: one fit)"
+        out.append(f"  {describe_fault(f, variables, units)}")
+        out += [f"    or {describe_fault(g, variables, units)} (read together with {f['name']}: one fit)"
                 for g in partners(report.get("alternatives"), f["name"], {g["name"] for g in faults},
                                   report.get("winner"))]
     without = report["diagnosis"].get("criterion_without")
