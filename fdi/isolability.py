@@ -81,6 +81,13 @@ class Isolability:
     def full(self) -> bool:
         return all(self.detectable) and all(len(c) == 1 for c in self.classes())
 
+    def restricted(self, names: Sequence[str]) -> "Isolability":
+        """The same analysis over the faults ``names`` only (in their order): to compare it with
+        one made over fewer faults (the structural best holds no mode fault)."""
+        idx = [self.faults.index(f) for f in names]
+        return Isolability(tuple(names), tuple(self.detectable[i] for i in idx),
+                           tuple(tuple(self.isolable[i][j] for j in idx) for i in idx))
+
     def covers(self, other: "Isolability") -> bool:
         """Detects every fault ``other`` detects and tells apart every pair ``other`` tells apart
         (the isolability classes; a one-way isolation counts, as a differing signature does)."""

@@ -1,7 +1,13 @@
 """Prognosis of incipient faults: end of life and remaining useful life (eqs. 30-31).
 
 EOL(tf) = inf{t >= tf + N ts : P(t) has reached the failure value}, RUL(tf) = EOL(tf) - (tf + N ts),
-with the identified degradation model run from P(tf) = P (the window starts at tf = tD). Closed
+with the identified degradation model run from P(tf) = P (the window starts at tf = tD). One
+departure: a profile that reached the failure value before now = tf + N ts has its EOL where it
+crossed it, in the past (a passed EOL, ``eol < at``), and RUL 0, where eq. (30) puts the EOL at
+now: a trial's penstock fouling fitted to cross at 516.1 s (the truth's 516.2 s) was reported at the
+data's last sample, 519.9 s, as if it were failing at that very sample. The RUL is never negative,
+nor is either end of its band: a corner of the band already failed has no life left (0), one
+that has not bounds the life that may remain. Closed
 forms for (16), P = P0 exp(b1 tau) -> tau = ln(Pf/P0)/b1, and (17), 1/P = 1/P0 - b2 tau ->
 tau = (1/P0 - 1/Pf)/b2 (the paper's (1/R4(0) - 1/R4F)/b2 of Sec. III-D); (18) and (19) are
 integrated forward (the profile functions of fdi.profiles) on a grid of one sampling period of
@@ -25,6 +31,9 @@ an exponential decay (16), P = exp(-0.1 tau), reaches 0.5 after ln 2 / 0.1 s:
 (6.9315, 6.9315)
 >>> end_of_life(2, [0.03], 1.0, 0.5, tf=32.0, now=37.0)             # drifting away from failure
 inf
+>>> p = prognose({"name": "beta_theta2", "model": 2, "b": [-0.03]}, 1.0, 0.5, tf=32.0, now=70.0)
+>>> round(p["eol"], 4), p["rul"], p["eol"] < p["at"]                # failed 4.67 s before now: passed
+(65.3333, 0.0, True)
 """
 from __future__ import annotations
 
@@ -41,7 +50,8 @@ HORIZON_SAMPLES = 360_000    # grid steps a numerically integrated profile is fo
 
 def end_of_life(model_no: int, b: list[float], nominal: float, failure: float, tf: float, now: float,
                 horizon: float | None = None, ts: float | None = None) -> float:
-    """The first time >= ``now`` at which the profile started at ``tf`` reaches ``failure``."""
+    """The first time at which the profile started at ``tf`` reaches ``failure``: before ``now``
+    when it already has (a passed end of life); ``now`` sets how far ahead it is first looked for."""
     return float(ends_of_life(model_no, [b], nominal, failure, [tf], now, horizon, ts)[0])
 
 
@@ -50,7 +60,8 @@ def ends_of_life(model_no: int, bs, nominal: float, failure: float, tfs, now: fl
     """:func:`end_of_life` of several coefficient vectors ``bs`` (rows) with their onsets ``tfs``:
     closed forms for (16) and (17); (18) and (19) integrated together (one population of the
     profile functions) over a look-ahead that grows fourfold from the time already elapsed until
-    every row has failed or ``horizon`` is passed: an RUL of seconds is not looked for an hour
+    every row has failed or ``horizon`` is passed (a row that failed before ``now`` at its
+    crossing, not at ``now``: :func:`end_of_life`): an RUL of seconds is not looked for an hour
     ahead, and a row that never fails costs 1.3 passes of the hour (measured: the 17 corners of an
     eq. (19) band took 11 s one at a time over the whole hour, 4 ms together). ``ts``: the grid
     (default STEP); ``horizon``: how far ahead, s (default HORIZON_SAMPLES grid steps)."""
@@ -65,7 +76,7 @@ def ends_of_life(model_no: int, bs, nominal: float, failure: float, tfs, now: fl
                 inv0 = 0.0 if np.isinf(nominal) else 1.0 / nominal
                 tau = (inv0 - 1.0 / failure) / bs[:, 0]
         tau = np.where((bs[:, 0] != 0) & np.isfinite(tau) & (tau >= 0), tau, np.inf)
-        return np.where(np.isfinite(tau), np.maximum(tfs + tau, now), np.inf)
+        return np.where(np.isfinite(tau), tfs + tau, np.inf)
     step = float(ts) if ts is not None and ts > 0 and math.isfinite(ts) else STEP
     horizon = HORIZON_SAMPLES * step if horizon is None else horizon
     out = np.full(len(bs), np.inf)
@@ -76,18 +87,26 @@ def ends_of_life(model_no: int, bs, nominal: float, failure: float, tfs, now: fl
         t = np.arange(float(tfs[todo].min()), now + ahead, step)
         p = incipient(t, tfs[todo], nominal, model_no, bs[todo])
         with np.errstate(invalid="ignore"):
-            reached = ((p <= failure) if down else (p >= failure)) & (t >= now)[None, :]
+            reached = ((p <= failure) if down else (p >= failure)) & (t[None, :] >= tfs[todo, None])
         hit = reached.any(axis=1)
         for row, r in zip(todo[hit], np.flatnonzero(hit)):
-            i = int(np.argmax(reached[r]))
-            a, c = p[r, i - 1] if i else np.nan, p[r, i]
-            crossed = i == 0 or not np.isfinite(a) or not np.isfinite(c) or a == c or \
-                ((a <= failure) if down else (a >= failure))     # failed already before now: at now
-            out[row] = max(now, t[i] if crossed else t[i - 1] + (failure - a) / (c - a) * step)
+            out[row] = _crossing(t, p[r], int(np.argmax(reached[r])), failure, down, step)
         todo = todo[~hit]
         if ahead >= horizon:
             break
     return out
+
+
+def _crossing(t: np.ndarray, p: np.ndarray, i: int, failure: float, down: bool, step: float) -> float:
+    """Where a profile ``p`` sampled at ``t`` crosses ``failure``, ``i`` its first sample at or
+    after its onset that has reached it: interpolated between the sample before and ``i``; at
+    ``t[i]`` when the sample before has reached it too (a nominal value past the failure value:
+    failed from the onset), there is none, or either value is not finite (never extrapolated: an
+    interpolation across two failed samples put an end of life hundreds of seconds early)."""
+    a, c = (p[i - 1] if i else np.nan), p[i]
+    if not (np.isfinite(a) and np.isfinite(c)) or a == c or ((a <= failure) if down else (a >= failure)):
+        return float(t[i])
+    return float(t[i - 1] + (failure - a) / (c - a) * step)
 
 
 def _region_ruls(model_no: int, b_band, onsets: list[float], profile, nominal: float, failure: float,
@@ -98,7 +117,7 @@ def _region_ruls(model_no: int, b_band, onsets: list[float], profile, nominal: f
     points += [(list(p["b"]), p["t0"]) for p in profile or ()]
     if not points:
         return []
-    return [float(e) - now for e in ends_of_life(model_no, [c for c, _ in points], nominal, failure,
+    return [max(float(e) - now, 0.0) for e in ends_of_life(model_no, [c for c, _ in points], nominal, failure,
                                                   [start for _, start in points], now, ts=ts)]
 
 
@@ -111,14 +130,17 @@ def prognose(fault: dict, nominal: float, failure: float, tf: float, now: float,
     widened to the RULs of each other degradation model the data
     cannot tell from the fit's (``other_models``, :func:`fdi.estimators.other_models`: its best
     point, the corners of its own intervals and its onset profile); without a band, the band is the RUL itself.
-    ``ts``: the data's sampling period, the grid of eqs. (18) and (19) (see the module's text)."""
+    ``ts``: the data's sampling period, the grid of eqs. (18) and (19) (see the module's text).
+    An end of life already passed stays where the fit crossed the failure value (``eol`` before
+    ``at``), its RUL 0, the band from 0 (see the module's text)."""
     eol = end_of_life(fault["model"], fault["b"], nominal, failure, tf, now, ts=ts)
-    ruls = [eol - now] + _region_ruls(fault["model"], fault.get("b_band"), list(fault.get("t0_band") or []) or [tf],
+    rul = max(eol - now, 0.0)
+    ruls = [rul] + _region_ruls(fault["model"], fault.get("b_band"), list(fault.get("t0_band") or []) or [tf],
                                       fault.get("onset_profile"), nominal, failure, now, ts)
     for other in fault.get("other_models") or []:      # a degradation model the data cannot tell apart
-        ruls.append(end_of_life(other["model"], other["b"], nominal, failure, other["t0"], now, ts=ts) - now)
+        ruls.append(max(end_of_life(other["model"], other["b"], nominal, failure, other["t0"], now, ts=ts) - now, 0.0))
         ruls += _region_ruls(other["model"], other.get("b_band"), list(other.get("t0_band") or []) or [other["t0"]],
                              other.get("onset_profile"), nominal, failure, now, ts)
     finite = [r for r in ruls if np.isfinite(r)]
-    return {"name": fault["name"], "failure": failure, "eol": eol, "rul": eol - now, "at": now,
+    return {"name": fault["name"], "failure": failure, "eol": eol, "rul": rul, "at": now,
             "rul_low": min(finite) if finite else float("inf"), "rul_high": max(finite) if finite else float("inf")}

@@ -309,6 +309,22 @@ class Prognosis:
         return {"name": self.name, "failure": self.failure, "eol": self.eol, "rul": self.rul, "at": self.at,
                 "rul_low": self.rul_low, "rul_high": self.rul_high}
 
+    @property
+    def passed(self) -> bool:
+        """The fitted degradation reached its failure value before ``at`` (``eol`` then dates it;
+        RUL 0): a failure already past, not one at this very sample (:mod:`fdi.prognose`)."""
+        return eol_passed(self.eol, self.at)
+
+    def said(self) -> str:
+        """The RUL and its band as the summary says them, a passed end of life dated."""
+        when = f" (failure value reached at EOL {self.eol:.4g} s: passed)" if self.passed else ""
+        return f"{self.rul:.4g} s at {self.at:.4g} s{when} (band {self.rul_low:.4g} to {self.rul_high:.4g} s)"
+
+
+def eol_passed(eol, at) -> bool:
+    """An end of life before ``at`` (numbers, or None/inf as a report's JSON gives them)."""
+    return isinstance(eol, (int, float)) and isinstance(at, (int, float)) and math.isfinite(eol) and eol < at
+
 
 @dataclass(frozen=True)
 class Episode:
@@ -466,8 +482,7 @@ class Diagnosis:
             lines.append("  no fault identified" + (f" ({self.note})" if self.note else ""))
         elif self.determined is False:
             lines.append(f"  not determined by these data (criterion {self.criterion_without:+.2f}: the note says why)")
-        lines += [f"  RUL of {p.name}: {p.rul:.4g} s at {p.at:.4g} s (band {p.rul_low:.4g} to {p.rul_high:.4g} s)"
-                  for p in self.prognosis if math.isfinite(p.rul)]
+        lines += [f"  RUL of {p.name}: {p.said()}" for p in self.prognosis if math.isfinite(p.rul)]
         return "\n".join(lines)
 
     def _repr_html_(self) -> str:
@@ -478,7 +493,7 @@ class Diagnosis:
         rows += [(f.name, f.describe(self._variable(f.name), value_unit(self.bond_graph, f.name)).split(": ", 1)[1])
                  for f in self.faults] or [
             ("diagnosis", "no fault" if d is None else "no fault identified")]
-        rows += [(f"RUL of {p.name}", f"{p.rul:.2f} s at {p.at:.2f} s (EOL {p.eol:.2f} s)")
+        rows += [(f"RUL of {p.name}", f"{p.rul:.2f} s at {p.at:.2f} s (EOL {p.eol:.2f} s{', passed' * p.passed})")
                  for p in self.prognosis if math.isfinite(p.rul)]
         body = "".join(f"<tr><th style='text-align:left'>{html.escape(str(k))}</th><td style='text-align:left'>"
                        f"{html.escape(str(v)) if '<sub>' not in str(v) else v}</td></tr>" for k, v in rows)

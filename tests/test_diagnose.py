@@ -139,19 +139,21 @@ def test_end_of_life_closed_forms():
     assert end_of_life(4, [0.0, -0.01, 0.0], 1.0, 0.5, 0.0, 0.0) == pytest.approx(np.arccos(0.5) / 0.1, abs=0.02)
 
 
-def test_a_slow_drift_past_its_failure_value_before_now_has_no_life_left():
+def test_a_slow_drift_past_its_failure_value_before_now_is_dated_where_it_crossed():
     """Eqs. (18) and (19) are followed numerically: a slow profile that crossed the failure value
-    before ``now`` fails at ``now`` (RUL 0), never earlier. Designed: eq. (18) with r1 = 1e-3 /s
-    (b3 = r1 - 1/r1), b4 = -2, P0 = 1, so P = 2 - exp(r1 tau) (the other mode, exp(-tau/r1), gone
-    in seconds) reaches 0.5 at ln(1.5)/r1 = 405.5 s; eq. (19) with P'' = -1e-6, P = 1 - 5e-7 tau^2,
-    at 1000 s. Interpolating across a sample where both sides had failed put the end of life
-    hundreds of seconds before now (551.8 s and 1250 s for nows of 1000 s and 2000 s: a two-rooms
-    prognosis printed an RUL band from -960 s)."""
+    before ``now`` has its end of life where it crossed (a passed EOL; its RUL 0: fdi.prognose),
+    neither at ``now`` nor anywhere else. Designed: eq. (18) with r1 = 1e-3 /s (b3 = r1 - 1/r1),
+    b4 = -2, P0 = 1, so P = 2 - exp(r1 tau) (the other mode, exp(-tau/r1), gone in seconds)
+    reaches 0.5 at ln(1.5)/r1 = 405.5 s; eq. (19) with P'' = -1e-6, P = 1 - 5e-7 tau^2, at
+    1000 s. Interpolating across a sample where both sides had failed put the end of life hundreds
+    of seconds before now and off the crossing (551.8 s and 1250 s for nows of 1000 s and 2000 s:
+    a two-rooms prognosis printed an RUL band from -960 s); clamped to now, it read as failing at
+    the last sample."""
     r1 = 1e-3
     assert end_of_life(3, [r1 - 1 / r1, -2.0], 1.0, 0.5, 0.0, 300.0) == pytest.approx(np.log(1.5) / r1, abs=0.02)
-    assert end_of_life(3, [r1 - 1 / r1, -2.0], 1.0, 0.5, 0.0, 1000.0) == 1000.0
+    assert end_of_life(3, [r1 - 1 / r1, -2.0], 1.0, 0.5, 0.0, 1000.0) == pytest.approx(np.log(1.5) / r1, abs=0.02)
     assert end_of_life(4, [0.0, 0.0, -1e-6], 1.0, 0.5, 0.0, 500.0) == pytest.approx(1000.0, abs=0.02)
-    assert end_of_life(4, [0.0, 0.0, -1e-6], 1.0, 0.5, 0.0, 2000.0) == 2000.0
+    assert end_of_life(4, [0.0, 0.0, -1e-6], 1.0, 0.5, 0.0, 2000.0) == pytest.approx(1000.0, abs=0.02)
 
 
 def test_the_end_of_life_is_followed_in_the_data_s_sampling_periods():
@@ -166,6 +168,35 @@ def test_the_end_of_life_is_followed_in_the_data_s_sampling_periods():
     assert end_of_life(3, [r1 - 1 / r1, -2.0], 1.0, 0.5, 0.0, 0.0, ts=1.0) == pytest.approx(np.log(1.5) / r1, abs=0.01)
     assert end_of_life(4, [0.0, 0.0, -1e6], 1.0, 0.5, 0.0, 0.0) == pytest.approx(1e-4, rel=1e-6)
     assert end_of_life(4, [0.0, 0.0, -1e6], 1.0, 0.5, 0.0, 0.0, ts=1e-5) == pytest.approx(1e-3, rel=1e-3)
+
+
+def test_an_end_of_life_already_passed_is_dated_where_the_fit_crossed_with_no_life_left():
+    """A trial's penstock fouling (friction Kp = 7357.5 x exp(b1 (t - t0)), eq. (16), failing at
+    three times its value): the fit b1 = 0.003 /s from t0 = 150 s crosses at 150 + ln(3)/0.003 =
+    516.20 s, before now = 520 s. The EOL is that crossing, not now (the monitor printed EOL =
+    520 s, "now", RUL 0, beside a band to 41 s); the RUL 0, never negative; the band from 0 (its
+    fast corner, b1 = 0.0031 from 148 s, failed at 502.4 s) to its slow corner's life left (b1 =
+    0.0029 from 152 s: 152 + ln(3)/0.0029 = 530.83 s, 10.83 s from now), so it holds the RUL. The
+    text report says the failure value was reached, when, and that it is passed."""
+    import math
+
+    from fdi.app.report import to_text
+    from fdi.prognose import prognose
+    from fdi.results import Prognosis
+    fault = {"name": "Kp", "type": "incipient", "model": 1, "b": [0.003], "t0": 150.0,
+             "b_band": [[0.0029, 0.0031]], "t0_band": [148.0, 152.0]}
+    p = prognose(fault, 7357.5, 22072.5, 150.0, 520.0, ts=0.1)
+    assert p["eol"] == pytest.approx(150.0 + math.log(3.0) / 0.003, abs=1e-6)       # 516.2041 s
+    assert p["rul"] == 0.0 and p["rul_low"] == 0.0
+    assert p["rul_high"] == pytest.approx(152.0 + math.log(3.0) / 0.0029 - 520.0, abs=1e-6)
+    assert Prognosis.from_dict(p).passed
+    detection = {"time": 212.9, "alarm": 233.9, "coherence": [1, 0, 0], "decision_time": 239.2,
+                 "final_coherence": [1, 0, 0]}
+    text = to_text({"detection": detection, "diagnosis": {"faults": []}, "prognosis": [p]}, "m", "d.csv")
+    assert ("prognosis: Kp reached its failure value 22072.5 on the fitted degradation at EOL = 516.20 s, "
+            "3.80 s before 520.00 s (passed): RUL = 0.00 s (95 % band from the fit: 0.00 to 10.83 s)") in text
+    ahead = prognose(fault, 7357.5, 22072.5, 150.0, 500.0, ts=0.1)                   # not yet: as before
+    assert ahead["rul"] == pytest.approx(16.2041, abs=1e-4) and not Prognosis.from_dict(ahead).passed
 
 
 @pytest.mark.parametrize("edit, message", [

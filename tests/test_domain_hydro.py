@@ -95,3 +95,31 @@ def test_window_auto_sets_aside_windows_whose_settling_hides_the_record():
     # the valve's 20 s opening is watched at the chosen window: its stuck-closed fault is seen
     d = diagnose(with_thresholds(MODEL.read_text(), c), run("stuck_closed", 14), Options(workers=1, seed=0)).to_dict()
     assert [f["name"] for f in d["diagnosis"]["faults"]] == ["v_closed"]
+
+
+def test_the_monitor_dates_an_end_of_life_it_sees_pass(calibrated):
+    """The same fouling streamed as ``bgfdi monitor`` replays a file (a user trial's report): the
+    decision at 240 s forecasts the failure, the refreshes refit it, and the refresh at 549.9 s
+    comes after the true end of life (150 + ln(3) / 0.003 = 516.2 s). That refresh dates the
+    failure where its refit crossed the failure value, within 1.5 s of the truth, with no life
+    left (RUL 0, the band from 0): it reported the EOL at its own time, 549.9 s, as if the
+    penstock failed at that sample."""
+    import math
+
+    import numpy as np
+
+    from fdi.monitor import Monitor
+    truth = 150.0 + math.log(3.0) / 0.003
+    d = plant.columns("fouling", 13)
+    header = list(d)
+    table = np.column_stack([d[h] for h in header])
+    events: list[dict] = []
+    stream = Monitor(calibrated).stream(events.append, Options(workers=1, seed=0), live=False, worker="thread")
+    for a in range(0, table.shape[0], 500):
+        stream.feed(header, table[a:a + 500])
+    stream.close()
+    after = [p for e in events if e["event"] == "prognosis" for p in e["prognosis"] if p["at"] > truth + 5.0]
+    assert after, "no prognosis refresh after the true end of life"
+    for p in after:
+        assert p["eol"] == pytest.approx(truth, abs=1.5) and p["eol"] < p["at"]
+        assert p["rul"] == 0.0 and p["rul_low"] == 0.0 <= p["rul_high"]

@@ -5,7 +5,7 @@ import math
 from typing import Mapping
 
 from ..isolate import COVERING_NOTE
-from ..results import DETERMINED, Coincidence, Fault, _vec, partners
+from ..results import DETERMINED, Coincidence, Fault, _vec, eol_passed, partners
 
 
 def describe_fault(f: dict, variables: Mapping[str, str] | None = None, units: Mapping[str, str] | None = None) -> str:
@@ -137,6 +137,11 @@ def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[st
             # infinite (null in JSON): the fitted degradation never gets there
             out.append(f"prognosis: {p['name']} does not reach its failure value {p['failure']:g} on the fitted "
                        f"degradation (EOL = inf; RUL at {p['at']:.2f} s = inf){band}")
+            continue
+        if eol_passed(p["eol"], p["at"]):           # crossed before now: dated, not read as failing at this sample
+            out.append(f"prognosis: {p['name']} reached its failure value {p['failure']:g} on the fitted degradation "
+                       f"at EOL = {p['eol']:.2f} s, {p['at'] - p['eol']:.2f} s before {p['at']:.2f} s (passed): "
+                       f"RUL = {p['rul']:.2f} s{band}")
             continue
         out.append(f"prognosis: {p['name']} reaches its failure value {p['failure']:g} at EOL = {p['eol']:.2f} s; "
                    f"RUL at {p['at']:.2f} s = {p['rul']:.2f} s{band}")
