@@ -773,7 +773,7 @@ def significance(p: Prepared, d: Diagnosis, now: float, floors: np.ndarray | Non
         levels = np.where(np.isfinite(floors) & (floors > 0), floors, levels)
     kept, dropped, without, left = significant(p.monitor, p.meas, p.raw, start, span,
                                                 [f.to_dict() for f in d.faults], p.weights, p.modes,
-                                                quiet=(levels, p.rule))
+                                                quiet=(levels, p.rule), healthy=healthy_stretch(p, d))
     d = replace(d, faults=faults_of(kept) if dropped else d.faults, insignificant=dropped or None,
                 criterion_without=without)
     unexplained = None
@@ -784,6 +784,19 @@ def significance(p: Prepared, d: Diagnosis, now: float, floors: np.ndarray | Non
                        f"input reads (its unit or scale, a frozen or saturated channel) or a fault the model lacks")
     notes = [n for n in (unexplained, undetermined(p, d), at_bounds(p, d.faults)) if n]
     return replace(d, note="; ".join(([d.note] if d.note else []) + notes)) if notes else d
+
+
+def healthy_stretch(p: Prepared, d: Diagnosis) -> tuple[float, int] | None:
+    """The start (s) and samples of the fault-free stretch before the detection and every final
+    fault's onset (its earliest band's start), less a derivative window (:func:`nominal_span`), at
+    most an identification window long; None when too short to judge."""
+    first = min([d.detection.time] + [f.t0_band[0] if f.t0_band else f.t0 for f in d.faults
+                                      if f.type != "mode" and f.t0 is not None])
+    before = nominal_span(p, first)
+    if before is None:
+        return None
+    n = min(p.samples, before.size)
+    return float(p.meas.t[before[-n]]), n
 
 
 UNEXPLAINED = 100.0   # a final fit leaving the residuals this many thresholds away on average explains nothing:

@@ -280,13 +280,17 @@ class Alternative:
 class Dropped:
     """A fault of the final fit that does not earn its parameters: the criterion's change without it;
     ``unseen``: left out as its own effect on the residuals stays within their noise floor by the
-    detector's rule (:func:`fdi.decide.unseen`), whatever the criterion says."""
+    detector's rule (:func:`fdi.decide.unseen`), whatever the criterion says; ``before``: as it
+    fits the fault-free data before the onset better than the model does (a mismatch of the model
+    or of the filter that was there before any fault, :func:`fdi.decide.before_onset`)."""
     fault: dict
     criterion_without: float
     unseen: bool = False
+    before: bool = False        # left out as it fits the data before the onset too (:func:`fdi.decide.before_onset`)
 
     def to_dict(self) -> dict:
-        return {**self.fault, "criterion_without": self.criterion_without, "unseen": self.unseen}
+        return {**self.fault, "criterion_without": self.criterion_without, "unseen": self.unseen,
+                "before": self.before}
 
 
 @dataclass(frozen=True)
