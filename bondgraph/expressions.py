@@ -39,6 +39,7 @@ from .canonical import product, quotient
 FUNCTIONS: dict[str, object] = {
     "sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "asin": sp.asin, "acos": sp.acos,
     "atan": sp.atan, "atan2": sp.atan2, "sinh": sp.sinh, "cosh": sp.cosh, "tanh": sp.tanh,
+    "asinh": sp.asinh, "acosh": sp.acosh, "atanh": sp.atanh,
     "exp": sp.exp, "log": sp.log, "sqrt": sp.sqrt, "abs": sp.Abs, "sign": sp.sign,
     "min": sp.Min, "max": sp.Max, "heaviside": sp.Heaviside,
 }
@@ -122,6 +123,7 @@ def _power(base: sp.Expr, exponent: sp.Expr, src: str) -> sp.Expr:
 # the functions as floats, for the constant parts' range check (:func:`_doubles`)
 _FLOATS = {"sin": math.sin, "cos": math.cos, "tan": math.tan, "asin": math.asin, "acos": math.acos,
            "atan": math.atan, "atan2": math.atan2, "sinh": math.sinh, "cosh": math.cosh, "tanh": math.tanh,
+           "asinh": math.asinh, "acosh": math.acosh, "atanh": math.atanh,
            "exp": math.exp, "log": math.log, "sqrt": math.sqrt, "abs": abs,
            "sign": lambda x: float((x > 0) - (x < 0)), "min": min, "max": max,
            "heaviside": lambda x, h=0.5: 0.0 if x < 0 else (1.0 if x > 0 else h)}

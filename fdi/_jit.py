@@ -19,8 +19,8 @@ MIN_STEPS19 = 100   # fdi.profiles.MIN_STEPS19 (likewise)
 
 from .profiles import _exp
 from .trig import _trig
-from .tape import (ABS, ACOS, ADD, ASIN, ATAN, CONST, COS, COSH, DIV, EXP, LOADF, LOADP, LOADS, LOG, MUL, NEG, POW,  # noqa: F401
-                   RECIP, SIGN, SIN, SINH, SQRT, SQUARE, SUB, TAN)
+from .tape import (ABS, ACOS, ACOSH, ADD, ASIN, ASINH, ATAN, ATANH, CONST, COS, COSH, DIV, EXP, LOADF,  # noqa: F401
+                   LOADP, LOADS, LOG, MUL, NEG, POW, RECIP, SIGN, SIN, SINH, SQRT, SQUARE, SUB, TAN)
 
 
 @njit(cache=True, nogil=True)
@@ -580,6 +580,15 @@ def _tape(code, R, L, s0, F, P, S, consts):  # pragma: no cover - compiled
             elif op == COSH:
                 for t in range(L):
                     out[t] = np.cosh(u[t])
+            elif op == ASINH:
+                for t in range(L):
+                    out[t] = np.arcsinh(u[t])
+            elif op == ACOSH:
+                for t in range(L):
+                    out[t] = np.arccosh(u[t])
+            elif op == ATANH:
+                for t in range(L):
+                    out[t] = np.arctanh(u[t])
             else:
                 for t in range(L):
                     out[t] = np.tanh(u[t])

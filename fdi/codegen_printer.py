@@ -38,6 +38,7 @@ from .errors import UsageError
 
 # sympy's functions a residual may hold that print as C99 with numpy's meaning (helpers where needed)
 SUPPORTED = (sp.sin, sp.cos, sp.tan, sp.asin, sp.acos, sp.atan, sp.atan2, sp.sinh, sp.cosh, sp.tanh,
+             sp.asinh, sp.acosh, sp.atanh,
              sp.exp, sp.log, sp.Abs, sp.sign, sp.Min, sp.Max, sp.Heaviside, sp.Piecewise)
 
 HELPERS = {

@@ -19,7 +19,8 @@ typedef uint8_t B;
 /* the tape's operations (fdi.tape) */
 enum { LOADF = 0, LOADP = 1, LOADS = 2, CONST = 3,
        ADD = 10, SUB = 11, MUL = 12, DIV = 13, POW = 14, ATAN2 = 15,
-       NEG = 20, ABS, SIGN, SQRT, SQUARE, RECIP, EXP, LOG, SIN, COS, TAN, ASIN, ACOS, ATAN, SINH, COSH, TANH };
+       NEG = 20, ABS, SIGN, SQRT, SQUARE, RECIP, EXP, LOG, SIN, COS, TAN, ASIN, ACOS, ATAN, SINH, COSH, TANH,
+       ASINH, ACOSH, ATANH };
 
 #define PI 3.141592653589793     /* numpy's pi, the same double */
 #define NCOEFFS 7       /* the decoded coefficients the kernel reads (fdi.fused.COEFFS) */
@@ -879,6 +880,9 @@ static void run_tape(const I *code, I ncode, double *R, I block, I L, I s0, cons
             case ATAN: for (I t = 0; t < L; t++) out[t] = atan(u[t]); break;
             case SINH: for (I t = 0; t < L; t++) out[t] = sinh(u[t]); break;
             case COSH: for (I t = 0; t < L; t++) out[t] = cosh(u[t]); break;
+            case ASINH: for (I t = 0; t < L; t++) out[t] = asinh(u[t]); break;
+            case ACOSH: for (I t = 0; t < L; t++) out[t] = acosh(u[t]); break;
+            case ATANH: for (I t = 0; t < L; t++) out[t] = atanh(u[t]); break;
             default: for (I t = 0; t < L; t++) out[t] = tanh(u[t]); break;
             }
         }

@@ -46,12 +46,14 @@ import numpy as np
 # opcodes (fdi._jit reads them as constants): loads into a register, then elementwise operations
 LOADF, LOADP, LOADS, CONST, COPY = 0, 1, 2, 3, 4
 ADD, SUB, MUL, DIV, POW, ATAN2 = 10, 11, 12, 13, 14, 15
-NEG, ABS, SIGN, SQRT, SQUARE, RECIP, EXP, LOG, SIN, COS, TAN, ASIN, ACOS, ATAN, SINH, COSH, TANH = range(20, 37)
+(NEG, ABS, SIGN, SQRT, SQUARE, RECIP, EXP, LOG, SIN, COS, TAN, ASIN, ACOS, ATAN, SINH, COSH, TANH,
+ ASINH, ACOSH, ATANH) = range(20, 40)
 NAMES = {v: k for k, v in dict(globals()).items() if k.isupper() and isinstance(v, int)}
 
 UNARY = {np.negative: NEG, np.absolute: ABS, abs: ABS, np.sign: SIGN, np.sqrt: SQRT, np.square: SQUARE,
          np.reciprocal: RECIP, np.exp: EXP, np.log: LOG, np.sin: SIN, np.cos: COS, np.tan: TAN,
-         np.arcsin: ASIN, np.arccos: ACOS, np.arctan: ATAN, np.sinh: SINH, np.cosh: COSH, np.tanh: TANH}
+         np.arcsin: ASIN, np.arccos: ACOS, np.arctan: ATAN, np.sinh: SINH, np.cosh: COSH, np.tanh: TANH,
+         np.arcsinh: ASINH, np.arccosh: ACOSH, np.arctanh: ATANH}
 BINARY = {np.arctan2: ATAN2, np.power: POW}
 BINOPS = {ast.Add: (ADD, operator.add), ast.Sub: (SUB, operator.sub), ast.Mult: (MUL, operator.mul),
           ast.Div: (DIV, operator.truediv), ast.Pow: (POW, operator.pow)}

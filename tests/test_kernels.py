@@ -746,3 +746,45 @@ def test_the_tapes_cos_sin_and_tan_are_within_one_ulp_and_the_same_on_every_comp
                 kernels.use(before)
             assert np.array_equal(got, want, equal_nan=True), path
             assert np.array_equal(np.signbit(got[~np.isnan(got)]), np.signbit(want[~np.isnan(want)])), path
+
+
+def test_the_inverse_hyperbolic_functions_run_compiled_as_numpy_computes_them(tmp_path):
+    """asinh, acosh and atanh (whitelisted in model files) on the tapes: an electrode's charge
+    transfer by the symmetric Butler-Volmer law (Bard & Faulkner, eq. 3.4.11 with alpha = 1/2:
+    i = 2 i0 sinh(eta / (2 V0)), eta = 2 V0 asinh(i / (2 i0))) driven by a voltage and read by its
+    current has the residual u - 2 V0 asinh(i / (2 i0)), the exchange current i0 (a fouled
+    electrode) a candidate fault inside the asinh; the compiled objective (C, numba) takes it whole
+    (a tape, not the numpy fallback) and gives numpy's costs on the law's own data."""
+    text = """
+name: electrode
+parameters: {i0: {value: 0.02, unit: A}, V0: {value: 0.0257, unit: V}}
+data: {columns: [t, u, i], sampling_time: 0.001}
+inputs: {u: {unit: V, column: u, expr: "0.1*sin(2*pi*t)"}}
+elements:
+  source: {type: MSe, input: u}
+  transfer: {type: R, effort: "2*V0*asinh(f/(2*i0))", flow: "2*i0*sinh(e/(2*V0))"}
+junctions: {J: {type: "1"}}
+sensors: {i: {type: Df, junction: J, column: i, unit: A}}
+bonds: {1: [source, J], 2: [J, transfer]}
+faults: {i0: {kind: parametric, parameters: [i0], bounds: [0.0002, 2.0]}}
+thresholds: {ARR1: 0.001}
+diagnosis: {derivative_window: 0.02}
+"""
+    model = tmp_path / "m.yaml"
+    model.write_text(text)
+    t = np.arange(3001) * 0.001
+    u = 0.1 * np.sin(2 * np.pi * t)
+    i = 2 * 0.02 * np.sinh(u / (2 * 0.0257)) * np.where(t >= 1.5, 0.5, 1.0)     # i0 halved from 1.5 s
+    obj = _objective(model, {"t": t, "u": u, "i": i}, 1.0, ("i0",))
+    assert "asinh" in str(obj.residuals[0].expr)
+    real, bits = random_population(obj, 24, np.random.default_rng(2))
+    (c0, _), (c1, _) = both(lambda: obj.evaluate(real, bits, 1))
+    assert np.array_equal(np.isfinite(c0), np.isfinite(c1)) and np.isfinite(c0).sum() > 12
+    assert np.allclose(c1[np.isfinite(c0)], c0[np.isfinite(c0)], rtol=1e-9, atol=0.0)
+    before = kernels.use(kernels.available()[0])
+    try:
+        assert obj.fused() is not None               # the tape took the asinh
+    finally:
+        kernels.use(before)
+    from fdi import tape
+    assert {tape.UNARY[f] for f in (np.arcsinh, np.arccosh, np.arctanh)} == {tape.ASINH, tape.ACOSH, tape.ATANH}
