@@ -950,8 +950,10 @@ def _nonzero_modulus(ctx, where, kind: str, name: str, modulus: sp.Expr, paramet
     except (TypeError, ValueError, OverflowError):
         return
     if number == 0 or not (math.isfinite(number.real) and math.isfinite(number.imag)):
-        raise ctx.error(where + ("modulus",), f"{kind} element '{name}' has modulus {modulus} = "
-                        f"{number.real:g} at the parameters' values: a {kind} of modulus 0 or not finite couples "
+        at = ", ".join(f"{s} = {v:g}" for s, v in sorted(values.items(), key=lambda x: str(x[0])))
+        said = "0" if number == 0 else "not finite"
+        raise ctx.error(where + ("modulus",), f"{kind} element '{name}' has modulus {modulus}, {said} at the "
+                        f"parameters' values{f' ({at})' if at else ''}: a {kind} of modulus 0 or not finite couples "
                         "nothing (its two sides are two systems) and the derivation divides by it; give its "
                         "nonzero, finite value (SI units), or remove the element")
 
