@@ -16,9 +16,12 @@ KINDS = {"abrupt": 1, "intermittent": 2, "mode": 0}    # parameters per fault; i
 
 def parameters(faults: list[dict]) -> int:
     """The identified parameters of an explanation: a value per abrupt fault, value and period per
-    intermittent one, its coefficients per incipient one, none for a mode fault; plus the onset."""
+    intermittent one, its coefficients per incipient one, none for a mode fault; plus the onset,
+    and a mode fault's own where it was searched (its ``t0``: a fault mode dated, as a component
+    fault's onset is, pays for it as that does)."""
     n = sum(KINDS[f["type"]] if f["type"] in KINDS else len(f.get("b", ())) for f in faults)
-    return n + (1 if any(f["type"] != "mode" for f in faults) else 0)
+    dated = sum(1 for f in faults if f["type"] == "mode" and f.get("t0") is not None)
+    return n + (1 if any(f["type"] != "mode" for f in faults) else 0) + dated
 
 
 def effective_samples(samples: int, residuals: int, ts: float, window_s: float) -> float:

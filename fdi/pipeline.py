@@ -663,7 +663,8 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
 
 SAME_FIT = 0.01       # a component fault set that fits within this share of a winning fault mode's cost is listed
                       # beside it, whatever its parameters cost (a relief valve stuck open and a leak of its
-                      # resistance: one physics on the data, the criterion alone +8 for the leak's value and onset)
+                      # resistance: one physics on the data, the criterion alone +4 for the leak's value; the
+                      # onsets of both are charged, fdi.criterion.parameters)
 ONSET_GRID = 24        # a mode fault's onset: first on this many steps over its band, then to the sample
 
 

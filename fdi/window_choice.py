@@ -57,7 +57,7 @@ class WindowScore:
     detectable: dict[str, float]
     score: float
     rule: bool = False
-    judged: float = 1.0                                # the share of the shortest run it judges (settling, ends)
+    judged: float = 1.0                                # the least share of a run it judges (settling, ends)
     modes: tuple[str, ...] = ()                        # the commanded modes where a residual has samples ("v=1")
 
 
@@ -210,7 +210,7 @@ MAX_LOSS = 0.1     # a window may judge at most this share of a run less than th
 
 def set_aside(scores: list[WindowScore]) -> dict[float, str]:
     """The candidate windows --window auto does not take whatever their scores, by window, and why:
-    one that judges over MAX_LOSS of the shortest run less than the rule's (its settling: a surge
+    one that judges over MAX_LOSS of a run less than the rule's (the least share over the runs) (its settling: a surge
     tank's 21 s window left the first 262 s of 600 unjudged, a fault there undetected and every
     detection dated after it) or leaves a commanded mode the rule's window watches without a
     residual sample (a relief valve opened for 20 s: its stuck-closed fault undetectable). None
@@ -222,7 +222,7 @@ def set_aside(scores: list[WindowScore]) -> dict[float, str]:
     for s in scores[1:]:
         lost = sorted(set(rule.modes) - set(s.modes))
         if s.judged < rule.judged - MAX_LOSS:
-            out[s.window] = (f"it judges {100 * s.judged:.0f} % of the shortest run, the rule's "
+            out[s.window] = (f"it judges {100 * s.judged:.0f} % of a run at least, the rule's "
                              f"{100 * rule.judged:.0f} % (its settling)")
         elif lost:
             out[s.window] = "no residual while " + "; ".join(lost) + " (stretches shorter than it)"

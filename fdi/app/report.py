@@ -109,8 +109,9 @@ def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[st
     faults = report["diagnosis"]["faults"]
     for f in report.get("insignificant") or []:
         why = ("its own effect on the residuals stays within their noise" if f.get("unseen") else
-               "it fits the data before the onset better than the fault-free model: a mismatch there before any "
-               "fault, not a fault" if f.get("before") else
+               "switched in before the onset, it fits the healthy data there better than the model does, by the "
+               "criterion: the model's mismatch, there before any fault, or a fault too small to tell from it"
+               if f.get("before") else
                f"its parameters do not pay on the data since the detection: criterion {f['criterion_without']:+.2f} "
                f"without it")
         out.append(f"  left out: {describe_fault(f, variables, units)} ({why})")
