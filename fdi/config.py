@@ -182,6 +182,7 @@ def _fault_settings(doc: Document, model: Model) -> dict[str, FaultSettings]:
             raise doc.error(where + ("failure",), "a mode fault has no degradation to prognose: remove its failure value")
         if failure is not None:
             failure = doc.number(failure, where + ("failure",), "failure")
+            _reachable(doc, model, name, failure, where + ("failure",))
         if bounds is not None or failure is not None:
             out[str(name)] = FaultSettings(bounds, failure)
     return out
@@ -203,6 +204,24 @@ def _same_sign(doc: Document, model: Model, name: str, bounds: tuple[float, floa
             side = "a lower bound of 0 or more" if value > 0 else "an upper bound of 0 or less"
             raise doc.error(where, f"bounds [{bounds[0]:g}, {bounds[1]:g}] cross 0 from {p} = {value:g}: the search "
                                    f"would change the parameter's sign (a passive element turned active); give {side}")
+
+
+def _reachable(doc: Document, model: Model, name: str, failure: float, where: tuple) -> None:
+    """A failure value on the other side of 0 from its parameter (or from an efficiency factor's 1)
+    is one the degradation never reaches without the element turning active (a trial's conductance
+    of 500 W/K given failure: -250 was accepted, and its prognosis said EOL = inf without a word)."""
+    fault = model.faults[name]
+    if fault.kind == "parametric" and len(fault.targets) == 1:
+        value, what = getattr(model.parameters.get(fault.targets[0]), "value", None), fault.targets[0]
+    elif fault.kind in ("sensor", "source") and fault.effect == "gain":
+        value, what = 1.0, f"beta_{fault.targets[0]}"
+    else:
+        return
+    if isinstance(value, (int, float)) and math.isfinite(value) and value * failure < 0:
+        kind = "parameter" if fault.kind == "parametric" else "factor"
+        raise doc.error(where, f"failure {failure:g} is on the other side of 0 from {what} = {value:g}: the "
+                               f"degradation never reaches it without changing the {kind}'s sign; give the value "
+                               f"at which the component has failed, of {what}'s sign")
 
 
 def load(path: str | Path) -> tuple[Model, MonitorConfig]:

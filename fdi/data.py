@@ -415,8 +415,9 @@ def checked(path: str, header: list[str], table: np.ndarray, in_memory: bool = F
     time = cols["t"]
     largest = max(time.max(), -time.min())                        # max |t|, without an array of |t|
     if largest > MAX_TIME:
-        raise DataError(f"{path}: time values beyond {MAX_TIME:.0e} s (largest {largest:.3g}); "
-                        "the t column must be time in s")
+        far = float(time.max()) if time.max() >= -time.min() else float(time.min())
+        raise DataError(f"{path}: time values beyond +-{MAX_TIME:.0e} s ({'largest' if far > 0 else 'smallest'} "
+                        f"{far:.10g} s); the t column must be time in s")
     dt = np.diff(time)
     if not (dt > 0).all():
         i = int(np.flatnonzero(dt <= 0)[0])

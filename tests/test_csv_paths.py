@@ -53,3 +53,14 @@ def test_every_path_refuses_in_the_same_words(tmp_path, path_kind, bad, words):
 def test_a_number_only_python_reads_is_read_as_python_reads_it(tmp_path, path_kind):
     got = read_csv(_write(tmp_path / "d.csv", ["0,1_000,2,3,4,5", "0.01, 7 ,2,3,4,5", "0.02,1,2,3,4,5"]))
     assert got.columns["u_in"].tolist() == [1000.0, 7.0, 1.0]
+
+
+@pytest.mark.parametrize("start, said", [(-1_000_000_005.0, "smallest -1000000005 s"),
+                                         (1_000_000_005.0, "largest 1000000007 s")])
+def test_time_stamps_beyond_a_billion_seconds_are_named_with_their_sign(tmp_path, path_kind, start, said):
+    """Times of -1e9 s were refused as "beyond 1e+09 s (largest 1e+09)": rounded to read as within
+    the bound, and "largest" of the most negative. The value is named whole, with its sign."""
+    path = _write(tmp_path / "far.csv", [f"{start + k:.1f},1,2,3,4,5" for k in range(3)])
+    with pytest.raises(DataError) as err:
+        read_csv(path)
+    assert "time values beyond +-1e+09 s" in str(err.value) and said in str(err.value)

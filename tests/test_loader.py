@@ -407,3 +407,18 @@ def test_a_sensor_computed_from_other_sensors_columns_is_refused():
     own = derived.replace('"theta_m/10 - theta_L"', '"theta_m/10 - theta_s"').replace(
         "columns: [t, u, i, theta_m, theta_L]", "columns: [t, u, i, theta_m, theta_L, theta_s]")
     assert "twist" in load_model_text(own, "servo_twist_own.yaml").sensors
+
+
+@pytest.mark.parametrize("fault, said", [
+    ("R_up: {kind: parametric, parameters: [R], failure: -50.0}", "faults.R_up.failure: failure -50 is on the other "
+                                                                  "side of 0 from R = 100"),
+    ("gain_v: {kind: sensor, sensor: v, failure: -0.5}", "failure -0.5 is on the other side of 0 from beta_v = 1")])
+def test_a_failure_value_on_the_other_side_of_zero_is_refused(tmp_path, capsys, fault, said):
+    """A conductance of 500 W/K given failure: -250 (a trial) was accepted and prognosed EOL = inf:
+    no degradation reaches it without the element turning active. 0 stays allowed (a heater's power
+    that vanishes)."""
+    code, err = _check_line(tmp_path, capsys, BASE + "faults:\n  " + fault + "\n")
+    assert code == 2 and said in err
+    path = tmp_path / "zero.yaml"
+    path.write_text(BASE + "faults:\n  R_up: {kind: parametric, parameters: [R], failure: 0.0}\n", encoding="utf-8")
+    assert main(["check", str(path)]) == 0
