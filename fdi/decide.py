@@ -120,9 +120,9 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
     beside the offset went too (a review: criterion +261 without it).
 
     ``healthy``: the start (s) and samples of a stretch before every fault's onset. Of two faults
-    or more, one that, switched in from that stretch's start, fits it better than the fault-free
-    model is a mismatch that was there before any fault, not a fault, and goes too
-    (:func:`before_onset`, the largest gain first)."""
+    or more, the proper subset that, switched in from that stretch's start, fits it better than the
+    fault-free model by the stretch's own criterion (the largest such gain) is a mismatch there
+    before any fault, or a fault too small to tell from it, and goes too (:func:`before_onset`)."""
     model, residuals, w = monitor.model, monitor.residuals, monitor.config.derivative_window
     win = window(meas.t, raw, start, span, w)
     n_eff = effective_samples(span, len(residuals), meas.ts, w)
