@@ -2,10 +2,10 @@
 from __future__ import annotations
 
 import math
-from typing import Mapping
+from typing import Collection, Mapping
 
 from ..isolate import COVERING_NOTE
-from ..results import DETERMINED, Coincidence, Fault, _vec, eol_passed, partners
+from ..results import COMMANDED, DETERMINED, Coincidence, Fault, _vec, eol_passed, partners
 
 
 def describe_fault(f: dict, variables: Mapping[str, str] | None = None, units: Mapping[str, str] | None = None) -> str:
@@ -13,6 +13,17 @@ def describe_fault(f: dict, variables: Mapping[str, str] | None = None, units: M
     entry names the fault, ``in_stuck_open``; the text says which variable it sets); ``units``:
     each fault's value's unit (:func:`fdi.results.value_unit`)."""
     return Fault.from_dict(f).describe((variables or {}).get(f["name"]), (units or {}).get(f["name"], ""))
+
+
+def _estimate(variable: str, value, autonomous: Collection[str]) -> str:
+    """One variable of the fault-mode estimate: its value, ``commanded`` where it follows its
+    command, and for an autonomous mode (a diode, a thermostat's wax) ``as its condition`` (the
+    report's value is "commanded" for both: a trial read "th=commanded" of a mode with no command).
+
+    >>> _estimate("th", "commanded", {"th"}), _estimate("v", "commanded", ()), _estimate("v", 1, ())
+    ('th=as its condition', 'v=commanded', 'v=1')
+    """
+    return f"{variable}={'as its condition' if value == COMMANDED and variable in autonomous else value}"
 
 
 def _confidence(margin) -> str:
@@ -37,7 +48,7 @@ def _raced_out(e: dict, candidates: list | None = None) -> str:
 
 
 def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[str, str] | None = None,
-            units: Mapping[str, str] | None = None) -> str:
+            units: Mapping[str, str] | None = None, autonomous: Collection[str] = ()) -> str:
     out = [f"bgfdi diagnosis of {data_name} with model {model_name}"]
     det = report.get("detection")
     if det is None:
@@ -54,7 +65,7 @@ def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[st
         cost = report.get("mode_fault_cost")
         fitness = "" if cost is None else f" (a mode fault: fitness {1.0 / (cost + 1e-12):.4g}, no parameter)"
         out.append(f"suspected mode change(s) from the MCSM: {', '.join(report['suspected_mode_changes'])}; "
-                   f"fault-mode estimator: {' '.join(f'{k}={v}' for k, v in (report.get('mode_estimate') or {}).items())}"
+                   f"fault-mode estimator: {' '.join(_estimate(k, v, autonomous) for k, v in (report.get('mode_estimate') or {}).items())}"
                    f"{fitness}")
     out.append("mode: " + (" ".join(f"{k}={v}" for k, v in mode.items()) or "(none)"))
     cands = report.get("candidates") or []
