@@ -549,7 +549,7 @@ def format_calibration(c: Calibration) -> str:
         if rule.rule:
             lines.append(f"derivative window: {c.window:.4g} s ({c.window_samples} samples), chosen by --window auto "
                          f"from {span}; the rule's {rule.window:.4g} s): the smallest change each fault needs to be "
-                         f"detected, geometric mean {100 * rule.score:.3g} % at the rule's, {100 * pick.score:.3g} % "
+                         f"detected (relative to its value; an offset's to its signal's RMS), geometric mean {100 * rule.score:.3g} % at the rule's, {100 * pick.score:.3g} % "
                          f"at this one")
             for f in pick.detectable:
                 lines.append(f"  {f}: {_change(rule.detectable[f])} -> {_change(pick.detectable[f])}")
@@ -557,8 +557,8 @@ def format_calibration(c: Calibration) -> str:
             lines.append(f"derivative window: {c.window:.4g} s ({c.window_samples} samples), chosen by --window auto "
                          f"from {span}): the rule's window left over half a run without residuals (stretches "
                          f"between mode switches shorter than it, or a settling as long as a run); the smallest "
-                         f"change each fault needs to be "
-                         f"detected, geometric mean {100 * pick.score:.3g} % at this one")
+                         f"change each fault needs to be detected (relative to its value; an offset's to its "
+                         f"signal's RMS), geometric mean {100 * pick.score:.3g} % at this one")
             for f in pick.detectable:
                 lines.append(f"  {f}: {_change(pick.detectable[f])}")
             if c.unscored:
