@@ -188,26 +188,19 @@ class _Assigner:
                 storage[e.name] = want
             law_key, inv_key, energy, local = STORAGE_KEYS[e.kind]
             add = f"add {inv_key}: <law in {local}> to elements.{e.name} (the {energy} of a given {local})"
+            held = diag and not can            # integral by SCAPH's own choice, for want of the inverse
             if not can and storage[e.name] == "derivative":
                 # (diagnosis or simulation: the law is read backwards here; without that form no residual
                 # or simulation can be computed, however the other elements are assigned)
                 self.problems.append(f"storage {e.name} ({e.kind}) needs derivative causality here, and its "
                                      f"'{law_key}' law gives {local} of {energy} only: {add}")
-            elif diag and not can and e.name not in read:
+            elif storage[e.name] != want or held:
+                twin = self._twin_storage(e.name, other) if diag and not held else None
                 self.problems.append(
-                    f"storage {e.name} ({e.kind}) is held in integral causality: its '{law_key}' law gives {local} "
-                    f"of {energy} only (derivative causality needs the inverse), and its state is not measured: "
-                    f"the residuals that eliminate it come from structural analysis, below; {add}, or a sensor "
-                    f"on its junction measuring its state (measures: {'displacement for a C on a 1-junction' if e.kind == 'C' else 'momentum for an I on a 0-junction'}), "
-                    f"gives residuals that read it")
-            elif diag and not can:
-                self.problems.append(f"storage {e.name} ({e.kind}) is held in integral causality (its state is "
-                                     f"measured: {_readings(read[e.name])}; the residuals that read it there come "
-                                     f"from structural analysis, below)")
-            elif storage[e.name] != want:
-                twin = self._twin_storage(e.name, other) if diag else None
-                self.problems.append(
-                    f"storage {e.name} ({e.kind}) is forced into {storage[e.name]} causality "
+                    f"storage {e.name} ({e.kind}) "
+                    + (f"is held in integral causality: its '{law_key}' law gives {local} of {energy} only "
+                       f"(derivative causality needs the inverse) " if held else
+                       f"is forced into {storage[e.name]} causality ")
                     + (f"(its state follows {twin}'s: both on {other}, whose common "
                        f"{'flow' if e.kind == 'C' else 'effort'} is the rate of both; write them as one "
                        f"{e.kind} whose {'effort law in q' if e.kind == 'C' else 'flow law in p'} sums theirs, "
@@ -215,8 +208,9 @@ class _Assigner:
                        (f"(its state is measured: {_readings(read[e.name])}; the residuals that read it there come "
                         f"from structural analysis, below)" if e.name in read else
                         "(its state is not measured: residuals that eliminate it come from structural analysis, "
-                        "below; a sensor on its junction measuring its state (measures: displacement for a C on a "
-                        "1-junction, momentum for an I on a 0-junction) gives residuals that read it)") if diag else
+                        f"below; {add + ', or ' if held else ''}a sensor on its junction measuring its state "
+                        "(measures: displacement for a C on a 1-junction, momentum for an I on a 0-junction) gives "
+                        "residuals that read it)") if diag else
                        "(a dependent storage element: the simulator reduces it, see bondgraph.simulation)"))
         self._free_controlled_junctions()
         resistors = self._resistors()

@@ -83,7 +83,7 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
     mode only), at its nominal parameter values updated by ``values``. ``failed`` (reason -> modes)
     collects why modes could not be linearised, for a caller that asks mode by mode."""
     from .errors import CausalityError
-    from .simulation import SimulationError, _initial_state, _jacobian, build_system
+    from .simulation import SimulationError, _initial_state
 
     base = {k: float(v) for k, v in model.nominal_by_name().items()}
     base.update(values or {})
@@ -96,9 +96,7 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
     for mode in modes or [{m: model.modes[m].nominal for m in model.modes}]:
         vals = dict(base, **{k: float(v) for k, v in mode.items()})
         try:
-            system = build_system(model, vals)
-            p = [vals[n] if n in vals else 0.0 for n in system.param_names]
-            c = system.prepare(p)
+            system, c = _prepared(model, vals)
             x0 = _initial_state(system, model.initial, 0.0, vals)
         except (SimulationError, CausalityError, ValueError, KeyError) as exc:
             failed.setdefault(str(exc), []).append(dict(mode))
@@ -111,18 +109,12 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
         for k in range(POINTS):
             x = x0 if k == 0 else x0 * (1 + 0.5 * rng.standard_normal(len(x0))) + 1e-3 * rng.standard_normal(len(x0))
             try:
-                with np.errstate(all="ignore"):     # (a point outside a law's domain: skipped below)
-                    jac = _jacobian(system.f, 0.0, tuple(float(v) for v in x), c)
-                lam = np.linalg.eigvals(jac)
-            except (ArithmeticError, ValueError, TypeError, np.linalg.LinAlgError):
-                # a point outside a law's domain: a gas spring's (p0/pa)^(1/n) at a perturbed pa < 0
-                # is complex, which Python's math refuses with a TypeError (a user's accumulator
-                # model: check, calibrate, diagnose and simulate died with a traceback)
-                continue
+                lam = _eigenvalues(system, c, x)
             except NameError as exc:         # a function the compiled equations lack (besselj)
                 failed.setdefault(f"its equations cannot be evaluated: {exc}", []).append(dict(mode))
                 break
-            lam = [complex(v) for v in lam if np.isfinite(v)]
+            if lam is None:
+                continue
             eigs += lam
             if k == 0 and lam:              # at the initial state itself: does the plant grow there?
                 top = max(lam, key=lambda v: v.real)
@@ -145,6 +137,27 @@ def time_scales(model: Model, modes: list[Mapping[str, int]] | None = None,
     return TimeScales(min(fastest), max(slowest), tuple(eigs), tuple(notes), tuple(growing))
 
 
+def _prepared(model: Model, vals: Mapping[str, float]):
+    """The simulator's state equations at ``vals`` (one mode's) and their parameter-only lines."""
+    from .simulation import build_system
+    system = build_system(model, vals)
+    return system, system.prepare([vals[n] if n in vals else 0.0 for n in system.param_names])
+
+
+def _eigenvalues(system, c, x) -> list[complex] | None:
+    """The finite eigenvalues of the state equations linearised at ``x``; None at a point outside a
+    law's domain: a gas spring's (p0/pa)^(1/n) at a perturbed pa < 0 is complex, which Python's math
+    refuses with a TypeError (a user's accumulator model: check, calibrate, diagnose and simulate
+    died with a traceback). A NameError (a function the compiled equations lack) is the caller's."""
+    from .simulation import _jacobian
+    try:
+        with np.errstate(all="ignore"):
+            lam = np.linalg.eigvals(_jacobian(system.f, 0.0, tuple(float(v) for v in x), c))
+    except (ArithmeticError, ValueError, TypeError, np.linalg.LinAlgError):
+        return None
+    return [complex(v) for v in lam if np.isfinite(v)]
+
+
 VISITED_POINTS = 24    # visited states linearised per mode (visited_fastest)
 
 
@@ -158,7 +171,7 @@ def visited_fastest(model: Model, modes: list[Mapping[str, int]], states: Mappin
     when none rings. A nonlinear law may ring faster away from the initial state than at it: a
     hardening spring k q + k3 q^3 at 3 cm was twice as stiff as :func:`time_scales` read at rest."""
     from .errors import CausalityError
-    from .simulation import SimulationError, _jacobian, build_system
+    from .simulation import SimulationError
 
     base = {k: float(v) for k, v in model.nominal_by_name().items()}
     held = _inputs_held(model)
@@ -171,21 +184,18 @@ def visited_fastest(model: Model, modes: list[Mapping[str, int]], states: Mappin
     for mode in modes:
         vals = dict(base, **{k: float(v) for k, v in mode.items()})
         try:
-            system = build_system(held, vals)
-            c = system.prepare([vals[n] if n in vals else 0.0 for n in system.param_names])
+            system, c = _prepared(held, vals)
         except (SimulationError, CausalityError, ValueError, KeyError):
             continue
         here = []
         for i in at:
-            x = tuple(float(states[n][i]) if n in states else 0.0 for n in system.states)
             try:
-                with np.errstate(all="ignore"):
-                    lam = np.linalg.eigvals(_jacobian(system.f, 0.0, x, c))
-            except (ArithmeticError, ValueError, TypeError, NameError, np.linalg.LinAlgError):
-                continue
+                lam = _eigenvalues(system, c, [float(states[n][i]) if n in states else 0.0 for n in system.states])
+            except NameError:
+                lam = None
             # ringing modes only: a stiff real pole (an orifice's tiny volume, 1e-8 s on the CyCab)
             # decays at once and leaves the signals on the slow manifold; a ringing one shows in them
-            mags = [abs(v) for v in lam if np.isfinite(v) and abs(v) > 1e-12 and abs(v.imag) > RINGING * abs(v.real)]
+            mags = [abs(v) for v in lam or () if abs(v) > 1e-12 and abs(v.imag) > RINGING * abs(v.real)]
             if mags:
                 here.append(1.0 / max(mags))
         if here:
