@@ -190,6 +190,62 @@ def _doubles(expr: sp.Expr, src: str | None = None) -> float | None:
     return values[id(expr)]
 
 
+def left_domain(expr: sp.Expr, values: Mapping[sp.Symbol, float]) -> sp.Expr | None:
+    """The first part of ``expr`` (bottom-up) that leaves its function's domain, or is not real,
+    once the symbols of ``values`` take their values (a model's parameters): each of its arguments
+    a real double (or inf), it is NaN. None where no such part exists; a part that reads any other
+    symbol (a law's variable, a signal) is not evaluated. A law written ``k*q*log(-k)`` at k = 1e6
+    is complex on every sample: its residuals would be NaN everywhere, and a diagnosis blind to
+    them reads them as silent (a user trial).
+
+    >>> k, q = sp.symbols("k q")
+    >>> left_domain(k*q*sp.log(-k), {k: 1e6})
+    log(-k)
+    >>> left_domain(k*q*sp.log(k), {k: 1e6}) is None
+    True
+    """
+    got: dict[int, float | None] = {}
+    stack = [(expr, False)]
+    while stack:
+        e, seen = stack.pop()
+        if not e.is_Atom and not seen:
+            stack.append((e, True))
+            stack.extend((a, False) for a in e.args)
+            continue
+        if e.is_Atom:
+            v = values.get(e) if e.is_Symbol else _atom_double(e)
+            v = None if v is None else float(v)
+        else:
+            args = [got.get(id(a)) for a in e.args]
+            if any(a is None for a in args):
+                v = None
+            elif e.is_Pow and args[0] == 0 and args[1] < 0:
+                v = math.inf        # a divisor of 0: not this check's (the loader names it as such)
+            else:
+                v = _node_double(e, args)
+            if v is not None and v != v and all(a == a for a in args):
+                return e
+        got[id(e)] = v
+    return None
+
+
+_LIMITED = (sp.log, sp.asin, sp.acos, sp.acosh, sp.atanh)
+
+
+def limited_parts(expr: sp.Expr) -> list[sp.Expr]:
+    """The parts of ``expr`` defined on part of the real line only: logarithms, asin, acos, acosh,
+    atanh, roots and other powers of an exponent not an integer.
+
+    >>> f = sp.Symbol("f")
+    >>> limited_parts(3*f*sp.sqrt(f - 1000))
+    [sqrt(f - 1000)]
+    >>> limited_parts(f**2 + sp.exp(f))
+    []
+    """
+    return [e for e in sp.preorder_traversal(expr)
+            if isinstance(e, _LIMITED) or (e.is_Pow and e.exp.is_integer is not True)]
+
+
 def _outside(v: float | None) -> str:
     """What is wrong with a constant part's double ``v``: '' when it is a real double within range
     (or no constant: None)."""

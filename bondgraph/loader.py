@@ -27,7 +27,7 @@ import sympy as sp
 import yaml
 
 from .errors import ModelError
-from .expressions import MAX_CONSTANT, ExpressionError, parse_expression
+from .expressions import MAX_CONSTANT, ExpressionError, left_domain, parse_expression
 from .model import (LAW_VARIABLES, ELEMENT_KINDS, FAULT_KINDS, JUNCTION_KINDS, SENSOR_KINDS, SOURCE_KINDS,
                     TWO_PORT_KINDS, Bond, Element, Fault, Input, Junction, Model, Mode, Parameter,
                     Sensor, t)
@@ -902,6 +902,7 @@ def _elements(ctx, data, symbols, claim, inputs, sensors, parameters) -> dict[st
             for law in _ELEMENT_KEYS[kind] - {"parameter"}:
                 if spec.get(law) is not None:
                     laws[law] = _law(ctx, spec[law], where + (law,), kind, law, params)
+                    _in_domain(ctx, where + (law,), laws[law], parameters, spec[law])
             if kind in ("C", "I"):
                 laws = _storage_laws(ctx, where, kind, laws, fields.get("parameter"))
             elif len(laws) == 2:
@@ -915,6 +916,7 @@ def _elements(ctx, data, symbols, claim, inputs, sensors, parameters) -> dict[st
             if spec.get("modulus") is None:
                 raise ctx.error(where, f"{kind} element '{name}' needs modulus: <expression>")
             modulus = _expr(ctx, spec["modulus"], where + ("modulus",), params)
+            _in_domain(ctx, where + ("modulus",), modulus, parameters, spec["modulus"])
             if kind in ("TF", "GY"):
                 signals = [s for s in modulus.free_symbols if s.name in inputs or s.name in sensors]
                 if signals:
@@ -931,11 +933,27 @@ def _elements(ctx, data, symbols, claim, inputs, sensors, parameters) -> dict[st
                 fields["input"] = spec["input"]
             elif spec.get("value") is not None:
                 fields["value"] = _expr(ctx, spec["value"], where + ("value",), ChainMap({"t": t}, params))
+                _in_domain(ctx, where + ("value",), fields["value"], parameters, spec["value"])
             else:
                 need = "input: <input name>" if kind.startswith("M") else "value: <number or expression of t>"
                 raise ctx.error(where, f"source '{name}' needs {need}")
         out[name] = replace(element, **fields)
     return out
+
+
+def _in_domain(ctx, where: tuple, expr: sp.Expr, parameters, text) -> None:
+    """A part of a law, modulus or source value that reads parameters only, and leaves its
+    function's domain at their values (a logarithm or root of a negative value, asin(2 k)), is
+    refused where it is written: every residual that reads it would be NaN on every sample."""
+    values = {s: v for s in expr.free_symbols
+              if (v := getattr(parameters.get(s.name), "value", None)) is not None}
+    part = left_domain(expr, values) if values else None
+    if part is None:
+        return
+    at = ", ".join(f"{s} = {values[s]:g}" for s in sorted(part.free_symbols & values.keys(), key=str))
+    raise ctx.error(where, f"'{part}' in '{text}' is not a real number at the parameters' values ({at}): "
+                           "every residual that reads it would be NaN on every sample; check the sign of the "
+                           "parameter or of the expression")
 
 
 def _nonzero_modulus(ctx, where, kind: str, name: str, modulus: sp.Expr, parameters) -> None:

@@ -56,7 +56,7 @@ from .monitor import compiled
 from .mode_thresholds import key_text
 from .noise import mode_text, predicted_noise
 from .detect import settling, trusted
-from .residuals import evaluate
+from .residuals import designed_gaps, evaluate, mode_breaks, never_finite_text
 from .spikes import despiked
 from .window_choice import DETECT_GOAL, WindowScore, choose_window, chosen, set_aside
 
@@ -137,6 +137,18 @@ def _nominal(model_path: str, data: str | Measurements, settle: float | None,
     return np.abs(np.asarray(r))[:, keep], {k: np.broadcast_to(v, meas.t.shape)[keep] for k, v in modes.items()}
 
 
+def _switches_leave_none(model_path: str, data: str | Measurements, window: float | None) -> bool:
+    """Whether the evaluator leaves every trusted sample of a run out by design: every stretch
+    between two mode switches shorter than the derivative window (:func:`fdi.residuals.designed_gaps`)."""
+    c = compiled(model_path)
+    meas = data if isinstance(data, Measurements) else read_csv(data)
+    config = c.config if window is None else replace(c.config, derivative_window=float(window))
+    sc = scales.for_model(c.model, config, meas.ts)
+    breaks = mode_breaks(c.model, signals_from_data(c.model, meas))
+    return bool(len(breaks)) and bool(designed_gaps(list(c.arr_residuals), meas.t.size, breaks, sc.window,
+                                                    meas.ts).all())
+
+
 def _threshold(samples: list[np.ndarray], quantile: float | None, margin: float) -> np.ndarray:
     joined = np.concatenate(samples, axis=1)
     # NaN: samples with no residual (within half a derivative window of a commanded switch)
@@ -200,6 +212,9 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                         "(a spike) in a run meant to be fault-free; remove it from the run, or calibrate with "
                         "--quantile 0.99")
     blank = [n for n, v in zip(names, thresholds) if not np.isfinite(v)]
+    if blank and not all(_switches_leave_none(model_path, m, pick) for m in data):
+        # not for want of samples: a law leaves its domain (or overflows) on every sample
+        raise DataError(f"{model_path}: {never_finite_text(model, c.arr_residuals, blank)}")
     if blank:
         raise DataError(f"{model_path}: {', '.join(blank)} have no sample to calibrate on: every stretch between "
                         f"two mode switches is shorter than the derivative window ({used:g} s); "

@@ -31,7 +31,7 @@ from .mode_estimation import estimate_mode, mode_variable, switched_at
 from .objective import fault_space, nominal, window
 from .options import MIN_WINDOW_S, Options, check_samples
 from .prognose import prognose
-from .residuals import designed_gaps, evaluate, mode_breaks
+from .residuals import designed_gaps, evaluate, mode_breaks, never_finite_text
 from .scales import STARTUP_DECAYS, check_derivative_window, check_record_length
 from .results import DETERMINED, Alternative, Diagnosis, Isolation, ModeFault, Prognosis, faults_of
 from .sensitivity import effective, weak_entries
@@ -133,6 +133,9 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
     if r.size and not np.isfinite(r).any():
         # nothing was monitored: "nothing detected" (exit 0, --fail-on-fault passed) would read as healthy
         raise DataError(f"{meas.path}: no residual has a sample to judge, so nothing can be detected: {blinded}")
+    never = never_finite(p, r)
+    if never:
+        raise DataError(f"{meas.path}: {never_finite_text(p.monitor.model, p.monitor.residuals, never)}")
     det = detect(r, meas.t, p.thresholds, p.wait, p.settle, p.scales.end_edge, *p.rule)
     base = Diagnosis(p.monitor.model.name, dict(o.mode or nominal_mode(p.monitor.model)),
                      note="; ".join(n for n in (p.read, blinded) if n) or None,
@@ -297,39 +300,51 @@ def started_late(meas: Measurements, sc: "Scales", given: float | None) -> str |
 SPARSE = 0.5     # a record with more than this share of its samples left out at mode switches is noted
 
 
+def _empty(p: Prepared, r: np.ndarray) -> tuple[list[str], np.ndarray | None]:
+    """The residuals without a finite sample, and (with mode switches in the record) the samples the
+    evaluator leaves out by design (:func:`fdi.residuals.designed_gaps`), else None."""
+    finite = np.isfinite(r.reshape(len(p.monitor.names), -1))
+    empty = [n for n, f in zip(p.monitor.names, finite) if not f.any()]
+    breaks = mode_breaks(p.monitor.model, p.raw)
+    designed = (designed_gaps(list(p.monitor.residuals), p.meas.t.size, breaks, p.window_s, p.meas.ts)
+                if len(breaks) else None)
+    return empty, designed
+
+
+def never_finite(p: Prepared, r: np.ndarray) -> list[str]:
+    """The residuals not finite on any sample for want of a law's value, not of samples (every
+    stretch between mode switches shorter than the derivative window leaves none by design: that
+    is :func:`blind`'s note). Such a residual never crosses its threshold: a diagnosis would read it
+    as silent and isolate on the others (a trial's hoist, a damper written c f sqrt(f - 1000):
+    the car's extra load diagnosed, exit 0, as a drifting friction), so the record is refused."""
+    empty, designed = _empty(p, r)
+    return [] if designed is not None and designed.all() else empty
+
+
 def blind(p: Prepared, r: np.ndarray) -> str | None:
     """What to change when a residual has samples it cannot judge: with mode switches in the record,
     none at all when every stretch between two switches is shorter than the derivative window (its
-    samples near a switch are left out by design); elsewhere, a residual that is not finite where the
-    record or a law overflows a double or leaves its domain (a value no sensor reads, an exponent
-    through a parameter), on every sample or on some: no threshold judges those, so the report says
-    so."""
+    samples near a switch are left out by design); elsewhere, a residual that is not finite on some
+    samples, where the record or a law overflows a double or leaves its domain (a value no sensor
+    reads, an exponent through a parameter): no threshold judges those, so the report says so."""
     names, t = p.monitor.names, p.meas.t
     finite = np.isfinite(r.reshape(len(names), -1))
-    empty = [n for n, f in zip(names, finite) if not f.any()]
-    breaks = mode_breaks(p.monitor.model, p.raw)
-    if len(breaks):
+    empty, designed = _empty(p, r)
+    if designed is not None:
         # the samples the evaluator leaves out by design (fdi.residuals.designed_gaps) are not reported
-        designed = designed_gaps(list(p.monitor.residuals), t.size, breaks, p.window_s, p.meas.ts)
         if empty and designed.all():
             return (f"{', '.join(empty)} had no sample: every stretch between two mode switches is shorter than the "
                     f"derivative window ({p.window_s:g} s); shorten diagnosis.derivative_window or sample faster")
         finite = finite | designed          # (a residual empty on long stretches too: not finite there, below)
     notes = []
-    if len(breaks) and designed.mean() > SPARSE:
+    if designed is not None and designed.mean() > SPARSE:
         # most of the record left out by design: "nothing detected" there would read as healthy (a
         # thermostat's 20-minute stretches against a 2 232 s window: 8 of 2 881 samples judged)
         notes.append(f"only {int((~designed).sum())} of {t.size} samples have a residual: most stretches between mode "
                      f"switches are shorter than the derivative window ({p.window_s:g} s), whose half at each switch "
                      f"is left out; shorten diagnosis.derivative_window (bgfdi calibrate --window auto chooses one)")
-    if empty:
-        notes.append(f"{', '.join(empty)} {'is' if len(empty) == 1 else 'are'} not finite on any sample: a law of "
-                     "the model overflows a double or leaves its domain on these data (a constant, a parameter "
-                     "of 0 or .inf it divides by, an exponent through a parameter, a root or logarithm of a "
-                     "negative value; bgfdi tables shows the residuals), or the record holds values no sensor "
-                     "reads")
-    for n, f in zip(names, finite):
-        if f.any() and not f.all():
+    for n, f in zip(names, finite):      # (one with no finite sample at all: never_finite refuses the record)
+        if n not in empty and f.any() and not f.all():
             bad = np.flatnonzero(~f)
             notes.append(f"{n} is not finite at {bad.size} sample(s) from {t[bad[0]]:g} s to {t[bad[-1]]:g} s: the "
                          "record holds values it overflows on or leaves its domain at there (no threshold judges "

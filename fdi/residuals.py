@@ -532,3 +532,28 @@ def _one_record(residuals: list[Residual], sig: Mapping[str, list[np.ndarray]], 
     if any(np.ndim(vals[n]) != 0 and np.shape(vals[n]) != shape for r in residuals for n in r.symbols):
         return 0
     return shape[0]
+
+
+def never_finite_text(model, residuals, names: list[str]) -> str:
+    """What :func:`fdi.pipeline.never_finite`'s refusal (and calibrate's) says: the residuals ``names`` of
+    ``residuals``, the laws they read that are defined on part of the real line only (a root, a
+    logarithm, an inverse trigonometric function), and what to check."""
+    from bondgraph.expressions import limited_parts
+    from bondgraph.model import LAW_VARIABLES
+    local = {v.name for v in LAW_VARIABLES.values()}
+    read = {s for r in residuals if r.name in names for s in r.symbols}
+    laws = []
+    for el in model.elements.values():       # (a law of parameters none of them reads: not theirs)
+        for law, expr in el.laws.items():
+            named = {s.name for s in expr.free_symbols} - local
+            if limited_parts(expr) and (not named or read & named):
+                laws.append(f"{el.name}'s {law} {str(expr).replace('~', '')}")
+    verb, it = ("is", "it") if len(names) == 1 else ("are", "them")
+    cause = (f"a law {it} read{'s' if len(names) == 1 else ''} leaves its domain on these data "
+             f"({'; '.join(laws[:3])}{'; ...' if len(laws) > 3 else ''}): check the law against the values the "
+             "data take there, and the data's units" if laws else
+             "a law of the model overflows a double or leaves its domain on these data (a parameter of 0 or .inf "
+             "it divides by, an exponent through a parameter), or the record holds values no sensor reads; "
+             "bgfdi tables shows the residuals")
+    return (f"{', '.join(names)} {verb} not finite on any sample, so no threshold can judge {it} and a diagnosis "
+            f"would read {it} as silent: {cause}")

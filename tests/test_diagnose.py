@@ -385,9 +385,9 @@ def test_a_residual_empty_on_long_stretches_between_switches_is_not_blamed_on_th
     """With mode switches, a residual with no finite sample was always said to have stretches shorter
     than the derivative window; a parameter of 0 the residual divides by (a two-zone building's wall
     R12: 0.0, a user trial) empties it on stretches of any length. Designed: the same record and
-    switches as the test above; empty everywhere, it is now the law's note; empty where the
-    evaluator leaves samples out by design only (every stretch shorter than the window), the
-    window's."""
+    switches as the test above; empty everywhere, the record is refused for the law (never_finite);
+    empty where the evaluator leaves samples out by design only (every stretch shorter than the
+    window), the window's note."""
     from types import SimpleNamespace
 
     from fdi import pipeline
@@ -397,10 +397,10 @@ def test_a_residual_empty_on_long_stretches_between_switches_is_not_blamed_on_th
     r = np.ones((2, 1000))
     r[0] = np.nan
     monkeypatch.setattr(pipeline, "mode_breaks", lambda model, raw: np.array([10, 500, 560]))
-    note = pipeline.blind(p, r)
-    assert note.startswith("ARR1 is not finite on any sample: a law of the model overflows a double")
-    assert "a parameter of 0 or .inf it divides by" in note and "shorter than the derivative window" not in note
+    assert pipeline.never_finite(p, r) == ["ARR1"]          # refused: the law's, not the window's
+    assert "shorter than the derivative window" not in (pipeline.blind(p, r) or "")
     monkeypatch.setattr(pipeline, "mode_breaks", lambda model, raw: np.arange(10, 1000, 10))   # 10-sample stretches
+    assert pipeline.never_finite(p, np.full((2, 1000), np.nan)) == []
     assert pipeline.blind(p, np.full((2, 1000), np.nan)).startswith(
         "ARR1, ARR2 had no sample: every stretch between two mode switches is shorter than the derivative window")
 

@@ -422,3 +422,22 @@ def test_a_failure_value_on_the_other_side_of_zero_is_refused(tmp_path, capsys, 
     path = tmp_path / "zero.yaml"
     path.write_text(BASE + "faults:\n  R_up: {kind: parametric, parameters: [R], failure: 0.0}\n", encoding="utf-8")
     assert main(["check", str(path)]) == 0
+
+
+@pytest.mark.parametrize("law, part", [
+    ('effort: "R*f*log(-R)"', "log(-R)"),                 # a trial's rope: k*q*log(-k), complex at k = 1e6
+    ('effort: "f*sqrt(R - 200)"', "sqrt(R - 200)"),       # a root of a negative value at R = 100
+    ('effort: "R*f*asin(R/50)"', "asin(R/50)")])          # asin(2)
+def test_a_law_that_is_not_real_at_the_parameters_values_is_refused_where_it_is_written(tmp_path, capsys, law, part):
+    """A law's part that reads parameters only and leaves its function's domain at their values makes
+    every residual that reads it NaN on every sample: `check` passed it and the diagnosis read the
+    residual as silent (exit 0, a wrong fault). Refused at the law's key and line, with the value; a
+    law in the domain there (log(R), sqrt(R)) and a parameter of .inf a law divides by still load."""
+    code, err = _check_line(tmp_path, capsys, BASE.replace("res: {type: R, parameter: R}", "res: {type: R, " + law + "}"))
+    assert code == 2 and ":10: elements.res.effort:" in err
+    assert f"'{part}' in " in err and "is not a real number at the parameters' values (R = 100)" in err
+    ok = tmp_path / "ok.yaml"
+    ok.write_text(BASE.replace("res: {type: R, parameter: R}", 'res: {type: R, effort: "f*sqrt(R)*log(R)", flow: "e/(sqrt(R)*log(R))"}'),
+                  encoding="utf-8")
+    assert main(["check", str(ok)]) == 0
+    assert load_model(MODELS / "cycab_steering.yaml").parameters["R4"].value == math.inf
