@@ -10,6 +10,7 @@ returns a typed value of :mod:`fdi.results`. The result is a :class:`fdi.results
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Callable
@@ -145,7 +146,8 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
     if det is None:
         return base
     d = decide(p, replace(base, detection=det, mode=mode_at(p, det)), r, clock, progress, memo)
-    notes = "; ".join(n for n in (from_the_start(p, det) if d.faults else None, undecided_mode(d)) if n)
+    notes = "; ".join(n for n in (from_the_start(p, det) if d.faults else None, undecided_mode(d),
+                                  unused_record(p, d)) if n)
     return replace(d, note=f"{d.note}; {notes}" if d.note else notes) if notes else d
 
 
@@ -174,6 +176,26 @@ def from_the_start(p: Prepared, det: Detection) -> str | None:
     return (f"detected at t_D = {det.time:.4g} s, with the first samples judged (from {p.first_trusted:.4g} s): "
             "unless the fault began that early, these data may not match the model (a column's unit or order, a "
             "command's polarity, another model); a record of the same system in health tells")
+
+
+def unused_record(p: Prepared, d: Diagnosis) -> str | None:
+    """The note when a prognosis is poorly determined (its RUL band wider than the RUL) while the
+    record goes on for more than an identification window past the data it was fitted on: the
+    drift was seen for one window from t_D (N samples, eqs. 30-31), the rest of the record unread.
+    A trial's elevator rope (1 kHz, N = 1000: 1 s of a 22 s drift) gave RUL 27 s in a band of 0 to
+    132 s; the whole record (``--samples``) gave 55.66 s for an EOL of 55.67 s."""
+    if d.detection is None or not d.prognosis:
+        return None
+    t_end, window = float(p.meas.t[-1]), p.samples * p.meas.ts
+    wide = [g for g in d.prognosis if math.isfinite(g.rul) and g.rul > 0 and g.rul_high - g.rul_low > g.rul
+            and t_end - g.at > window]
+    if not wide:
+        return None
+    whole = int(math.ceil((t_end - d.detection.time) / p.meas.ts))
+    return (f"{', '.join(g.name for g in wide)}'s RUL band is wider than the RUL: the drift is fitted on the data "
+            f"to {min(g.at for g in wide):.4g} s (identification windows of N = {p.samples} samples from the "
+            f"detection), the record goes on to {t_end:.4g} s: --samples {whole} fits it on the whole record; "
+            "bgfdi monitor refits it as data arrive")
 
 
 def with_samples(monitor: "Monitor", samples: int | None) -> "Monitor":

@@ -529,3 +529,24 @@ def test_a_set_raced_out_by_a_part_that_is_no_candidate_says_so():
     assert "{ks}'s (within 0.1 %, fitted as a part to start it from, not a candidate)" in part
     listed = _raced_out({"outdone_by": ["bL"]}, [["ks", "bL"], ["bL"]])
     assert "not a candidate" not in listed
+
+
+def test_a_wide_prognosis_band_names_the_record_left_unread():
+    """A trial's elevator rope (1 kHz, N = 1000) was prognosed from 1 s of a 22 s drift: RUL 26.8 s
+    in a band of 0 to 132 s, the rest of the record unread, nothing said. Designed: a band wider
+    than the RUL with more than a window of record after it is noted with the --samples that fits
+    the whole record; a tight band, or a record that ends within a window, is not."""
+    from types import SimpleNamespace
+
+    from fdi import pipeline
+    from fdi.results import Prognosis
+    p = SimpleNamespace(meas=SimpleNamespace(t=np.arange(48001) * 1e-3, ts=1e-3), samples=1000)
+    wide = Prognosis("k", 7e5, 53.97, 26.82, 27.15, 0.0, 132.31)
+    d = SimpleNamespace(detection=SimpleNamespace(time=26.15), prognosis=(wide,))
+    note = pipeline.unused_record(p, d)
+    assert note.startswith("k's RUL band is wider than the RUL: the drift is fitted on the data to 27.15 s")
+    assert "the record goes on to 48 s: --samples 21850 fits it on the whole record" in note
+    tight = Prognosis("k", 7e5, 53.97, 26.82, 27.15, 25.0, 28.0)
+    assert pipeline.unused_record(p, SimpleNamespace(detection=d.detection, prognosis=(tight,))) is None
+    short = SimpleNamespace(meas=SimpleNamespace(t=np.arange(27900) * 1e-3, ts=1e-3), samples=1000)
+    assert pipeline.unused_record(short, d) is None
