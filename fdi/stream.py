@@ -14,6 +14,8 @@ each event, in stream time:
 - ``prognosis``: every ``refresh`` seconds (an identification window by default) after a
   decision with a growing fault, its fit
   refreshed on the data so far (:func:`fdi.pipeline.refresh_prognosis`) and the RUL re-issued;
+  and once more at the end of the stream where the last fit is a refresh period older than the
+  last sample (a live stream that ended while the decision was being identified);
 - ``summary``: at the end of the stream, the report ``bgfdi diagnose --json`` gives for the same
   samples (the same engine: the final decisions are recomputed on all the data, reusing every
   identification whose data window has not changed).
@@ -176,6 +178,7 @@ class Stream:
     ts: float = math.nan                # the sampling period, from the first two samples
     latest: Diagnosis | None = None     # the last decision
     next_refresh: float = math.inf
+    fitted_to: float = math.inf         # the time the latest prognosis is given at (its fit's last sample)
     live: bool = True                   # samples arrive in real time: read on while identifying
     worker: str = "process"             # where identifications run (Worker)
     due: int | None = None              # samples received when the next decision came due (coalesced)
@@ -521,11 +524,13 @@ class Stream:
             known_at = float(self.buffer[self.n - 1, self.ti])
             if kind == "decision":
                 report, self.latest, fresh, seconds = result
+                self.fitted_to = min((g.at for g in self.latest.prognosis), default=math.inf)
                 self.memo.update(fresh)
                 self._report_decisions(report, known_at, seconds)
                 self.next_refresh = known_at + self._refresh_period()
             else:
                 faults, prognosis, fresh, seconds = result
+                self.fitted_to = min((g.at for g in prognosis), default=math.inf)
                 self.memo.update(fresh)
                 self.emit({"event": "prognosis", "t": float(self.buffer[n - 1, self.ti]),
                            "faults": [f for f in faults if f["type"] == "incipient"],
@@ -594,6 +599,15 @@ class Stream:
             raise DataError(f"{self.source}: the stream ended before two samples arrived")
         try:
             self._collect(wait=True)
+            if self.n and float(self.buffer[self.n - 1, self.ti]) - self.fitted_to >= self._refresh_period():
+                # a growing fault's fit a refresh period older than the last sample (a live stream read
+                # faster than the decision's identification, a piped file: no refresh ran): one more
+                self.next_refresh = -math.inf
+                live, self.live = self.live, False
+                try:
+                    self._refresh()
+                finally:
+                    self.live = live
         finally:
             self.stop(now=self.job is not None)
         meas = self.measurements()

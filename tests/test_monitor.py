@@ -126,6 +126,28 @@ def test_a_prognosis_is_refreshed_every_identification_window_by_default():
         assert mon.samples == 1000 and mon._refresh_period() == pytest.approx(period, rel=1e-12)
 
 
+def test_a_live_stream_that_ends_before_a_refresh_ran_refits_its_prognosis_at_the_end():
+    """A trial's elevator record piped into `bgfdi monitor -` arrived faster than its first decision
+    was identified: the stream ended with that decision's prognosis, fitted on one window after the
+    detection, while 20 s of the drift had been read (a file replayed refreshed it 20 times). Now
+    the end of a stream whose last fit is a refresh period older than its last sample refits it
+    once more. Scenario 2 streamed live in one block: the last event before the summary is a
+    prognosis at the last sample, whose EOL is the design's, beta = 1 / (1 + 0.03 (t - 32))
+    reaching 0.5 at 32 + 1 / 0.03 = 65.33 s (README)."""
+    m, header, table = _table("scenario2")
+    events: list[dict] = []
+    mon = compiled(CYCAB).stream(events.append, Options(workers=1), live=True, worker="thread")
+    mon.feed(header, table)
+    mon.close()
+    kinds = [e["event"] for e in events]
+    assert kinds[-2:] == ["prognosis", "summary"] and "decision" in kinds
+    last = events[-2]
+    assert last["t"] == pytest.approx(float(table[-1, header.index("t")]))
+    (g,) = last["prognosis"]
+    assert g["name"] == "beta_theta2" and g["eol"] == pytest.approx(32 + 1 / 0.03, rel=0.01)
+    assert g["at"] == pytest.approx(last["t"])
+
+
 def _events_of_whole(header, table):
     events: list[dict] = []
     mon = compiled(CYCAB).stream(events.append, Options(workers=1))
