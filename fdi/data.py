@@ -421,7 +421,8 @@ def checked(path: str, header: list[str], table: np.ndarray, in_memory: bool = F
     dt = np.diff(time)
     if not (dt > 0).all():
         i = int(np.flatnonzero(dt <= 0)[0])
-        raise DataError(f"{path}: time does not increase at {at(i + 1)} (t = {time[i + 1]:g} s)")
+        reversed_ = " (it decreases throughout: the rows in reverse order? sort them by time)" if (dt < 0).all() else ""
+        raise DataError(f"{path}: time does not increase at {at(i + 1)} (t = {time[i + 1]:g} s){reversed_}")
     mean = dt.mean()
     if max(dt.max() - mean, mean - dt.min()) > 1e-6 * max(1.0, abs(mean)) + 1e-3 * mean:   # max |dt - mean|
         i = int(np.argmax(np.abs(dt - mean)))

@@ -162,7 +162,8 @@ class Stream:
     options: Options | None = None
     source: str = "<stream>"
     header: list[str] = field(default_factory=list)
-    n: int = 0                          # samples received
+    n: int = 0                          # samples in the buffer (received, less those forgotten)
+    forgotten: int = 0                  # samples dropped from the buffer's start (history)
     done: int = 0                       # samples whose residuals are final
     residuals: np.ndarray | None = None   # the residuals the last feed made final (residuals x samples)
     history: float | None = None        # s of samples kept before a detection (bounded memory); None:
@@ -409,6 +410,7 @@ class Stream:
         self.buffer[:self.n - drop] = self.buffer[drop:self.n].copy()
         self.n -= drop
         self.done -= drop
+        self.forgotten += drop
 
     def _acceptable(self, block: np.ndarray) -> bool:
         """Whether :meth:`_append` takes every row of ``block`` (in blocks of any size): finite, and
@@ -427,7 +429,9 @@ class Stream:
         if not checked:
             bad = np.flatnonzero(~np.isfinite(block).all(axis=1))
             if bad.size:
-                raise DataError(f"{self.source}: a row with NaN, infinite or missing values at sample {self.n + bad[0] + 1}")
+                k = self.forgotten + self.n + int(bad[0]) + 1      # from 1, the rows forgotten counted
+                raise DataError(f"{self.source}: a row with NaN, infinite or missing values at sample {k} (line "
+                                f"{k + 1} of a text stream with its header); remove or fill it")
         while self.n + block.shape[0] > self.buffer.shape[0]:
             self.buffer = np.concatenate([self.buffer, np.empty_like(self.buffer)])
         self.buffer[self.n:self.n + block.shape[0]] = block

@@ -96,6 +96,21 @@ def test_a_long_stream_keeps_a_bounded_history_and_still_detects():
     assert detection["t"] == whole["t"] and detection["coherence"] == whole["coherence"]
 
 
+def test_a_bad_row_is_numbered_from_the_stream_start_after_rows_were_forgotten():
+    """The stream named a NaN row by its place in the buffer: once the history had dropped the
+    stream's first rows, "sample 1001" was the 1 501st (and a file's reader says "line"). Designed:
+    scenario 2 with 5 s of history, a NaN in the 1 501st row: sample 1501, line 1502."""
+    from fdi.data import DataError
+    m, header, table = _table("scenario2")
+    bad = table[:2000].copy()
+    bad[1500, 1] = np.nan
+    mon = compiled(CYCAB).stream(lambda e: None, Options(workers=1), history=5.0)
+    with pytest.raises(DataError, match=r"at sample 1501 \(line 1502 of a text stream with its header\)"):
+        for a in range(0, 2000, 50):
+            mon.feed(header, bad[a:a + 50])
+    assert mon.forgotten > 0
+
+
 def test_the_default_history_is_a_number_of_samples_whatever_the_rate(monkeypatch):
     """Without ``history`` the stream keeps HISTORY_SAMPLES samples (360 000: an hour at 100 Hz,
     100 h at 1 Hz, 36 s at 10 kHz), where an hour in seconds held 1.7 GB at 10 kHz and 3 600

@@ -961,3 +961,21 @@ def test_a_large_file_padded_with_zeros_is_refused_in_bounded_memory(tmp_path):
     assert run.returncode == 2 and "line 7 is longer" in run.stderr and "Traceback" not in run.stderr
     peak = int(run.stderr.split("peak ")[-1].split()[0])   # kB: the child's own resident peak
     assert peak < 600 << 10                                 # the reader's lines, not the file (10.6 GB for 1 GB before)
+
+
+def test_a_record_in_reverse_order_is_named_as_such(tmp_path):
+    """A trial's record written last row first was told "time does not increase at line 3", as one
+    stuck stamp is. Now a time column that decreases throughout says the rows look reversed; one
+    stuck stamp keeps the plain message."""
+    from fdi.data import DataError, read_csv
+    t = np.arange(10) * 0.1
+    path = tmp_path / "rev.csv"
+    path.write_text("t,p\n" + "".join(f"{a:g},1\n" for a in t[::-1]), encoding="utf-8")
+    with pytest.raises(DataError, match=r"time does not increase at line 3 \(t = 0.8 s\) \(it decreases throughout: "
+                                        r"the rows in reverse order\? sort them by time\)"):
+        read_csv(path)
+    stuck = t.copy()
+    stuck[7] = stuck[6]
+    path.write_text("t,p\n" + "".join(f"{a:g},1\n" for a in stuck), encoding="utf-8")
+    with pytest.raises(DataError, match=r"time does not increase at line 9 \(t = 0.6 s\)$"):
+        read_csv(path)
