@@ -92,3 +92,33 @@ def in_mode(model: Model, mode: Mapping[str, int]) -> ModeGraph:
     spec = replace(model, elements=elements, junctions=junctions, bonds=tuple(bonds), sensors=sensors,
                    symbols=symbols)
     return ModeGraph(dict(mode), spec, frozenset(removed), zero)
+
+
+def held_still(model: Model) -> list[str]:
+    """What switching a controlled junction off imposes beyond its own bonds, one note each: a 1c
+    joined to a plain 1-junction holds that junction's common flow at 0 while off (it carries no
+    flow on any bond), so everything on it stands still; dually a 0c on a plain 0-junction holds its
+    effort at 0. Sometimes meant (a valve closing a pipe), often not: a trial's elevator wrote its
+    brake as a 1c on the sheave's junction, which then locked the sheave whenever the brake was
+    released; a switch that cuts a branch's effort (a brake's or a clutch's torque) is a 0c there.
+
+    >>> from bondgraph.loader import load_model
+    >>> held_still(load_model("models/two_tank_valve.yaml"))
+    []
+    """
+    out = []
+    for j in model.junctions.values():
+        if not j.controlled or j.off == "outputs":
+            continue
+        for b in model.bonds_of(j.name):
+            n = model.junctions.get(b.other(j.name))
+            if n is None or n.controlled or n.kind != j.base:
+                continue
+            on = sorted(b2.other(n.name) for b2 in model.bonds_of(n.name) if b2.other(n.name) != j.name)
+            what, zero = ("flow", "stand still") if j.base == "1" else ("effort", "see no effort")
+            cut = "0c" if j.base == "1" else "1c"
+            out.append(f"with {j.mode} = 0, {j.name} ({j.kind}) carries no {what} on any bond, so it holds "
+                       f"{n.name}'s {what} at 0: {', '.join(on)} {zero} in that mode; if the switch should only cut "
+                       f"its branch ({'a brake or clutch torque' if j.base == '1' else 'a branch current'}), write "
+                       f"it as a {cut}, or give {j.name} switched_off: outputs")
+    return out

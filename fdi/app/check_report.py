@@ -7,6 +7,7 @@ import math
 from bondgraph.causality import DIAGNOSIS, SIMULATION, Causality, assign
 from bondgraph.errors import CausalityError
 from bondgraph.model import Model
+from bondgraph.modes import held_still
 from bondgraph.timescales import growth_notes, model_time_scales
 
 from ..data import unread_columns
@@ -99,7 +100,8 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
                       + noise_notes(model, arrs, predicted, window) + ([missing] if missing else [])),
             "noise": {"derivative_window": window, "by_residual": noise_json(predicted)} if predicted else None,
         },
-        "simulation": {**_causality(model, sim), "growing": growth_notes(model_time_scales(model))},
+        "simulation": {**_causality(model, sim), "growing": growth_notes(model_time_scales(model)),
+                       "held_still": held_still(model)},
         "monitor": _monitor(config),
         "verification": verification,
     }

@@ -343,6 +343,9 @@ def _print_summary(model: Model, path: str) -> None:
     ctrl = [f"{j.name} ({j.kind}, mode {j.mode})" for j in model.junctions.values() if j.controlled]
     print(f"  junctions  {len(model.junctions)}: " + ", ".join(f"{k}: {v}" for k, v in sorted(jkinds.items()))
           + (f"; controlled: {', '.join(ctrl)}" if ctrl else ""))
+    from bondgraph.modes import held_still
+    for note in held_still(model):
+        print(f"    note: {note}")
     print(f"  bonds      {len(model.bonds)}")
     print(f"  sensors    {len(model.sensors)}: " + ", ".join(
         f"{s.name} ({s.kind} on {s.junction}, {s.measures})" for s in model.sensors.values()))
