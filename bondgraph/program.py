@@ -181,6 +181,18 @@ def _code(printer: PythonCodePrinter, expr: sp.Expr) -> str:
     return printer.doprint(expr) if expr.has(sp.re) else printer._print(expr)
 
 
+class _RealPowers(PythonCodePrinter):
+    """Python's printer, with a power of an exponent not an integer as ``math.pow``: Python's
+    ``(-8.0)**(1/3)`` is a complex number, which flowed on into math's functions (a TypeError) or
+    out as a complex output; ``math.pow`` raises a ValueError there, which the compiled function
+    turns into NaN (:func:`compile_lines`), as numpy does."""
+
+    def _print_Pow(self, expr, rational=False):
+        if expr.exp.is_integer or expr.exp == sp.S.Half or expr.exp == -sp.S.Half:
+            return super()._print_Pow(expr, rational=rational)       # (sqrt: math.sqrt, a domain check too)
+        return f"math.pow({self._print(expr.base)}, {self._print(expr.exp)})"
+
+
 def compile_lines(args: Sequence, program: Sequence[Line], outputs: Sequence[sp.Expr], modules: str) -> Callable:
     """A Python function of ``args`` (symbols, or lists of symbols passed as one tuple) returning
     the list of ``outputs``, with the program's lines as its body: printed one by one, never
@@ -188,7 +200,7 @@ def compile_lines(args: Sequence, program: Sequence[Line], outputs: Sequence[sp.
     printing sympy). Lines that no output needs are dropped. ``modules``: "math" (scalars) or
     "numpy" (arrays, elementwise)."""
     kept = _shared_calls(needed_lines(program, outputs))
-    printer = (NumPyPrinter if modules == "numpy" else PythonCodePrinter)(
+    printer = (NumPyPrinter if modules == "numpy" else _RealPowers)(
         {"fully_qualified_modules": True, "inline": True, "allow_unknown_functions": True, "order": "none"})
     names, body = [], []
     for k, arg in enumerate(args):
@@ -204,9 +216,17 @@ def compile_lines(args: Sequence, program: Sequence[Line], outputs: Sequence[sp.
         if expr not in printed:
             printed[expr] = _code(printer, expr)
         return printed[expr]
-    body += [f"{text(name)} = {expr.code(text) if isinstance(expr, Linear) else _code(printer, expr)}"
+    lines = [f"{text(name)} = {expr.code(text) if isinstance(expr, Linear) else _code(printer, expr)}"
              for name, expr in kept]
-    body.append(f"return [{', '.join(_code(printer, o) for o in outputs)}]")
+    lines.append(f"return [{', '.join(_code(printer, o) for o in outputs)}]")
+    if modules == "math":
+        # a law outside its domain at this point (a gas spring's (V0/(V0 - q))**n past its shell: a
+        # complex power, which math's functions refuse with a TypeError; math.sqrt(-1)) is NaN, as
+        # numpy gives: the integrator steps back from it, verify leaves the run out (it raised)
+        lines = ["try:"] + [f"    {line}" for line in lines] + [
+            "except (ValueError, TypeError, ZeroDivisionError, OverflowError):",
+            f"    return [math.nan] * {len(outputs)}"]
+    body += lines
     source = f"def generated({', '.join(names)}):\n" + "".join(f"    {line}\n" for line in body)
     namespace = {"math": math, "numpy": numpy, "functools": functools}   # numpy's printer: max/min as functools.reduce
     exec(compile(source, "<bondgraph.program>", "exec"), namespace)

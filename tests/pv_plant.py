@@ -1,4 +1,4 @@
-"""The plant of tests/data/pv_string.yaml, written apart from bgfdi (a user trial's, reduced): a
+"""The plant of tests/data/unverified/pv_string.yaml, written apart from bgfdi (a user trial's, reduced): a
 string of 600 cells by the single-diode law (Villalva et al. 2009), Is = Isc G / 1000 -
 I0 (exp((vpv + Rs Is) / nVtNs) - 1) - (vpv + Rs Is) / Rsh, through the line Rl to a battery
 (Vbat, Rb). Its capacitors (Cin 100 uF, Cbus 2 mF) settle in 50 us to 0.5 ms, against 10 ms

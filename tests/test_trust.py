@@ -979,3 +979,24 @@ def test_a_record_in_reverse_order_is_named_as_such(tmp_path):
     path.write_text("t,p\n" + "".join(f"{a:g},1\n" for a in stuck), encoding="utf-8")
     with pytest.raises(DataError, match=r"time does not increase at line 9 \(t = 0.6 s\)$"):
         read_csv(path)
+
+
+def test_a_law_outside_its_domain_during_a_simulation_is_nan_not_a_traceback(capsys):
+    """`check --verify` on the accumulator circuit (tests/data/unverified/) ended in a traceback
+    ("must be real number, not complex"): a run pushed the gas spring's (V0 / (V0 - q))**n past its
+    shell, Python's power of a negative base is complex, and the simulator's scalar code (math)
+    refused it. A compiled line outside its function's domain is now NaN, as numpy gives, and the
+    run is left out. Designed: a negative base to a fractional power, and math.sqrt(-1)."""
+    import math
+
+    import sympy as sp
+
+    from bondgraph.program import compile_lines
+    from .conftest import ROOT
+    x = sp.Symbol("x")
+    f = compile_lines([x], [], [(1 - x) ** sp.Float(1.4), sp.sqrt(x)], "math")
+    assert f(0.5) == pytest.approx([0.5 ** 1.4, math.sqrt(0.5)])
+    assert all(math.isnan(v) for v in f(2.0)) and all(math.isnan(v) for v in f(-1.0))
+    code, err = _cli(["check", ROOT / "tests" / "data" / "unverified" / "accumulator_check_valve.yaml", "--verify"],
+                     capsys)
+    assert code in (0, 1) and "Traceback" not in err, err

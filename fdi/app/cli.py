@@ -316,13 +316,15 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def _check_json(args: argparse.Namespace) -> int:
-    """``check --json``: the analysis as one object; 1 when a verified residual does not vanish."""
+    """``check --json``: the analysis as one object; 1 when a verified residual does not vanish, or
+    none could be verified."""
     from .check_report import analyse
     report = analyse(args.model, args.causality, args.seed if args.verify else None)
     report["file"] = shown(report["file"])
     _emit(_json_text(report), None)
     verification = report["verification"]
-    if verification is not None and not verification["ok"]:
+    from .verify_report import verified_nothing
+    if verification is not None and (not verification["ok"] or verified_nothing(verification)):
         from .verify_report import failures
         for line in failures(verification, args.model):
             LOG.error(line)
@@ -458,18 +460,20 @@ def _print_assignment(model: Model, diag: Causality) -> None:
 
 
 def _print_verification(model: Model, arrs: list, args: argparse.Namespace) -> int:
-    """``--verify``: every residual on the model's own simulation; 1 when one does not vanish."""
+    """``--verify``: every residual on the model's own simulation; 1 when one does not vanish, or
+    none could be verified."""
     from ..verify import verify
-    from .verify_report import failures, to_json, to_lines
+    from .verify_report import failures, to_json, to_lines, verified_nothing
 
     with stage("verification on the simulated model"):
         verification = verify(model, arrs, seed=args.seed)
     print()
     for line in to_lines(verification):
         print(line)
-    for line in failures(to_json(verification), args.model):
+    data = to_json(verification)
+    for line in failures(data, args.model):
         LOG.error(line)
-    return 0 if verification.ok else 1
+    return 0 if verification.ok and not verified_nothing(data) else 1
 
 
 GRAPH_FORMATS = ("dot", "svg", "png", "pdf")

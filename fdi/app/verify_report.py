@@ -68,10 +68,20 @@ def to_lines(v: Verification) -> list[str]:
     return lines
 
 
+def verified_nothing(data: dict) -> bool:
+    """No ARR-mode check passed (none ran, or every one was left unverified: a model the simulator
+    refuses). ``check --verify`` then exits 1, as for a failure: a trial's PV string printed "0 of
+    4 ARR-mode checks pass, 0 fail, 4 not verified" and exited 0, a pass to a CI script."""
+    return not any(c["passed"] for c in data["checks"])
+
+
 def failures(data: dict, path: str) -> list[str]:
-    """One line per failing ARR and mode (from :func:`to_json`'s data): the finding, for standard
-    error."""
+    """One line per failing ARR and mode (from :func:`to_json`'s data), and one when nothing was
+    verified, with the first reason: the findings, for standard error."""
     out = []
+    if verified_nothing(data):
+        why = next((c["note"] for c in data["checks"] if c.get("note")), None)
+        out.append(f"{path}: --verify verified no residual{f' ({why})' if why else ''}")
     for c in data["checks"]:
         if c["passed"] is False:
             mode = ",".join(f"{k}={v}" for k, v in c["mode"].items()) or "(no modes)"
