@@ -103,6 +103,8 @@ class Calibration:
                                         # where its unit differs between modes (arr_unit says "?" for it)
     unscored: tuple[str, ...] = ()      # with --window auto: parametric faults no window scores (a nominal value
                                         # infinite or zero: no relative change of it, fdi.sensitivity.perturbed)
+    at_switches: tuple[tuple[str, str, float, float, float], ...] = ()   # (residual, run, t, peak, peak elsewhere):
+                                        # its peak at a commanded switch, SWITCH_PEAK times the rest's
 
     @property
     def false_alarm_rate(self) -> float | None:
@@ -135,6 +137,47 @@ def _nominal(model_path: str, data: str | Measurements, settle: float | None,
     r = evaluate(model, list(c.arr_residuals), raw, meas.ts, window=sc.window, values=modes)
     keep = trusted(meas.t, settling(settle, sc.settle), sc.end_edge)
     return np.abs(np.asarray(r))[:, keep], {k: np.broadcast_to(v, meas.t.shape)[keep] for k, v in modes.items()}
+
+
+def _times(model_path: str, data: str | Measurements, settle: float | None, window: float | None) -> np.ndarray:
+    """The times of :func:`_nominal`'s samples (the trusted ones)."""
+    c = compiled(model_path)
+    meas = data if isinstance(data, Measurements) else read_csv(data)
+    config = c.config if window is None else replace(c.config, derivative_window=float(window))
+    sc = scales.for_model(c.model, config, meas.ts)
+    return meas.t[trusted(meas.t, settling(settle, sc.settle), sc.end_edge)]
+
+
+SWITCH_PEAK = 3.0   # a residual's peak this many times its peak away from the commanded switches: set by them
+
+
+def _switch_peaks(names: list[str], samples: list[np.ndarray], modes: list[dict], times: list[np.ndarray],
+                  runs: list[str], near: int) -> tuple[tuple[str, str, float, float, float], ...]:
+    """(residual, run, time, peak, peak elsewhere) where a residual's peak over the runs lies within
+    ``near`` samples of a commanded mode's switch and stands SWITCH_PEAK times above its peak
+    everywhere else: the plant and its command column disagree there (a trial's PV disconnect: the
+    logger wrote the command a sample before the plant switched, and the transient at 250.09 s set
+    ARR1's threshold 7.8 times its peak elsewhere; a 10 % current gain then went undetected)."""
+    out = []
+    for i, name in enumerate(names):
+        best, away = (-np.inf, None, None), 0.0
+        for r, m, t, run in zip(samples, modes, times, runs):
+            x = r[i]
+            close = np.zeros(x.size, dtype=bool)
+            for v in m.values():
+                for e in np.flatnonzero(np.diff(np.asarray(v, dtype=float)) != 0):
+                    close[max(0, e - near):e + near + 2] = True
+            finite = np.isfinite(x)
+            if (finite & ~close).any():
+                away = max(away, float(x[finite & ~close].max()))
+            if (finite & close).any():
+                k = int(np.flatnonzero(finite & close)[np.argmax(x[finite & close])])
+                if x[k] > best[0]:
+                    best = (float(x[k]), run, float(t[k]))
+        peak, run, at = best
+        if run is not None and away > 0 and peak > SWITCH_PEAK * away:
+            out.append((name, run, at, peak, away))
+    return tuple(out)
 
 
 def _switches_leave_none(model_path: str, data: str | Measurements, window: float | None) -> bool:
@@ -257,6 +300,9 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
             worst.append((names[int(np.argmax(ratio))], float(ratio.max())))
     spikes = _spikes(names, samples, [m.path for m in data]) if quantile is None else ()
     rises = _rises(names, samples, [m for _, m in runs_modes], [m.path for m in data], need)
+    at_switches = _switch_peaks(names, samples, [m for _, m in runs_modes],
+                                [_times(model_path, meas, settle, pick) for meas in data], [m.path for m in data],
+                                int(derivatives.window_samples(sc.window, data[0].ts, derivatives.DEFAULT_ORDER)) + 2)
     blind = _blind(scales.model_time_scales(model), data[0].ts) if c.config.derivative_window is None else ()
     if blind:
         blind += _operating_point(model, data)
@@ -270,7 +316,7 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                        max((r.highest_order() for r in c.arr_residuals), default=0), pick is not None, scores, blind,
                        spikes, noise, {names[j]: {key_text(k): float(v) for k, v in t.items()} for j, t in tables.items()},
                        {n: [key_text(k) for k in u] for n, u in unvisited.items() if u}, glitches, rises,
-                       _mode_units(model, arrs, names, tables), _unscored(model) if scores else ())
+                       _mode_units(model, arrs, names, tables), _unscored(model) if scores else (), at_switches)
 
 
 def _unscored(model) -> tuple[str, ...]:
@@ -603,6 +649,12 @@ def format_calibration(c: Calibration) -> str:
         lines.append(f"note: {name}{' in ' + mode if mode else ''} rises {ratio:.3g}x within {run} (median |r| over its "
                      f"last third against its first): a fault in a run meant to be fault-free sets its threshold; "
                      f"check that run, or leave it out")
+    for name, run, at, peak, away in c.at_switches:
+        lines.append(f"note: {name}'s peak ({peak:.4g}) is at a commanded switch, {at:.4g} s in {run}, {peak / away:.3g} "
+                     f"times its peak elsewhere ({away:.4g}): the plant and its command column disagree there (a "
+                     f"logger's lag of a sample or more?), or the switched mode settles faster than a sample; the "
+                     f"threshold this peak sets hides faults one set by the rest would see: align the command column "
+                     f"with the plant's switching, or check that switch")
     for name, ratio, run in c.spikes:
         lines.append(f"note: {name}'s peak is {ratio:.3g} times its median, in {run}: a spike or a fault in a run "
                      "meant to be fault-free sets its threshold; check that run, or calibrate with --quantile 0.99")
