@@ -162,6 +162,19 @@ def _node_double(e: sp.Basic, args: list[float]) -> float | None:
         return math.nan
 
 
+def _post_order(expr: sp.Expr):
+    """Every part of ``expr``, each after its arguments, without recursion (a deep expression
+    would exhaust Python's stack)."""
+    stack = [(expr, False)]
+    while stack:
+        e, seen = stack.pop()
+        if not e.is_Atom and not seen:
+            stack.append((e, True))
+            stack.extend((a, False) for a in e.args)
+            continue
+        yield e
+
+
 def _doubles(expr: sp.Expr, src: str | None = None) -> float | None:
     """The value of ``expr`` in doubles where it names no symbol (None where it does), walked once
     bottom-up: never sympy's exact evaluation, which ran for minutes on exp(exp(exp(100))). With
@@ -170,13 +183,7 @@ def _doubles(expr: sp.Expr, src: str | None = None) -> float | None:
     ExpressionError names it: the residuals it enters would be inf or NaN on every sample (a
     diagnosis blind without an error)."""
     values: dict[int, float | None] = {}
-    stack = [(expr, False)]
-    while stack:
-        e, seen = stack.pop()
-        if not e.is_Atom and not seen:
-            stack.append((e, True))
-            stack.extend((a, False) for a in e.args)
-            continue
+    for e in _post_order(expr):
         if e.is_Atom:
             v = _atom_double(e)
         else:
@@ -205,13 +212,7 @@ def left_domain(expr: sp.Expr, values: Mapping[sp.Symbol, float]) -> sp.Expr | N
     True
     """
     got: dict[int, float | None] = {}
-    stack = [(expr, False)]
-    while stack:
-        e, seen = stack.pop()
-        if not e.is_Atom and not seen:
-            stack.append((e, True))
-            stack.extend((a, False) for a in e.args)
-            continue
+    for e in _post_order(expr):
         if e.is_Atom:
             v = values.get(e) if e.is_Symbol else _atom_double(e)
             v = None if v is None else float(v)
