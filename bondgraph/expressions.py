@@ -200,7 +200,7 @@ def _doubles(expr: sp.Expr, src: str | None = None) -> float | None:
 def left_domain(expr: sp.Expr, values: Mapping[sp.Symbol, float]) -> sp.Expr | None:
     """The first part of ``expr`` (bottom-up) that leaves its function's domain, or is not real,
     once the symbols of ``values`` take their values (a model's parameters): each of its arguments
-    a real double (or inf), it is NaN. None where no such part exists; a part that reads any other
+    a finite double, it is NaN. None where no such part exists; a part that reads any other
     symbol (a law's variable, a signal) is not evaluated. A law written ``k*q*log(-k)`` at k = 1e6
     is complex on every sample: its residuals would be NaN everywhere, and a diagnosis blind to
     them reads them as silent (a user trial).
@@ -224,8 +224,8 @@ def left_domain(expr: sp.Expr, values: Mapping[sp.Symbol, float]) -> sp.Expr | N
                 v = math.inf        # a divisor of 0: not this check's (the loader names it as such)
             else:
                 v = _node_double(e, args)
-            if v is not None and v != v and all(a == a for a in args):
-                return e
+            if v is not None and v != v and all(math.isfinite(a) for a in args):
+                return e        # (inf - inf, 0 * inf: a parameter of .inf or 0, which the loader names as such)
         got[id(e)] = v
     return None
 

@@ -96,11 +96,12 @@ def in_mode(model: Model, mode: Mapping[str, int]) -> ModeGraph:
 
 def held_still(model: Model) -> list[str]:
     """What switching a controlled junction off imposes beyond its own bonds, one note each: a 1c
-    joined to a plain 1-junction holds that junction's common flow at 0 while off (it carries no
-    flow on any bond), so everything on it stands still; dually a 0c on a plain 0-junction holds its
-    effort at 0. Sometimes meant (a valve closing a pipe), often not: a trial's elevator wrote its
-    brake as a 1c on the sheave's junction, which then locked the sheave whenever the brake was
-    released; a switch that cuts a branch's effort (a brake's or a clutch's torque) is a 0c there.
+    joined to a plain 1-junction that carries an inertia (an I) holds that junction's common flow at
+    0 while off (a 1c carries no flow on any bond), so the inertia stands still; dually a 0c on a
+    plain 0-junction with a capacitance (a C) holds its effort at 0. Right for a valve that closes a
+    line of fluid inertance; wrong for a brake or a clutch, which should only cut its branch's
+    effort: a trial's elevator wrote its brake as a 1c on the sheave's junction, which locked the
+    sheave whenever the brake was released, and only a note on mixed units hinted it.
 
     >>> from bondgraph.loader import load_model
     >>> held_still(load_model("models/two_tank_valve.yaml"))
@@ -110,15 +111,23 @@ def held_still(model: Model) -> list[str]:
     for j in model.junctions.values():
         if not j.controlled or j.off == "outputs":
             continue
+        storage = "I" if j.base == "1" else "C"
         for b in model.bonds_of(j.name):
             n = model.junctions.get(b.other(j.name))
             if n is None or n.controlled or n.kind != j.base:
                 continue
-            on = sorted(b2.other(n.name) for b2 in model.bonds_of(n.name) if b2.other(n.name) != j.name)
-            what, zero = ("flow", "stand still") if j.base == "1" else ("effort", "see no effort")
-            cut = "0c" if j.base == "1" else "1c"
-            out.append(f"with {j.mode} = 0, {j.name} ({j.kind}) carries no {what} on any bond, so it holds "
-                       f"{n.name}'s {what} at 0: {', '.join(on)} {zero} in that mode; if the switch should only cut "
-                       f"its branch ({'a brake or clutch torque' if j.base == '1' else 'a branch current'}), write "
-                       f"it as a {cut}, or give {j.name} switched_off: outputs")
+            others = sorted(b2.other(n.name) for b2 in model.bonds_of(n.name) if b2.other(n.name) != j.name)
+            frozen = [e for e in others if e in model.elements and model.elements[e].kind == storage]
+            if not frozen:
+                continue
+            if j.base == "1":
+                what, state, fix = "flow", "stand(s) still", ("a valve that closes a line", "a brake or a clutch",
+                                                              "effort (its torque or force)", "0c")
+            else:
+                what, state, fix = "effort", "discharge(s) to 0", ("a switch that shorts a node", "a switch",
+                                                                 "flow (its current)", "1c")
+            out.append(f"with {j.mode} = 0, {j.name} ({j.kind}) carries no {what} on any bond, so it holds {n.name}'s "
+                       f"{what} at 0: {', '.join(frozen)} {state} in that mode (with {', '.join(others)}); right for "
+                       f"{fix[0]}, not for {fix[1]} that should only cut its branch's {fix[2]}: that is a {fix[3]} "
+                       f"on the branch, or {j.name} with switched_off: outputs")
     return out

@@ -123,8 +123,9 @@ def nominal_residuals(model_path: str, data: str | Measurements, settle: float |
 
 
 def _nominal(model_path: str, data: str | Measurements, settle: float | None,
-             window: float | None) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """:func:`nominal_residuals` and the commanded and autonomous modes' values on the same samples."""
+             window: float | None) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
+    """:func:`nominal_residuals`, the commanded and autonomous modes' values on the same samples,
+    and their times."""
     c = compiled(model_path)
     model = c.model
     meas = despiked(model, data if isinstance(data, Measurements) else read_csv(data))[0]   # (calibrate's: done)
@@ -136,37 +137,30 @@ def _nominal(model_path: str, data: str | Measurements, settle: float | None,
     modes = commanded(model, raw)
     r = evaluate(model, list(c.arr_residuals), raw, meas.ts, window=sc.window, values=modes)
     keep = trusted(meas.t, settling(settle, sc.settle), sc.end_edge)
-    return np.abs(np.asarray(r))[:, keep], {k: np.broadcast_to(v, meas.t.shape)[keep] for k, v in modes.items()}
-
-
-def _times(model_path: str, data: str | Measurements, settle: float | None, window: float | None) -> np.ndarray:
-    """The times of :func:`_nominal`'s samples (the trusted ones)."""
-    c = compiled(model_path)
-    meas = data if isinstance(data, Measurements) else read_csv(data)
-    config = c.config if window is None else replace(c.config, derivative_window=float(window))
-    sc = scales.for_model(c.model, config, meas.ts)
-    return meas.t[trusted(meas.t, settling(settle, sc.settle), sc.end_edge)]
+    return (np.abs(np.asarray(r))[:, keep], {k: np.broadcast_to(v, meas.t.shape)[keep] for k, v in modes.items()},
+            meas.t[keep])
 
 
 SWITCH_PEAK = 3.0   # a residual's peak this many times its peak away from the commanded switches: set by them
 
 
 def _switch_peaks(names: list[str], samples: list[np.ndarray], modes: list[dict], times: list[np.ndarray],
-                  runs: list[str], near: int) -> tuple[tuple[str, str, float, float, float], ...]:
-    """(residual, run, time, peak, peak elsewhere) where a residual's peak over the runs lies within
-    ``near`` samples of a commanded mode's switch and stands SWITCH_PEAK times above its peak
+                  runs: list[str], near: list[int]) -> tuple[tuple[str, str, float, float, float], ...]:
+    """(residual, run, time, peak, peak elsewhere) where a residual's peak over the runs (the peak
+    rule's base) lies within ``near`` samples (per run) of a switch of ``modes`` (the commanded ones:
+    an autonomous mode's switch is the plant's own) and stands SWITCH_PEAK times above its peak
     everywhere else: the plant and its command column disagree there (a trial's PV disconnect: the
     logger wrote the command a sample before the plant switched, and the transient at 250.09 s set
     ARR1's threshold 7.8 times its peak elsewhere; a 10 % current gain then went undetected)."""
     out = []
     for i, name in enumerate(names):
         best, away = (-np.inf, None, None), 0.0
-        for r, m, t, run in zip(samples, modes, times, runs):
+        for r, m, t, run, k in zip(samples, modes, times, runs, near):
             x = r[i]
             close = np.zeros(x.size, dtype=bool)
             for v in m.values():
                 for e in np.flatnonzero(np.diff(np.asarray(v, dtype=float)) != 0):
-                    close[max(0, e - near):e + near + 2] = True
+                    close[max(0, e - k):e + k + 2] = True
             finite = np.isfinite(x)
             if (finite & ~close).any():
                 away = max(away, float(x[finite & ~close].max()))
@@ -242,7 +236,8 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
     scores = (choose_window(model_path, data, lambda s: _threshold(s, quantile, margin), settle)
               if window == "auto" else None)
     pick = chosen(scores).window if scores else None
-    runs_modes = [_nominal(model_path, meas, settle, pick) for meas in data]
+    nominal = [_nominal(model_path, meas, settle, pick) for meas in data]
+    runs_modes = [(r, m) for r, m, _ in nominal]
     samples = [r for r, _ in runs_modes]
     config = c.config if pick is None else replace(c.config, derivative_window=pick)
     sc = scales.for_model(model, config, data[0].ts)
@@ -300,9 +295,11 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
             worst.append((names[int(np.argmax(ratio))], float(ratio.max())))
     spikes = _spikes(names, samples, [m.path for m in data]) if quantile is None else ()
     rises = _rises(names, samples, [m for _, m in runs_modes], [m.path for m in data], need)
-    at_switches = _switch_peaks(names, samples, [m for _, m in runs_modes],
-                                [_times(model_path, meas, settle, pick) for meas in data], [m.path for m in data],
-                                int(derivatives.window_samples(sc.window, data[0].ts, derivatives.DEFAULT_ORDER)) + 2)
+    commanded_only = [{k: v for k, v in m.items() if not model.modes[k].autonomous} for _, m in runs_modes]
+    at_switches = (_switch_peaks(names, samples, commanded_only, [t for _, _, t in nominal], [m.path for m in data],
+                                 [int(derivatives.window_samples(sc.window, m.ts, derivatives.DEFAULT_ORDER)) + 2
+                                  for m in data])
+                   if quantile is None else ())      # (a quantile's threshold is not its peak's)
     blind = _blind(scales.model_time_scales(model), data[0].ts) if c.config.derivative_window is None else ()
     if blind:
         blind += _operating_point(model, data)
@@ -629,9 +626,9 @@ def format_calibration(c: Calibration) -> str:
             lines.append("  set aside whatever their scores: " + "; ".join(
                 f"{w:.4g} s: {why}" for w, why in sorted(aside.items())))
         if pick is max(c.window_scores, key=lambda x: x.window) and len(c.window_scores) > 1:
-            lines.append(f"  the longest window scored won: the scores may still fall beyond it, where no window was "
-                         f"tried (at most a tenth of a run, clear of the model's modes, under half a run without "
-                         f"residuals): longer nominal runs let longer windows be tried")
+            lines.append("  the longest window scored won: the scores may still fall beyond it, where no window was "
+                         "tried (at most a tenth of a run, clear of the model's modes, under half a run without "
+                         "residuals): longer nominal runs let longer windows be tried")
     elif c.window is not None:
         lines.append(f"derivative window: {c.window:.4g} s ({c.window_samples} samples), "
                      + ("diagnosis.derivative_window" if c.window_given else

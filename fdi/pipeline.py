@@ -130,13 +130,13 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
     clock.lap("load")
     r = evaluate(p.monitor.model, list(p.monitor.residuals), p.raw, meas.ts, window=p.window_s, values=p.values(p.raw))
     clock.lap("residuals")
+    never = never_finite(p, r)
+    if never:
+        raise DataError(f"{meas.path}: {never_finite_text(p.monitor.model, p.monitor.residuals, never)}")
     blinded = blind(p, r)
     if r.size and not np.isfinite(r).any():
         # nothing was monitored: "nothing detected" (exit 0, --fail-on-fault passed) would read as healthy
         raise DataError(f"{meas.path}: no residual has a sample to judge, so nothing can be detected: {blinded}")
-    never = never_finite(p, r)
-    if never:
-        raise DataError(f"{meas.path}: {never_finite_text(p.monitor.model, p.monitor.residuals, never)}")
     det = detect(r, meas.t, p.thresholds, p.wait, p.settle, p.scales.end_edge, *p.rule)
     base = Diagnosis(p.monitor.model.name, dict(o.mode or nominal_mode(p.monitor.model)),
                      note="; ".join(n for n in (p.read, blinded) if n) or None,

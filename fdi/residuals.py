@@ -102,7 +102,8 @@ class Residual:
         ARR3 share d(C1 v)/dt; a linear fault's unit step leaves it unchanged)."""
         args = self.arguments(signals, values, crop, ts, window, rates, polyorder)
         try:
-            out = self.func(*args)
+            with np.errstate(all="ignore"):     # NaN or inf where a law leaves its domain: the report says where
+                out = self.func(*args)
         except OverflowError:
             # a constant beyond a double in Python's own arithmetic (a parameter of 1e299 squared raises
             # where numpy gives inf: a user's model crashed diagnose with a traceback): the same
@@ -535,25 +536,33 @@ def _one_record(residuals: list[Residual], sig: Mapping[str, list[np.ndarray]], 
 
 
 def never_finite_text(model, residuals, names: list[str]) -> str:
-    """What :func:`fdi.pipeline.never_finite`'s refusal (and calibrate's) says: the residuals ``names`` of
-    ``residuals``, the laws they read that are defined on part of the real line only (a root, a
-    logarithm, an inverse trigonometric function), and what to check."""
+    """What :func:`fdi.pipeline.never_finite`'s refusal (and calibrate's) says: the residuals
+    ``names`` of ``residuals``, the laws they may read that are defined on part of the real line
+    only (a root, a logarithm, an inverse trigonometric function of the kind the residuals hold,
+    of parameters they read or of none), and what to check."""
     from bondgraph.expressions import limited_parts
     from bondgraph.model import LAW_VARIABLES
+
+    def kinds(expr) -> set:
+        return {("pow", e.exp) if e.is_Pow else type(e) for e in limited_parts(expr)}
     local = {v.name for v in LAW_VARIABLES.values()}
-    read = {s for r in residuals if r.name in names for s in r.symbols}
+    chosen = [r for r in residuals if r.name in names]
+    read = {s for r in chosen for s in r.symbols}
+    held = set().union(*(kinds(r.expr) for r in chosen)) if chosen else set()
     laws = []
     for el in model.elements.values():       # (a law of parameters none of them reads: not theirs)
         for law, expr in el.laws.items():
             named = {s.name for s in expr.free_symbols} - local
-            if limited_parts(expr) and (not named or read & named):
+            if kinds(expr) & held and (not named or read & named):
                 laws.append(f"{el.name}'s {law} {str(expr).replace('~', '')}")
-    verb, it = ("is", "it") if len(names) == 1 else ("are", "them")
-    cause = (f"a law {it} read{'s' if len(names) == 1 else ''} leaves its domain on these data "
-             f"({'; '.join(laws[:3])}{'; ...' if len(laws) > 3 else ''}): check the law against the values the "
-             "data take there, and the data's units" if laws else
+    one = len(names) == 1
+    it, they = ("it", "it") if one else ("them", "they")
+    where = f" in {model.path}" if getattr(model, "path", None) else ""
+    cause = (f"a law {they} read{'s' if one else ''} leaves its domain on these data "
+             f"({'; '.join(laws[:3])}{'; ...' if len(laws) > 3 else ''}{where}): check the law against the values "
+             "the data take there, and the data's units" if laws else
              "a law of the model overflows a double or leaves its domain on these data (a parameter of 0 or .inf "
              "it divides by, an exponent through a parameter), or the record holds values no sensor reads; "
              "bgfdi tables shows the residuals")
-    return (f"{', '.join(names)} {verb} not finite on any sample, so no threshold can judge {it} and a diagnosis "
-            f"would read {it} as silent: {cause}")
+    return (f"{', '.join(names)} {'is' if one else 'are'} not finite on any sample, so no threshold can judge {it} "
+            f"and a diagnosis would read {it} as silent: {cause}")

@@ -67,9 +67,11 @@ from .data import DataError, Measurements, check_header, checked
 from .detect import confirmed, evidence, evidence_samples, settling, span_start, stray_error, thresholds_for
 from .options import Options
 from .pipeline import refresh_prognosis, with_overrides, with_samples
+from .residuals import never_finite_text
 from .results import Diagnosis, plain
 
 HISTORY_SAMPLES = 360_000   # samples kept before a detection when no history in seconds is given
+NEVER_WINDOWS = 10          # derivative windows of samples a residual may have none finite before a stream is refused
 
 if TYPE_CHECKING:
     from .monitor import Monitor
@@ -98,6 +100,11 @@ def _diagnose(monitor: "Monitor | None", meas: Measurements, options: Options, m
     d = (monitor or _installed).diagnose(meas, options, memo=mine)
     fresh = {k: v for k, v in mine.items() if k not in memo}
     return d.to_dict(), replace(d, t=None, residuals=None), fresh, time.perf_counter() - start
+
+
+def _ordinal(k: int) -> str:
+    """1st, 2nd, 3rd, 4th, 11th, 21st, 1501st."""
+    return f"{k}{'th' if 10 <= k % 100 <= 20 else {1: 'st', 2: 'nd', 3: 'rd'}.get(k % 10, 'th')}"
 
 
 def _refresh(monitor: "Monitor | None", meas: Measurements, latest: Diagnosis, options: Options,
@@ -164,6 +171,8 @@ class Stream:
     header: list[str] = field(default_factory=list)
     n: int = 0                          # samples in the buffer (received, less those forgotten)
     forgotten: int = 0                  # samples dropped from the buffer's start (history)
+    finite_seen: "np.ndarray | None | bool" = None   # per residual, a finite final sample seen (False: all had)
+    judged: int = 0                     # final samples with some residual finite (while one never was)
     done: int = 0                       # samples whose residuals are final
     residuals: np.ndarray | None = None   # the residuals the last feed made final (residuals x samples)
     history: float | None = None        # s of samples kept before a detection (bounded memory); None:
@@ -281,11 +290,31 @@ class Stream:
             return
         a = max(0, self.done - self._carried().behind(ts))
         self.residuals = self._carried()(self.buffer[a:self.n], ts, self.done - a, final - a)
+        self._watch(self.residuals, ts)
         start, self.done = self.done, final
         self._detect(t, start, final)
         self._decide()
         self._refresh()
         self._forget(ts, margin)
+
+    def _watch(self, r: np.ndarray, ts: float) -> None:
+        """A residual not finite on any of NEVER_WINDOWS derivative windows of final samples on which
+        another is (a law that leaves its domain on these data) refuses the stream there, as a file
+        is refused (:func:`fdi.pipeline.never_finite`), not at its end hours later; only where the
+        model has no modes (their switches leave samples out by design, which the file's check
+        tells apart)."""
+        if self.finite_seen is False or self.model.modes or not r.size:
+            return
+        f = np.isfinite(r)
+        seen = f.any(axis=1) if self.finite_seen is None else self.finite_seen | f.any(axis=1)
+        if seen.all():
+            self.finite_seen = False            # every residual has a sample: nothing more to watch
+            return
+        self.finite_seen = seen
+        self.judged += int(f.any(axis=0).sum())
+        if self.judged >= NEVER_WINDOWS * max(1, int(round(self.window / ts))):
+            names = [res.name for res, ok in zip(self.compiled, seen) if not ok]
+            raise DataError(f"{self.source}: {never_finite_text(self.model, self.compiled, names)}")
 
     def _carried(self) -> Carried:
         """The residual kernels on the stream's columns (made once, at the first block)."""
@@ -342,6 +371,7 @@ class Stream:
             table = np.concatenate([self.buffer[base:self.n], block])
             hi = finals[-1][1]
             r = self._carried()(table, ts, self.done - base, hi - base)
+            self._watch(r, ts)
             t_at = table[self.done - base:hi - base, ti]
             # the buffer's first time when each sample was checked (detection ignores the settling time)
             first = np.empty(hi - self.done)
@@ -430,8 +460,8 @@ class Stream:
             bad = np.flatnonzero(~np.isfinite(block).all(axis=1))
             if bad.size:
                 k = self.forgotten + self.n + int(bad[0]) + 1      # from 1, the rows forgotten counted
-                raise DataError(f"{self.source}: a row with NaN, infinite or missing values at sample {k} (line "
-                                f"{k + 1} of a text stream with its header); remove or fill it")
+                raise DataError(f"{self.source}: a row with NaN, infinite or missing values at sample {k} (its "
+                                f"{_ordinal(k)} data row, blank lines not counted); remove or fill it")
         while self.n + block.shape[0] > self.buffer.shape[0]:
             self.buffer = np.concatenate([self.buffer, np.empty_like(self.buffer)])
         self.buffer[self.n:self.n + block.shape[0]] = block

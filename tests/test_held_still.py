@@ -4,8 +4,8 @@ that junction's common variable at 0. A user trial's elevator wrote its holding 
 the sheave's 1-junction: released (brk = 0), the brake locked the sheave, and the only hint was a
 residual "summing different units by mode". `check` now says it, with the fix. Designed models:
 a shaft (1-junction: motor torque, inertia, bearing) with a brake branch switched by a 1c (held
-still while off) or by a 0c (only the brake's torque cut); an RC node (0-junction) with a shorting
-0c (its voltage held at 0) or a 1c branch."""
+still while off) or by a 0c (only the brake's torque cut), and without its inertia (nothing held:
+not named); a node (0-junction) with a capacitance and a shorting 0c (its voltage held at 0)."""
 from __future__ import annotations
 
 from bondgraph.loader import load_model_text
@@ -45,15 +45,20 @@ bonds:
 def test_a_switch_that_holds_its_neighbour_still_is_named_with_its_fix(tmp_path, capsys):
     (note,) = held_still(load_model_text(SHAFT.replace("KIND", "1c"), "shaft.yaml"))
     assert note.startswith("with brk = 0, sw (1c) carries no flow on any bond, so it holds shaft's flow at 0: "
-                           "bearing, inertia, motor stand still in that mode")
-    assert "write it as a 0c" in note
+                           "inertia stand(s) still in that mode (with bearing, inertia, motor)")
+    assert "not for a brake or a clutch that should only cut its branch's effort" in note and "a 0c on the branch" in note
+    # the same switch on a junction with no inertia (a valve between two lines of no inertance) is not named
+    no_mass = SHAFT.replace("KIND", "1c").replace("  2: [shaft, inertia]\n", "").replace(
+        "  inertia: {type: I, parameter: J}\n", "")
+    assert held_still(load_model_text(no_mass, "shaft.yaml")) == []
     assert held_still(load_model_text(SHAFT.replace("KIND", "0c"), "shaft.yaml")) == []
     assert held_still(load_model_text(SHAFT.replace("KIND", "1c").replace(
         "sw: {type: 1c, mode: brk}", "sw: {type: 1c, mode: brk, switched_off: outputs}"), "shaft.yaml")) == []
     node = SHAFT.replace("KIND", "0c").replace('shaft: {type: "1"}', 'shaft: {type: "0"}').replace(
-        "w: {type: Df", "w: {type: De")
+        "w: {type: Df", "w: {type: De").replace("inertia: {type: I, parameter: J}", "inertia: {type: C, parameter: J}")
     (dual,) = held_still(load_model_text(node, "node.yaml"))
-    assert "sw (0c) carries no effort on any bond, so it holds shaft's effort at 0" in dual and "as a 1c" in dual
+    assert "sw (0c) carries no effort on any bond, so it holds shaft's effort at 0: inertia discharge(s) to 0" in dual
+    assert "that is a 1c on the branch" in dual
     path = tmp_path / "shaft.yaml"
     path.write_text(SHAFT.replace("KIND", "1c"), encoding="utf-8")
     main(["check", str(path)])

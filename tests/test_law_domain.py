@@ -54,3 +54,26 @@ def test_a_residual_no_sample_of_which_is_finite_refuses_the_record(tmp_path, ca
                      encoding="utf-8")
     assert main(["diagnose", str(model), str(runs[0]), "--workers", "1"]) == 0
     assert "nothing detected" in capsys.readouterr().out
+
+
+def test_a_stream_with_such_a_residual_is_refused_before_it_ends(tmp_path):
+    """`bgfdi monitor` on the same record ran silently to its end (the check was the summary's):
+    a live stream could run blind for hours. A model without modes (no switch leaves samples out
+    by design) refuses the stream once ten derivative windows of samples have some residual finite
+    and one never: here within the first second of a 2 s record."""
+    from fdi.data import DataError, read_csv
+    from fdi.monitor import compiled
+    from fdi.options import Options
+    model = tmp_path / "rc.yaml"
+    model.write_text(MODEL.replace("res: {type: R, parameter: R}", 'res: {type: R, effort: "R*f*sqrt(f - 1000)"}'),
+                     encoding="utf-8")
+    run = tmp_path / "a.csv"
+    _record(run, 0)
+    m = read_csv(run)
+    header = list(m.columns)
+    table = np.column_stack([m.columns[h] for h in header])
+    mon = compiled(str(model)).stream(lambda e: None, Options(workers=1))
+    with pytest.raises(DataError, match=r"ARR1 is not finite on any sample, .*res's effort R\*f\*sqrt\(f - 1000\)"):
+        for a in range(0, 1000, 50):                 # the first second only: refused before its end
+            mon.feed(header, table[a:a + 50])
+    mon.stop(now=True)

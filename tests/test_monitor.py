@@ -98,14 +98,14 @@ def test_a_long_stream_keeps_a_bounded_history_and_still_detects():
 
 def test_a_bad_row_is_numbered_from_the_stream_start_after_rows_were_forgotten():
     """The stream named a NaN row by its place in the buffer: once the history had dropped the
-    stream's first rows, "sample 1001" was the 1 501st (and a file's reader says "line"). Designed:
-    scenario 2 with 5 s of history, a NaN in the 1 501st row: sample 1501, line 1502."""
+    stream's first rows, "sample 1001" was the 1 501st. Designed: scenario 2 with 5 s of history,
+    a NaN in the 1 501st row: sample 1501."""
     from fdi.data import DataError
     m, header, table = _table("scenario2")
     bad = table[:2000].copy()
     bad[1500, 1] = np.nan
     mon = compiled(CYCAB).stream(lambda e: None, Options(workers=1), history=5.0)
-    with pytest.raises(DataError, match=r"at sample 1501 \(line 1502 of a text stream with its header\)"):
+    with pytest.raises(DataError, match=r"at sample 1501 \(its 1501st data row, blank lines not counted\)"):
         for a in range(0, 2000, 50):
             mon.feed(header, bad[a:a + 50])
     assert mon.forgotten > 0

@@ -51,5 +51,6 @@ def test_a_threshold_set_at_a_lagging_switch_is_named(tmp_path):
             (name, run, at, peak, away), = c.at_switches
             assert name == "ARR1" and peak > 3 * away
             assert min(abs(at - 4.0), abs(at - 6.0)) < 0.1          # at a commanded switch
+            assert calibrate(str(model), runs, quantile=0.99).at_switches == ()   # a quantile's is not the peak's
         else:
             assert c.at_switches == ()

@@ -80,7 +80,8 @@ def failures(data: dict, path: str) -> list[str]:
     verified, with the first reason: the findings, for standard error."""
     out = []
     if verified_nothing(data):
-        why = next((c["note"] for c in data["checks"] if c.get("note")), None)
+        why = next(iter(data.get("notes") or []), None) or next((c["note"] for c in data["checks"] if c.get("note")),
+                                                                None)
         out.append(f"{path}: --verify verified no residual{f' ({why})' if why else ''}")
     for c in data["checks"]:
         if c["passed"] is False:
