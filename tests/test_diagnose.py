@@ -531,7 +531,7 @@ def test_a_set_raced_out_by_a_part_that_is_no_candidate_says_so():
     assert "not a candidate" not in listed
 
 
-def test_a_wide_prognosis_band_names_the_record_left_unread():
+def test_a_poorly_determined_fit_names_the_record_left_unread():
     """A trial's elevator rope (1 kHz, N = 1000) was prognosed from 1 s of a 22 s drift: RUL 26.8 s
     in a band of 0 to 132 s, the rest of the record unread, nothing said. Designed: a band wider
     than the RUL with more than a window of record after it is noted with the --samples that fits
@@ -542,11 +542,23 @@ def test_a_wide_prognosis_band_names_the_record_left_unread():
     from fdi.results import Prognosis
     p = SimpleNamespace(meas=SimpleNamespace(t=np.arange(48001) * 1e-3, ts=1e-3), samples=1000)
     wide = Prognosis("k", 7e5, 53.97, 26.82, 27.15, 0.0, 132.31)
-    d = SimpleNamespace(detection=SimpleNamespace(time=26.15), prognosis=(wide,))
-    note = pipeline.unused_record(p, d)
+    fit = dict(detection=SimpleNamespace(time=26.15), window=(26.15, 27.15), faults=(), winner=None, estimates=(),
+               episodes=None)
+    note = pipeline.unused_record(p, SimpleNamespace(prognosis=(wide,), **fit))
     assert note.startswith("k's RUL band is wider than the RUL: the drift is fitted on the data to 27.15 s")
     assert "the record goes on to 48 s: --samples 21850 fits it on the whole record" in note
     tight = Prognosis("k", 7e5, 53.97, 26.82, 27.15, 25.0, 28.0)
-    assert pipeline.unused_record(p, SimpleNamespace(detection=d.detection, prognosis=(tight,))) is None
+    assert pipeline.unused_record(p, SimpleNamespace(prognosis=(tight,), **fit)) is None
     short = SimpleNamespace(meas=SimpleNamespace(t=np.arange(27900) * 1e-3, ts=1e-3), samples=1000)
-    assert pipeline.unused_record(short, d) is None
+    assert pipeline.unused_record(short, SimpleNamespace(prognosis=(wide,), **fit)) is None
+    # a step barely decided (a gearbox's backlash growth typed a step on 1 s, margin 1.021): the same
+    # advice; a clear margin (the CyCab's 1.160), or a drift whose runner-up is another degradation
+    # model (a golden chamber's eq. 16 against eq. 17, margin 1.001), says nothing
+    for kind, margin, said in (("abrupt", 1.021, True), ("abrupt", 1.160, False), ("incipient", 1.001, False)):
+        won = SimpleNamespace(candidate=("d",), margin=margin)
+        fault = SimpleNamespace(name="d", type=kind)
+        d = SimpleNamespace(prognosis=(), **{**fit, "faults": (fault,), "winner": ("d",), "estimates": (won,)})
+        note = pipeline.unused_record(p, d)
+        assert (note is not None) == said
+        if said:
+            assert note.startswith("d typed a step, barely (type decision margin 1.021), on the data to 27.15 s")
