@@ -951,7 +951,7 @@ def _in_domain(ctx, where: tuple, expr: sp.Expr, parameters, text) -> None:
     if part is None:
         return
     at = ", ".join(f"{s} = {values[s]:g}" for s in sorted(part.free_symbols & values.keys(), key=str))
-    raise ctx.error(where, f"'{part}' in '{text}' is not a real number at the parameters' values ({at}): "
+    raise ctx.error(where, f"'{part}' in '{text}' is not a finite real number at the parameters' values ({at}): "
                            "every residual that reads it would be NaN on every sample; check the sign of the "
                            "parameter or of the expression")
 

@@ -435,7 +435,7 @@ def test_a_law_that_is_not_real_at_the_parameters_values_is_refused_where_it_is_
     law in the domain there (log(R), sqrt(R)) and a parameter of .inf a law divides by still load."""
     code, err = _check_line(tmp_path, capsys, BASE.replace("res: {type: R, parameter: R}", "res: {type: R, " + law + "}"))
     assert code == 2 and ":10: elements.res.effort:" in err
-    assert f"'{part}' in " in err and "is not a real number at the parameters' values (R = 100)" in err
+    assert f"'{part}' in " in err and "is not a finite real number at the parameters' values (R = 100)" in err
     ok = tmp_path / "ok.yaml"
     ok.write_text(BASE.replace("res: {type: R, parameter: R}", 'res: {type: R, effort: "f*sqrt(R)*log(R)", flow: "e/(sqrt(R)*log(R))"}'),
                   encoding="utf-8")
