@@ -71,7 +71,8 @@ from .residuals import never_finite_text
 from .results import Diagnosis, plain
 
 HISTORY_SAMPLES = 360_000   # samples kept before a detection when no history in seconds is given
-NEVER_WINDOWS = 10          # derivative windows of samples a residual may have none finite before a stream is refused
+NEVER_WINDOWS = 10          # derivative windows (and at least N samples) a residual may have none finite before
+                            # a stream is refused
 
 if TYPE_CHECKING:
     from .monitor import Monitor
@@ -299,10 +300,11 @@ class Stream:
 
     def _watch(self, r: np.ndarray, ts: float) -> None:
         """A residual not finite on any of NEVER_WINDOWS derivative windows of final samples on which
-        another is (a law that leaves its domain on these data) refuses the stream there, as a file
-        is refused (:func:`fdi.pipeline.never_finite`), not at its end hours later; only where the
-        model has no modes (their switches leave samples out by design, which the file's check
-        tells apart)."""
+        another is, nor on an identification window's N (a law that leaves its domain on these data),
+        refuses the stream there, as a file is refused (:func:`fdi.pipeline.never_finite`), not at its
+        end hours later (a start-up stretch outside a law's domain, finite later, is the file's to
+        accept: N samples of it are not); only where the model has no modes (their switches leave
+        samples out by design, which the file's check tells apart)."""
         if self.finite_seen is False or self.model.modes or not r.size:
             return
         f = np.isfinite(r)
@@ -312,7 +314,7 @@ class Stream:
             return
         self.finite_seen = seen
         self.judged += int(f.any(axis=0).sum())
-        if self.judged >= NEVER_WINDOWS * max(1, int(round(self.window / ts))):
+        if self.judged >= max(NEVER_WINDOWS * max(1, int(round(self.window / ts))), self.samples):
             names = [res.name for res, ok in zip(self.compiled, seen) if not ok]
             raise DataError(f"{self.source}: {never_finite_text(self.model, self.compiled, names)}")
 

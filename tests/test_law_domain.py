@@ -59,8 +59,9 @@ def test_a_residual_no_sample_of_which_is_finite_refuses_the_record(tmp_path, ca
 def test_a_stream_with_such_a_residual_is_refused_before_it_ends(tmp_path):
     """`bgfdi monitor` on the same record ran silently to its end (the check was the summary's):
     a live stream could run blind for hours. A model without modes (no switch leaves samples out
-    by design) refuses the stream once ten derivative windows of samples have some residual finite
-    and one never: here within the first second of a 2 s record."""
+    by design) refuses the stream once ten derivative windows, and an identification window's N
+    samples, have some residual finite and one never: here N = 1000 samples (1 s) into a 2 s
+    record, fed three quarters of it."""
     from fdi.data import DataError, read_csv
     from fdi.monitor import compiled
     from fdi.options import Options
@@ -74,6 +75,6 @@ def test_a_stream_with_such_a_residual_is_refused_before_it_ends(tmp_path):
     table = np.column_stack([m.columns[h] for h in header])
     mon = compiled(str(model)).stream(lambda e: None, Options(workers=1))
     with pytest.raises(DataError, match=r"ARR1 is not finite on any sample, .*res's effort R\*f\*sqrt\(f - 1000\)"):
-        for a in range(0, 1000, 50):                 # the first second only: refused before its end
+        for a in range(0, 1500, 50):                 # three quarters of the record: refused before its end
             mon.feed(header, table[a:a + 50])
     mon.stop(now=True)
