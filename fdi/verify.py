@@ -510,6 +510,8 @@ def verify(model: Model, arrs: Sequence[ARR] | None = None, *, seed: int = 0,
     finest = ts / AMPLIFICATION ** (1 / highest)
     rng = np.random.default_rng(seed)
     pool: dict[str, np.ndarray] | None = None
+    own: dict[tuple, set[str]] = {}      # the states each mode's own scouting run has (a mode that switches an
+                                         # element out has no state of it: a drawn value for it was refused)
     checks: list[Check] = []
     cuts: list[Run] = []
     left_out: list[Run] = []
@@ -521,6 +523,7 @@ def verify(model: Model, arrs: Sequence[ARR] | None = None, *, seed: int = 0,
             try:
                 for name, v in _Runner(model, mode, grid, tau, finest, rng).scout(runs).items():
                     visited.setdefault(name, []).append(v)
+                    own.setdefault(tuple(mode.items()), set()).add(name)
             except (SimulationError, CausalityError, ValueError, ArithmeticError, np.linalg.LinAlgError):
                 continue
         pool = {name: np.concatenate(vs) for name, vs in visited.items()} or None
@@ -545,7 +548,9 @@ def verify(model: Model, arrs: Sequence[ARR] | None = None, *, seed: int = 0,
             runner = _Runner(model, mode, grid, tau, finest, rng)
             if pool is None:
                 pool = runner.scout(runs)
-            found, done = runner.judge(_in_mode(model, compiled, mode), orders, pool, runs)
+            states = own.get(tuple(mode.items()))
+            found, done = runner.judge(_in_mode(model, compiled, mode), orders,
+                                       pool if states is None else {k: v for k, v in pool.items() if k in states}, runs)
         except (SimulationError, CausalityError, ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
             why = _reason(exc)
             notes.append(f"not verified in mode {label}: {why}")

@@ -63,3 +63,21 @@ def test_a_switch_that_holds_its_neighbour_still_is_named_with_its_fix(tmp_path,
     path.write_text(SHAFT.replace("KIND", "1c"), encoding="utf-8")
     main(["check", str(path)])
     assert "    note: with brk = 0, sw (1c) carries no flow on any bond" in capsys.readouterr().out
+
+
+def test_verify_draws_a_mode_s_random_states_from_its_own_states():
+    """A trial's drone motor: its winding's inductance hangs on a 1c alone, so disarmed (mode 0) the
+    winding is gone; `check --verify` drew the random initial states of every mode from the states
+    all modes visit, and the disarmed runs 2 and 3 were left out ("initial value(s) for L_wind: no
+    state or sensor of that name"). That model (tests/data/drone_propulsion.yaml): every run of
+    both modes is simulated now, and the disarmed mode's two residuals that read the rotor pass."""
+    from pathlib import Path
+
+    from bondgraph.loader import load_model
+    from fdi.arrs import select_arrs
+    from fdi.verify import verify
+    model = load_model(Path(__file__).parent / "data" / "drone_propulsion.yaml")
+    v = verify(model, list(select_arrs(model).arrs), seed=0)
+    assert v.settings is not None and not [r for r in v.settings.left_out if "initial value" in r.why]
+    disarmed = [c for c in v.checks if dict(c.mode) == {"arm": 0} and c.passed]
+    assert len(disarmed) == 2 and all(c.runs == 3 for c in disarmed)
