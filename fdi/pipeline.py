@@ -189,7 +189,9 @@ def unused_record(p: Prepared, d: Diagnosis) -> str | None:
     a margin between two degradation models of a drift is the prognosis band's to say). A trial's elevator rope (1 kHz, N = 1000: 1 s of a 22 s
     drift) gave RUL 27 s in a band of 0 to 132 s, the whole record (``--samples``) 55.66 s for an
     EOL of 55.67 s; a gearbox's backlash growing by eq. (16) was typed a step on 1 s (margin 1.021),
-    a drift (b 3 % off, EOL 56.50 s for 56.62 s) on 15 s."""
+    a drift (b 3 % off, EOL 56.50 s for 56.62 s) on 15 s. Not always the whole record: a trial's
+    drone bearing was right on 10 s (EOL 71.44 s for 71.99) and worse on 60 s, where the battery's
+    unmodelled voltage fall bought a second fault."""
     if d.detection is None or d.window is None:
         return None
     t_end, window = float(p.meas.t[-1]), p.samples * p.meas.ts
@@ -198,7 +200,8 @@ def unused_record(p: Prepared, d: Diagnosis) -> str | None:
         return None
     whole = int(math.ceil((t_end - d.detection.time) / p.meas.ts))
     advice = (f"(identification windows of N = {p.samples} samples from the detection), the record goes on to "
-              f"{t_end:.4g} s: --samples {whole} fits it on the whole record")
+              f"{t_end:.4g} s: --samples {whole} fits it on the whole record, a shorter N on part of it (a "
+              f"long window also reads more of what the model leaves out)")
     wide = [g for g in d.prognosis if math.isfinite(g.rul) and g.rul > 0 and g.rul_high - g.rul_low > g.rul]
     if wide:
         return (f"{', '.join(g.name for g in wide)}'s RUL band is wider than the RUL: the drift is fitted on the data "
