@@ -126,14 +126,10 @@ def _nominal(model_path: str, data: str | Measurements, settle: float | None,
              window: float | None) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
     """:func:`nominal_residuals`, the commanded and autonomous modes' values on the same samples,
     and their times."""
-    c = compiled(model_path)
+    c, meas, sc, raw = _run(model_path, data, window)
     model = c.model
-    meas = despiked(model, data if isinstance(data, Measurements) else read_csv(data))[0]   # (calibrate's: done)
-    config = c.config if window is None else replace(c.config, derivative_window=float(window))
-    sc = scales.for_model(model, config, meas.ts)
     scales.check_record_length(model, sc.window, derivatives.window_samples(sc.window, meas.ts, derivatives.DEFAULT_ORDER)
                                + 1, meas.ts, meas.t.size, meas.path)
-    raw = signals_from_data(model, meas)
     modes = commanded(model, raw)
     r = evaluate(model, list(c.arr_residuals), raw, meas.ts, window=sc.window, values=modes)
     keep = trusted(meas.t, settling(settle, sc.settle), sc.end_edge)
@@ -165,23 +161,29 @@ def _switch_peaks(names: list[str], samples: list[np.ndarray], modes: list[dict]
             if (finite & ~close).any():
                 away = max(away, float(x[finite & ~close].max()))
             if (finite & close).any():
-                k = int(np.flatnonzero(finite & close)[np.argmax(x[finite & close])])
-                if x[k] > best[0]:
-                    best = (float(x[k]), run, float(t[k]))
+                top = int(np.flatnonzero(finite & close)[np.argmax(x[finite & close])])
+                if x[top] > best[0]:
+                    best = (float(x[top]), run, float(t[top]))
         peak, run, at = best
         if run is not None and away > 0 and peak > SWITCH_PEAK * away:
             out.append((name, run, at, peak, away))
     return tuple(out)
 
 
+def _run(model_path: str, data: str | Measurements, window: float | None):
+    """A run as calibrate reads it: the compiled model, the run despiked, its scales at ``window``
+    (None: the file's or the rule's) and its signals."""
+    c = compiled(model_path)
+    meas = despiked(c.model, data if isinstance(data, Measurements) else read_csv(data))[0]   # (calibrate's: done)
+    config = c.config if window is None else replace(c.config, derivative_window=float(window))
+    return c, meas, scales.for_model(c.model, config, meas.ts), signals_from_data(c.model, meas)
+
+
 def _switches_leave_none(model_path: str, data: str | Measurements, window: float | None) -> bool:
     """Whether the evaluator leaves every trusted sample of a run out by design: every stretch
     between two mode switches shorter than the derivative window (:func:`fdi.residuals.designed_gaps`)."""
-    c = compiled(model_path)
-    meas = data if isinstance(data, Measurements) else read_csv(data)
-    config = c.config if window is None else replace(c.config, derivative_window=float(window))
-    sc = scales.for_model(c.model, config, meas.ts)
-    breaks = mode_breaks(c.model, signals_from_data(c.model, meas))
+    c, meas, sc, raw = _run(model_path, data, window)
+    breaks = mode_breaks(c.model, raw)
     return bool(len(breaks)) and bool(designed_gaps(list(c.arr_residuals), meas.t.size, breaks, sc.window,
                                                     meas.ts).all())
 

@@ -130,10 +130,11 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
     clock.lap("load")
     r = evaluate(p.monitor.model, list(p.monitor.residuals), p.raw, meas.ts, window=p.window_s, values=p.values(p.raw))
     clock.lap("residuals")
-    never = never_finite(p, r)
+    found = _empty(p, r)                 # (mode breaks and designed gaps: worked out once for both)
+    never = never_finite(p, r, found)
     if never:
         raise DataError(f"{meas.path}: {never_finite_text(p.monitor.model, p.monitor.residuals, never)}")
-    blinded = blind(p, r)
+    blinded = blind(p, r, found)
     if r.size and not np.isfinite(r).any():
         # nothing was monitored: "nothing detected" (exit 0, --fail-on-fault passed) would read as healthy
         raise DataError(f"{meas.path}: no residual has a sample to judge, so nothing can be detected: {blinded}")
@@ -350,25 +351,26 @@ def _empty(p: Prepared, r: np.ndarray) -> tuple[list[str], np.ndarray | None]:
     return empty, designed
 
 
-def never_finite(p: Prepared, r: np.ndarray) -> list[str]:
+def never_finite(p: Prepared, r: np.ndarray, found: tuple | None = None) -> list[str]:
     """The residuals not finite on any sample for want of a law's value, not of samples (every
     stretch between mode switches shorter than the derivative window leaves none by design: that
     is :func:`blind`'s note). Such a residual never crosses its threshold: a diagnosis would read it
     as silent and isolate on the others (a trial's hoist, a damper written c f sqrt(f - 1000):
     the car's extra load diagnosed, exit 0, as a drifting friction), so the record is refused."""
-    empty, designed = _empty(p, r)
+    empty, designed = found or _empty(p, r)
     return [] if designed is not None and designed.all() else empty
 
 
-def blind(p: Prepared, r: np.ndarray) -> str | None:
+def blind(p: Prepared, r: np.ndarray, found: tuple | None = None) -> str | None:
     """What to change when a residual has samples it cannot judge: with mode switches in the record,
     none at all when every stretch between two switches is shorter than the derivative window (its
     samples near a switch are left out by design); elsewhere, a residual that is not finite on some
     samples, where the record or a law overflows a double or leaves its domain (a value no sensor
-    reads, an exponent through a parameter): no threshold judges those, so the report says so."""
+    reads, an exponent through a parameter): no threshold judges those, so the report says so.
+    ``found``: :func:`_empty`'s answer, when the caller has it."""
     names, t = p.monitor.names, p.meas.t
     finite = np.isfinite(r.reshape(len(names), -1))
-    empty, designed = _empty(p, r)
+    empty, designed = found or _empty(p, r)
     if designed is not None:
         # the samples the evaluator leaves out by design (fdi.residuals.designed_gaps) are not reported
         if empty and designed.all():

@@ -135,7 +135,7 @@ def test_calibrate_chooses_a_window_at_which_the_damper_is_found(tmp_path, capsy
                    comments="", fmt="%.12g")
     out = tmp_path / "calibrated.yaml"
     assert main(["calibrate", str(model), *map(str, runs), "--window", "auto", "-o", str(out), "--json"]) == 0
-    printed = capsys.readouterr().out                  # a note that the copy was written, then the JSON
+    printed = capsys.readouterr().out                  # the JSON (the note that the copy was written: on stderr)
     cal = json.loads(printed[printed.index("{"):])
     scores = cal["window_scores"]
     assert cal["window_chosen"] and scores[0]["window"] == pytest.approx(0.009)

@@ -805,7 +805,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             raise DataError(f"{args.model}: the chosen derivative window ({c.window:.4g} s) cannot be written into a "
                             f"copy: {e}; add diagnosis: {{derivative_window: {c.window:.4g}}} by hand") from None
         write_atomic(args.output, edited)
-        _note(f"wrote {args.output} with the calibrated thresholds", args.output)
+        # (with --json, the note goes to standard error: standard output is one JSON document)
+        _note(f"wrote {args.output} with the calibrated thresholds", "-" if args.json else args.output)
     sys.stdout.write(text)
     return 0
 
