@@ -56,7 +56,7 @@ from .monitor import compiled
 from .mode_thresholds import key_text
 from .noise import mode_text, predicted_noise
 from .detect import settling, trusted
-from .residuals import designed_gaps, evaluate, mode_breaks, never_finite_text
+from .residuals import designed_gaps, evaluate, mode_breaks, never_finite_text, switch_samples
 from .spikes import despiked
 from .window_choice import DETECT_GOAL, WindowScore, choose_window, chosen, set_aside
 
@@ -185,7 +185,7 @@ def _switches_leave_none(model_path: str, data: str | Measurements, window: floa
     c, meas, sc, raw = _run(model_path, data, window)
     breaks = mode_breaks(c.model, raw)
     return bool(len(breaks)) and bool(designed_gaps(list(c.arr_residuals), meas.t.size, breaks, sc.window,
-                                                    meas.ts).all())
+                                                    meas.ts, settle=switch_samples(c.model, meas.ts)).all())
 
 
 def _threshold(samples: list[np.ndarray], quantile: float | None, margin: float) -> np.ndarray:

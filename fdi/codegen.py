@@ -45,7 +45,7 @@ from . import derivatives, scales
 from .codegen_names import comment, identifier
 from .codegen_printer import Body, CodegenError, c_function_body
 from .detect import evidence_samples, settling, thresholds_for
-from .residuals import Residual, derivative_orders, evaluated_form, parameter_values
+from .residuals import Residual, derivative_orders, evaluated_form, parameter_values, switch_samples
 
 LANGUAGES = ("c",)
 MAX_ORDER = 7               # derivatives the C filter computes (its MAX_P)
@@ -128,6 +128,7 @@ class Plan:
     residuals: tuple[Kernel, ...]
     ring: int
     lag: int
+    switch_settle: int = 0             # samples of a transient too fast for the data after a switch
 
     @property
     def outputs(self) -> int:
@@ -247,7 +248,7 @@ def plan(monitor, ts: float | None = None, options=None, prefix: str | None = No
     return Plan(model.name, prefix_for(model, prefix), ts, window, wait, float(persistence), float(span),
                 evidence_samples(span, ts), float(settle), scales.end_edge(window), tuple(columns), channels,
                 len(signal_names), take, take_helpers, tuple(modes), tuple(builder.parameters()), tuple(kernels),
-                ring, lag)
+                ring, lag, switch_samples(model, ts) if piecewise else 0)
 
 
 def _worst_lag(channels: tuple[Channel, ...], signal_lag: int) -> int:

@@ -295,6 +295,8 @@ def source(p: Plan) -> str:
              f"#define PERSISTENCE {double(p.persistence)}          /* threshold-seconds of evidence "
              "(0: the first crossing) */",
              f"#define SHORT_STRETCH 4         /* windows: a shorter stretch between mode switches keeps no one-sided fit */",
+             f"#define SWITCH_SETTLE {p.switch_settle}         /* samples after a switch of a transient too fast for the "
+             f"data (fdi.residuals.switch_samples) */",
              f"#define STORED_N {sum(1 for c in p.channels if c.kind == 'stored')}",
              ""]
     lines.append(f"const char *const {P}_column_names[COLUMNS_N] = {{"
@@ -387,6 +389,14 @@ static void fit_centre(${P}_state *s, int c, int64_t centre)
     }
 }
 
+/* The samples after a switch a channel leaves out (fdi.residuals.stretches): its trim, or a transient
+ * too fast for the data and the half window whose fits read it, whichever is longer. */
+static int start_trim(const channel_t *ch, int trim)
+{
+    int settle = SWITCH_SETTLE > 0 ? SWITCH_SETTLE + ch->half : 0;
+    return trim > settle ? trim : settle;
+}
+
 /* Sample j of channel c has arrived, in the stretch that began at sample a (fdi.residuals._piecewise):
  * the window centred half a window back is complete; with the stretch's first window, its first
  * half window from a one-sided fit (after a switch, its first edge samples NaN: the fit is too
@@ -396,13 +406,16 @@ static void arrive(${P}_state *s, int c, int64_t a, int64_t j)
 {
     const channel_t *ch = &CHANNELS[c];
     int64_t length = j - a + 1;
-    int skip = a > 0 ? ch->edge : 0, o, pos;
+    int skip = a > 0 ? start_trim(ch, ch->edge) : 0, o, pos;
     if (length < ch->n)
         return;
     fit_centre(s, c, j - ch->half);
+    if (j - ch->half < a + skip)            /* its window reads a switch's too fast transient */
+        for (o = 0; o <= ch->orders; o++)
+            s->priv.d[ch->out + o][SLOT(j - ch->half)] = NAN;
     if (length == ch->n) {
-        fit_edge(s, c, a, skip, ch->half);
-        for (pos = 0; pos < skip; pos++)
+        fit_edge(s, c, a, skip < ch->half ? skip : ch->half, ch->half);
+        for (pos = 0; pos < skip && pos < ch->half; pos++)
             for (o = 0; o <= ch->orders; o++)
                 s->priv.d[ch->out + o][SLOT(a + pos)] = NAN;
     }
@@ -420,7 +433,7 @@ static void finish(${P}_state *s, int c, int64_t a, int64_t b, int at_end)
     if (length >= ch->n) {
         int whole = length >= SHORT_STRETCH * (int64_t)ch->n;
         int trim = whole ? ch->edge : ch->half;
-        lo = a + (a > 0 ? trim : 0);
+        lo = a + (a > 0 ? start_trim(ch, trim) : 0);
         hi = b - (!at_end ? trim : 0);
         if (hi > b - ch->half)
             fit_edge(s, c, b - ch->n, ch->n - ch->half, ch->n - (int)(b - hi));

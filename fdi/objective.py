@@ -33,7 +33,7 @@ from .config import MonitorConfig
 from .data import commanded
 from .encoding import FaultSpace
 from .residuals import (Estimates, Residual, corrected_signals, corrects_signal, derivative_orders, designed_gaps,
-                        mode_breaks, parameter_values, samples_of)
+                        mode_breaks, parameter_values, samples_of, switch_samples)
 
 ROWS = 256             # individuals per objective block (bounds memory on wide screening calls)
 WINDOW_VALUES = 1 << 18  # ... and at most this many individual-samples per block: a 10 kHz window of 5 000
@@ -279,7 +279,8 @@ def window_gaps(model: Model, residuals, win: Window, signals: Mapping, window_s
             gaps |= np.isnan(np.asarray(x, dtype=float)).reshape(-1, win.t.size).any(axis=0)
     breaks = mode_breaks(model, win.raw)
     if len(breaks):
-        gaps |= designed_gaps(list(residuals), win.t.size, breaks, window_s, win.ts)
+        gaps |= designed_gaps(list(residuals), win.t.size, breaks, window_s, win.ts,
+                              settle=switch_samples(model, win.ts))
     return gaps
 
 
@@ -647,7 +648,8 @@ class Objective:
         for a in range(0, n, step):
             rows = slice(a, min(n, a + step))
             part = signals if n <= step else {k: Estimates([block(x, rows) for x in v], block(samples_of(v), rows),
-                                                           getattr(v, "breaks", None)) for k, v in signals.items()}
+                                                           getattr(v, "breaks", None), getattr(v, "settle", 0))
+                                     for k, v in signals.items()}
             vals = values if n <= step else {k: block(v, rows) for k, v in values.items()}
             out[rows] = residual(part, vals, self.win.ts, self.window_s, crop, rates=self._rates)
         if self.gaps.any():

@@ -59,10 +59,11 @@ class Estimates(list):
     whole window before the fault (measured on a chain of 100 tanks: a capacitance 20 % low from
     100 s detected at 95 s, the design fitted at 3836 but a 1.4 % change of the next tank given at
     5090)."""
-    __slots__ = ("raw", "breaks")
+    __slots__ = ("raw", "breaks", "settle")
 
-    def __init__(self, estimates, raw: np.ndarray, breaks: np.ndarray | None = None) -> None:
+    def __init__(self, estimates, raw: np.ndarray, breaks: np.ndarray | None = None, settle: int = 0) -> None:
         super().__init__(estimates)
+        self.settle = settle        # samples after each break a too fast transient holds (switch_samples)
         self.raw = raw
         self.breaks = np.zeros(0, dtype=int) if breaks is None else breaks
 
@@ -141,8 +142,8 @@ class Residual:
             for held, rate in rates.get(key, ()):
                 if len(held) == len(reads) and all(a is b for a, b in zip(held, reads)):
                     return rate
-        measured = {s: Estimates([samples_of(v)] + list(v[1:]), samples_of(v), getattr(v, "breaks", None))
-                    for s, v in signals.items()}
+        measured = {s: Estimates([samples_of(v)] + list(v[1:]), samples_of(v), getattr(v, "breaks", None),
+                                 getattr(v, "settle", 0)) for s, v in signals.items()}
         x = np.asarray(inner(measured, values, ts, window, rates=rates, polyorder=polyorder), dtype=float)
         finite = np.isfinite(x)
         # a sample no row has (a signal's derivative left out at a mode switch by design, a spike in
@@ -155,9 +156,9 @@ class Residual:
         common = ~finite if x.ndim == 1 else ~finite.any(axis=tuple(range(x.ndim - 1)))
         bad = (~finite & ~common).any(axis=-1, keepdims=True)
         x = np.where(common, np.nan, np.where(finite, x, 0.0))
-        breaks = next((b.breaks for b in signals.values() if isinstance(b, Estimates) and len(b.breaks)), None)
-        if breaks is not None:       # its rate broken at the mode switches, as the signals' derivatives are
-            d = _piecewise(x, ts, order, window, breaks, polyorder)[order]
+        broken = next((b for b in signals.values() if isinstance(b, Estimates) and len(b.breaks)), None)
+        if broken is not None:       # its rate broken at the mode switches, as the signals' derivatives are
+            d = _piecewise(x, ts, order, window, broken.breaks, polyorder, broken.settle)[order]
         else:
             d = derivatives.estimate(x, ts, order, window, polyorder=polyorder, at=crop)[order]
         rate = np.where(bad, np.nan, d[..., crop] if crop is not None else d)
@@ -315,6 +316,7 @@ def corrected_signals(model: Model, raw: Mapping[str, np.ndarray], ts: float, or
     biases = biases or {}
     out: dict[str, list[np.ndarray]] = {}
     breaks = mode_breaks(model, raw)
+    settle = switch_samples(model, ts) if len(breaks) else 0
     for name, order in orders.items():
         x = np.asarray(raw[name], dtype=float)
         bias = biases.get(name)
@@ -324,7 +326,7 @@ def corrected_signals(model: Model, raw: Mapping[str, np.ndarray], ts: float, or
         if beta is not None:
             x = x / beta if name in model.sensors else x * beta
         out[name] = Estimates(derivatives.estimate(x, ts, order, window, edges=edges, at=at) if not len(breaks) else
-                              _piecewise(x, ts, order, window, breaks), x, breaks)
+                              _piecewise(x, ts, order, window, breaks, settle=settle), x, breaks, settle)
     return out
 
 
@@ -341,20 +343,33 @@ def mode_breaks(model: Model, raw: Mapping[str, np.ndarray]) -> np.ndarray:
     return np.flatnonzero(np.any(on[:, 1:] != on[:, :-1], axis=0)) + 1
 
 
+def switch_samples(model: Model, ts: float) -> int:
+    """Samples from each mode switch on that hold a transient too fast for data sampled every
+    ``ts`` s (:func:`fdi.scales.switch_settle`; 0: none): with the samples whose filter window
+    reaches back to them, they are left out (:func:`stretches`)."""
+    from bondgraph.timescales import model_time_scales
+    from .scales import switch_settle
+    seconds = switch_settle(ts, model_time_scales(model).eigenvalues)
+    return int(np.ceil(seconds / ts - 1e-9)) if seconds > 0 else 0
+
+
 SHORT_STRETCH = 4     # windows: a stretch between switches shorter than this is fast switching
 
 
 def _piecewise(x: np.ndarray, ts: float, order: int, window: float, breaks: np.ndarray,
-               polyorder: int = derivatives.DEFAULT_ORDER) -> list[np.ndarray]:
+               polyorder: int = derivatives.DEFAULT_ORDER, settle: int = 0) -> list[np.ndarray]:
     """Derivatives estimated on each stretch between mode switches apart. A stretch a few windows
     long or more is fitted up to its ends (one-sided fits there: a valve commanded shut is seen at
     once); in fast switching (a stretch shorter than SHORT_STRETCH windows, a PWM half-period) only
     where the filter's whole window fits inside, since one-sided fits amplify the noise several
-    times and would set the thresholds (measured on the boost converter: 15 times looser). Samples
-    left out give NaN, which detection, calibration and identification skip."""
+    times and would set the thresholds (measured on the boost converter: 15 times looser). After a
+    switch, ``settle`` samples of a transient too fast for the data (:func:`switch_samples`) and
+    those whose window reads them are left out too. Samples left out give NaN, which detection,
+    calibration and identification skip."""
     out = [np.full(x.shape, np.nan) for _ in range(order + 1)]
     need = derivatives.window_samples(window, ts, max(polyorder, order))
-    for (a, b), keep in stretches(x.shape[-1], breaks, need, derivatives.edge_trim(need, max(polyorder, order), order)):
+    for (a, b), keep in stretches(x.shape[-1], breaks, need, derivatives.edge_trim(need, max(polyorder, order), order),
+                                  settle):
         for k, d in enumerate(derivatives.estimate(x[..., a:b], ts, order, window, polyorder=polyorder)):
             out[k][..., keep] = d[..., keep.start - a:keep.stop - a]
     return out
@@ -374,15 +389,16 @@ def channel_orders(residuals: list["Residual"]) -> set[int]:
 
 
 def designed_gaps(residuals: list["Residual"], size: int, breaks: np.ndarray, window: float, ts: float,
-                  polyorder: int = derivatives.DEFAULT_ORDER) -> np.ndarray:
+                  polyorder: int = derivatives.DEFAULT_ORDER, settle: int = 0) -> np.ndarray:
     """The samples some residual leaves NaN by design at mode switches (:func:`_piecewise` on each of
     its channels, :func:`stretches`): True there. Every channel's order counts, for each has its own
-    window and edge trim (a stored quantity's first rate beside signals read undifferentiated)."""
+    window and edge trim (a stored quantity's first rate beside signals read undifferentiated);
+    ``settle``: :func:`switch_samples` of the model."""
     def trimmed(order: int) -> np.ndarray:
         p = max(polyorder, order)
         need = derivatives.window_samples(window, ts, p)
         kept = np.zeros(size, dtype=bool)
-        for _, keep in stretches(size, breaks, need, derivatives.edge_trim(need, p, order)):
+        for _, keep in stretches(size, breaks, need, derivatives.edge_trim(need, p, order), settle):
             kept[keep] = True
         return ~kept
 
@@ -423,11 +439,13 @@ def _rate_gaps(order: int, inner: "Residual", highest: Mapping[str, int], trimme
     return out
 
 
-def stretches(size: int, breaks: np.ndarray, need: int, edge: int = 0) -> list[tuple[tuple[int, int], slice]]:
+def stretches(size: int, breaks: np.ndarray, need: int, edge: int = 0, settle: int = 0) -> list[tuple[tuple[int, int], slice]]:
     """The stretches between mode switches that :func:`_piecewise` estimates, each (its samples
     [a, b), the samples kept): none shorter than the filter's window (``need`` samples); in fast
     switching (shorter than SHORT_STRETCH windows) half a window trimmed at each switch, in a longer
-    one ``edge`` samples (where the one-sided fit is too noisy: :func:`fdi.derivatives.edge_trim`).
+    one ``edge`` samples (where the one-sided fit is too noisy: :func:`fdi.derivatives.edge_trim`);
+    after a switch at least ``settle`` samples (a transient too fast for the data,
+    :func:`switch_samples`) and the half window whose fits read them, when ``settle`` > 0.
     The other samples are NaN by design (the report's note on residuals that are not finite leaves
     them out)."""
     edges = np.r_[0, breaks, size]
@@ -436,7 +454,8 @@ def stretches(size: int, breaks: np.ndarray, need: int, edge: int = 0) -> list[t
         if b - a < need:
             continue
         trim = need // 2 if b - a < SHORT_STRETCH * need else edge
-        out.append(((a, b), slice(a + trim if a > 0 else a, b - trim if b < size else b)))
+        start = max(trim, settle + need // 2) if settle else trim
+        out.append(((a, b), slice(min(a + start, b) if a > 0 else a, b - trim if b < size else b)))
     return out
 
 

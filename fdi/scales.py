@@ -51,7 +51,7 @@ PERIOD_SAMPLES = 4              # ... and two samples in each of its phases
 PERSISTENCE_WINDOWS = 1.0       # threshold-seconds of evidence per derivative window (see persistence())
 EVIDENCE_WINDOWS = 4.0          # the shortest span the evidence is summed over, in derivative windows
 
-__all__ = ["Scales", "derivative_window", "settle", "end_edge", "min_period", "waiting_time", "persistence", "evidence_span", "detection_rule",
+__all__ = ["Scales", "derivative_window", "settle", "switch_settle", "end_edge", "min_period", "waiting_time", "persistence", "evidence_span", "detection_rule",
            "integration_step",
            "model_time_scales", "for_data", "for_model", "resolve"]
 
@@ -124,6 +124,27 @@ def settle(window: float, eigenvalues=()) -> float:
                     for v in eigenvalues if abs(complex(v)) * window > 1.0)
     startup = STARTUP_DECAYS * decays[len(decays) // 2] if decays else 0.0      # the median: no outlier point
     return max(window / 2, startup)
+
+
+def switch_settle(ts: float, eigenvalues=()) -> float:
+    """The seconds after a mode switch whose samples hold a transient too fast for the data: 7
+    decay times of the slowest mode that decays within one sampling time (0 without one).
+
+    Such a mode (a motor winding's L/R of 0.35 ms sampled at 1 kHz) settles between two samples:
+    the sample at the switch still shows the state before it (the current 0 A as the ESC re-arms),
+    the next one the state after it (80 A). No polynomial through both follows the new mode's
+    trajectory, so every fit that reads those samples misreads the derivatives (a user trial's
+    drone: 23 to 67 times the thresholds for three samples after a fault-free re-arm, a
+    detection). A slower mode is resolved by the samples and, when the window cannot follow it,
+    settles within the window's own edge rules (:func:`settle` at the data start).
+
+    >>> round(switch_settle(0.001, [-2886.0, -5.0]), 6), switch_settle(0.001, [-5.0])
+    (0.002426, 0.0)
+    """
+    decays = [1.0 / max(abs(complex(v).real), abs(complex(v)) / MAX_QUALITY) for v in eigenvalues
+              if complex(v) != 0]
+    fast = [d for d in decays if d < ts]
+    return STARTUP_DECAYS * max(fast) if fast else 0.0
 
 
 def end_edge(window: float) -> float:

@@ -87,13 +87,16 @@ def test_the_gaps_left_by_design_count_every_channel_a_stored_quantitys_rate_too
     from types import SimpleNamespace
 
     from fdi import pipeline
-    from fdi.residuals import designed_gaps, evaluate
+    from fdi.residuals import designed_gaps, evaluate, switch_samples
 
     model, residuals, t, raw, modes = _precharge(1)
     n, ts, window = PRECHARGE_N, PRECHARGE_TS, PRECHARGE_WINDOW
     r = evaluate(model, residuals, raw, ts, window=window, values=modes)
-    gaps = designed_gaps(residuals, n, np.array([1000, 2500]), window, ts)
-    assert np.flatnonzero(gaps).tolist() == [*range(996, 1004), *range(2496, 2504)]
+    settle = switch_samples(model, ts)
+    assert settle == 1       # a contactor's transient settles within the 1 ms sampling time: the switch's sample
+    gaps = designed_gaps(residuals, n, np.array([1000, 2500]), window, ts, settle=settle)
+    # 4 samples before each switch (the rate's end trim); after it that sample and the 12 whose windows read it
+    assert np.flatnonzero(gaps).tolist() == [*range(996, 1013), *range(2496, 2513)]
     assert not (~np.isfinite(r) & ~gaps).any()
     p = SimpleNamespace(monitor=SimpleNamespace(names=[x.name for x in residuals], model=model,
                                                 residuals=residuals),
