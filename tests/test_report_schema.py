@@ -121,3 +121,8 @@ def test_a_failure_value_the_fit_never_reaches_is_said_in_the_text_report():
         text = to_text({"detection": detection, "diagnosis": {"faults": []}, "prognosis": [entry]}, "m", "d.csv")
         assert "R1 does not reach its failure value 2 on the fitted degradation" in text
         assert "0.48 to 996.60 s" in text
+    # with the fit in the report: why (b1 < 0 takes P = exp(b1 tau) down from 1.0, the failure value 2 is above)
+    fault = {"name": "R1", "type": "incipient", "model": 1, "eta": [0, 0], "b": [-0.01], "t0": 10.0}
+    text = to_text({"detection": detection, "diagnosis": {"faults": [fault]}, "prognosis": [p]}, "m", "d.csv")
+    assert ("R1 does not reach its failure value 2 on the fitted degradation: the fitted drift moves it away from "
+            "that value (down: eq. (16), b = -0.01; the failure value lies above its value at the onset)") in text

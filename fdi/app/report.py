@@ -47,6 +47,21 @@ def _raced_out(e: dict, candidates: list | None = None) -> str:
             f"{100 * SET_STALL:g} % in its last rung")
 
 
+def _never(fault: dict | None) -> str:
+    """Why a fitted drift never reaches its failure value, where its closed form says (eqs. (16)
+    and (17): P = P0 exp(b1 tau) and 1/P = 1/P0 - b2 tau move one way, the sign of b, so a value
+    never reached lies the other way; a user trial's bearing given a failure value below its
+    growing friction read "does not reach" with nothing to say the drift moves away from it)."""
+    if not fault or fault.get("type") != "incipient" or fault.get("model") not in (1, 2) or not fault.get("b"):
+        return ""
+    b = float(fault["b"][0])
+    if b == 0 or not math.isfinite(b):
+        return ": the fitted drift does not move it"
+    return (f": the fitted drift moves it away from that value ({'up' if b > 0 else 'down'}: "
+            f"eq. ({16 if fault['model'] == 1 else 17}), b = {b:.5g}; the failure value lies "
+            f"{'below' if b > 0 else 'above'} its value at the onset)")
+
+
 def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[str, str] | None = None,
             units: Mapping[str, str] | None = None, autonomous: Collection[str] = ()) -> str:
     out = [f"bgfdi diagnosis of {data_name} with model {model_name}"]
@@ -150,7 +165,8 @@ def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[st
         if not all(isinstance(p.get(k), (int, float)) and math.isfinite(p[k]) for k in ("eol", "rul")):
             # infinite (null in JSON): the fitted degradation never gets there
             out.append(f"prognosis: {p['name']} does not reach its failure value {p['failure']:g} on the fitted "
-                       f"degradation (EOL = inf; RUL at {p['at']:.2f} s = inf){band}")
+                       f"degradation{_never(next((f for f in faults if f.get('name') == p['name']), None))} "
+                       f"(EOL = inf; RUL at {p['at']:.2f} s = inf){band}")
             continue
         if eol_passed(p["eol"], p["at"]):           # crossed before now: dated, not read as failing at this sample
             out.append(f"prognosis: {p['name']} reached its failure value {p['failure']:g} on the fitted degradation "
