@@ -365,6 +365,7 @@ def test_the_non_finite_note_leaves_out_what_mode_switches_leave_out(monkeypatch
 
     from fdi import pipeline
     monkeypatch.setattr(pipeline, "mode_breaks", lambda model, raw: np.array([10, 500, 560]))
+    monkeypatch.setattr(pipeline, "switch_samples", lambda model, ts: 0)     # no mode faster than a sample
     t = np.arange(1000) * 1e-3
     r = np.ones((2, 1000))
     r[:, :10] = np.nan
@@ -396,6 +397,7 @@ def test_a_residual_empty_on_long_stretches_between_switches_is_not_blamed_on_th
                         meas=SimpleNamespace(t=t, ts=1e-3), raw={}, window_s=0.025)
     r = np.ones((2, 1000))
     r[0] = np.nan
+    monkeypatch.setattr(pipeline, "switch_samples", lambda model, ts: 0)     # no mode faster than a sample
     monkeypatch.setattr(pipeline, "mode_breaks", lambda model, raw: np.array([10, 500, 560]))
     assert pipeline.never_finite(p, r) == ["ARR1"]          # refused: the law's, not the window's
     assert "shorter than the derivative window" not in (pipeline.blind(p, r) or "")
