@@ -41,6 +41,8 @@ class Detection:
     final_coherence: tuple[int, ...]    # at the decision time
     index: int                          # sample index of tD
     alarm: float | None = None          # when the persistence rule confirmed the excursion (None: t_D)
+    excursion: float | None = None      # where the confirming excursion's own crossings began, when a quiet
+                                        # run parts them from earlier crossings of the span (None: at t_D)
 
     @property
     def alarm_time(self) -> float:
@@ -53,10 +55,12 @@ class Detection:
 
 @dataclass(frozen=True)
 class Alarms:
-    """Per residual: the sample of its first alarm (-1: none) and its first crossing inside the
-    span that confirmed the alarm."""
+    """Per residual: the sample of its first alarm (-1: none), its first crossing inside the
+    span that confirmed the alarm, and the first crossing of the excursion that confirmed it
+    (:func:`excursion_start`)."""
     at: np.ndarray
     start: np.ndarray
+    excursion: np.ndarray | None = None
 
     def latched(self, samples: int) -> np.ndarray:
         """Boolean (n_residuals, samples): residual i confirmed at or before sample k."""
@@ -143,6 +147,32 @@ def span_start(z: np.ndarray, at: int, n: int) -> int:
     return lo + int(np.argmax(z[lo:at + 1] > 0))
 
 
+QUIET_SHARE = 8    # a run without a crossing longer than this share of the span parts two excursions
+
+
+def excursion_start(z: np.ndarray, at: int, n: int) -> int:
+    """The first crossing of the excursion that confirmed the alarm at ``at`` (a crossing): of the
+    ``n`` samples of evidence ``z`` that end there, the crossings back to the first run of more than
+    ``n // QUIET_SHARE`` samples without one (half a derivative window in the default span of four
+    windows). t_D stays the span's first crossing (a slow drift flickers about its threshold: a
+    chamber's wear crossed at 4.17 s, then after 40 quiet samples from 4.21 s, and the window from
+    4.17 s fits it best); this bounds how late the fault may have begun: a user trial's engine
+    cooling, a fan switching on, set the residuals above their thresholds for 4 s, unconfirmed, and
+    19 s of quiet later the fan's failure confirmed; the onsets searched ended half a window after
+    the switch's excursion, 21 s before the failure (:func:`fdi.hints.onset_interval`).
+
+    >>> z = np.array([0, 1, 1, 0, 0, 0, 0, 0, 0, 0, 1, 0, 1, 1.0])
+    >>> excursion_start(z, 13, 14), span_start(z, 13, 14)     # 7 quiet samples part them (more than 14 // 8)
+    (10, 1)
+    >>> excursion_start(z, 13, 64)                            # in a span of 64 they do not
+    1
+    """
+    lo = max(0, at - n + 1)
+    hits = np.flatnonzero(z[lo:at + 1] > 0) + lo
+    parted = np.flatnonzero(np.diff(hits) - 1 > max(1, n // QUIET_SHARE))
+    return int(hits[parted[-1] + 1]) if parted.size else int(hits[0])
+
+
 def alarms(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, settle: float = 0.0, edge: float = 0.0,
            persistence: float = 0.0, span: float = 0.0) -> Alarms:
     """Each residual's first confirmed alarm (see the module doc) on the samples detection looks
@@ -160,14 +190,15 @@ def alarms(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, settle:
     keep = trusted(t, settle, edge)
     n = evidence_samples(span, ts)
     thresholds = np.asarray(thresholds, dtype=float)
-    at, start = [], []
+    at, start, excursion = [], [], []
     for i in range(residuals.shape[0]):        # a residual at a time: memory of a few rows, not of all
         z = evidence(residuals[i:i + 1], thresholds[i:i + 1], ts, keep)
         fired = confirmed(z, n, persistence)[0]
         a = int(np.argmax(fired)) if fired.any() else -1
         at.append(a)
         start.append(span_start(z[0], a, n) if a >= 0 else -1)
-    return Alarms(np.asarray(at, dtype=int), np.asarray(start, dtype=int))
+        excursion.append(excursion_start(z[0], a, n) if a >= 0 else -1)
+    return Alarms(np.asarray(at, dtype=int), np.asarray(start, dtype=int), np.asarray(excursion, dtype=int))
 
 
 def detect(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, waiting_time: float,
@@ -183,7 +214,9 @@ def detect(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, waiting
     decided = min(max(j, k + 1), t.size) - 1
     first = tuple(int(0 <= x <= k) for x in a.at)
     final = tuple(int(0 <= x <= decided) for x in a.at)
-    return Detection(float(t[i]), first, float(t[decided]), final, i, None if k == i else float(t[k]))
+    e = int(a.excursion[a.at == k].min())
+    return Detection(float(t[i]), first, float(t[decided]), final, i, None if k == i else float(t[k]),
+                     None if e == i else float(t[e]))
 
 
 def coherence_over_time(residuals: np.ndarray, t: np.ndarray, thresholds: np.ndarray, settle: float = 0.0,

@@ -289,12 +289,14 @@ def evidence(r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, start: float)
 
 
 def onset_interval(r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, t_d: float, start: float,
-                   lookahead: np.ndarray) -> tuple[float, float]:
+                   lookahead: np.ndarray, late: float | None = None) -> tuple[float, float]:
     """The onsets the evidence allows: from the earliest departure from its noise band
     (:func:`departure`, before its first threshold crossing at or after ``start``) of a residual
     that crossed, minus its ``lookahead`` (s), to the detection ``t_d`` plus the look-ahead of the
-    residuals that crossed at t_D (the filter crosses before the fault). ``r`` (residuals x samples),
-    ``thresholds`` and ``lookahead`` one per residual.
+    residuals that crossed at t_D (the filter crosses before the fault); from ``late`` instead where
+    the excursion that confirmed the detection began there, apart from t_D's
+    (:attr:`fdi.detect.Detection.excursion`). ``r`` (residuals x samples), ``thresholds`` and
+    ``lookahead`` one per residual.
 
     >>> t = np.arange(0.0, 20.0, 0.01)
     >>> r = np.vstack([0.1 * np.sin(37 * t) + np.where(t >= 12.0, 0.1 * (t - 12.0) ** 2, 0.0), 0 * t])
@@ -303,14 +305,15 @@ def onset_interval(r: np.ndarray, t: np.ndarray, thresholds: np.ndarray, t_d: fl
     (True, 15.25)
     """
     lookahead = np.broadcast_to(np.asarray(lookahead, dtype=float), (len(thresholds),))
+    late = t_d if late is None else max(t_d, late)
     lows, highs = [], []
     for i, cross, began in evidence(r, t, thresholds, start):
-        if cross <= t_d + 1e-9:
-            highs.append(t_d + lookahead[i])
+        if cross <= late + 1e-9:
+            highs.append(late + lookahead[i])
         lows.append(began - lookahead[i])
     if not lows:
-        return t_d, t_d + float(lookahead.max(initial=0.0))
-    return max(float(t[0]), min(min(lows), t_d)), float(max(highs) if highs else t_d + lookahead.max())
+        return t_d, late + float(lookahead.max(initial=0.0))
+    return max(float(t[0]), min(min(lows), t_d)), float(max(highs) if highs else late + lookahead.max())
 
 
 def intermittent_rows(spaces: list, bits: np.ndarray, seeds: list[list[tuple[float, float]]],

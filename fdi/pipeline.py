@@ -671,7 +671,7 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
     earliest = p.first_trusted
     # onsets the evidence allows: from the first departure from a noise band (minus the filter's
     # look-ahead) to t_D plus the look-ahead; searched from t_D first, then back for a drift seen late
-    onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, earliest)
+    onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, earliest, det.excursion)
     ts = float(t[1] - t[0])
     results = est.run(t, p.raw, det.time, p.samples, list(d.candidates), p.weights, o.seed, progress, None,
                       [(det.time, onsets[1])] * len(d.candidates), None,
@@ -763,7 +763,7 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
     faults = [f.to_dict() for f in d.faults]
     winner = d.winner
     mcsm = p.monitor.mcsm(d.mode)
-    onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, p.first_trusted)
+    onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, p.first_trusted, det.excursion)
     floors = noise_floors(p, r, det.time)
     while (change := next_change(lit, j)) is not None:
         k, j = change, decision_index(t, change, p.wait)
