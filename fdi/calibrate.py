@@ -86,7 +86,8 @@ class Calibration:
     window_given: bool = True           # from diagnosis.derivative_window (else the rule's, fdi.scales)
     highest_order: int = 0              # the highest derivative the residuals take
     window_chosen: bool = False         # chosen by ``--window auto`` (fdi.window_choice): written with -o
-    window_scores: list[WindowScore] | None = None    # every candidate window's, the rule's first when scored
+    window_scores: list[WindowScore] | None = None    # every candidate window's, the rule's first when scored;
+                                                      # at the rule's window (not --window auto): the rule's alone
     blind: tuple[str, ...] = ()         # why the rule's window follows no time constant the data show
     spikes: tuple[tuple[str, float, str], ...] = ()   # (residual, its peak / its median, the run):
                                                      # a peak rule's threshold set by a spike (SPIKE)
@@ -235,9 +236,13 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
             raise DataError(f"{meas.path}: the sensor column(s) {', '.join(frozen)} never change, though the model "
                             "gives them noise: a frozen (stuck) sensor is a fault, not a nominal run; leave the run "
                             "out, or check the sensor")
-    scores = (choose_window(model_path, data, lambda s: _threshold(s, quantile, margin), settle)
-              if window == "auto" else None)
-    pick = chosen(scores).window if scores else None
+    if window == "auto":
+        scores = choose_window(model_path, data, lambda s: _threshold(s, quantile, margin), settle)
+    elif c.config.derivative_window is None:   # the rule's window, scored alone: how large a change each fault needs
+        scores = choose_window(model_path, data, lambda s: _threshold(s, quantile, margin), settle, (1.0,)) or None
+    else:
+        scores = None
+    pick = chosen(scores).window if scores and window == "auto" else None
     nominal = [_nominal(model_path, meas, settle, pick) for meas in data]
     runs_modes = [(r, m) for r, m, _ in nominal]
     samples = [r for r, _ in runs_modes]
@@ -315,7 +320,7 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                        max((r.highest_order() for r in c.arr_residuals), default=0), pick is not None, scores, blind,
                        spikes, noise, {names[j]: {key_text(k): float(v) for k, v in t.items()} for j, t in tables.items()},
                        {n: [key_text(k) for k in u] for n, u in unvisited.items() if u}, glitches, rises,
-                       _mode_units(model, arrs, names, tables), _unscored(model) if scores else (), at_switches)
+                       _mode_units(model, arrs, names, tables), _unscored(model) if pick is not None else (), at_switches)
 
 
 def _unscored(model) -> tuple[str, ...]:
@@ -639,6 +644,15 @@ def format_calibration(c: Calibration) -> str:
                         + (f": the residuals take derivatives of order {c.highest_order}, whose noise falls as the "
                            f"window's length to the power {c.highest_order + 0.5:g}; if faults go undetected, calibrate "
                            "--window auto chooses a window from the runs" if c.highest_order >= 2 else "")))
+        if not c.window_given and c.window_scores and c.window_scores[0].detectable:
+            rule = c.window_scores[0]
+            worst = max(rule.detectable, key=rule.detectable.get)
+            far = rule.detectable[worst] > DETECT_GOAL
+            lines.append(f"  at it a fault is detected from a change of {100 * rule.score:.3g} % (geometric mean; the "
+                         f"largest: {worst}, {_change(rule.detectable[worst])}; relative to its value, an offset's to "
+                         f"its signal's RMS)" + (f": over {100 * DETECT_GOAL:g} %; calibrate --window auto scores "
+                                                 "longer and shorter windows on these runs and keeps the best" if far
+                                                 else ""))
     if c.blind and not c.window_chosen:
         lines.append(f"note: the rule's window follows no time constant of the data ({'; '.join(c.blind)}): "
                      f"calibrate --window auto chooses one from the runs")

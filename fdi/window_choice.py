@@ -98,7 +98,7 @@ def clear_of_modes(samples: int, ts: float, eigenvalues, polyorder: int = deriva
 
 
 def choose_window(model_path: str, data: list[Measurements], thresholds_of: Callable[[list[np.ndarray]], np.ndarray],
-                  settle: float | None = None) -> list[WindowScore]:
+                  settle: float | None = None, factors: tuple[float, ...] = WINDOW_FACTORS) -> list[WindowScore]:
     """Every candidate derivative window's :class:`WindowScore` on the nominal runs ``data``, the rule's
     window first, then the shorter and the longer ones (:data:`WINDOW_FACTORS` times it). Why: the rule
     (half the fastest time constant, fdi.scales) suits a residual's first derivatives; a residual that
@@ -108,7 +108,8 @@ def choose_window(model_path: str, data: list[Measurements], thresholds_of: Call
     the fast dynamics: the thresholds from the runs see both, and each fault's effect (its parameter or
     factor moved by fdi.sensitivity.STEP) is measured through the same filter. ``thresholds_of``: the
     calibration's rule, |r| on the trusted samples of each run -> one threshold per residual
-    (:func:`fdi.calibrate.calibrate` passes its margin and quantile)."""
+    (:func:`fdi.calibrate.calibrate` passes its margin and quantile). ``factors``: the windows
+    scored, times the rule's (``(1.0,)``: the rule's alone, what a calibration at it reports)."""
     c = compiled(model_path)
     model, residuals = c.model, list(c.arr_residuals)
     ts = data[0].ts
@@ -123,7 +124,7 @@ def choose_window(model_path: str, data: list[Measurements], thresholds_of: Call
         runs.append((meas, raw, commanded(model, raw)))
     out: list[WindowScore] = []
     faults = None
-    for factor in WINDOW_FACTORS:
+    for factor in factors:
         window = rule * factor
         if factor > 1 and window > longest:
             break
@@ -165,7 +166,7 @@ def choose_window(model_path: str, data: list[Measurements], thresholds_of: Call
         score = float(np.exp(np.mean(np.log([detectable[f] for f in faults])))) if faults else float("inf")
         judged = min(float(k.mean()) for k in keeps)
         out.append(WindowScore(float(window), samples, {f: detectable[f] for f in faults}, score, factor == 1.0,
-                               judged, _modes_with_residuals(runs, keeps, nominal_r)))
+                               judged, _modes_with_residuals(runs, keeps, nominal_r) if len(factors) > 1 else ()))
     return out
 
 
