@@ -717,6 +717,11 @@ def _autonomous(ctx, data, modes, symbols, sensors, inputs) -> dict[str, Mode]:
         if isinstance(text, str) and any(c in text for c in "<>="):
             raise ctx.error(where, f"'{text}': give the expression that is above zero while the mode is 1, without "
                                    "a comparison (positive: iL for a diode conducting while iL > 0; iL - 0.05 to offset it)")
+        read = sorted(m for m in modes if isinstance(text, str) and re.search(rf"(?<![\w.]){re.escape(m)}(?!\w)", text))
+        if read:
+            raise ctx.error(where, f"'{text}' reads the mode variable(s) {', '.join(read)}: an autonomous mode's "
+                                   "condition reads sensor signals and inputs only; a junction that switches with "
+                                   "two modes takes their product as its mode (mode: \"th*fan\")")
         expr = _expr(ctx, text, where, allowed)
         if not expr.free_symbols & {symbols[k] for k in list(sensors) + list(inputs)}:
             raise ctx.error(where, f"'{spec['positive']}' uses no sensor or input; an autonomous mode follows the "

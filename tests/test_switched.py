@@ -163,6 +163,16 @@ def test_a_diode_that_blocks_when_its_current_ends_is_an_autonomous_mode():
     assert np.max(np.abs(r[ok])) < 0.05
 
 
+def test_an_autonomous_condition_that_reads_a_mode_variable_is_refused_at_its_key():
+    """A user trial's thermostat opened on "fan - 0.5": "undefined symbol 'fan' ...; define it under
+    ... modes", where fan was a mode. The condition reads signals only; the line says so."""
+    text = DCM.read_text(encoding="utf-8").replace('positive: "iL"', 'positive: "iL - s"')
+    with pytest.raises(ModelError) as e:
+        load_model_text(text, "dcm.yaml")
+    assert e.value.where == "modes.c.positive" and "reads the mode variable(s) s" in str(e.value)
+    assert "undefined symbol" not in str(e.value)
+
+
 def test_verification_passes_the_rebuilt_residuals_and_fails_the_one_causality_form_while_the_diode_conducts():
     from fdi.verify import verify
     m = load_model(MODEL)
