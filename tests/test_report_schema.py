@@ -126,3 +126,21 @@ def test_a_failure_value_the_fit_never_reaches_is_said_in_the_text_report():
     text = to_text({"detection": detection, "diagnosis": {"faults": [fault]}, "prognosis": [p]}, "m", "d.csv")
     assert ("R1 does not reach its failure value 2 on the fitted degradation: the fitted drift moves it away from "
             "that value (down: eq. (16), b = -0.01; the failure value lies above its value at the onset)") in text
+
+
+def test_the_fault_mode_estimators_line_says_when_it_is_not_the_diagnosis():
+    """Two user trials read the fault-mode estimator's line as a mode fault found: a thermostat
+    "th=0 fan=1 (a mode fault: fitness ...)" where a sensor offset won, and a brake supply's modes
+    "g=0 a=commanded r=1", exactly as the data command them."""
+    from fdi.app.report import to_text
+    detection = {"time": 20.0, "alarm": 20.0, "coherence": [1, 0], "decision_time": 30.0, "final_coherence": [1, 1]}
+    offset = {"name": "Te_offset", "type": "abrupt", "value": 3.0, "t0": 20.0}
+    lost = {"detection": detection, "suspected_mode_changes": ["stat_closed"], "mode": {"th": 1, "fan": 1},
+            "mode_estimate": {"th": 0, "fan": 1}, "mode_fault_cost": 5.9e4, "diagnosis": {"faults": [offset]}}
+    assert "(a mode fault: fitness 1.695e-05, no parameter; not the diagnosis: the faults below fit better)" in \
+        to_text(lost, "m", "d.csv")
+    held = {"detection": detection, "suspected_mode_changes": ["g", "a"], "mode": {"g": 0, "a": 0, "r": 1},
+            "mode_estimate": {"g": 0, "a": "commanded", "r": 1}, "mode_fault_cost": None,
+            "diagnosis": {"faults": [offset]}}
+    assert "fault-mode estimator: g=0 a=commanded r=1 (the modes the data give: no mode fault)" in \
+        to_text(held, "m", "d.csv")

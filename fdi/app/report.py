@@ -78,7 +78,13 @@ def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[st
     mode = report.get("mode") or {}
     if report.get("suspected_mode_changes"):
         cost = report.get("mode_fault_cost")
-        fitness = "" if cost is None else f" (a mode fault: fitness {1.0 / (cost + 1e-12):.4g}, no parameter)"
+        estimate = report.get("mode_estimate") or {}
+        final = report["diagnosis"]["faults"]
+        won = bool(final) and all(f["type"] == "mode" for f in final)
+        fitness = "" if cost is None else (f" (a mode fault: fitness {1.0 / (cost + 1e-12):.4g}, no parameter"
+                                           + ("" if won else "; not the diagnosis: the faults below fit better") + ")")
+        if cost is None and estimate and all(v == COMMANDED or mode.get(k) == v for k, v in estimate.items()):
+            fitness = " (the modes the data give: no mode fault)"
         out.append(f"suspected mode change(s) from the MCSM: {', '.join(report['suspected_mode_changes'])}; "
                    f"fault-mode estimator: {' '.join(_estimate(k, v, autonomous) for k, v in (report.get('mode_estimate') or {}).items())}"
                    f"{fitness}")
