@@ -156,10 +156,11 @@ def excursion_start(z: np.ndarray, at: int, n: int) -> int:
     ``n // QUIET_SHARE`` samples without one (half a derivative window in the default span of four
     windows). t_D stays the span's first crossing (a slow drift flickers about its threshold: a
     chamber's wear crossed at 4.17 s, then after 40 quiet samples from 4.21 s, and the window from
-    4.17 s fits it best); this bounds how late the fault may have begun: a user trial's engine
-    cooling, a fan switching on, set the residuals above their thresholds for 4 s, unconfirmed, and
-    19 s of quiet later the fan's failure confirmed; the onsets searched ended half a window after
-    the switch's excursion, 21 s before the failure (:func:`fdi.hints.onset_interval`).
+    4.17 s fits it best); where t_D's crossings follow a mode switch it bounds how late the fault
+    may have begun (:func:`fdi.pipeline.switch_excursion`): a user trial's engine cooling, a fan
+    switching on, set the residuals above their thresholds for 4 s, unconfirmed, and 19 s of quiet
+    later the fan's failure confirmed; the onsets searched ended half a window after the switch's
+    excursion, 21 s before the failure (:func:`fdi.hints.onset_interval`).
 
     >>> z = np.array([0, 1, 1, 0, 0, 0, 0, 0, 0, 0, 1, 0, 1, 1.0])
     >>> excursion_start(z, 13, 14), span_start(z, 13, 14)     # 7 quiet samples part them (more than 14 // 8)

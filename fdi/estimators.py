@@ -755,8 +755,9 @@ def evidence_onsets(monitor: "Monitor", r: np.ndarray, t: np.ndarray, thresholds
     """The onsets the residuals ``r`` (residuals x samples, from ``start``, the settling time, on)
     allow (:func:`fdi.hints.onset_interval`): never earlier than the first departure of a residual
     from its noise band minus its look-ahead (nesting depth of its derivative filters x half the
-    derivative window), never later than t_D (``late``: where the confirming excursion began, when a
-    quiet run parts it from t_D's) plus that look-ahead."""
+    derivative window), never later than t_D (``late``: where the confirming excursion began, when
+    t_D's crossings were a switch's transient, :func:`fdi.pipeline.switch_excursion`) plus that
+    look-ahead."""
     w = monitor.config.derivative_window
     look = np.array([hints.nesting_depth(res) * w / 2 for res in monitor.residuals])
     return hints.onset_interval(np.asarray(r).reshape(len(monitor.residuals), -1), t, thresholds, t_d, start, look,

@@ -663,6 +663,25 @@ def check_window(meas: Measurements, t0: float, samples: int, min_period: float 
                         f"needs at least {min_period:g} s after t_D: record longer")
 
 
+def switch_excursion(p: Prepared, det: Detection) -> float | None:
+    """Where the excursion that confirmed the detection began (:attr:`fdi.detect.Detection.excursion`)
+    when t_D's crossings, parted from it by a quiet run, came within a derivative window after a
+    commanded or autonomous switch: the switch's transient, not the fault's start, so the onsets
+    reach past the confirming excursion (:func:`fdi.estimators.evidence_onsets`); else None. A user
+    trial's engine cooling: the fan switched on at 559.8 s, its residuals crossed for 4 s from 566 s,
+    unconfirmed; the fan died at 600 s and its excursion confirmed; every onset searched ended at
+    579 s, and a radiator fouling drift beat the dead fan. Crossings parted by a quiet run away
+    from a switch are a slow drift's flicker about its threshold (a CyCab encoder drift): its
+    onset lies before t_D, and a later bound only widens the search (measured: one of three such
+    scenarios isolated better, one worse, on two seeds)."""
+    if det.excursion is None:
+        return None
+    t = p.meas.t
+    switches = t[mode_breaks(p.monitor.model, p.raw)]
+    near = (switches <= det.time) & (switches >= det.time - p.window_s)
+    return det.excursion if near.any() else None
+
+
 def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clock: Clock, progress) -> Diagnosis:
     """One estimator per candidate set, the winner (or the fault mode), the later decisions, the
     significance check and the prognosis."""
@@ -671,7 +690,7 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
     earliest = p.first_trusted
     # onsets the evidence allows: from the first departure from a noise band (minus the filter's
     # look-ahead) to t_D plus the look-ahead; searched from t_D first, then back for a drift seen late
-    onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, earliest, det.excursion)
+    onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, earliest, switch_excursion(p, det))
     ts = float(t[1] - t[0])
     results = est.run(t, p.raw, det.time, p.samples, list(d.candidates), p.weights, o.seed, progress, None,
                       [(det.time, onsets[1])] * len(d.candidates), None,
@@ -763,7 +782,7 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
     faults = [f.to_dict() for f in d.faults]
     winner = d.winner
     mcsm = p.monitor.mcsm(d.mode)
-    onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, p.first_trusted, det.excursion)
+    onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, p.first_trusted, switch_excursion(p, det))
     floors = noise_floors(p, r, det.time)
     while (change := next_change(lit, j)) is not None:
         k, j = change, decision_index(t, change, p.wait)
