@@ -666,6 +666,9 @@ def _parameters(ctx, data, symbols, claim) -> dict[str, Parameter]:
         if math.isfinite(value) and abs(value) > MAX_CONSTANT:   # as a number in an expression: its products overflow
             raise ctx.error(where + ("value",), f"parameter '{name}' is {value:g}, beyond 1e300 in magnitude; "
                                                "give its value in SI units, or .inf for an infinite one")
+        if value != 0 and abs(value) < 1.0 / MAX_CONSTANT:   # its reciprocal (q/C, e/R) overflows
+            raise ctx.error(where + ("value",), f"parameter '{name}' is {value:g}, below 1e-300 in magnitude: "
+                                               "a law dividing by it overflows; give its value in SI units, or 0")
         unit = _unit(ctx, spec.get("unit"), where + ("unit",))
         claim(name, "a parameter", where)
         # physical constants with a positive nominal value are positive: sign(k*x) -> sign(x)
