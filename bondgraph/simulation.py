@@ -153,6 +153,29 @@ def _vanishes(law: sp.Expr) -> bool:
     return sp.simplify(law) == 0
 
 
+def _inlined(program: Program, expr: sp.Expr) -> sp.Expr | None:
+    """``expr`` with the program's names replaced by their lines, down to states, parameters, inputs
+    and time; None where a line is a linear system's solution (an algebraic loop's)."""
+    lines = dict(program.lines)
+    done: dict[sp.Symbol, sp.Expr] = {}
+
+    def walk(e: sp.Expr) -> sp.Expr:
+        sub = {}
+        for x in e.free_symbols:
+            if x in lines:
+                if x not in done:
+                    line = lines[x]
+                    if isinstance(line, Linear):
+                        raise LookupError(x)
+                    done[x] = walk(line)
+                sub[x] = done[x]
+        return e.xreplace(sub) if sub else e
+    try:
+        return walk(sp.sympify(expr))
+    except LookupError:
+        return None
+
+
 def _signal_laws(spec: Model, names: list[str]) -> str:
     """Why a model whose element laws read measured signals the simulator cannot compute (an
     effort or a flow sensor's reading: it integrates displacements and momenta) is not simulated,
@@ -162,9 +185,10 @@ def _signal_laws(spec: Model, names: list[str]) -> str:
              if any(isinstance(x, sp.Basic) and x.free_symbols & wanted
                     for x in (*e.laws.values(), e.modulus, e.value))]
     where = f"element(s) {', '.join(users)} read" if users else "a modulated element reads"
-    return (f"{where} the measured signal(s) {', '.join(names)}, which the simulator cannot compute (it "
-            "integrates displacements and momenta): write the law in a storage element's state (a pressure "
-            "as q/C of its capacitance), give the signal as an input, or measure a displacement or momentum")
+    return (f"{where} the measured signal(s) {', '.join(names)}, whose readings the simulator cannot compute "
+            "from its states without those laws (a loop through the sensor, or a rate): give the signal as "
+            "an input (a column), or read a signal the states set (the effort of a 0-junction that holds a "
+            "capacitance in integral causality, the flow of a 1-junction that holds an inertia)")
 
 
 def build_system(model: Model, values: Mapping[str, float]) -> System:
@@ -204,10 +228,15 @@ def _bonds_of(spec: Model, elements: list[Element]) -> dict[str, int]:
     return {n: b for n, (b,) in found.items()}
 
 
-def _build(spec: Model, opened: frozenset[str]) -> System:
+def _build(spec: Model, opened: frozenset[str], read: Mapping[sp.Symbol, sp.Expr] | None = None) -> System:
     """The state equations of one configuration (a model with its open resistors replaced), as a
     straight-line program (:mod:`bondgraph.program`): derived, reduced and compiled in time linear
-    in the size of the model."""
+    in the size of the model. A law that reads an effort or flow sensor's signal (a thermostat's
+    lift on the measured coolant temperature, a brake's torque on the caliper pressure) reads what
+    the states give that sensor (the temperature q/C of the engine's capacitance on its 0-junction):
+    derived once with the signal unknown, its reading from the states then put in (``read``) and
+    derived again; where the reading itself needs the law (a loop through the sensor) or a rate, the
+    model is refused (:func:`_signal_laws`)."""
     causality = assign(spec, SIMULATION)
     bad = [p for p in causality.problems if "dependent storage" not in p]
     if bad:
@@ -222,6 +251,7 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
         if spec.symbols[s.name] not in signals:
             signals[spec.symbols[s.name]] = sp.Symbol(f"__signal_{s.name}")   # an error below if used
     signals.update({spec.symbols[i]: spec.inputs[i].expr for i in spec.inputs if spec.inputs[i].expr is not None})
+    signals.update(read or {})
     rels = relations(spec, causality, known=_known_values(spec, opened),
                      states={e.name: X[e.name] for e in integral}, signals=signals)
     rels, torn = _tear(rels) if causality.loops else (rels, [])
@@ -258,7 +288,16 @@ def _build(spec: Model, opened: frozenset[str]) -> System:
     used = set().union(*(e.free_symbols for _, e in program.lines), *(e.free_symbols for e in outputs))
     leftovers = sorted(s.name[9:] for s in used if s.name.startswith("__signal_"))
     if leftovers:
-        raise SimulationError(_signal_laws(spec, leftovers), where="elements")
+        given = dict(read or {})
+        for name in leftovers:
+            reading = _inlined(program, sensor_vals[name]) if name in sensor_vals else None
+            if reading is None or reading.has(sp.Derivative) or any(
+                    x.name.startswith("__signal_") for x in reading.free_symbols):
+                raise SimulationError(_signal_laws(spec, leftovers), where="elements")
+            given[spec.symbols[name]] = reading
+        if len(given) == len(read or {}):
+            raise SimulationError(_signal_laws(spec, leftovers), where="elements")
+        return _build(spec, opened, given)
     params = sorted({s for s in used if not s.name.startswith("__v") and s != t and s not in z_sym}
                     | {spec.symbols[k] for k in spec.parameters} | {spec.symbols[m] for m in spec.modes}
                     | {spec.symbols[f"beta_{e.input or e.name}"] for e in spec.sources() if e.name not in opened},

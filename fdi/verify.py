@@ -31,8 +31,10 @@ How (every scale from the model, no constant in seconds):
   the third derivative of the fastest mode), of the signals and of the stored quantities an
   ARR's exact form differentiates (a cubic there left the LC ladder's d2(C2 v2)/dt2 a quadratic
   fit's error, (w ts)^2: 1.3e-3 on correct ARRs); the filter's edges are dropped, and so are the
-  samples within a filter's reach of a switching surface (a sign/abs/max/min/heaviside argument
-  of any ARR crossing zero: no derivative across a kink is accurate) and, for an ARR, those
+  samples within a filter's reach of a switching surface (a sign/abs/heaviside argument of any
+  ARR crossing zero, or two arguments of a max/min crossing: no derivative across a kink is
+  accurate; a thermostat's lift min(max(x, 0), 1) saturating at 1 failed a correct ARR when only
+  each argument's sign was watched) and, for an ARR, those
   where one of its own kink arguments is below its round-off (its sign is unknown there);
 - violation: max |r| over the samples kept, divided by the ARR's scale, the largest sum of the
   absolute values of its additive terms (:func:`terms`) over the same samples: unit-free, it
@@ -75,6 +77,8 @@ its sum, a product with one sum distributed:
 [-a2*k4*x, -a2*k4*y, x*y]
 """
 from __future__ import annotations
+
+import itertools
 
 import math
 import warnings
@@ -234,7 +238,10 @@ def _compile(model: Model, arr: ARR) -> _Compiled:
     if arr.exact is not None:
         forms.append(compile_residual(model, plain))
     scale = compile_residual(model, replace(plain, expr=sp.Add(*(sp.Abs(u) for u in terms(arr.expr)))))
-    args = {a for k in KINKS for e in arr.expr.atoms(k) for a in e.args}
+    args = set()
+    for k in KINKS:          # a max's or min's switching surface is where two arguments are equal
+        for e in arr.expr.atoms(k):
+            args |= {a - b for a, b in itertools.combinations(e.args, 2)} if k in (sp.Max, sp.Min) else set(e.args)
     kinks = [compile_residual(model, replace(plain, expr=a)) for a in sorted(args, key=str)
              if a.has(t) and not a.is_number]
     return _Compiled(arr, tuple(forms), scale, tuple(kinks))
