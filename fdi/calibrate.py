@@ -615,7 +615,7 @@ def format_calibration(c: Calibration) -> str:
             lines.append(f"derivative window: {c.window:.4g} s ({c.window_samples} samples), chosen by --window auto "
                          f"from {span}; the rule's {rule.window:.4g} s): the smallest change each fault needs to be "
                          f"detected (relative to its value; an offset's to its signal's RMS), geometric mean {100 * rule.score:.3g} % at the rule's, {100 * pick.score:.3g} % "
-                         f"at this one")
+                         f"at this one{_not_scored(c)}")
             for f in pick.detectable:
                 lines.append(f"  {f}: {_change(rule.detectable[f])} -> {_change(pick.detectable[f])}")
         else:               # the rule's window left over half a run without residuals: not scored
