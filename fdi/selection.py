@@ -260,8 +260,11 @@ def select(model: Model, causality: str = DERIVATIVE, budget: float = BUDGET) ->
     elif search.stopped:
         notes.append(f"the time budget ({budget:g} s) cut the search for residuals of lower derivative order")
     elif short:
-        notes.append("the computable residuals do not reach the best structural isolability "
-                     "(a law given in one form only, or an algebraic loop sympy cannot solve)")
+        switched = (", or, with switches, pairs that only a mode other than the nominal one tells apart: residuals "
+                    "are chosen in the nominal mode and completed only for faults no residual detects in any mode "
+                    "(bgfdi isolability names the pairs)") if len(operating_modes(model)) > 1 else ""
+        notes.append("the computable residuals do not reach the best structural isolability: a law given in one "
+                     f"form only, or an algebraic loop sympy cannot solve{switched}")
     return ResidualSet(tuple(out), causality, diag.ok, problems, len(search.pool), len(search.described),
                        search.enumerated and search.enumeration_complete, search.mso_seconds, tuple(notes))
 
