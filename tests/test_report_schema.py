@@ -121,11 +121,25 @@ def test_a_failure_value_the_fit_never_reaches_is_said_in_the_text_report():
         text = to_text({"detection": detection, "diagnosis": {"faults": []}, "prognosis": [entry]}, "m", "d.csv")
         assert "R1 does not reach its failure value 2 on the fitted degradation" in text
         assert "0.48 to 996.60 s" in text
-    # with the fit in the report: why (b1 < 0 takes P = exp(b1 tau) down from 1.0, the failure value 2 is above)
+    # with the fit and the nominal value: why (b1 < 0 takes P = exp(b1 tau) down from 1.0, away from 2)
     fault = {"name": "R1", "type": "incipient", "model": 1, "eta": [0, 0], "b": [-0.01], "t0": 10.0}
-    text = to_text({"detection": detection, "diagnosis": {"faults": [fault]}, "prognosis": [p]}, "m", "d.csv")
+    text = to_text({"detection": detection, "diagnosis": {"faults": [fault]}, "prognosis": [p]}, "m", "d.csv",
+                   nominals={"R1": 1.0})
     assert ("R1 does not reach its failure value 2 on the fitted degradation: the fitted drift moves it away from "
-            "that value (down: eq. (16), b = -0.01; the failure value lies above its value at the onset)") in text
+            "that value (down from 1, eq. (16), b = -0.01)") in text
+    # a review's cases, each EOL = inf by fdi.prognose: eq. (16) never crosses 0; eq. (17) from 1 with b2 = 0.1
+    # rises through its pole (1/P = 1 - 0.1 tau) and never comes back up to 0.5 from below; a negative start
+    for model, b, start, failure, says in ((1, -0.1, 1.0, 0.0, "keeps it on its nominal value's side of 0 (1)"),
+                                           (1, -0.1, 1.0, -0.5, "keeps it on its nominal value's side of 0 (1)"),
+                                           (1, 0.1, -2.0, -1.0, "moves it away from that value (down from -2"),
+                                           (2, 0.1, 1.0, 0.5, "moves it away from that value (up from 1, eq. (17)")):
+        q = prognose({"name": "R1", "type": "incipient", "model": model, "b": [b], "t0": 10.0}, start, failure,
+                     10.0, 30.0)
+        assert math.isinf(q["eol"]), (model, b, start, failure)
+        f = {**fault, "model": model, "b": [b]}
+        text = to_text({"detection": detection, "diagnosis": {"faults": [f]}, "prognosis": [q]}, "m", "d.csv",
+                       nominals={"R1": start})
+        assert says in text, text
 
 
 def test_the_fault_mode_estimators_line_says_when_it_is_not_the_diagnosis():
@@ -144,3 +158,5 @@ def test_the_fault_mode_estimators_line_says_when_it_is_not_the_diagnosis():
             "diagnosis": {"faults": [offset]}}
     assert "fault-mode estimator: g=0 a=commanded r=1 (the modes the data give: no mode fault)" in \
         to_text(held, "m", "d.csv")
+    nothing = {**lost, "diagnosis": {"faults": []}}                 # nothing kept: no "faults below" to point at
+    assert "(a mode fault: fitness 1.695e-05, no parameter; not kept)" in to_text(nothing, "m", "d.csv")

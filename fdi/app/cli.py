@@ -667,11 +667,14 @@ def _diagnose_and_print(model_path: str, data, options, args, data_name: str) ->
     if args.json:
         text = _json_text(public)
     else:
+        from ..objective import nominal
         from ..results import value_unit
         text = to_text(public, model.name, data_name, {n: f.targets[0] for n, f in model.faults.items()
                                                          if f.kind == "mode"},
                        {n: value_unit(model, n) for n in model.faults},
-                       {m for m, mode in model.modes.items() if mode.autonomous}) + (_timings_line(d) if args.timings else "")
+                       {m for m, mode in model.modes.items() if mode.autonomous},
+                       {n: nominal(model, n) for n, f in model.faults.items() if f.kind != "mode"}) \
+            + (_timings_line(d) if args.timings else "")
     _emit(text, getattr(args, "output", None))
     if getattr(args, "plot", None):
         from ..plots import plot_diagnosis

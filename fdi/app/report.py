@@ -47,23 +47,36 @@ def _raced_out(e: dict, candidates: list | None = None) -> str:
             f"{100 * SET_STALL:g} % in its last rung")
 
 
-def _never(fault: dict | None) -> str:
-    """Why a fitted drift never reaches its failure value, where its closed form says (eqs. (16)
-    and (17): P = P0 exp(b1 tau) and 1/P = 1/P0 - b2 tau move one way, the sign of b, so a value
-    never reached lies the other way; a user trial's bearing given a failure value below its
-    growing friction read "does not reach" with nothing to say the drift moves away from it)."""
-    if not fault or fault.get("type") != "incipient" or fault.get("model") not in (1, 2) or not fault.get("b"):
+def _never(fault: dict | None, start: float | None, failure: float) -> str:
+    """Why a fitted drift never reaches its failure value, where its closed form says: eq. (16),
+    P = P0 exp(b1 tau), keeps P0's sign and moves as b1 P0; eq. (17), 1/P = 1/P0 - b2 tau, moves 1/P
+    one way, b2's. ``start``: P0, the fault's nominal value (the drift starts there). A user trial's
+    bearing given a failure value below its growing friction read "does not reach" with nothing to
+    say the drift moves away from it."""
+    if not fault or fault.get("type") != "incipient" or fault.get("model") not in (1, 2) or not fault.get("b") \
+            or start is None or not (math.isfinite(start) and start != 0 and math.isfinite(failure)):
         return ""
     b = float(fault["b"][0])
     if b == 0 or not math.isfinite(b):
         return ": the fitted drift does not move it"
-    return (f": the fitted drift moves it away from that value ({'up' if b > 0 else 'down'}: "
-            f"eq. ({16 if fault['model'] == 1 else 17}), b = {b:.5g}; the failure value lies "
-            f"{'below' if b > 0 else 'above'} its value at the onset)")
+    eq = 16 if fault["model"] == 1 else 17
+    if eq == 16 and failure / start <= 0:
+        return (f": the fitted drift, eq. (16), P0 exp(b1 tau), keeps it on its nominal value's side of 0 "
+                f"({start:.5g}), and the failure value is not")
+    rate = b * start if eq == 16 else b                   # the sign of dP/dtau at the onset
+    towards = (failure - start) * rate > 0
+    if towards:                                           # (eq. (17) through its pole: 1/P passes 0 first)
+        return ""
+    return (f": the fitted drift moves it away from that value ({'up' if rate > 0 else 'down'} from "
+            f"{start:.5g}, eq. ({eq}), b = {b:.5g})")
 
 
 def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[str, str] | None = None,
-            units: Mapping[str, str] | None = None, autonomous: Collection[str] = ()) -> str:
+            units: Mapping[str, str] | None = None, autonomous: Collection[str] = (),
+            nominals: Mapping[str, float] | None = None) -> str:
+    """The text report of a diagnosis' JSON ``report``. ``variables``: a mode fault's mode variable;
+    ``units``: each fault's value unit; ``autonomous``: the autonomous mode variables; ``nominals``:
+    each fault's nominal value (where a prognosis says why a drift never fails)."""
     out = [f"bgfdi diagnosis of {data_name} with model {model_name}"]
     det = report.get("detection")
     if det is None:
@@ -82,7 +95,8 @@ def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[st
         final = report["diagnosis"]["faults"]
         won = bool(final) and all(f["type"] == "mode" for f in final)
         fitness = "" if cost is None else (f" (a mode fault: fitness {1.0 / (cost + 1e-12):.4g}, no parameter"
-                                           + ("" if won else "; not the diagnosis: the faults below fit better") + ")")
+                                           + ("" if won else "; not the diagnosis: the faults below fit better"
+                                              if final else "; not kept") + ")")
         if cost is None and estimate and all(v == COMMANDED or mode.get(k) == v for k, v in estimate.items()):
             fitness = " (the modes the data give: no mode fault)"
         out.append(f"suspected mode change(s) from the MCSM: {', '.join(report['suspected_mode_changes'])}; "
@@ -171,7 +185,7 @@ def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[st
         if not all(isinstance(p.get(k), (int, float)) and math.isfinite(p[k]) for k in ("eol", "rul")):
             # infinite (null in JSON): the fitted degradation never gets there
             out.append(f"prognosis: {p['name']} does not reach its failure value {p['failure']:g} on the fitted "
-                       f"degradation{_never(next((f for f in faults if f.get('name') == p['name']), None))} "
+                       f"degradation{_never(next((f for f in faults if f.get('name') == p['name']), None), (nominals or {}).get(p['name']), p['failure'])} "
                        f"(EOL = inf; RUL at {p['at']:.2f} s = inf){band}")
             continue
         if eol_passed(p["eol"], p["at"]):           # crossed before now: dated, not read as failing at this sample
