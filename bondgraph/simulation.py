@@ -153,27 +153,25 @@ def _vanishes(law: sp.Expr) -> bool:
     return sp.simplify(law) == 0
 
 
-def _inlined(program: Program, expr: sp.Expr) -> sp.Expr | None:
-    """``expr`` with the program's names replaced by their lines, down to states, parameters, inputs
-    and time; None where a line is a linear system's solution (an algebraic loop's)."""
-    lines = dict(program.lines)
+def _inlined(program: Program, expr: sp.Expr) -> sp.Expr:
+    """``expr`` with the program's names replaced by their lines (a :class:`Linear` one as the sum it
+    stands for), down to states, parameters, inputs and time. The lines it needs are found back from
+    it, then replaced in the program's order (no recursion: a chain of thousands of lines)."""
+    lines = {name: line.as_expr() if isinstance(line, Linear) else line for name, line in program.lines}
+    expr = sp.sympify(expr)
+    needed, todo = set(), [x for x in expr.free_symbols if x in lines]
+    while todo:
+        x = todo.pop()
+        if x in needed:
+            continue
+        needed.add(x)
+        todo += [y for y in lines[x].free_symbols if y in lines and y not in needed]
     done: dict[sp.Symbol, sp.Expr] = {}
-
-    def walk(e: sp.Expr) -> sp.Expr:
-        sub = {}
-        for x in e.free_symbols:
-            if x in lines:
-                if x not in done:
-                    line = lines[x]
-                    if isinstance(line, Linear):
-                        raise LookupError(x)
-                    done[x] = walk(line)
-                sub[x] = done[x]
-        return e.xreplace(sub) if sub else e
-    try:
-        return walk(sp.sympify(expr))
-    except LookupError:
-        return None
+    for name, _ in program.lines:
+        if name in needed:
+            line = lines[name]
+            done[name] = line.xreplace({y: done[y] for y in line.free_symbols if y in done})
+    return expr.xreplace({x: done[x] for x in expr.free_symbols if x in done})
 
 
 def _signal_laws(spec: Model, names: list[str]) -> str:
@@ -289,15 +287,14 @@ def _build(spec: Model, opened: frozenset[str], read: Mapping[sp.Symbol, sp.Expr
     leftovers = sorted(s.name[9:] for s in used if s.name.startswith("__signal_"))
     if leftovers:
         given = dict(read or {})
-        for name in leftovers:
+        for name in leftovers:       # each reading the states give without a law that reads a sensor still unknown
             reading = _inlined(program, sensor_vals[name]) if name in sensor_vals else None
-            if reading is None or reading.has(sp.Derivative) or any(
+            if reading is not None and not reading.has(sp.Derivative) and not any(
                     x.name.startswith("__signal_") for x in reading.free_symbols):
-                raise SimulationError(_signal_laws(spec, leftovers), where="elements")
-            given[spec.symbols[name]] = reading
-        if len(given) == len(read or {}):
+                given[spec.symbols[name]] = reading
+        if len(given) == len(read or {}):     # none more: a loop through a sensor, or a rate
             raise SimulationError(_signal_laws(spec, leftovers), where="elements")
-        return _build(spec, opened, given)
+        return _build(spec, opened, given)    # (a chain of readings: one more known each pass)
     params = sorted({s for s in used if not s.name.startswith("__v") and s != t and s not in z_sym}
                     | {spec.symbols[k] for k in spec.parameters} | {spec.symbols[m] for m in spec.modes}
                     | {spec.symbols[f"beta_{e.input or e.name}"] for e in spec.sources() if e.name not in opened},
