@@ -668,7 +668,7 @@ def _parameters(ctx, data, symbols, claim) -> dict[str, Parameter]:
                                                "give its value in SI units, or .inf for an infinite one")
         if value != 0 and abs(value) < 1.0 / MAX_CONSTANT:   # its reciprocal (q/C, e/R) overflows
             raise ctx.error(where + ("value",), f"parameter '{name}' is {value:g}, below 1e-300 in magnitude: "
-                                               "a law dividing by it overflows; give its value in SI units, or 0")
+                                               "a law dividing by it overflows; give its value in SI units")
         unit = _unit(ctx, spec.get("unit"), where + ("unit",))
         claim(name, "a parameter", where)
         # physical constants with a positive nominal value are positive: sign(k*x) -> sign(x)
@@ -720,7 +720,11 @@ def _autonomous(ctx, data, modes, symbols, sensors, inputs) -> dict[str, Mode]:
         if isinstance(text, str) and any(c in text for c in "<>="):
             raise ctx.error(where, f"'{text}': give the expression that is above zero while the mode is 1, without "
                                    "a comparison (positive: iL for a diode conducting while iL > 0; iL - 0.05 to offset it)")
-        read = sorted(m for m in modes if isinstance(text, str) and re.search(rf"(?<![\w.]){re.escape(m)}(?!\w)", text))
+        try:                 # parsed with the modes known: which of them it reads
+            seen = _expr(ctx, text, where, {**allowed, **{m: symbols[m] for m in modes if m in symbols}}).free_symbols
+        except ModelError:
+            seen = set()     # (the parse below says what is wrong)
+        read = sorted(m for m in modes if m in symbols and symbols[m] in seen)
         if read:
             raise ctx.error(where, f"'{text}' reads the mode variable(s) {', '.join(read)}: an autonomous mode's "
                                    "condition reads sensor signals and inputs only; a junction that switches with "

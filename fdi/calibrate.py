@@ -648,8 +648,8 @@ def format_calibration(c: Calibration) -> str:
             rule = c.window_scores[0]
             worst = max(rule.detectable, key=rule.detectable.get)
             far = rule.detectable[worst] > DETECT_GOAL
-            lines.append(f"  at it a fault is detected from a change of {100 * rule.score:.3g} % (geometric mean; the "
-                         f"largest: {worst}, {_change(rule.detectable[worst])}; relative to its value, an offset's to "
+            lines.append(f"  at it the faults need a change of {100 * rule.score:.3g} % to be detected (geometric mean; "
+                         f"the most: {worst}, {_change(rule.detectable[worst])}; relative to a value, an offset's to "
                          f"its signal's RMS)" + (f": over {100 * DETECT_GOAL:g} %; calibrate --window auto scores "
                                                  "longer and shorter windows on these runs and keeps the best" if far
                                                  else ""))

@@ -153,8 +153,8 @@ QUIET_SHARE = 8    # a run without a crossing longer than this share of the span
 def excursion_start(z: np.ndarray, at: int, n: int) -> int:
     """The first crossing of the excursion that confirmed the alarm at ``at`` (a crossing): of the
     ``n`` samples of evidence ``z`` that end there, the crossings back to the first run of more than
-    ``n // QUIET_SHARE`` samples without one (half a derivative window in the default span of four
-    windows). t_D stays the span's first crossing (a slow drift flickers about its threshold: a
+    ``max(1, n // QUIET_SHARE)`` samples without one (half a derivative window in the default span
+    of four windows). t_D stays the span's first crossing (a slow drift flickers about its threshold: a
     chamber's wear crossed at 4.17 s, then after 40 quiet samples from 4.21 s, and the window from
     4.17 s fits it best); where t_D's crossings follow a mode switch it bounds how late the fault
     may have begun (:func:`fdi.pipeline.switch_excursion`): a user trial's engine cooling, a fan

@@ -679,7 +679,8 @@ def switch_excursion(p: Prepared, det: Detection) -> float | None:
     t = p.meas.t
     switches = t[mode_breaks(p.monitor.model, p.raw)]
     near = (switches <= det.time) & (switches >= det.time - p.window_s)
-    return det.excursion if near.any() else None
+    end = det.time + (p.samples - 1) * p.meas.ts         # not past the identification window's data
+    return min(det.excursion, end) if near.any() else None
 
 
 def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clock: Clock, progress) -> Diagnosis:

@@ -62,7 +62,7 @@ def test_calibrating_at_the_rules_window_says_how_large_a_change_each_fault_need
     assert rule.rule and rule.detectable == auto.window_scores[0].detectable       # the same score as auto's
     assert max(rule.detectable.values()) > 0.10
     report = format_calibration(at_rule)
-    assert "at it a fault is detected from a change of" in report and "calibrate --window auto" in report
+    assert "at it the faults need a change of" in report and "calibrate --window auto" in report
     assert auto.window > at_rule.window and min(s.score for s in auto.window_scores) < rule.score / 2
 
 
