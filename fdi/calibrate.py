@@ -56,7 +56,7 @@ from .monitor import compiled
 from .mode_thresholds import key_text
 from .noise import mode_text, predicted_noise
 from .detect import settling, trusted
-from .residuals import designed_gaps, evaluate, mode_breaks, never_finite_text, switch_samples
+from .residuals import evaluate, never_finite_text, switch_gaps
 from .spikes import despiked
 from .window_choice import DETECT_GOAL, WindowScore, choose_window, chosen, set_aside
 
@@ -184,9 +184,8 @@ def _switches_leave_none(model_path: str, data: str | Measurements, window: floa
     """Whether the evaluator leaves every trusted sample of a run out by design: every stretch
     between two mode switches shorter than the derivative window (:func:`fdi.residuals.designed_gaps`)."""
     c, meas, sc, raw = _run(model_path, data, window)
-    breaks = mode_breaks(c.model, raw)
-    return bool(len(breaks)) and bool(designed_gaps(list(c.arr_residuals), meas.t.size, breaks, sc.window,
-                                                    meas.ts, settle=switch_samples(c.model, meas.ts)).all())
+    gaps = switch_gaps(c.model, c.arr_residuals, raw, meas.t.size, sc.window, meas.ts)
+    return gaps is not None and bool(gaps.all())
 
 
 def _threshold(samples: list[np.ndarray], quantile: float | None, margin: float) -> np.ndarray:

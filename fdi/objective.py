@@ -32,8 +32,8 @@ from . import criterion, derivatives, encoding, hints, kernels, profiles, scales
 from .config import MonitorConfig
 from .data import commanded
 from .encoding import FaultSpace
-from .residuals import (Estimates, Residual, corrected_signals, corrects_signal, derivative_orders, designed_gaps,
-                        mode_breaks, parameter_values, samples_of, switch_samples)
+from .residuals import (Estimates, Residual, corrected_signals, corrects_signal, derivative_orders,
+                        parameter_values, samples_of, switch_gaps)
 
 ROWS = 256             # individuals per objective block (bounds memory on wide screening calls)
 WINDOW_VALUES = 1 << 18  # ... and at most this many individual-samples per block: a 10 kHz window of 5 000
@@ -277,10 +277,9 @@ def window_gaps(model: Model, residuals, win: Window, signals: Mapping, window_s
     for series in signals.values():
         for x in series:
             gaps |= np.isnan(np.asarray(x, dtype=float)).reshape(-1, win.t.size).any(axis=0)
-    breaks = mode_breaks(model, win.raw)
-    if len(breaks):
-        gaps |= designed_gaps(list(residuals), win.t.size, breaks, window_s, win.ts,
-                              settle=switch_samples(model, win.ts))
+    designed = switch_gaps(model, residuals, win.raw, win.t.size, window_s, win.ts)
+    if designed is not None:
+        gaps |= designed
     return gaps
 
 

@@ -32,7 +32,7 @@ from .mode_estimation import estimate_mode, mode_variable, switched_at
 from .objective import fault_space, nominal, window
 from .options import MIN_WINDOW_S, Options, check_samples
 from .prognose import prognose
-from .residuals import designed_gaps, evaluate, mode_breaks, never_finite_text, switch_samples
+from .residuals import evaluate, mode_breaks, never_finite_text, switch_gaps
 from .scales import STARTUP_DECAYS, check_derivative_window, check_record_length
 from .results import DETERMINED, Alternative, Diagnosis, Isolation, ModeFault, Prognosis, faults_of
 from .sensitivity import effective, weak_entries
@@ -345,9 +345,7 @@ def _empty(p: Prepared, r: np.ndarray) -> tuple[list[str], np.ndarray | None]:
     evaluator leaves out by design (:func:`fdi.residuals.designed_gaps`), else None."""
     finite = np.isfinite(r.reshape(len(p.monitor.names), -1))
     empty = [n for n, f in zip(p.monitor.names, finite) if not f.any()]
-    breaks = mode_breaks(p.monitor.model, p.raw)
-    designed = (designed_gaps(list(p.monitor.residuals), p.meas.t.size, breaks, p.window_s, p.meas.ts,
-                              settle=switch_samples(p.monitor.model, p.meas.ts)) if len(breaks) else None)
+    designed = switch_gaps(p.monitor.model, p.monitor.residuals, p.raw, p.meas.t.size, p.window_s, p.meas.ts)
     return empty, designed
 
 

@@ -413,6 +413,18 @@ def designed_gaps(residuals: list["Residual"], size: int, breaks: np.ndarray, wi
     return gaps
 
 
+def switch_gaps(model: Model, residuals: Sequence["Residual"], raw: Mapping[str, np.ndarray], size: int,
+                window: float, ts: float) -> np.ndarray | None:
+    """The samples of a record (``raw``, ``size`` samples every ``ts`` s) the evaluator leaves out by
+    design at its mode switches (:func:`designed_gaps`, with the model's :func:`switch_samples`);
+    None when the record does not switch: the one call the diagnosis, the objective and calibrate
+    make, so that each leaves out what :func:`corrected_signals` leaves NaN."""
+    breaks = mode_breaks(model, raw)
+    if not len(breaks):
+        return None
+    return designed_gaps(list(residuals), size, breaks, window, ts, settle=switch_samples(model, ts))
+
+
 def _rate_gaps(order: int, inner: "Residual", highest: Mapping[str, int], trimmed: Callable, size: int,
                breaks: np.ndarray, window: float, ts: float, polyorder: int) -> np.ndarray:
     """Where a stored quantity's rate is NaN because the quantity is (:meth:`Residual._rate`: it

@@ -363,9 +363,9 @@ def test_the_non_finite_note_leaves_out_what_mode_switches_leave_out(monkeypatch
     window), 500 and 560 (a 60-sample stretch: 12 samples trimmed at each end)."""
     from types import SimpleNamespace
 
-    from fdi import pipeline
-    monkeypatch.setattr(pipeline, "mode_breaks", lambda model, raw: np.array([10, 500, 560]))
-    monkeypatch.setattr(pipeline, "switch_samples", lambda model, ts: 0)     # no mode faster than a sample
+    from fdi import pipeline, residuals
+    monkeypatch.setattr(residuals, "mode_breaks", lambda model, raw: np.array([10, 500, 560]))
+    monkeypatch.setattr(residuals, "switch_samples", lambda model, ts: 0)     # no mode faster than a sample
     t = np.arange(1000) * 1e-3
     r = np.ones((2, 1000))
     r[:, :10] = np.nan
@@ -391,17 +391,17 @@ def test_a_residual_empty_on_long_stretches_between_switches_is_not_blamed_on_th
     window), the window's note."""
     from types import SimpleNamespace
 
-    from fdi import pipeline
+    from fdi import pipeline, residuals
     t = np.arange(1000) * 1e-3
     p = SimpleNamespace(monitor=SimpleNamespace(names=["ARR1", "ARR2"], model=None, residuals=[]),
                         meas=SimpleNamespace(t=t, ts=1e-3), raw={}, window_s=0.025)
     r = np.ones((2, 1000))
     r[0] = np.nan
-    monkeypatch.setattr(pipeline, "switch_samples", lambda model, ts: 0)     # no mode faster than a sample
-    monkeypatch.setattr(pipeline, "mode_breaks", lambda model, raw: np.array([10, 500, 560]))
+    monkeypatch.setattr(residuals, "switch_samples", lambda model, ts: 0)     # no mode faster than a sample
+    monkeypatch.setattr(residuals, "mode_breaks", lambda model, raw: np.array([10, 500, 560]))
     assert pipeline.never_finite(p, r) == ["ARR1"]          # refused: the law's, not the window's
     assert "shorter than the derivative window" not in (pipeline.blind(p, r) or "")
-    monkeypatch.setattr(pipeline, "mode_breaks", lambda model, raw: np.arange(10, 1000, 10))   # 10-sample stretches
+    monkeypatch.setattr(residuals, "mode_breaks", lambda model, raw: np.arange(10, 1000, 10))   # 10-sample stretches
     assert pipeline.never_finite(p, np.full((2, 1000), np.nan)) == []
     assert pipeline.blind(p, np.full((2, 1000), np.nan)).startswith(
         "ARR1, ARR2 had no sample: every stretch between two mode switches is shorter than the derivative window")
