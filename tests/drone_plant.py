@@ -59,9 +59,11 @@ def run(path, seed, T=60.0, fs=1000.0, fault=None, disarm=None, phases=None):
     for a, bnd in zip(bps[:-1], bps[1:]):
         m = (t >= a) & (t < bnd) if bnd < T else (t >= a)
         te = t[m]
-        sol = solve_ivp(rates, (a, te[-1]), x0, t_eval=te, method="LSODA", rtol=1e-9, atol=1e-11, max_step=1e-3)
+        end = bnd if bnd < T else te[-1]             # to the breakpoint itself: the next piece starts there
+        sol = solve_ivp(rates, (a, end), x0, t_eval=np.r_[te, end] if te[-1] < end else te, method="LSODA",
+                        rtol=1e-9, atol=1e-11, max_step=1e-3)
         assert sol.success, sol.message
-        X[m] = sol.y.T
+        X[m] = sol.y[:, :te.size].T
         x0 = sol.y[:, -1]
     im, w, Q = X.T
     d = np.array([dcmd(tt) for tt in t]); arm = np.array([1.0 if armed(tt) else 0.0 for tt in t])

@@ -402,3 +402,28 @@ def test_thresholds_by_mode_divide_the_residual_in_c_as_in_python(tmp_path):
     t, cols, _ = plant.simulate(T=4.0, seed=5, faults=[{"target": "Rp", "t0": 3.05, "value": 75.0}])
     found = check(monitor, p, exe, write_csv({"t": t, **cols}, tmp_path / "run.csv"))
     assert found["worst"][0] <= TOLERANCE
+
+
+def test_a_switch_too_fast_for_the_samples_leaves_the_same_samples_out_in_c(tmp_path):
+    """The drone's winding settles within a sample (fdi.scales.switch_settle: 3 samples and half the
+    9-sample window left out after each switch, SWITCH_SETTLE in C): disarm stretches shorter than a
+    window, about one, one and a half, and long ones, the residuals NaN at the same samples and equal
+    elsewhere, on the trial's plant (tests/drone_plant.py)."""
+    from fdi.calibrate import calibrate
+
+    from . import drone_plant as plant
+    source = Path(__file__).parent / "data" / "drone_propulsion.yaml"
+    nominal = tmp_path / "nominal.csv"
+    plant.run(str(nominal), seed=1, T=2.0)
+    c = calibrate(str(source), [str(nominal)])
+    model = tmp_path / "drone.yaml"
+    model.write_text(source.read_text(encoding="utf-8") + "\nthresholds: {"
+                     + ", ".join(f"{n}: {v!r}" for n, v in zip(c.names, c.thresholds)) + "}\n", encoding="utf-8")
+    monitor = compiled(model)
+    p, exe = build(tmp_path / "c", monitor)
+    assert p.switch_settle == 3
+    for k, disarm in enumerate([(1.5, 1.509), (1.5, 1.511), (1.5, 1.537), (1.0, 1.9955)]):
+        csv = tmp_path / f"run{k}.csv"
+        plant.run(str(csv), seed=5 + k, T=2.0, disarm=disarm)
+        found = check(monitor, p, exe, csv)
+        assert found["worst"].max() <= TOLERANCE
