@@ -287,14 +287,23 @@ def _build(spec: Model, opened: frozenset[str], read: Mapping[sp.Symbol, sp.Expr
     leftovers = sorted(s.name[9:] for s in used if s.name.startswith("__signal_"))
     if leftovers:
         given = dict(read or {})
-        for name in leftovers:       # each reading the states give without a law that reads a sensor still unknown
-            reading = _inlined(program, sensor_vals[name]) if name in sensor_vals else None
-            if reading is not None and not reading.has(sp.Derivative) and not any(
-                    x.name.startswith("__signal_") for x in reading.free_symbols):
-                given[spec.symbols[name]] = reading
+        readings = {n: _inlined(program, sensor_vals[n]) for n in leftovers if n in sensor_vals}
+        unknown = {sp.Symbol(f"__signal_{n}"): spec.symbols[n] for n in readings}
+        progress = True
+        while progress:              # each reading the states give, the readings known so far put in
+            progress = False         # (a chain of readings: resolved here, derived again once)
+            for name, reading in readings.items():
+                if spec.symbols[name] in given:
+                    continue
+                reading = readings[name] = reading.xreplace(
+                    {x: given[s] for x, s in unknown.items() if s in given and x in reading.free_symbols})
+                if not reading.has(sp.Derivative) and not any(
+                        x.name.startswith("__signal_") for x in reading.free_symbols):
+                    given[spec.symbols[name]] = reading
+                    progress = True
         if len(given) == len(read or {}):     # none more: a loop through a sensor, or a rate
             raise SimulationError(_signal_laws(spec, leftovers), where="elements")
-        return _build(spec, opened, given)    # (a chain of readings: one more known each pass)
+        return _build(spec, opened, given)
     params = sorted({s for s in used if not s.name.startswith("__v") and s != t and s not in z_sym}
                     | {spec.symbols[k] for k in spec.parameters} | {spec.symbols[m] for m in spec.modes}
                     | {spec.symbols[f"beta_{e.input or e.name}"] for e in spec.sources() if e.name not in opened},
