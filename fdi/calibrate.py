@@ -235,10 +235,11 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
             raise DataError(f"{meas.path}: the sensor column(s) {', '.join(frozen)} never change, though the model "
                             "gives them noise: a frozen (stuck) sensor is a fault, not a nominal run; leave the run "
                             "out, or check the sensor")
+    rule_of = lambda s: _threshold(s, quantile, margin)      # noqa: E731 (the calibration's rule, for the scores)
     if window == "auto":
-        scores = choose_window(model_path, data, lambda s: _threshold(s, quantile, margin), settle)
+        scores = choose_window(model_path, data, rule_of, settle)
     elif c.config.derivative_window is None:   # the rule's window, scored alone: how large a change each fault needs
-        scores = choose_window(model_path, data, lambda s: _threshold(s, quantile, margin), settle, (1.0,)) or None
+        scores = choose_window(model_path, data, rule_of, settle, (1.0,)) or None
     else:
         scores = None
     pick = chosen(scores).window if scores and window == "auto" else None

@@ -100,6 +100,17 @@ STARTUP_DECAYS = 7.0           # decay times of a mode the window cannot follow,
 MAX_QUALITY = 50.0              # an oscillation decays at least as fast as one of this quality factor
 
 
+def decay_time(eigenvalue) -> float:
+    """1/|Re lambda| of a mode, or of one of quality MAX_QUALITY where it rings longer (an
+    undamped pair is not left ringing forever).
+
+    >>> decay_time(-4.0), decay_time(100j)
+    (0.25, 0.5)
+    """
+    v = complex(eigenvalue)
+    return 1.0 / max(abs(v.real), abs(v) / MAX_QUALITY)
+
+
 def settle(window: float, eigenvalues=()) -> float:
     """The seconds after the data start that detection and calibration ignore.
 
@@ -120,8 +131,7 @@ def settle(window: float, eigenvalues=()) -> float:
     >>> settle(0.25), round(settle(0.05, [-35 + 99j, -35 - 99j]), 3), settle(0.05, [-3.0])
     (0.125, 0.2, 0.025)
     """
-    decays = sorted(1.0 / max(abs(complex(v).real), abs(complex(v)) / MAX_QUALITY)
-                    for v in eigenvalues if abs(complex(v)) * window > 1.0)
+    decays = sorted(decay_time(v) for v in eigenvalues if abs(complex(v)) * window > 1.0)
     startup = STARTUP_DECAYS * decays[len(decays) // 2] if decays else 0.0      # the median: no outlier point
     return max(window / 2, startup)
 
@@ -141,9 +151,7 @@ def switch_settle(ts: float, eigenvalues=()) -> float:
     >>> round(switch_settle(0.001, [-2886.0, -5.0]), 6), switch_settle(0.001, [-5.0])
     (0.002426, 0.0)
     """
-    decays = [1.0 / max(abs(complex(v).real), abs(complex(v)) / MAX_QUALITY) for v in eigenvalues
-              if complex(v) != 0]
-    fast = [d for d in decays if d < ts]
+    fast = [d for d in map(decay_time, (v for v in eigenvalues if complex(v) != 0)) if d < ts]
     return STARTUP_DECAYS * max(fast) if fast else 0.0
 
 
