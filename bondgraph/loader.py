@@ -425,6 +425,12 @@ def _mapping(ctx: _Ctx, data: Any, where: tuple, required: bool = False) -> dict
         return {}
     if not isinstance(data, dict):
         raise ctx.error(where, f"must be a mapping of name: settings, got {type(data).__name__}")
+    for key in data:     # YAML 1.1 reads unquoted yes/no/on/off/true/false as booleans, ~ and null as None
+        if isinstance(key, bool) or key is None:
+            words = {True: "yes, on or true", False: "no, off or false", None: "~ or null"}[key]
+            raise ctx.error(where, f"a name reads as {key} in YAML ({words} unquoted): quote it ('off') or "
+                                   "choose another name" if key is False else
+                            f"a name reads as {key} in YAML ({words} unquoted): quote it or choose another name")
     return data
 
 

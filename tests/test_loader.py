@@ -93,6 +93,8 @@ def _err(text: str) -> ModelError:
      ["elements.cap.parameter", "'C1' = -0.001", "only when positive", "give its positive value"]),
     ("  C1: {value: 1.0e-3, unit: F}", "  C1: {value: 0, unit: F}", ["elements.cap.parameter", "'C1' = 0"]),
     ("  R: {value: 100.0, unit: Ohm}", "  R: {value: 1.0e308, unit: Ohm}", ["parameters.R.value", "beyond 1e300", ".inf"]),
+    ("res: {type: R, parameter: R}", "off: {type: R, parameter: R}",       # YAML 1.1 read it as False (my own trial)
+     ["elements", "a name reads as False in YAML (no, off or false unquoted)", "quote it"]),
     ("  C1: {value: 1.0e-3, unit: F}", "  C1: {value: 1.0e-320, unit: F}",      # a user trial: q/C1 overflowed in simulate
      ["parameters.C1.value", "below 1e-300", "dividing by it overflows"]),
     ("  R: {value: 100.0, unit: Ohm}", "  R: {value: 100.0, unit: Ohm, description: leak (wet, aged)}",
