@@ -6,9 +6,9 @@ fault-mode estimator left out every mode variable commanded to switch within the
 samples a commanded switch leaves without a residual (its derivative filters do not straddle it)
 were NaN in its cost, so every mode cost NaN whenever any valve switched in the window. (The model
 is tests/data/unverified/abs_modulator.yaml: its brake law reads the measured pressure, which the
-simulator reads from the caliper's state since session 41; check --verify still fails the wheel's
-balance where the brake's tanh(w/w0), w0 = 0.5 rad/s, turns faster than its sampling follows, and
-passes it at w0 = 50 rad/s, so the verify tests leave it out.) A variable
+simulator reads from the caliper's state since session 41; check --verify passes the wheel's
+balance since session 42, at 16x the sampling where the brake's tanh(w/w0), w0 = 0.5 rad/s, turns
+faster than tau/10 follows: tests/test_verify.py.) A variable
 commanded to switch is now estimated against its command (held at 0 or 1 over the window, or
 following the command), the switch gaps count for no hypothesis, and a value held against a
 switching command is a stuck valve.

@@ -53,7 +53,7 @@ def to_lines(v: Verification) -> list[str]:
     lines.append(f"  {'ARR':<6} {'mode':<{width}} {'violation':>10}  {'runs':>4}  verdict")
     for c in v.checks:
         shown = f"{c.violation:.2e}" if math.isfinite(c.violation) else ("inf" if c.violation == math.inf else "-")
-        verdict = ("ok" if c.passed else f"FAIL: |r| up to {c.residual:.3g} against terms summing to {c.scale:.3g}"
+        verdict = (f"ok{' ' + c.note if c.note else ''}" if c.passed else f"FAIL: |r| up to {c.residual:.3g} against terms summing to {c.scale:.3g}"
                    if c.passed is False else f"not verified: {c.note}")
         lines.append(f"  {c.arr:<6} {c.mode_text:<{width}} {shown:>10}  {c.runs:>4}  {verdict}")
     if s is not None and s.cuts:
