@@ -118,8 +118,8 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
         results = list(results)
         for i, r in zip(fresh, refits):
             results[i] = r
-    full = [replace(e, candidate=tuple(f["name"] for f in p[1]) + e.candidate, faults=tuple(p[1]) + tuple(e.faults))
-            for e, p in zip(results, plan)]
+    full = [replace(e, candidate=tuple(f["name"] for f in p[1]) + e.candidate, faults=tuple(p[1]) + tuple(e.faults),
+                    held=tuple(f["name"] for f in p[1])) for e, p in zip(results, plan)]
     if mode_changes:
         win = window(meas.t, raw, start, span, w)
         full += mode_change_fits(est.monitor, win, weights, known, list(mode_changes), t_change, modes, floors)

@@ -264,7 +264,7 @@ def mode_change_fits(monitor, win: Window, weights: np.ndarray, known: list[dict
                                   grid, modes, floors)
         fault = {"name": name, "type": "mode", "value": int(value), "t0": onset}
         out.append(Estimate(tuple(g["name"] for g in known) + (name,), cost, float(fitness(cost)), (), None,
-                            tuple(known) + (fault,), grid.size, 0.0, 0.0))
+                            tuple(known) + (fault,), grid.size, 0.0, 0.0, held=tuple(g["name"] for g in known)))
     return out
 
 

@@ -201,6 +201,10 @@ class Estimate:
     outdone_by: tuple[str, ...] = ()
     """Raced out for another reason: its race stalled with its leader no better than this subset of
     it (fitted before it; within ``fdi.estimators.SUBSET_GAIN``), which the criterion prefers."""
+    held: tuple[str, ...] = ()
+    """At a later decision, the faults of an earlier diagnosis held at their fit (each with its own
+    onset) while the rest of the set was searched: the same set may also be fitted afresh, with
+    nothing held, and then appears twice (``fdi.episodes.redecide``)."""
 
     def to_dict(self, history: bool = True) -> dict:
         out: dict = {"candidate": list(self.candidate), "fitness": self.fitness}
@@ -209,6 +213,7 @@ class Estimate:
         out.update({"margin": self.margin, "cost": self.cost if math.isfinite(self.cost) else None,
                     "faults": [dict(f) for f in self.faults],
                     "raced_out": self.raced_out, "outdone_by": list(self.outdone_by) or None,
+                    "held": list(self.held) or None,
                     "evaluations": self.evaluations, "wall_s": self.wall_s,
                     "objective_s": self.objective_s})
         return out

@@ -81,6 +81,10 @@ def test_a_second_fault_after_the_first_decision_is_found():
     b2 = _fault(r, "beta_theta2")
     assert b2["type"] == "abrupt" and b2["value"] == pytest.approx(0.8, rel=0.02)
     assert b2["t0"] == pytest.approx(35.0, abs=0.3)          # its own onset, not the first fault's
+    # {R4, beta_theta2} contains the known R4: fitted keeping R4 at its fit and afresh, and the
+    # episode's estimators say which is which (a user trial read the two as a duplicate)
+    twice = [e for e in r["episodes"][-1]["estimators"] if sorted(e["candidate"]) == ["R4", "beta_theta2"]]
+    assert sorted(e["held"] or [] for e in twice) == [[], ["R4"]]
 
 
 def test_a_later_decision_that_no_set_matches_tries_the_covering_sets_beside_the_known_one(monkeypatch):
