@@ -367,8 +367,13 @@ def _misfit(loader: yaml.SafeLoader, root: yaml.Node, path: str) -> ModelError:
                 loader.yaml_constructors[node.tag](loader, node)
             except Exception:
                 kind = node.tag.rsplit(":", 1)[-1]
+                line = node.start_mark.line + 1
+                if kind == "int" and len(node.value) > 100 and re.fullmatch(r"[-+]?[0-9_]+", node.value):
+                    # (an integer of thousands of digits: Python's conversion limit, no tag written)
+                    return ModelError(f"not valid YAML: an integer of {len(node.value)} digits; a model's numbers "
+                                      f"are floats: write it as 1.0e+300 or less", file=path, line=line)
                 return ModelError(f"not valid YAML: '{node.value[:30]}' is no {kind}; write one or remove its "
-                                  f"!!{kind} tag", file=path, line=node.start_mark.line + 1)
+                                  f"!!{kind} tag", file=path, line=line)
         elif isinstance(node, yaml.MappingNode):
             stack.extend(n for pair in reversed(node.value) for n in reversed(pair))
         elif isinstance(node, yaml.SequenceNode):

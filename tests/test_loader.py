@@ -261,6 +261,15 @@ def test_a_value_its_tag_does_not_fit_is_one_line_and_a_duplicate_key_comes_firs
         read_document_text(f"a: 1\na: 2\nb: {value}\n", "m.yaml")
 
 
+def test_an_integer_too_long_for_python_is_one_line_that_names_no_tag():
+    """A value of 5 000 digits (Python converts at most 4 300: a hostile file's, and no tag was
+    written): the line said "is no int; write one or remove its !!int tag"."""
+    from bondgraph.loader import read_document_text
+    with pytest.raises(ModelError, match="an integer of 5000 digits; a model's numbers are floats") as exc:
+        read_document_text("a: 1\nb: " + "9" * 5000 + "\n", "m.yaml")
+    assert exc.value.line == 2 and "!!" not in str(exc.value)
+
+
 @pytest.mark.parametrize("kind", ["TF", "GY"])
 @pytest.mark.parametrize("modulus, value", [("n", "0.0"), ("2*n", "0.0"), ("n", ".inf"), ("0", "1.0"), ("1/n", "0.0"),
                                             ("n - n", "1.0")])
