@@ -210,6 +210,12 @@ def _known_values(spec: Model, opened: frozenset[str]) -> dict[str, sp.Expr]:
             base = inp.expr
         else:
             base = e.value
+            silent = sorted(i for i in spec.inputs if spec.inputs[i].expr is None
+                            and spec.symbols[i] in base.free_symbols)
+            if silent:            # (the value's inputs are put in with the laws' signals: _build)
+                raise SimulationError(f"source '{e.name}' reads input '{silent[0]}', which has no expr: give "
+                                      f"inputs.{silent[0]}.expr (a function of t) to simulate",
+                                      where=f"inputs.{silent[0]}")
         known[e.name] = spec.symbols[f"beta_{e.input or e.name}"] * base
     for s in spec.sensors.values():
         known[s.name] = sp.Integer(0)
@@ -250,7 +256,10 @@ def _build(spec: Model, opened: frozenset[str], read: Mapping[sp.Symbol, sp.Expr
             signals[spec.symbols[s.name]] = sp.Symbol(f"__signal_{s.name}")   # an error below if used
     signals.update({spec.symbols[i]: spec.inputs[i].expr for i in spec.inputs if spec.inputs[i].expr is not None})
     signals.update(read or {})
-    rels = relations(spec, causality, known=_known_values(spec, opened),
+    # a source's value may read inputs and sensors as the laws do (a heater's Joule heat U**2/Rh on
+    # the measured mains voltage): the same signals put in
+    known = {k: v.xreplace(signals) for k, v in _known_values(spec, opened).items()}
+    rels = relations(spec, causality, known=known,
                      states={e.name: X[e.name] for e in integral}, signals=signals)
     rels, torn = _tear(rels) if causality.loops else (rels, [])
     bond = _bonds_of(spec, storage)

@@ -61,9 +61,11 @@ def sensor_value(model: Model, name: str) -> sp.Expr:
 
 
 def source_value(model: Model, element_name: str) -> sp.Expr:
-    """A source's output with its efficiency factor: beta * input(t) or beta * value."""
+    """A source's output with its efficiency factor: beta * input(t) or beta * value, a value that
+    reads inputs or sensors reading their signals as a law does (a heater's Joule heat U**2/Rh on
+    the measured mains voltage U)."""
     e = model.elements[element_name]
-    base = signal(e.input) if e.input else e.value
+    base = signal(e.input) if e.input else e.value.xreplace(signal_substitutions(model))
     return model.beta_symbol(e.input or e.name) * base
 
 
