@@ -160,3 +160,22 @@ def test_the_fault_mode_estimators_line_says_when_it_is_not_the_diagnosis():
         to_text(held, "m", "d.csv")
     nothing = {**lost, "diagnosis": {"faults": []}}                 # nothing kept: no "faults below" to point at
     assert "(a mode fault: fitness 1.695e-05, no parameter; not kept)" in to_text(nothing, "m", "d.csv")
+
+
+def test_a_mode_change_the_model_declares_no_fault_for_says_so():
+    """A water heater's draw (an autonomous mode, tap, on the condition qm - 0.01 > 0; no fault
+    declared on it) with the flow logged in L/min: the fault-mode estimator's tap = 0 won, and the
+    diagnosis read "tap: fault mode (tap = 0)" as if the model named such a fault (a user trial)."""
+    from fdi.app.report import to_text
+    detection = {"time": 20.0, "alarm": 20.0, "coherence": [1, 0], "decision_time": 30.0, "final_coherence": [1, 0]}
+    report = {"detection": detection, "mode": {"s": 0, "tap": 0},
+              "diagnosis": {"faults": [{"name": "tap", "type": "mode", "value": 0, "t0": 20.0}]}}
+    declared = {"relay_off": "s"}                       # the model's one mode fault, on another variable
+    text = to_text(report, "m", "d.csv", declared, autonomous={"tap"})
+    assert "tap: fault mode (tap = 0)" in text
+    assert "(not one of the model's faults: the data fit tap = 0 better than the mode its condition gives" in text
+    relay = {**report, "diagnosis": {"faults": [{"name": "relay_off", "type": "mode", "value": 0, "t0": 20.0}]}}
+    assert "not one of the model's faults" not in to_text(relay, "m", "d.csv", declared, autonomous={"tap"})
+    s = {**report, "diagnosis": {"faults": [{"name": "s", "type": "mode", "value": 1, "t0": 20.0}]}}
+    assert "better than its command: a switch that did not follow it" in to_text(s, "m", "d.csv", declared,
+                                                                                autonomous={"tap"})

@@ -171,6 +171,13 @@ def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[st
         out.append("diagnosis: no fault explains the coherence vector")
     for f in faults:
         out.append(f"  {describe_fault(f, variables, units)}")
+        if f["type"] == "mode" and variables is not None and f["name"] not in variables:
+            # a mode change the model declares no fault for (the fault-mode estimator tries every
+            # suspected variable): a trial read "tap: fault mode (tap = 0)" of a draw's condition
+            how = ("the mode its condition gives: a signal the condition reads, or a law of that mode, may be "
+                   "wrong" if f["name"] in autonomous else "its command: a switch that did not follow it")
+            out.append(f"    (not one of the model's faults: the data fit {f['name']} = {f.get('value', 0)} better "
+                       f"than {how})")
         out += [f"    or {describe_fault(g, variables, units)} (read together with {f['name']}: one fit)"
                 for g in partners(report.get("alternatives"), f["name"], {g["name"] for g in faults},
                                   report.get("winner"))]
