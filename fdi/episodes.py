@@ -131,8 +131,12 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
     best = select_winner(finite, n_eff)
     k = next((i for i, e in enumerate(full) if e is best), None)
     if earliest is not None and k is not None and k < len(plan) and not plan[k][1]:
-        # a set fitted afresh (nothing held): its drifts' bands past the onset search's bound
-        from .estimators import drift_onset_band
+        # a set fitted afresh (nothing held): its steps' and drifts' bands past the onset search's
+        # bound, as at the first decision (a heater element's step, hidden while the relay was off,
+        # was dated 13 s after t_D with nothing said: a user trial)
+        from .estimators import drift_onset_band, step_onset_band
+        if quiet is not None:
+            best = step_onset_band(est, meas.t, raw, best, quiet[0], earliest, quiet[1])
         best = drift_onset_band(est, meas.t, raw, start, span, best, weights, earliest)
     return Episode(t_change, t_decision, tuple(coherence), tuple(known), tuple(full), tuple(best.candidate),
                    tuple(best.faults))
