@@ -249,6 +249,15 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
     config = c.config if pick is None else replace(c.config, derivative_window=pick)
     sc = scales.for_model(model, config, data[0].ts)
     used = sc.window        # the file's, the rule's (from the data's sampling time) or the chosen
+    short = [(m, i) for i, (m, r) in enumerate(zip(data, samples)) if not r.shape[1]]
+    if short:               # (a window set long in the file: its settling outlasts the run)
+        meas = short[0][0]
+        start = settling(settle, scales.for_model(model, config, meas.ts).settle)
+        raise DataError(f"{', '.join(m.path for m, _ in short)}: no sample that detection looks at: it starts "
+                        f"{start:.6g} s into a run (the start-up settling at the derivative window {used:g} s"
+                        f"{', or --settle' if settle is not None else ''}) and ends {sc.end_edge:.6g} s before its "
+                        f"end, and the run is {meas.t[-1] - meas.t[0]:.6g} s long: calibrate on longer runs, or "
+                        f"shorten diagnosis.derivative_window")
     thresholds = _threshold(samples, quantile, margin)
     joined = np.concatenate(samples, axis=1)
     spiked = [n for n, v, row in zip(names, thresholds, joined) if not np.isfinite(v) and np.isfinite(row).any()]
@@ -271,6 +280,14 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
                         "mode switches is shorter than it; leave the run(s) out, or shorten "
                         "diagnosis.derivative_window")
     zero = [n for n, v in zip(names, thresholds) if not v > 0]
+    for j, n in enumerate(names):
+        held = _vanishes_where_judged(model, arrs[j], [r[j] for r in samples], [m for _, m in runs_modes]) \
+            if n in zero else None
+        if held:
+            raise DataError(f"{model_path}: {n} is judged only in mode(s) where it is identically 0 ({held}: the mode "
+                            f"switches its whole relation off); in the others every stretch between two mode "
+                            f"switches is shorter than the derivative window ({used:g} s): shorten "
+                            f"diagnosis.derivative_window, or calibrate on runs that stay longer in those modes")
     if zero:
         raise DataError(f"{model_path}: {', '.join(zero)} would get a threshold of 0 (the residual is exactly 0 on "
                         "every sample of the runs: noise-free data?); a zero threshold alarms on any noise: "
@@ -371,6 +388,30 @@ def _by_mode(model, arrs, predicted, modes: list[dict], every: bool) -> dict[int
         if every or a.name in flagged or len(units_by_mode(model, a, operating)) > 1:
             out[j] = variables
     return out
+
+
+def _vanishes_where_judged(model, arr, rows: list[np.ndarray], modes: list[dict]) -> str:
+    """The mode combinations (as ``s=0``) of the finite samples of one residual's ``rows`` when
+    its relation is identically 0 in every one of them (a relay's current balance s*(U - Rh*I) with
+    the relay open: a trial's window left it no sample with the relay closed, and calibrate said
+    "noise-free data?"); else ""."""
+    import sympy as sp
+    present = {s.name for s in arr.expr.free_symbols}
+    names = [n for n in model.modes if n in present and all(n in m for m in modes)]
+    if not names:
+        return ""
+    combos = set()
+    for row, m in zip(rows, modes):
+        finite = np.isfinite(row)
+        if finite.any():
+            bits = np.stack([np.asarray(m[n])[finite] >= 0.5 for n in names], axis=1)
+            combos |= {tuple(int(b) for b in x) for x in np.unique(bits, axis=0)}
+    if not combos:
+        return ""
+    for bits in combos:
+        if sp.expand(arr.expr.xreplace({model.symbols[n]: int(b) for n, b in zip(names, bits)})) != 0:
+            return ""
+    return "; ".join(",".join(f"{n}={b}" for n, b in zip(names, bits)) for bits in sorted(combos))
 
 
 def _mask(modes: dict[str, np.ndarray], key: tuple, n: int) -> np.ndarray:

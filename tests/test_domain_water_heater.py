@@ -43,3 +43,29 @@ def test_an_element_fault_hidden_while_the_relay_is_off_is_sized_and_dated_withi
     assert f["t0"] >= closes - 5.0                                   # nothing shows it before the relay closes
     low, high = f["t0_band"]                                          # ... so the data do not tell when it began
     assert low <= 300.0 <= high
+
+
+def test_calibrating_where_the_window_leaves_only_the_open_relay_says_so(tmp_path):
+    """At a 3600 s window the runs' heating stretches (the relay closed) are all shorter than the
+    window, so the current's residual s*(U - Rh*I) is judged only with the relay open, where it is
+    0 = 0: calibrate said "the residual is exactly 0 on every sample: noise-free data?" (a user trial)."""
+    from fdi.calibrate import calibrate
+    from fdi.data import DataError
+    model = tmp_path / "heater.yaml"
+    model.write_text(Path(MODEL).read_text(encoding="utf-8").replace("derivative_window: 142.8",
+                                                                     "derivative_window: 3600"), encoding="utf-8")
+    def runs(length):          # just below 60 C with the relay closed: it opens within seconds, then cools
+        out = []
+        for seed in (1, 2):
+            rows = plant.simulate(length, [], None, seed=seed, T0=333.1, s0=1)
+            assert 0 < rows[:, 3].sum() < 600
+            out.append(Measurements(f"run{seed}", rows[:, 0].copy(),
+                                    {h: rows[:, i].copy() for i, h in enumerate(plant.HEAD)}))
+        return out
+    with pytest.raises(DataError, match=r"ARR2 is judged only in mode\(s\) where it is identically 0 \(s=0"):
+        calibrate(str(model), runs(30000.0))
+    # runs shorter than the settling such a window asks (7 decay times of the tank with a draw at the
+    # model's nominal 0.05 kg/s, C/(G + qm cp) = 2972 s, which the window cannot follow) and its edge:
+    # said, where a ValueError traceback ended it
+    with pytest.raises(DataError, match=r"no sample that detection looks at: it starts 20801.2 s into a run"):
+        calibrate(str(model), runs(12000.0))
