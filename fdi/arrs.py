@@ -46,7 +46,10 @@ def select_arrs(model: Model, causality: str = DERIVATIVE, *, budget: float | No
                                 + "; ".join(f"{n} ({w})" for n, w in where.items())
                                 + f"; replaced {', '.join(a.name for a in chosen.arrs)}",)
     else:
-        notes = chosen.notes + tuple(f"{name} rebuilt mode by mode: the one-causality form is wrong in {w}"
+        zero = {a.name for a in arrs if a.origin.endswith("+zero")}
+        notes = chosen.notes + tuple(f"{name} reads its sensor's zero in {w}: the junction its sensor is on is "
+                                     f"switched off there, where the one-causality form is 0 = 0" if name in zero else
+                                     f"{name} rebuilt mode by mode: the one-causality form is wrong in {w}"
                                      for name, w in where.items())
     return replace(chosen, arrs=tuple(arrs), notes=notes)
 

@@ -89,7 +89,7 @@ def off_charge(hypothesis: np.ndarray, data: np.ndarray, floor: float | None) ->
 def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, weights: np.ndarray,
                   seed: int, window_s: float, variables: list[str] | None = None,
                   modes: dict[str, float] | None = None, floors: np.ndarray | None = None,
-                  following: Iterable[str] = ()) -> ModeEstimate:
+                  following: Iterable[str] = (), switch_span: int = 0) -> ModeEstimate:
     """The fault-mode estimator over the suspected mode variables (Sec. III-C: the MCSM names
     them; the others keep their current values), same cost as eq. (24), each sample a hypothesis
     switches a residual off charged that residual's noise floor (``floors``, per residual, in its
@@ -103,7 +103,13 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
     mode it should be in is its command, sample by sample, and a held value is reported
     (``ModeEstimate.stuck``) only where it explains the data better than the command does (a
     trial's ABS inlet valve stuck open under a command switching 18 times a second was never
-    considered)."""
+    considered).
+
+    ``switch_span``: a hypothesis may switch in at any of the window's first ``switch_span`` samples
+    (the default mode before it), where the evidence allows a fault's onset: its cost is its best
+    switch's. Held from the window's start, a relay welded closed 68 s after t_D (a 143 s window's
+    look-ahead) cost more than no fault at all, its closed contact contradicting the 68 s of data
+    before (a user trial: no diagnosis)."""
     names = list(variables or model.modes)
     follow_all = frozenset(following) & set(names)
     nominal = parameter_values(model)
@@ -121,34 +127,57 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
         data = [np.where(gaps, np.nan, samples_of(r(signals, nominal, win.ts, window_s), win.t.size)[c])
                 for r in residuals]      # (a gap is judged for no hypothesis: charged for none)
 
-    def cost(real: np.ndarray, bits: np.ndarray, follow: frozenset = frozenset()) -> np.ndarray:
+    def cost(real: np.ndarray, bits: np.ndarray, follow: frozenset = frozenset(), each: bool = False) -> np.ndarray:
+        """Each row's cost; with ``each``, per sample (rows x samples)."""
         values = dict(nominal)
         for j, n in enumerate(names):
             if n not in follow:          # (a variable that follows keeps its command)
                 values[n] = bits[:, j:j + 1].astype(float)
-        total = np.zeros(bits.shape[0])
+        total = np.zeros((bits.shape[0], c.stop - c.start) if each else bits.shape[0])
         for i, r in enumerate(residuals):
             out = np.broadcast_to(np.asarray(r(signals, values, win.ts, window_s), dtype=float),
                                   (bits.shape[0], win.t.size))[:, c]
             if gaps.any():               # (a switching command leaves a gap at each switch: NaN there)
                 out = np.where(gaps, 0.0, out)
-            total += weights[i] * np.abs(out).sum(axis=1)
-            if data[i] is not None:
-                total += weights[i] * off_charge(out, data[i], floors[i])
+            if not each:
+                total += weights[i] * np.abs(out).sum(axis=1)
+                if data[i] is not None:
+                    total += weights[i] * off_charge(out, data[i], floors[i])
+                continue
+            total += weights[i] * np.abs(out)
+            if data[i] is not None and floors[i] is not None and np.isfinite(floors[i]) and floors[i] > 0:
+                total += weights[i] * floors[i] * ((out == 0) & (data[i] != 0) & np.isfinite(data[i]))
         return total
     # each variable's value when it is not at fault: its command (one that switches within the window:
     # followed sample by sample), else its value at the window's start
     default = {n: COMMANDED if n in follow_all else current[n] for n in names}
 
+    span = min(int(switch_span), c.stop - c.start - 1)
+
     def costs(rows: list[tuple]) -> np.ndarray:
-        """The cost of each row (a value per variable of ``names``: 0, 1 or COMMANDED)."""
+        """The cost of each row (a value per variable of ``names``: 0, 1 or COMMANDED), switched in
+        at its best sample of the first ``span`` (the default row before it)."""
         out = np.empty(len(rows))
         groups: dict[frozenset, list[int]] = {}
-        for k, row in enumerate(rows):
+        first = tuple(default[n] for n in names)
+        every = list(rows) + [first] if span > 0 else list(rows)
+        for k, row in enumerate(every):
             groups.setdefault(frozenset(n for n, v in zip(names, row) if v == COMMANDED), []).append(k)
+        per = np.empty((len(every), c.stop - c.start)) if span > 0 else None
+        whole = np.empty(len(every))
         for follow, ks in groups.items():          # one vectorised call per set of variables that follow
-            bits = np.array([[v == 1 for v in rows[k]] for k in ks], dtype=bool)
-            out[ks] = cost(np.zeros((len(ks), 0)), bits, follow)
+            bits = np.array([[v == 1 for v in every[k]] for k in ks], dtype=bool)
+            if per is None:
+                whole[ks] = cost(np.zeros((len(ks), 0)), bits, follow)
+            else:
+                per[ks] = cost(np.zeros((len(ks), 0)), bits, follow, each=True)
+        if per is None:
+            return whole[:len(rows)]
+        # switched at sample k: the default's samples before k, the row's from k on (k = 0: held throughout)
+        before = np.concatenate([[0.0], np.cumsum(per[-1])[:span]])
+        for k in range(len(rows)):
+            after = per[k].sum() - np.concatenate([[0.0], np.cumsum(per[k])[:span]])
+            out[k] = float(np.min(before + after))
         return out
 
     table = []

@@ -192,6 +192,26 @@ def _by_sensor(model: Model, own_sets: Mapping[tuple, list[ARR]]) -> list[ARR] |
     return out
 
 
+def _joined(model: Model, forms: Mapping[tuple, sp.Expr]) -> sp.Expr:
+    """One expression equal to ``forms[key]`` in each mode ``key`` (sorted (variable, value) pairs):
+    ``(1 - a)*f0 + a*f1`` split on each mode variable in turn, and no split where both sides agree
+    (a relay's current balance with its sensor's zero, ``(1 - s)*I/beta_I + s*(U - Rh*I/beta_I)``,
+    whatever a draw's tap does)."""
+    keys = list(forms)
+    names = [n for n, _ in keys[0]] if keys else []
+
+    def join(fixed: dict[str, int], rest: list[str]) -> sp.Expr:
+        if not rest:
+            return forms[tuple(sorted(fixed.items()))]
+        v, more = rest[0], rest[1:]
+        parts = [join({**fixed, v: b}, more) for b in (0, 1)]
+        if sp.expand(parts[0] - parts[1]) == 0:
+            return parts[0]
+        a = model.symbols[v]
+        return (1 - a) * parts[0] + a * parts[1]
+    return join({}, names)
+
+
 def check_modes(model: Model, arrs: list[ARR], modes: list[Mapping[str, int]] | None = None,
                 seed: int = 0) -> tuple[list[ARR], list[ModeCheck]]:
     """Every ARR checked in every mode (default: all combinations, at most 16); those that fail
@@ -207,6 +227,7 @@ def check_modes(model: Model, arrs: list[ARR], modes: list[Mapping[str, int]] | 
     forms: dict[str, dict[tuple, sp.Expr]] = {a.name: {} for a in arrs}
     exacts: dict[str, dict[tuple, sp.Expr]] = {a.name: {} for a in arrs}    # each mode's exact form (or expr)
     own_sets: dict[tuple, list[ARR]] = {}
+    lost: set[tuple[str, tuple]] = set()     # (ARR, mode) where it vanished and its sensor reads 0 (below)
     for mode in modes:
         key = tuple(sorted(mode.items()))
         subs = {model.symbols[k]: sp.Integer(v) for k, v in mode.items()}
@@ -216,6 +237,17 @@ def check_modes(model: Model, arrs: list[ARR], modes: list[Mapping[str, int]] | 
         basis = [r.expr for r in own]
         errors, likeness = _fit(exprs, basis, rng, nominal)
         holds = [bool(errors[i] <= TOLERANCE) for i in range(len(arrs))]
+        # an ARR that vanishes in this mode while its sensor, on a junction switched off, measures 0
+        # there holds nothing: it loses that relation (a relay's current balance s*(U - Rh*I) is 0 = 0
+        # with the relay open, where the current must read 0: a welded relay went unseen, a user
+        # trial); the sensor's zero takes its place
+        zeros = {r.sensor: j for j, r in enumerate(own) if r.name.startswith("zero:")}
+        vacuous = [i for i, a in enumerate(arrs) if a.sensor in zeros and sp.expand(exprs[i]) == 0]
+        for i in vacuous:
+            holds[i], errors[i] = False, 1.0
+            likeness[i, :] = 0.0
+            likeness[i, zeros[arrs[i].sensor]] = 1.0
+            lost.add((arrs[i].name, key))
         # an ARR may be the mode's ARRs combined with their time derivatives (zone 1's balance with T1
         # taken from zone 2's reads T2''): one that fails is fitted again with those derivatives in
         # the span, on a generator of its own (the first fit's draws, so every choice below, as before)
@@ -243,7 +275,7 @@ def check_modes(model: Model, arrs: list[ARR], modes: list[Mapping[str, int]] | 
                 forms[a.name][key] = own[j].expr
                 exacts[a.name][key] = own[j].expr if own[j].exact is None else own[j].exact
             checks.append(ModeCheck(a.name, mode, holds[i], float(errors[i]), choice))
-    if any(not c.holds for c in checks):
+    if any(not c.holds and (c.arr, tuple(sorted(c.mode.items()))) not in lost for c in checks):
         by_sensor = _by_sensor(model, own_sets)
         if by_sensor is not None:
             return by_sensor + complete_by_mode(model, by_sensor, own_sets), checks
@@ -251,6 +283,12 @@ def check_modes(model: Model, arrs: list[ARR], modes: list[Mapping[str, int]] | 
     for a in arrs:
         if all(c.holds for c in checks if c.arr == a.name):
             out.append(a)
+            continue
+        if all((c.arr, tuple(sorted(c.mode.items()))) in lost for c in checks if c.arr == a.name and not c.holds):
+            # only the sensor's zero joined: each mode variable's split kept where it changes the form
+            out.append(replace(a, expr=binary_modes(_joined(model, forms[a.name]), mode_syms),
+                               exact=None if a.exact is None else binary_modes(_joined(model, exacts[a.name]), mode_syms),
+                               origin=a.origin + "+zero"))
             continue
         combined = sp.Add(*[_indicator(model, dict(k)) * e for k, e in forms[a.name].items()])
         # the exact form (a storage law's fault parameter inside its rate, fdi.scaph) joined by mode too:

@@ -405,11 +405,21 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
     clock.lap("isolation")
     d = replace(d, isolation=iso)
     if iso.suspected:
-        mf = estimate_modes(p, d.detection, d.mode, iso.suspected, noise_floors(p, r, d.detection.time))
+        mf = estimate_modes(p, d.detection, d.mode, iso.suspected, noise_floors(p, r, d.detection.time), r)
         clock.lap("mode estimation")
         d = replace(d, mode_fault=mf)
-        if mf.faults and not iso.candidates:
-            return replace(d, mode=dict(mf.mode), faults=mf.faults)
+
+        def dated() -> ModeFault:        # the mode fault's switch dated, where it is the diagnosis
+            onsets = evidence_onsets(p.monitor, r, p.meas.t, p.thresholds, d.detection.time, p.first_trusted,
+                                     switch_excursion(p, d.detection))
+            return dated_mode_fault(p, d.detection, mf, onsets, r)
+        if mf.faults and not iso.candidates and not (p.options.exoneration and relaxed_sets(
+                fsm, d.detection.final_coherence, p.options.max_set)):
+            # (where sets cover the coherence vector, they are fitted and the criterion chooses: a
+            # heater element's fault seen in the current's residual alone, before the thermal one
+            # joined, was named a relay stuck open, never compared with the element: a user trial)
+            mf = dated()
+            return replace(d, mode_fault=mf, mode=dict(mf.mode), faults=mf.faults)
         level = nominal_cost(p, r, d.detection.time) if mf.faults and iso.weak else float("inf")
         if explains(mf.cost, level) and not candidate_sets(p.monitor.fsm(d.mode), d.detection.final_coherence,
                                                            p.options.exoneration, p.options.max_set):
@@ -417,8 +427,9 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
             # would be identified to lose to it (a stuck valve: 8 sets, 16 s, for the same answer)
             note = (f"the fault mode explains the data ({mf.cost / level:.2g} times the residuals' nominal level): "
                     "the candidate sets that only weak entries admit were not identified")
-            return replace(d, isolation=replace(iso, candidates=(), pruned=0), mode=dict(mf.mode), faults=mf.faults,
-                           note=note)
+            mf = dated()
+            return replace(d, mode_fault=mf, isolation=replace(iso, candidates=(), pruned=0), mode=dict(mf.mode),
+                           faults=mf.faults, note=note)
     if not iso.candidates and p.options.exoneration:
         relaxed = relaxed_sets(fsm, d.detection.final_coherence, p.options.max_set)
         if relaxed:
@@ -611,16 +622,24 @@ def switching(p: Prepared, det: Detection, suspect: str) -> bool:
 
 
 def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects,
-                   floors: np.ndarray | None = None) -> ModeFault:
+                   floors: np.ndarray | None = None, r: np.ndarray | None = None) -> ModeFault:
     """The fault-mode estimator over the suspected mode variables (Sec. III-C), and the mode faults
     its estimate implies (none when it agrees with the mode at t_D); ``floors``: the residuals'
-    noise floors (:func:`noise_floors`), charged where a mode switches a residual off."""
+    noise floors (:func:`noise_floors`), charged where a mode switches a residual off; with the
+    residuals ``r``, each hypothesis switched in at its best sample of the onsets the evidence
+    allows a component fault (t_D to the filters' look-ahead, :func:`evidence_onsets`), as
+    :func:`dated_mode_fault` then dates it."""
     model = p.monitor.model
     win = window(p.meas.t, p.raw, det.time, p.samples, p.window_s)
     variables = sorted({mode_variable(model, s) for s in suspects})
     following = {v for v in variables if switching(p, det, v)}
+    span = 0
+    if r is not None:
+        late = evidence_onsets(p.monitor, r, p.meas.t, p.thresholds, det.time, p.first_trusted,
+                               switch_excursion(p, det))[1]
+        span = max(0, int(np.floor((late - det.time) / p.meas.ts + 1e-9)))
     e = estimate_mode(model, p.monitor.residuals, win, p.weights, p.options.seed, p.window_s, variables, p.modes,
-                      floors, following)
+                      floors, following, span)
     # no mode fault where no mode explains the data finitely (a sample of 1e308 the residuals
     # overflow on: every mode's cost infinite, and the first mode tried was named a stuck contactor)
     finite = e.cost is not None and np.isfinite(e.cost)
@@ -747,7 +766,8 @@ def dated_mode_fault(p: Prepared, det: Detection, mf: ModeFault, onsets: tuple[f
     """The fault mode with its switch dated (:func:`fdi.mode_estimation.switched_at`): its mode faults'
     common onset searched over the band a component fault's is first searched over (t_D to the end
     of the filters' look-ahead, :func:`fdi.estimators.evidence_onsets`), on a coarse grid and then to
-    the sample; its cost the best onset's where that is lower than the estimator's (switched from t_D)."""
+    the sample; its cost the lower of the best onset's and the estimator's (which switches each
+    hypothesis at its best sample of the same band, :func:`estimate_modes`)."""
     ts, lo = p.meas.ts, det.time
     n = max(0, int(np.floor((max(lo, onsets[1]) - lo) / ts + 1e-9)))
     if n == 0:
@@ -761,9 +781,9 @@ def dated_mode_fault(p: Prepared, det: Detection, mf: ModeFault, onsets: tuple[f
         k = int(round((onset - lo) / ts))
         fine = lo + ts * np.arange(max(0, k - step + 1), min(n, k + step - 1) + 1)
         cost, onset = min((cost, onset), switched_at(p.monitor, win, p.weights, [], switches, fine, p.modes, floors))
-    if not cost < mf.cost:
+    if not np.isfinite(cost):
         return mf
-    return replace(mf, cost=cost, faults=faults_of({**f, "t0": onset} for f in switches))
+    return replace(mf, cost=min(cost, mf.cost), faults=faults_of({**f, "t0": onset} for f in switches))
 
 
 def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators,

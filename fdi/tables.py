@@ -146,6 +146,11 @@ def to_text(arrs: list[ARR], fsms: list[FSM], mcsm: MCSM) -> str:
             out.append(f"{a.name}  [{a.origin.split(' in mode ')[0]} residual of mode {a.origin.split(' in mode ')[1]}'s "
                        f"own bond graph at {a.junction}; sensors {a.sensor}; times the mode's indicator: 0 in the "
                        "other modes]")
+        elif a.origin.endswith("+zero"):
+            base = (f"sensor {a.sensor} on junction {a.junction}" if a.origin.startswith("SCAPH")
+                    else f"{a.origin[:-5]} residual at {a.junction}; sensors {a.sensor}")
+            out.append(f"{a.name}  [{base}; where the junction is switched off the one-causality form is 0 = 0 and "
+                       f"the sensor reads 0: that zero joined by the mode's indicator]")
         elif a.origin.endswith("+modes"):
             out.append(f"{a.name}  [{a.origin[:-6]} residual at {a.junction}; sensors {a.sensor}; rebuilt mode by "
                        "mode where the one-causality form is wrong]")

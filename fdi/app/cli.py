@@ -432,10 +432,14 @@ def _origin(a) -> str:
     >>> [_origin(A(origin=o, sensor="T1", junction="J1")) for o in ("SCAPH", "SCAPH by mode", "MSO", "MSO+modes",
     ...                                                               "MSO in mode c=1")]
     ['SCAPH, T1', 'SCAPH by mode, T1', 'MSO at J1', 'MSO at J1, rebuilt mode by mode', 'MSO at J1, mode c=1 only']
+    >>> _origin(A(origin="SCAPH+zero", sensor="I", junction="Je"))
+    "SCAPH, I, its sensor's zero where switched off"
     """
-    base, _, mode = a.origin.removesuffix("+modes").partition(" in mode ")
+    base, _, mode = a.origin.removesuffix("+modes").removesuffix("+zero").partition(" in mode ")
     text = f"{base}, {a.sensor}" if base.startswith("SCAPH") else f"MSO at {a.junction}"
-    return text + (", rebuilt mode by mode" if a.origin.endswith("+modes") else "") + (f", mode {mode} only" if mode else "")
+    return (text + (", rebuilt mode by mode" if a.origin.endswith("+modes") else "")
+            + (", its sensor's zero where switched off" if a.origin.endswith("+zero") else "")
+            + (f", mode {mode} only" if mode else ""))
 
 
 def _print_assignment(model: Model, diag: Causality) -> None:

@@ -17,22 +17,27 @@ def U(t):
 
 
 def simulate(t_end: float, draws: list[tuple[float, float, float]], element: tuple[float, float] | None = None,
-             seed: int = 0, T0: float = 331.0, s0: int = 0) -> np.ndarray:
-    """Rows of HEAD at 1 Hz. ``draws``: (start, duration, kg/s); ``element``: (onset, factor on Rh)."""
+             seed: int = 0, T0: float = 331.0, s0: int = 0, relay: tuple[float, int] | None = None) -> np.ndarray:
+    """Rows of HEAD at 1 Hz. ``draws``: (start, duration, kg/s); ``element``: (onset, factor on Rh);
+    ``relay``: (onset, 0 stuck open or 1 welded closed): the contact then ignores the thermostat,
+    whose command s is still logged."""
+
+    def contact(t, s):
+        return relay[1] if relay and t >= relay[0] else s
     def qm(t):
         return next((q for a, d, q in draws if a <= t < a + d), 0.0)
 
     def rh(t):
         return RH * element[1] if element and t >= element[0] else RH
     breaks = sorted({0.0, t_end} | {float(x) for a, d, _ in draws for x in (a, a + d) if x < t_end}
-                    | ({float(element[0])} if element else set()))
+                    | ({float(element[0])} if element else set()) | ({float(relay[0])} if relay else set()))
     segments, t, T, s = [], 0.0, T0, s0
     while t < t_end - 1e-9:
         stop = next(b for b in breaks if b > t + 1e-9)
         q = qm(t + 1e-6)
 
         def rhs(tt, y, s=s, q=q):
-            return [(s * U(tt) ** 2 / rh(tt) - G * (y[0] - 293.15) - q * CP * (y[0] - 284.15)) / C]
+            return [(contact(tt, s) * U(tt) ** 2 / rh(tt) - G * (y[0] - 293.15) - q * CP * (y[0] - 284.15)) / C]
 
         def switch(tt, y, s=s):
             return y[0] - (T_OFF if s else T_ON)
@@ -51,7 +56,7 @@ def simulate(t_end: float, draws: list[tuple[float, float, float]], element: tup
     rng = np.random.default_rng(seed)
     n = grid.size
     u = U(grid)
-    current = s_of * u / np.array([rh(x) for x in grid])
+    current = np.array([contact(x, si) for x, si in zip(grid, s_of)]) * u / np.array([rh(x) for x in grid])
     return np.column_stack([grid, u + rng.normal(0, 0.5, n), current + rng.normal(0, 0.02, n), s_of,
                             293.15 + rng.normal(0, 0.1, n), 284.15 + rng.normal(0, 0.1, n),
                             np.array([qm(x) for x in grid]) * (1 + rng.normal(0, 0.01, n)),
