@@ -21,7 +21,7 @@ import numpy as np
 
 from .criterion import effective_samples, information, parameters
 from .data import Measurements
-from .mode_estimation import affine_modes, mode_values, residual_rows
+from .mode_estimation import mode_values, residual_rows
 from .objective import Objective, window
 from .results import Alternative, Coincidence, Dropped, Estimate
 
@@ -129,7 +129,7 @@ def significant(monitor: "Monitor", meas: Measurements, raw: dict, start: float,
 
     kept, dropped = [f for f in faults if f["type"] != "mode"], []
     mode_faults = [f for f in faults if f["type"] == "mode"]
-    switched = (mode_values(model, win, mode_faults, modes, (w, affine_modes(model, residuals))) if mode_faults
+    switched = (mode_values(model, win, mode_faults, modes, (w, monitor.affine)) if mode_faults
                 else modes)                                                                 # held, never dropped
 
     def cost(fs: list[dict]) -> float:

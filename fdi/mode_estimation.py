@@ -309,7 +309,7 @@ def switched_at(monitor, win: Window, weights: np.ndarray, known: list[dict], sw
     model, w = monitor.model, monitor.config.derivative_window
     components = [f for f in known if f["type"] != "mode"]
     known_modes = [f for f in known if f["type"] == "mode"]
-    seen = (w, affine_modes(model, monitor.residuals))
+    seen = (w, monitor.affine)
     data = None
     if floors is not None:               # the residuals with the known faults alone: where each holds
         data = residual_rows(Objective(model, monitor.residuals, win, (), weights, w, fixed=components,

@@ -276,6 +276,17 @@ class Monitor:
             self._matrices["coinciding"] = coinciding(self.model, self.arrs)
         return self._matrices["coinciding"]
 
+    @property
+    def affine(self) -> frozenset[str]:
+        """The mode variables every residual reads affinely (:func:`fdi.mode_estimation.affine_modes`),
+        decided once and kept with the compiled model (a warm process dates a mode fault without sympy)."""
+        tables = self.config.mode_thresholds        # (the residuals divided by their mode's threshold: read so)
+        key = ("affine",) + tuple(sorted((n, tuple(sorted(t.items()))) for n, t in tables.items()))
+        if key not in self._matrices:
+            from .mode_estimation import affine_modes
+            self._matrices[key] = affine_modes(self.model, self.residuals)
+        return self._matrices[key]
+
     def with_config(self, config: MonitorConfig | None) -> "Monitor":
         """This monitor with other settings (the derivation is shared)."""
         if config is None or config == self.config:

@@ -413,11 +413,13 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
             onsets = evidence_onsets(p.monitor, r, p.meas.t, p.thresholds, d.detection.time, p.first_trusted,
                                      switch_excursion(p, d.detection))
             return dated_mode_fault(p, d.detection, mf, onsets, r)
-        if mf.faults and not iso.candidates and not (p.options.exoneration and relaxed_sets(
-                fsm, d.detection.final_coherence, p.options.max_set)):
-            # (where sets cover the coherence vector, they are fitted and the criterion chooses: a
-            # heater element's fault seen in the current's residual alone, before the thermal one
-            # joined, was named a relay stuck open, never compared with the element: a user trial)
+        if mf.faults and not iso.candidates and (
+                explains(mf.cost, nominal_cost(p, r, d.detection.time))
+                or not (p.options.exoneration and relaxed_sets(fsm, d.detection.final_coherence, p.options.max_set))):
+            # the fault mode, where it explains the data or no set covers the coherence vector; else
+            # the covering sets are fitted beside it and the criterion chooses (a heater element's
+            # fault, seen in the current's residual alone before the thermal one joined, was named a
+            # relay stuck open that left the residuals far above their noise: a user trial)
             mf = dated()
             return replace(d, mode_fault=mf, mode=dict(mf.mode), faults=mf.faults)
         level = nominal_cost(p, r, d.detection.time) if mf.faults and iso.weak else float("inf")
