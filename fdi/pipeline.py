@@ -785,7 +785,35 @@ def dated_mode_fault(p: Prepared, det: Detection, mf: ModeFault, onsets: tuple[f
         cost, onset = min((cost, onset), switched_at(p.monitor, win, p.weights, [], switches, fine, p.modes, floors))
     if not np.isfinite(cost):
         return mf
-    return replace(mf, cost=min(cost, mf.cost), faults=faults_of({**f, "t0": onset} for f in switches))
+    return replace(mf, cost=min(cost, mf.cost),
+                   faults=faults_of({**f, "t0": onset, **held_band(p, f, onset)} for f in switches))
+
+
+def held_band(p: Prepared, fault: dict, onset: float) -> dict:
+    """A mode fault's ``t0_band`` where its variable's command (or an autonomous mode's condition)
+    already held the stuck value before ``onset``: a valve stuck open while commanded open is the
+    same plant, so the data cannot tell how long before it stuck (the two-tank valve stuck open from
+    250 s, seen when the command closed it at 300 s, was dated 301 s with nothing said). The stretch
+    is the last one held before the onset, if the command left the value less than two derivative
+    windows before the onset (longer away, the data would have shown a fault already there); the
+    band starts at its first sample (the record's first trusted sample if it starts the record).
+    {} where the stretch is under two derivative windows, or the variable is neither commanded nor
+    autonomous."""
+    var = mode_variable(p.monitor.model, fault["name"])
+    cmd = commanded(p.monitor.model, p.raw).get(var)
+    if cmd is None:
+        return {}
+    t = p.meas.t
+    held = np.broadcast_to((np.asarray(cmd, dtype=float) >= 0.5) == bool(fault["value"]), t.shape)
+    k = int(np.searchsorted(t, onset - 1e-9))
+    kept = np.flatnonzero(held[:k])
+    if not kept.size or onset - t[kept[-1]] > 2 * p.window_s:
+        return {}
+    away = np.flatnonzero(~held[:kept[-1]])
+    start = max(float(t[away[-1] + 1]) if away.size else float(t[0]), float(p.first_trusted))
+    if onset - start < 2 * p.window_s:
+        return {}
+    return {"t0_band": [start, float(onset)]}
 
 
 def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators,

@@ -118,6 +118,8 @@ class Fault:
                     f"b = [{b}]{since}")
         if self.type == "stuck":
             return f"{self.name}: stuck at {self.value:.5g}{unit} from {self.t0:.4g} s"
+        if self.t0_band is not None and self.t0 is not None and self.t0_band[0] < self.t0:
+            since += f" (or as early as {self.t0_band[0]:.6g} s: until then the mode was meant to be at that value, so the data do not tell when it stuck)"
         return f"{self.name}: fault mode ({variable or self.name} = {self.value if self.value is not None else 0}){since}"
 
 

@@ -37,7 +37,9 @@ def test_a_valve_stuck_open_against_its_command_is_a_mode_fault():
     assert 300.9 <= report["detection"]["time"] < 302
     (f,) = report["diagnosis"]["faults"]
     assert {k: f[k] for k in ("name", "type", "value")} == {"name": "v_open", "type": "mode", "value": 1}
-    assert 300.0 <= f["t0"] < 302             # dated where the data first show it: the command closing
+    assert 300.0 <= f["t0"] < 302             # dated where the data first show it: the command closing ...
+    low, high = f["t0_band"]                  # ... and the command held it open from the start: the data
+    assert low <= 250.0 and high == f["t0"]   # cannot tell when it stuck (designed: 250 s)
     # the mode change matches the coherence vector exactly and explains the data: the parametric
     # sets that only weak entries admit are not identified (8 of them, 16 s, lost to it)
     assert report["estimators"] == []
