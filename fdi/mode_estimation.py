@@ -51,17 +51,19 @@ class ModeEstimate:
     ties: tuple[dict, ...] = ()          # other hypotheses as far from the defaults within 1 % of its cost
 
 
-def switched_off(hypothesis: np.ndarray, data: np.ndarray) -> np.ndarray:
+def switched_off(hypothesis: np.ndarray, data: np.ndarray, each: bool = False) -> np.ndarray:
     """Per row of ``hypothesis`` (a residual's values under mode hypotheses, rows x samples), how
     many samples it is identically zero where ``data`` (the same residual under the data's own
-    modes) is not: the samples the hypothesis switched the residual off. A residual's value from
-    noisy measurements is exactly zero only when a mode indicator multiplies it away.
+    modes) is not: the samples the hypothesis switched the residual off (with ``each``, which ones).
+    A residual's value from noisy measurements is exactly zero only when a mode indicator multiplies
+    it away.
 
     >>> switched_off(np.array([[0.0, 0.0, 0.3], [0.1, 0.0, 0.4]]), np.array([0.2, 0.0, 0.3]))
     array([1, 0])
     """
     data = np.asarray(data, dtype=float)
-    return ((np.asarray(hypothesis) == 0) & (data != 0) & np.isfinite(data)).sum(axis=-1)
+    off = (np.asarray(hypothesis) == 0) & (data != 0) & np.isfinite(data)
+    return off if each else off.sum(axis=-1)
 
 
 def samples_of(value, n: int) -> np.ndarray:
@@ -78,12 +80,14 @@ def samples_of(value, n: int) -> np.ndarray:
     raise ValueError(f"a residual of {a.size} values on a window of {n} samples")
 
 
-def off_charge(hypothesis: np.ndarray, data: np.ndarray, floor: float | None) -> np.ndarray | float:
+def off_charge(hypothesis: np.ndarray, data: np.ndarray, floor: float | None,
+               each: bool = False) -> np.ndarray | float:
     """What a residual's switched-off samples (:func:`switched_off`) cost, before its weight: its
-    noise ``floor`` each (its mean |r| where it holds); 0 without a floor."""
+    noise ``floor`` each (its mean |r| where it holds), summed per row (with ``each``, per sample);
+    0 without a floor."""
     if floor is None or not np.isfinite(floor) or floor <= 0:
         return 0.0
-    return floor * switched_off(hypothesis, data)
+    return floor * switched_off(hypothesis, data, each)
 
 
 def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, weights: np.ndarray,
@@ -139,14 +143,9 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
                                   (bits.shape[0], win.t.size))[:, c]
             if gaps.any():               # (a switching command leaves a gap at each switch: NaN there)
                 out = np.where(gaps, 0.0, out)
-            if not each:
-                total += weights[i] * np.abs(out).sum(axis=1)
-                if data[i] is not None:
-                    total += weights[i] * off_charge(out, data[i], floors[i])
-                continue
-            total += weights[i] * np.abs(out)
-            if data[i] is not None and floors[i] is not None and np.isfinite(floors[i]) and floors[i] > 0:
-                total += weights[i] * floors[i] * ((out == 0) & (data[i] != 0) & np.isfinite(data[i]))
+            total += weights[i] * (np.abs(out) if each else np.abs(out).sum(axis=1))
+            if data[i] is not None:
+                total += weights[i] * off_charge(out, data[i], floors[i], each)
         return total
     # each variable's value when it is not at fault: its command (one that switches within the window:
     # followed sample by sample), else its value at the window's start
