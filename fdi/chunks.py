@@ -61,10 +61,10 @@ def chunks(fh, path: str, rows: int, cut: Callable[[str], None] | None = None,
             break                                 # the end: what is left goes to blocks (a cut row, a last short block)
         text += more
         end = text.rfind("\n") + 1
-        if not end:
-            if len(text) > MAX_LINE:
-                break                             # no line end: blocks says so
-            continue
+        if len(text) - end > MAX_LINE:
+            break                                 # a line with no end within MAX_LINE: blocks says so (a row
+        if not end:                               # short of a block before it kept text growing: a 2 GB file
+            continue                              # of NULs past 202 rows held 500 MB and ran for minutes)
         if parser == "auto":
             parser = "arrow" if len(more) >= size and arrow_available() else "numpy"
         table, used = _parse(text[:end], width, rows, parser == "arrow")

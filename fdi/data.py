@@ -108,7 +108,7 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
     which hands the rest of a recording over with its header again), so a message names the file's line."""
     in_callback = False
     try:
-        lines = bounded_lines(fh, path)
+        lines = bounded_lines(fh, path, skipped)
         first = next(lines, "")
         delimiter = ";" if first.count(";") > first.count(",") else ","
         reader = csv.reader(itertools.chain([first], lines), delimiter=delimiter)
@@ -185,17 +185,18 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
         raise DataError(f"{path}: not a CSV file ({str(exc)[:80]})") from None
 
 
-def bounded_lines(fh, path: str) -> Iterator[str]:
+def bounded_lines(fh, path: str, skipped: int = 0) -> Iterator[str]:
     """The lines of a text stream, each read with a limit of MAX_LINE characters: a file with no
     line end (``/dev/zero``, a binary file, one endless row) is refused after 1 MiB, where reading
-    a line without limit would hold all of it in memory first."""
+    a line without limit would hold all of it in memory first. ``skipped``: lines of the file read
+    past before the stream's second line (the line numbers of its messages count them)."""
     readline = fh.readline
     number = 0
     while True:
         line = readline(MAX_LINE + 1)
         if not line:
             return
-        number += 1
+        number += 1 if number != 1 else 1 + skipped
         if len(line) > MAX_LINE and line[-1] not in "\r\n":
             raise DataError(f"{path}: line {number} is longer than {MAX_LINE:,} characters (no line end within "
                             f"{MAX_LINE >> 20} MiB); a measurement file has one short row per sample: is it a CSV file?")

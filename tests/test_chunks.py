@@ -73,3 +73,32 @@ def test_windows_line_ends_read_as_the_line_reader_reads_them(parser):
     got = np.concatenate([b for _, b in chunks(io.StringIO(crlf, newline=""), "x.csv", 50, size=4096, parser=parser)])
     want = np.concatenate([b for _, b in blocks(io.StringIO(crlf, newline=""), "x.csv", 50)])
     assert np.array_equal(got, expected) and np.array_equal(want, expected)
+
+
+class _Counted(io.StringIO):
+    """A text stream that counts the characters read from it."""
+    taken = 0
+
+    def read(self, size=-1):
+        out = super().read(size)
+        self.taken += len(out)
+        return out
+
+    def readline(self, size=-1):
+        out = super().readline(size)
+        self.taken += len(out)
+        return out
+
+
+@pytest.mark.parametrize("rows", [5, 7])
+def test_rows_short_of_a_block_then_no_line_end_are_refused_after_a_mebibyte(rows):
+    """Seven rows then NULs without a line end (a sparse 2 GB file after its rows, a user trial's):
+    with blocks of 5, the two rows short of a block kept the text growing by a chunk per read, to
+    the whole file (500 MB held, minutes); now refused within a few MiB, at the line of the file
+    that has no end (the header is line 1, the rows 2 to 8)."""
+    text = "t,x\n" + "".join(f"{k / 10},{k}\n" for k in range(7)) + "\0" * (8 << 20)
+    fh = _Counted(text)
+    with pytest.raises(DataError, match="line 9 is longer than 1,048,576 characters"):
+        for _ in chunks(fh, "sparse.csv", rows, size=1 << 20):
+            pass
+    assert fh.taken < 4 << 20
