@@ -431,7 +431,7 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
                     "the candidate sets that only weak entries admit were not identified")
             mf = dated()
             return replace(d, mode_fault=mf, isolation=replace(iso, candidates=(), pruned=0), mode=dict(mf.mode),
-                           faults=mf.faults, note=note)
+                           faults=mf.faults, note=f"{d.note}; {note}" if d.note else note)
     if not iso.candidates and p.options.exoneration:
         relaxed = relaxed_sets(fsm, d.detection.final_coherence, p.options.max_set)
         if relaxed:
@@ -442,7 +442,8 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
     try:
         check_window(p.meas, d.detection.time, p.samples, p.scales.min_period)
     except DataError as exc:                  # detected at the end of the data: reported, not identified
-        return replace(d, note=str(exc).split(": ", 1)[-1])
+        why = str(exc).split(": ", 1)[-1]
+        return replace(d, note=f"{d.note}; {why}" if d.note else why)
     search = Search(p.options.engine, p.options.pop, p.options.generations)
     with Estimators(p.monitor, search, p.options.workers, memo, p.modes, p.prognosed) as est:
         return identify(p, d, fsm, r, est, clock, progress)

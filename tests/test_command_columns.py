@@ -28,3 +28,19 @@ def test_a_command_in_another_scale_is_named_with_how_it_is_read():
     note = commands_read(MODEL, meas)
     assert note.startswith("column v_cmd (mode v) holds values other than 0 and 1 (7 sample(s); at 0.3 s the first: 2)")
     assert signals_from_data(MODEL, meas)["v"].tolist() == [0, 0, 0, 1, 1, 1, 1, 0, 0, 0]     # 2 -> 1, 0.4 -> 0
+
+
+def test_the_note_survives_a_fault_mode_that_explains_the_data():
+    """The two-tank valve stuck open (the golden record) with its command logged as 2 for open: read
+    as 1, the same diagnosis, a fault mode that explains the data; its note ("the fault mode explains
+    the data ...") replaced the report's, and the column's went unsaid (a user trial's valve logged
+    as -1 for open)."""
+    from fdi.api import Options, diagnose
+    from fdi.data import read_csv
+    meas = read_csv(ROOT / "tests" / "golden" / "tank_stuck_open.csv.gz")
+    cols = {**meas.columns, "v_cmd": 2.0 * np.asarray(meas.columns["v_cmd"])}
+    r = diagnose(str(ROOT / "models" / "two_tank_commanded.yaml"), Measurements("run.csv", meas.t, cols),
+                 Options(workers=1, seed=0)).to_dict()
+    assert [f["name"] for f in r["diagnosis"]["faults"]] == ["v_open"] and r["estimators"] == []
+    assert "column v_cmd (mode v) holds values other than 0 and 1" in r["note"]
+    assert "the fault mode explains the data" in r["note"]
