@@ -731,6 +731,10 @@ def _autonomous(ctx, data, modes, symbols, sensors, inputs) -> dict[str, Mode]:
         if isinstance(text, str) and any(c in text for c in "<>="):
             raise ctx.error(where, f"'{text}': give the expression that is above zero while the mode is 1, without "
                                    "a comparison (positive: iL for a diode conducting while iL > 0; iL - 0.05 to offset it)")
+        if isinstance(text, str) and re.search(r"(?<![A-Za-z0-9_.])t(?![A-Za-z0-9_])", text) and "t" not in allowed:
+            raise ctx.error(where, f"'{text}' reads the time t: an autonomous mode follows the sign of a signal; a "
+                                   "mode that switches at given times is a commanded one (column: its logged value, "
+                                   "expr: \"heaviside(t - 30)\" for bgfdi simulate)")
         try:                 # parsed with the modes known: which of them it reads
             seen = _expr(ctx, text, where, {**allowed, **{m: symbols[m] for m in modes if m in symbols}}).free_symbols
         except ModelError:

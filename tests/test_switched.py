@@ -181,3 +181,15 @@ def test_verification_passes_the_rebuilt_residuals_and_fails_the_one_causality_f
     bad = verify(m, list(_select(m).arrs), seed=1)
     assert not bad.ok
     assert {c.mode_text for c in bad.failures} == {"s=0"}
+
+
+def test_an_autonomous_condition_that_reads_the_time_is_refused_saying_what_a_timed_mode_is():
+    """A user trial's bump stop written "t - 30" was told "undefined symbol 't' ..." (and elsewhere
+    "did you mean 'kt'?"): a mode that switches at given times is a commanded one."""
+    text = DCM.read_text(encoding="utf-8").replace('positive: "iL"', 'positive: "t - 30"')
+    with pytest.raises(ModelError) as e:
+        load_model_text(text, "dcm.yaml")
+    assert e.value.where == "modes.c.positive" and "reads the time t" in str(e.value)
+    assert "a commanded one" in str(e.value) and "undefined symbol" not in str(e.value)
+    text = DCM.read_text(encoding="utf-8").replace('positive: "iL"', 'positive: "iL - 0.01*tanh(iL)"')
+    load_model_text(text, "dcm.yaml")                   # a name that merely contains t is no time
