@@ -65,7 +65,8 @@ def _with_mode_residuals(model: Model, chosen: ResidualSet, arrs: list) -> Resid
     notes = [n for n in chosen.notes if not n.startswith("the computable residuals do not reach")]
     for a in added:
         notes.append(f"{a.name} holds in mode {a.origin.split(' in mode ')[1]} only (0 in the others): "
-                     f"that mode's own ARR of {a.sensor}, which the diagnostic bond graph's one causality "
+                     f"that mode's own ARR {f'of {a.sensor}' if a.sensor else f'at {a.junction}'}, which the "
+                     f"diagnostic bond graph's one causality "
                      f"does not give (a relation of that mode alone)")
     short = shortfall_of(model, list(chosen.arrs) + added, chosen.causality)
     if short:
