@@ -249,11 +249,11 @@ def calibrate(model_path: str, runs: list, margin: float = DEFAULT_MARGIN, quant
     config = c.config if pick is None else replace(c.config, derivative_window=pick)
     sc = scales.for_model(model, config, data[0].ts)
     used = sc.window        # the file's, the rule's (from the data's sampling time) or the chosen
-    short = [(m, i) for i, (m, r) in enumerate(zip(data, samples)) if not r.shape[1]]
+    short = [m for m, r in zip(data, samples) if not r.shape[1]]
     if short:               # (a window set long in the file: its settling outlasts the run)
-        meas = short[0][0]
+        meas = short[0]
         start = settling(settle, scales.for_model(model, config, meas.ts).settle)
-        raise DataError(f"{', '.join(m.path for m, _ in short)}: no sample that detection looks at: it starts "
+        raise DataError(f"{', '.join(m.path for m in short)}: no sample that detection looks at: it starts "
                         f"{start:.6g} s into a run (the start-up settling at the derivative window {used:g} s"
                         f"{', or --settle' if settle is not None else ''}) and ends {sc.end_edge:.6g} s before its "
                         f"end, and the run is {meas.t[-1] - meas.t[0]:.6g} s long: calibrate on longer runs, or "

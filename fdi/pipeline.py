@@ -405,16 +405,19 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
     clock.lap("isolation")
     d = replace(d, isolation=iso)
     if iso.suspected:
-        mf = estimate_modes(p, d.detection, d.mode, iso.suspected, noise_floors(p, r, d.detection.time), r)
+        # the onsets the evidence allows (a mode fault switches in, and is dated, within them) and the
+        # residuals' nominal level, each worked out once
+        onsets = evidence_onsets(p.monitor, r, p.meas.t, p.thresholds, d.detection.time, p.first_trusted,
+                                 switch_excursion(p, d.detection))
+        mf = estimate_modes(p, d.detection, d.mode, iso.suspected, noise_floors(p, r, d.detection.time), onsets[1])
         clock.lap("mode estimation")
         d = replace(d, mode_fault=mf)
+        nominal = nominal_cost(p, r, d.detection.time) if mf.faults else float("inf")
 
         def dated() -> ModeFault:        # the mode fault's switch dated, where it is the diagnosis
-            onsets = evidence_onsets(p.monitor, r, p.meas.t, p.thresholds, d.detection.time, p.first_trusted,
-                                     switch_excursion(p, d.detection))
             return dated_mode_fault(p, d.detection, mf, onsets, r)
         if mf.faults and not iso.candidates and (
-                explains(mf.cost, nominal_cost(p, r, d.detection.time))
+                explains(mf.cost, nominal)
                 or not (p.options.exoneration and relaxed_sets(fsm, d.detection.final_coherence, p.options.max_set))):
             # the fault mode, where it explains the data or no set covers the coherence vector; else
             # the covering sets are fitted beside it and the criterion chooses (a heater element's
@@ -422,7 +425,7 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
             # relay stuck open that left the residuals far above their noise: a user trial)
             mf = dated()
             return replace(d, mode_fault=mf, mode=dict(mf.mode), faults=mf.faults)
-        level = nominal_cost(p, r, d.detection.time) if mf.faults and iso.weak else float("inf")
+        level = nominal if iso.weak else float("inf")
         if explains(mf.cost, level) and not candidate_sets(p.monitor.fsm(d.mode), d.detection.final_coherence,
                                                            p.options.exoneration, p.options.max_set):
             # the mode change matches the coherence vector as it is; the sets only weak entries admit
@@ -625,22 +628,17 @@ def switching(p: Prepared, det: Detection, suspect: str) -> bool:
 
 
 def estimate_modes(p: Prepared, det: Detection, mode: dict[str, int], suspects,
-                   floors: np.ndarray | None = None, r: np.ndarray | None = None) -> ModeFault:
+                   floors: np.ndarray | None = None, late: float | None = None) -> ModeFault:
     """The fault-mode estimator over the suspected mode variables (Sec. III-C), and the mode faults
     its estimate implies (none when it agrees with the mode at t_D); ``floors``: the residuals'
-    noise floors (:func:`noise_floors`), charged where a mode switches a residual off; with the
-    residuals ``r``, each hypothesis switched in at its best sample of the onsets the evidence
-    allows a component fault (t_D to the filters' look-ahead, :func:`evidence_onsets`), as
-    :func:`dated_mode_fault` then dates it."""
+    noise floors (:func:`noise_floors`), charged where a mode switches a residual off; with
+    ``late``, the latest onset the evidence allows a component fault (:func:`evidence_onsets`), each
+    hypothesis switched in at its best sample from t_D to it, as :func:`dated_mode_fault` then dates it."""
     model = p.monitor.model
     win = window(p.meas.t, p.raw, det.time, p.samples, p.window_s)
     variables = sorted({mode_variable(model, s) for s in suspects})
     following = {v for v in variables if switching(p, det, v)}
-    span = 0
-    if r is not None:
-        late = evidence_onsets(p.monitor, r, p.meas.t, p.thresholds, det.time, p.first_trusted,
-                               switch_excursion(p, det))[1]
-        span = max(0, int(np.floor((late - det.time) / p.meas.ts + 1e-9)))
+    span = 0 if late is None else max(0, int(np.floor((late - det.time) / p.meas.ts + 1e-9)))
     e = estimate_mode(model, p.monitor.residuals, win, p.weights, p.options.seed, p.window_s, variables, p.modes,
                       floors, following, span)
     # no mode fault where no mode explains the data finitely (a sample of 1e308 the residuals
