@@ -11,7 +11,12 @@ the diode's branch (the output voltage plus the diode's drop), which one causali
 a controlled junction whose mode is 1 becomes an ordinary junction; one whose mode is 0 imposes
 its constraint on every bond: a 1c junction carries no flow (a zero flow source on each of its
 bonds' other ends: ``Sf = 0``), a 0c junction no effort (``Se = 0``). The junction itself and the
-elements and sensors it alone connects are removed with it; a sensor on it measures zero. A
+elements and sensors it alone connects are removed with it; a sensor on it measures zero. So is a
+part it cuts off that holds no sensor and no storage (:func:`_cut_off`): nothing of it is measured
+nor carried over the mode, and its laws could only contradict the junction's zero (a bump stop's
+force written from the measured compression, behind a 0c that is off while there is no contact;
+a user trial's residual kb*(xs - gb) = 0, false on every record). For residuals, ``keep_states``
+off removes such parts with storage too: a state nothing measures gives no residual. A
 junction declared ``switched_off: outputs`` keeps the DHBG's switching (only its outputs are zero) and
 stays controlled.
 
@@ -41,7 +46,7 @@ class ModeGraph:
     zero_sensors: frozenset[str]
 
 
-def in_mode(model: Model, mode: Mapping[str, int]) -> ModeGraph:
+def in_mode(model: Model, mode: Mapping[str, int], keep_states: bool = True) -> ModeGraph:
     """The plain bond graph of ``model`` with its mode variables at ``mode`` (see module doc)."""
     values = {model.symbols[k]: sp.Integer(v) for k, v in mode.items()}
     off: set[str] = set()
@@ -83,6 +88,12 @@ def in_mode(model: Model, mode: Mapping[str, int]) -> ModeGraph:
         bonds.append(b)
     for name in off:
         del junctions[name]
+    cut = _cut_off(model, elements, junctions, bonds, keep_states)
+    if cut:
+        removed |= {n for n in cut if n in model.elements or n in model.junctions}
+        elements = {k: e for k, e in elements.items() if k not in cut}
+        junctions = {k: j for k, j in junctions.items() if k not in cut}
+        bonds = [b for b in bonds if b.source not in cut]
     zero = frozenset(s.name for s in model.sensors.values() if s.junction in off)
     sensors = {k: s for k, s in model.sensors.items() if k not in zero}
     symbols = dict(model.symbols)
@@ -92,6 +103,29 @@ def in_mode(model: Model, mode: Mapping[str, int]) -> ModeGraph:
     spec = replace(model, elements=elements, junctions=junctions, bonds=tuple(bonds), sensors=sensors,
                    symbols=symbols)
     return ModeGraph(dict(mode), spec, frozenset(removed), zero)
+
+
+def _cut_off(model: Model, elements: Mapping[str, Element], junctions: Mapping[str, Junction],
+             bonds: list[Bond], keep_states: bool) -> set[str]:
+    """The nodes of the parts of a mode's graph (bonds joined, switched-off junctions gone) that hold
+    no sensor and, with ``keep_states``, no storage (C or I): parts a switched-off junction cut off
+    from everything measured. The part that holds a sensor or a state stays whole."""
+    nodes = set(elements) | set(junctions)
+    links: dict[str, list[str]] = {n: [] for n in nodes}
+    for b in bonds:
+        if b.source in links and b.target in links:
+            links[b.source].append(b.target)
+            links[b.target].append(b.source)
+    seen = {s.junction for s in model.sensors.values() if s.junction in nodes}
+    if keep_states:
+        seen |= {k for k, e in elements.items() if e.kind in ("C", "I")}
+    todo = list(seen)
+    while todo:
+        for n in links[todo.pop()]:
+            if n not in seen:
+                seen.add(n)
+                todo.append(n)
+    return nodes - seen
 
 
 def held_still(model: Model) -> list[str]:

@@ -67,7 +67,7 @@ class ModeCheck:
 def mode_arrs(model: Model, mode: Mapping[str, int]) -> list[ARR]:
     """The ARRs of the plain bond graph of ``mode``: SCAPH where it succeeds, else the MSO
     residual set; a sensor on a switched-off junction measures zero (its ARR: signal / beta)."""
-    graph = in_mode(model, mode)
+    graph = in_mode(model, mode, keep_states=False)
     spec = graph.model
     causality = assign(spec, DIAGNOSIS)
     arrs: list[ARR] = []

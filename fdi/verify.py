@@ -181,12 +181,16 @@ class Settings:
 class Verification:
     """Every ARR in every mode combination checked against the simulated model (``checks``, in
     mode order, ARRs in the order given); ``notes``: what kept a whole mode, or the model, from
-    being verified; ``settings``: None when nothing could be simulated."""
+    being verified; ``settings``: None when nothing could be simulated; ``zero``: (ARR, mode)
+    pairs left out because the ARR is 0 there by its mode's indicator (a mode-only residual,
+    :mod:`fdi.modewise`: nothing to verify; a trial's quarter car listed 9 such lines as "not
+    verified: a part at rest")."""
     model: str
     seed: int
     checks: tuple[Check, ...]
     notes: tuple[str, ...]
     settings: Settings | None
+    zero: tuple[tuple[str, str], ...] = ()
 
     @property
     def failures(self) -> tuple[Check, ...]:
@@ -552,8 +556,11 @@ def verify(model: Model, arrs: Sequence[ARR] | None = None, *, seed: int = 0,
             ts = max(seen, tau / MAX_REFINE) / STEPS_PER_TAU
             grid = np.arange(int(round(TAUS * tau / ts)) + 1) * ts      # the same span, finer
             finest = ts / AMPLIFICATION ** (1 / highest)
+    zero: dict[str, set[str]] = {}     # per mode label: the ARRs identically 0 there
     for mode in modes:
         label = _label(mode)
+        subs = {model.symbols[k]: sp.Integer(v) for k, v in mode.items() if k in model.symbols}
+        zero[label] = {a.name for a in arrs if a.expr.free_symbols & set(subs) and a.expr.xreplace(subs) == 0}
         if progress:
             progress(label)
         try:
@@ -579,10 +586,13 @@ def verify(model: Model, arrs: Sequence[ARR] | None = None, *, seed: int = 0,
         refined = _refined(model, mode, grid, tau, finest, state, failing, orders, seen_pool, runs, found,
                            threshold) if failing else {}
         for a in arrs:
+            if a.name in zero[label]:
+                continue
             checks.append(_unchecked(a.name, mode, skipped[a.name]) if a.name in skipped
                           else refined.get(a.name) or _check(a.name, mode, *found[a.name], threshold))
     settings = Settings(tau, ts, float(grid[-1]), runs, threshold, tuple(cuts), tuple(left_out))
-    return Verification(model.name, seed, tuple(checks), tuple(notes), settings)
+    left = tuple((a.name, label) for label, names in zero.items() for a in arrs if a.name in names)
+    return Verification(model.name, seed, tuple(checks), tuple(notes), settings, left)
 
 
 def _check(arr: str, mode: Mapping[str, int], r: float, scale: float, judged: int, used: int,

@@ -35,6 +35,7 @@ def to_json(v: Verification) -> dict:
         "cut_runs": [] if s is None else [{"mode": _mode(r), "run": r.index, "end_s": r.end} for r in s.cuts],
         "left_out_runs": [] if s is None else [{"mode": _mode(r), "run": r.index, "why": r.why} for r in s.left_out],
         "notes": list(v.notes),
+        "zero": [{"arr": name, "mode": label} for name, label in v.zero],
     }
 
 
@@ -62,6 +63,12 @@ def to_lines(v: Verification) -> list[str]:
     if s is not None:
         lines += [f"  {r.mode_text} run {r.index} left out: {r.why}" for r in s.left_out]
     lines += [f"  note: {n}" for n in v.notes]
+    if v.zero:
+        where: dict[str, list[str]] = {}
+        for name, label in v.zero:
+            where.setdefault(name, []).append(label)
+        lines.append("  0 by their mode's indicator, so not checked there: "
+                     + "; ".join(f"{name} in {', '.join(labels)}" for name, labels in where.items()))
     passed = len(v.checks) - len(v.failures) - len(v.unverified)
     lines.append(f"  {passed} of {len(v.checks)} ARR-mode checks pass, {len(v.failures)} fail, "
                  f"{len(v.unverified)} not verified")
