@@ -953,6 +953,10 @@ def _elements(ctx, data, symbols, claim, inputs, sensors, parameters) -> dict[st
                 _nonzero_modulus(ctx, where, kind, name, modulus, parameters)
             fields["modulus"] = modulus
         else:
+            if kind in ("MSe", "MSf") and spec.get("input") is not None and spec.get("value") is not None:
+                # one of them was dropped, silently: a trial's "-Iinv" lost its sign to input: Iinv
+                raise ctx.error(where, f"source '{name}' has both input and value; keep one: input: <name> for "
+                                       "the signal itself, value: <expression> for an expression of it")
             if kind in ("MSe", "MSf") and spec.get("input") is not None:
                 _ref(ctx, spec["input"], where + ("input",), "input")
                 if spec["input"] not in inputs:
@@ -1168,6 +1172,12 @@ def _check_ports(ctx, elements, junctions, bonds) -> None:
                                        f"(bonds {', '.join(str(b.id) for b in attached)})")
         elif len(attached) != 1:
             raise ctx.error(where, f"{e.kind} '{name}' has {len(attached)} bonds; a one-port element needs exactly one")
+        elif e.kind in ("C", "I", "R") and attached[0].source == name:
+            # the laws take the bond's flow as the element's own (q' = f, p' = e, power e*f taken in):
+            # a bond drawn outwards charged a trial's battery cell while it discharged, silently
+            b = attached[0]
+            raise ctx.error(("bonds", b.id), f"bond {b.id} points away from {e.kind} '{name}'; power goes into a "
+                                             f"C, I or R element: write it [{b.target}, {name}]")
     for name, j in junctions.items():
         attached = at.get(name, [])
         if not attached:

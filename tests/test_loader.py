@@ -88,6 +88,11 @@ def _err(text: str) -> ModelError:
     ("v: {type: De, junction: j0, column: v, unit: V}", "v: {type: De, junction: j1, column: v, unit: V}", ["0-junction"]),
     ("  j0: {type: \"0\"}", "  j0: {type: \"0c\"}", ["needs mode"]),
     ("src: {type: MSe, input: u}", "src: {type: MSe, input: uu}", ["undefined input 'uu'"]),
+    # a trial's battery pack: value "-Iinv" and input: Iinv, the sign dropped with no word
+    ("src: {type: MSe, input: u}", "src: {type: MSe, input: u, value: '-u'}",
+     ["elements.src", "both input and value", "keep one"]),
+    # a trial's cell charged while it discharged: its storage's bond drawn outwards (q' = f regardless)
+    ("  4: [j0, cap]", "  4: [cap, j0]", ["bonds.4", "points away from C 'cap'", "write it [j0, cap]"]),
     ("cap: {type: C, parameter: C1}", "cap: {type: C, parameter: C2}", ["undefined parameter 'C2'"]),
     ("  C1: {value: 1.0e-3, unit: F}", "  C1: {value: -1.0e-3, unit: F}",
      ["elements.cap.parameter", "'C1' = -0.001", "only when positive", "give its positive value"]),
