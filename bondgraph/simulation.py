@@ -324,7 +324,9 @@ def _build(spec: Model, opened: frozenset[str], read: Mapping[sp.Symbol, sp.Expr
     mapping = {sp.Derivative(X[s], t): d for s, d in zip(states, dx_sym)}
     mapping |= {X[s]: x for s, x in zip(states, x_sym)} | dict(zip(z_fun, z_sym)) | dict(zip(params, p_sym))
     mapping |= {t: t_sym}
-    lines, _ = substitute(program.lines, mapping)
+    # a line that became an atom is folded: its name goes into the mapping, for the outputs too (a trial's
+    # three-cell pack read a folded name in its observer: NameError '__v0' ended simulate)
+    lines, mapping = substitute(program.lines, mapping)
     outputs = [e.xreplace(mapping) for e in outputs]
     residual = [r.xreplace(mapping) for r in residual]        # names, or atoms such as a parameter
     unknowns = dx_sym + z_sym

@@ -61,7 +61,7 @@ from bondgraph.structure import (DERIVATIVE, EquationSystem, Structure, derivati
 
 from .isolability import Shortfall, StructuralBest
 from .scaph import ARR, binary_modes, derive_arrs, storage_fault_parameters, structural_system
-from .signatures import all_modes, nominal_mode, operating_modes
+from .signatures import all_modes, nominal_mode, operating_modes, sees_mode_fault
 
 ORDER_WINDOW = 1              # candidates more derivatives above the lowest that still adds something wait
 BUDGET = 30.0                 # s of computing for the whole selection (SCAPH included); notes say when it cuts
@@ -244,6 +244,7 @@ def select(model: Model, causality: str = DERIVATIVE, budget: float = BUDGET) ->
     picks = search.prune(picks)
     picks = search.lower(picks)
     picks = search.operating(picks)
+    picks = search.switches(picks)
     k = len(scaph)
     out = []
     for p in picks:
@@ -350,6 +351,51 @@ class _Search:
                               f"residuals added for {'it' if len(found) == 1 else 'them'}, judged in every "
                               f"combination of the switching modes")
         return picks          # (self.mode stays the list: the picks' faults and the final shortfall are judged there)
+
+    def switches(self, picks: list[_Pick]) -> list[_Pick]:
+        """A residual for each mode fault (a switch stuck) no chosen residual reacts to in any mode
+        the plant runs in, where the structure has one: the MSO set through the equations of its
+        mode variable of the lowest derivative order whose residual differs between the two modes.
+        Residuals are chosen for the parameter and sensor faults; a trial's battery pack had none
+        through its contactor's balance (no parameter fault there), and a contactor stuck open was
+        "nothing detected" while the pack's current fell from 60 A to 0."""
+        from .isolability import fault_equations
+        faults = [f for f, v in self.model.faults.items() if v.kind == "mode"]
+        missed = [f for f in faults if not any(sees_mode_fault(self.model, p.arr, f) for p in picks)]
+        if not missed:
+            return picks
+        where = fault_equations(self.model, self.system, missed)
+        whole = self.best.part(None)
+        added = []
+        for f in missed:
+            if any(sees_mode_fault(self.model, p.arr, f) for p in picks):
+                continue                  # the residual added for another fault of the same switch
+            seeds = sorted(where[f] & whole)
+            if not seeds:
+                continue                  # no residual can: bgfdi isolability says so
+            if not (self.enumerated and self.enumeration_complete):
+                for seed in seeds[:SEEDS_PER_TARGET]:
+                    found = msos_around(self.st, seed, whole, self.causality,
+                                        accept=lambda x: self.candidate(x) is not None, limit=BALL_LIMIT,
+                                        deadline=self.deadline)
+                    self.mso_seconds += found.seconds
+                    for x in found.sets:
+                        self.pool[x] = self.described[x]
+            present = {p.arr.expr for p in picks}
+            for c in sorted((c for x, c in self.pool.items() if x & where[f] and x not in self.failed),
+                            key=Candidate.quality):
+                if time.perf_counter() > self.deadline:
+                    self.stopped = True
+                    break
+                pick = self.realise(c)
+                if pick is not None and pick.arr.expr not in present and sees_mode_fault(self.model, pick.arr, f):
+                    picks = picks + [pick]
+                    added.append(f)
+                    break
+        if added:
+            self.notes.append(f"no residual chosen for the other faults reacts to the mode fault(s) "
+                              f"{', '.join(added)}: a residual through the switch's equations added")
+        return picks
 
     def faults_of(self, arr: ARR) -> frozenset[str]:
         return expression_faults(self.model, arr, self.mode, self.fault_symbols)

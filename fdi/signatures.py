@@ -110,6 +110,22 @@ def _in_mode(model: Model, expr: sp.Expr, mode: Mapping[str, int]) -> sp.Expr:
     return expr.xreplace({model.symbols[m]: sp.Integer(v) for m, v in mode.items()})
 
 
+def sees_mode_fault(model: Model, arr: ARR, fault: str, modes: list[Mapping[str, int]] | None = None) -> bool:
+    """Whether ``arr`` reacts to the mode fault ``fault`` (its mode variable held at the fault's
+    value) in some mode of ``modes`` (default: the modes the plant runs in) where the variable
+    should be otherwise: the residual differs between the two modes (the MCSM's test)."""
+    import sympy as sp
+    f = model.faults[fault]
+    var, value = f.targets[0], int(f.value or 0)
+    for mode in modes if modes is not None else operating_modes(model):
+        mode = {**nominal_mode(model), **mode}
+        if int(mode[var]) == value:
+            continue
+        if sp.expand(_in_mode(model, arr.expr, {**mode, var: value}) - _in_mode(model, arr.expr, mode)) != 0:
+            return True
+    return False
+
+
 def fault_signature_matrix(model: Model, arrs: list[ARR], mode: Mapping[str, int] | None = None) -> FSM:
     """MD-FSM in one mode (the nominal mode by default) for every non-mode candidate fault."""
     import sympy as sp
