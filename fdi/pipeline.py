@@ -1017,10 +1017,15 @@ def refresh_prognosis(monitor: "Monitor", meas: Measurements, d: Diagnosis, opti
     start, span = since_detection(meas.t, d.detection.time, float(meas.t[-1]), p.samples, MAX_REFIT)
     t0 = min(f["t0"] for f in growing)
     w = p.window_s
+    # the onset searched up to the decision's band for it, not only a window past its fit: a trial's
+    # battery cell (R0 growing from 600 s, fitted from 544 s at the decision, band to 707 s) had every
+    # refit pinned at 572.5 s, the true onset outside the band of every prognosis
+    late = max([t0 + w] + [f["t0_band"][1] for f in growing if f.get("t0_band")])
+    late = min(late, max(d.detection.time, t0 + w))
     search = Search(o.engine, o.pop, o.generations)
     with Estimators(p.monitor, search, 1, memo, p.modes, p.prognosed) as est:
         (result,) = est.run(meas.t, p.raw, start, span, [tuple(f["name"] for f in growing)], p.weights,
-                            o.seed + 104729, None, [others], [(min(t0 - w, p.first_trusted), t0 + w)],
+                            o.seed + 104729, None, [others], [(min(t0 - w, p.first_trusted), late)],
                             [[growing]])
     now = float(meas.t[-1])
     prognosis = tuple(Prognosis.from_dict(prognose(f, nominal(p.monitor.model, f["name"]), failures[f["name"]],

@@ -63,3 +63,34 @@ def test_a_contactor_stuck_open_is_seen_and_is_the_diagnosis():
 
 def test_no_alarm_on_a_fault_free_run_with_the_contactor_opened():
     assert _diagnosis()["detection"] is None
+
+
+def test_a_prognosis_refit_searches_the_onset_across_the_decisions_band():
+    """A cell's R0 growing as e^(5e-4 (t - 600)) (eq. (16)). A prognosis refit searched the onset up
+    to one derivative window past the decision's fit: a trial's monitor had the decision's onset at
+    544 s (band to 707 s) and every refit pinned at 572.5 s, the true 600 s outside every band.
+    Here the decision is given an onset of 540 s, inside its band (the fit's own is 571 s); the
+    refit finds the onset where the data put it, its band holding the truth."""
+    import dataclasses
+
+    from fdi.api import Options, diagnose
+    from fdi.data import Measurements
+    from fdi.monitor import compiled
+    from fdi.pipeline import refresh_prognosis
+
+    cols = plant.simulate(1400.0, 10.0, seed=12, growth=(1, 600.0, 5e-4))
+    meas = Measurements("pack.csv", cols["t"], cols)
+    o = Options(workers=1, seed=0, samples=5000)
+    d = diagnose(str(MODEL), meas, o)
+    (f,) = d.faults
+    assert (f.name, f.type, f.model) == ("R02", "incipient", 1)
+    low, high = f.t0_band
+    assert low < 540.0 < high
+    early = dataclasses.replace(d, faults=(dataclasses.replace(f, t0=540.0),))
+    (g,), (p,) = refresh_prognosis(compiled(MODEL), meas, early, o)
+    window = 28.57
+    assert g["t0"] > 540.0 + window                     # measured 573.5 s; the cap was 568.6 s
+    assert g["t0_band"][0] <= 600.0 <= g["t0_band"][1]
+    assert g["b_band"][0][0] <= 5e-4 <= g["b_band"][0][1]
+    eol = 600.0 + np.log(2.0) / 5e-4                    # R0 doubles to its failure value 0.003 ohm
+    assert p.rul_low <= eol - p.at <= p.rul_high
