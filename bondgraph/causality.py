@@ -363,7 +363,7 @@ def algebraic_loops(model: Model, causality: Causality) -> list[str]:
         out.append(f"{what} through bonds {', '.join(bonds)}")
         if len(out) >= 20:
             break
-    return out
+    return sorted(out)       # the cycles come in the order of a set's strings: one order in every process
 
 
 def _readings(coefficients: Mapping[str, object]) -> str:

@@ -94,3 +94,56 @@ def test_a_prognosis_refit_searches_the_onset_across_the_decisions_band():
     assert g["b_band"][0][0] <= 5e-4 <= g["b_band"][0][1]
     eol = 600.0 + np.log(2.0) / 5e-4                    # R0 doubles to its failure value 0.003 ohm
     assert p.rul_low <= eol - p.at <= p.rul_high
+
+
+CELL = """\
+name: cell
+parameters:
+  Cb: {value: 225000.0, unit: F}
+  R0: {value: 0.0015, unit: Ohm}
+  R1: {value: 0.001, unit: Ohm}
+  C1: {value: 30000.0, unit: F}
+data: {columns: [t, i, V], sampling_time: 0.1}
+inputs:
+  i: {column: i, unit: A}
+elements:
+  offs: {type: Se, value: 3.4}
+  ocv: {type: C, parameter: Cb}
+  r0: {type: R, parameter: R0}
+  r1: {type: R, parameter: R1}
+  c1: {type: C, parameter: C1}
+  load: {type: MSf, input: i}
+junctions:
+  L: {type: "1"}
+  P: {type: "0"}
+  T: {type: "0"}
+sensors:
+  V: {type: De, junction: T, column: V, unit: V}
+bonds:
+  0: [offs, L]
+  1: [L, ocv]
+  2: [L, r0]
+  3: [L, P]
+  4: [P, r1]
+  5: [P, c1]
+  6: [L, T]
+  7: [T, load]
+faults:
+  R0: {kind: parametric, parameters: [R0]}
+  Cb: {kind: parametric, parameters: [Cb]}
+"""
+
+
+def test_a_cell_read_by_its_voltage_and_current_is_told_of_mixed_causality(tmp_path, capsys):
+    """One Thevenin cell, its current an input and its voltage measured: the one relation
+    (R1 C1 V'' + V' + R0 R1 C1 i'' + (R1 C1/Cb + R1 + R0) i' + i/Cb = 0, by hand) needs the
+    charge's rate differentiated into the junction's sum, which derivative causality does not do;
+    mixed causality integrates the charge instead. check said only 'proposes sensors'."""
+    from fdi.app.cli import main
+
+    path = tmp_path / "cell.yaml"
+    path.write_text(CELL, encoding="utf-8")
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "no residual exists in derivative causality: --causality mixed gives 1" in err
+    assert main(["check", str(path), "--causality", "mixed", "-q"]) == 0

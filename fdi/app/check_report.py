@@ -14,6 +14,21 @@ from ..data import unread_columns
 from .progress import stage
 
 
+def no_residual(model: Model, path, causality: str) -> str:
+    """What ``check`` says when no residual exists in ``causality``: in derivative causality, how
+    many mixed causality gives where it gives some (a trial's Thevenin cell measured by its voltage
+    and current: its residual integrates the charge, and the message only proposed sensors)."""
+    text = f"and no residual exists in {causality} causality"
+    if causality == "derivative":
+        from ..arrs import select_arrs
+        found = len(select_arrs(model, "mixed").arrs)
+        if found:
+            return (f"{text}: --causality mixed gives {found} (residuals that integrate a storage element's "
+                    f"state: they need its initial value and drift with an offset); or add a sensor (bgfdi "
+                    f"isolability {path} proposes them)")
+    return f"{text} (bgfdi isolability {path} proposes sensors)"
+
+
 def _bonds(model: Model, c: Causality) -> list[dict]:
     """Every bond with its causal stroke: which end receives the effort (the stroke's end) and which
     the flow; the sensors' signal bonds after the power bonds."""
@@ -55,9 +70,7 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
     with stage(f"residual selection ({causality} causality)"):
         chosen = select_arrs(model, causality)
     if not diag.ok and not chosen.arrs:
-        raise CausalityError(list(diag.problems) + list(diag.loops)
-                             + [f"and no residual exists in {causality} causality (bgfdi isolability "
-                                f"{path} proposes sensors)"])
+        raise CausalityError(list(diag.problems) + list(diag.loops) + [no_residual(model, path, causality)])
     arrs = list(chosen.arrs)
     bad = undefined_in_modes(model, arrs, all_modes(model))
     if bad:

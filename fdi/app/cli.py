@@ -395,9 +395,8 @@ def _print_diagnostic_causality(model: Model, args: argparse.Namespace, config) 
         for p in list(diag.problems) + list(diag.loops):
             print(f"  SCAPH: {p}")
         if not chosen.arrs:
-            raise CausalityError(list(diag.problems) + list(diag.loops)
-                                 + [f"and no residual exists in {args.causality} causality (bgfdi isolability "
-                                    f"{args.model} proposes sensors)"])
+            from .check_report import no_residual
+            raise CausalityError(list(diag.problems) + list(diag.loops) + [no_residual(model, args.model, args.causality)])
         print(f"  SCAPH leaves storage out of derivative causality or closes a loop: the residuals come from "
               f"structural analysis ({chosen.msos} MSO sets, {chosen.candidates} computable in "
               f"{args.causality} causality)")
