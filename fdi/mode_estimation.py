@@ -80,14 +80,29 @@ def samples_of(value, n: int) -> np.ndarray:
     raise ValueError(f"a residual of {a.size} values on a window of {n} samples")
 
 
-def off_charge(hypothesis: np.ndarray, data: np.ndarray, floor: float | None,
+def off_charge(rows: list[np.ndarray], data: list, floors: np.ndarray | None, weights: np.ndarray,
                each: bool = False) -> np.ndarray | float:
-    """What a residual's switched-off samples (:func:`switched_off`) cost, before its weight: its
-    noise ``floor`` each (its mean |r| where it holds), summed per row (with ``each``, per sample);
-    0 without a floor."""
-    if floor is None or not np.isfinite(floor) or floor <= 0:
+    """What a mode hypothesis's switched-off samples cost (``rows``: each residual's values under the
+    hypotheses, rows x samples, or one row; ``data``: the same residuals under the data's own modes):
+    each residual's noise floor (its mean |r| where it holds) times its weight on every sample it is
+    switched off (:func:`switched_off`), less the same for the residuals the hypothesis switches on
+    there (zero under the data's modes, not under the hypothesis: they judge that sample in its
+    place), never below 0; summed per row (with ``each``, per sample). A valve stuck soft swaps the
+    firm mode's body balance for the soft mode's: charged for the one switched off and not credited
+    for the one switched on, it cost 559 against a leak of the firm path at its bound's 385 (a user
+    trial's quarter car)."""
+    if floors is None:
         return 0.0
-    return floor * switched_off(hypothesis, data, each)
+    net = 0.0
+    for row, d, floor, w in zip(rows, data, floors, weights):
+        if d is None or floor is None or not np.isfinite(floor) or floor <= 0:
+            continue
+        d = np.asarray(d, dtype=float)
+        row = np.asarray(row)
+        on = (row != 0) & np.isfinite(row) & (d == 0)
+        net = net + w * floor * (switched_off(row, d, True).astype(float) - on)
+    net = np.maximum(net, 0.0)
+    return net if each else np.sum(net, axis=-1)
 
 
 def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, weights: np.ndarray,
@@ -138,15 +153,15 @@ def estimate_mode(model: Model, residuals: tuple[Residual, ...], win: Window, we
             if n not in follow:          # (a variable that follows keeps its command)
                 values[n] = bits[:, j:j + 1].astype(float)
         total = np.zeros((bits.shape[0], c.stop - c.start) if each else bits.shape[0])
+        outs = []
         for i, r in enumerate(residuals):
             out = np.broadcast_to(np.asarray(r(signals, values, win.ts, window_s), dtype=float),
                                   (bits.shape[0], win.t.size))[:, c]
             if gaps.any():               # (a switching command leaves a gap at each switch: NaN there)
                 out = np.where(gaps, 0.0, out)
             total += weights[i] * (np.abs(out) if each else np.abs(out).sum(axis=1))
-            if data[i] is not None:
-                total += weights[i] * off_charge(out, data[i], floors[i], each)
-        return total
+            outs.append(out)
+        return total + off_charge(outs, data, floors, weights, each)
     # each variable's value when it is not at fault: its command (one that switches within the window:
     # followed sample by sample), else its value at the window's start
     default = {n: COMMANDED if n in follow_all else current[n] for n in names}
@@ -321,8 +336,9 @@ def switched_at(monitor, win: Window, weights: np.ndarray, known: list[dict], sw
         if data is None:
             c = obj.constant()
         else:                            # what constant() sums, residual by residual, each evaluated once
-            c = float(sum(weights[i] * (np.nansum(np.abs(row)) + np.sum(off_charge(row, data[i], floors[i])))
-                          for i, row in enumerate(residual_rows(obj))))
+            rows = residual_rows(obj)
+            c = float(sum(weights[i] * np.nansum(np.abs(row)) for i, row in enumerate(rows))
+                      + off_charge(rows, data, floors, weights))
         if c < best[0]:
             best = (c, float(onset))
     return float(best[0]), best[1]

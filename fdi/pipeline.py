@@ -463,7 +463,7 @@ def isolate(p: Prepared, det: Detection, mode: dict[str, int], r: np.ndarray | N
         fsm, weak = weakened(p, det, fsm, r)
     candidates = candidate_sets(fsm, det.final_coherence, o.exoneration, o.max_set)
     pruned = pruned_sets(fsm, det.final_coherence, o.exoneration, o.max_set)
-    suspects = suspected_mode_changes(m.mcsm(mode), det.final_coherence, p.covering)
+    suspects = possible_mode_faults(m.model, suspected_mode_changes(m.mcsm(mode), det.final_coherence, p.covering))
     return fsm, Isolation(tuple(map(tuple, candidates)), tuple(suspects), int(pruned or 0),
                           o.max_set, False, weak)
 
@@ -838,7 +838,8 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
         before = tuple(int(x) for x in lit[:, k - 1])
         joined = (lit[:, k] & ~lit[:, k - 1]).nonzero()[0]
         onset = int(min(began[joined])) if joined.size else k        # where the new excursion began
-        changes = mode_changes_at(p, new_mode_changes(mcsm, before, coherence, p.covering), onset, faults)
+        changes = mode_changes_at(p, possible_mode_faults(p.monitor.model, new_mode_changes(mcsm, before, coherence,
+                                                                                     p.covering)), onset, faults)
         now_fsm = over_modes([fsm] + [p.monitor.fsm(m) for m in visited_modes(p, i0, j) if m != d.mode])
         e = redecide(est, p.meas, p.raw, det, p.weights, p.options, now_fsm, faults, float(t[onset]), float(t[j]),
                      coherence, p.samples, len(episodes) + 1, changes, p.modes, onsets, p.first_trusted,
@@ -867,6 +868,21 @@ def visited_modes(p: Prepared, i: int, j: int) -> list[dict[str, int]]:
     rows = np.stack([varying[n] for n in names], axis=1)
     _, first = np.unique(rows, axis=0, return_index=True)
     return [{**base, **{n: int(x) for n, x in zip(names, rows[k])}} for k in sorted(first)]
+
+
+def possible_mode_faults(model, changes: list[str]) -> list[str]:
+    """The suspected mode changes a fault can make: a commanded switch or one only a fault changes
+    (the paper's mode faults, declared or not), and an autonomous one only where a declared mode fault
+    holds it (a diode failing open). An autonomous variable is what its condition on the measured
+    signals says: a trial's quarter car had its bump stop 'engaged' on a record with no contact, a
+    hypothesis that switched every body residual off and cost less than the valve stuck soft."""
+    declared = {(f.targets[0], int(f.value or 0)) for f in model.faults.values() if f.kind == "mode"}
+    out = []
+    for s in changes:
+        var = mode_variable(model, s)
+        if not model.modes[var].autonomous or any(v == var for v, _ in declared):
+            out.append(s)
+    return out
 
 
 def mode_changes_at(p: Prepared, suspects: list[str], k: int, known: list[dict]) -> list[tuple[str, int]]:
