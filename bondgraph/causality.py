@@ -358,12 +358,16 @@ def algebraic_loops(model: Model, causality: Causality) -> list[str]:
         return out
     for cycle in nx.simple_cycles(dep):
         kinds = {dep.edges[cycle[i], cycle[(i + 1) % len(cycle)]]["kind"] for i in range(len(cycle))}
-        bonds = sorted({str(v[1]) for v in cycle})
+        bonds = sorted({v[1] for v in cycle}, key=lambda b: (not isinstance(b, int), b if isinstance(b, int) else 0,
+                                                           str(b)))
+        names = [str(b) for b in bonds]
+        if len(names) > 12:          # (a trial's 500-cell chain printed one line of 15.9 kB)
+            names = names[:6] + [f"... ({len(names)} bonds) ..."] + names[-3:]
         what = "derivative loop" if "derivative" in kinds else "algebraic loop"
-        out.append(f"{what} through bonds {', '.join(bonds)}")
+        out.append(f"{what} through bonds {', '.join(names)}")
         if len(out) >= 20:
             break
-    return sorted(out)       # the cycles come in the order of a set's strings: one order in every process
+    return sorted(out, key=lambda x: (len(x), x))    # the cycles come in a set's order: one order in every process
 
 
 def _readings(coefficients: Mapping[str, object]) -> str:
