@@ -32,7 +32,7 @@ from .model import (LAW_VARIABLES, ELEMENT_KINDS, FAULT_KINDS, JUNCTION_KINDS, S
                     TWO_PORT_KINDS, Bond, Element, Fault, Input, Junction, Model, Mode, Parameter,
                     Sensor, t)
 from .laws import STORAGE_KEYS
-from .names import same_name
+from .names import look_alike, same_name, skeleton
 from .units import UnitError, check_unit
 
 MONITOR_KEYS = {"thresholds", "diagnosis"}      # read by fdi.config, not by the bond graph
@@ -513,6 +513,14 @@ def _ref(ctx: _Ctx, value: Any, where: tuple, what: str) -> str:
     return str(value)
 
 
+def _meant(name: str, names) -> str:
+    """' (did you mean ...)' where a defined name looks like ``name`` (Greek or Cyrillic letters
+    drawn as Latin ones), with the characters that differ; else ''."""
+    key = skeleton(name)
+    other = next((n for n in names if n != name and skeleton(n) == key), None)
+    return "" if other is None else f" (did you mean '{other}'? {look_alike(name, other)})"
+
+
 def _expr(ctx: _Ctx, text: Any, where: tuple, symbols: Mapping[str, sp.Expr]) -> sp.Expr:
     try:
         return parse_expression(text, symbols)
@@ -562,6 +570,7 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
     symbols: dict[str, sp.Expr] = {}
     taken: dict[str, str] = {}
     normal: dict[str, str] = {}          # NFKC form -> the name as written
+    drawn: dict[str, str] = {}           # as a person reads it (bondgraph.names.skeleton) -> the name as written
 
     def claim(name: str, what: str, where: tuple) -> None:
         if name in taken:
@@ -570,8 +579,14 @@ def _build_model(data: dict, ctx: _Ctx) -> Model:
         if other is not None:
             raise ctx.error(where, f"'{name}' and '{other}' ({taken[other]}) are one name once Unicode-normalised "
                                    "(NFKC, as expressions read names: 'µ' is 'μ', 'ﬁ' is 'fi'); rename one")
+        other = drawn.get(skeleton(name))
+        if other is not None:
+            # a trial's orifice law read a Greek capital kappa's 'Κpa' (another parameter) for 'Kpa'
+            raise ctx.error(where, f"'{name}' and '{other}' ({taken[other]}) look alike ({look_alike(name, other)}); "
+                                   "rename one")
         taken[name] = what
         normal[unicodedata.normalize("NFKC", name)] = name
+        drawn[skeleton(name)] = name
 
     parameters = _parameters(ctx, data, symbols, claim)
     modes = _modes(ctx, data, symbols, claim)
@@ -917,7 +932,8 @@ def _elements(ctx, data, symbols, claim, inputs, sensors, parameters) -> dict[st
             if spec.get("parameter") is not None:
                 pname = _ref(ctx, spec["parameter"], where + ("parameter",), "parameter")
                 if pname not in symbols or not isinstance(symbols[pname], sp.Symbol):
-                    raise ctx.error(where + ("parameter",), f"undefined parameter '{pname}'; add it under parameters")
+                    raise ctx.error(where + ("parameter",), f"undefined parameter '{pname}'{_meant(pname, parameters)}; "
+                                                            "add it under parameters")
                 value = getattr(parameters.get(symbols[pname].name), "value", None)    # (a definition's alias too)
                 if kind in ("C", "I") and value is not None and not value > 0:
                     what = {"C": "a capacitance (compliance)", "I": "an inertance (mass, inductance)"}[kind]
@@ -1224,7 +1240,8 @@ def _faults(ctx, data, parameters, sensors, elements, modes) -> dict[str, Fault]
             targets = [_ref(ctx, p, where + ("parameters",), "a parameter") for p in targets]
             for p in targets:
                 if p not in parameters:
-                    raise ctx.error(where + ("parameters",), f"undefined parameter '{p}' in fault '{name}'")
+                    raise ctx.error(where + ("parameters",), f"undefined parameter '{p}' in fault '{name}'"
+                                                             f"{_meant(p, parameters)}")
             twice = sorted({p for p in targets if targets.count(p) > 1})
             if twice:
                 raise ctx.error(where + ("parameters",), f"{', '.join(twice)} listed twice in fault '{name}': "

@@ -44,7 +44,7 @@ from typing import Callable, Iterator, Mapping
 import numpy as np
 
 from bondgraph.model import Model
-from bondgraph.names import same_name
+from bondgraph.names import look_alike, same_name, skeleton
 
 from .inputs import NoWriter, open_binary
 
@@ -499,8 +499,11 @@ def check_against_model(model: Model, data: Measurements) -> None:
     if missing:
         found = len(set(data.columns) & needed)
         other = f" (is it a file for another model than {model.name}?)" if found < len(needed) / 2 else ""
+        alike = [f"'{c}' looks like '{m}' ({look_alike(c, m)})" for m in missing for c in data.columns
+                 if c != m and skeleton(c) == skeleton(m)]
         raise DataError(f"{data.path}: missing column(s) {', '.join(missing)} that model {model.name} reads"
-                        f"{other}; columns found: {', '.join(data.columns)}")
+                        f"{other}; columns found: {', '.join(data.columns)}"
+                        + (f"; {'; '.join(alike)}: rename it in the header" if alike else ""))
 
 
 _SIGNALS: dict[int, tuple[Model, dict]] = {}     # lambdified sensor and input expressions per model

@@ -64,3 +64,19 @@ def test_time_stamps_beyond_a_billion_seconds_are_named_with_their_sign(tmp_path
     with pytest.raises(DataError) as err:
         read_csv(path)
     assert "time values beyond +-1e+09 s" in str(err.value) and said in str(err.value)
+
+
+def test_a_header_name_that_only_looks_like_the_models_is_named_with_its_character():
+    """A trial's header wrote pressure A with a Cyrillic A: 'missing column pA; columns found: ...
+    pА ...' printed two names that look the same. The message now names the character."""
+    from bondgraph.loader import load_model
+    from fdi.data import Measurements, check_against_model
+
+    from .conftest import ROOT
+
+    model = load_model(ROOT / "models" / "three_tank.yaml")      # columns t, q0, p1, q2
+    cols = {c: np.zeros(3) for c in ("t", "q0", "\u04401", "q2")}   # p1 with a Cyrillic er
+    with pytest.raises(DataError) as info:
+        check_against_model(model, Measurements("x.csv", np.arange(3.0), cols))
+    text = str(info.value)
+    assert "'\u04401' looks like 'p1' ('\u0440' is U+0440 CYRILLIC SMALL LETTER ER): rename it in the header" in text

@@ -93,6 +93,11 @@ def _err(text: str) -> ModelError:
      ["elements.src", "both input and value", "keep one"]),
     # a trial's cell charged while it discharged: its storage's bond drawn outwards (q' = f regardless)
     ("  4: [j0, cap]", "  4: [cap, j0]", ["bonds.4", "points away from C 'cap'", "write it [j0, cap]"]),
+    # a trial's orifice law read a Greek capital kappa's 'Κpa', another parameter, for 'Kpa'
+    ("  R: {value: 100.0, unit: Ohm}", "  R: {value: 100.0, unit: Ohm}\n  \u04211: {value: 1.0, unit: F}",
+     ["'C1' and '\u04211' (a parameter) look alike", "U+0421 CYRILLIC CAPITAL LETTER ES", "rename one"]),
+    ("cap: {type: C, parameter: C1}", "cap: {type: C, parameter: \u04211}",
+     ["undefined parameter '\u04211'", "did you mean 'C1'? '\u0421' is U+0421 CYRILLIC CAPITAL LETTER ES"]),
     ("cap: {type: C, parameter: C1}", "cap: {type: C, parameter: C2}", ["undefined parameter 'C2'"]),
     ("  C1: {value: 1.0e-3, unit: F}", "  C1: {value: -1.0e-3, unit: F}",
      ["elements.cap.parameter", "'C1' = -0.001", "only when positive", "give its positive value"]),
