@@ -122,6 +122,9 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
                             "model's columns)")
         if "t" not in header:
             shown = delimiter.join(header)
+            if first.lstrip().startswith("#"):       # (a trial's logger wrote a comment line first)
+                raise DataError(f"{path}: the first line is a comment ({shown[:60]}); a measurement file starts "
+                                "with its header line (t and the model's columns): remove the comment lines")
             raise DataError(f"{path}: no 't' column in the header ({shown[:80]}); "
                             "the first column must be time in s")
         if on_header is not None:
@@ -163,7 +166,7 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
                     raise DataError(f"{path}: more than {MAX_VALUES:.0e} values; split the file")
                 held = [pending.pop()] if cut and len(pending[-1][1]) < width else []
                 if pending:                       # a short last row waits: it may be where the stream ends
-                    block, pending = _numbers(path, pending, width, comma), held     # the text freed first
+                    block, pending = _numbers(path, pending, width, comma, header), held     # the text freed first
                     yield header, block
                     del block
                 pending = held
@@ -171,7 +174,7 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
             _, short = pending.pop()
             cut(f"{path}: the last row was cut ({len(short)} of {width} values): dropped")
         if pending:
-            block, pending = _numbers(path, pending, width, comma), []
+            block, pending = _numbers(path, pending, width, comma, header), []
             yield header, block
     except OSError as exc:
         if in_callback:
@@ -455,10 +458,11 @@ def _plain(lines: list[str], width: int, comma: bool = False) -> np.ndarray | No
     return values.reshape(len(lines), width)
 
 
-def _numbers(path, numbered: list[tuple[int, list[str]]], width: int, comma: bool = False) -> np.ndarray:
+def _numbers(path, numbered: list[tuple[int, list[str]]], width: int, comma: bool = False,
+             header: list[str] | None = None) -> np.ndarray:
     """A block of rows, each with its line in the file, as a (rows, width) float array; empty fields
     become NaN; with ``comma`` (a semicolon-separated file) a decimal comma is read as a point. A
-    row of another width or a value that is no number is refused naming its line."""
+    row of another width or a value that is no number is refused naming its line and column."""
     for line, r in numbered:
         if len(r) != width:
             raise DataError(f"{path}: rows do not all have {width} values: line {line} has {len(r)} "
@@ -471,6 +475,10 @@ def _numbers(path, numbered: list[tuple[int, list[str]]], width: int, comma: boo
     except ValueError as exc:
         line = next((n for n, r in zip((n for n, _ in numbered), rows) if not _floats(r)), None)
         at = f" at line {line}" if line is not None else ""
+        bad = next((r for r in rows if not _floats(r)), None)
+        k = next((k for k, x in enumerate(bad) if not _floats([x])), None) if bad is not None else None
+        if k is not None and header is not None and k < len(header):
+            at += f", column '{header[k]}'"          # (a trial's command logged as 'on' named no column)
         raise DataError(f"{path}: a value is not a number{at} ({str(exc)[:80]})") from None
 
 

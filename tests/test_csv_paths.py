@@ -41,7 +41,7 @@ def test_every_path_reads_python_floats(tmp_path, path_kind):
     ("0.02,1,2,3,4", "rows do not all have 6 values: line 4 has 5 (cut short?); fix or remove it"),
     ("0.02,1,2,3,4,5,6", "rows do not all have 6 values: line 4 has 7"),
     ("0.02,1,,3,4,5", "row(s) with NaN, infinite or missing values, first at line 4"),
-    ("0.02,1,x,3,4,5", "a value is not a number at line 4"),
+    ("0.02,1,x,3,4,5", "a value is not a number at line 4, column 'theta1'"),
     ("0.02,1,1e999,3,4,5", "row(s) with NaN, infinite or missing values, first at line 4"),
 ])
 def test_every_path_refuses_in_the_same_words(tmp_path, path_kind, bad, words):
@@ -80,3 +80,11 @@ def test_a_header_name_that_only_looks_like_the_models_is_named_with_its_charact
         check_against_model(model, Measurements("x.csv", np.arange(3.0), cols))
     text = str(info.value)
     assert "'\u04401' looks like 'p1' ('\u0440' is U+0440 CYRILLIC SMALL LETTER ER): rename it in the header" in text
+
+
+def test_a_comment_line_before_the_header_is_named_as_such(tmp_path, path_kind):
+    """A trial's logger wrote '# recorded ...' first: 'no t column in the header (# recorded ...)'."""
+    path = tmp_path / "d.csv"
+    path.write_text("# recorded 2026-12-01 rig 3\n" + HEADER + "0,1,2,3,4,5\n", encoding="utf-8")
+    with pytest.raises(DataError, match="the first line is a comment .*remove the comment lines"):
+        read_csv(str(path))
