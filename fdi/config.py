@@ -202,8 +202,13 @@ def _same_sign(doc: Document, model: Model, name: str, bounds: tuple[float, floa
             continue
         if (value > 0 and bounds[0] < 0) or (value < 0 and bounds[1] > 0):
             side = "a lower bound of 0 or more" if value > 0 else "an upper bound of 0 or less"
+            # bounds wholly of the other sign: the value's sign is as likely the slip (a trial's orifice
+            # coefficient written -4e-6 with bounds [1e-7, 1e-5] was told to make its bounds negative)
+            other = (f"; or, if {p} is {'negative' if value > 0 else 'positive'} as the bounds say, fix the sign of "
+                     f"its value under parameters" if (bounds[1] <= 0 if value > 0 else bounds[0] >= 0) else "")
             raise doc.error(where, f"bounds [{bounds[0]:g}, {bounds[1]:g}] cross 0 from {p} = {value:g}: the search "
-                                   f"would change the parameter's sign (a passive element turned active); give {side}")
+                                   f"would change the parameter's sign (a passive element turned active); give {side}"
+                                   f"{other}")
 
 
 def _reachable(doc: Document, model: Model, name: str, failure: float, where: tuple) -> None:

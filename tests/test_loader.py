@@ -357,7 +357,11 @@ def test_search_bounds_keep_the_parameter_s_sign(tmp_path, capsys):
     text = BASE + "faults:\n  R_up: {kind: parametric, parameters: [R], bounds: [-100.0, 1000.0]}\n"
     code, err = _check_line(tmp_path, capsys, text)
     assert code == 2 and "faults.R_up.bounds: bounds [-100, 1000] cross 0 from R = 100" in err
-    assert "lower bound of 0 or more" in err
+    assert "lower bound of 0 or more" in err and "fix the sign" not in err
+    # bounds wholly of the other sign: the value's sign may be the slip (a trial's -4e-6 orifice coefficient)
+    text = BASE + "faults:\n  R_up: {kind: parametric, parameters: [R], bounds: [-1000.0, -10.0]}\n"
+    code, err = _check_line(tmp_path, capsys, text)
+    assert code == 2 and "or, if R is negative as the bounds say, fix the sign of its value under parameters" in err
     path = tmp_path / "zero.yaml"
     path.write_text(BASE + "faults:\n  R_up: {kind: parametric, parameters: [R], bounds: [0.0, 1000.0]}\n",
                     encoding="utf-8")
