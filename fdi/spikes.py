@@ -184,9 +184,11 @@ def note(found: Found, units: Mapping[str, str] | None = None, advice: str = KEE
 
 def despiked(model, meas, keep: bool = False, advice: str = KEEP):
     """``meas`` (:class:`fdi.data.Measurements`) with the one-sample spikes of its sensor columns
-    read as their neighbours' mean (none with ``keep``), and the note that says what was found
+    read as their neighbours' mean (none with ``keep``), and the note that says what was found,
+    with the columns recorded far coarser than their declared noise (:func:`fdi.quantisation.coarse`)
     (None when nothing was). A column is a sensor's when its signal reads it (``sensors``)."""
     from .data import _signal_functions      # each sensor's columns, without sympy (a compiled model carries them)
+    from .quantisation import coarse
     functions = _signal_functions(model)
     noise, resolution, units, names = {}, {}, {}, []
     for s in model.sensors.values():
@@ -197,6 +199,9 @@ def despiked(model, meas, keep: bool = False, advice: str = KEEP):
                 if c == s.name:             # the sensor's own column: its unit
                     units[c] = s.unit
     found = search(meas.t, {c: meas.columns[c] for c in names}, noise, resolution)
+    # (the columns recorded coarser than their declared noise are noted here too: this reads each
+    # sensor column with its noise and resolution once, for calibrate and diagnose alike)
+    rough = coarse({c: meas.columns[c] for c in names}, noise, resolution, units)
     if found.spikes and not keep:
         meas = replace(meas, columns={**meas.columns, **repaired(meas.columns, found.spikes)})
-    return meas, note(found, units, advice, kept=keep)
+    return meas, "; ".join(x for x in (note(found, units, advice, kept=keep), rough) if x) or None

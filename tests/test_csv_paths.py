@@ -88,3 +88,26 @@ def test_a_comment_line_before_the_header_is_named_as_such(tmp_path, path_kind):
     path.write_text("# recorded 2026-12-01 rig 3\n" + HEADER + "0,1,2,3,4,5\n", encoding="utf-8")
     with pytest.raises(DataError, match="the first line is a comment .*remove the comment lines"):
         read_csv(str(path))
+
+
+def test_a_column_logged_far_coarser_than_its_declared_noise_is_noted():
+    """A trial's pressure column rounded to three values (steps 520 times its declared noise) was
+    calibrated into a threshold 90 times too large and diagnosed as a clogged port, with no word of
+    the column. Both calibrate and diagnose read their runs through fdi.spikes.despiked, which now
+    says so; a column quantised as its sensor declares is not noted."""
+    from bondgraph.loader import load_model
+    from fdi.data import Measurements
+    from fdi.spikes import despiked
+
+    from .conftest import ROOT
+
+    model = load_model(ROOT / "models" / "three_tank.yaml")      # p1: noise 5 Pa; q2: 1e-8 m^3/s
+    rng = np.random.default_rng(0)
+    t = np.arange(2000) * 0.1
+    p1 = 2.0e4 + 3.0e3 * np.sin(t / 10) + 5.0 * rng.standard_normal(t.size)
+    cols = {"t": t, "q0": np.full(t.size, 1e-4), "p1": np.round(p1, -3), "q2": 1e-4 + 1e-8 * rng.standard_normal(t.size)}
+    _, note = despiked(model, Measurements("x.csv", t, cols))
+    assert note is not None and "p1 holds 7 distinct values in 2000 samples, in steps of 1000 Pa" in note
+    assert "200 times its declared noise of 5 Pa" in note and "q2" not in note
+    _, note = despiked(model, Measurements("x.csv", t, {**cols, "p1": p1}))
+    assert note is None
