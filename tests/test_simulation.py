@@ -119,10 +119,22 @@ def test_two_tank_simulates_and_fills():
     ({"target": "beta_theta1", "type": "intermittent", "t0": 1, "value": 0.5}, "missing period"),
     ({"target": "a1", "type": "abrupt", "t0": 1, "value": 0}, "use type mode"),
     ({"target": "beta_theta2", "type": "incipient", "t0": 1, "model": 3, "b": [1]}, "needs b with 2"),
+    # a trial's valve stuck with "value": 0.5 was simulated stuck at the model's value without a word
+    ({"target": "a1", "type": "mode", "t0": 1, "value": 0.5},
+     r"value not read for a fault of type mode \(a mode fault holds its variable at the value the model's fault gives: 0\)"),
+    ({"target": "R4", "type": "abrupt", "t0": 1, "value": 2.0, "period": 3.0}, "period not read for a fault of type abrupt"),
 ])
 def test_bad_scenarios(cycab, fault, message):
     with pytest.raises(ScenarioError, match=message):
         parse_scenario({"T": 60, "fs": 100, "faults": [fault]}, cycab, "bad.json")
+
+
+def test_a_fault_as_simulate_json_echoes_it_reads_back(cycab):
+    """simulate --json gives every key of a fault, the unused ones null or empty: taken as written."""
+    s = parse_scenario({"T": 60, "fs": 100, "faults": [{"target": "R4", "type": "abrupt", "t0": 32.0, "value": 2.5e7,
+                                                       "period": None, "model": None, "b": [], "failure": None}]},
+                       cycab, "echo.json")
+    assert s.faults[0].value == 2.5e7
 
 
 def test_cli_simulate_writes_the_csv_and_rejects_bad_files(tmp_path, capsys):

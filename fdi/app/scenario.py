@@ -52,6 +52,8 @@ from ..inputs import NoWriter, open_binary
 from ..measure import SeveralColumns, sensor_columns
 
 TYPES = ("abrupt", "intermittent", "incipient", "mode")
+FAULT_KEYS = {"target", "type", "t0", "failure"}          # what every fault of a scenario may give
+KEYS_OF = {"abrupt": {"value"}, "intermittent": {"value", "period"}, "incipient": {"model", "b"}, "mode": set()}
 METHODS = ("auto", "ros2", "LSODA", "Radau", "BDF", "RK45")
 MAX_BYTES = 1 << 20           # a scenario file is a few lines; more is a mistake (or an attack)
 MAX_SAMPLES = 10_000_000      # T * fs: 10 million samples, about 0.5 GB of columns
@@ -310,6 +312,14 @@ def _event(path: str, i: int, f, model: Model, T: float, fs: float) -> FaultEven
     if (kind == "mode") != (fault.kind == "mode"):
         raise ScenarioError(f"{path}: {where}: target '{target}' is a {fault.kind} fault; "
                             + ("use type mode" if fault.kind == "mode" else "type mode is for mode variables"))
+    unread = sorted(k for k in set(f) - FAULT_KEYS - KEYS_OF[kind] if f[k] not in (None, []))   # (simulate
+    # --json echoes every key, the unused ones null or empty: such a fault reads back as it was written)
+    if unread:
+        # a trial's valve stuck with "value": 0.5 was simulated stuck at the model's value, without a word
+        held = f" (a mode fault holds its variable at the value the model's fault gives: {fault.value:g})" \
+            if kind == "mode" and fault.value is not None else ""
+        raise ScenarioError(f"{path}: {where}: {', '.join(unread)} not read for a fault of type {kind}{held}; "
+                            f"remove {'it' if len(unread) == 1 else 'them'}")
     if "t0" not in f:
         raise ScenarioError(f"{path}: {where}: missing t0 (the fault's start time in s)")
     t0 = _num(path, f"{where}.t0", f["t0"], "the start time (s)")
