@@ -370,17 +370,10 @@ class _Search:
         for f in missed:
             if any(sees_mode_fault(self.model, p.arr, f) for p in picks):
                 continue                  # the residual added for another fault of the same switch
-            seeds = sorted(where[f] & whole)
-            if not seeds:
+            if not where[f] & whole:
                 continue                  # no residual can: bgfdi isolability says so
             if not (self.enumerated and self.enumeration_complete):
-                for seed in seeds[:SEEDS_PER_TARGET]:
-                    found = msos_around(self.st, seed, whole, self.causality,
-                                        accept=lambda x: self.candidate(x) is not None, limit=BALL_LIMIT,
-                                        deadline=self.deadline)
-                    self.mso_seconds += found.seconds
-                    for x in found.sets:
-                        self.pool[x] = self.described[x]
+                self.around(where[f] & whole, whole)
             present = {p.arr.expr for p in picks}
             for c in sorted((c for x, c in self.pool.items() if x & where[f] and x not in self.failed),
                             key=Candidate.quality):
@@ -438,7 +431,11 @@ class _Search:
     def near(self, fault: str, other: str | None) -> None:
         """The MSO sets close to ``fault``'s equations, in the part of the model blind to ``other``."""
         within = self.best.part(other)
-        for seed in sorted(self.fe[fault] & within)[:SEEDS_PER_TARGET]:
+        self.around(self.fe[fault] & within, within)
+
+    def around(self, equations: frozenset, within: frozenset) -> None:
+        """The MSO sets of ``within`` close to the first SEEDS_PER_TARGET of ``equations``, into the pool."""
+        for seed in sorted(equations)[:SEEDS_PER_TARGET]:
             found = msos_around(self.st, seed, within, self.causality, accept=lambda s: self.candidate(s) is not None,
                                 limit=BALL_LIMIT, deadline=self.deadline)
             self.mso_seconds += found.seconds
