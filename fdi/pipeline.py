@@ -876,13 +876,8 @@ def possible_mode_faults(model, changes: list[str]) -> list[str]:
     holds it (a diode failing open). An autonomous variable is what its condition on the measured
     signals says: a trial's quarter car had its bump stop 'engaged' on a record with no contact, a
     hypothesis that switched every body residual off and cost less than the valve stuck soft."""
-    declared = {(f.targets[0], int(f.value or 0)) for f in model.faults.values() if f.kind == "mode"}
-    out = []
-    for s in changes:
-        var = mode_variable(model, s)
-        if not model.modes[var].autonomous or any(v == var for v, _ in declared):
-            out.append(s)
-    return out
+    held = {f.targets[0] for f in model.faults.values() if f.kind == "mode"}       # variables a declared fault holds
+    return [s for s in changes if not model.modes[mode_variable(model, s)].autonomous or mode_variable(model, s) in held]
 
 
 def mode_changes_at(p: Prepared, suspects: list[str], k: int, known: list[dict]) -> list[tuple[str, int]]:
