@@ -769,4 +769,6 @@ def _reason(exc: BaseException) -> str:
     if isinstance(exc, CausalityError):
         return "the simulator refuses the model: " + "; ".join(exc.problems)
     text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    # (simulate's hint names its --method option, which check has not: a trial was sent looking for it)
+    text = text.replace(" (try method ros2)", "")
     return f"the simulation failed: {text}"

@@ -123,6 +123,8 @@ def test_two_tank_simulates_and_fills():
     ({"target": "a1", "type": "mode", "t0": 1, "value": 0.5},
      r"value not read for a fault of type mode \(a mode fault holds its variable at the value the model's fault gives: 0\)"),
     ({"target": "R4", "type": "abrupt", "t0": 1, "value": 2.0, "period": 3.0}, "period not read for a fault of type abrupt"),
+    # a trial's friction drift at 1e5 /s reached inf within the run, which went on frozen without a word
+    ({"target": "beta_theta2", "type": "incipient", "t0": 1, "model": 1, "b": [1.0e5]}, "beta_theta2's drift leaves the floats by t = "),
 ])
 def test_bad_scenarios(cycab, fault, message):
     with pytest.raises(ScenarioError, match=message):

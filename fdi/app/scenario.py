@@ -348,7 +348,19 @@ def _event(path: str, i: int, f, model: Model, T: float, fs: float) -> FaultEven
     if kind == "mode":
         value = fault.value if fault.value is not None else 0.0
     failure = None if f.get("failure") is None else _num(path, f"{where}.failure", f["failure"], "the failure value")
-    return FaultEvent(target, kind, t0, value, period, model_no, b, failure)
+    event = FaultEvent(target, kind, t0, value, period, model_no, b, failure)
+    if kind == "incipient":
+        # a trial's friction drift at b = 1e5 /s reached inf within the run, and the run went on frozen
+        base = 0.0 if fault.effect == "bias" else (model.parameters[fault.targets[0]].value
+                                                   if fault.kind == "parametric" and len(fault.targets) == 1 else 1.0)
+        grid = np.linspace(t0, T, 1001)
+        with np.errstate(all="ignore"):
+            values = np.asarray(fault_profile(event, base, T)(grid), dtype=float)
+        bad = ~np.isfinite(values)
+        if bad.any() and math.isfinite(base):        # (a leak's R4 = inf drifts from infinity by design)
+            raise ScenarioError(f"{path}: {where}.b: {target}'s drift leaves the floats by t = {grid[bad][0]:.4g} s "
+                                f"(the run ends at {T:g} s); give a smaller rate")
+    return event
 
 
 def _period(path: str, where: str, f: dict, fs: float) -> float:
