@@ -50,11 +50,13 @@ class SimulationError(Exception):
     """The model cannot be simulated as given (the message says why and what to change).
     ``where``: the model file's key at fault when the model itself is the cause (an input without
     an expression, an algebraic loop: ``"elements"``), None when the run is (its span, its values):
-    a caller names the model file or the scenario accordingly."""
+    a caller names the model file or the scenario accordingly. ``stalled``: an error-controlled
+    integrator gave up (a fixed-step method may pass; the caller says how to ask for one)."""
 
-    def __init__(self, message: str, where: str | None = None) -> None:
+    def __init__(self, message: str, where: str | None = None, stalled: bool = False) -> None:
         super().__init__(message)
         self.where = where
+        self.stalled = stalled
 
 
 @dataclass
@@ -772,8 +774,7 @@ def _scipy(system: System, table: _ParameterTable, how: str, a: float, b: float,
     sol = solve_ivp(rhs, (a, b), x, method=how, t_eval=pts if pts.size else None,
                     max_step=max_step or np.inf, rtol=rtol, atol=atol)
     if not sol.success:
-        raise SimulationError(f"integration failed between {a:g} s and {b:g} s: {sol.message} "
-                              "(try method ros2)")
+        raise SimulationError(f"integration failed between {a:g} s and {b:g} s: {sol.message}", stalled=True)
     end = sol.y[:, -1]
     if pts.size and b - sol.t[-1] > 1e-12 * max(1.0, abs(b)):     # t_eval stopped short of the piece's end
         end = solve_ivp(rhs, (sol.t[-1], b), end, method=how, max_step=max_step or np.inf,
@@ -801,8 +802,8 @@ def _lsoda(rhs: Callable, a: float, b: float, x: np.ndarray, pts: np.ndarray, ma
         y, info = odeint(rhs, np.asarray(x, dtype=float), grid, tfirst=True, rtol=rtol, atol=atol,
                          hmax=max_step or 0.0, tcrit=[b], full_output=True, mxstep=LSODA_STEPS)
     if not str(info.get("message", "")).startswith("Integration successful"):
-        raise SimulationError(f"integration failed between {a:g} s and {b:g} s: {info.get('message')} "
-                              "(try method ros2)")
+        raise SimulationError(f"integration failed between {a:g} s and {b:g} s: {info.get('message')}",
+                              stalled=True)
     keep = slice(0 if pts[0] == a else 1, len(grid) - tail)
     return _Solution(grid[keep], y[keep].T.copy(), y[-1].copy())
 

@@ -473,10 +473,9 @@ def _numbers(path, numbered: list[tuple[int, list[str]]], width: int, comma: boo
     try:
         return np.array([[float(x) if x.strip() else np.nan for x in r] for r in rows], dtype=float).reshape(-1, width)
     except ValueError as exc:
-        line = next((n for n, r in zip((n for n, _ in numbered), rows) if not _floats(r)), None)
-        at = f" at line {line}" if line is not None else ""
-        bad = next((r for r in rows if not _floats(r)), None)
-        k = next((k for k, x in enumerate(bad) if not _floats([x])), None) if bad is not None else None
+        i = next((i for i, r in enumerate(rows) if not _floats(r)), None)
+        at = f" at line {numbered[i][0]}" if i is not None else ""
+        k = next((k for k, x in enumerate(rows[i]) if not _floats([x])), None) if i is not None else None
         if k is not None and header is not None and k < len(header):
             at += f", column '{header[k]}'"          # (a trial's command logged as 'on' named no column)
         raise DataError(f"{path}: a value is not a number{at} ({str(exc)[:80]})") from None

@@ -42,7 +42,7 @@ import sympy as sp
 
 from bondgraph.causality import DIAGNOSIS, assign
 from bondgraph.model import Fault, Model, t
-from bondgraph.modes import in_mode
+from bondgraph.modes import ModeGraph, in_mode
 
 from .scaph import ARR, binary_modes, derive_arrs, sensor_value
 from .selection import _deficit, _gain, expression_faults, fault_symbols, select
@@ -64,10 +64,11 @@ class ModeCheck:
     replacement: str | None = None
 
 
-def mode_arrs(model: Model, mode: Mapping[str, int]) -> list[ARR]:
-    """The ARRs of the plain bond graph of ``mode``: SCAPH where it succeeds, else the MSO
-    residual set; a sensor on a switched-off junction measures zero (its ARR: signal / beta)."""
-    graph = in_mode(model, mode, keep_states=False)
+def mode_arrs(model: Model, mode: Mapping[str, int], graph: ModeGraph | None = None) -> list[ARR]:
+    """The ARRs of the plain bond graph of ``mode`` (``graph``, when the caller has it): SCAPH where
+    it succeeds, else the MSO residual set; a sensor on a switched-off junction measures zero (its
+    ARR: signal / beta)."""
+    graph = graph or in_mode(model, mode, keep_states=False)
     spec = graph.model
     causality = assign(spec, DIAGNOSIS)
     arrs: list[ARR] = []
@@ -82,13 +83,7 @@ def mode_arrs(model: Model, mode: Mapping[str, int]) -> list[ARR]:
     return arrs
 
 
-def _switched_out(model: Model, mode: Mapping[str, int]) -> frozenset[str]:
-    """The junctions ``mode`` switches off and the elements and sensors that go with them."""
-    graph = in_mode(model, mode)
-    return graph.removed | graph.zero_sensors
-
-
-def _untouched(model: Model, arr: ARR, gone: frozenset[str]) -> bool:
+def _untouched(arr: ARR, gone: frozenset[str]) -> bool:
     """An MSO residual none of whose equations belongs to what the mode switches out: its
     equations are the mode's own (a switched-on junction's are the plain junction's), so it holds
     there, whatever the mode's residuals, which need not span every relation, say (a trial's
@@ -98,10 +93,9 @@ def _untouched(model: Model, arr: ARR, gone: frozenset[str]) -> bool:
     return not any(name.split(".")[0] in gone for name in arr.equations)
 
 
-def _signal_basis(model: Model, mode: Mapping[str, int]) -> list[ARR]:
-    """The residual selection on the plain graph of ``mode`` with every sensor and measured source
+def _signal_basis(spec: Model) -> list[ARR]:
+    """The residual selection on a mode's plain graph ``spec`` with every sensor and measured source
     a fault candidate (:func:`_every_signal_a_fault`): more of the mode's relations than its ARRs."""
-    spec = in_mode(model, mode, keep_states=False).model
     return list(select(_every_signal_a_fault(spec)).arrs) if spec.sensors else []
 
 
@@ -265,13 +259,14 @@ def check_modes(model: Model, arrs: list[ARR], modes: list[Mapping[str, int]] | 
     for mode in modes:
         key = tuple(sorted(mode.items()))
         subs = {model.symbols[k]: sp.Integer(v) for k, v in mode.items()}
-        own = mode_arrs(model, mode)
+        graph = in_mode(model, mode, keep_states=False)
+        own = mode_arrs(model, mode, graph)
         own_sets[key] = own
         exprs = [a.expr.xreplace(subs) for a in arrs]
         basis = [r.expr for r in own]
         errors, likeness = _fit(exprs, basis, rng, nominal)
-        gone = _switched_out(model, mode)
-        holds = [bool(errors[i] <= TOLERANCE) or _untouched(model, a, gone) for i, a in enumerate(arrs)]
+        gone = graph.removed | graph.zero_sensors         # what the mode switches out
+        holds = [bool(errors[i] <= TOLERANCE) or _untouched(a, gone) for i, a in enumerate(arrs)]
         # an ARR that vanishes in this mode while its sensor, on a junction switched off, measures 0
         # there holds nothing: it loses that relation (a relay's current balance s*(U - Rh*I) is 0 = 0
         # with the relay open, where the current must read 0: a welded relay went unseen, a user
@@ -301,7 +296,8 @@ def check_modes(model: Model, arrs: list[ARR], modes: list[Mapping[str, int]] | 
         # below is still one of the mode's own ARRs
         again = [i for i in range(len(arrs)) if not holds[i] and (arrs[i].name, key) not in lost]
         if again and own:
-            extra = [r.expr for r in _signal_basis(model, mode) if r.expr not in set(basis)]
+            known = set(basis)
+            extra = [r.expr for r in _signal_basis(graph.model) if r.expr not in known]
             if extra:
                 more, _ = _fit([exprs[i] for i in again], basis + extra, np.random.default_rng([seed, 2]), nominal)
                 for i, e in zip(again, more):

@@ -117,6 +117,11 @@ class Clock:
         self._start = time.perf_counter()
 
 
+def _noted(note: str | None, more: str) -> str:
+    """A diagnosis' note with ``more`` appended (a later step's note never replaces an earlier one)."""
+    return f"{note}; {more}" if note else more
+
+
 def run(monitor: "Monitor", data, options: Options | None = None, progress: Callable | None = None,
         memo: dict | None = None) -> Diagnosis:
     """Detect, isolate, identify and prognose ``data`` (a CSV path, Measurements, a DataFrame, a
@@ -149,7 +154,7 @@ def run(monitor: "Monitor", data, options: Options | None = None, progress: Call
     d = decide(p, replace(base, detection=det, mode=mode_at(p, det)), r, clock, progress, memo)
     notes = "; ".join(n for n in (from_the_start(p, det) if d.faults else None, undecided_mode(d),
                                   unused_record(p, d)) if n)
-    return replace(d, note=f"{d.note}; {notes}" if d.note else notes) if notes else d
+    return replace(d, note=_noted(d.note, notes)) if notes else d
 
 
 def undecided_mode(d: Diagnosis) -> str | None:
@@ -434,7 +439,7 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
                     "the candidate sets that only weak entries admit were not identified")
             mf = dated()
             return replace(d, mode_fault=mf, isolation=replace(iso, candidates=(), pruned=0), mode=dict(mf.mode),
-                           faults=mf.faults, note=f"{d.note}; {note}" if d.note else note)
+                           faults=mf.faults, note=_noted(d.note, note))
     if not iso.candidates and p.options.exoneration:
         relaxed = relaxed_sets(fsm, d.detection.final_coherence, p.options.max_set)
         if relaxed:
@@ -446,7 +451,7 @@ def decide(p: Prepared, d: Diagnosis, r: np.ndarray, clock: Clock, progress, mem
         check_window(p.meas, d.detection.time, p.samples, p.scales.min_period)
     except DataError as exc:                  # detected at the end of the data: reported, not identified
         why = str(exc).split(": ", 1)[-1]
-        return replace(d, note=f"{d.note}; {why}" if d.note else why)
+        return replace(d, note=_noted(d.note, why))
     search = Search(p.options.engine, p.options.pop, p.options.generations)
     with Estimators(p.monitor, search, p.options.workers, memo, p.modes, p.prognosed) as est:
         return identify(p, d, fsm, r, est, clock, progress)
@@ -593,7 +598,7 @@ def widen(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, results: list, est: Est
         note = (f"the best explanation left residuals {best / level:.3g} times their nominal level, and no other "
                 "candidate set was left to try: a fault outside the candidates, or values no sensor reads in the "
                 "record, near the detection")
-        return replace(d, note=f"{d.note}; {note}" if d.note else note), results
+        return replace(d, note=_noted(d.note, note)), results
     more = est.run(p.meas.t, p.raw, det.time, p.samples, extra, p.weights, o.seed + 104723, None, None,
                    [(det.time, onsets[1])] * len(extra))
     more = refit_early_onsets(est, p.meas.t, p.raw, det.time, p.samples, extra, more, p.weights, o.seed + 104723,
@@ -606,7 +611,7 @@ def widen(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, results: list, est: Est
     note = f"the best explanation exoneration left had residuals {times} times their nominal level; {tail}"
     iso = replace(d.isolation, candidates=tuple(d.candidates) + tuple(extra), weak=weak or d.isolation.weak,
                   relaxed=d.isolation.relaxed or covering)
-    return replace(d, isolation=iso, note=f"{d.note}; {note}" if d.note else note), list(results) + list(more)
+    return replace(d, isolation=iso, note=_noted(d.note, note)), list(results) + list(more)
 
 
 MAX_COVERING = 6     # covering sets identified at most when the exact ones fit badly (each costs an estimator)
@@ -728,7 +733,7 @@ def identify(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimators, clo
         clock.lap("identification")
         note = (f"no candidate set's fit has a finite cost on the window from {det.time:g} s: the residuals "
                 "overflow on these data (look for a value no sensor reads, or a spike, near the detection)")
-        return replace(d, estimates=tuple(results), note=f"{d.note}; {note}" if d.note else note)
+        return replace(d, estimates=tuple(results), note=_noted(d.note, note))
     won = select_winner(results, n_eff)
     mode_faults = [f.to_dict() for f in mf.faults] if mf else []
     if mf is not None and information(mf.cost, mode_faults, n_eff) <= information(won.cost, list(won.faults), n_eff):
@@ -877,7 +882,7 @@ def possible_mode_faults(model, changes: list[str]) -> list[str]:
     signals says: a trial's quarter car had its bump stop 'engaged' on a record with no contact, a
     hypothesis that switched every body residual off and cost less than the valve stuck soft."""
     held = {f.targets[0] for f in model.faults.values() if f.kind == "mode"}       # variables a declared fault holds
-    return [s for s in changes if not model.modes[mode_variable(model, s)].autonomous or mode_variable(model, s) in held]
+    return [s for s in changes if (var := mode_variable(model, s)) in held or not model.modes[var].autonomous]
 
 
 def mode_changes_at(p: Prepared, suspects: list[str], k: int, known: list[dict]) -> list[tuple[str, int]]:
@@ -918,7 +923,7 @@ def significance(p: Prepared, d: Diagnosis, now: float, floors: np.ndarray | Non
                        f"detection: no candidate explains these data; look for a column whose values no sensor or "
                        f"input reads (its unit or scale, a frozen or saturated channel) or a fault the model lacks")
     notes = [n for n in (unexplained, undetermined(p, d), at_bounds(p, d.faults)) if n]
-    return replace(d, note="; ".join(([d.note] if d.note else []) + notes)) if notes else d
+    return replace(d, note=_noted(d.note, "; ".join(notes))) if notes else d
 
 
 def healthy_stretch(p: Prepared, d: Diagnosis) -> tuple[float, int] | None:

@@ -560,7 +560,7 @@ def verify(model: Model, arrs: Sequence[ARR] | None = None, *, seed: int = 0,
     for mode in modes:
         label = _label(mode)
         subs = {model.symbols[k]: sp.Integer(v) for k, v in mode.items() if k in model.symbols}
-        zero[label] = {a.name for a in arrs if a.expr.free_symbols & set(subs) and a.expr.xreplace(subs) == 0}
+        zero[label] = {a.name for a in arrs if a.expr.xreplace(subs) == 0}
         if progress:
             progress(label)
         try:
@@ -575,7 +575,7 @@ def verify(model: Model, arrs: Sequence[ARR] | None = None, *, seed: int = 0,
         except (SimulationError, CausalityError, ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
             why = _reason(exc)
             notes.append(f"not verified in mode {label}: {why}")
-            checks += [_unchecked(a.name, mode, why) for a in arrs]
+            checks += [_unchecked(a.name, mode, why) for a in arrs if a.name not in zero[label]]
             continue
         for k, outcome in enumerate(done):
             if isinstance(outcome, str):
@@ -769,6 +769,4 @@ def _reason(exc: BaseException) -> str:
     if isinstance(exc, CausalityError):
         return "the simulator refuses the model: " + "; ".join(exc.problems)
     text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-    # (simulate's hint names its --method option, which check has not: a trial was sent looking for it)
-    text = text.replace(" (try method ros2)", "")
     return f"the simulation failed: {text}"

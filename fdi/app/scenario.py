@@ -349,15 +349,12 @@ def _event(path: str, i: int, f, model: Model, T: float, fs: float) -> FaultEven
         value = fault.value if fault.value is not None else 0.0
     failure = None if f.get("failure") is None else _num(path, f"{where}.failure", f["failure"], "the failure value")
     event = FaultEvent(target, kind, t0, value, period, model_no, b, failure)
-    if kind == "incipient":
+    if kind == "incipient" and math.isfinite(base := nominal_of(model, fault)):   # (R4 = inf drifts from inf)
         # a trial's friction drift at b = 1e5 /s reached inf within the run, and the run went on frozen
-        base = 0.0 if fault.effect == "bias" else (model.parameters[fault.targets[0]].value
-                                                   if fault.kind == "parametric" and len(fault.targets) == 1 else 1.0)
         grid = np.linspace(t0, T, 1001)
         with np.errstate(all="ignore"):
-            values = np.asarray(fault_profile(event, base, T)(grid), dtype=float)
-        bad = ~np.isfinite(values)
-        if bad.any() and math.isfinite(base):        # (a leak's R4 = inf drifts from infinity by design)
+            bad = ~np.isfinite(np.asarray(fault_profile(event, base, T)(grid), dtype=float))
+        if bad.any():
             raise ScenarioError(f"{path}: {where}.b: {target}'s drift leaves the floats by t = {grid[bad][0]:.4g} s "
                                 f"(the run ends at {T:g} s); give a smaller rate")
     return event
@@ -420,6 +417,18 @@ def breakpoints(scenario: Scenario) -> list[float]:
     return sorted(x for x in out if 0 < x < scenario.T)
 
 
+def nominal_of(model: Model, fault) -> float:
+    """What a fault's profile P(t) starts from: an offset's 0, a parameter's nominal value, a mode's
+    nominal value, else 1 (an efficiency factor, or the multiplier of a group of parameters)."""
+    if fault.effect == "bias":
+        return 0.0
+    if fault.kind == "parametric" and len(fault.targets) == 1:
+        return float(dict(model.nominal_by_name())[fault.targets[0]])
+    if fault.kind == "mode":
+        return float(model.modes[fault.targets[0]].nominal)
+    return 1.0
+
+
 def time_functions(model: Model, scenario: Scenario):
     """values(t) for the simulator (vectorised: t may be an array), each sensor's beta(t) for the
     measurement (its offset b(t) under ``~bias_<sensor>``), and the onset of each stuck sensor."""
@@ -429,26 +438,25 @@ def time_functions(model: Model, scenario: Scenario):
     stuck: dict[str, float] = {}
     for e in scenario.faults:
         fault = model.faults[e.target]
-        if fault.effect == "bias":               # an offset added to the measurement, or to the command
-            offset = fault_profile(e, 0.0, scenario.T)
-            name = f"bias_{fault.targets[0]}" if fault.kind == "source" else f"~bias_{fault.targets[0]}"
-            (param_fns if fault.kind == "source" else beta_sensors)[name] = offset
-            continue
         if fault.effect == "stuck":              # the reading frozen from t0 (applied to the measurement)
             stuck[fault.targets[0]] = e.t0
             continue
+        profile = fault_profile(e, nominal_of(model, fault), scenario.T)
+        if fault.effect == "bias":               # an offset added to the measurement, or to the command
+            name = f"bias_{fault.targets[0]}" if fault.kind == "source" else f"~bias_{fault.targets[0]}"
+            (param_fns if fault.kind == "source" else beta_sensors)[name] = profile
+            continue
         if fault.kind == "parametric" and len(fault.targets) == 1:
-            param_fns[fault.targets[0]] = fault_profile(e, nominal[fault.targets[0]], scenario.T)
+            param_fns[fault.targets[0]] = profile
         elif fault.kind == "parametric":
-            mult = fault_profile(e, 1.0, scenario.T)
             for p in fault.targets:
-                param_fns[p] = (lambda m, base: (lambda t: base * m(t)))(mult, nominal[p])
+                param_fns[p] = (lambda m, base: (lambda t: base * m(t)))(profile, nominal[p])
         elif fault.kind == "sensor":
-            beta_sensors[fault.targets[0]] = fault_profile(e, 1.0, scenario.T)
+            beta_sensors[fault.targets[0]] = profile
         elif fault.kind == "source":
-            param_fns[f"beta_{fault.targets[0]}"] = fault_profile(e, 1.0, scenario.T)
+            param_fns[f"beta_{fault.targets[0]}"] = profile
         else:
-            param_fns[fault.targets[0]] = fault_profile(e, float(model.modes[fault.targets[0]].nominal), scenario.T)
+            param_fns[fault.targets[0]] = profile
     for m in model.modes.values():                 # a commanded mode follows its command, unless stuck
         if m.column and m.expr is not None:
             command = command_function(model, m.name)
@@ -520,7 +528,8 @@ def run(model: Model, scenario: Scenario, *, progress=None, method: str = "auto"
         except SimulationError as exc:
             if exc.where is not None:            # the model, not the run: name its file and key
                 raise ModelError(str(exc), file=model.path, where=exc.where) from None
-            raise ScenarioError(f"{scenario.path}: {exc}") from None
+            hint = " (try --method ros2: a fixed step)" if exc.stalled and method != "ros2" else ""
+            raise ScenarioError(f"{scenario.path}: {exc}{hint}") from None
         except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
             if isinstance(exc, UsageError):
                 raise
