@@ -49,13 +49,15 @@ def decision_index(t: np.ndarray, k: int, wait: float) -> int:
     return max(k, min(t.size - 1, int(np.searchsorted(t, t[k] + wait, side="right")) - 1))
 
 
-def since_detection(t: np.ndarray, t_d: float, end: float, samples: int, cap: int) -> tuple[float, int]:
+def since_detection(t: np.ndarray, t_d: float, end: float, samples: int, cap: int,
+                    keep: str = "latest") -> tuple[float, int]:
     """(start, samples) of the window from the detection t_D to ``end`` (at least ``samples`` long,
-    at most ``cap`` identification windows, keeping the latest data when capped)."""
+    at most ``cap`` identification windows, keeping the ``keep`` ("latest" or "earliest") data
+    when capped)."""
     i0 = int(np.searchsorted(t, t_d - 1e-9))
     i1 = int(np.searchsorted(t, end, side="right"))
     span = min(max(samples, i1 - i0), cap * samples, t.size - i0)
-    return float(t[max(i0, min(i1, t.size) - span)]), span
+    return float(t[i0 if keep == "earliest" else max(i0, min(i1, t.size) - span)]), span
 
 
 def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, weights: np.ndarray, o: "Options",
@@ -63,9 +65,10 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
              samples: int, episode: int, mode_changes: list[tuple[str, int]] = (),
              modes: dict[str, float] | None = None, onsets: tuple[float, float] | None = None,
              earliest: float | None = None, progress: Callable | None = None,
-             floors: np.ndarray | None = None, quiet: tuple | None = None) -> Episode:
+             floors: np.ndarray | None = None, quiet: tuple | None = None, cause: str = "coherence") -> Episode:
     """A later decision: the coherence vector gained a residual at ``t_change`` after the diagnosis
-    ``known`` was made. Candidate sets come from the new coherence vector; every set is fitted on
+    ``known`` was made (``cause`` "coherence"), or the residuals with ``known`` held left their
+    thresholds there ("misfit", :func:`fdi.pipeline.misfit_at`; the coherence vector unchanged). Candidate sets come from the new coherence vector; every set is fitted on
     the data since the first onset (t_D to the new decision, at most MAX_GROWTH windows), so their
     costs compare. A set that contains the known faults is fitted twice: keeping them at their fit,
     each with its own onset, while the others are searched with an onset at the change (a second
@@ -102,7 +105,9 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
             plan.append((tuple(x for x in s if x not in names), known, (t_change, t_change + w)))
         if names < set(s) or len(s) <= len(names):
             plan.append((tuple(s), [], None))
-    start, span = since_detection(meas.t, det.time, t_decision, samples, MAX_GROWTH)
+    # (a lack of fit keeps the data from t_D: where a drift taken for a step began shows its type)
+    start, span = since_detection(meas.t, det.time, t_decision, samples, MAX_GROWTH,
+                                  "earliest" if cause == "misfit" else "latest")
     from .estimators import refit_early_onsets, steps_at_window_start
     fresh = [i for i, p in enumerate(plan) if not p[1]]
     ts = float(meas.t[1] - meas.t[0])
@@ -126,7 +131,7 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
     finite = [e for e in full if np.isfinite(e.cost)]
     if not finite:                       # nothing to try (or every fit overflowed): the diagnosis stands
         return Episode(t_change, t_decision, tuple(coherence), tuple(known), tuple(full),
-                       tuple(f["name"] for f in known), tuple(known))
+                       tuple(f["name"] for f in known), tuple(known), cause)
     n_eff = effective_samples(span, len(est.monitor.residuals), meas.ts, w)
     best = select_winner(finite, n_eff)
     k = next((i for i, e in enumerate(full) if e is best), None)
@@ -139,4 +144,4 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
             best = step_onset_band(est, meas.t, raw, best, quiet[0], earliest, quiet[1])
         best = drift_onset_band(est, meas.t, raw, start, span, best, weights, earliest)
     return Episode(t_change, t_decision, tuple(coherence), tuple(known), tuple(full), tuple(best.candidate),
-                   tuple(best.faults))
+                   tuple(best.faults), cause)

@@ -22,14 +22,14 @@ from bondgraph.errors import ModelError
 from .data import DataError, Measurements, commanded, signals_from_data
 from .decide import alternatives, effective_samples, information, select_winner, significant
 from .derivatives import DEFAULT_ORDER, window_samples
-from .detect import Detection, detect, settling, stray_error, thresholds_for
+from .detect import Detection, confirmed, detect, evidence, evidence_samples, settling, span_start, stray_error, thresholds_for
 from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide, since_detection
 from .estimators import (Estimators, Search, date_onsets, evidence_onsets, evidence_start, refit_early_onsets,
                          drift_onset_band, step_onset_band, steps_at_window_start)
 from .ingest import measurements
 from .isolate import COVERING_NOTE, candidate_sets, fitted_sets, new_mode_changes, pruned_sets, relaxed_sets, suspected_mode_changes
-from .mode_estimation import estimate_mode, mode_variable, switched_at
-from .objective import fault_space, nominal, window
+from .mode_estimation import estimate_mode, mode_variable, residual_rows, switched_at
+from .objective import Objective, fault_space, nominal, window
 from .options import MIN_WINDOW_S, Options, check_samples
 from .prognose import prognose
 from .residuals import evaluate, mode_breaks, never_finite_text, switch_gaps
@@ -837,26 +837,102 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
     mcsm = p.monitor.mcsm(d.mode)
     onsets = evidence_onsets(p.monitor, r, t, p.thresholds, det.time, p.first_trusted, switch_excursion(p, det))
     floors = noise_floors(p, r, det.time)
-    while (change := next_change(lit, j)) is not None:
-        k, j = change, decision_index(t, change, p.wait)
-        coherence = tuple(int(x) for x in lit[:, j])
-        before = tuple(int(x) for x in lit[:, k - 1])
-        joined = (lit[:, k] & ~lit[:, k - 1]).nonzero()[0]
-        onset = int(min(began[joined])) if joined.size else k        # where the new excursion began
+    misfits = 0
+    while True:
+        change = next_change(lit, j)
+        seen_to = int(np.searchsorted(t, now - 1e-9))
+        # (a lack of fit is looked for while the fit has seen less than the longest window a decision fits)
+        short = seen_to - i0 < MAX_GROWTH * p.samples
+        misfit = misfit_at(p, faults, seen_to, change) if misfits < MISFITS and short else None
+        if misfit is not None:
+            # decided again on twice the data the fit saw since t_D (or the record's end), so that a
+            # drift typed a step on one window is judged on a longer one, not on a few samples more
+            k, onset = misfit
+            twice = int(np.searchsorted(t, det.time + 2 * (now - det.time) - 1e-9))
+            at = min(max(decision_index(t, k, p.wait), twice), t.size - 1)
+            misfit = None if change is not None and at >= change else (k, onset, at)
+        if change is None and misfit is None:
+            break
+        if misfit is not None:           # the fit no longer explains the data: decided again, same coherence
+            misfits += 1
+            k, onset, j = misfit
+            coherence = before = tuple(int(x) for x in lit[:, j])
+        else:
+            k, j = change, decision_index(t, change, p.wait)
+            coherence = tuple(int(x) for x in lit[:, j])
+            before = tuple(int(x) for x in lit[:, k - 1])
+            joined = (lit[:, k] & ~lit[:, k - 1]).nonzero()[0]
+            onset = int(min(began[joined])) if joined.size else k        # where the new excursion began
         changes = mode_changes_at(p, possible_mode_faults(p.monitor.model, new_mode_changes(mcsm, before, coherence,
                                                                                      p.covering)), onset, faults)
         now_fsm = over_modes([fsm] + [p.monitor.fsm(m) for m in visited_modes(p, i0, j) if m != d.mode])
         e = redecide(est, p.meas, p.raw, det, p.weights, p.options, now_fsm, faults, float(t[onset]), float(t[j]),
                      coherence, p.samples, len(episodes) + 1, changes, p.modes, onsets, p.first_trusted,
-                     progress, floors, (p.thresholds, p.rule))   # (a later decision's sets: minutes on a model its data defy)
+                     progress, floors, (p.thresholds, p.rule),   # (a later decision's sets: minutes on a model its data defy)
+                     "misfit" if misfit is not None else "coherence")
         episodes.append(e)
         faults, winner = list(e.faults), e.winner
-        now = float(t[j])
+        # the end of the data the decision fitted (redecide's window: from t_D at least N samples, so
+        # past t[j] where it came within the first window; a prognosis is given there, not at t[j])
+        start, span = since_detection(t, det.time, float(t[j]), p.samples, MAX_GROWTH,
+                                      "earliest" if misfit is not None else "latest")
+        now = start + span * float(t[1] - t[0])
     if episodes:
         clock.lap("re-diagnosis")
     switched = {mode_variable(p.monitor.model, f["name"]): int(f["value"]) for f in faults if f["type"] == "mode"}
     return replace(d, episodes=tuple(episodes), faults=faults_of(faults), winner=winner, mode={**d.mode, **switched},
                    window=(float(det.time), float(now))), now
+
+
+MISFITS = 3          # decisions taken again for a lack of fit, at most, per diagnosis
+MISFIT_BLOCK = 20    # identification windows of data judged at a time for a lack of fit
+
+
+def misfit_at(p: Prepared, faults: list[dict], after: int, before: int | None) -> tuple[int, int] | None:
+    """Where the decided fit stops explaining the data: the first sample from ``after`` (the end of
+    the data it was fitted on) and before ``before`` (the next change of the coherence vector) at
+    which the residuals, with the decided faults held at their fit, confirm an alarm by the
+    detector's own rule (thresholds, persistence and span), and the sample that excursion began
+    at; None where they stay quiet or the fit holds a mode fault. A user trial's cylinder
+    friction, growing for 20 s, was typed a step on the first window and reported so to the end
+    of the record: no new residual fired, so nothing was decided again; decided again on 4 s, it
+    was an oscillating eq. (19) drift, which the data after those 4 s refute as well."""
+    if not faults or any(f["type"] == "mode" for f in faults):
+        return None
+    t, ts = p.meas.t, p.meas.ts
+    stop = min(t.size if before is None else before, int(np.searchsorted(t, t[-1] - p.scales.end_edge, side="right")))
+    persistence, span = p.rule
+    n = max(1, evidence_samples(span, ts))
+    model, w = p.monitor.model, p.window_s
+
+    def alarms(lo: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+        """Evidence and confirmed alarms (residuals x samples) of the fit on samples lo .. lo + m."""
+        win = window(t, p.raw, float(t[lo]), m, w)
+        obj = Objective(model, p.monitor.residuals, win, (), p.weights, w, fixed=faults, config=p.monitor.config,
+                        modes=p.modes)
+        with np.errstate(all="ignore"):
+            rows = np.vstack([np.asarray(x, dtype=float) for x in residual_rows(obj)])
+        z = evidence(rows, p.thresholds, ts, ~obj.gaps[obj.crop()])
+        return z, confirmed(z, n, persistence)
+
+    # a fit that does not explain its own window explains nothing later either: no lack of fit to find
+    # (a trial's ABS on data that defy the model was decided again three times, minutes each)
+    first = max(int(np.searchsorted(t, min(float(f.get("t0") or t[0]) for f in faults) - 1e-9)), after - p.samples)
+    if after > first and alarms(first, after - first)[1].any():
+        return None
+    block, i = max(MISFIT_BLOCK * p.samples, 4 * n), after
+    while i < stop:
+        lo = max(after, i - n)                      # the evidence of the span before the block too
+        m = min(block, stop - lo)
+        if m <= 0:
+            break
+        z, c = alarms(lo, m)
+        hit = c.any(axis=0)
+        if hit.any():
+            at = int(np.argmax(hit))
+            return lo + at, lo + min(span_start(z[r], at, n) for r in np.flatnonzero(c[:, at]))
+        i = lo + m
+    return None
 
 
 def visited_modes(p: Prepared, i: int, j: int) -> list[dict[str, int]]:

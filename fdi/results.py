@@ -339,8 +339,10 @@ def eol_passed(eol, at) -> bool:
 
 @dataclass(frozen=True)
 class Episode:
-    """A later decision: the coherence vector gained a residual at ``time``, decided at
-    ``decision_time`` from the diagnosis ``previous``."""
+    """A later decision: at ``time`` the coherence vector gained a residual (``cause``
+    "coherence"), or the residuals with the known fit held left their thresholds ("misfit": the fit
+    stopped explaining the data, :func:`fdi.pipeline.misfit_at`); decided at ``decision_time``
+    from the diagnosis ``previous``."""
     time: float
     decision_time: float
     coherence: tuple[int, ...]
@@ -348,9 +350,11 @@ class Episode:
     estimates: tuple[Estimate, ...]
     winner: tuple[str, ...]
     faults: tuple[dict, ...]
+    cause: str = "coherence"
 
     def to_dict(self) -> dict:
-        return {"time": self.time, "decision_time": self.decision_time, "coherence": list(self.coherence),
+        return {"time": self.time, "decision_time": self.decision_time, "cause": self.cause,
+                "coherence": list(self.coherence),
                 "previous": [dict(f) for f in self.previous],
                 "candidates": [list(e.candidate) for e in self.estimates],
                 "estimators": [e.to_dict(history=False) for e in self.estimates],

@@ -11,6 +11,9 @@ each event, in stream time:
 - ``decision``: at the alarm + T_wt (once the N identification samples have arrived), and again T_wt
   after each later change of the coherence vector: candidate sets, the identified faults, the
   fault-mode estimate, and the prognosis (RUL and its band) of incipient faults;
+- ``decision`` too where a decision's fit stops explaining the samples that follow (a lack of
+  fit, :func:`fdi.pipeline.misfit_at`): its samples are diagnosed again every ``refresh`` seconds
+  while its fit has no mode fault and no prognosis to refresh and has seen under six windows;
 - ``prognosis``: every ``refresh`` seconds (an identification window by default) after a
   decision with a growing fault, its fit
   refreshed on the data so far (:func:`fdi.pipeline.refresh_prognosis`) and the RUL re-issued;
@@ -66,6 +69,7 @@ from .carry import Carried
 from .data import DataError, Measurements, check_header, checked
 from .detect import confirmed, evidence, evidence_samples, settling, span_start, stray_error, thresholds_for
 from .options import Options
+from .episodes import MAX_GROWTH
 from .pipeline import refresh_prognosis, with_overrides, with_samples
 from .residuals import never_finite_text
 from .results import Diagnosis, plain
@@ -583,18 +587,35 @@ class Stream:
             return self.refresh
         return self.samples * self.ts
 
+    def _refutable(self) -> bool:
+        """Whether the latest decision's fit is one a lack of fit decides again
+        (:func:`fdi.pipeline.misfit_at`): component faults without a prognosis, fitted on fewer than
+        the longest window a decision fits."""
+        d = self.latest
+        if d is None or not d.faults or d.prognosis or any(f.type == "mode" for f in d.faults) or d.window is None:
+            return False
+        return d.window[1] - d.window[0] < MAX_GROWTH * self.samples * self.ts
+
     def _refresh(self) -> None:
         """Every refresh period (:meth:`_refresh_period`) after a decision with a growing fault, its
         fit refreshed on the data so far and the prognosis re-issued (a ``prognosis`` event), in
-        the worker too."""
+        the worker too; after one whose fit a lack of fit would refute (:meth:`_refutable`), a
+        decision on the samples so far, whose new decisions, if any, are emitted (a step that
+        keeps growing is decided again as it grows, not at the end of the stream)."""
         self._collect()
-        if self.latest is None or not self.latest.prognosis or self.pending or self.job is not None \
-                or self.due is not None:
+        if self.latest is None or self.pending or self.job is not None or self.due is not None:
+            return
+        refutable = self._refutable()
+        if not self.latest.prognosis and not refutable:
             return
         t_last = float(self.buffer[self.n - 1, self.ti])
         if t_last < self.next_refresh:
             return
         self.next_refresh = t_last + self._refresh_period()
+        if refutable:
+            self.due = self.n
+            self._submit()
+            return
         job = self.identifier.submit(_refresh, self.measurements(), self.latest, self.options, self.memo)
         self.job = ("prognosis", job, self.n)
         if not self.live:

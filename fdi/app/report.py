@@ -142,7 +142,9 @@ def to_text(report: dict, model_name: str, data_name: str, variables: Mapping[st
                        f"is fitted as well by the other within their ranges; bgfdi isolability proposes sensors that "
                        f"separate them)")
     for e in report.get("episodes") or []:
-        head = f"at {e['time']:.2f} s the coherence vector became {list(e['coherence'])}; "
+        head = (f"at {e['time']:.2f} s the fit no longer explained the data (its residuals left their thresholds, "
+                f"the coherence vector still {list(e['coherence'])}); " if e.get("cause") == "misfit" else
+                f"at {e['time']:.2f} s the coherence vector became {list(e['coherence'])}; ")
         if not e["candidates"]:
             out.append(head + "no candidate set was left to try for it, so the diagnosis stands: "
                        f"{{{', '.join(e['winner'])}}}")
