@@ -165,3 +165,44 @@ def held_still(model: Model) -> list[str]:
                        f"{fix[0]}, not for {fix[1]} that should only cut its branch's {fix[2]}: that is a {fix[3]} "
                        f"on the branch, or {j.name} with switched_off: outputs")
     return out
+
+
+def latching(model: Model) -> list[str]:
+    """The autonomous modes the simulator can never switch back, one note each: a condition
+    (``positive:``) that reads a sensor on a junction its own mode switches off reads that sensor
+    at 0 there (a 0c carries no effort, a 1c no flow), and where the condition is not above zero at
+    0 (or is, for a junction off at 1) the mode keeps the value that switched it off. A trial's
+    hoist wrote its rope's slack as ``taut: {positive: T}`` with the load cell T on the rope's 0c:
+    once slack, the simulated load fell freely to the end of the run, without a word. Records
+    decide such a mode from the logged signal, so only simulation is held.
+
+    >>> from bondgraph.loader import load_model
+    >>> latching(load_model("models/two_tank_valve.yaml"))
+    []
+    """
+    out = []
+    for m in model.modes.values():
+        if m.positive is None:
+            continue
+        var = model.symbols.get(m.name)
+        for s in model.sensors.values():
+            j = model.junctions.get(s.junction)
+            if j is None or not j.controlled or j.off == "outputs" or j.mode is None:
+                continue
+            if s.measures != ("effort" if j.base == "0" else "flow"):
+                continue
+            sym = next((x for x in m.positive.free_symbols if x.name == s.name), None)
+            switch = model.symbols.get(j.mode)
+            if sym is None or var is None or switch is None or sp.sympify(switch).free_symbols != {var}:
+                continue
+            off = [v for v in (0, 1) if sp.sympify(switch).subs(var, v) == 0]
+            at_zero = m.positive.subs(sym, 0)
+            if len(off) != 1 or at_zero.free_symbols or not at_zero.is_real:
+                continue
+            if int(bool(at_zero > 0)) == off[0]:
+                out.append(f"mode {m.name} can never switch back in simulation once {m.name} = {off[0]}: its condition "
+                           f"'{m.positive}' reads {s.name}, a sensor on {j.name}, which {m.name} = {off[0]} switches "
+                           f"off ({s.name} reads 0 there, and the condition is then {at_zero}); records decide it from "
+                           f"the logged {s.name}, but bgfdi simulate and check --verify hold it; write the condition on a "
+                           f"signal the switch leaves defined (a state's sensor, or one on another junction)")
+    return out

@@ -126,6 +126,38 @@ def sees_mode_fault(model: Model, arr: ARR, fault: str, modes: list[Mapping[str,
     return False
 
 
+def unread_faults(model: Model, arrs: list[ARR]) -> list[str]:
+    """The declared faults no residual of ``arrs`` reads in any mode the plant runs in
+    (:func:`operating_modes`): a parameter or sensor fault whose symbols enter none, a mode fault
+    whose switch changes none (:func:`sees_mode_fault`). Data with such a fault read "nothing
+    detected": a trial's hoist declared the rope's stiffness, which sits with the rope's damper
+    between two unmeasured flows, and derivative causality's residuals never read it (signature
+    0 0 0 in both modes); nothing but ``bgfdi isolability`` said so."""
+    modes = operating_modes(model)
+    exprs = [_in_mode(model, a.expr, m) for m in modes for a in arrs]
+    out = []
+    for f in model.faults.values():
+        if f.kind == "mode":
+            seen = any(sees_mode_fault(model, a, f.name, modes) for a in arrs)
+        else:
+            syms = [model.symbols[n] for n in f.symbols if n in model.symbols]
+            seen = any(e.has(s) for e in exprs for s in syms)
+        if not seen:
+            out.append(f.name)
+    return out
+
+
+def unread_fault_note(model: Model, arrs: list[ARR], causality: str = "derivative") -> list[str]:
+    """``check``'s note naming :func:`unread_faults` (none: no note)."""
+    names = unread_faults(model, arrs)
+    if not names:
+        return []
+    other = "; --causality mixed may read it" if causality == "derivative" else ""
+    return [f"no residual reads {', '.join(names)} in any mode: data with {'that fault' if len(names) == 1 else 'one of them'} "
+            f"read \"nothing detected\"; bgfdi isolability {model.path or 'MODEL'} says which sensors would read "
+            f"{'it' if len(names) == 1 else 'them'}{other}"]
+
+
 def fault_signature_matrix(model: Model, arrs: list[ARR], mode: Mapping[str, int] | None = None) -> FSM:
     """MD-FSM in one mode (the nominal mode by default) for every non-mode candidate fault."""
     import sympy as sp

@@ -7,7 +7,7 @@ import math
 from bondgraph.causality import DIAGNOSIS, SIMULATION, Causality, assign
 from bondgraph.errors import CausalityError
 from bondgraph.model import Model
-from bondgraph.modes import held_still
+from bondgraph.modes import held_still, latching
 from bondgraph.timescales import growth_notes, model_time_scales
 
 from ..data import unread_columns
@@ -60,7 +60,7 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
     :mod:`fdi.app.verify_report`; null otherwise)."""
     from ..arrs import mixed_unit_notes, select_arrs, undefined_in_modes, unit_clash_notes
     from ..noise import noise_notes, predicted_for, to_json as noise_json
-    from ..signatures import all_modes
+    from ..signatures import all_modes, unread_fault_note
 
     from ..config import load
     from .two_ports import laws as two_port_laws
@@ -112,11 +112,12 @@ def analyse(path: str, causality: str = "derivative", verify_seed: int | None = 
             "msos": chosen.msos if not diag.ok else None,
             "arrs": [{"name": a.name, "origin": a.origin, "sensor": a.sensor, "junction": a.junction} for a in arrs],
             "notes": (list(chosen.notes) + unit_clash_notes(model, arrs) + mixed_unit_notes(model, arrs)
+                      + unread_fault_note(model, arrs, causality)
                       + noise_notes(model, arrs, predicted, window) + ([missing] if missing else [])),
             "noise": {"derivative_window": window, "by_residual": noise_json(predicted)} if predicted else None,
         },
         "simulation": {**_causality(model, sim), "growing": growth_notes(model_time_scales(model)),
-                       "held_still": held_still(model)},
+                       "held_still": held_still(model), "latching": latching(model)},
         "monitor": _monitor(config),
         "verification": verification,
     }

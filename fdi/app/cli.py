@@ -345,8 +345,8 @@ def _print_summary(model: Model, path: str) -> None:
     ctrl = [f"{j.name} ({j.kind}, mode {j.mode})" for j in model.junctions.values() if j.controlled]
     print(f"  junctions  {len(model.junctions)}: " + ", ".join(f"{k}: {v}" for k, v in sorted(jkinds.items()))
           + (f"; controlled: {', '.join(ctrl)}" if ctrl else ""))
-    from bondgraph.modes import held_still
-    for note in held_still(model):
+    from bondgraph.modes import held_still, latching
+    for note in held_still(model) + latching(model):
         print(f"    note: {note}")
     print(f"  bonds      {len(model.bonds)}")
     print(f"  sensors    {len(model.sensors)}: " + ", ".join(
@@ -409,7 +409,9 @@ def _print_diagnostic_causality(model: Model, args: argparse.Namespace, config) 
     print(f"residuals ({args.causality} causality): " + ", ".join(f"{a.name} ({_origin(a)})" for a in arrs))
     for note in chosen.notes:
         print(f"  note: {note}")
-    for note in unit_clash_notes(model, arrs) + mixed_unit_notes(model, arrs):
+    from ..signatures import unread_fault_note
+    for note in unit_clash_notes(model, arrs) + mixed_unit_notes(model, arrs) + unread_fault_note(model, arrs,
+                                                                                                   args.causality):
         print(f"  note: {note}")
     if args.causality == "derivative":
         from ..detect import checked_thresholds
