@@ -68,7 +68,9 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
              floors: np.ndarray | None = None, quiet: tuple | None = None, cause: str = "coherence") -> Episode:
     """A later decision: the coherence vector gained a residual at ``t_change`` after the diagnosis
     ``known`` was made (``cause`` "coherence"), or the residuals with ``known`` held left their
-    thresholds there ("misfit", :func:`fdi.pipeline.misfit_at`; the coherence vector unchanged). Candidate sets come from the new coherence vector; every set is fitted on
+    thresholds there ("misfit", :func:`fdi.pipeline.misfit_at`; the coherence vector unchanged:
+    only sets no larger than the known one are fitted, afresh, since a fault more would absorb a
+    drift's extrapolation error: the reference suite's eq. (18) ΔP drift gained a spurious R5 step). Candidate sets come from the new coherence vector; every set is fitted on
     the data since the first onset (t_D to the new decision, at most MAX_GROWTH windows), so their
     costs compare. A set that contains the known faults is fitted twice: keeping them at their fit,
     each with its own onset, while the others are searched with an onset at the change (a second
@@ -101,6 +103,8 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
             sets.append(known_set)
     plan = []
     for s in sets:
+        if cause == "misfit" and len(s) > len(names):
+            continue                     # (a lack of fit: the known fit's type or size, not a fault more)
         if names < set(s):
             plan.append((tuple(x for x in s if x not in names), known, (t_change, t_change + w)))
         if names < set(s) or len(s) <= len(names):

@@ -888,12 +888,14 @@ MISFITS = 3          # decisions taken again for a lack of fit, at most, per dia
 MISFIT_BLOCK = 20    # identification windows of data judged at a time for a lack of fit
 
 
-def misfit_at(p: Prepared, faults: list[dict], after: int, before: int | None) -> tuple[int, int] | None:
+def misfit_at(p: Prepared, faults: list[dict], after: int, before: int | None,
+              guard: bool = True) -> tuple[int, int] | None:
     """Where the decided fit stops explaining the data: the first sample from ``after`` (the end of
     the data it was fitted on) and before ``before`` (the next change of the coherence vector) at
     which the residuals, with the decided faults held at their fit, confirm an alarm by the
     detector's own rule (thresholds, persistence and span), and the sample that excursion began
-    at; None where they stay quiet or the fit holds a mode fault. A user trial's cylinder
+    at; None where they stay quiet, the fit holds a mode fault, or (``guard``) it does not explain
+    the last window of the data it saw (up to N samples before ``after``). A user trial's cylinder
     friction, growing for 20 s, was typed a step on the first window and reported so to the end
     of the record: no new residual fired, so nothing was decided again; decided again on 4 s, it
     was an oscillating eq. (19) drift, which the data after those 4 s refute as well."""
@@ -915,10 +917,7 @@ def misfit_at(p: Prepared, faults: list[dict], after: int, before: int | None) -
         z = evidence(rows, p.thresholds, ts, ~obj.gaps[obj.crop()])
         return z, confirmed(z, n, persistence)
 
-    # a fit that does not explain its own window explains nothing later either: no lack of fit to find
-    # (a trial's ABS on data that defy the model was decided again three times, minutes each)
-    first = max(int(np.searchsorted(t, min(float(f.get("t0") or t[0]) for f in faults) - 1e-9)), after - p.samples)
-    if after > first and alarms(first, after - first)[1].any():
+    if guard and not explains_own(p, faults, after):
         return None
     block, i = max(MISFIT_BLOCK * p.samples, 4 * n), after
     while i < stop:
@@ -933,6 +932,38 @@ def misfit_at(p: Prepared, faults: list[dict], after: int, before: int | None) -
             return lo + at, lo + min(span_start(z[r], at, n) for r in np.flatnonzero(c[:, at]))
         i = lo + m
     return None
+
+
+def refuted(monitor: "Monitor", meas: Measurements, d: Diagnosis, options: Options | None = None,
+            since: float | None = None) -> bool | None:
+    """Whether the samples of ``meas`` refute ``d``'s fit (:func:`misfit_at`): judged from ``since``
+    (s; the records' samples before it give the filters their margin), or, None, from the end of
+    the data the fit read, with its last window in ``meas`` to tell whether the fit explains its
+    own data. None where no later sample can refute it: a fit with a mode fault or without a fault,
+    or one that does not explain its own window. The streaming monitor asks this of the samples
+    since it last asked, so each check reads the new samples once (a fit that keeps explaining the
+    data costs a monitor the same per sample however long it runs)."""
+    faults = [f.to_dict() for f in d.faults]
+    if not faults or any(f["type"] == "mode" for f in faults) or d.window is None:
+        return None
+    o = replace(options or Options(), settle=0.0)      # (the samples may start anywhere in a record)
+    p = prepare(monitor.with_config(o.settings), meas, o)
+    t = p.meas.t
+    persistence, span = p.rule
+    after = int(np.searchsorted(t, (d.window[1] if since is None else since - span) - 1e-9))
+    if since is None and not explains_own(p, faults, after):
+        return None
+    return misfit_at(p, faults, after, None, guard=False) is not None
+
+
+def explains_own(p: Prepared, faults: list[dict], after: int) -> bool:
+    """Whether the fit explains the last window of the data it read (up to N samples before sample
+    ``after``, from its first onset): no confirmed alarm of its residuals there. A fit that does not
+    explains nothing later either: no lack of fit to find (a trial's ABS on data that defy the model
+    was decided again three times, minutes each)."""
+    t = p.meas.t
+    first = max(int(np.searchsorted(t, min(float(f.get("t0") or t[0]) for f in faults) - 1e-9)), after - p.samples)
+    return first >= after or misfit_at(p, faults, first, after, guard=False) is None
 
 
 def visited_modes(p: Prepared, i: int, j: int) -> list[dict[str, int]]:
@@ -1126,4 +1157,4 @@ def refresh_prognosis(monitor: "Monitor", meas: Measurements, d: Diagnosis, opti
     return tuple(others) + tuple(result.faults), prognosis
 
 
-__all__ = ["run", "prepare", "Prepared", "refresh_prognosis", "check_window", "mode_fault_name"]
+__all__ = ["run", "prepare", "Prepared", "refresh_prognosis", "refuted", "check_window", "mode_fault_name"]

@@ -12,8 +12,10 @@ each event, in stream time:
   after each later change of the coherence vector: candidate sets, the identified faults, the
   fault-mode estimate, and the prognosis (RUL and its band) of incipient faults;
 - ``decision`` too where a decision's fit stops explaining the samples that follow (a lack of
-  fit, :func:`fdi.pipeline.misfit_at`): its samples are diagnosed again every ``refresh`` seconds
-  while its fit has no mode fault and no prognosis to refresh and has seen under six windows;
+  fit, :func:`fdi.pipeline.misfit_at`): every ``refresh`` seconds the samples since the last look
+  are judged against the fit (:func:`fdi.pipeline.refuted`, each sample once), while it has no
+  mode fault and no prognosis to refresh, has seen under six windows and explains its own; where
+  they refute it, the samples so far are diagnosed again;
 - ``prognosis``: every ``refresh`` seconds (an identification window by default) after a
   decision with a growing fault, its fit
   refreshed on the data so far (:func:`fdi.pipeline.refresh_prognosis`) and the RUL re-issued;
@@ -70,7 +72,7 @@ from .data import DataError, Measurements, check_header, checked
 from .detect import confirmed, evidence, evidence_samples, settling, span_start, stray_error, thresholds_for
 from .options import Options
 from .episodes import MAX_GROWTH
-from .pipeline import refresh_prognosis, with_overrides, with_samples
+from .pipeline import refresh_prognosis, refuted, with_overrides, with_samples
 from .residuals import never_finite_text
 from .results import Diagnosis, plain
 
@@ -105,6 +107,18 @@ def _diagnose(monitor: "Monitor | None", meas: Measurements, options: Options, m
     d = (monitor or _installed).diagnose(meas, options, memo=mine)
     fresh = {k: v for k, v in mine.items() if k not in memo}
     return d.to_dict(), replace(d, t=None, residuals=None), fresh, time.perf_counter() - start
+
+
+def _misfit(monitor: "Monitor | None", meas: Measurements, latest: Diagnosis, options: Options,
+            since: float | None) -> tuple:
+    """A lack-of-fit check in the worker (:func:`fdi.pipeline.refuted`): its answer and seconds (None,
+    no check, where the samples are not ones a diagnosis reads: the decisions say why)."""
+    start = time.perf_counter()
+    try:
+        answer = refuted(monitor or _installed, meas, latest, options, since)
+    except (DataError, ModelError):
+        answer = None
+    return answer, time.perf_counter() - start
 
 
 def _ordinal(k: int) -> str:
@@ -199,6 +213,8 @@ class Stream:
     due: int | None = None              # samples received when the next decision came due (coalesced)
     job: tuple[str, Future, int] | None = None     # the identification in flight: kind, future, samples
     carried: Carried | None = None      # the residual kernels on the stream's columns (fdi.carry)
+    checked_to: float | None = None     # the last sample the latest decision's fit was judged to (None: not yet)
+    settled: bool = False               # no later sample can refute the latest decision's fit (fdi.pipeline.refuted)
     closed: Callable[[], None] | None = None   # called after the summary (Monitor.stream: fdi.monitor.persist)
 
     def __post_init__(self) -> None:
@@ -568,6 +584,13 @@ class Stream:
                 self.memo.update(fresh)
                 self._report_decisions(report, known_at, seconds)
                 self.next_refresh = known_at + self._refresh_period()
+                self.checked_to, self.settled = None, False
+            elif kind == "misfit":
+                refuted_now, _ = result
+                self.settled = refuted_now is None
+                self.checked_to = float(self.buffer[n - 1, self.ti])
+                if refuted_now:                 # decided again on the samples so far (fdi.pipeline.later_decisions)
+                    self.due = self.n
             else:
                 faults, prognosis, fresh, seconds = result
                 self.fitted_to = min((g.at for g in prognosis), default=math.inf)
@@ -590,18 +613,21 @@ class Stream:
     def _refutable(self) -> bool:
         """Whether the latest decision's fit is one a lack of fit decides again
         (:func:`fdi.pipeline.misfit_at`): component faults without a prognosis, fitted on fewer than
-        the longest window a decision fits."""
+        the longest window a decision fits, explaining their own window."""
         d = self.latest
-        if d is None or not d.faults or d.prognosis or any(f.type == "mode" for f in d.faults) or d.window is None:
+        if d is None or not d.faults or d.prognosis or any(f.type == "mode" for f in d.faults) or d.window is None \
+                or self.settled:
             return False
         return d.window[1] - d.window[0] < MAX_GROWTH * self.samples * self.ts
 
     def _refresh(self) -> None:
         """Every refresh period (:meth:`_refresh_period`) after a decision with a growing fault, its
         fit refreshed on the data so far and the prognosis re-issued (a ``prognosis`` event), in
-        the worker too; after one whose fit a lack of fit would refute (:meth:`_refutable`), a
-        decision on the samples so far, whose new decisions, if any, are emitted (a step that
-        keeps growing is decided again as it grows, not at the end of the stream)."""
+        the worker too; after one whose fit a lack of fit would refute (:meth:`_refutable`), the
+        samples since the last look judged against the fit (:func:`fdi.pipeline.refuted`; each
+        sample once, with the filters' and the detector's span of margin), and where they refute
+        it a decision on the samples so far, whose new decisions are emitted (a step that keeps
+        growing is decided again as it grows, not at the end of the stream)."""
         self._collect()
         if self.latest is None or self.pending or self.job is not None or self.due is not None:
             return
@@ -613,8 +639,16 @@ class Stream:
             return
         self.next_refresh = t_last + self._refresh_period()
         if refutable:
-            self.due = self.n
-            self._submit()
+            t = self.buffer[:self.n, self.ti]
+            since = self.checked_to
+            first = (self.latest.window[1] - self.samples * self.ts if since is None else since - self.span) \
+                - 2 * self.window - 2 * self.ts
+            a = max(0, int(np.searchsorted(t, first)))
+            job = self.identifier.submit(_misfit, checked(self.source, self.header, self.buffer[a:self.n]),
+                                         self.latest, self.options, since)
+            self.job = ("misfit", job, self.n)
+            if not self.live:
+                self._collect(wait=True)
             return
         job = self.identifier.submit(_refresh, self.measurements(), self.latest, self.options, self.memo)
         self.job = ("prognosis", job, self.n)

@@ -66,3 +66,25 @@ def test_a_prognosis_is_given_at_the_end_of_the_data_its_fit_read():
     (p,) = d.prognosis
     assert p.at == pytest.approx(d.detection.time + 6000 * rc.TS, abs=1e-6) == pytest.approx(d.window[1], abs=1e-6)
     assert p.eol == pytest.approx(2.0 + math.log(1.25) / 0.01, abs=0.1)
+
+
+def test_the_monitor_decides_again_as_the_samples_refute_its_fit():
+    """``bgfdi monitor`` judges the samples after a decision against its fit every refresh period
+    (fdi.pipeline.refuted, each sample once) and decides again when they refute it: the decay's
+    eq. (16) is emitted as the samples arrive (decided at 8.8 s, known at 9.3 s), not with the
+    summary at the end of the stream (20 s), where it came before."""
+    from fdi.api import Options
+    from fdi.monitor import Monitor
+    cols = rc.simulate(20.0, 1, drift=(2.0, -0.02))
+    header = ["t", "u", "i", "v"]
+    table = np.column_stack([cols[k] for k in header])
+    events: list[dict] = []
+    mon = Monitor(str(MODEL)).stream(events.append, Options(workers=1, seed=0, thresholds=THRESHOLDS), live=False,
+                                     worker="thread")
+    for a in range(0, table.shape[0], 500):
+        mon.feed(header, table[a:a + 500])
+    mon.close()
+    decisions = [e for e in events if e["event"] == "decision"]
+    assert [d["faults"][0]["model"] for d in decisions] == [2, 1]
+    assert decisions[1]["faults"][0]["b"][0] == pytest.approx(-0.02, rel=0.01)
+    assert decisions[1]["t"] < decisions[1]["known_at"] < 10.0
