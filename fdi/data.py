@@ -125,8 +125,8 @@ def blocks(fh, path: str, rows: int = CHUNK, cut: Callable[[str], None] | None =
             if first.lstrip().startswith("#"):       # (a trial's logger wrote a comment line first)
                 raise DataError(f"{path}: the first line is a comment ({shown[:60]}); a measurement file starts "
                                 "with its header line (t and the model's columns): remove the comment lines")
-            raise DataError(f"{path}: no 't' column in the header ({shown[:80]}); "
-                            "the first column must be time in s")
+            raise DataError(f"{path}: no 't' column in the header ({shown[:80]}); a measurement file has a "
+                            "column named t, the time in s (any place in the header)")
         if on_header is not None:
             in_callback = True
             on_header(header)

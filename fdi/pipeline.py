@@ -1029,8 +1029,28 @@ def significance(p: Prepared, d: Diagnosis, now: float, floors: np.ndarray | Non
         unexplained = (f"the final fit leaves the residuals at {left:.3g} times their thresholds on average since the "
                        f"detection: no candidate explains these data; look for a column whose values no sensor or "
                        f"input reads (its unit or scale, a frozen or saturated channel) or a fault the model lacks")
-    notes = [n for n in (unexplained, undetermined(p, d), at_bounds(p, d.faults)) if n]
+    notes = [n for n in (unexplained, undetermined(p, d), at_bounds(p, d.faults), read_together(p, d)) if n]
     return replace(d, note=_noted(d.note, "; ".join(notes))) if notes else d
+
+
+def read_together(p: Prepared, d: Diagnosis) -> str | None:
+    """The note naming each final fault the residuals read only together with another declared
+    fault not in the diagnosis (:attr:`fdi.monitor.Monitor.coinciding`), where no alternative
+    already offers that pair: a change of either fits the data as well, so the name is where the
+    search settled, not what the data say. A trial's hoist reported its drum bearing's friction
+    drifting (the motor bearing's was), then a step of one beside a drift of the other; the
+    residuals read the two only as bm + bd/N**2, and only a first decision's alternatives said so."""
+    final = {f.name for f in d.faults if f.type != "mode"}
+    if not final:
+        return None
+    offered = {frozenset(a.coincides.faults) for a in d.alternatives or () if a.coincides is not None}
+    out = []
+    for c in p.monitor.coinciding:
+        for f, g in (c.faults, c.faults[::-1]):
+            if f in final and g not in final and frozenset(c.faults) not in offered:
+                out.append(f"{c.describe()}: a change of {g} fits these data as well as one of {f} (no data separate "
+                           f"them; {f} is where the search settled)")
+    return "; ".join(out) or None
 
 
 def healthy_stretch(p: Prepared, d: Diagnosis) -> tuple[float, int] | None:

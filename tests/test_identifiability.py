@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from functools import partial
 from pathlib import Path
 
@@ -285,3 +286,22 @@ def test_the_zero_set_is_used_only_where_it_is_free_and_real():
     assert read_together(motor, k1, k2, {"k1", "k2", "R", "L"}) and sp.simplify(ratio(motor, k1, k2) - k2 / k1) == 0
     assert read_together(orifice, Cd, A, {"Cd", "A", "rho"})
     assert not read_together([u - R * i - L * i.diff(t)], R, L, {"R", "L"})
+
+
+def test_a_final_fault_read_together_with_one_left_out_is_noted_unless_an_alternative_says_so():
+    """The drained tank's C and Kv are read only through C/Kv**2 (the derivation above): a diagnosis
+    naming one of them says the other fits as well, unless its alternatives already offer that
+    pair (fdi.pipeline.read_together). A trial's hoist, decided again twice, reported its drum
+    bearing drifting, the motor bearing's friction being the truth, with nothing said."""
+    from types import SimpleNamespace
+
+    from fdi.pipeline import read_together
+    from fdi.results import Alternative, Diagnosis, Fault
+    p = SimpleNamespace(monitor=compiled(TANK))
+    (pair,) = p.monitor.coinciding
+    d = Diagnosis("drained_tank", {}, faults=(Fault("Kv", "abrupt", value=1e-3, t0=5.0),))
+    note = read_together(p, d)
+    assert note.startswith(pair.describe()) and "a change of C fits these data as well as one of Kv" in note
+    offered = Alternative(("C",), ({"name": "C", "type": "abrupt", "value": 2.0, "t0": 5.0},), 1.0, 0.1, pair)
+    assert read_together(p, replace(d, alternatives=(offered,))) is None
+    assert read_together(p, replace(d, faults=d.faults + (Fault("C", "abrupt", value=2.0, t0=5.0),))) is None
