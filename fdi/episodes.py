@@ -70,8 +70,9 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
     ``known`` was made (``cause`` "coherence"), or the residuals with ``known`` held left their
     thresholds there ("misfit", :func:`fdi.pipeline.misfit_at`; the coherence vector unchanged:
     only sets no larger than the known one are fitted, afresh, since a fault more would absorb a
-    drift's extrapolation error: the reference suite's eq. (18) ΔP drift gained a spurious R5 step). Candidate sets come from the new coherence vector; every set is fitted on
-    the data since the first onset (t_D to the new decision, at most MAX_GROWTH windows), so their
+    drift's extrapolation error: the reference suite's eq. (18) ΔP drift gained a spurious R5
+    step; their window keeps the data from t_D). Candidate sets come from the new coherence
+    vector; every set is fitted on the data since the first onset (t_D to the new decision, at most MAX_GROWTH windows), so their
     costs compare. A set that contains the known faults is fitted twice: keeping them at their fit,
     each with its own onset, while the others are searched with an onset at the change (a second
     fault), and afresh with one onset (a slow fault seen late); a set no larger than the known one

@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from .profiles import incipient
+from .profiles import incipient, rk4_step19
 
 STEP = 0.01                  # s: the grid of a caller that gives no sampling period (the CyCab's)
 HORIZON_SAMPLES = 360_000    # grid steps a numerically integrated profile is followed ahead (an hour at 10 ms)
@@ -132,17 +132,7 @@ def _ends19(bs: np.ndarray, tfs: np.ndarray, nominal: float, failure: float, unt
             c5, c6, c7, pa, va = b5[todo], b6[todo], b7[todo], p[todo], v[todo]
             h = np.minimum(base[todo], 1.0 / (STEPS_PER_SCALE19 * np.abs(2.0 * c5 * va)))
             h = np.minimum(np.where(np.isfinite(h), h, until - t[todo]), until - t[todo])
-            if not np.all(np.isfinite(h)):
-                h = np.where(np.isfinite(h), h, 1.0)
-
-            def acc(q, w):
-                return c5 * w * w + c6 * q + c7
-            k1p, k1v = va, acc(pa, va)
-            k2p, k2v = va + h / 2 * k1v, acc(pa + h / 2 * k1p, va + h / 2 * k1v)
-            k3p, k3v = va + h / 2 * k2v, acc(pa + h / 2 * k2p, va + h / 2 * k2v)
-            k4p, k4v = va + h * k3v, acc(pa + h * k3p, va + h * k3v)
-            pb = pa + h / 6 * (k1p + 2 * k2p + 2 * k3p + k4p)
-            vb = va + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
+            pb, vb = rk4_step19(pa, va, h, c5, c6, c7)
             crossed = ~np.isfinite(pb) | ((pb <= failure) if down else (pb >= failure))
             if crossed.any():
                 out[todo[crossed]] = t[todo[crossed]] + h[crossed] * _hermite_root(

@@ -152,7 +152,7 @@ def unread_fault_note(model: Model, arrs: list[ARR], causality: str = "derivativ
     names = unread_faults(model, arrs)
     if not names:
         return []
-    other = "; --causality mixed may read it" if causality == "derivative" else ""
+    other = f"; --causality mixed may read {'it' if len(names) == 1 else 'them'}" if causality == "derivative" else ""
     return [f"no residual reads {', '.join(names)} in any mode: data with {'that fault' if len(names) == 1 else 'one of them'} "
             f"read \"nothing detected\"; bgfdi isolability {model.path or 'MODEL'} says which sensors would read "
             f"{'it' if len(names) == 1 else 'them'}{other}"]

@@ -12,6 +12,8 @@ same offset rises above it and stays.
 """
 from __future__ import annotations
 
+import functools
+
 import pytest
 
 from fdi.api import Options, diagnose
@@ -29,10 +31,16 @@ def run(seed: int, fault: str | None = None) -> Measurements:
     return Measurements(f"servo-{seed}-{fault}.csv", d["t"], d)
 
 
+@functools.cache
+def _calibrated() -> tuple[tuple[str, float], ...]:
+    c = calibrate(MODEL, [run(1), run(2), run(3)])
+    return tuple(zip(c.names, (float(x) for x in c.thresholds)))
+
+
 @pytest.fixture(scope="module")
 def thresholds() -> dict[str, float]:
-    c = calibrate(MODEL, [run(1), run(2), run(3)])
-    return dict(zip(c.names, (float(x) for x in c.thresholds)))
+    # (once per process: a worker that runs this module's tests between others' set the fixture up again)
+    return dict(_calibrated())
 
 
 def test_no_alarm_on_a_held_out_nominal_run(thresholds):
