@@ -57,14 +57,14 @@ def test_a_prognosis_is_given_at_the_end_of_the_data_its_fit_read():
     import math
 
     from fdi.api import Options, diagnose
-    cols = rc.simulate(20.0, 5)
+    cols = rc.simulate(10.0, 5)
     t = cols["t"]
     cols["v"] = np.where(t >= 2.0, cols["v"] * np.exp(-0.01 * np.clip(t - 2.0, 0.0, None)), cols["v"])
     d = diagnose(str(MODEL), Measurements("gain.csv", t, cols),
-                 Options(workers=1, seed=0, thresholds=THRESHOLDS, samples=6000, failures={"beta_v": 0.8}))
+                 Options(workers=1, seed=0, thresholds=THRESHOLDS, samples=4000, failures={"beta_v": 0.8}))
     assert [e.cause for e in d.episodes] == ["coherence"] and d.episodes[0].decision_time < 3.0
     (p,) = d.prognosis
-    assert p.at == pytest.approx(d.detection.time + 6000 * rc.TS, abs=1e-6) == pytest.approx(d.window[1], abs=1e-6)
+    assert p.at == pytest.approx(d.detection.time + 4000 * rc.TS, abs=1e-6) == pytest.approx(d.window[1], abs=1e-6)
     assert p.eol == pytest.approx(2.0 + math.log(1.25) / 0.01, abs=0.1)
 
 
