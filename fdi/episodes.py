@@ -60,6 +60,13 @@ def since_detection(t: np.ndarray, t_d: float, end: float, samples: int, cap: in
     return float(t[i0 if keep == "earliest" else max(i0, min(i1, t.size) - span)]), span
 
 
+def decision_window(t: np.ndarray, t_d: float, t_decision: float, samples: int, cause: str) -> tuple[float, int]:
+    """(start, samples) of the data a later decision fits (:func:`since_detection` from t_D to the
+    decision, at most MAX_GROWTH windows): the latest kept when capped, the earliest for a lack of
+    fit (where a drift taken for a step began shows its type)."""
+    return since_detection(t, t_d, t_decision, samples, MAX_GROWTH, "earliest" if cause == "misfit" else "latest")
+
+
 def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, weights: np.ndarray, o: "Options",
              fsm, known: list[dict], t_change: float, t_decision: float, coherence: tuple[int, ...],
              samples: int, episode: int, mode_changes: list[tuple[str, int]] = (),
@@ -110,9 +117,7 @@ def redecide(est: "Estimators", meas: Measurements, raw: dict, det: Detection, w
             plan.append((tuple(x for x in s if x not in names), known, (t_change, t_change + w)))
         if names < set(s) or len(s) <= len(names):
             plan.append((tuple(s), [], None))
-    # (a lack of fit keeps the data from t_D: where a drift taken for a step began shows its type)
-    start, span = since_detection(meas.t, det.time, t_decision, samples, MAX_GROWTH,
-                                  "earliest" if cause == "misfit" else "latest")
+    start, span = decision_window(meas.t, det.time, t_decision, samples, cause)
     from .estimators import refit_early_onsets, steps_at_window_start
     fresh = [i for i, p in enumerate(plan) if not p[1]]
     ts = float(meas.t[1] - meas.t[0])

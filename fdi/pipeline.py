@@ -23,7 +23,7 @@ from .data import DataError, Measurements, commanded, signals_from_data
 from .decide import alternatives, effective_samples, information, select_winner, significant
 from .derivatives import DEFAULT_ORDER, window_samples
 from .detect import Detection, confirmed, detect, evidence, evidence_samples, settling, span_start, stray_error, thresholds_for
-from .episodes import MAX_GROWTH, decision_index, latched, next_change, redecide, since_detection
+from .episodes import MAX_GROWTH, decision_index, decision_window, latched, next_change, redecide, since_detection
 from .estimators import (Estimators, Search, date_onsets, evidence_onsets, evidence_start, refit_early_onsets,
                          drift_onset_band, step_onset_band, steps_at_window_start)
 from .ingest import measurements
@@ -843,19 +843,19 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
         seen_to = int(np.searchsorted(t, now - 1e-9))
         # (a lack of fit is looked for while the fit has seen less than the longest window a decision fits)
         short = seen_to - i0 < MAX_GROWTH * p.samples
-        misfit = misfit_at(p, faults, seen_to, change) if misfits < MISFITS and short else None
-        if misfit is not None:
+        found = misfit_at(p, faults, seen_to, change) if misfits < MISFITS and short else None
+        misfit = False
+        if found is not None:
             # decided again on twice the data the fit saw since t_D (or the record's end), so that a
             # drift typed a step on one window is judged on a longer one, not on a few samples more
-            k, onset = misfit
             twice = int(np.searchsorted(t, det.time + 2 * (now - det.time) - 1e-9))
-            at = min(max(decision_index(t, k, p.wait), twice), t.size - 1)
-            misfit = None if change is not None and at >= change else (k, onset, at)
-        if change is None and misfit is None:
+            at = min(max(decision_index(t, found[0], p.wait), twice), t.size - 1)
+            misfit = change is None or at < change          # (else the coherence change is decided first)
+        if change is None and not misfit:
             break
-        if misfit is not None:           # the fit no longer explains the data: decided again, same coherence
+        if misfit:                       # the fit no longer explains the data: decided again, same coherence
             misfits += 1
-            k, onset, j = misfit
+            (k, onset), j = found, at
             coherence = before = tuple(int(x) for x in lit[:, j])
         else:
             k, j = change, decision_index(t, change, p.wait)
@@ -869,13 +869,12 @@ def later_decisions(p: Prepared, d: Diagnosis, fsm, r: np.ndarray, est: Estimato
         e = redecide(est, p.meas, p.raw, det, p.weights, p.options, now_fsm, faults, float(t[onset]), float(t[j]),
                      coherence, p.samples, len(episodes) + 1, changes, p.modes, onsets, p.first_trusted,
                      progress, floors, (p.thresholds, p.rule),   # (a later decision's sets: minutes on a model its data defy)
-                     "misfit" if misfit is not None else "coherence")
+                     "misfit" if misfit else "coherence")
         episodes.append(e)
         faults, winner = list(e.faults), e.winner
         # the end of the data the decision fitted (redecide's window: from t_D at least N samples, so
         # past t[j] where it came within the first window; a prognosis is given there, not at t[j])
-        start, span = since_detection(t, det.time, float(t[j]), p.samples, MAX_GROWTH,
-                                      "earliest" if misfit is not None else "latest")
+        start, span = decision_window(t, det.time, float(t[j]), p.samples, "misfit" if misfit else "coherence")
         now = start + span * float(t[1] - t[0])
     if episodes:
         clock.lap("re-diagnosis")

@@ -182,9 +182,8 @@ def _model19(tau: np.ndarray, p0: float, b5, b6, b7, step: float = STEP19) -> np
     s = x - i0
     rows = np.arange(pop)[:, None]
     pa, pb, va, vb = grid[rows, i0], grid[rows, i0 + 1], slope[rows, i0] * h, slope[rows, i0 + 1] * h
-    s2, s3 = s * s, s * s * s
     with np.errstate(invalid="ignore"):
-        out = (2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb + (s3 - s2) * vb
+        out = hermite(s, pa, pb, va, vb)
     return np.where(np.isfinite(pa) & np.isfinite(pb), out, np.inf)
 
 
@@ -196,6 +195,17 @@ def steps19(span: float, step: float) -> int:
     (100, 600, 100, 1000)
     """
     return STEPS19 if span / step > STEPS19 else max(MIN_STEPS19, int(math.ceil(span / step)))
+
+
+def hermite(s, pa, pb, va, vb):
+    """The cubic Hermite from (pa, va) at s = 0 to (pb, vb) at s = 1 (slopes per unit of s), at s:
+    how eq. (19)'s grid is read between its points (fdi._jit and fdi/kernels.c in the same order).
+
+    >>> float(hermite(0.5, 0.0, 1.0, 0.0, 0.0))
+    0.5
+    """
+    s2, s3 = s * s, s * s * s
+    return (2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb + (s3 - s2) * vb
 
 
 def rk4_step19(p, v, h, b5, b6, b7):
@@ -252,8 +262,7 @@ def _at19(tau: float, p0: float, b: tuple[float, float, float], span: float) -> 
     pa, pb, va, vb = grid[i0], grid[i0 + 1], slope[i0] * h, slope[i0 + 1] * h
     if not (math.isfinite(pa) and math.isfinite(pb)):
         return math.inf
-    s2, s3 = s * s, s * s * s
-    return (2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb + (s3 - s2) * vb
+    return hermite(s, pa, pb, va, vb)
 
 
 def at(kind: str, t: float, t0: float, nominal: float, *, value=None, model: int | None = None,

@@ -12,8 +12,8 @@ forms for (16), P = P0 exp(b1 tau) -> tau = ln(Pf/P0)/b1, and (17), 1/P = 1/P0 -
 tau = (1/P0 - 1/Pf)/b2 (the paper's (1/R4(0) - 1/R4F)/b2 of Sec. III-D); (18) is read forward
 (the profile functions of fdi.profiles) on a grid of one sampling period of the data (``ts``), and
 (19) marched by RK4 in steps of its own time scales (:func:`_ends19`), until the failure value is
-crossed or a horizon of HORIZON_SAMPLES periods passes (EOL = inf: no failure predicted): the CyCab's 10 ms and hour, a water heater's seconds and
-100 hours, a converter's microseconds and third of a second. (A grid of 10 ms and an hour in
+crossed or a horizon of HORIZON_SAMPLES periods passes (EOL = inf: no failure predicted): the
+CyCab's 10 ms and hour, a water heater's seconds and 100 hours, a converter's microseconds and third of a second. (A grid of 10 ms and an hour in
 seconds, the defaults when no ``ts`` is given, left a slow system's end of life past the hour
 infinite and a fast one's resolved to ten milliseconds.) The failure value is reached from above when
 it is below the nominal value (an efficiency factor that decays) and from below otherwise.
@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from .profiles import incipient, rk4_step19
+from .profiles import hermite, incipient, rk4_step19
 
 STEP = 0.01                  # s: the grid of a caller that gives no sampling period (the CyCab's)
 HORIZON_SAMPLES = 360_000    # grid steps a numerically integrated profile is followed ahead (an hour at 10 ms)
@@ -121,7 +121,7 @@ def _ends19(bs: np.ndarray, tfs: np.ndarray, nominal: float, failure: float, unt
         return tfs.astype(float).copy()
     if np.isinf(nominal):                   # eq. (19) never leaves an infinite P0 (fdi.profiles)
         return out
-    b5, b6, b7 = bs[:, 0].copy(), bs[:, 1].copy(), bs[:, 2].copy()
+    b5, b6, b7 = bs[:, 0], bs[:, 1], bs[:, 2]
     p, v, t = np.full(rows, float(nominal)), np.zeros(rows), tfs.astype(float).copy()
     todo = np.flatnonzero(t < until)
     with np.errstate(all="ignore"):
@@ -130,8 +130,8 @@ def _ends19(bs: np.ndarray, tfs: np.ndarray, nominal: float, failure: float, unt
             if not todo.size:
                 break
             c5, c6, c7, pa, va = b5[todo], b6[todo], b7[todo], p[todo], v[todo]
-            h = np.minimum(base[todo], 1.0 / (STEPS_PER_SCALE19 * np.abs(2.0 * c5 * va)))
-            h = np.minimum(np.where(np.isfinite(h), h, until - t[todo]), until - t[todo])
+            # (each scale infinite where its coefficient or the slope is 0: then the step runs to ``until``)
+            h = np.minimum(np.minimum(base[todo], 1.0 / (STEPS_PER_SCALE19 * np.abs(2.0 * c5 * va))), until - t[todo])
             pb, vb = rk4_step19(pa, va, h, c5, c6, c7)
             crossed = ~np.isfinite(pb) | ((pb <= failure) if down else (pb >= failure))
             if crossed.any():
@@ -147,20 +147,16 @@ def _hermite_root(pa: np.ndarray, pb: np.ndarray, da: np.ndarray, db: np.ndarray
     reaches ``level`` from pa's side, by bisection on where it first has (1 where pb is not finite or
     the cubic does not reach it: the step's end)."""
     s = np.linspace(0.0, 1.0, 65)[None, :]
-    s2, s3 = s * s, s * s * s
     with np.errstate(all="ignore"):
-        h = ((2 * s3 - 3 * s2 + 1) * pa[:, None] + (s3 - 2 * s2 + s) * da[:, None] + (-2 * s3 + 3 * s2) * pb[:, None]
-             + (s3 - s2) * db[:, None])
-        above = pa[:, None] > level
-        reached = np.where(above, h <= level, h >= level) & np.isfinite(pb)[:, None]
+        h = hermite(s, pa[:, None], pb[:, None], da[:, None], db[:, None])
+        reached = np.where(pa[:, None] > level, h <= level, h >= level) & np.isfinite(pb)[:, None]
     hit = reached.any(axis=1)
     i = np.where(hit, np.argmax(reached, axis=1), 64)
     lo, hi = (np.maximum(i - 1, 0) / 64.0), i / 64.0
     for _ in range(44):
         mid = (lo + hi) / 2
-        m2, m3 = mid * mid, mid * mid * mid
         with np.errstate(all="ignore"):
-            val = (2 * m3 - 3 * m2 + 1) * pa + (m3 - 2 * m2 + mid) * da + (-2 * m3 + 3 * m2) * pb + (m3 - m2) * db
+            val = hermite(mid, pa, pb, da, db)
         got = np.where(pa > level, val <= level, val >= level)
         hi, lo = np.where(got, mid, hi), np.where(got, lo, mid)
     return np.where(hit, hi, 1.0)

@@ -152,10 +152,10 @@ def unread_fault_note(model: Model, arrs: list[ARR], causality: str = "derivativ
     names = unread_faults(model, arrs)
     if not names:
         return []
-    other = f"; --causality mixed may read {'it' if len(names) == 1 else 'them'}" if causality == "derivative" else ""
-    return [f"no residual reads {', '.join(names)} in any mode: data with {'that fault' if len(names) == 1 else 'one of them'} "
-            f"read \"nothing detected\"; bgfdi isolability {model.path or 'MODEL'} says which sensors would read "
-            f"{'it' if len(names) == 1 else 'them'}{other}"]
+    it, which = ("it", "that fault") if len(names) == 1 else ("them", "one of them")
+    other = f"; --causality mixed may read {it}" if causality == "derivative" else ""
+    return [f"no residual reads {', '.join(names)} in any mode: data with {which} read \"nothing detected\"; "
+            f"bgfdi isolability {model.path or 'MODEL'} says which sensors would read {it}{other}"]
 
 
 def fault_signature_matrix(model: Model, arrs: list[ARR], mode: Mapping[str, int] | None = None) -> FSM:
